@@ -1,0 +1,27 @@
+"""Python ROS 1 toolkit for robots in VR: the ROS-TCP endpoint (bridge) and the simulated robots (sim)."""
+from setuptools import find_packages, setup
+
+setup(
+    name="vr_ros_toolkit",
+    version="0.1.0",
+    description="Drop-in ROS-TCP-Endpoint (protocol v0.7.0, ROS 1) plus simulated robots, controllers and trials",
+    python_requires=">=3.11",
+    packages=find_packages(include=["bridge", "bridge.*", "sim", "sim.*"]),
+    package_data={"sim.robots": ["urdf/*.urdf"]},
+    install_requires=[
+        "numpy>=1.24",
+        "pybullet>=3.2.5",
+        "rosbags>=0.9.20",
+        "matplotlib>=3.6",
+        "tqdm>=4.60",
+    ],
+    extras_require={"dev": ["pytest>=7", "hypothesis>=6", "pytest-timeout>=2"]},
+    entry_points={
+        "console_scripts": [
+            "ros-tcp-endpoint=bridge.__main__:main",
+            "sim-engine=sim.engine:main",
+            "sim-commander=sim.commander:main",
+            "sim-trials=sim.trials:main",
+        ]
+    },
+)
