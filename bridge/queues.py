@@ -1,0 +1,81 @@
+"""A bounded outgoing frame queue per client: drop the oldest topic frame when full, never a service frame."""
+from __future__ import annotations
+
+import threading
+from collections import deque
+
+
+class OutgoingQueue:
+    """Frames waiting for one client's writer.
+
+    Bounded by frame count and bytes. When full, the oldest *droppable* frame (a topic message) goes; service
+    request/response pairs and errors are never dropped, so a slow reader loses stale samples, not answers.
+    """
+
+    def __init__(self, max_frames: int, max_bytes: int) -> None:
+        if max_frames < 1 or max_bytes < 1:
+            raise ValueError(f"queue limits must be positive, got max_frames={max_frames}, max_bytes={max_bytes}")
+        self.max_frames = max_frames
+        self.max_bytes = max_bytes
+        self._items: deque[tuple[bytes, bool]] = deque()
+        self._bytes = 0
+        self._closed = False
+        self._dropped = 0
+        self._condition = threading.Condition(threading.Lock())
+
+    @property
+    def dropped(self) -> int:
+        """Frames dropped since the queue was made."""
+        return self._dropped
+
+    def __len__(self) -> int:
+        return len(self._items)
+
+    @property
+    def queued_bytes(self) -> int:
+        return self._bytes
+
+    def put(self, data: bytes, droppable: bool = True) -> None:
+        with self._condition:
+            if self._closed:
+                return
+            self._items.append((data, droppable))
+            self._bytes += len(data)
+            while len(self._items) > self.max_frames or self._bytes > self.max_bytes:
+                if not self._drop_oldest_droppable():
+                    break
+            self._condition.notify()
+
+    def _drop_oldest_droppable(self) -> bool:
+        if self._items[0][1]:
+            data, _ = self._items.popleft()
+        else:
+            index = next((i for i, (_, droppable) in enumerate(self._items) if droppable), None)
+            if index is None:
+                return False
+            data, _ = self._items[index]
+            del self._items[index]
+        self._bytes -= len(data)
+        self._dropped += 1
+        return True
+
+    def take_all(self, timeout: float | None = None) -> list[bytes] | None:
+        """Everything queued (waiting up to `timeout` for something); [] on timeout; None once closed and empty."""
+        with self._condition:
+            if not self._items and not self._closed:
+                self._condition.wait(timeout)
+            if not self._items:
+                return None if self._closed else []
+            items = [data for data, _ in self._items]
+            self._items.clear()
+            self._bytes = 0
+            return items
+
+    def close(self, discard: bool = False) -> None:
+        """No more puts; the writer drains what is queued (unless `discard`) and then gets None."""
+        with self._condition:
+            self._closed = True
+            if discard:
+                self._items.clear()
+                self._bytes = 0
+            self._condition.notify_all()
