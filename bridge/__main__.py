@@ -66,6 +66,15 @@ def build_config(args: argparse.Namespace, ros: Any) -> EndpointConfig:
     )
 
 
+def _log_to_screen() -> None:
+    # init_node points the root logger at the node's log file only; keep that, and also show ours on screen.
+    handler = logging.StreamHandler(sys.stderr)
+    handler.setFormatter(logging.Formatter("[%(levelname)s] [%(name)s] %(message)s"))
+    logger = logging.getLogger("bridge")
+    logger.addHandler(handler)
+    logger.setLevel(logging.INFO)
+
+
 def main(argv: list[str] | None = None) -> int:
     # rospy is imported here, not at module level, so `--help` works without a ROS install.
     import rospy
@@ -73,10 +82,9 @@ def main(argv: list[str] | None = None) -> int:
     from bridge.ros import RosGraph
 
     args = _parser().parse_args(rospy.myargv(argv if argv is not None else sys.argv)[1:])
-    logging.basicConfig(level=logging.INFO, format="[%(levelname)s] [%(name)s] %(message)s", stream=sys.stderr)
-
     ros = RosGraph()
     ros.init_node(args.node_name)
+    _log_to_screen()
     config = build_config(args, ros)
     endpoint = Endpoint(ros, config)
     try:
