@@ -1,0 +1,149 @@
+"""ROS 1 (de)serialization of the sim's messages without rospy, via rosbags' typestore.
+
+The engine stand-in speaks to the endpoint in plain ROS 1 bytes, like Unity does, and must not import rospy.
+"""
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from rosbags.typesys import Stores, get_typestore
+
+TYPESTORE = get_typestore(Stores.ROS1_NOETIC)
+_T = TYPESTORE.types
+Header = _T["std_msgs/msg/Header"]
+Time = _T["builtin_interfaces/msg/Time"]
+JointStateMsg = _T["sensor_msgs/msg/JointState"]
+
+# protocol names (ROS 1 spelling) of the messages the sim exchanges
+JOINT_STATE = "sensor_msgs/JointState"
+JOINT_TRAJECTORY = "trajectory_msgs/JointTrajectory"
+CLOCK = "rosgraph_msgs/Clock"
+POSE = "geometry_msgs/Pose"
+
+
+class MessageError(ValueError):
+    """Bytes that are not the expected ROS 1 message, or a message the sim cannot use."""
+
+
+def _store_name(ros1_name: str) -> str:
+    package, type_name = ros1_name.split("/")
+    return f"{package}/msg/{type_name}"
+
+
+def serialize(message: object, ros1_name: str) -> bytes:
+    return bytes(TYPESTORE.serialize_ros1(message, _store_name(ros1_name)))
+
+
+def deserialize(data: bytes, ros1_name: str) -> object:
+    try:
+        return TYPESTORE.deserialize_ros1(data, _store_name(ros1_name))
+    except Exception as error:  # rosbags raises assorted errors on short or corrupt input
+        raise MessageError(f"{len(data)} bytes are not a valid {ros1_name}: {error}") from None
+
+
+def time_msg(seconds: float) -> object:
+    sec = int(np.floor(seconds))
+    nanosec = int(round((seconds - sec) * 1e9))
+    if nanosec >= 1_000_000_000:
+        sec, nanosec = sec + 1, nanosec - 1_000_000_000
+    return Time(sec=sec, nanosec=nanosec)
+
+
+def to_seconds(stamp: object) -> float:
+    return stamp.sec + stamp.nanosec * 1e-9  # type: ignore[attr-defined]
+
+
+def encode_joint_state(
+    seq: int,
+    stamp_s: float,
+    names: Sequence[str],
+    positions: np.ndarray,
+    velocities: np.ndarray,
+    efforts: np.ndarray,
+) -> bytes:
+    message = JointStateMsg(
+        header=Header(seq=seq, stamp=time_msg(stamp_s), frame_id=""),
+        name=list(names),
+        position=np.asarray(positions, dtype=np.float64),
+        velocity=np.asarray(velocities, dtype=np.float64),
+        effort=np.asarray(efforts, dtype=np.float64),
+    )
+    return serialize(message, JOINT_STATE)
+
+
+def encode_clock(seconds: float) -> bytes:
+    return serialize(_T["rosgraph_msgs/msg/Clock"](clock=time_msg(seconds)), CLOCK)
+
+
+def decode_clock(data: bytes) -> float:
+    return to_seconds(deserialize(data, CLOCK).clock)  # type: ignore[attr-defined]
+
+
+@dataclass(frozen=True)
+class TrajectoryCommand:
+    """The first point of a JointTrajectory, reordered into a robot's joint order."""
+
+    stamp_s: float
+    positions: np.ndarray
+    velocities: np.ndarray | None
+
+
+def decode_joint_trajectory(data: bytes, joint_order: Sequence[str]) -> TrajectoryCommand:
+    """Positions (and velocities when given) of the command's first point, by joint name, in `joint_order`.
+
+    The command may name the joints in any order, and may name a subset; joints it does not name keep NaN so
+    the caller can hold them. Unknown joint names raise MessageError.
+    """
+    message = deserialize(data, JOINT_TRAJECTORY)
+    names = list(message.joint_names)  # type: ignore[attr-defined]
+    points = message.points  # type: ignore[attr-defined]
+    if not points:
+        raise MessageError("JointTrajectory has no points")
+    index = {name: i for i, name in enumerate(joint_order)}
+    unknown = [name for name in names if name not in index]
+    if unknown:
+        raise MessageError(f"JointTrajectory names unknown joint(s) {unknown}; this robot has {list(joint_order)}")
+    if len(set(names)) != len(names):
+        raise MessageError(f"JointTrajectory names a joint twice: {names}")
+    point = points[0]
+    if len(point.positions) != len(names):
+        raise MessageError(f"JointTrajectory has {len(names)} joint names but {len(point.positions)} positions")
+    positions = np.full(len(joint_order), np.nan)
+    velocities = None
+    order = [index[name] for name in names]
+    positions[order] = point.positions
+    if len(point.velocities):
+        if len(point.velocities) != len(names):
+            raise MessageError(
+                f"JointTrajectory has {len(names)} joint names but {len(point.velocities)} velocities"
+            )
+        velocities = np.full(len(joint_order), np.nan)
+        velocities[order] = point.velocities
+    if not np.all(np.isfinite(positions[order])):
+        raise MessageError(f"JointTrajectory positions must be finite, got {list(point.positions)}")
+    return TrajectoryCommand(to_seconds(message.header.stamp), positions, velocities)  # type: ignore[attr-defined]
+
+
+def encode_joint_trajectory(
+    seq: int, stamp_s: float, names: Sequence[str], positions: np.ndarray, velocities: np.ndarray | None = None
+) -> bytes:
+    point = _T["trajectory_msgs/msg/JointTrajectoryPoint"](
+        positions=np.asarray(positions, dtype=np.float64),
+        velocities=np.asarray(velocities if velocities is not None else [], dtype=np.float64),
+        accelerations=np.zeros(0),
+        effort=np.zeros(0),
+        time_from_start=_T["builtin_interfaces/msg/Duration"](sec=0, nanosec=0),
+    )
+    message = _T["trajectory_msgs/msg/JointTrajectory"](
+        header=Header(seq=seq, stamp=time_msg(stamp_s), frame_id=""), joint_names=list(names), points=[point]
+    )
+    return serialize(message, JOINT_TRAJECTORY)
+
+
+def decode_pose(data: bytes) -> tuple[np.ndarray, np.ndarray]:
+    """(position xyz, orientation as the raw x, y, z, w fields)."""
+    pose = deserialize(data, POSE)
+    p, q = pose.position, pose.orientation  # type: ignore[attr-defined]
+    return np.array([p.x, p.y, p.z]), np.array([q.x, q.y, q.z, q.w])
