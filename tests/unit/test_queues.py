@@ -1,0 +1,156 @@
+"""bridge.queues.OutgoingQueue: bounded by frames and bytes, drop-oldest-droppable, close/timeout semantics."""
+from __future__ import annotations
+
+import threading
+import time
+
+import pytest
+
+from bridge.queues import OutgoingQueue
+
+
+def test_limits_must_be_positive() -> None:
+    with pytest.raises(ValueError, match="max_frames=0"):
+        OutgoingQueue(0, 10)
+    with pytest.raises(ValueError, match="max_bytes=0"):
+        OutgoingQueue(10, 0)
+
+
+def test_bounded_by_frame_count_drops_oldest() -> None:
+    queue = OutgoingQueue(max_frames=3, max_bytes=1 << 20)
+    for index in range(5):
+        queue.put(b"m%d" % index)
+    assert len(queue) == 3 and queue.dropped == 2
+    assert queue.take_all(timeout=0) == [b"m2", b"m3", b"m4"]
+    assert len(queue) == 0 and queue.queued_bytes == 0
+
+
+def test_bounded_by_bytes_drops_oldest() -> None:
+    queue = OutgoingQueue(max_frames=100, max_bytes=10)
+    for index in range(4):
+        queue.put(b"%04d" % index)  # 4 bytes each: 16 > 10, so two go
+    assert queue.dropped == 2 and queue.queued_bytes == 8
+    assert queue.take_all(timeout=0) == [b"0002", b"0003"]
+
+
+def test_drops_only_the_oldest_droppable_frame() -> None:
+    queue = OutgoingQueue(max_frames=3, max_bytes=1 << 20)
+    queue.put(b"response", droppable=False)
+    queue.put(b"d1")
+    queue.put(b"d2")
+    queue.put(b"d3")
+    assert queue.dropped == 1
+    assert queue.take_all(timeout=0) == [b"response", b"d2", b"d3"]
+
+
+def test_never_drops_non_droppable_frames_even_over_the_limit() -> None:
+    queue = OutgoingQueue(max_frames=2, max_bytes=8)
+    for index in range(5):
+        queue.put(b"service-%d" % index, droppable=False)
+    assert len(queue) == 5 and queue.dropped == 0
+    queue.put(b"topic")  # the only droppable frame is the one that goes
+    assert queue.dropped == 1
+    assert queue.take_all(timeout=0) == [b"service-%d" % index for index in range(5)]
+
+
+def test_drop_count_accumulates_across_batches() -> None:
+    queue = OutgoingQueue(max_frames=1, max_bytes=1 << 20)
+    for _ in range(3):
+        queue.put(b"a")
+        queue.put(b"b")
+        assert queue.take_all(timeout=0) == [b"b"]
+    assert queue.dropped == 3
+
+
+def test_take_all_times_out_with_an_empty_list() -> None:
+    queue = OutgoingQueue(10, 100)
+    started = time.monotonic()
+    assert queue.take_all(timeout=0.1) == []
+    assert 0.08 <= time.monotonic() - started < 2.0
+
+
+def test_take_all_returns_at_once_when_something_is_queued() -> None:
+    queue = OutgoingQueue(10, 100)
+    queue.put(b"x")
+    started = time.monotonic()
+    assert queue.take_all(timeout=5) == [b"x"]
+    assert time.monotonic() - started < 1.0
+
+
+def test_take_all_wakes_on_put_from_another_thread() -> None:
+    queue = OutgoingQueue(10, 100)
+    timer = threading.Timer(0.05, queue.put, args=(b"late",))
+    timer.start()
+    started = time.monotonic()
+    try:
+        assert queue.take_all(timeout=5) == [b"late"]
+    finally:
+        timer.cancel()
+    assert time.monotonic() - started < 2.0
+
+
+def test_close_drains_then_returns_none() -> None:
+    queue = OutgoingQueue(10, 100)
+    queue.put(b"last words", droppable=False)
+    queue.close()
+    queue.put(b"ignored after close")
+    assert queue.take_all(timeout=5) == [b"last words"]
+    assert queue.take_all(timeout=5) is None
+
+
+def test_close_with_discard_drops_everything() -> None:
+    queue = OutgoingQueue(10, 100)
+    queue.put(b"a")
+    queue.close(discard=True)
+    assert queue.take_all(timeout=5) is None and queue.queued_bytes == 0
+
+
+def test_close_wakes_a_waiting_writer() -> None:
+    queue = OutgoingQueue(10, 100)
+    result = []
+    waiter = threading.Thread(target=lambda: result.append(queue.take_all(timeout=10)))
+    waiter.start()
+    time.sleep(0.05)  # let the writer block in take_all (the test also passes if it has not yet)
+    queue.close()
+    waiter.join(timeout=5)
+    assert not waiter.is_alive() and result == [None]
+
+
+def test_thread_safety_smoke() -> None:
+    queue = OutgoingQueue(max_frames=50, max_bytes=1000)
+    producers, per_producer = 4, 3000
+    taken: list[bytes] = []
+    done = threading.Event()
+
+    def produce(index: int) -> None:
+        for count in range(per_producer):
+            queue.put(b"%d:%d" % (index, count), droppable=count % 10 != 0)
+
+    def consume() -> None:
+        deadline = time.monotonic() + 20
+        while time.monotonic() < deadline:
+            batch = queue.take_all(timeout=0.05)
+            if batch is None:
+                return
+            taken.extend(batch)
+            if done.is_set() and not batch:
+                return
+
+    consumer = threading.Thread(target=consume)
+    consumer.start()
+    threads = [threading.Thread(target=produce, args=(index,)) for index in range(producers)]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join(timeout=20)
+    done.set()
+    queue.close()
+    consumer.join(timeout=20)
+    assert not consumer.is_alive()
+    assert len(taken) + queue.dropped == producers * per_producer
+    assert len(set(taken)) == len(taken)
+    non_droppable = {b"%d:%d" % (index, count) for index in range(producers) for count in range(0, per_producer, 10)}
+    assert non_droppable <= set(taken), "a non-droppable frame was lost"
+    for index in range(producers):  # per producer, order is kept
+        mine = [int(item.split(b":")[1]) for item in taken if item.startswith(b"%d:" % index)]
+        assert mine == sorted(mine)
