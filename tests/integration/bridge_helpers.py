@@ -1,0 +1,272 @@
+"""Helpers for the bridge integration tests: a raw-socket ROS-TCP client, ROS-side probes, endpoint fixtures.
+
+Everything waits on conditions with a deadline (tests.rosenv.wait_for or socket timeouts), never on bare sleeps.
+"""
+from __future__ import annotations
+
+import io
+import itertools
+import json
+import os
+import socket
+import threading
+import time
+from collections.abc import Callable, Iterator
+from pathlib import Path
+
+import pytest
+
+from bridge import protocol
+from bridge.client import TcpClient
+from bridge.protocol import BadFrame, Frame, FrameDecoder
+from tests.rosenv import EndpointProcess, RosCore, wait_for
+
+LOOPBACK = "127.0.0.1"
+_names = itertools.count(1)
+
+
+def unique(name: str) -> str:
+    """A topic/service name no other test of the session uses (the ROS graph is shared by the whole session)."""
+    return f"/bt_{name}_{os.getpid()}_{next(_names)}"
+
+
+def serialize(message) -> bytes:
+    buffer = io.BytesIO()
+    message.serialize(buffer)
+    return buffer.getvalue()
+
+
+# --- endpoint processes -----------------------------------------------------------------------------------------
+
+
+def start_endpoint(roscore: RosCore, log_dir: Path, *extra: str, name: str | None = None) -> EndpointProcess:
+    return EndpointProcess(roscore.env, log_dir, name=name or f"bridge_test_{os.getpid()}_{next(_names)}", extra=extra)
+
+
+@pytest.fixture(scope="module")
+def bridge(roscore: RosCore, ros_node, tmp_path_factory) -> Iterator[EndpointProcess]:
+    """One endpoint shared by a test module (tests use unique names); short service timeout for failure tests."""
+    process = start_endpoint(roscore, tmp_path_factory.mktemp("bridge"), "--service-timeout", "2")
+    try:
+        yield process
+    finally:
+        process.stop()
+        assert process.process.poll() is not None
+
+
+# --- a raw ROS-TCP connection ----------------------------------------------------------------------------------
+
+
+class ConnectionClosed(ConnectionError):
+    pass
+
+
+class RawConnection:
+    """A client socket that speaks the protocol by hand; every frame it reads is kept in `received`."""
+
+    def __init__(self, port: int, *, handshake: bool = True, timeout: float = 10.0, rcvbuf: int | None = None) -> None:
+        self.sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+        if rcvbuf is not None:
+            self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, rcvbuf)
+        self.sock.settimeout(timeout)
+        self.sock.connect((LOOPBACK, port))
+        self.decoder = FrameDecoder(max_payload_bytes=1 << 30)
+        self.received: list[Frame] = []
+        self._unread: list[Frame] = []
+        self.closed = False
+        self.handshake: dict | None = None
+        if handshake:
+            first = self.next_frame()
+            assert first.destination == "__handshake", f"first frame was {first.destination!r}"
+            self.handshake = json.loads(first.payload)
+
+    def __enter__(self) -> RawConnection:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def close(self) -> None:
+        self.sock.close()
+
+    # sending
+    def send(self, data: bytes) -> None:
+        self.sock.sendall(data)
+
+    def send_frame(self, destination: str, payload: bytes) -> None:
+        self.send(protocol.encode_frame(destination, payload))
+
+    def command(self, name: str, **params) -> None:
+        self.send(protocol.encode_syscommand(name, params))
+
+    def subscribe(self, topic: str, message_name: str) -> None:
+        self.command("__subscribe", topic=topic, message_name=message_name)
+
+    def register_publisher(self, topic: str, message_name: str, queue_size: int = 10, latch: bool = False) -> None:
+        self.command("__publish", topic=topic, message_name=message_name, queue_size=queue_size, latch=latch)
+
+    # reading
+    def next_frame(self, timeout: float = 10.0) -> Frame:
+        deadline = time.monotonic() + timeout
+        while not self._unread:
+            remaining = deadline - time.monotonic()
+            if remaining <= 0:
+                raise TimeoutError(f"no frame within {timeout} s")
+            self.sock.settimeout(remaining)
+            try:
+                data = self.sock.recv(1 << 20)
+            except socket.timeout:
+                raise TimeoutError(f"no frame within {timeout} s") from None
+            except ConnectionResetError:
+                data = b""
+            if not data:
+                self.closed = True
+                raise ConnectionClosed("the endpoint closed the connection")
+            for item in self.decoder.feed(data):
+                assert not isinstance(item, BadFrame), item
+                self.received.append(item)
+                self._unread.append(item)
+        return self._unread.pop(0)
+
+    def wait_frame(self, predicate: Callable[[Frame], bool], what: str, timeout: float = 10.0) -> Frame:
+        deadline = time.monotonic() + timeout
+        while True:
+            remaining = deadline - time.monotonic()
+            if remaining <= 0:
+                raise TimeoutError(f"no {what} within {timeout} s; got {self.summary()}")
+            frame = self.next_frame(remaining)
+            if predicate(frame):
+                return frame
+
+    def wait_command(self, name: str, timeout: float = 10.0) -> dict:
+        frame = self.wait_frame(lambda f: f.destination == name, name, timeout)
+        return json.loads(frame.payload)
+
+    def expect_error(self, *fragments: str, timeout: float = 10.0) -> str:
+        """The next __error whose text contains every fragment (other frames are skipped but kept)."""
+        def matches(frame: Frame) -> bool:
+            if frame.destination != "__error":
+                return False
+            text = json.loads(frame.payload)["text"]
+            return all(fragment in text for fragment in fragments)
+
+        frame = self.wait_frame(matches, f"__error containing {fragments}", timeout)
+        return json.loads(frame.payload)["text"]
+
+    def topic_list(self, timeout: float = 10.0) -> dict[str, str]:
+        """Round trip through the endpoint: every command sent before has been handled when this returns."""
+        self.command("__topic_list")
+        params = self.wait_command("__topic_list", timeout)
+        assert len(params["topics"]) == len(params["types"])
+        return dict(zip(params["topics"], params["types"]))
+
+    def sync(self, timeout: float = 10.0) -> None:
+        self.topic_list(timeout)
+
+    def wait_closed(self, timeout: float = 10.0) -> None:
+        """Read (and keep) frames until the endpoint closes the connection."""
+        deadline = time.monotonic() + timeout
+        while True:
+            remaining = deadline - time.monotonic()
+            if remaining <= 0:
+                raise TimeoutError(f"connection still open after {timeout} s; got {self.summary()}")
+            try:
+                self.next_frame(remaining)
+            except ConnectionClosed:
+                return
+
+    def errors(self) -> list[str]:
+        return [json.loads(f.payload)["text"] for f in self.received if f.destination == "__error"]
+
+    def messages(self, topic: str) -> list[bytes]:
+        return [f.payload for f in self.received if f.destination == topic]
+
+    def summary(self) -> str:
+        return ", ".join(
+            f.destination + (f" {f.payload[:200].decode(errors='replace')}" if f.destination.startswith("__") else "")
+            for f in self.received[-20:]
+        )
+
+
+# --- TcpClient helpers -----------------------------------------------------------------------------------------
+
+
+class Inbox:
+    """Thread-safe list of payloads for a TcpClient subscription callback."""
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self.items: list[bytes] = []
+
+    def __call__(self, payload: bytes) -> None:
+        with self._lock:
+            self.items.append(payload)
+
+    def __len__(self) -> int:
+        with self._lock:
+            return len(self.items)
+
+    def snapshot(self) -> list[bytes]:
+        with self._lock:
+            return list(self.items)
+
+    def wait_count(self, count: int, timeout: float = 10.0, what: str = "messages") -> list[bytes]:
+        wait_for(lambda: len(self) >= count, timeout, f"{count} {what} (have {len(self)})")
+        return self.snapshot()
+
+
+def tcp_client(port: int, **kwargs) -> TcpClient:
+    kwargs.setdefault("reconnect_delay_s", 0.2)
+    return TcpClient(LOOPBACK, port, **kwargs).connect(timeout=10)
+
+
+# --- ROS side --------------------------------------------------------------------------------------------------
+
+
+class RosInbox:
+    """A rospy.AnyMsg subscriber in the test process: `items` are the exact bytes each message arrived in."""
+
+    def __init__(self, rospy, topic: str) -> None:
+        self._lock = threading.Lock()
+        self.items: list[bytes] = []
+        self.subscriber = rospy.Subscriber(topic, rospy.AnyMsg, self._received)
+
+    def _received(self, message) -> None:
+        with self._lock:
+            self.items.append(bytes(message._buff))
+
+    def __len__(self) -> int:
+        with self._lock:
+            return len(self.items)
+
+    def snapshot(self) -> list[bytes]:
+        with self._lock:
+            return list(self.items)
+
+    def wait_count(self, count: int, timeout: float = 10.0) -> list[bytes]:
+        wait_for(lambda: len(self) >= count, timeout, f"{count} ROS messages (have {len(self)})")
+        return self.snapshot()
+
+    def wait_connected(self, timeout: float = 10.0) -> None:
+        wait_for(lambda: self.subscriber.get_num_connections() > 0, timeout, "subscriber connection to the endpoint")
+
+    def close(self) -> None:
+        self.subscriber.unregister()
+
+
+def wait_subscribers(publisher, count: int = 1, timeout: float = 10.0) -> None:
+    wait_for(lambda: publisher.get_num_connections() >= count, timeout, f"{count} subscriber connection(s)")
+
+
+def wait_no_subscribers(publisher, timeout: float = 10.0) -> None:
+    wait_for(lambda: publisher.get_num_connections() == 0, timeout, "the endpoint to drop its subscription")
+
+
+def service_exists(rospy, service: str) -> bool:
+    import rosgraph
+
+    try:
+        rosgraph.Master(rospy.get_name()).lookupService(service)
+        return True
+    except rosgraph.MasterError:
+        return False

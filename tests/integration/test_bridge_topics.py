@@ -1,0 +1,282 @@
+"""Topics through a real endpoint on a real roscore: byte-exact both ways, many clients, registrations, removal."""
+from __future__ import annotations
+
+import pytest
+import rospy  # noqa: F401 - the session's rospy node (ros_node fixture) is what the tests use
+from geometry_msgs.msg import Point, Pose, Quaternion
+from rosgraph_msgs.msg import Clock
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Header, String
+from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+
+from tests.integration.bridge_helpers import (
+    Inbox,
+    RawConnection,
+    RosInbox,
+    bridge,  # noqa: F401 - module-scoped endpoint fixture
+    serialize,
+    service_exists,
+    tcp_client,
+    unique,
+    wait_no_subscribers,
+    wait_subscribers,
+)
+from tests.rosenv import wait_for
+
+JOINTS = [f"joint_{index}" for index in range(1, 8)]
+
+
+def joint_state(seq: int, step: int) -> JointState:
+    return JointState(
+        header=Header(seq=seq, stamp=rospy.Time(1700000000 + step, 123456789), frame_id="base_link"),
+        name=JOINTS,
+        position=[0.1 * index + step for index in range(7)],
+        velocity=[-0.01 * index for index in range(7)],
+        effort=[1.5 * index for index in range(7)],
+    )
+
+
+def joint_trajectory(seq: int, step: int) -> JointTrajectory:
+    return JointTrajectory(
+        header=Header(seq=seq, stamp=rospy.Time(42, step), frame_id="world"),
+        joint_names=JOINTS,
+        points=[
+            JointTrajectoryPoint(
+                positions=[0.01 * (index + point) for index in range(7)],
+                velocities=[0.1] * 7,
+                accelerations=[],
+                effort=[float(step)] * 7,
+                time_from_start=rospy.Duration(point, 500_000_000),
+            )
+            for point in range(3)
+        ],
+    )
+
+
+def clock(seq: int, step: int) -> Clock:
+    return Clock(clock=rospy.Time(1000 + step, seq))
+
+
+def pose(seq: int, step: int) -> Pose:
+    return Pose(position=Point(1.0 + step, -2.5, 3.25), orientation=Quaternion(0.0, 0.0, 0.7071068, 0.7071068))
+
+
+MESSAGES = {
+    "sensor_msgs/JointState": (JointState, joint_state),
+    "trajectory_msgs/JointTrajectory": (JointTrajectory, joint_trajectory),
+    "rosgraph_msgs/Clock": (Clock, clock),
+    "geometry_msgs/Pose": (Pose, pose),
+}
+
+
+@pytest.mark.parametrize("message_name", list(MESSAGES))
+def test_ros_to_client_is_byte_exact(bridge, ros_node, message_name: str) -> None:
+    cls, make = MESSAGES[message_name]
+    topic = unique("to_client")
+    publisher = ros_node.Publisher(topic, cls, queue_size=10)
+    with RawConnection(bridge.port) as client:
+        client.subscribe(topic, message_name)
+        client.sync()
+        wait_subscribers(publisher)
+        expected = []
+        for step in range(3):
+            message = make(1000 + step, step)
+            publisher.publish(message)
+            expected.append(serialize(message))  # after publish: rospy has stamped header.seq, if any
+        for payload in expected:
+            frame = client.wait_frame(lambda f: f.destination == topic, f"message on {topic}")
+            assert frame.payload == payload
+        assert not client.errors()
+    publisher.unregister()
+
+
+@pytest.mark.parametrize("message_name", list(MESSAGES))
+def test_client_to_ros_is_byte_exact_and_keeps_header_seq(bridge, ros_node, message_name: str) -> None:
+    cls, make = MESSAGES[message_name]
+    topic = unique("to_ros")
+    inbox = RosInbox(ros_node, topic)
+    payloads = [serialize(make(seq, step)) for step, seq in enumerate((7, 4242, 7))]  # seq not monotonic
+    with RawConnection(bridge.port) as client:
+        client.register_publisher(topic, message_name)
+        client.sync()
+        inbox.wait_connected()
+        for payload in payloads:
+            client.send_frame(topic, payload)
+        assert inbox.wait_count(3) == payloads
+        if hasattr(cls(), "header"):
+            assert [cls().deserialize(item).header.seq for item in inbox.snapshot()] == [7, 4242, 7]
+        client.sync()
+        assert not client.errors()
+    inbox.close()
+
+
+def test_relative_topic_names_come_back_as_the_client_spelled_them(bridge, ros_node) -> None:
+    topic = unique("relative").lstrip("/")
+    publisher = ros_node.Publisher("/" + topic, String, queue_size=10)
+    with RawConnection(bridge.port) as client:
+        client.subscribe(topic, "std_msgs/String")
+        client.sync()
+        wait_subscribers(publisher)
+        publisher.publish(String("hello"))
+        frame = client.wait_frame(lambda f: not f.destination.startswith("__"), "a topic frame")
+        assert frame.destination == topic and frame.payload == serialize(String("hello"))
+
+
+def test_two_clients_get_only_what_they_subscribed_to(bridge, ros_node) -> None:
+    topic_a, topic_b = unique("only_a"), unique("only_b")
+    publisher_a = ros_node.Publisher(topic_a, String, queue_size=10)
+    publisher_b = ros_node.Publisher(topic_b, String, queue_size=10)
+    with RawConnection(bridge.port) as client_a, RawConnection(bridge.port) as client_b:
+        client_a.subscribe(topic_a, "std_msgs/String")
+        client_b.subscribe(topic_b, "std_msgs/String")
+        client_a.sync()
+        client_b.sync()
+        wait_subscribers(publisher_a)
+        wait_subscribers(publisher_b)
+        for index in range(3):
+            publisher_a.publish(String(f"a{index}"))
+            publisher_b.publish(String(f"b{index}"))
+        for client, topic, letter in ((client_a, topic_a, "a"), (client_b, topic_b, "b")):
+            for index in range(3):
+                frame = client.wait_frame(lambda f: f.destination == topic, f"message on {topic}")
+                assert frame.payload == serialize(String(f"{letter}{index}"))
+            client.sync()
+        assert {f.destination for f in client_a.received if not f.destination.startswith("__")} == {topic_a}
+        assert {f.destination for f in client_b.received if not f.destination.startswith("__")} == {topic_b}
+
+
+def test_ten_clients_each_get_every_message_on_a_shared_topic_and_only_their_own_topic(bridge, ros_node) -> None:
+    shared = unique("shared")
+    shared_publisher = ros_node.Publisher(shared, String, queue_size=100)
+    own_topics = [unique(f"own{index}") for index in range(10)]
+    own_publishers = [ros_node.Publisher(topic, String, queue_size=10) for topic in own_topics]
+    clients, shared_inboxes, own_inboxes = [], [], []
+    try:
+        for own_topic in own_topics:
+            client = tcp_client(bridge.port, reconnect=False)
+            clients.append(client)
+            shared_inbox, own_inbox = Inbox(), Inbox()
+            client.subscribe(shared, "std_msgs/String", shared_inbox)
+            client.subscribe(own_topic, "std_msgs/String", own_inbox)
+            shared_inboxes.append(shared_inbox)
+            own_inboxes.append(own_inbox)
+        for client in clients:
+            client.topic_list()  # round trip: this client's subscriptions are in place
+        wait_subscribers(shared_publisher)
+        for publisher in own_publishers:
+            wait_subscribers(publisher)
+        expected = [serialize(String(f"shared {index}")) for index in range(20)]
+        for index in range(20):
+            shared_publisher.publish(String(f"shared {index}"))
+        for index, publisher in enumerate(own_publishers):
+            publisher.publish(String(f"own {index}"))
+        for index in range(10):
+            assert shared_inboxes[index].wait_count(20) == expected
+            assert own_inboxes[index].wait_count(1) == [serialize(String(f"own {index}"))]
+        for client in clients:
+            client.topic_list()  # anything else in flight would have arrived by now
+        assert all(len(inbox) == 20 for inbox in shared_inboxes)
+        assert all(len(inbox) == 1 for inbox in own_inboxes)
+        assert all(client.errors == [] and client.connections == 1 for client in clients)
+    finally:
+        for client in clients:
+            client.close()
+
+
+def test_registering_the_same_topic_twice_is_harmless(bridge, ros_node) -> None:
+    sub_topic, pub_topic = unique("twice_sub"), unique("twice_pub")
+    publisher = ros_node.Publisher(sub_topic, String, queue_size=10)
+    inbox = RosInbox(ros_node, pub_topic)
+    with RawConnection(bridge.port) as client:
+        for _ in range(2):
+            client.subscribe(sub_topic, "std_msgs/String")
+            client.register_publisher(pub_topic, "std_msgs/String")
+        client.sync()
+        wait_subscribers(publisher)
+        inbox.wait_connected()
+        for text in ("one", "two", "sentinel"):
+            publisher.publish(String(text))
+        client.wait_frame(lambda f: f.payload == serialize(String("sentinel")), "the sentinel")
+        # A duplicate subscription would deliver each message twice, before the next one.
+        assert client.messages(sub_topic) == [serialize(String(text)) for text in ("one", "two", "sentinel")]
+        client.send_frame(pub_topic, serialize(String("once")))
+        client.send_frame(pub_topic, serialize(String("sentinel")))
+        assert inbox.wait_count(2) == [serialize(String("once")), serialize(String("sentinel"))]
+        assert client.errors() == []
+    inbox.close()
+
+
+def test_topic_list_reports_topics_and_types(bridge, ros_node) -> None:
+    topic = unique("listed")
+    publisher = ros_node.Publisher(topic, JointState, queue_size=1)
+    with RawConnection(bridge.port) as client:
+        topics = wait_for(lambda: (t := client.topic_list()) and topic in t and t, 10, f"{topic} in the topic list")
+        assert topics[topic] == "sensor_msgs/JointState"
+        assert topics["/rosout"] == "rosgraph_msgs/Log"
+    publisher.unregister()
+
+
+def test_remove_subscriber_stops_delivery_to_that_client_only(bridge, ros_node) -> None:
+    topic = unique("remove_sub")
+    publisher = ros_node.Publisher(topic, String, queue_size=10)
+    with RawConnection(bridge.port) as leaving, RawConnection(bridge.port) as staying:
+        for client in (leaving, staying):
+            client.subscribe(topic, "std_msgs/String")
+            client.sync()
+        wait_subscribers(publisher)
+        publisher.publish(String("before"))
+        for client in (leaving, staying):
+            client.wait_frame(lambda f: f.destination == topic, "the first message")
+        leaving.command("__remove_subscriber", topic=topic)
+        leaving.sync()
+        publisher.publish(String("after"))
+        staying.wait_frame(lambda f: f.payload == serialize(String("after")), "the second message")
+        leaving.sync()  # queued after "after" would have been, had it been sent to this client
+        assert leaving.messages(topic) == [serialize(String("before"))]
+        staying.command("__remove_subscriber", topic=topic)
+        wait_no_subscribers(publisher)  # the last client gone: the endpoint leaves the topic
+        assert leaving.errors() == [] and staying.errors() == []
+
+
+def test_remove_publisher(bridge, ros_node) -> None:
+    topic = unique("remove_pub")
+    inbox = RosInbox(ros_node, topic)
+    with RawConnection(bridge.port) as client:
+        client.register_publisher(topic, "std_msgs/String")
+        client.sync()
+        inbox.wait_connected()
+        client.send_frame(topic, serialize(String("published")))
+        inbox.wait_count(1)
+        client.command("__remove_publisher", topic=topic)
+        wait_for(lambda: inbox.subscriber.get_num_connections() == 0, 10, "the endpoint to unadvertise")
+        client.send_frame(topic, serialize(String("refused")))
+        assert topic in client.expect_error("has not registered with __publish")
+    assert inbox.snapshot() == [serialize(String("published"))]
+    inbox.close()
+
+
+def test_remove_unity_service_takes_the_service_off_the_graph(bridge, ros_node) -> None:
+    service = unique("remove_unity_srv")
+    with RawConnection(bridge.port) as client:
+        client.command("__unity_service", topic=service, message_name="std_srvs/Trigger")
+        client.sync()
+        wait_for(lambda: service_exists(ros_node, service), 10, f"{service} advertised")
+        client.command("__remove_unity_service", topic=service)
+        wait_for(lambda: not service_exists(ros_node, service), 10, f"{service} withdrawn")
+        client.sync()
+        assert client.errors() == []
+
+
+def test_removing_what_was_never_registered_is_harmless(bridge) -> None:
+    with RawConnection(bridge.port) as client:
+        for kind in ("subscriber", "publisher", "ros_service", "unity_service"):
+            client.command(f"__remove_{kind}", topic=unique("never"))
+        client.sync()
+        assert client.errors() == []
+
+
+def test_keepalives_are_ignored(bridge) -> None:
+    with RawConnection(bridge.port) as client:
+        client.send(b"\0" * 8 * 50)
+        client.sync()
+        assert client.errors() == []
