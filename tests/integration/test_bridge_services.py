@@ -1,0 +1,245 @@
+"""Services through a real endpoint: client -> ROS (__ros_service/__request) and ROS -> client (__unity_service)."""
+from __future__ import annotations
+
+import json
+import threading
+import time
+
+import pytest
+from std_msgs.msg import String
+from std_srvs.srv import SetBool, SetBoolRequest, SetBoolResponse, Trigger, TriggerRequest, TriggerResponse
+
+from bridge import protocol
+from bridge.client import ClientError
+from tests.integration.bridge_helpers import (
+    RawConnection,
+    RosInbox,
+    bridge,  # noqa: F401 - module-scoped endpoint fixture (service timeout 2 s)
+    serialize,
+    service_exists,
+    tcp_client,
+    unique,
+)
+from tests.rosenv import wait_for
+
+
+def set_bool_service(rospy, name: str, calls: list | None = None):
+    def handle(request: SetBoolRequest) -> SetBoolResponse:
+        if calls is not None:
+            calls.append(request.data)
+        return SetBoolResponse(success=not request.data, message=f"got {request.data}")
+
+    service = rospy.Service(name, SetBool, handle)
+    return service
+
+
+def test_client_calls_a_ros_service(bridge, ros_node) -> None:
+    name = unique("set_bool")
+    calls: list[bool] = []
+    service = set_bool_service(ros_node, name, calls)
+    with tcp_client(bridge.port, reconnect=False) as client:
+        client.register_ros_service(name, "std_srvs/SetBool")
+        for data in (True, False, True):
+            response = client.call_service(name, serialize(SetBoolRequest(data=data)), timeout=10)
+            assert response == serialize(SetBoolResponse(success=not data, message=f"got {data}"))
+        assert calls == [True, False, True] and client.errors == []
+    service.shutdown()
+
+
+def test_ros_service_response_wire_format(bridge, ros_node) -> None:
+    """__response {"srv_id": <the client's id>} and the body, destination = service, back to back."""
+    name = unique("set_bool_raw")
+    service = set_bool_service(ros_node, name)
+    with RawConnection(bridge.port) as client:
+        client.command("__ros_service", topic=name, message_name="std_srvs/SetBool")
+        for srv_id, data in ((101, True), (102, False)):
+            client.send(
+                b"".join(
+                    (
+                        protocol.encode_syscommand("__request", {"srv_id": srv_id}),
+                        protocol.encode_frame(name, serialize(SetBoolRequest(data))),
+                    )
+                )
+            )
+            header = client.wait_frame(lambda f: f.destination == "__response", "__response")
+            assert json.loads(header.payload) == {"srv_id": srv_id}
+            body = client.next_frame()
+            assert body.destination == name
+            assert body.payload == serialize(SetBoolResponse(success=not data, message=f"got {data}"))
+        assert client.errors() == []
+    service.shutdown()
+
+
+def test_ros_calls_a_client_implemented_service(bridge, ros_node) -> None:
+    name = unique("client_trigger")
+    requests: list[bytes] = []
+
+    def handler(request: bytes) -> bytes:
+        requests.append(request)
+        return serialize(TriggerResponse(success=True, message=f"call {len(requests)}"))
+
+    with tcp_client(bridge.port, reconnect=False) as client:
+        client.implement_service(name, "std_srvs/Trigger", handler)
+        wait_for(lambda: service_exists(ros_node, name), 10, f"{name} advertised by the endpoint")
+        proxy = ros_node.ServiceProxy(name, Trigger)
+        for index in (1, 2):
+            response = proxy(TriggerRequest())
+            assert (response.success, response.message) == (True, f"call {index}")
+        assert requests == [b"", b""]
+        proxy.close()
+
+
+def test_ros_request_wire_format_and_setbool_both_ways(bridge, ros_node) -> None:
+    name = unique("client_set_bool")
+    with RawConnection(bridge.port) as client:
+        client.command("__unity_service", topic=name, message_name="std_srvs/SetBool")
+        client.sync()
+        wait_for(lambda: service_exists(ros_node, name), 10, f"{name} advertised")
+        result: list = []
+        caller = threading.Thread(target=lambda: result.append(ros_node.ServiceProxy(name, SetBool)(True)))
+        caller.start()
+        try:
+            header = client.wait_frame(lambda f: f.destination == "__request", "__request")
+            srv_id = json.loads(header.payload)["srv_id"]
+            assert isinstance(srv_id, int) and srv_id >= 1001
+            body = client.next_frame()
+            assert body.destination == name and body.payload == serialize(SetBoolRequest(data=True))
+            client.command("__response", srv_id=srv_id)
+            client.send_frame(name, serialize(SetBoolResponse(success=True, message="from the client")))
+        finally:
+            caller.join(timeout=10)
+        assert not caller.is_alive()
+        assert (result[0].success, result[0].message) == (True, "from the client")
+        client.sync()
+        assert client.errors() == []
+
+
+def test_failing_ros_service_gives_an_error_naming_it_and_the_connection_keeps_working(bridge, ros_node) -> None:
+    name = unique("failing")
+
+    def handle(request: SetBoolRequest) -> SetBoolResponse:
+        if request.data:
+            raise RuntimeError("deliberate failure")
+        return SetBoolResponse(success=True, message="fine")
+
+    service = ros_node.Service(name, SetBool, handle)
+    with tcp_client(bridge.port, reconnect=False) as client:
+        client.register_ros_service(name, "std_srvs/SetBool")
+        with pytest.raises(ClientError) as raised:
+            client.call_service(name, serialize(SetBoolRequest(data=True)), timeout=10)
+        assert name in str(raised.value)
+        assert any(name in text and "will not complete" in text for text in client.errors)
+        response = client.call_service(name, serialize(SetBoolRequest(data=False)), timeout=10)
+        assert response == serialize(SetBoolResponse(success=True, message="fine"))
+        assert client.connections == 1
+    service.shutdown()
+
+
+def test_missing_ros_service_gives_an_error_naming_it(bridge, ros_node) -> None:
+    missing, working = unique("missing"), unique("working")
+    service = set_bool_service(ros_node, working)
+    with tcp_client(bridge.port, reconnect=False) as client:
+        client.register_ros_service(missing, "std_srvs/SetBool")
+        client.register_ros_service(working, "std_srvs/SetBool")
+        started = time.monotonic()
+        with pytest.raises(ClientError, match="not available"):
+            client.call_service(missing, serialize(SetBoolRequest(data=True)), timeout=10)
+        assert time.monotonic() - started < 8  # the endpoint's --service-timeout is 2 s
+        assert any(missing in text for text in client.errors)
+        assert client.call_service(working, serialize(SetBoolRequest(data=True)), timeout=10) == serialize(
+            SetBoolResponse(success=False, message="got True")
+        )
+        assert client.connections == 1
+    service.shutdown()
+
+
+def test_request_for_an_unregistered_service_is_refused(bridge) -> None:
+    name = unique("unregistered")
+    with RawConnection(bridge.port) as client:
+        client.command("__request", srv_id=101)
+        client.send_frame(name, serialize(SetBoolRequest(data=True)))
+        text = client.expect_error("__request 101", name)
+        assert "__ros_service" in text
+        client.sync()
+
+
+def test_remove_ros_service(bridge, ros_node) -> None:
+    name = unique("removed_ros_srv")
+    service = set_bool_service(ros_node, name)
+    with tcp_client(bridge.port, reconnect=False) as client:
+        client.register_ros_service(name, "std_srvs/SetBool")
+        client.call_service(name, serialize(SetBoolRequest(data=True)), timeout=10)
+        client.remove("ros_service", name)
+        with pytest.raises(ClientError, match="not registered"):
+            client.call_service(name, serialize(SetBoolRequest(data=True)), timeout=10)
+    service.shutdown()
+
+
+def test_unknown_response_id_gives_an_error_and_the_next_frame_is_discarded(bridge, ros_node) -> None:
+    topic = unique("after_bad_response")
+    inbox = RosInbox(ros_node, topic)
+    with RawConnection(bridge.port) as client:
+        client.register_publisher(topic, "std_msgs/String")
+        client.sync()
+        inbox.wait_connected()
+        client.command("__response", srv_id=987654)
+        client.send_frame(topic, serialize(String("swallowed as the response body")))
+        client.expect_error("__response", "987654")
+        client.send_frame(topic, serialize(String("published")))
+        assert inbox.wait_count(1) == [serialize(String("published"))]
+        client.sync()
+        assert len(client.errors()) == 1
+        assert inbox.snapshot() == [serialize(String("published"))]
+    inbox.close()
+
+
+def test_a_client_dying_mid_request_does_not_poison_the_next_client(bridge, ros_node) -> None:
+    topic = unique("unpoisoned")
+    inbox = RosInbox(ros_node, topic)
+    with RawConnection(bridge.port) as dying:
+        dying.sync()
+        dying.command("__request", srv_id=101)  # its body never comes (the endpoint reads this before the EOF)
+    with RawConnection(bridge.port) as client:
+        client.register_publisher(topic, "std_msgs/String")
+        client.sync()
+        inbox.wait_connected()
+        client.send_frame(topic, serialize(String("intact")))
+        assert inbox.wait_count(1) == [serialize(String("intact"))]
+        client.sync()
+        assert client.errors() == []
+    inbox.close()
+
+
+def test_client_disconnecting_before_answering_fails_the_ros_call_quickly(bridge, ros_node) -> None:
+    name = unique("abandoned")
+    client = RawConnection(bridge.port)
+    client.command("__unity_service", topic=name, message_name="std_srvs/Trigger")
+    client.sync()
+    wait_for(lambda: service_exists(ros_node, name), 10, f"{name} advertised")
+    outcome: list = []
+
+    def call() -> None:
+        try:
+            outcome.append(ros_node.ServiceProxy(name, Trigger)())
+        except Exception as error:  # rospy.ServiceException
+            outcome.append(error)
+
+    caller = threading.Thread(target=call)
+    caller.start()
+    client.wait_frame(lambda f: f.destination == "__request", "__request")
+    client.close()
+    caller.join(timeout=10)
+    assert not caller.is_alive()
+    assert isinstance(outcome[0], ros_node.ServiceException)
+    wait_for(lambda: not service_exists(ros_node, name), 10, f"{name} withdrawn after the client left")
+
+
+def test_reregistering_a_unity_service_moves_it_to_the_newest_client(bridge, ros_node) -> None:
+    name = unique("moved_srv")
+    with tcp_client(bridge.port, reconnect=False) as old, tcp_client(bridge.port, reconnect=False) as new:
+        old.implement_service(name, "std_srvs/Trigger", lambda _: serialize(TriggerResponse(True, "old")))
+        old.topic_list()
+        new.implement_service(name, "std_srvs/Trigger", lambda _: serialize(TriggerResponse(True, "new")))
+        new.topic_list()
+        wait_for(lambda: service_exists(ros_node, name), 10, f"{name} advertised")
+        assert ros_node.ServiceProxy(name, Trigger)().message == "new"
