@@ -134,35 +134,60 @@ def implicit_drive_step(
     target_velocity: np.ndarray,
     drive: DriveParams,
     dt: float,
+    bias_jacobian: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """(v⁺, F): next velocity and drive force of one backward-Euler step of M·q̈ + c = F.
+    """(v⁺, F): next velocity and drive force of one backward-Euler step of M·q̈ + c(q, q̇) = F.
 
     The drive force is evaluated at the END of the step, q⁺ = q + dt·v⁺:
         F = K·(x* − q − dt·v⁺) − D·(v⁺ − v*),        M·(v⁺ − v)/dt = F − c
     hence  (M + dt·D + dt²·K)·v⁺ = M·v + dt·(K·(x* − q) + D·v* − c).
     The added dt·D + dt²·K on the diagonal makes the step stable for any gains (an explicit PD at dt = 0.02 s
     diverges once dt·sqrt(K/M) > 2, i.e. already at K ≈ 1e4 for a 1 kg·m² joint).
-    Force limit: joints whose F exceeds ±limit get exactly ±limit (a constant force, no longer implicit) and v⁺ is
-    solved again, until no free joint exceeds its limit (at most one pass per joint; a joint once clamped stays
-    clamped in this step, a simple and stable approximation of the box-constrained problem).
+
+    bias_jacobian C = ∂c/∂q̇ (optional): the Coriolis/centrifugal torques are then linearised at the end of the
+    step too, c(v⁺) ≈ c(v) + C·(v⁺ − v), i.e. M is replaced by M + dt·C. Without it, a robot whipped around at tens
+    of rad/s (a force-limited drive chasing a far target) gains energy from the explicit v² terms and blows up.
+
+    Force limit: F_i = clip(drive law_i(v⁺), ±limit_i), a piecewise linear equation in v⁺ (the drive law decreases
+    in v⁺_i, so for positive definite M it has exactly one solution). Solved by a semi-smooth Newton method with
+    backtracking on |residual|²: exact in a few iterations. Clamping joints one by one instead can cycle or settle
+    on a wrong set of clamped joints, which feeds the robot energy (seen: NaN within seconds on a far step target).
+    v⁺ is finally recomputed from the forces so that M·(v⁺ − v)/dt = F − c holds to rounding.
     """
     stiffness, damping, limit = drive.stiffness, drive.damping, drive.force_limit
+    inertia = mass if bias_jacobian is None else mass + dt * bias_jacobian
     spring = stiffness * (target - q) + damping * target_velocity  # the drive's terms that do not depend on v⁺
-    clamped = np.zeros(q.size, dtype=bool)
-    clamped_force = np.zeros(q.size)
-    momentum = mass @ v - dt * bias
-    for _ in range(q.size + 1):
-        free = ~clamped
-        system = mass + np.diag(np.where(free, dt * damping + dt * dt * stiffness, 0.0))
-        rhs = momentum + dt * np.where(free, spring, clamped_force)
-        v_next = np.linalg.solve(system, rhs)
-        force = np.where(free, spring - (dt * stiffness + damping) * v_next, clamped_force)
-        over = free & (np.abs(force) > limit)
-        if not over.any():
-            return v_next, force
-        clamped |= over
-        clamped_force[over] = np.sign(force[over]) * limit[over]
-    return v_next, force  # unreachable: every pass clamps at least one more joint
+    slope = dt * stiffness + damping  # the drive law is spring − slope·v⁺
+    momentum = inertia @ v - dt * bias
+    v_next = np.linalg.solve(inertia + dt * np.diag(slope), momentum + dt * spring)  # the unlimited solution
+    force = spring - slope * v_next
+    if np.all(np.abs(force) <= limit):
+        return v_next, force
+    scale = float(np.max(np.abs(momentum))) + float(np.max(np.abs(dt * spring))) + 1.0
+    for _ in range(50):
+        residual = _drive_residual(v_next, inertia, momentum, spring, slope, limit, dt)
+        merit = float(residual @ residual)
+        if merit <= (1e-12 * scale) ** 2:
+            break
+        linear = np.abs(spring - slope * v_next) < limit
+        direction = -np.linalg.solve(inertia + dt * np.diag(np.where(linear, slope, 0.0)), residual)
+        step = 1.0
+        while step > 1e-10:  # backtrack until the residual shrinks (Armijo on |residual|²)
+            trial = _drive_residual(v_next + step * direction, inertia, momentum, spring, slope, limit, dt)
+            if float(trial @ trial) <= (1.0 - 1e-4 * step) * merit:
+                break
+            step *= 0.5
+        v_next = v_next + step * direction
+    else:
+        log.debug("force-limited drive step stopped after 50 Newton iterations")
+    force = np.clip(spring - slope * v_next, -limit, limit)
+    return np.linalg.solve(inertia, momentum + dt * force), force
+
+
+def _drive_residual(velocity: np.ndarray, inertia: np.ndarray, momentum: np.ndarray, spring: np.ndarray,
+                    slope: np.ndarray, limit: np.ndarray, dt: float) -> np.ndarray:
+    """Newton's law of the step, zero at the solution: inertia·v⁺ − momentum − dt·clip(drive law, ±limit)."""
+    return inertia @ velocity - momentum - dt * np.clip(spring - slope * velocity, -limit, limit)
 
 
 # --------------------------------------------------------------------------------------------------------------
@@ -321,23 +346,40 @@ class PhysicsWorld:
             target = self._start_target + share * (self._target - self._start_target)
             target_velocity = self._start_velocity + share * (self._target_velocity - self._start_velocity)
             mass, bias = self._dynamics(self._q, self._v)
-            v_next, force = implicit_drive_step(mass, bias, self._q, self._v, target, target_velocity, self.drive, h)
+            v_next, force = implicit_drive_step(mass, bias, self._q, self._v, target, target_velocity, self.drive, h,
+                                                bias_jacobian=self._bias_jacobian(self._q, self._v))
             self._q = self._q + h * v_next
             self._v = v_next
             self._effort = force
 
-    def _dynamics(self, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """M and c = gravity + Coriolis over the controlled joints, the others locked (zero velocity)."""
-        cid = self._client
+    def _bias_jacobian(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """C = ∂c/∂q̇ by central differences of unit size, exact because c is quadratic in q̇."""
+        columns = []
+        for j in range(v.size):
+            unit = np.zeros(v.size)
+            unit[j] = 1.0
+            columns.append((self._bias(q, v + unit) - self._bias(q, v - unit)) / 2.0)
+        return np.column_stack(columns)
+
+    def _bias(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
+        full_q, full_v = self._full_vectors(q, v)
+        bias = p.calculateInverseDynamics(self._body, full_q, full_v, [0.0] * len(full_q),
+                                          physicsClientId=self._client)
+        return np.array(bias)[self._controlled]
+
+    def _full_vectors(self, q: np.ndarray, v: np.ndarray) -> tuple[list[float], list[float]]:
+        """Pybullet's full DoF vectors: the controlled joints from q, v; the locked ones at rest where they are."""
         full_q = self._full_q.copy()
         full_q[self._controlled] = q
         full_v = np.zeros_like(full_q)
         full_v[self._controlled] = v
-        mass = np.array(p.calculateMassMatrix(self._body, full_q.tolist(), physicsClientId=cid))
-        bias = np.array(p.calculateInverseDynamics(self._body, full_q.tolist(), full_v.tolist(),
-                                                   [0.0] * full_q.size, physicsClientId=cid))
-        index = self._controlled
-        return mass[np.ix_(index, index)], bias[index]
+        return full_q.tolist(), full_v.tolist()
+
+    def _dynamics(self, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """M and c = gravity + Coriolis over the controlled joints, the others locked (zero velocity)."""
+        full_q, _ = self._full_vectors(q, v)
+        mass = np.array(p.calculateMassMatrix(self._body, full_q, physicsClientId=self._client))
+        return mass[np.ix_(self._controlled, self._controlled)], self._bias(q, v)
 
     # --- outputs ------------------------------------------------------------------------------------------------
     @property
@@ -412,6 +454,9 @@ def render_gif(frames: Sequence[np.ndarray], path: str | Path, frame_duration_s:
 # When to step
 
 
+CLOCK_TOLERANCE_S = 1e-6
+
+
 @dataclass(frozen=True)
 class ClockAdvance:
     """What one look at the clock asks for: run `steps` fixed steps ending at `step_ends` (clock time base)."""
@@ -477,8 +522,9 @@ class SimClock:
 
     def _due(self, t: float) -> int:
         assert self._anchor is not None
-        # The tiny epsilon: a clock value exactly on the grid (t = anchor + k·dt in float) counts as reached.
-        return max(int(math.floor((t - self._anchor) / self.dt + 1e-9)) - self._steps_since_anchor, 0)
+        # A clock value on the grid counts as reached even when it arrives a little early: ROS stamps are whole
+        # nanoseconds and rospy's Time.from_sec truncates (1.16 s arrives as 1.159999999 s).
+        return max(int(math.floor((t - self._anchor + CLOCK_TOLERANCE_S) / self.dt)) - self._steps_since_anchor, 0)
 
     def _needs_resync(self, t: float) -> bool:
         assert self._last_seen is not None

@@ -1,0 +1,352 @@
+"""sim.physics: the three modes, the implicit drive, input checks, determinism, SimClock policies. Fast, no ROS."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from sim.physics import (
+    DriveParams,
+    Mode,
+    PhysicsError,
+    PhysicsWorld,
+    SimClock,
+    implicit_drive_step,
+    render_gif,
+)
+from sim.robots import get_robot
+
+DT = 0.02
+ROBOTS = ["panda", "igt"]
+
+
+def offset_target(robot_name: str) -> np.ndarray:
+    """A target a little away from home in every joint (within the limits)."""
+    robot = get_robot(robot_name)
+    return robot.home + np.where(np.array(robot.joint_types) == "prismatic", 0.05, 0.3)
+
+
+# --- modes --------------------------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("name", ROBOTS)
+def test_no_physics_sets_the_targets_exactly(name):
+    robot = get_robot(name)
+    with PhysicsWorld(robot, mode=Mode.NO_PHYSICS) as world:
+        target, velocity = offset_target(name), np.linspace(0.1, 0.3, robot.dof)
+        world.set_targets(target, velocity)
+        sample = world.step()
+        np.testing.assert_array_equal(sample.positions, target)
+        np.testing.assert_array_equal(sample.velocities, velocity)
+        np.testing.assert_array_equal(sample.efforts, np.zeros(robot.dof))
+        assert sample.time == pytest.approx(DT)
+
+
+@pytest.mark.parametrize("name", ROBOTS)
+def test_infinite_stiffness_reaches_a_step_target_within_one_step(name):
+    robot = get_robot(name)
+    with PhysicsWorld(robot, mode=Mode.INFINITE_STIFFNESS) as world:
+        target = offset_target(name)
+        world.set_targets(target)
+        sample = world.step()
+        np.testing.assert_allclose(sample.positions, target, atol=1e-12)
+        np.testing.assert_allclose(sample.velocities, (target - robot.home) / DT, rtol=1e-12)
+        assert np.all(np.abs(sample.efforts) > 0)  # the (unlimited) torque that jump took
+        sample = world.step()  # and it stays there
+        np.testing.assert_allclose(sample.positions, target, atol=1e-12)
+
+
+@pytest.mark.parametrize("name", ROBOTS)
+def test_physics_converges_to_a_constant_target(name):
+    robot = get_robot(name)
+    target = offset_target(name)
+    with PhysicsWorld(robot, gravity=False) as world:
+        world.set_targets(target)
+        for _ in range(100):  # 2 s
+            sample = world.step()
+        np.testing.assert_allclose(sample.positions, target, atol=1e-9)
+        np.testing.assert_allclose(sample.velocities, 0.0, atol=1e-8)
+    with PhysicsWorld(robot) as world:  # with gravity: a PD drive keeps an offset of gravity torque / stiffness
+        world.set_targets(target)
+        for _ in range(100):
+            sample = world.step()
+        np.testing.assert_allclose(sample.positions, target, atol=1e-3)
+        np.testing.assert_allclose(sample.velocities, 0.0, atol=1e-6)
+
+
+@pytest.mark.parametrize("name", ROBOTS)
+def test_physics_follows_a_moving_target(name):
+    robot = get_robot(name)
+    amplitude = np.where(np.array(robot.joint_types) == "prismatic", 0.05, 0.4)
+    omega = 2.0
+    with PhysicsWorld(robot) as world:
+        errors = []
+        for k in range(1, 151):
+            t = k * DT  # targets for the END of the step, with velocity feed-forward
+            world.set_targets(robot.home + amplitude * np.sin(omega * t), amplitude * omega * np.cos(omega * t))
+            errors.append(world.step().positions - (robot.home + amplitude * np.sin(omega * t)))
+    # after the start-up transient (it starts at rest, the target does not)
+    assert np.max(np.abs(errors[25:])) < 1e-3
+
+
+def test_targets_for_the_start_of_the_step_lag_one_step():
+    """The timing convention: the same ramp passed one step early lags by ~ one step of motion."""
+    robot = get_robot("panda")
+    rate = 0.5  # rad/s on joint 1
+    results = {}
+    for convention, shift in (("end", 0), ("start", -1)):
+        with PhysicsWorld(robot, gravity=False) as world:
+            for k in range(1, 51):
+                target = robot.home.copy()
+                target[0] += rate * (k + shift) * DT
+                world.set_targets(target, np.r_[rate, np.zeros(6)])
+                sample = world.step()
+        results[convention] = robot.home[0] + rate * 50 * DT - sample.positions[0]
+    assert abs(results["end"]) < 1e-9
+    assert results["start"] == pytest.approx(rate * DT, rel=1e-3)
+
+
+@pytest.mark.parametrize("name", ROBOTS)
+def test_efforts_stay_within_the_force_limits(name):
+    robot = get_robot(name)
+    drive = DriveParams.for_robot(robot)
+    far = robot.home + np.where(np.array(robot.joint_types) == "prismatic", 0.2, 2.0)
+    with PhysicsWorld(robot) as world:
+        world.set_targets(far)
+        efforts = np.array([world.step().efforts for _ in range(50)])
+    assert np.all(np.isfinite(efforts))
+    assert np.all(np.abs(efforts) <= drive.force_limit * (1 + 1e-12))
+    np.testing.assert_allclose(np.abs(efforts[0]), drive.force_limit)  # a far step saturates every drive at once
+
+
+def test_a_far_step_target_settles_under_force_limits():
+    robot = get_robot("igt")
+    target = np.array([0.2, -2.0, 2.0])
+    with PhysicsWorld(robot) as world:
+        world.set_targets(target)
+        samples = [world.step() for _ in range(250)]
+    assert max(np.max(np.abs(s.velocities)) for s in samples) < 100.0
+    np.testing.assert_allclose(samples[-1].positions, target, atol=1e-6)
+
+
+def test_the_clamped_drive_step_is_consistent_with_newtons_law():
+    mass = np.array([[2.0, 0.3], [0.3, 0.5]])
+    bias = np.array([1.0, -0.5])
+    drive = DriveParams(np.array([1e5, 1e5]), np.array([500.0, 100.0]), np.array([10.0, 1e9]))
+    q, v = np.zeros(2), np.array([0.1, 0.0])
+    v_next, force = implicit_drive_step(mass, bias, q, v, np.array([1.0, 0.01]), np.zeros(2), drive, DT)
+    assert force[0] == pytest.approx(10.0)  # clamped
+    np.testing.assert_allclose(mass @ (v_next - v) / DT, force - bias, atol=1e-9)
+    # the free joint's force is still the drive law evaluated at the end of the step
+    expected = 1e5 * (0.01 - DT * v_next[1]) - 100.0 * v_next[1]
+    assert force[1] == pytest.approx(expected)
+
+
+def test_implicit_drive_is_stable_where_an_explicit_pd_diverges():
+    """Panda joint 1 (M ≈ 1.24 kg·m²), K = 1e5: dt·sqrt(K/M) ≈ 5.7 > 2, so the explicit PD blows up at 0.02 s."""
+    mass, stiffness = np.array([[1.24]]), 1e5
+    damping = 2 * np.sqrt(stiffness * mass[0, 0])
+    drive = DriveParams(np.array([stiffness]), np.array([damping]), np.array([np.inf]))
+    target = np.array([0.5])
+    q_exp, v_exp = np.zeros(1), np.zeros(1)
+    q_imp, v_imp = np.zeros(1), np.zeros(1)
+    for _ in range(50):
+        force = stiffness * (target - q_exp) - damping * v_exp  # explicit: evaluated at the start of the step
+        v_exp = v_exp + DT * force / mass[0, 0]
+        q_exp = q_exp + DT * v_exp
+        v_imp, _ = implicit_drive_step(mass, np.zeros(1), q_imp, v_imp, target, np.zeros(1), drive, DT)
+        q_imp = q_imp + DT * v_imp
+    assert abs(q_exp[0]) > 1e6  # diverged
+    assert q_imp[0] == pytest.approx(0.5, abs=1e-9)
+    # and the full Panda world with these gains settles too, with no force limit to help it
+    robot = get_robot("panda")
+    unlimited = DriveParams.for_robot(robot).with_overrides(force_limit=float("inf"))
+    with PhysicsWorld(robot, drive=unlimited, gravity=False) as world:
+        world.set_targets(offset_target("panda"))
+        for _ in range(50):
+            sample = world.step()
+    np.testing.assert_allclose(sample.positions, offset_target("panda"), atol=1e-6)
+
+
+def test_substeps_follow_the_same_target():
+    robot = get_robot("igt")
+    with PhysicsWorld(robot, substeps=5, gravity=False) as world:
+        world.set_targets(offset_target("igt"))
+        for _ in range(100):
+            sample = world.step()
+        assert sample.time == pytest.approx(100 * DT)
+        np.testing.assert_allclose(sample.positions, offset_target("igt"), atol=1e-7)
+
+
+# --- inputs, determinism, life cycle ------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("positions", "velocities", "message"),
+    [
+        (np.zeros(6), None, r"shape \(6,\)"),
+        (np.zeros((7, 1)), None, r"shape \(7, 1\)"),
+        ([0, 0, np.nan, 0, 0, 0, 0], None, "panda_joint3"),
+        (np.zeros(7), [0, 0, 0, 0, 0, 0, np.inf], "target velocities.*panda_joint7"),
+        (["a"] * 7, None, "7 numbers"),
+    ],
+)
+def test_invalid_targets_are_refused_by_name(positions, velocities, message):
+    with PhysicsWorld(get_robot("panda")) as world:
+        with pytest.raises(PhysicsError, match=message):
+            world.set_targets(positions, velocities)
+        np.testing.assert_array_equal(world.step().positions.shape, (7,))  # the old targets still hold
+
+
+def test_invalid_construction_is_refused():
+    robot = get_robot("igt")
+    with pytest.raises(PhysicsError, match="dt"):
+        PhysicsWorld(robot, dt=0.0)
+    with pytest.raises(PhysicsError, match="substeps"):
+        PhysicsWorld(robot, substeps=0)
+    with pytest.raises(PhysicsError, match="stiffness has shape"):
+        PhysicsWorld(robot, drive=DriveParams(np.ones(2), np.ones(3), np.ones(3)))
+    with pytest.raises(PhysicsError, match="damping must be >= 0"):
+        PhysicsWorld(robot, drive=DriveParams.for_robot(robot).with_overrides(damping=-1.0))
+    with pytest.raises(PhysicsError, match="q0"):
+        PhysicsWorld(robot, q0=[0.0, np.nan, 0.0])
+
+
+@pytest.mark.parametrize("mode", list(Mode))
+def test_two_worlds_with_the_same_inputs_are_identical(mode):
+    robot = get_robot("panda")
+    with PhysicsWorld(robot, mode=mode) as first, PhysicsWorld(robot, mode=mode) as second:
+        for k in range(1, 60):
+            target = robot.home + 0.5 * np.sin(0.1 * k)
+            for world in (first, second):
+                world.set_targets(target, np.full(7, 0.05 * np.cos(0.1 * k)))
+            a, b = first.step(), second.step()
+            np.testing.assert_array_equal(a.positions, b.positions)
+            np.testing.assert_array_equal(a.velocities, b.velocities)
+            np.testing.assert_array_equal(a.efforts, b.efforts)
+
+
+def test_reset_teleports_and_holds():
+    robot = get_robot("panda")
+    with PhysicsWorld(robot) as world:
+        world.step()
+        world.reset(offset_target("panda"))
+        state = world.state()
+        np.testing.assert_array_equal(state.positions, offset_target("panda"))
+        np.testing.assert_array_equal(state.velocities, np.zeros(7))
+        assert state.time == pytest.approx(DT)
+        with pytest.raises(PhysicsError, match="reset positions"):
+            world.reset(np.zeros(3))
+
+
+def test_closed_world_refuses_to_step():
+    world = PhysicsWorld(get_robot("igt"))
+    world.close()
+    world.close()  # twice is fine
+    with pytest.raises(PhysicsError, match="closed"):
+        world.step()
+
+
+# --- kinematics and pictures --------------------------------------------------------------------------------------
+
+
+def test_ee_pose_is_the_link_frame_not_the_centre_of_mass():
+    robot = get_robot("igt")
+    with PhysicsWorld(robot, mode=Mode.NO_PHYSICS, q0=np.zeros(3)) as world:
+        position, orientation = world.ee_pose()
+        np.testing.assert_allclose(position, [0.6, 0.0, 0.28], atol=1e-9)  # rail 0 + 0.35 + 0.25 along x
+        np.testing.assert_allclose(np.abs(orientation), [0, 0, 0, 1], atol=1e-9)
+        world.set_targets([0.1, np.pi / 2, 0.0])
+        world.step()
+        position, orientation = world.ee_pose()
+        np.testing.assert_allclose(position, [0.1, 0.6, 0.28], atol=1e-9)
+        np.testing.assert_allclose(np.abs(orientation), [0, 0, np.sqrt(0.5), np.sqrt(0.5)], atol=1e-9)
+
+
+def test_panda_flange_is_where_franka_says_at_zero():
+    with PhysicsWorld(get_robot("panda"), mode=Mode.NO_PHYSICS, q0=np.zeros(7)) as world:
+        position, _ = world.ee_pose()
+    # DH: x = a4 - a5... at q = 0: x = 0.0825 - 0.0825 + 0.088 = 0.088, z = 0.333 + 0.316 + 0.384 - 0.107 = 0.926
+    np.testing.assert_allclose(position, [0.088, 0.0, 0.926], atol=1e-6)
+
+
+def test_render_writes_a_png_and_a_gif(tmp_path):
+    with PhysicsWorld(get_robot("igt")) as world:
+        path = world.render(tmp_path / "igt.png", width=64, height=48)
+        frames = [world.capture(32, 24)]
+        world.set_targets(offset_target("igt"))
+        world.step()
+        frames.append(world.capture(32, 24))
+    assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert frames[0].shape == (24, 32, 3) and frames[0].dtype == np.uint8
+    assert frames[0].std() > 0  # not a blank picture
+    gif = render_gif(frames, tmp_path / "igt.gif")
+    assert gif.read_bytes()[:6] == b"GIF89a"
+
+
+# --- SimClock -----------------------------------------------------------------------------------------------------
+
+
+def test_external_clock_steps_as_it_advances_on_a_fixed_grid():
+    clock = SimClock(dt=DT, auto_simulate=False)
+    assert clock.pending(10.0) == 1  # "call advance_to": the first value anchors
+    first = clock.advance_to(10.0)
+    assert first.steps == 0 and not first.resynced
+    assert clock.pending(10.05) == 2 and clock.steps == 0  # pending changes nothing
+    advance = clock.advance_to(10.05)
+    assert int(advance) == 2
+    np.testing.assert_allclose(advance.step_ends, [10.02, 10.04])
+    assert clock.advance_to(10.059).steps == 0
+    advance = clock.advance_to(10.06)  # exactly on the grid counts
+    assert advance.steps == 1 and advance.step_ends[0] == pytest.approx(10.06)
+    assert clock.time == pytest.approx(3 * DT) and clock.last_step_end == pytest.approx(10.06)
+    assert sum(clock.advance_to(10.06 + k * 0.001).steps for k in range(1, 1001)) == 50  # no drift
+
+
+def test_a_big_clock_jump_resyncs_instead_of_catching_up():
+    clock = SimClock(dt=DT, max_jump=1.0)
+    clock.advance_to(0.0)
+    clock.advance_to(0.5)
+    assert clock.pending(30.0) == 1
+    advance = clock.advance_to(30.0)
+    assert advance.resynced and advance.steps == 0 and advance.jump == pytest.approx(29.5)
+    assert clock.resyncs == 1
+    advance = clock.advance_to(30.04)  # resumed on a grid from 30.0
+    assert advance.steps == 2 and not advance.resynced
+    np.testing.assert_allclose(advance.step_ends, [30.02, 30.04])
+    backwards = clock.advance_to(5.0)  # e.g. a bag restarted
+    assert backwards.resynced and backwards.steps == 0
+    assert clock.advance_to(5.02).steps == 1
+    assert clock.advance_to(5.02 + 0.99).steps == 49  # below max_jump: caught up in full
+
+
+def test_pause_and_resume_skip_the_paused_time():
+    clock = SimClock(dt=DT)
+    clock.advance_to(0.0)
+    clock.pause()
+    assert clock.advance_to(0.5).steps == 0 and clock.pending(0.6) == 0
+    clock.resume()
+    assert clock.advance_to(0.7).steps == 0  # re-anchors
+    assert clock.advance_to(0.74).steps == 2
+
+
+def test_auto_simulate_follows_the_wall_clock_times_the_time_scale():
+    wall = [100.0]
+    clock = SimClock(dt=DT, auto_simulate=True, time_scale=2.0, max_jump=1.0, wall_clock=lambda: wall[0])
+    assert clock.poll().steps == 0
+    wall[0] += 0.1  # 0.2 s of sim time at time_scale 2
+    assert clock.poll().steps == 10
+    wall[0] += 5.0  # the machine stalled: no burst of 500 steps
+    stalled = clock.poll()
+    assert stalled.resynced and stalled.steps == 0
+    assert clock.poll(now=wall[0] + 0.01).steps == 1
+
+
+def test_clock_input_checks():
+    with pytest.raises(PhysicsError, match="dt"):
+        SimClock(dt=0)
+    with pytest.raises(PhysicsError, match="time_scale"):
+        SimClock(dt=DT, time_scale=-1)
+    with pytest.raises(PhysicsError, match="poll"):
+        SimClock(dt=DT).poll()
+    with pytest.raises(PhysicsError, match="finite"):
+        SimClock(dt=DT).advance_to(float("nan"))
