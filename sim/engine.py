@@ -1,0 +1,361 @@
+"""The game-engine stand-in: what Unity does in the seed, as a TCP client of the endpoint. Imports no rospy.
+
+Online: subscribes `<robot>/arm_controller/command` (JointTrajectory), `/clock` and `<robot>/pose` through the
+endpoint, steps the pybullet physics, and publishes `<robot>/joint_states` after every step.
+  auto-simulate on  (default): steps on its own wall clock (x `--time-scale`); stamps follow /clock if it runs.
+  auto-simulate off (--no-auto-simulate): steps only as /clock advances (lockstep with the commander).
+Offline (`--csv`): replays desired joint positions from a CSV without ROS or TCP and logs the achieved ones.
+
+CSV formats (both): a header row `time,<joint name>,...` then one row per sample, time in s, positions in rad/m.
+The input may name a subset of the joints (the others hold their start position); rows must be in time order.
+"""
+from __future__ import annotations
+
+import argparse
+import csv
+import logging
+import sys
+import threading
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from bridge.client import TcpClient
+from sim import frames, rosmsgs
+from sim.commands import ClockFollower, CommandBuffer
+from sim.physics import DriveParams, Mode, PhysicsWorld, SimClock
+from sim.robots import RobotSpec, get_robot
+
+log = logging.getLogger(__name__)
+
+# Pose topic conventions: a real quaternion (default), or the seed's XYZ Euler angles in the quaternion's x, y, z.
+POSE_QUATERNION = "quaternion"
+POSE_EULER = "euler"
+
+
+class EngineError(ValueError):
+    """Bad engine input: a CSV that cannot be replayed, an impossible option."""
+
+
+@dataclass
+class EngineOptions:
+    mode: Mode = Mode.PHYSICS
+    dt: float = 0.02
+    auto_simulate: bool = True
+    time_scale: float = 1.0
+    max_clock_jump_s: float = 1.0
+    command_grace_s: float = 0.25
+    pose_convention: str = POSE_QUATERNION
+    stiffness: float | None = None
+    damping: float | None = None
+    force_limit: float | None = None
+
+
+def make_world(robot: RobotSpec, options: EngineOptions) -> PhysicsWorld:
+    drive = DriveParams.for_robot(robot)
+    drive = drive.with_overrides(stiffness=options.stiffness, damping=options.damping, force_limit=options.force_limit)
+    return PhysicsWorld(robot, mode=options.mode, dt=options.dt, drive=drive)
+
+
+@dataclass(frozen=True)
+class TargetMarker:
+    """The end-effector goal from the pose topic, as Unity would place it (left-handed, y up)."""
+
+    position_unity: np.ndarray
+    orientation_unity: np.ndarray  # x, y, z, w
+
+
+def pose_to_marker(position: np.ndarray, orientation_fields: np.ndarray, convention: str) -> TargetMarker:
+    if convention == POSE_EULER:
+        quaternion = frames.euler_xyz_to_quat(*orientation_fields[:3])
+    elif convention == POSE_QUATERNION:
+        norm = float(np.linalg.norm(orientation_fields))
+        if not np.isfinite(norm) or norm < 1e-9:
+            raise EngineError(f"pose orientation {orientation_fields.tolist()} is not a quaternion")
+        quaternion = orientation_fields / norm
+    else:
+        raise EngineError(f"unknown pose convention {convention!r}; use {POSE_QUATERNION!r} or {POSE_EULER!r}")
+    return TargetMarker(frames.ros_to_unity_point(position), frames.ros_to_unity_quat(quaternion))
+
+
+class EngineStandIn:
+    """Physics + the endpoint connection. Callbacks (TCP reader thread) only store; `run` (its own thread) steps."""
+
+    def __init__(self, robot: RobotSpec, client: TcpClient, options: EngineOptions) -> None:
+        self.robot = robot
+        self.client = client
+        self.options = options
+        self.world = make_world(robot, options)
+        self.commands = CommandBuffer(self.world.state().positions)
+        self.follower = ClockFollower(options.time_scale)
+        self.sim_clock = SimClock(dt=options.dt, max_jump=options.max_clock_jump_s)
+        self.marker: TargetMarker | None = None
+        self.rejected_commands = 0
+        self.steps = 0
+        self._clock_value: float | None = None
+        self._clock_changed = threading.Condition()
+        self._stop = threading.Event()
+        self._seq = 0
+        self._lockstep = False  # True once commands arrive stamped exactly at step ends
+
+    # --- TCP side ---------------------------------------------------------------------------------------------
+    def attach(self) -> None:
+        robot = self.robot
+        self.client.subscribe(robot.command_topic, rosmsgs.JOINT_TRAJECTORY, self._on_command)
+        self.client.subscribe("/clock", rosmsgs.CLOCK, self._on_clock)
+        self.client.subscribe(robot.pose_topic, rosmsgs.POSE, self._on_pose)
+        self.client.register_publisher(robot.joint_states_topic, rosmsgs.JOINT_STATE, queue_size=100)
+
+    def _on_command(self, payload: bytes) -> None:
+        try:
+            command = rosmsgs.decode_joint_trajectory(payload, self.robot.joint_names)
+        except rosmsgs.MessageError as error:
+            self.rejected_commands += 1
+            log.error("command rejected on %s: %s", self.robot.command_topic, error)
+            return
+        self.commands.store(command)
+
+    def _on_clock(self, payload: bytes) -> None:
+        try:
+            value = rosmsgs.decode_clock(payload)
+        except rosmsgs.MessageError as error:
+            log.error("/clock message rejected: %s", error)
+            return
+        self.follower.observe(value, time.monotonic())
+        with self._clock_changed:
+            self._clock_value = value
+            self._clock_changed.notify_all()
+
+    def _on_pose(self, payload: bytes) -> None:
+        try:
+            position, orientation = rosmsgs.decode_pose(payload)
+            self.marker = pose_to_marker(position, orientation, self.options.pose_convention)
+        except (rosmsgs.MessageError, EngineError) as error:
+            log.error("pose rejected on %s: %s", self.robot.pose_topic, error)
+
+    # --- stepping ---------------------------------------------------------------------------------------------
+    def step_to(self, t_end: float) -> None:
+        """One fixed physics step whose end is `t_end`, then publish the resulting joint state."""
+        target = self.commands.target_at(t_end)
+        self.world.set_targets(target.positions, target.velocities)
+        sample = self.world.step()
+        self._seq += 1
+        self.steps += 1
+        self.client.publish(
+            self.robot.joint_states_topic,
+            rosmsgs.encode_joint_state(
+                self._seq, t_end, self.robot.joint_names, sample.positions, sample.velocities, sample.efforts
+            ),
+        )
+
+    def run(self, duration_s: float | None = None) -> None:
+        """Step until `stop()` (or `duration_s` of sim time)."""
+        if self.options.auto_simulate:
+            self._run_auto(duration_s)
+        else:
+            self._run_clock_driven(duration_s)
+
+    def stop(self) -> None:
+        self._stop.set()
+        with self._clock_changed:
+            self._clock_changed.notify_all()
+
+    def _run_auto(self, duration_s: float | None) -> None:
+        dt = self.options.dt
+        wall_period = dt / self.options.time_scale
+        next_wall = time.monotonic()
+        own_time = 0.0
+        while not self._stop.is_set() and (duration_s is None or own_time < duration_s - 1e-9):
+            next_wall += wall_period
+            delay = next_wall - time.monotonic()
+            if delay > 0:
+                self._stop.wait(delay)
+            elif delay < -1.0:  # far behind (machine stalled): skip ahead rather than burst
+                next_wall = time.monotonic()
+            own_time += dt
+            # Stamps follow the controller's /clock while it runs, so commands and states share one time base.
+            estimate = self.follower.estimate(time.monotonic())
+            self.step_to(estimate if estimate is not None else own_time)
+
+    def _run_clock_driven(self, duration_s: float | None) -> None:
+        dt = self.options.dt
+        while not self._stop.is_set():
+            with self._clock_changed:
+                self._clock_changed.wait_for(
+                    lambda: self._stop.is_set()
+                    or (self._clock_value is not None and self.sim_clock.pending(self._clock_value) > 0),
+                    timeout=0.5,
+                )
+                clock = self._clock_value
+            if self._stop.is_set() or clock is None:
+                continue
+            advance = self.sim_clock.advance_to(clock)  # logs a warning itself when it pauses and resumes
+            for step_end in advance.step_ends:
+                self._await_lockstep_command(step_end, dt)
+                self.step_to(step_end)
+            if duration_s is not None and self.sim_clock.time >= duration_s - 1e-9:
+                return
+
+    def _await_lockstep_command(self, step_end: float, dt: float) -> None:
+        """In lockstep, wait briefly for this step's command: it may arrive just after the /clock tick."""
+        newest = self.commands.newest_stamp
+        if newest is not None and abs(newest - step_end) < 1e-6:
+            self._lockstep = True
+            return
+        if self._lockstep and newest is not None and abs(newest - (step_end - dt)) < 1e-6:
+            if not self.commands.wait_for_stamp(step_end, self.options.command_grace_s):
+                self._lockstep = False  # the controller stopped streaming per step
+                log.info("no command for t=%.3f s; holding the last target", step_end)
+
+    def close(self) -> None:
+        self.stop()
+        self.world.close()
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# Offline CSV mode (the seed's Manual_Test): no ROS, no TCP.
+
+
+def read_joint_csv(path: Path, robot: RobotSpec) -> tuple[np.ndarray, list[str], np.ndarray]:
+    """(times, joint names of the columns, positions[time, column]) with the checks a user needs named."""
+    try:
+        with open(path, newline="") as handle:
+            rows = list(csv.reader(handle))
+    except OSError as error:
+        raise EngineError(f"cannot read {path}: {error}") from None
+    if len(rows) < 2:
+        raise EngineError(f"{path}: needs a header row and at least one data row")
+    header = [cell.strip() for cell in rows[0]]
+    if not header or header[0] != "time":
+        raise EngineError(f"{path}: the first column must be 'time', got {header[:1]}")
+    names = header[1:]
+    unknown = [name for name in names if name not in robot.joint_names]
+    if unknown or not names:
+        raise EngineError(f"{path}: unknown joint column(s) {unknown}; {robot.name} has {list(robot.joint_names)}")
+    try:
+        data = np.array([[float(cell) for cell in row] for row in rows[1:] if row], dtype=float)
+    except ValueError as error:
+        raise EngineError(f"{path}: {error}") from None
+    if data.shape[1] != len(header):
+        raise EngineError(f"{path}: rows have {data.shape[1]} cells, the header has {len(header)}")
+    times = data[:, 0]
+    if np.any(np.diff(times) <= 0):
+        raise EngineError(f"{path}: times must be strictly increasing")
+    if not np.all(np.isfinite(data)):
+        raise EngineError(f"{path}: all values must be finite numbers")
+    return times, names, data[:, 1:]
+
+
+def write_joint_csv(path: Path, names: Sequence[str], times: np.ndarray, positions: np.ndarray) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with open(path, "w", newline="") as handle:
+        writer = csv.writer(handle)
+        writer.writerow(["time", *names])
+        for t, row in zip(times, positions):
+            writer.writerow([f"{t:.6f}", *(f"{value:.9f}" for value in row)])
+
+
+def replay_csv(robot: RobotSpec, csv_in: Path, log_out: Path, options: EngineOptions) -> int:
+    """Drive the physics through the CSV's positions (linear in time, slope as velocity feed-forward)."""
+    times, names, desired = read_joint_csv(csv_in, robot)
+    columns = [robot.joint_names.index(name) for name in names]
+    with make_world(robot, options) as world:
+        start = world.state().positions.copy()
+        if times[0] <= 0:
+            start[columns] = desired[0]
+            world.reset(start)
+        step_ends = np.arange(1, int(np.floor(times[-1] / options.dt + 1e-9)) + 1) * options.dt
+        achieved = np.empty((step_ends.size, robot.dof))
+        for k, t_end in enumerate(step_ends):
+            positions, velocities = start.copy(), np.zeros(robot.dof)
+            positions[columns] = [np.interp(t_end, times, desired[:, j]) for j in range(len(names))]
+            if len(times) > 1:  # the slope of the segment holding t_end is the velocity feed-forward
+                segment = int(np.clip(np.searchsorted(times, t_end, side="right") - 1, 0, len(times) - 2))
+                if t_end <= times[-1]:
+                    velocities[columns] = (desired[segment + 1] - desired[segment]) / (times[segment + 1] - times[segment])
+            world.set_targets(positions, velocities)
+            achieved[k] = world.step().positions
+    write_joint_csv(log_out, robot.joint_names, step_ends, achieved)
+    return int(step_ends.size)
+
+
+# ---------------------------------------------------------------------------------------------------------------
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="python -m sim.engine", description=__doc__.splitlines()[0])
+    parser.add_argument("--robot", default="panda")
+    parser.add_argument("--host", default="127.0.0.1", help="endpoint address")
+    parser.add_argument("--port", type=int, default=10000, help="endpoint port")
+    parser.add_argument("--mode", choices=[m.value for m in Mode], default=Mode.PHYSICS.value)
+    parser.add_argument("--dt", type=float, default=0.02, help="fixed physics step in s (Unity's FixedUpdate)")
+    parser.add_argument("--no-auto-simulate", action="store_true", help="step only as /clock advances")
+    parser.add_argument("--time-scale", type=float, default=1.0, help="sim seconds per wall second (auto-simulate)")
+    parser.add_argument("--max-clock-jump", type=float, default=1.0, help="larger /clock jumps pause and resume")
+    parser.add_argument("--pose-convention", choices=[POSE_QUATERNION, POSE_EULER], default=POSE_QUATERNION)
+    parser.add_argument("--stiffness", type=float, help="drive stiffness for every joint (N·m/rad or N/m)")
+    parser.add_argument("--damping", type=float, help="drive damping for every joint (N·m·s/rad or N·s/m)")
+    parser.add_argument("--force-limit", type=float, help="drive force limit for every joint")
+    parser.add_argument("--duration", type=float, help="stop after this much sim time (s)")
+    parser.add_argument("--csv", type=Path, help="offline: replay desired positions from this CSV (no ROS, no TCP)")
+    parser.add_argument("--log", type=Path, default=Path("logged_test_data.csv"), help="offline: achieved positions")
+    parser.add_argument("--render", type=Path, help="write a picture of the final pose (.png) at exit")
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = _parser().parse_args(argv)
+    logging.basicConfig(level=logging.INFO, format="[%(levelname)s] [%(name)s] %(message)s", stream=sys.stderr)
+    try:
+        robot = get_robot(args.robot)
+        options = EngineOptions(
+            mode=Mode(args.mode), dt=args.dt, auto_simulate=not args.no_auto_simulate, time_scale=args.time_scale,
+            max_clock_jump_s=args.max_clock_jump, pose_convention=args.pose_convention,
+            stiffness=args.stiffness, damping=args.damping, force_limit=args.force_limit,
+        )
+        if args.dt <= 0 or args.time_scale <= 0:
+            raise EngineError(f"--dt and --time-scale must be > 0, got {args.dt} and {args.time_scale}")
+        if args.csv is not None:
+            steps = replay_csv(robot, args.csv, args.log, options)
+            print(f"replayed {args.csv} in {steps} steps of {args.dt} s; achieved positions in {args.log}")
+            return 0
+    except (EngineError, ValueError) as error:
+        print(f"sim.engine: error: {error}", file=sys.stderr)
+        return 2
+    return _run_online(robot, options, args)
+
+
+def _run_online(robot: RobotSpec, options: EngineOptions, args: argparse.Namespace) -> int:
+    import signal
+
+    client = TcpClient(args.host, args.port)
+    engine = EngineStandIn(robot, client, options)
+    engine.attach()
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(signum, lambda *_: engine.stop())
+    try:
+        client.connect(timeout=30.0)
+    except Exception as error:
+        print(f"sim.engine: error: {error}", file=sys.stderr)
+        engine.close()
+        return 1
+    mode = "auto-simulate" if options.auto_simulate else "/clock-driven"
+    print(f"engine: {robot.name} in {options.mode.value} mode, {mode}, dt {options.dt} s, "
+          f"connected to {args.host}:{args.port}", flush=True)
+    try:
+        engine.run(args.duration)
+    finally:
+        if args.render is not None:
+            engine.world.render(args.render)
+        client.close()
+        engine.close()
+        print(f"engine: stopped after {engine.steps} steps; {engine.commands.received} commands, "
+              f"{engine.rejected_commands} rejected", flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
