@@ -354,12 +354,17 @@ class PhysicsWorld:
 
     def _bias_jacobian(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
         """C = ∂c/∂q̇ by central differences of unit size, exact because c is quadratic in q̇."""
-        columns = []
-        for j in range(v.size):
-            unit = np.zeros(v.size)
-            unit[j] = 1.0
-            columns.append((self._bias(q, v + unit) - self._bias(q, v - unit)) / 2.0)
-        return np.column_stack(columns)
+        full_q, full_v = self._full_vectors(q, v)
+        zeros = [0.0] * len(full_q)
+        jacobian = np.empty((v.size, v.size))
+        for column, dof in enumerate(self._controlled):
+            faster, slower = list(full_v), list(full_v)  # plain lists: this loop is the drive's main cost
+            faster[dof] += 1.0
+            slower[dof] -= 1.0
+            high = p.calculateInverseDynamics(self._body, full_q, faster, zeros, physicsClientId=self._client)
+            low = p.calculateInverseDynamics(self._body, full_q, slower, zeros, physicsClientId=self._client)
+            jacobian[:, column] = (np.array(high)[self._controlled] - np.array(low)[self._controlled]) / 2.0
+        return jacobian
 
     def _bias(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
         full_q, full_v = self._full_vectors(q, v)
