@@ -15,11 +15,12 @@ with its velocity feed-forward for that same instant. The drive evaluates its fo
 adds a one-step lag (~3 % MAPE on the seed's test).
 
 Integration: pybullet supplies the mass matrix M(q), the bias torques c(q, q̇) (gravity + Coriolis) and the
-kinematics; the integration itself is ours (semi-implicit Euler: v⁺ from the implicit drive, q⁺ = q + dt·v⁺), and
-pybullet's joint states are set from it. Why not torque control + stepSimulation: pybullet enforces the URDF's joint
+kinematics; the integration itself is ours (semi-implicit Euler: v⁺ from the implicit drive, with the Coriolis
+torques linearised at the step's end too, q⁺ = q + dt·v⁺), and pybullet's joint states are set from it (lazily,
+for ee_pose and pictures). Why not torque control + stepSimulation: pybullet enforces the URDF's joint
 limits as constraints (Panda joint 4 stops at 0, the seed's test commands 0) and adds its own default link damping,
 so its v⁺ would not be the one the implicit drive solved for, and a stiff drive would fight those constraints.
-Consequences: joint limits are NOT enforced (as the brief asks: the physics does not clamp), there are no contacts
+Consequences: joint limits are NOT enforced (by design: the physics does not clamp), there are no contacts
 (the scene has nothing to touch), and joints outside `robot.joint_names` (the Panda's fingers) are locked rigidly at
 their start positions, which is exact: the reduced M and c over the controlled joints describe the locked system.
 """
