@@ -108,12 +108,30 @@ class TypeRegistry:
     def validate(self, message_name: str, payload: bytes) -> None:
         """Deserialize once to prove the bytes are a `message_name`; RosError says why they are not."""
         cls = self.message_class(message_name)
+        checked = _CheckedPayload(payload)
         try:
-            cls().deserialize(payload)
+            cls().deserialize(checked)
+            if checked.read_to != len(payload):
+                raise ValueError(f"{len(payload) - checked.read_to} trailing byte(s) after the message")
         except (genpy.DeserializationError, ValueError, TypeError, IndexError, UnicodeDecodeError) as error:
             raise RosError(f"payload of {len(payload)} bytes is not a valid {message_name}: {error}") from None
         except Exception as error:  # struct.error and friends from generated code
             raise RosError(f"payload of {len(payload)} bytes is not a valid {message_name}: {error}") from None
+
+
+class _CheckedPayload(bytes):
+    """A payload for validation. genpy's generated deserializers slice strings and byte arrays without checking
+    the bounds, so a truncated payload would silently "deserialize"; slicing past the end raises here instead, and
+    the furthest byte read is recorded so trailing garbage is caught too."""
+
+    read_to = 0
+
+    def __getitem__(self, key: Any) -> Any:
+        if isinstance(key, slice) and key.stop is not None:
+            if key.stop > len(self):
+                raise IndexError(f"the message needs at least {key.stop} bytes")
+            self.read_to = max(self.read_to, key.stop)
+        return bytes.__getitem__(self, key)
 
 
 def _raw_class_like(generated: type[genpy.Message]) -> type[RawMessage]:
