@@ -1,0 +1,289 @@
+"""Bad input, broken framing, slow readers and reconnects: one client's trouble never reaches another client."""
+from __future__ import annotations
+
+import itertools
+import json
+import struct
+import time
+from pathlib import Path
+
+import pytest
+from std_msgs.msg import String
+
+from bridge import protocol
+from tests.integration.bridge_helpers import (
+    Inbox,
+    RawConnection,
+    RosInbox,
+    bridge,  # noqa: F401 - module-scoped endpoint fixture
+    serialize,
+    start_endpoint,
+    tcp_client,
+    unique,
+    wait_subscribers,
+)
+from tests.rosenv import free_port, wait_for
+
+_observer_messages = itertools.count()
+
+
+class Observer:
+    """A well-behaved TcpClient subscribed to a topic; `check()` proves it is still served, on its first connection."""
+
+    def __init__(self, rospy, port: int) -> None:
+        self.topic = unique("observer")
+        self.publisher = rospy.Publisher(self.topic, String, queue_size=10)
+        self.inbox = Inbox()
+        self.client = tcp_client(port, reconnect=False)
+        self.client.subscribe(self.topic, "std_msgs/String", self.inbox)
+        self.client.topic_list()
+        wait_subscribers(self.publisher)
+
+    def check(self) -> None:
+        text = f"still here {next(_observer_messages)}"
+        self.publisher.publish(String(text))
+        wait_for(lambda: serialize(String(text)) in self.inbox.snapshot(), 10, f"observer to receive {text!r}")
+        assert self.client.is_connected and self.client.connections == 1 and self.client.errors == []
+
+
+@pytest.fixture(scope="module")
+def observer(bridge, ros_node):
+    watcher = Observer(ros_node, bridge.port)
+    yield watcher
+    watcher.client.close()
+
+
+def u32(value: int) -> bytes:
+    return struct.pack("<I", value)
+
+
+def syscommand(name: str, payload: bytes) -> bytes:
+    return protocol.encode_frame(name, payload)
+
+
+# (what is sent, fragments the __error must contain). Framing stays intact: the connection must stay open.
+BAD_INPUTS = {
+    "unknown command": (syscommand("__frobnicate", b"{}"), ["unknown system command", "__frobnicate"]),
+    "client handshake": (syscommand("__handshake", b'{"version":"v0.7.0"}'), ["unknown system command"]),
+    "malformed JSON": (syscommand("__subscribe", b'{"topic": "/x",'), ["__subscribe", "malformed JSON"]),
+    "non-object JSON": (syscommand("__publish", b"[1, 2]"), ["__publish", "JSON object"]),
+    "non-UTF-8 JSON": (syscommand("__subscribe", b"\xff\xfe"), ["__subscribe", "UTF-8"]),
+    "missing field": (syscommand("__subscribe", b'{"topic":"/x"}'), ["__subscribe", "missing field 'message_name'"]),
+    "extra field": (
+        syscommand("__subscribe", b'{"topic":"/x","message_name":"std_msgs/String","qos":1}'),
+        ["__subscribe", "unexpected field", "'qos'"],
+    ),
+    "bool as int": (syscommand("__request", b'{"srv_id":true}'), ["__request", "'srv_id'", "integer"]),
+    "bad topic": (
+        syscommand("__subscribe", b'{"topic":"/with space","message_name":"std_msgs/String"}'),
+        ["__subscribe", "'topic'", "/with space"],
+    ),
+    "bad message_name": (
+        syscommand("__subscribe", b'{"topic":"/x","message_name":"NoPackage"}'),
+        ["__subscribe", "'message_name'", "NoPackage"],
+    ),
+    "unknown message type": (
+        syscommand("__subscribe", b'{"topic":"/bt_unknown_type","message_name":"no_such_pkg/Nope"}'),
+        ["unknown message type", "no_such_pkg/Nope"],
+    ),
+    "unknown service type": (
+        syscommand("__ros_service", b'{"topic":"/bt_unknown_srv","message_name":"std_srvs/NoSuchSrv"}'),
+        ["unknown service type", "std_srvs/NoSuchSrv"],
+    ),
+    "non-UTF-8 destination": (u32(4) + b"/a\xff\xfe" + u32(2) + b"{}", ["not valid UTF-8"]),
+    "topic never registered": (protocol.encode_frame("/bt_nobody", b"\0" * 4), ["/bt_nobody", "__publish"]),
+}
+
+
+@pytest.mark.parametrize("case", list(BAD_INPUTS))
+def test_bad_input_gets_a_named_error_and_the_connection_is_kept(bridge, observer, case: str) -> None:
+    data, fragments = BAD_INPUTS[case]
+    with RawConnection(bridge.port) as client:
+        for piece in (data[:3], data[3:]):  # fragmented on purpose
+            client.send(piece)
+        client.expect_error(*fragments)
+        client.sync()  # still framed, still served
+        assert len(client.errors()) == 1, client.errors()
+    observer.check()
+
+
+def test_undeserializable_payload_is_refused_and_not_published(bridge, ros_node, observer) -> None:
+    topic = unique("garbage")
+    inbox = RosInbox(ros_node, topic)
+    with RawConnection(bridge.port) as client:
+        client.register_publisher(topic, "std_msgs/String")
+        client.sync()
+        inbox.wait_connected()
+        client.send_frame(topic, u32(100) + b"short")  # claims a 100-byte string, has 5
+        assert "9 bytes" in client.expect_error(topic, "std_msgs/String", "not published")
+        client.send_frame(topic, serialize(String("trailing")) + b"\0")
+        assert "trailing" in client.expect_error(topic, "std_msgs/String", "not published")
+        client.send_frame(topic, serialize(String("good")))
+        assert inbox.wait_count(1) == [serialize(String("good"))]
+        client.sync()
+        assert inbox.snapshot() == [serialize(String("good"))]
+    inbox.close()
+    observer.check()
+
+
+def test_type_conflict_on_a_bridged_topic_is_refused(bridge, observer) -> None:
+    topic = unique("conflict")
+    with RawConnection(bridge.port) as client:
+        client.subscribe(topic, "std_msgs/String")
+        client.subscribe(topic, "sensor_msgs/JointState")
+        assert "std_msgs/String" in client.expect_error(topic, "already bridged")
+        client.register_publisher(topic + "_pub", "std_msgs/String")
+        client.register_publisher(topic + "_pub", "std_msgs/Bool")
+        client.expect_error(topic + "_pub", "already published")
+        client.sync()
+    observer.check()
+
+
+@pytest.mark.parametrize(
+    "prefix",
+    [
+        pytest.param(u32(8) + b"/payload" + u32(0xFFFFFFF0), id="4GiB-payload"),
+        pytest.param(u32(0xFFFFFFFF), id="4GiB-destination"),
+        pytest.param(u32(2048), id="2KiB-destination"),
+    ],
+)
+def test_oversized_length_gets_an_error_and_closes_only_that_connection(bridge, observer, prefix: bytes) -> None:
+    with RawConnection(bridge.port) as client:
+        client.sync()
+        started = time.monotonic()
+        client.send(prefix)
+        assert "exceeds the limit" in client.expect_error("framing lost")
+        client.wait_closed(timeout=5)
+        assert time.monotonic() - started < 3
+    observer.check()
+    with RawConnection(bridge.port) as newcomer:  # the endpoint still accepts and serves new clients
+        newcomer.sync()
+
+
+def test_many_bad_clients_at_once_do_not_disturb_a_good_one(bridge, observer) -> None:
+    clients = [RawConnection(bridge.port) for _ in range(5)]
+    try:
+        for index, client in enumerate(clients):
+            client.send(syscommand("__subscribe", b"{") if index % 2 else u32(0xFFFFFFF0))
+        for index, client in enumerate(clients):
+            if index % 2:
+                client.expect_error("malformed JSON")
+                client.sync()
+            else:
+                client.expect_error("framing lost")
+                client.wait_closed(timeout=5)
+        observer.check()
+    finally:
+        for client in clients:
+            client.close()
+
+
+def test_slow_reader_loses_old_messages_and_others_stay_served(roscore, ros_node, tmp_path: Path) -> None:
+    endpoint = start_endpoint(roscore, tmp_path, "--queue-frames", "16")
+    topic, side_topic = unique("flood"), unique("flood_side")
+    publisher = ros_node.Publisher(topic, String, queue_size=500)
+    side_publisher = ros_node.Publisher(side_topic, String, queue_size=10)
+    big = "x" * 64 * 1024
+    count = 300  # ~20 MB: far more than the socket buffers and the 16-frame queue hold
+    try:
+        slow = RawConnection(endpoint.port, rcvbuf=4096)
+        slow.subscribe(topic, "std_msgs/String")
+        slow.sync()
+        fast = tcp_client(endpoint.port, reconnect=False)
+        fast_inbox, side_inbox = Inbox(), Inbox()
+        fast.subscribe(topic, "std_msgs/String", fast_inbox)
+        fast.subscribe(side_topic, "std_msgs/String", side_inbox)
+        fast.topic_list()
+        wait_subscribers(publisher)
+        wait_subscribers(side_publisher)
+        last = serialize(String(big + " last"))
+        for index in range(count - 1):
+            publisher.publish(String(big + f" {index}"))
+        publisher.publish(String(big + " last"))
+        # The slow client reads nothing meanwhile; the fast one gets the newest message and more traffic.
+        wait_for(lambda: last in fast_inbox.snapshot(), 30, "the fast client to get the last flood message")
+        side_publisher.publish(String("side"))
+        side_inbox.wait_count(1)
+        fast.topic_list(timeout=5)
+        status = Path(f"/proc/{endpoint.process.pid}/status").read_text()
+        rss_kib = int(next(line.split()[1] for line in status.splitlines() if line.startswith("VmRSS:")))
+        assert rss_kib < 400 * 1024, f"endpoint RSS {rss_kib} KiB with a stalled client"
+        # Now the slow client reads: it is told how many messages it lost, and the newest one was kept.
+        warning = slow.wait_command("__warn", timeout=30)["text"]
+        assert "dropped" in warning and "too slowly" in warning
+        if last not in slow.messages(topic):  # the warning goes out after the batch it reports on
+            slow.wait_frame(lambda f: f.payload == last, "the last flood message", timeout=30)
+        received = len(slow.messages(topic))
+        dropped = sum(
+            int(text.split(":", 1)[1].split()[0])
+            for text in (json.loads(f.payload)["text"] for f in slow.received if f.destination == "__warn")
+        )
+        assert 0 < received < count and dropped > 0
+        assert received + dropped <= count
+        slow.sync()
+        assert slow.errors() == [] and fast.errors == [] and fast.connections == 1
+        slow.close()
+        fast.close()
+    finally:
+        publisher.unregister()
+        side_publisher.unregister()
+        assert endpoint.stop() is not None
+
+
+def test_client_reconnects_after_its_connection_is_cut_and_reregisters(bridge, ros_node, observer) -> None:
+    topic, pub_topic = unique("cut_sub"), unique("cut_pub")
+    publisher = ros_node.Publisher(topic, String, queue_size=10)
+    ros_inbox = RosInbox(ros_node, pub_topic)
+    inbox = Inbox()
+    with tcp_client(bridge.port) as client:
+        client.subscribe(topic, "std_msgs/String", inbox)
+        client.register_publisher(pub_topic, "std_msgs/String")
+        client.topic_list()
+        client.send_raw(u32(0xFFFFFFFF))  # the endpoint closes this connection; the client reconnects
+        wait_for(lambda: client.connections >= 2 and client.is_connected, 10, "the client to reconnect")
+        assert any("framing lost" in text for text in client.errors)
+        client.topic_list()  # the re-sent registrations have been handled
+        wait_subscribers(publisher)
+        ros_inbox.wait_connected()
+        publisher.publish(String("after reconnect"))
+        assert inbox.wait_count(1) == [serialize(String("after reconnect"))]
+        client.publish(pub_topic, serialize(String("from the client")))
+        assert ros_inbox.wait_count(1) == [serialize(String("from the client"))]
+    ros_inbox.close()
+    observer.check()
+
+
+def test_client_reconnects_after_the_endpoint_restarts(roscore, ros_node, tmp_path: Path) -> None:
+    port = free_port()
+    topic, pub_topic = unique("restart_sub"), unique("restart_pub")
+    publisher = ros_node.Publisher(topic, String, queue_size=10)
+    ros_inbox = RosInbox(ros_node, pub_topic)
+    inbox = Inbox()
+    first = start_endpoint(roscore, tmp_path, "--tcp-port", str(port))
+    second = None
+    try:
+        client = tcp_client(port)
+        client.subscribe(topic, "std_msgs/String", inbox)
+        client.register_publisher(pub_topic, "std_msgs/String")
+        client.topic_list()
+        wait_subscribers(publisher)
+        publisher.publish(String("first endpoint"))
+        inbox.wait_count(1)
+        assert first.stop() == 0
+        wait_for(lambda: not client.is_connected, 10, "the client to notice the endpoint is gone")
+        second = start_endpoint(roscore, tmp_path, "--tcp-port", str(port))
+        wait_for(lambda: client.connections == 2 and client.is_connected, 15, "the client to reconnect")
+        client.topic_list()
+        wait_subscribers(publisher)
+        publisher.publish(String("second endpoint"))
+        assert inbox.wait_count(2)[1] == serialize(String("second endpoint"))
+        ros_inbox.wait_connected()
+        client.publish(pub_topic, serialize(String("hello again")))
+        assert ros_inbox.wait_count(1) == [serialize(String("hello again"))]
+        client.close()
+    finally:
+        first.stop()
+        if second is not None:
+            second.stop()
+        publisher.unregister()
+        ros_inbox.close()
