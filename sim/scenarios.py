@@ -1,0 +1,587 @@
+"""The commander's scenarios as pure data: scenario name + options -> desired joint trajectory sampled at dt.
+
+No ROS here (sim.commander streams what this module builds). Every scenario yields a `Motion`: samples at
+t_k = k·dt, k = 0..N-1, of joint positions and velocities (robot joint order, rad or m), starting at rest. For the
+IK scenarios also the end-effector goal (4x4, base frame, ROS RH z-up), the Cartesian reference path (one 4x4 per
+sample), the IK weights and a goal report.
+
+Scenarios (defaults in brackets; "home" = the registry's home configuration):
+
+  single          constant joint positions [home]; runs `duration` [5 s]. Like the seed's a_SingleInput.
+  one_joint       one joint through waypoints at times, polynomial (`order` [quintic]), others hold home.
+                  panda [joint 1 through 0.25, 1, 2.75, 1.5, -2, -2.45 rad at t = 0, 2, ..., 10 s];
+                  igt [the rail through 0.05, 0.2, 0, -0.2, 0.05, -0.15 m at t = 0, 2, ..., 10 s];
+                  `duration` [last waypoint time + 1 s]. (The seed held the other Panda joints at 0, but 0 is
+                  outside Franka's limits for panda_joint4 (-3.0718 .. -0.0698 rad), hence home.)
+                  Note: the seed's 1.5 -> -2 rad in 2 s peaks at 3.28 rad/s, above the Panda's 2.175 rad/s joint-1
+                  limit; this is kept as the seed had it and reported as a warning.
+  ik_joints       IK of start and goal, then a polynomial in joint space over `move_time` [4 s] and a `hold` [1 s].
+                  panda [start = home flange position, goal 0.5, 0.375, 0.75 m, position only];
+                  igt [start = home tool tip, goal x, y = 0.3, 0.4 m, yaw 1.0 rad; x, y, yaw weights].
+  ik_cartesian    polynomial in Cartesian space (position quintic, orientation along the geodesic with the same
+                  time scaling), IK of every sample warm-started from the previous one; the max joint jump between
+                  samples is reported. Same defaults as ik_joints.
+  ik_orientation  position + XYZ Euler goal (fixed axes, R = Rz·Ry·Rx, = URDF rpy) with full-pose weights,
+                  panda [0.3, 0.5, 0.75 m at pi/4, pi/5, pi/3 rad; reachable: IK finds it after a few restarts];
+                  igt [x, y = 0.45, -0.25 m, yaw -1.0 rad] (the igt can only reach x, y, yaw).
+                  `space` [joint] or cartesian.
+  fk_confirm      an IK motion (`space` [cartesian], goal as ik_joints); the commander compares FK of the achieved
+                  joint states with the reference path. The reference path is what the motion means in Cartesian
+                  space: the Cartesian polynomial (cartesian) or FK of the desired joints (joint).
+  trial           the accuracy trial, `duration` [40 s]: every joint at once follows
+                  c -> c+A -> c -> c-A -> c -> c-A -> c -> c+A -> c in eight quintic segments of 5 s (time-symmetric,
+                  amplitude-antisymmetric), with per-joint centres c and amplitudes A from `TRIAL_TABLES`: inside
+                  Franka's official limits with margin, and of one sign over the whole swing (c ± A ≠ 0) so that
+                  MAPE, which divides by the reference, stays meaningful. Peak speeds are well below the limits.
+
+Unreachable IK goals raise `UnreachableGoalError` with the best residual, unless `nearest=True`: then the best
+configuration found is used and the motion says so (`Motion.ik.fallback`).
+"""
+from __future__ import annotations
+
+import csv
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from sim.frames import matrix_to_quat, matrix_to_rpy, rpy_to_matrix
+from sim.kinematics import (
+    FULL_POSE_WEIGHTS,
+    PLANAR_WEIGHTS,
+    POSITION_WEIGHTS,
+    KinematicChain,
+    chain_for,
+    solve_ik,
+    solve_path_ik,
+)
+from sim.robots import RobotSpec
+from sim.trajectory import ORDERS, PolynomialTrajectory
+
+SCENARIOS: tuple[str, ...] = (
+    "single", "one_joint", "ik_joints", "ik_cartesian", "ik_orientation", "fk_confirm", "trial",
+)
+IK_SCENARIOS: tuple[str, ...] = ("ik_joints", "ik_cartesian", "ik_orientation", "fk_confirm")
+SPACES = ("joint", "cartesian")
+
+DEFAULT_DT = 0.02
+SINGLE_DURATION_S = 5.0
+ONE_JOINT_DEFAULTS: dict[str, tuple[int, tuple[float, ...]]] = {  # robot -> (joint index, waypoints)
+    "panda": (0, (0.25, 1.0, 2.75, 1.5, -2.0, -2.45)),
+    "igt": (0, (0.05, 0.2, 0.0, -0.2, 0.05, -0.15)),
+}
+ONE_JOINT_SPACING_S = 2.0
+ONE_JOINT_HOLD_S = 1.0
+IK_MOVE_TIME_S = 4.0
+IK_HOLD_S = 1.0
+IK_RESTARTS = 20
+IK_SEED = 0
+IK_TOL_POS = 1e-6  # m
+IK_TOL_ROT = 1e-5  # rad
+# robot -> (position [m], rpy [rad] or None for position only). igt: z is ignored (fixed by construction).
+IK_GOALS: dict[str, tuple[tuple[float, float, float], tuple[float, float, float] | None]] = {
+    "panda": ((0.5, 0.375, 0.75), None),
+    "igt": ((0.3, 0.4, 0.0), (0.0, 0.0, 1.0)),
+}
+ORIENTATION_GOALS: dict[str, tuple[tuple[float, float, float], tuple[float, float, float]]] = {
+    "panda": ((0.3, 0.5, 0.75), (math.pi / 4, math.pi / 5, math.pi / 3)),
+    "igt": ((0.45, -0.25, 0.0), (0.0, 0.0, -1.0)),
+}
+TRIAL_DURATION_S = 40.0
+TRIAL_SEGMENT_S = 5.0
+TRIAL_PATTERN = (0.0, 1.0, 0.0, -1.0, 0.0, -1.0, 0.0, 1.0, 0.0)  # multiples of A around c, one per 5 s
+# robot -> (centres c, amplitudes A), rad or m, in joint order.
+TRIAL_TABLES: dict[str, tuple[tuple[float, ...], tuple[float, ...]]] = {
+    "panda": ((0.8, -0.785, 0.6, -2.356, 0.6, 1.571, 0.785), (0.5, 0.4, 0.4, 0.5, 0.4, 0.5, 0.5)),
+    "igt": ((0.1, 0.5, -1.0), (0.08, 0.3, 0.4)),
+}
+APPROACH_MIN_S = 2.0
+APPROACH_SPEED_FRACTION = 0.5  # approach segments peak at no more than this fraction of the velocity limits
+
+
+class ScenarioError(ValueError):
+    """A scenario that cannot be built from the given options (the message names the offending value)."""
+
+
+class UnreachableGoalError(ScenarioError):
+    """IK found no configuration within tolerance; carries the best residual found."""
+
+    def __init__(self, message: str, position_error: float, orientation_error: float) -> None:
+        super().__init__(message)
+        self.position_error = position_error
+        self.orientation_error = orientation_error
+
+
+@dataclass
+class ScenarioConfig:
+    """Options of `build_motion`; None means the scenario's default (see the module docstring)."""
+
+    dt: float = DEFAULT_DT
+    duration: float | None = None  # total length in s: the motion is cut, or its end held
+    positions: Sequence[float] | None = None  # single
+    joint: str | None = None  # one_joint: a joint name or a 1-based index
+    waypoints: Sequence[float] | None = None  # one_joint
+    times: Sequence[float] | None = None  # one_joint
+    order: str = "quintic"
+    start: Sequence[float] | None = None  # IK: start position (m); default FK(home)
+    goal: Sequence[float] | None = None  # IK: goal position (m); igt: x, y (a third value is ignored)
+    goal_rpy: Sequence[float] | None = None  # IK: goal XYZ Euler angles (rad); given -> full pose (panda)
+    move_time: float = IK_MOVE_TIME_S
+    hold: float = IK_HOLD_S
+    space: str | None = None  # ik_orientation / fk_confirm: joint | cartesian
+    nearest: bool = False  # use the nearest configuration found when the goal is unreachable
+    ik_restarts: int = IK_RESTARTS
+    seed: int = IK_SEED
+
+
+@dataclass
+class IKReport:
+    success: bool  # every IK problem of the scenario solved within tolerance
+    goal_position_error: float  # m, FK(desired end) vs goal, over the weighted axes
+    goal_orientation_error: float  # rad, idem
+    weights: tuple[float, ...]
+    space: str
+    max_joint_jump: float = 0.0  # rad or m between consecutive samples (cartesian space)
+    failed_samples: int = 0
+    fallback: bool = False  # the nearest configuration found is commanded instead of an unreachable goal
+    message: str = ""
+
+
+@dataclass
+class Motion:
+    scenario: str
+    robot: RobotSpec
+    dt: float
+    times: np.ndarray  # (N,) = k·dt
+    positions: np.ndarray  # (N, n)
+    velocities: np.ndarray  # (N, n)
+    description: str
+    goal: np.ndarray | None = None  # 4x4 end-effector goal
+    reference_path: np.ndarray | None = None  # (N, 4, 4) Cartesian reference of the motion
+    ik: IKReport | None = None
+    warnings: list[str] = field(default_factory=list)
+
+    @property
+    def duration(self) -> float:
+        return float(self.times[-1])
+
+    @property
+    def steps(self) -> int:
+        return len(self.times) - 1
+
+
+# ------------------------------------------------------------------------------------------------ helpers
+def sample_times(duration: float, dt: float) -> np.ndarray:
+    """t_k = k·dt for k = 0..ceil(duration/dt): computed from k, so grid values do not drift."""
+    if not (math.isfinite(dt) and dt > 0):
+        raise ScenarioError(f"dt must be a finite number > 0 s, got {dt!r}")
+    if not (math.isfinite(duration) and duration > 0):
+        raise ScenarioError(f"duration must be a finite number > 0 s, got {duration!r}")
+    steps = int(math.ceil(duration / dt - 1e-9))
+    return np.arange(steps + 1) * dt
+
+
+def _vector(values: Sequence[float] | None, size: int | tuple[int, ...], what: str) -> np.ndarray:
+    sizes = (size,) if isinstance(size, int) else size
+    array = np.asarray(values, dtype=float).reshape(-1)
+    if array.size not in sizes:
+        expected = " or ".join(str(s) for s in sizes)
+        raise ScenarioError(f"{what} needs {expected} values, got {array.size}: {list(array)}")
+    if not np.all(np.isfinite(array)):
+        raise ScenarioError(f"{what} must be finite numbers, got {list(array)}")
+    return array
+
+
+def joint_index(robot: RobotSpec, joint: str) -> int:
+    """Index of a joint given by name or 1-based number ("1" = the first joint)."""
+    if joint in robot.joint_names:
+        return robot.joint_names.index(joint)
+    try:
+        number = int(joint)
+    except ValueError:
+        number = 0
+    if 1 <= number <= robot.dof:
+        return number - 1
+    raise ScenarioError(f"unknown joint {joint!r} for {robot.name}: give 1..{robot.dof} or one of {list(robot.joint_names)}")
+
+
+def _sample_trajectory(traj: PolynomialTrajectory, times: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    sample = traj.sample(times)
+    return sample.positions, sample.velocities
+
+
+def _fit_duration(natural_end: float, duration: float | None, dt: float) -> np.ndarray:
+    """Samples over `duration` if given (cutting the motion or holding its end), else over its natural length."""
+    return sample_times(natural_end if duration is None else duration, dt)
+
+
+def check_position_limits(robot: RobotSpec, times: np.ndarray, positions: np.ndarray, what: str) -> None:
+    below = positions < robot.lower - 1e-9
+    above = positions > robot.upper + 1e-9
+    if below.any() or above.any():
+        k, j = np.argwhere(below | above)[0]
+        raise ScenarioError(
+            f"{what}: {robot.joint_names[j]} = {positions[k, j]:.4f} at t = {times[k]:.2f} s is outside its limits "
+            f"[{robot.lower[j]:.4f}, {robot.upper[j]:.4f}]"
+        )
+
+
+def velocity_warnings(robot: RobotSpec, times: np.ndarray, velocities: np.ndarray) -> list[str]:
+    notes = []
+    for j, name in enumerate(robot.joint_names):
+        peak = np.abs(velocities[:, j])
+        k = int(np.argmax(peak))
+        if peak[k] > robot.max_velocity[j] + 1e-9:
+            unit = "m/s" if robot.joint_types[j] == "prismatic" else "rad/s"
+            notes.append(
+                f"{name} peaks at {peak[k]:.3f} {unit} (t = {times[k]:.2f} s), above its limit "
+                f"{robot.max_velocity[j]:.3f} {unit}"
+            )
+    return notes
+
+
+def _finish(motion: Motion) -> Motion:
+    check_position_limits(motion.robot, motion.times, motion.positions, f"scenario {motion.scenario}")
+    motion.warnings.extend(velocity_warnings(motion.robot, motion.times, motion.velocities))
+    return motion
+
+
+# --------------------------------------------------------------------------------------- rotation helpers
+def rotation_log(rotation: np.ndarray) -> np.ndarray:
+    """Rotation vector of a rotation matrix (axis · angle, angle in [0, π])."""
+    cos_angle = float(np.clip((np.trace(rotation) - 1.0) / 2.0, -1.0, 1.0))
+    angle = math.acos(cos_angle)
+    axis_sin = np.array([rotation[2, 1] - rotation[1, 2], rotation[0, 2] - rotation[2, 0], rotation[1, 0] - rotation[0, 1]])
+    if angle < 1e-9:
+        return 0.5 * axis_sin
+    if math.pi - angle < 1e-6:  # half turn: axis from the symmetric part
+        axis = np.sqrt(np.maximum((np.diag(rotation) + 1.0) / 2.0, 0.0))
+        i = int(np.argmax(axis))
+        for k in range(3):
+            if k != i:
+                axis[k] = math.copysign(axis[k], rotation[i, k] + rotation[k, i])
+        return angle * axis / np.linalg.norm(axis)
+    return angle * axis_sin / (2.0 * math.sin(angle))
+
+
+def rotation_exp(rotvec: np.ndarray) -> np.ndarray:
+    angle = float(np.linalg.norm(rotvec))
+    if angle < 1e-12:
+        return np.eye(3)
+    k = rotvec / angle
+    kx = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
+    return np.eye(3) + math.sin(angle) * kx + (1.0 - math.cos(angle)) * kx @ kx
+
+
+def pose_errors(actual: np.ndarray, reference: np.ndarray, weights: Sequence[float]) -> tuple[np.ndarray, np.ndarray]:
+    """Per-sample (position error [m], orientation error [rad]) of actual vs reference poses (N, 4, 4).
+
+    Only the axes with a non-zero weight count, as in sim.kinematics: position = norm of the selected
+    components of p_ref - p; orientation = angle of R_ref·Rᵀ if all rotation axes are selected, else the norm of
+    the selected components of its rotation vector (for the igt's yaw-only weights: |yaw error|).
+    """
+    w = np.asarray(weights, dtype=float)
+    pos_axes = w[:3] > 0
+    rot_axes = w[3:] > 0
+    position_error = np.linalg.norm((reference[:, :3, 3] - actual[:, :3, 3])[:, pos_axes], axis=1)
+    orientation_error = np.zeros(len(actual))
+    if rot_axes.any():
+        for k in range(len(actual)):
+            rotvec = rotation_log(reference[k, :3, :3] @ actual[k, :3, :3].T)
+            orientation_error[k] = np.linalg.norm(rotvec) if rot_axes.all() else np.linalg.norm(rotvec[rot_axes])
+    return position_error, orientation_error
+
+
+def fk_path(chain: KinematicChain, positions: np.ndarray) -> np.ndarray:
+    return np.array([chain.fk(q) for q in positions])
+
+
+def pose_to_position_quat(pose: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    return pose[:3, 3].copy(), matrix_to_quat(pose[:3, :3])
+
+
+# ----------------------------------------------------------------------------------------------- approach
+def approach(robot: RobotSpec, q_from: np.ndarray, q_to: np.ndarray, dt: float, min_time: float = APPROACH_MIN_S) -> tuple[np.ndarray, np.ndarray]:
+    """A quintic from rest at q_from to rest at q_to, sampled at dt (first sample q_from, last q_to).
+
+    Its length is at least `min_time` and long enough that no joint exceeds APPROACH_SPEED_FRACTION of its
+    velocity limit (a quintic peaks at 1.875·Δ/T). Returns (positions, velocities), each (M+1, n).
+    """
+    q_from = _vector(q_from, robot.dof, "approach start")
+    q_to = _vector(q_to, robot.dof, "approach end")
+    needed = float(np.max(1.875 * np.abs(q_to - q_from) / (APPROACH_SPEED_FRACTION * robot.max_velocity)))
+    duration = max(min_time, needed)
+    times = sample_times(duration, dt)
+    traj = PolynomialTrajectory([0.0, times[-1]], [q_from, q_to], order="quintic")
+    return _sample_trajectory(traj, times)
+
+
+# ---------------------------------------------------------------------------------------------- scenarios
+def build_motion(robot: RobotSpec, scenario: str, config: ScenarioConfig | None = None) -> Motion:
+    """The desired motion of `scenario` for `robot` (see the module docstring for what each one does)."""
+    config = config or ScenarioConfig()
+    if config.order not in ORDERS:
+        raise ScenarioError(f"order must be one of {list(ORDERS)}, got {config.order!r}")
+    if config.duration is not None and not (math.isfinite(config.duration) and config.duration > 0):
+        raise ScenarioError(f"duration must be a finite number > 0 s, got {config.duration!r}")
+    sample_times(1.0, config.dt)  # validates dt
+    builders = {
+        "single": _single,
+        "one_joint": _one_joint,
+        "ik_joints": _ik_motion,
+        "ik_cartesian": _ik_motion,
+        "ik_orientation": _ik_motion,
+        "fk_confirm": _ik_motion,
+        "trial": _trial,
+    }
+    if scenario not in builders:
+        raise ScenarioError(f"unknown scenario {scenario!r}; known: {', '.join(SCENARIOS)}")
+    return _finish(builders[scenario](robot, scenario, config))
+
+
+def _single(robot: RobotSpec, scenario: str, config: ScenarioConfig) -> Motion:
+    q = robot.home.copy() if config.positions is None else _vector(config.positions, robot.dof, f"{robot.name} positions ({', '.join(robot.joint_names)})")
+    times = sample_times(SINGLE_DURATION_S if config.duration is None else config.duration, config.dt)
+    positions = np.tile(q, (len(times), 1))
+    return Motion(scenario, robot, config.dt, times, positions, np.zeros_like(positions),
+                  f"hold {np.round(q, 4).tolist()} for {times[-1]:.2f} s")
+
+
+def _one_joint(robot: RobotSpec, scenario: str, config: ScenarioConfig) -> Motion:
+    default_joint, default_points = ONE_JOINT_DEFAULTS[robot.name]
+    j = default_joint if config.joint is None else joint_index(robot, config.joint)
+    if config.waypoints is None:
+        if config.joint is not None and j != default_joint:
+            raise ScenarioError(f"--joint {config.joint} needs --waypoints (the defaults are for {robot.joint_names[default_joint]})")
+        points = np.array(default_points)
+    else:
+        points = _vector(config.waypoints, tuple(range(2, 1000)), "waypoints (at least 2)")
+    if config.times is None:
+        wp_times = np.arange(len(points)) * ONE_JOINT_SPACING_S
+    else:
+        wp_times = _vector(config.times, len(points), f"times (one per waypoint, {len(points)} waypoints)")
+        if wp_times[0] < 0 or np.any(np.diff(wp_times) <= 0):
+            raise ScenarioError(f"times must start at >= 0 s and increase strictly, got {wp_times.tolist()}")
+    name = robot.joint_names[j]
+    bad = (points < robot.lower[j] - 1e-9) | (points > robot.upper[j] + 1e-9)
+    if bad.any():
+        raise ScenarioError(
+            f"waypoint {points[bad][0]} of {name} is outside its limits [{robot.lower[j]}, {robot.upper[j]}]"
+        )
+    if wp_times[0] > 0:  # hold the first waypoint from t = 0
+        wp_times = np.concatenate([[0.0], wp_times])
+        points = np.concatenate([[points[0]], points])
+    traj = PolynomialTrajectory(wp_times, points, order=config.order)
+    times = _fit_duration(wp_times[-1] + ONE_JOINT_HOLD_S, config.duration, config.dt)
+    joint_pos, joint_vel = _sample_trajectory(traj, times)
+    positions = np.tile(robot.home, (len(times), 1))
+    velocities = np.zeros_like(positions)
+    positions[:, j] = joint_pos[:, 0]
+    velocities[:, j] = joint_vel[:, 0]
+    description = (f"{name} through {points.tolist()} at t = {wp_times.tolist()} s ({config.order}), "
+                   f"other joints at home")
+    return Motion(scenario, robot, config.dt, times, positions, velocities, description)
+
+
+def _trial(robot: RobotSpec, scenario: str, config: ScenarioConfig) -> Motion:
+    centres, amplitudes = (np.array(v) for v in TRIAL_TABLES[robot.name])
+    pattern = np.array(TRIAL_PATTERN)
+    wp_times = np.arange(len(pattern)) * TRIAL_SEGMENT_S
+    points = centres[None, :] + pattern[:, None] * amplitudes[None, :]
+    traj = PolynomialTrajectory(wp_times, points, order="quintic")
+    times = _fit_duration(TRIAL_DURATION_S, config.duration, config.dt)
+    positions, velocities = _sample_trajectory(traj, times)
+    description = (f"trial: every joint c -> c+A -> c -> c-A -> c -> c-A -> c -> c+A -> c, {TRIAL_SEGMENT_S:g} s quintic "
+                   f"segments; c = {centres.tolist()}, A = {amplitudes.tolist()}")
+    return Motion(scenario, robot, config.dt, times, positions, velocities, description)
+
+
+# -------------------------------------------------------------------------------------------- IK scenarios
+@dataclass
+class _GoalSpec:
+    target: np.ndarray  # 4x4
+    weights: tuple[float, ...]
+    text: str
+
+
+def _goal_spec(robot: RobotSpec, scenario: str, config: ScenarioConfig, chain: KinematicChain) -> _GoalSpec:
+    home_pose = chain.fk(robot.home)
+    if scenario == "ik_orientation":
+        default_position, default_rpy = ORIENTATION_GOALS[robot.name]
+    else:
+        default_position, default_rpy = IK_GOALS[robot.name]
+    planar = robot.name == "igt"
+    if config.goal is None:
+        position = np.array(default_position, dtype=float)
+    else:
+        position = _vector(config.goal, (2, 3) if planar else 3, "goal position (x, y, z in m)" if not planar else "igt goal (x, y [, z ignored] in m)")
+        if position.size == 2:
+            position = np.append(position, 0.0)
+    rpy = config.goal_rpy if config.goal_rpy is not None else default_rpy
+    if rpy is not None:
+        rpy = _vector(rpy, 3, "goal rpy (XYZ Euler angles in rad)")
+    if planar:
+        position[2] = home_pose[2, 3]  # the tool tip's height is fixed by construction
+        yaw = 0.0 if rpy is None else float(rpy[2])
+        if rpy is not None and (abs(rpy[0]) > 1e-12 or abs(rpy[1]) > 1e-12):
+            raise ScenarioError(f"the igt can only reach x, y and yaw: goal rpy {list(rpy)} must have roll = pitch = 0")
+        target = np.eye(4)
+        target[:3, :3] = rpy_to_matrix(0.0, 0.0, yaw)
+        target[:3, 3] = position
+        return _GoalSpec(target, PLANAR_WEIGHTS, f"x, y = {position[0]:g}, {position[1]:g} m, yaw {yaw:g} rad")
+    target = np.eye(4)
+    target[:3, 3] = position
+    if rpy is None and scenario != "ik_orientation":
+        target[:3, :3] = home_pose[:3, :3]  # reference orientation only; not weighted
+        return _GoalSpec(target, POSITION_WEIGHTS, f"position {position.tolist()} m (position only)")
+    assert rpy is not None
+    target[:3, :3] = rpy_to_matrix(*rpy)
+    return _GoalSpec(target, FULL_POSE_WEIGHTS, f"position {position.tolist()} m, XYZ Euler {np.round(rpy, 6).tolist()} rad")
+
+
+def _start_target(robot: RobotSpec, config: ScenarioConfig, chain: KinematicChain) -> np.ndarray:
+    start = chain.fk(robot.home)
+    if config.start is not None:
+        position = _vector(config.start, (2, 3) if robot.name == "igt" else 3, "start position")
+        start[: position.size, 3] = position
+    return start
+
+
+def _solve(chain: KinematicChain, target: np.ndarray, q0: np.ndarray, weights, config: ScenarioConfig):
+    return solve_ik(chain, target, q0, weights=weights, tol_pos=IK_TOL_POS, tol_rot=IK_TOL_ROT,
+                    restarts=config.ik_restarts, rng=config.seed)
+
+
+def _unreachable(what: str, result, weights, nearest_hint: bool = True) -> UnreachableGoalError:
+    hint = "; pass --nearest to command the nearest configuration found instead" if nearest_hint else ""
+    return UnreachableGoalError(
+        f"{what} is unreachable: best residual {result.position_error:.4g} m, {result.orientation_error:.4g} rad "
+        f"(weights {tuple(weights)}){hint}",
+        result.position_error, result.orientation_error,
+    )
+
+
+def _ik_motion(robot: RobotSpec, scenario: str, config: ScenarioConfig) -> Motion:
+    chain = chain_for(robot)
+    if scenario == "ik_joints":
+        space = "joint"
+    elif scenario == "ik_cartesian":
+        space = "cartesian"
+    else:
+        space = config.space or ("joint" if scenario == "ik_orientation" else "cartesian")
+    if space not in SPACES:
+        raise ScenarioError(f"space must be one of {list(SPACES)}, got {space!r}")
+    if not (math.isfinite(config.move_time) and config.move_time > 0) or not (math.isfinite(config.hold) and config.hold >= 0):
+        raise ScenarioError(f"move time must be > 0 s and hold >= 0 s, got {config.move_time} and {config.hold}")
+    goal = _goal_spec(robot, scenario, config, chain)
+    weights = goal.weights
+    notes: list[str] = []
+    fallback = False
+
+    start_result = _solve(chain, _start_target(robot, config, chain), robot.home, weights, config)
+    if not start_result.success:
+        if not config.nearest:
+            raise _unreachable("start pose", start_result, weights)
+        fallback = True
+        notes.append(f"FALLBACK: start unreachable, starting at the nearest configuration (residual {start_result.position_error:.4g} m, {start_result.orientation_error:.4g} rad)")
+    q_start = start_result.q
+    goal_result = _solve(chain, goal.target, q_start, weights, config)
+    if not goal_result.success:
+        if not config.nearest:
+            raise _unreachable(f"goal ({goal.text})", goal_result, weights)
+        fallback = True
+        nearest = chain.fk(goal_result.q)
+        notes.append(
+            f"FALLBACK: goal unreachable, commanding the nearest pose found instead: position "
+            f"{np.round(nearest[:3, 3], 4).tolist()} m, XYZ Euler {np.round(matrix_to_rpy(nearest[:3, :3]), 4).tolist()} rad "
+            f"(residual {goal_result.position_error:.4g} m, {goal_result.orientation_error:.4g} rad)"
+        )
+    # The Cartesian path heads for the goal, or for the nearest reachable pose when falling back.
+    path_goal = goal.target if goal_result.success else chain.fk(goal_result.q)
+
+    times = _fit_duration(config.move_time + config.hold, config.duration, config.dt)
+    max_jump = 0.0
+    failed = 0
+    if space == "joint":
+        traj = PolynomialTrajectory([0.0, config.move_time], [q_start, goal_result.q], order=config.order)
+        positions, velocities = _sample_trajectory(traj, times)
+        reference = fk_path(chain, positions)
+    else:
+        start_pose = chain.fk(q_start)
+        reference = _cartesian_path(start_pose, path_goal, weights, config.move_time, config.order, times)
+        moving = times <= config.move_time + 1e-9
+        path = solve_path_ik(chain, reference[moving], q_start, weights=weights, tol_pos=IK_TOL_POS, tol_rot=IK_TOL_ROT)
+        failed = int(np.count_nonzero(~path.success))
+        if failed:
+            worst = max(path.results, key=lambda r: r.position_error + r.orientation_error)
+            first = int(np.argmin(path.success))
+            if not config.nearest:
+                raise UnreachableGoalError(
+                    f"Cartesian path to {goal.text}: IK failed at {failed} of {len(path.success)} samples, first at "
+                    f"t = {times[moving][first]:.2f} s; worst residual {worst.position_error:.4g} m, "
+                    f"{worst.orientation_error:.4g} rad; pass --nearest to command the nearest configurations found",
+                    worst.position_error, worst.orientation_error,
+                )
+            fallback = True
+            notes.append(f"FALLBACK: IK failed at {failed} path samples; commanding the nearest configurations found")
+        positions = np.empty((len(times), robot.dof))
+        positions[moving] = path.q
+        positions[~moving] = path.q[-1]
+        # Central differences (one-sided at the ends), zero while holding.
+        velocities = np.gradient(positions, config.dt, axis=0)
+        velocities[~moving] = 0.0
+        velocities[0] = 0.0
+        max_jump = path.max_joint_jump
+        jump_rate = np.abs(np.diff(positions, axis=0)).max(axis=0) / config.dt
+        for j in np.flatnonzero(jump_rate > robot.max_velocity):
+            notes.append(f"IK path: {robot.joint_names[j]} moves {jump_rate[j] * config.dt:.4f} in one step "
+                         f"({jump_rate[j]:.3f}/s > limit {robot.max_velocity[j]:.3f}/s): a branch switch?")
+
+    final_pose = chain.fk(positions[-1])
+    pos_err, rot_err = pose_errors(final_pose[None], goal.target[None], weights)
+    report = IKReport(
+        success=not fallback and failed == 0,
+        goal_position_error=float(pos_err[0]),
+        goal_orientation_error=float(rot_err[0]),
+        weights=tuple(weights),
+        space=space,
+        max_joint_jump=max_jump,
+        failed_samples=failed,
+        fallback=fallback,
+        message=goal_result.message,
+    )
+    description = f"{scenario}: to {goal.text} in {space} space over {config.move_time:g} s, hold {config.hold:g} s"
+    return Motion(scenario, robot, config.dt, times, positions, velocities, description,
+                  goal=goal.target, reference_path=reference, ik=report, warnings=notes)
+
+
+def _cartesian_path(start: np.ndarray, goal: np.ndarray, weights, move_time: float, order: str, times: np.ndarray) -> np.ndarray:
+    """Poses along a straight line (position) and the geodesic (orientation), both timed by one polynomial
+    s(t) from 0 to 1 with zero velocity (and acceleration for quintic) at both ends."""
+    scaling = PolynomialTrajectory([0.0, move_time], [[0.0], [1.0]], order=order).sample(times).positions[:, 0]
+    goal_rotation = goal[:3, :3] if np.any(np.asarray(weights)[3:] > 0) else start[:3, :3]
+    delta = rotation_log(goal_rotation @ start[:3, :3].T)
+    path = np.tile(np.eye(4), (len(times), 1, 1))
+    for k, s in enumerate(scaling):
+        path[k, :3, 3] = start[:3, 3] + s * (goal[:3, 3] - start[:3, 3])
+        path[k, :3, :3] = rotation_exp(s * delta) @ start[:3, :3]
+    # Axes the IK does not control keep the start's value (e.g. the igt tool tip's fixed height).
+    for axis in range(3):
+        if weights[axis] == 0:
+            path[:, axis, 3] = start[axis, 3]
+    return path
+
+
+# ------------------------------------------------------------------------------------------------- CSV I/O
+def write_engine_csv(path: Path, motion: Motion) -> None:
+    """The desired joint positions as the engine's CSV (`time,<joint names>`; s, rad/m), every value written
+    with Python's shortest round-trip repr so the engine reads back the exact doubles."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with open(path, "w", newline="") as handle:
+        writer = csv.writer(handle)
+        writer.writerow(["time", *motion.robot.joint_names])
+        for t, row in zip(motion.times, motion.positions):
+            writer.writerow([repr(float(t)), *(repr(float(v)) for v in row)])
