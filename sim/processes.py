@@ -1,0 +1,161 @@
+"""Managed processes for demos, trials and tests: a roscore on a free port with its own ROS_HOME/ROS_LOG_DIR,
+and node subprocesses in their own process groups, always stopped by PID (SIGINT, then SIGKILL).
+
+A `prefix` (e.g. `ip netns exec NAME`) runs a process inside a network namespace; `ip netns exec` execs the
+command, so the PID is still the process's own.
+"""
+from __future__ import annotations
+
+import os
+import signal
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+import xmlrpc.client
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import TypeVar
+
+REPO = Path(__file__).resolve().parents[1]
+PYTHON = sys.executable
+
+T = TypeVar("T")
+
+
+class ProcessError(RuntimeError):
+    """A managed process that did not start, or exited before it was ready."""
+
+
+def free_port(host: str = "127.0.0.1") -> int:
+    with socket.socket() as sock:
+        sock.bind((host, 0))
+        return sock.getsockname()[1]
+
+
+def wait_for(predicate: Callable[[], T], timeout: float, what: str, interval: float = 0.02) -> T:
+    """Poll `predicate` until it returns something truthy (returned) or `timeout` s pass (TimeoutError)."""
+    deadline = time.monotonic() + timeout
+    while True:
+        result = predicate()
+        if result:
+            return result
+        if time.monotonic() > deadline:
+            raise TimeoutError(f"timed out after {timeout} s waiting for {what}")
+        time.sleep(interval)
+
+
+def kill_process(process: subprocess.Popen, timeout: float = 5.0, first_signal: int = signal.SIGINT) -> None:
+    """Signal the process group (SIGINT by default), then SIGKILL it if it has not gone after `timeout`."""
+    if process.poll() is not None:
+        return
+    try:
+        os.killpg(process.pid, first_signal)
+        process.wait(timeout)
+    except subprocess.TimeoutExpired:
+        os.killpg(process.pid, signal.SIGKILL)
+        process.wait(timeout)
+    except ProcessLookupError:
+        pass
+
+
+def ros_environment(master_uri: str, home: Path, host: str = "127.0.0.1") -> dict[str, str]:
+    """The environment of every ROS process of one session: its master, its own ROS_HOME and log dir."""
+    env = dict(os.environ)
+    env.update(
+        ROS_MASTER_URI=master_uri,
+        ROS_HOME=str(home / "ros_home"),
+        ROS_LOG_DIR=str(home / "log"),
+        ROS_HOSTNAME=host,
+        PYTHONPATH=os.pathsep.join(filter(None, [str(REPO), os.environ.get("PYTHONPATH")])),
+        PYTHONUNBUFFERED="1",
+    )
+    env.pop("ROS_IP", None)
+    return env
+
+
+class ManagedProcess:
+    """A subprocess in its own process group, output captured to a log file."""
+
+    def __init__(
+        self,
+        args: Sequence[str],
+        env: dict[str, str],
+        log_dir: Path,
+        name: str,
+        prefix: Sequence[str] = (),
+    ) -> None:
+        log_dir.mkdir(parents=True, exist_ok=True)
+        self.name = name
+        self.log_path = log_dir / f"{name}-{time.monotonic_ns()}.log"
+        with open(self.log_path, "wb") as log_file:
+            self.process = subprocess.Popen(
+                [*prefix, *args],
+                env=env,
+                cwd=REPO,
+                stdout=log_file,
+                stderr=subprocess.STDOUT,
+                stdin=subprocess.DEVNULL,
+                start_new_session=True,
+            )
+
+    @property
+    def pid(self) -> int:
+        return self.process.pid
+
+    def output(self) -> str:
+        return self.log_path.read_text(errors="replace")
+
+    def wait_for_output(self, text: str, timeout: float = 30.0) -> str:
+        def seen() -> bool:
+            output = self.output()
+            if text in output:
+                return True
+            if self.process.poll() is not None:
+                raise ProcessError(
+                    f"{self.name} exited ({self.process.returncode}) before printing {text!r}:\n{output[-3000:]}"
+                )
+            return False
+
+        wait_for(seen, timeout, f"{text!r} from {self.name}")
+        return self.output()
+
+    def wait(self, timeout: float) -> int:
+        try:
+            return self.process.wait(timeout)
+        except subprocess.TimeoutExpired:
+            raise ProcessError(f"{self.name} still running after {timeout} s:\n{self.output()[-3000:]}") from None
+
+    def stop(self, timeout: float = 5.0) -> int | None:
+        kill_process(self.process, timeout)
+        return self.process.returncode
+
+
+class RosCore(ManagedProcess):
+    """`roscore -p <port>` with its own ROS_HOME/ROS_LOG_DIR in a temp dir; `env` is for every process of it."""
+
+    def __init__(
+        self,
+        host: str = "127.0.0.1",
+        port: int | None = None,
+        prefix: Sequence[str] = (),
+        tmp: Path | None = None,
+    ) -> None:
+        self.tmp = tmp or Path(tempfile.mkdtemp(prefix="roscore-"))
+        self.host = host
+        self.port = port or free_port()
+        self.uri = f"http://{host}:{self.port}/"
+        self.env = ros_environment(self.uri, self.tmp, host)
+        super().__init__(["roscore", "-p", str(self.port)], self.env, self.tmp, "roscore", prefix)
+        try:
+            # roscore prints this once rosout is up, i.e. when the master is fully usable (also inside a netns).
+            self.wait_for_output("started core service [/rosout]", timeout=30)
+        except BaseException:
+            self.stop()
+            raise
+
+    def subscribers(self, topic: str) -> list[str]:
+        """Node names subscribed to `topic`, as the master sees them."""
+        _, _, (_, subscribers, _) = xmlrpc.client.ServerProxy(self.uri).getSystemState("/probe")
+        return next((nodes for name, nodes in subscribers if name == topic), [])
