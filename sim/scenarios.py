@@ -585,3 +585,39 @@ def write_engine_csv(path: Path, motion: Motion) -> None:
         writer.writerow(["time", *motion.robot.joint_names])
         for t, row in zip(motion.times, motion.positions):
             writer.writerow([repr(float(t)), *(repr(float(v)) for v in row)])
+
+
+# ----------------------------------------------------------------------------------------------- schedule
+@dataclass
+class Schedule:
+    """What the commander streams: an optional approach from the robot's current state, then the motion.
+
+    Sample i is for the end of step i (sample 0 = where the robot is at the start). `motion_index[i]` is the
+    index of the motion sample, or -1 during the approach.
+    """
+
+    positions: np.ndarray  # (M, n)
+    velocities: np.ndarray  # (M, n)
+    motion_index: np.ndarray  # (M,) int
+
+    @property
+    def approach_steps(self) -> int:
+        """Index of the motion's first sample in the schedule (= approach length in steps)."""
+        return int(np.argmax(self.motion_index >= 0))
+
+
+def build_schedule(motion: Motion, q_start: np.ndarray | None = None, approach_min_s: float = APPROACH_MIN_S) -> Schedule:
+    """The motion, preceded by a quintic approach from `q_start` to its first sample if they differ by more than
+    1e-4 (rad or m) and the approach is enabled (`approach_min_s` > 0, `q_start` given)."""
+    index = np.arange(len(motion.times))
+    if q_start is None or approach_min_s <= 0:
+        return Schedule(motion.positions, motion.velocities, index)
+    q_start = _vector(q_start, motion.robot.dof, "start state")
+    if np.max(np.abs(q_start - motion.positions[0])) <= 1e-4:
+        return Schedule(motion.positions, motion.velocities, index)
+    positions, velocities = approach(motion.robot, q_start, motion.positions[0], motion.dt, approach_min_s)
+    return Schedule(
+        np.concatenate([positions[:-1], motion.positions]),
+        np.concatenate([velocities[:-1], motion.velocities]),
+        np.concatenate([np.full(len(positions) - 1, -1), index]),
+    )

@@ -227,3 +227,22 @@ def test_engine_csv_export_round_trips_exactly(robot, tmp_path):
     data = np.array(rows[1:], dtype=float)
     np.testing.assert_array_equal(data[:, 0], motion.times)
     np.testing.assert_array_equal(data[:, 1:], motion.positions)
+
+
+def test_schedule_prepends_an_approach_only_when_needed(robot):
+    from sim.scenarios import build_schedule
+
+    motion = build_motion(robot, "trial", ScenarioConfig(duration=1.0))
+    direct = build_schedule(motion, motion.positions[0])
+    assert direct.approach_steps == 0 and len(direct.positions) == len(motion.times)
+    assert build_schedule(motion, None).approach_steps == 0
+    assert build_schedule(motion, robot.home, approach_min_s=0.0).approach_steps == 0
+    schedule = build_schedule(motion, robot.home)
+    m = schedule.approach_steps
+    assert m >= 100
+    np.testing.assert_array_equal(schedule.positions[0], robot.home)
+    np.testing.assert_array_equal(schedule.positions[m:], motion.positions)
+    np.testing.assert_array_equal(schedule.motion_index[m:], np.arange(len(motion.times)))
+    assert np.all(schedule.motion_index[:m] == -1)
+    # Continuous at the joint between approach and motion (both at rest there).
+    assert np.abs(np.diff(schedule.positions, axis=0)).max() < 0.05

@@ -1,0 +1,637 @@
+"""The commander: the stand-in for the Simulink models that drove the robot. A rospy node.
+
+    python -m sim.commander --robot panda --scenario NAME [options]     (--help lists them all)
+
+Streams a scenario of sim.scenarios as `<prefix>/arm_controller/command` (trajectory_msgs/JointTrajectory: the
+registry's joint names, ONE point with positions and velocities, header.stamp = the time the target is for), drives
+`/clock` (rosgraph_msgs/Clock), publishes the end-effector goal on `<prefix>/pose` (geometry_msgs/Pose, latched,
+IK scenarios only; a real quaternion, or with --pose-euler the seed's convention: XYZ Euler angles in the
+quaternion's x, y, z fields and w = 0) and logs desired vs achieved (`<prefix>/joint_states`) for every step.
+
+Timing (the contract with the engine): fixed steps of dt; the target of step k (t_k -> t_k+1) is for its END.
+  lockstep (default): publish the command stamped t_k+1, then /clock = t_k+1, then wait for a joint state stamped
+      >= t_k+1 (at most --timeout s). The engine steps once when /clock reaches t_k+1, so a 40 s trial takes seconds.
+  --realtime: every dt of wall time publish /clock = t_k and the command stamped t_k+1 (the engine extrapolates
+      along the velocity); no waiting.
+Start-up: wait (at most --connect-timeout s) until a partner node (one that publishes joint_states and
+subscribes the command topic) is connected to our command, /clock and pose publishers and our joint_states
+subscriber; publish /clock = 0. The engine anchors its step grid on the first /clock value and does not
+acknowledge it, so a short fixed pause (ANCHOR_SETTLE_S) follows: there is no condition to wait on.
+Approach (default, --approach MIN_S, 0 = off): the robot may not be at the scenario's first sample (the engine
+starts at home, or where a previous run left it). In lockstep, step 0 -> dt is a priming step with no new command
+(the engine holds its target) whose joint state tells where the robot is; in realtime the first joint state does.
+A quintic approach then brings it to the scenario's start; approach rows are logged (phase "approach") but left out
+of the metrics. Without the approach the scenario starts at t = 0 at once, as in the seed.
+
+Output: a CSV log (time, scenario_time, phase, desired_<j>, achieved_<j>, achieved_stamp and, for IK scenarios,
+the reference pose ref_* at the achieved state's stamp, FK of the achieved joints ee_* and their errors
+ee_pos_err, ee_rot_err), its path, and a
+summary (per-joint MAPE/WAPE/NRMSE/max |error|/lag via sim.metrics; for IK scenarios the goal errors; for fk_confirm
+the end-effector error over time). `--export-csv PATH` writes the desired joints as the engine's CSV (`python -m
+sim.engine --csv PATH`); with `--export-only` nothing touches ROS.
+
+Exit codes: 0 done, 2 bad input, 3 unreachable IK goal (the residual is printed), 4 ROS failure (no partner,
+a joint state that does not come), 130 interrupted.
+"""
+from __future__ import annotations
+
+import argparse
+import ast
+import csv
+import dataclasses
+import math
+import operator
+import signal
+import sys
+import threading
+import time
+from dataclasses import dataclass
+from datetime import datetime
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from sim.frames import matrix_to_quat, quat_to_euler_xyz
+from sim.kinematics import chain_for
+from sim.metrics import TrackingMetrics, tracking_metrics
+from sim.robots import ROBOT_NAMES, RobotError, RobotSpec, get_robot
+from sim.scenarios import (
+    APPROACH_MIN_S,
+    DEFAULT_DT,
+    IK_HOLD_S,
+    IK_MOVE_TIME_S,
+    IK_RESTARTS,
+    SCENARIOS,
+    SPACES,
+    Motion,
+    Schedule,
+    ScenarioConfig,
+    ScenarioError,
+    UnreachableGoalError,
+    build_motion,
+    build_schedule,
+    fk_path,
+    pose_errors,
+    write_engine_csv,
+)
+from sim.trajectory import ORDERS
+
+REPO = Path(__file__).resolve().parents[1]
+DEFAULT_LOG_DIR = REPO / "results" / "commander"
+ANCHOR_SETTLE_S = 0.1
+STAMP_TOLERANCE_S = 1e-6
+MIN_SPREAD = 1e-9  # rad or m: a reference moving less than this counts as held still
+EXIT_OK, EXIT_USAGE, EXIT_UNREACHABLE, EXIT_ROS, EXIT_INTERRUPTED = 0, 2, 3, 4, 130
+
+
+class CommanderError(RuntimeError):
+    """A ROS-side failure: no partner, a joint state that does not arrive, a malformed joint state."""
+
+
+# ----------------------------------------------------------------------------------------------- CLI input
+_OPERATORS = {ast.Add: operator.add, ast.Sub: operator.sub, ast.Mult: operator.mul, ast.Div: operator.truediv}
+
+
+def _number(text: str) -> float:
+    """A float, or a small arithmetic expression of numbers and `pi` (e.g. pi/4, -2*pi/5)."""
+
+    def evaluate(node: ast.AST) -> float:
+        if isinstance(node, ast.Constant) and isinstance(node.value, (int, float)):
+            return float(node.value)
+        if isinstance(node, ast.Name) and node.id == "pi":
+            return math.pi
+        if isinstance(node, ast.UnaryOp) and isinstance(node.op, (ast.USub, ast.UAdd)):
+            value = evaluate(node.operand)
+            return -value if isinstance(node.op, ast.USub) else value
+        if isinstance(node, ast.BinOp) and type(node.op) in _OPERATORS:
+            return _OPERATORS[type(node.op)](evaluate(node.left), evaluate(node.right))
+        raise ValueError(text)
+
+    try:
+        value = evaluate(ast.parse(text.strip(), mode="eval").body)
+    except (SyntaxError, ValueError, ZeroDivisionError):
+        raise ScenarioError(f"not a number: {text!r} (use e.g. 0.5, -2.45, pi/4)") from None
+    if not math.isfinite(value):
+        raise ScenarioError(f"not a finite number: {text!r}")
+    return value
+
+
+def parse_numbers(tokens: list[str] | None, what: str) -> list[float] | None:
+    """Numbers given space- and/or comma-separated: `--goal 0.5 0.375 0.75` or `--goal=0.5,0.375,0.75`."""
+    if tokens is None:
+        return None
+    parts = [part for token in tokens for part in token.replace(",", " ").split()]
+    if not parts:
+        raise ScenarioError(f"{what}: no numbers given")
+    return [_number(part) for part in parts]
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="python -m sim.commander",
+        description="The commander (Simulink stand-in): streams a scenario to a robot and logs desired vs achieved.",
+        epilog="Lists: space- or comma-separated numbers; pi expressions allowed (pi/4). A list starting with a "
+        "negative number: use spaces (--waypoints -2 1) or '=' (--waypoints=-2,1). Defaults of every scenario: "
+        "see `python -c 'import sim.scenarios; help(sim.scenarios)'`.",
+    )
+    parser.add_argument("--robot", default="panda", help=f"one of {', '.join(ROBOT_NAMES)} (default panda)")
+    parser.add_argument("--scenario", required=True, help=f"one of {', '.join(SCENARIOS)}")
+    group = parser.add_argument_group("scenario options")
+    group.add_argument("--positions", nargs="+", help="single: joint positions (default: home)")
+    group.add_argument("--joint", help="one_joint: joint name or 1-based number (default: the first)")
+    group.add_argument("--waypoints", nargs="+", help="one_joint: waypoints of that joint (rad or m)")
+    group.add_argument("--times", nargs="+", help="one_joint: waypoint times in s (default: every 2 s from 0)")
+    group.add_argument("--order", default="quintic", help=f"polynomial order: {' | '.join(ORDERS)} (default quintic)")
+    group.add_argument("--start", nargs="+", help="IK: start position in m (default: the home end-effector position)")
+    group.add_argument("--goal", nargs="+", help="IK: goal position in m (igt: x y)")
+    group.add_argument("--goal-rpy", nargs="+", help="IK: goal XYZ Euler angles in rad (panda: full-pose IK)")
+    group.add_argument("--move-time", type=float, default=IK_MOVE_TIME_S, help=f"IK: motion time in s (default {IK_MOVE_TIME_S:g})")
+    group.add_argument("--hold", type=float, default=IK_HOLD_S, help=f"IK: hold at the goal in s (default {IK_HOLD_S:g})")
+    group.add_argument("--space", help=f"ik_orientation / fk_confirm: {' | '.join(SPACES)}")
+    group.add_argument("--nearest", action="store_true", help="IK: command the nearest pose found if the goal is unreachable")
+    group.add_argument("--ik-restarts", type=int, default=IK_RESTARTS, help=f"IK random restarts (default {IK_RESTARTS})")
+    group.add_argument("--duration", type=float, help="scenario length in s (cuts the motion or holds its end)")
+    run = parser.add_argument_group("run options")
+    run.add_argument("--dt", type=float, default=DEFAULT_DT, help=f"controller step in s (default {DEFAULT_DT})")
+    run.add_argument("--realtime", action="store_true", help="pace by the wall clock instead of lockstep")
+    run.add_argument("--timeout", type=float, default=5.0, help="lockstep: max wait for each joint state in s (default 5)")
+    run.add_argument("--connect-timeout", type=float, default=30.0, help="max wait for the engine at start in s (default 30)")
+    run.add_argument("--approach", type=float, default=APPROACH_MIN_S,
+                     help=f"min approach time in s from the robot's state to the scenario start; 0 = off (default {APPROACH_MIN_S:g})")
+    run.add_argument("--pose-euler", action="store_true", help="pose topic in the seed's convention (XYZ Euler in x, y, z; w = 0)")
+    run.add_argument("--log", type=Path, help=f"CSV log path (default {DEFAULT_LOG_DIR}/<robot>_<scenario>_<time>.csv)")
+    run.add_argument("--export-csv", type=Path, help="write the desired joint trajectory as the engine's CSV")
+    run.add_argument("--export-only", action="store_true", help="with --export-csv: only export, no ROS")
+    run.add_argument("--node-name", help="ROS node name (default <robot>_commander)")
+    return parser
+
+
+def config_from_args(args: argparse.Namespace) -> ScenarioConfig:
+    return ScenarioConfig(
+        dt=args.dt,
+        duration=args.duration,
+        positions=parse_numbers(args.positions, "--positions"),
+        joint=args.joint,
+        waypoints=parse_numbers(args.waypoints, "--waypoints"),
+        times=parse_numbers(args.times, "--times"),
+        order=args.order,
+        start=parse_numbers(args.start, "--start"),
+        goal=parse_numbers(args.goal, "--goal"),
+        goal_rpy=parse_numbers(args.goal_rpy, "--goal-rpy"),
+        move_time=args.move_time,
+        hold=args.hold,
+        space=args.space,
+        nearest=args.nearest,
+        ik_restarts=args.ik_restarts,
+    )
+
+
+# ------------------------------------------------------------------------------------------------ the node
+@dataclass
+class JointStateSample:
+    stamp: float
+    positions: np.ndarray
+
+
+class StateListener:
+    """Latest joint state of the robot (in registry joint order), with a wait for a stamp."""
+
+    def __init__(self, robot: RobotSpec) -> None:
+        self.robot = robot
+        self.latest: JointStateSample | None = None
+        self.received = 0
+        self.error: str | None = None
+        self._changed = threading.Condition()
+
+    def callback(self, message: Any) -> None:
+        try:
+            index = [list(message.name).index(name) for name in self.robot.joint_names]
+            positions = np.array([message.position[i] for i in index], dtype=float)
+        except (ValueError, IndexError):
+            with self._changed:
+                self.error = (f"joint state names {list(message.name)} with {len(message.position)} positions do not "
+                              f"cover {list(self.robot.joint_names)}")
+                self._changed.notify_all()
+            return
+        with self._changed:
+            self.latest = JointStateSample(message.header.stamp.to_sec(), positions)
+            self.received += 1
+            self._changed.notify_all()
+
+    def wait_for_stamp(self, stamp: float, timeout: float, stop: threading.Event) -> JointStateSample | None:
+        """The latest state once its stamp is >= `stamp` (None after `timeout` s or when stopped)."""
+        deadline = time.monotonic() + timeout
+        with self._changed:
+            while True:
+                if self.error is not None:
+                    raise CommanderError(f"{self.robot.joint_states_topic}: {self.error}")
+                if self.latest is not None and self.latest.stamp >= stamp - STAMP_TOLERANCE_S:
+                    return self.latest
+                remaining = deadline - time.monotonic()
+                if remaining <= 0 or stop.is_set():
+                    return None
+                self._changed.wait(min(remaining, 0.2))
+
+    def wake(self) -> None:
+        with self._changed:
+            self._changed.notify_all()
+
+
+@dataclass
+class RunResult:
+    times: np.ndarray  # (S,) step end times
+    schedule_index: np.ndarray  # (S,) index into the schedule
+    desired: np.ndarray  # (S, n)
+    achieved: np.ndarray  # (S, n), NaN where no state was known yet (realtime)
+    achieved_stamps: np.ndarray  # (S,)
+    wall_seconds: float
+    priming_steps: int
+    complete: bool
+    error: str | None = None  # why the run stopped early
+
+
+class Commander:
+    """Publishers, the joint-state subscriber and the stepping loops."""
+
+    def __init__(self, robot: RobotSpec, motion: Motion, args: argparse.Namespace, stop: threading.Event) -> None:
+        import rospy
+        from geometry_msgs.msg import Pose
+        from rosgraph_msgs.msg import Clock
+        from sensor_msgs.msg import JointState
+        from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+
+        self.rospy = rospy
+        self._msg = {"Pose": Pose, "Clock": Clock, "JointTrajectory": JointTrajectory, "Point": JointTrajectoryPoint}
+        self.robot = robot
+        self.motion = motion
+        self.args = args
+        self.stop = stop
+        self.dt = motion.dt
+        self.states = StateListener(robot)
+        self._last_clock = -math.inf
+        self.command_pub = rospy.Publisher(robot.command_topic, JointTrajectory, queue_size=100)
+        self.clock_pub = rospy.Publisher("/clock", Clock, queue_size=100)
+        self.pose_pub = rospy.Publisher(robot.pose_topic, Pose, queue_size=1, latch=True) if motion.goal is not None else None
+        self.state_sub = rospy.Subscriber(robot.joint_states_topic, JointState, self.states.callback, tcp_nodelay=True, queue_size=100)
+
+    # --- publishing ---------------------------------------------------------------------------------------
+    def _time(self, seconds: float) -> Any:
+        return self.rospy.Time.from_sec(round(seconds, 9))
+
+    def publish_command(self, stamp: float, positions: np.ndarray, velocities: np.ndarray) -> None:
+        message = self._msg["JointTrajectory"]()
+        message.header.stamp = self._time(stamp)
+        message.joint_names = list(self.robot.joint_names)
+        point = self._msg["Point"]()
+        point.positions = [float(v) for v in positions]
+        point.velocities = [float(v) for v in velocities]
+        message.points = [point]
+        self.command_pub.publish(message)
+
+    def publish_clock(self, seconds: float) -> None:
+        if seconds <= self._last_clock:
+            raise CommanderError(f"/clock must increase strictly: {seconds} after {self._last_clock}")
+        self._last_clock = seconds
+        self.clock_pub.publish(self._msg["Clock"](clock=self._time(seconds)))
+
+    def publish_goal(self) -> None:
+        if self.pose_pub is None or self.motion.goal is None:
+            return
+        pose = self._msg["Pose"]()
+        position, quaternion = self.motion.goal[:3, 3], matrix_to_quat(self.motion.goal[:3, :3])
+        pose.position.x, pose.position.y, pose.position.z = (float(v) for v in position)
+        if self.args.pose_euler:  # the seed's convention: XYZ Euler angles in x, y, z; w = 0
+            roll, pitch, yaw = quat_to_euler_xyz(quaternion)
+            pose.orientation.x, pose.orientation.y, pose.orientation.z, pose.orientation.w = roll, pitch, yaw, 0.0
+        else:
+            pose.orientation.x, pose.orientation.y, pose.orientation.z, pose.orientation.w = (float(v) for v in quaternion)
+        self.pose_pub.publish(pose)
+
+    # --- start-up -----------------------------------------------------------------------------------------
+    def wait_for_partner(self, timeout: float) -> str:
+        """Name of a node that publishes joint_states and subscribes our command topic, once every link of ours
+        to it is connected. Polls the master (bounded by `timeout`)."""
+        import rosgraph
+
+        master = rosgraph.Master(self.rospy.get_name())
+        me = self.rospy.get_name()
+        deadline = time.monotonic() + timeout
+        status = "no node publishes it yet"
+        while not self.stop.is_set():
+            publishers, subscribers, _ = master.getSystemState()
+            pubs = {topic: set(nodes) for topic, nodes in publishers}
+            subs = {topic: set(nodes) for topic, nodes in subscribers}
+            partners = sorted((pubs.get(self.robot.joint_states_topic, set()) & subs.get(self.robot.command_topic, set())) - {me})
+            for partner in partners:
+                links = {
+                    self.robot.command_topic: self.command_pub.impl.has_connection(partner),
+                    self.robot.joint_states_topic: self.state_sub.impl.has_connection(master.lookupNode(partner)),
+                }
+                if partner in subs.get("/clock", set()):
+                    links["/clock"] = self.clock_pub.impl.has_connection(partner)
+                if self.pose_pub is not None and partner in subs.get(self.robot.pose_topic, set()):
+                    links[self.robot.pose_topic] = self.pose_pub.impl.has_connection(partner)
+                if all(links.values()):
+                    return partner
+                status = f"{partner} found, waiting for {[t for t, ok in links.items() if not ok]}"
+            if time.monotonic() > deadline:
+                raise CommanderError(
+                    f"no engine after {timeout:g} s: needs a node publishing {self.robot.joint_states_topic} and "
+                    f"subscribing {self.robot.command_topic} ({status}); start e.g. "
+                    f"`python -m sim.physics_node --robot {self.robot.name} --no-auto-simulate`"
+                )
+            self.stop.wait(0.05)
+        raise CommanderError("interrupted while waiting for the engine")
+
+    def _state_or_fail(self, stamp: float, timeout: float) -> JointStateSample:
+        state = self.states.wait_for_stamp(stamp, timeout, self.stop)
+        if state is None:
+            if self.stop.is_set():
+                raise CommanderError("interrupted")
+            last = "none received" if self.states.latest is None else f"latest stamped {self.states.latest.stamp:.6f} s"
+            raise CommanderError(
+                f"no {self.robot.joint_states_topic} message stamped >= {stamp:.6f} s within {timeout:g} s "
+                f"({last}); is the engine stepping on /clock (--no-auto-simulate) with dt {self.dt:g} s?"
+            )
+        return state
+
+    # --- running ------------------------------------------------------------------------------------------
+    def run(self) -> tuple[Schedule, RunResult]:
+        self.publish_goal()
+        self.publish_clock(0.0)
+        # The engine anchors its step grid on the first /clock value it sees and does not acknowledge it; /clock dt
+        # must not overtake it in the engine's handling, and there is nothing to wait on: hence a fixed pause.
+        self.stop.wait(ANCHOR_SETTLE_S)
+        if self.args.realtime:
+            return self._run_realtime()
+        return self._run_lockstep()
+
+    def _run_lockstep(self) -> tuple[Schedule, RunResult]:
+        dt = self.dt
+        priming = 0
+        q_start = None
+        if self.args.approach > 0:
+            # Priming step: no new command; the engine's joint state tells where the robot is.
+            priming = 1
+            self.publish_clock(dt)
+            q_start = self._state_or_fail(dt, self.args.timeout).positions
+            self.rospy.loginfo("robot at %s; approaching the scenario start", np.round(q_start, 4).tolist())
+        schedule = build_schedule(self.motion, q_start, self.args.approach)
+        steps = len(schedule.positions) - 1
+        times = (np.arange(1, steps + 1) + priming) * dt
+        achieved = np.full((steps, self.robot.dof), np.nan)
+        stamps = np.full(steps, np.nan)
+        started = time.monotonic()
+        done = 0
+        failure: str | None = None
+        for i in range(1, steps + 1):
+            if self.stop.is_set():
+                break
+            t_end = (priming + i) * dt
+            self.publish_command(t_end, schedule.positions[i], schedule.velocities[i])
+            self.publish_clock(t_end)
+            try:
+                state = self._state_or_fail(t_end, self.args.timeout)
+            except CommanderError as error:
+                failure = str(error)
+                break
+            achieved[i - 1], stamps[i - 1] = state.positions, state.stamp
+            done = i
+        result = RunResult(times, np.arange(1, steps + 1), schedule.positions[1:], achieved, stamps,
+                           time.monotonic() - started, priming, done == steps, failure)
+        return schedule, result
+
+    def _run_realtime(self) -> tuple[Schedule, RunResult]:
+        dt = self.dt
+        q_start = None
+        if self.args.approach > 0:
+            q_start = self._state_or_fail(-math.inf, self.args.connect_timeout).positions
+        schedule = build_schedule(self.motion, q_start, self.args.approach)
+        steps = len(schedule.positions) - 1
+        times = np.arange(1, steps + 1) * dt
+        achieved = np.full((steps, self.robot.dof), np.nan)
+        stamps = np.full(steps, np.nan)
+        started = time.monotonic()
+        done = 0
+        for k in range(steps):  # at wall time k·dt: /clock = t_k, command for t_k+1
+            delay = started + k * dt - time.monotonic()
+            if delay > 0 and self.stop.wait(delay):
+                break
+            if self.stop.is_set():
+                break
+            if k > 0:
+                self.publish_clock(k * dt)
+            self.publish_command((k + 1) * dt, schedule.positions[k + 1], schedule.velocities[k + 1])
+            latest = self.states.latest
+            if latest is not None:
+                achieved[k], stamps[k] = latest.positions, latest.stamp
+            done = k + 1
+        if done == steps and not self.stop.is_set():
+            self.stop.wait(max(0.0, started + steps * dt - time.monotonic()))
+            self.publish_clock(steps * dt)
+        result = RunResult(times, np.arange(1, steps + 1), schedule.positions[1:], achieved, stamps,
+                           time.monotonic() - started, 0, done == steps)
+        return schedule, result
+
+    def close(self) -> None:
+        self.states.wake()
+        for endpoint in (self.command_pub, self.clock_pub, self.pose_pub, self.state_sub):
+            if endpoint is not None:
+                endpoint.unregister()
+
+
+# ---------------------------------------------------------------------------------------- log and summary
+@dataclass
+class RunReport:
+    joint_metrics: dict[str, TrackingMetrics]
+    scenario_times: np.ndarray  # scenario time of each scenario row with a joint state
+    ee_position_error: np.ndarray | None  # per scenario row: FK(achieved) vs the reference path
+    ee_orientation_error: np.ndarray | None
+    final_goal_error: tuple[float, float] | None  # FK(last achieved) vs the goal: m, rad
+    rows: int  # scenario rows with a joint state
+    approach_rows: int
+
+
+def write_log(path: Path, robot: RobotSpec, motion: Motion, schedule: Schedule, result: RunResult) -> RunReport:
+    """The per-step CSV log; returns the metrics of the scenario rows (approach rows left out)."""
+    motion_index = schedule.motion_index[result.schedule_index]
+    t_motion_start = (result.priming_steps + schedule.approach_steps) * motion.dt
+    scenario = motion_index >= 0
+    valid = scenario & np.isfinite(result.achieved_stamps)
+
+    ee_columns: list[str] = []
+    ee_data = np.empty((len(result.times), 0))
+    pos_err = rot_err = None
+    final_goal_error = None
+    if motion.reference_path is not None and motion.ik is not None:
+        chain = chain_for(robot)
+        # The reference at each achieved state's stamp (lockstep: the step end; realtime: whatever the engine reached).
+        at = np.where(np.isfinite(result.achieved_stamps), result.achieved_stamps, result.times)
+        ref_index = np.clip(np.round(at / motion.dt).astype(int) - result.priming_steps, 0, len(schedule.positions) - 1)
+        ref_motion = schedule.motion_index[ref_index]
+        reference = np.where((ref_motion >= 0)[:, None, None], motion.reference_path[np.maximum(ref_motion, 0)],
+                             fk_path(chain, schedule.positions[ref_index]))
+        achieved_fk = np.array([chain.fk(q) if np.all(np.isfinite(q)) else np.full((4, 4), np.nan) for q in result.achieved])
+        pos_err, rot_err = pose_errors(achieved_fk, reference, motion.ik.weights)
+        ref_q = np.array([matrix_to_quat(r[:3, :3]) for r in reference])
+        ach_q = np.array([matrix_to_quat(a[:3, :3]) if np.all(np.isfinite(a)) else np.full(4, np.nan) for a in achieved_fk])
+        axes = ("x", "y", "z", "qx", "qy", "qz", "qw")
+        ee_columns = [f"ref_{a}" for a in axes] + [f"ee_{a}" for a in axes] + ["ee_pos_err", "ee_rot_err"]
+        ee_data = np.column_stack([reference[:, :3, 3], ref_q, achieved_fk[:, :3, 3], ach_q, pos_err, rot_err])
+        if np.any(valid) and motion.goal is not None:
+            last = int(np.flatnonzero(valid)[-1])
+            goal_p, goal_r = pose_errors(achieved_fk[last][None], motion.goal[None], motion.ik.weights)
+            final_goal_error = (float(goal_p[0]), float(goal_r[0]))
+
+    path.parent.mkdir(parents=True, exist_ok=True)
+    names = robot.joint_names
+    with open(path, "w", newline="") as handle:
+        writer = csv.writer(handle)
+        writer.writerow(["time", "scenario_time", "phase", *(f"desired_{n}" for n in names),
+                         *(f"achieved_{n}" for n in names), "achieved_stamp", *ee_columns])
+        for k, t in enumerate(result.times):
+            writer.writerow([f"{t:.6f}", f"{t - t_motion_start:.6f}", "scenario" if scenario[k] else "approach",
+                             *(f"{v:.9f}" for v in result.desired[k]), *(f"{v:.9f}" for v in result.achieved[k]),
+                             f"{result.achieved_stamps[k]:.6f}", *(f"{v:.9f}" for v in ee_data[k])])
+
+    metrics: dict[str, TrackingMetrics] = {}
+    if np.count_nonzero(valid) >= 2:
+        # Desired at the achieved states' stamps (equal to the step ends in lockstep).
+        full_times = (np.arange(len(schedule.positions)) + result.priming_steps) * motion.dt
+        for j, name in enumerate(names):
+            reference = np.interp(result.achieved_stamps[valid], full_times, schedule.positions[:, j])
+            joint_metrics = tracking_metrics(reference, result.achieved[valid, j], motion.dt)
+            if np.ptp(reference) < MIN_SPREAD:  # a joint held still: NRMSE and lag are undefined, not huge
+                joint_metrics = dataclasses.replace(joint_metrics, nrmse_percent=math.nan, lag_s=math.nan)
+            metrics[name] = joint_metrics
+    return RunReport(
+        joint_metrics=metrics,
+        scenario_times=result.times[valid] - t_motion_start,
+        ee_position_error=None if pos_err is None else pos_err[valid],
+        ee_orientation_error=None if rot_err is None else rot_err[valid],
+        final_goal_error=final_goal_error,
+        rows=int(np.count_nonzero(valid)),
+        approach_rows=int(np.count_nonzero(~scenario)),
+    )
+
+
+def format_summary(robot: RobotSpec, motion: Motion, result: RunResult, report: RunReport, log_path: Path, realtime: bool) -> str:
+    lines = [
+        f"commander: {robot.name} {motion.scenario} ({motion.description})",
+        f"  {'realtime' if realtime else 'lockstep'}, dt {motion.dt:g} s: {len(result.times)} steps "
+        f"({report.rows} scenario, {report.approach_rows} approach, {result.priming_steps} priming) in {result.wall_seconds:.2f} s wall"
+        + ("" if result.complete else " -- INCOMPLETE"),
+        f"  log: {log_path}",
+    ]
+    if report.joint_metrics:
+        lines.append(f"  {'joint':<14} {'MAPE %':>9} {'WAPE %':>9} {'NRMSE %':>9} {'max|e|':>10} {'lag s':>7}")
+        for name, m in report.joint_metrics.items():
+            lines.append(f"  {name:<14} {m.mape_percent:9.4f} {m.wape_percent:9.4f} {m.nrmse_percent:9.4f} "
+                         f"{m.max_abs_error:10.3e} {m.lag_s:7.3f}")
+    if motion.ik is not None and report.ee_position_error is not None and report.ee_position_error.size:
+        ik = motion.ik
+        lines.append(
+            f"  IK ({ik.space} space, weights {ik.weights}): commanded goal error {ik.goal_position_error:.3e} m, "
+            f"{ik.goal_orientation_error:.3e} rad" + (f"; max joint jump {ik.max_joint_jump:.4f}" if ik.space == "cartesian" else "")
+        )
+        lines.append(
+            f"  FK(achieved) vs reference path: max {report.ee_position_error.max():.3e} m, "
+            f"{report.ee_orientation_error.max():.3e} rad"
+        )
+    if report.final_goal_error is not None:
+        lines.append(f"  FK(achieved) at the end vs goal: {report.final_goal_error[0]:.3e} m, {report.final_goal_error[1]:.3e} rad")
+    for note in motion.warnings:
+        lines.append(f"  warning: {note}")
+    return "\n".join(lines)
+
+
+def format_fk_confirm(report: RunReport, samples: int = 11) -> str:
+    """The end-effector error over time (FK of the achieved joints vs the reference path), at a few instants."""
+    if report.ee_position_error is None or report.ee_position_error.size == 0:
+        return ""
+    errors_p, errors_r = report.ee_position_error, report.ee_orientation_error
+    rows = np.unique(np.linspace(0, len(errors_p) - 1, samples).round().astype(int))
+    lines = ["  fk_confirm: FK(achieved) vs reference path", f"  {'t s':>7} {'pos err m':>11} {'rot err rad':>12}"]
+    for k in rows:
+        lines.append(f"  {report.scenario_times[k]:7.2f} {errors_p[k]:11.3e} {errors_r[k]:12.3e}")
+    return "\n".join(lines)
+
+
+# ------------------------------------------------------------------------------------------------------ main
+def _default_log_path(robot: str, scenario: str) -> Path:
+    return DEFAULT_LOG_DIR / f"{robot}_{scenario}_{datetime.now().strftime('%Y%m%d-%H%M%S-%f')}.csv"
+
+
+def main(argv: list[str] | None = None) -> int:
+    raw = list(sys.argv[1:] if argv is None else argv)
+    raw = [a for a in raw if not a.startswith("__name:=") and not a.startswith("__log:=")]
+    args = _parser().parse_args(raw)
+    try:
+        robot = get_robot(args.robot)
+        if args.scenario not in SCENARIOS:
+            raise ScenarioError(f"unknown scenario {args.scenario!r}; known: {', '.join(SCENARIOS)}")
+        if args.export_only and args.export_csv is None:
+            raise ScenarioError("--export-only needs --export-csv PATH")
+        for option in ("timeout", "connect_timeout"):
+            if not getattr(args, option) > 0:
+                raise ScenarioError(f"--{option.replace('_', '-')} must be > 0 s, got {getattr(args, option)}")
+        if not (math.isfinite(args.approach) and args.approach >= 0):
+            raise ScenarioError(f"--approach must be >= 0 s, got {args.approach}")
+        motion = build_motion(robot, args.scenario, config_from_args(args))
+    except UnreachableGoalError as error:
+        print(f"sim.commander: UNREACHABLE: {error}", file=sys.stderr)
+        return EXIT_UNREACHABLE
+    except (ScenarioError, RobotError) as error:
+        print(f"sim.commander: error: {error}", file=sys.stderr)
+        return EXIT_USAGE
+    for note in motion.warnings:
+        print(f"sim.commander: warning: {note}", file=sys.stderr)
+    if args.export_csv is not None:
+        write_engine_csv(args.export_csv, motion)
+        print(f"desired trajectory ({len(motion.times)} samples, dt {motion.dt:g} s) exported to {args.export_csv}")
+        if args.export_only:
+            return EXIT_OK
+    return _run_node(robot, motion, args)
+
+
+def _run_node(robot: RobotSpec, motion: Motion, args: argparse.Namespace) -> int:
+    import rospy
+
+    stop = threading.Event()
+    rospy.init_node(args.node_name or f"{robot.name}_commander", disable_signals=True)
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(signum, lambda *_: stop.set())
+    commander = Commander(robot, motion, args, stop)
+    log_path = args.log or _default_log_path(robot.name, motion.scenario)
+    code = EXIT_OK
+    try:
+        partner = commander.wait_for_partner(args.connect_timeout)
+        rospy.loginfo("engine %s connected; running %s for %s (%d steps of %g s)", partner, motion.scenario,
+                      robot.name, motion.steps, motion.dt)
+        schedule, result = commander.run()
+    except CommanderError as error:
+        rospy.logerr("%s", error)
+        print(f"sim.commander: error: {error}", file=sys.stderr)
+        return EXIT_INTERRUPTED if stop.is_set() else EXIT_ROS
+    finally:
+        commander.close()
+        rospy.signal_shutdown("commander done")
+    report = write_log(log_path, robot, motion, schedule, result)
+    print(format_summary(robot, motion, result, report, log_path, args.realtime))
+    if motion.scenario == "fk_confirm":
+        print(format_fk_confirm(report))
+    if result.error is not None:
+        rospy.logerr("%s", result.error)
+        print(f"sim.commander: error: {result.error}", file=sys.stderr)
+        return EXIT_INTERRUPTED if stop.is_set() else EXIT_ROS
+    if not result.complete:
+        code = EXIT_INTERRUPTED
+    if motion.ik is not None and motion.ik.fallback:
+        print("sim.commander: the goal was unreachable; the nearest pose found was commanded (see FALLBACK above)")
+        code = code or EXIT_UNREACHABLE
+    return code
+
+
+if __name__ == "__main__":
+    sys.exit(main())
