@@ -229,6 +229,7 @@ class RosInbox:
     def __init__(self, rospy, topic: str) -> None:
         self._lock = threading.Lock()
         self.items: list[bytes] = []
+        self.rospy, self.topic = rospy, topic
         self.subscriber = rospy.Subscriber(topic, rospy.AnyMsg, self._received)
 
     def _received(self, message) -> None:
@@ -248,10 +249,34 @@ class RosInbox:
         return self.snapshot()
 
     def wait_connected(self, timeout: float = 10.0) -> None:
+        """Until the publishing node (the endpoint) has this connection in its own list, not just we in ours:
+        rospy's subscriber side counts a connection a moment before the publisher side starts writing to it,
+        and messages published in that window are lost."""
         wait_for(lambda: self.subscriber.get_num_connections() > 0, timeout, "subscriber connection to the endpoint")
+        wait_for(lambda: publishers_connected(self.rospy, self.topic), timeout, "the publisher side of the connection")
 
     def close(self) -> None:
         self.subscriber.unregister()
+
+
+def publishers_connected(rospy, topic: str) -> bool:
+    """Every node publishing `topic` reports an outbound connection on it to this node (its getBusInfo)."""
+    import xmlrpc.client
+
+    import rosgraph
+
+    master = rosgraph.Master(rospy.get_name())
+    publishers = next((nodes for name, nodes in master.getSystemState()[0] if name == topic), [])
+    if not publishers:
+        return False
+    for node in publishers:
+        code, _, bus_info = xmlrpc.client.ServerProxy(master.lookupNode(node)).getBusInfo(rospy.get_name())
+        if code != 1:
+            return False
+        # entries: [connection id, destination (caller id or URI), direction, transport, topic, connected, ...]
+        if not any(entry[2] == "o" and entry[4] == topic and entry[1] == rospy.get_name() for entry in bus_info):
+            return False
+    return True
 
 
 def wait_subscribers(publisher, count: int = 1, timeout: float = 10.0) -> None:

@@ -178,13 +178,22 @@ def test_many_bad_clients_at_once_do_not_disturb_a_good_one(bridge, observer) ->
             client.close()
 
 
+def _flood_count(message_bytes: int) -> int:
+    """Enough messages to overflow the kernel's largest send buffer plus the endpoint's queue (bounded)."""
+    try:
+        send_buffer_max = int(Path("/proc/sys/net/ipv4/tcp_wmem").read_text().split()[2])
+    except (OSError, ValueError, IndexError):
+        send_buffer_max = 4 << 20
+    return min(1500, max(300, (2 * send_buffer_max + (8 << 20)) // message_bytes + 1))
+
+
 def test_slow_reader_loses_old_messages_and_others_stay_served(roscore, ros_node, tmp_path: Path) -> None:
     endpoint = start_endpoint(roscore, tmp_path, "--queue-frames", "16")
     topic, side_topic = unique("flood"), unique("flood_side")
     publisher = ros_node.Publisher(topic, String, queue_size=500)
     side_publisher = ros_node.Publisher(side_topic, String, queue_size=10)
     big = "x" * 64 * 1024
-    count = 300  # ~20 MB: far more than the socket buffers and the 16-frame queue hold
+    count = _flood_count(len(big))  # far more than the socket buffers and the 16-frame queue hold
     try:
         slow = RawConnection(endpoint.port, rcvbuf=4096)
         slow.subscribe(topic, "std_msgs/String")
