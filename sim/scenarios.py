@@ -188,9 +188,9 @@ def _vector(values: Sequence[float] | None, size: int | tuple[int, ...], what: s
     array = np.asarray(values, dtype=float).reshape(-1)
     if array.size not in sizes:
         expected = " or ".join(str(s) for s in sizes)
-        raise ScenarioError(f"{what} needs {expected} values, got {array.size}: {list(array)}")
+        raise ScenarioError(f"{what} needs {expected} values, got {array.size}: {array.tolist()}")
     if not np.all(np.isfinite(array)):
-        raise ScenarioError(f"{what} must be finite numbers, got {list(array)}")
+        raise ScenarioError(f"{what} must be finite numbers, got {array.tolist()}")
     return array
 
 
