@@ -1,0 +1,591 @@
+"""Benchmark of the ROS-TCP endpoint (`python -m bridge`) against the plain rospy ceiling, on one machine.
+
+Run: `.venv/bin/python bench/endpoint_bench.py [--quick] [--keep-logs]` from the repository root.
+
+Method. The script starts its own roscore (tests.rosenv.RosCore, free port, private ROS_HOME/ROS_LOG_DIR) and one
+endpoint subprocess, and drives it from this process with `bridge.client.TcpClient`s (the Python twin of Unity's
+client). Every ROS-side role is a separate rospy process (bench/endpoint_rosnode.py), so no two roles share a
+GIL. All messages are one serialized 7-joint sensor_msgs/JointState; ping and stream messages carry a sequence
+number and a CLOCK_MONOTONIC stamp in their header, so latency is computed from the bytes. The rospy nodes use a
+raw (bytes-only) message class, like the endpoint, so the ceiling is rospy's transport, not its serializer.
+
+  1. TCP->ROS: a TcpClient writes JointState frames as fast as it can (bounded by count and time) to the
+     endpoint; a rospy subscriber process counts arrivals; rate = arrivals / (last - first arrival).
+     Ceiling: a rospy publisher process flooding the same bytes to the same kind of subscriber process.
+  2. ROS->TCP: the same rospy flood publisher, received by a TcpClient through the endpoint. Same ceiling.
+  3. RTT: a rospy relay process republishes /bench/ping bytes unchanged on /bench/pong. A TcpClient pings at
+     100 Hz and 1 kHz (fixed schedule, no catch-up bursts) and times the pongs; the ceiling is a rospy process
+     pinging the same relay on its own topic pair. The relay's CPU per round trip is the "rospy node" reference
+     for the endpoint's CPU per round trip.
+  4. Fan-out: 10 TcpClients subscribe to one topic published at 1 kHz for the window; delivered fraction per
+     client (distinct sequence numbers received / published) and one-way latency.
+  5. Endpoint CPU (utime + stime from /proc/<pid>/stat, all threads) per 10k messages, for runs 1-4.
+  6. Hardening: (a) raw sockets announce a 0xFFFFFFF0-byte payload, then a 0xFFFFFFF0-byte destination, while
+     another TcpClient receives a 1 kHz stream: endpoint RSS increase (VmRSS sampled every 5 ms) and that client's
+     longest inter-arrival gap; (b) a client subscribes to a 1 kHz stream and never reads (tiny SO_RCVBUF) for
+     60 s: endpoint RSS growth, and what a well-behaved client on the same topic still receives.
+`--quick` shortens every window (2 s), the RTT sample counts and the soak (10 s) for a smoke run.
+
+Everything is loopback; every loop is bounded in count and time; every process is stopped by PID.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import shutil
+import socket
+import struct
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+REPO = Path(__file__).resolve().parents[1]
+BENCH = Path(__file__).resolve().parent
+sys.path[:0] = [str(REPO), str(BENCH)]
+
+from bridge import protocol  # noqa: E402
+from bridge.client import TcpClient  # noqa: E402
+from endpoint_common import MESSAGE_NAME, joint_state_payload, paced, percentile, read_stamp, stamped  # noqa: E402
+from tests.rosenv import PYTHON, EndpointProcess, NodeProcess, RosCore, kill_process  # noqa: E402
+
+ROSNODE = str(BENCH / "endpoint_rosnode.py")
+MiB = 1024 * 1024
+CLOCK_TICK_S = 1.0 / os.sysconf("SC_CLK_TCK")
+FLOOD_MAX_MESSAGES = 5_000_000
+PUBLISH_QUEUE = 100  # rospy publisher queue of both the endpoint (via __publish) and the flood publisher
+FREEZE_GAP_MS = 50.0  # a 1 kHz stream pausing longer than this counts as frozen
+FAN_CLIENTS = 10
+PHASES = ("throughput", "rtt", "fan_out", "huge_prefix", "never_reader")
+
+
+@dataclass(frozen=True)
+class Settings:
+    window_s: float
+    rtt_samples: dict[int, int]  # rate in Hz -> number of pings
+    soak_s: float
+    quick: bool
+    bridge_dir: Path | None = None  # another checkout's `bridge` package, for A/B runs of a change
+    endpoint_args: tuple[str, ...] = ()
+
+
+@dataclass
+class Row:
+    name: str
+    value: str
+    ceiling: str = ""
+    ratio: str = ""
+    target: str = ""
+    ok: bool | None = None  # None: informational
+
+
+@dataclass
+class Arrivals:
+    """TcpClient callback recording arrival count, first/last time, sequence numbers and one-way latency."""
+
+    keep_detail: bool = False
+    count: int = 0
+    first_ns: int = 0
+    last_ns: int = 0
+    seqs: set[int] = field(default_factory=set)
+    times_ns: list[int] = field(default_factory=list)
+    latencies_us: list[float] = field(default_factory=list)
+
+    def __call__(self, payload: bytes) -> None:
+        now = time.monotonic_ns()
+        if self.count == 0:
+            self.first_ns = now
+        self.count += 1
+        self.last_ns = now
+        if self.keep_detail:
+            seq, stamp_ns = read_stamp(payload)
+            self.seqs.add(seq)
+            self.times_ns.append(now)
+            self.latencies_us.append((now - stamp_ns) / 1000.0)
+
+    def rate(self) -> float:
+        return rate_of(self.count, self.first_ns, self.last_ns)
+
+    def wait_idle(self, idle_s: float, timeout_s: float) -> None:
+        """Until nothing arrived for `idle_s` (or `timeout_s` passed)."""
+        deadline = time.monotonic() + timeout_s
+        while time.monotonic() < deadline:
+            if self.count and time.monotonic_ns() - self.last_ns > idle_s * 1e9:
+                return
+            time.sleep(0.05)
+
+
+@dataclass(frozen=True)
+class Flow:
+    """One throughput run: arrival rate [msg/s], messages received and sent, endpoint CPU seconds used."""
+
+    rate: float
+    received: int
+    sent: int
+    cpu_s: float
+
+
+def rate_of(count: int, first_ns: int, last_ns: int) -> float:
+    return (count - 1) / ((last_ns - first_ns) / 1e9) if count > 1 and last_ns > first_ns else 0.0
+
+
+# --- /proc readings of the endpoint process -----------------------------------------------------------------------
+
+
+def cpu_seconds(pid: int) -> float:
+    """utime + stime of the whole process (all threads)."""
+    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) * CLOCK_TICK_S  # fields 14 and 15 of proc(5)
+
+
+def rss_bytes(pid: int) -> int:
+    for line in Path(f"/proc/{pid}/status").read_text().splitlines():
+        if line.startswith("VmRSS:"):
+            return int(line.split()[1]) * 1024
+    raise RuntimeError(f"no VmRSS for pid {pid}")
+
+
+class RssSampler:
+    """Samples VmRSS of one process every `interval_s` on a thread, between start() and stop()."""
+
+    def __init__(self, pid: int, interval_s: float) -> None:
+        self.pid = pid
+        self.interval_s = interval_s
+        self.samples: list[tuple[float, int]] = []
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, name="rss-sampler", daemon=True)
+
+    def _run(self) -> None:
+        while not self._stop.is_set():
+            self.samples.append((time.monotonic(), rss_bytes(self.pid)))
+            self._stop.wait(self.interval_s)
+
+    def start(self) -> RssSampler:
+        self._thread.start()
+        return self
+
+    def stop(self) -> None:
+        self._stop.set()
+        self._thread.join(timeout=2.0)
+
+    def between(self, start: float, end: float) -> list[int]:
+        return [rss for t, rss in self.samples if start <= t <= end]
+
+
+# --- the benchmark --------------------------------------------------------------------------------------------------
+
+
+class Bench:
+    def __init__(self, settings: Settings, core: RosCore, log_dir: Path) -> None:
+        self.settings = settings
+        self.core = core
+        self.log_dir = log_dir
+        self.payload = joint_state_payload()
+        self.processes: list[NodeProcess] = []
+        self.clients: list[TcpClient] = []
+        self.rows: list[Row] = []
+        self.endpoint = self._track(start_endpoint(core.env, log_dir, settings.bridge_dir, settings.endpoint_args))
+        self.pid = self.endpoint.process.pid
+
+    # --- process and client plumbing ---------------------------------------------------------------------------
+    def _track(self, process: Any) -> Any:
+        self.processes.append(process)
+        return process
+
+    def node(self, role: str, *args: str) -> NodeProcess:
+        return self._track(NodeProcess([PYTHON, ROSNODE, role, *args], self.core.env, self.log_dir, f"{role}"))
+
+    @staticmethod
+    def result(process: NodeProcess, timeout: float) -> dict[str, Any]:
+        """Wait for a role process to finish by itself and return its RESULT json."""
+        try:
+            process.process.wait(timeout)
+        except subprocess.TimeoutExpired:
+            process.stop()
+            raise RuntimeError(f"{process.log_path.name} did not finish within {timeout:.0f} s") from None
+        for line in process.output().splitlines():
+            if line.startswith("RESULT "):
+                return json.loads(line[len("RESULT ") :])
+        raise RuntimeError(f"{process.log_path.name} printed no RESULT:\n{process.output()[-2000:]}")
+
+    def client(self) -> TcpClient:
+        client = TcpClient("127.0.0.1", self.endpoint.port, reconnect=False).connect(timeout=10.0)
+        self.clients.append(client)
+        return client
+
+    @contextmanager
+    def clients_closed(self) -> Iterator[None]:
+        """Close the clients made inside the block when it ends (the endpoint then drops their registrations)."""
+        before = len(self.clients)
+        try:
+            yield
+        finally:
+            for client in self.clients[before:]:
+                client.close()
+            del self.clients[before:]
+            time.sleep(0.2)
+
+    def close(self) -> None:
+        for client in self.clients:
+            client.close()
+        for process in reversed(self.processes):
+            kill_process(process.process)
+
+    def cpu(self) -> float:
+        return cpu_seconds(self.pid)
+
+    # --- 1 + 2 + 5: throughput ------------------------------------------------------------------------------------
+    def rospy_to_rospy(self, queue_size: int) -> Flow:
+        """The ceiling: a rospy flood publisher process -> a rospy counting subscriber process."""
+        window = self.settings.window_s
+        counter = self.node("count", "--topic", f"/bench/ceiling_q{queue_size}", "--max-seconds", str(window + 40))
+        flood = self.node("flood", "--topic", f"/bench/ceiling_q{queue_size}", "--seconds", str(window),
+                          "--queue-size", str(queue_size))
+        sent = self.result(flood, window + 40)["sent"]
+        counted = self.result(counter, 20)
+        return Flow(rate_of(counted["count"], counted["first"], counted["last"]), counted["count"], sent, 0.0)
+
+    def tcp_to_ros(self) -> Flow:
+        """A TcpClient writing frames as fast as the endpoint takes them -> a rospy counting subscriber process."""
+        window = self.settings.window_s
+        topic = "/bench/tcp_in"
+        counter = self.node("count", "--topic", topic, "--max-seconds", str(window + 40))
+        with self.clients_closed():
+            client = self.client()
+            client.register_publisher(topic, MESSAGE_NAME, queue_size=PUBLISH_QUEUE)
+            counter.wait_for_output("CONNECTED", 30)
+            time.sleep(0.3)
+            frame = protocol.encode_frame(topic, self.payload)
+            cpu_before = self.cpu()
+            sent = 0
+            deadline = time.monotonic() + window
+            while sent < FLOOD_MAX_MESSAGES and (sent % 100 or time.monotonic() < deadline):
+                client.send_raw(frame)  # one write per frame, as Unity's client does
+                sent += 1
+            counted = self.result(counter, 40)
+            cpu_used = self.cpu() - cpu_before
+        return Flow(rate_of(counted["count"], counted["first"], counted["last"]), counted["count"], sent, cpu_used)
+
+    def ros_to_tcp(self, queue_size: int) -> Flow:
+        """A rospy flood publisher process -> the endpoint -> a counting TcpClient."""
+        window = self.settings.window_s
+        topic = f"/bench/ros_out_q{queue_size}"
+        arrivals = Arrivals()
+        with self.clients_closed():
+            client = self.client()
+            client.subscribe(topic, MESSAGE_NAME, arrivals)
+            time.sleep(0.3)
+            cpu_before = self.cpu()
+            flood = self.node("flood", "--topic", topic, "--seconds", str(window), "--queue-size", str(queue_size))
+            sent = self.result(flood, window + 40)["sent"]
+            arrivals.wait_idle(1.0, 20.0)
+            cpu_used = self.cpu() - cpu_before
+        return Flow(arrivals.rate(), arrivals.count, sent, cpu_used)
+
+    def throughput(self) -> None:
+        """Ceiling = the faster rospy publisher mode (synchronous, queue_size=None); the queued mode (queue_size
+        100, which the endpoint's own publishers use) is shown as a second reference."""
+        sync_ceiling, queued_ceiling = self.rospy_to_rospy(0), self.rospy_to_rospy(PUBLISH_QUEUE)
+        ceiling = max(sync_ceiling.rate, queued_ceiling.rate)
+        tcp_in = self.tcp_to_ros()
+        ros_out_sync, ros_out_queued = self.ros_to_tcp(0), self.ros_to_tcp(PUBLISH_QUEUE)
+
+        def add(name: str, flow: Flow, reference: float, judged: bool) -> None:
+            ratio = flow.rate / reference if reference else 0.0
+            self.rows.append(Row(name, f"{flow.rate:,.0f}", f"{reference:,.0f}", f"{ratio:.2f}",
+                                 ">= 0.95 x ceiling" if judged else "", ratio >= 0.95 if judged else None))
+
+        add("TCP->ROS throughput [msg/s]", tcp_in, ceiling, True)
+        add("  same, vs rospy queued publisher (q 100)", tcp_in, queued_ceiling.rate, False)
+        add("ROS->TCP throughput [msg/s] (sync source)", ros_out_sync, ceiling, True)
+        add("  same, queued source (q 100)", ros_out_queued, queued_ceiling.rate, False)
+        for name, flow in (("rospy->rospy sync", sync_ceiling), ("rospy->rospy queued", queued_ceiling),
+                           ("TCP->ROS", tcp_in), ("ROS->TCP sync source", ros_out_sync),
+                           ("ROS->TCP queued source", ros_out_queued)):
+            self.rows.append(Row(f"  delivered/sent, {name}", f"{flow.received:,}/{flow.sent:,}",
+                                 target=f"({flow.received / max(flow.sent, 1):.1%})"))
+        for name, flow in (("TCP->ROS", tcp_in), ("ROS->TCP (sync source)", ros_out_sync),
+                           ("ROS->TCP (queued source)", ros_out_queued)):
+            self.rows.append(Row(f"Endpoint CPU s / 10k msgs, {name}",
+                                 f"{flow.cpu_s / max(flow.received, 1) * 1e4:.3f}",
+                                 target="(per delivered msg)"))
+
+    # --- 3: round-trip time ---------------------------------------------------------------------------------------
+    def rtt(self) -> None:
+        relay = self.node("relay", "--pair", "/bench/ping:/bench/pong", "--pair", "/bench/rping:/bench/rpong")
+        relay.wait_for_output("READY", 30)
+        relay_pid = relay.process.pid
+        tcp: dict[int, tuple[list[float], int, float]] = {}
+        with self.clients_closed():
+            client = self.client()
+            rtts_us: list[float] = []
+
+            def on_pong(payload: bytes) -> None:
+                rtts_us.append((time.monotonic_ns() - read_stamp(payload)[1]) / 1000.0)
+
+            client.subscribe("/bench/pong", MESSAGE_NAME, on_pong)
+            client.register_publisher("/bench/ping", MESSAGE_NAME, queue_size=PUBLISH_QUEUE)
+            for seq in paced(100, 3000, 30.0):  # warm-up until the whole loop is connected
+                if rtts_us:
+                    break
+                client.publish("/bench/ping", stamped(self.payload, seq))
+            time.sleep(0.5)
+            for hz, count in self.settings.rtt_samples.items():
+                rtts_us.clear()
+                cpu_before = self.cpu()
+                sent = 0
+                for seq in paced(hz, count, count / hz * 1.5 + 2.0):
+                    client.publish("/bench/ping", stamped(self.payload, seq))
+                    sent += 1
+                time.sleep(0.5)
+                tcp[hz] = (list(rtts_us), sent, self.cpu() - cpu_before)
+        ros: dict[int, tuple[list[float], int, float]] = {}
+        for hz, count in self.settings.rtt_samples.items():
+            relay_before = cpu_seconds(relay_pid)
+            ping = self.node("ping", "--out-topic", "/bench/rping", "--in-topic", "/bench/rpong",
+                             "--rates", f"{hz}:{count}")
+            result = self.result(ping, count / hz * 1.5 + 60)["rates"][str(hz)]
+            ros[hz] = (result["rtts_us"], result["sent"], cpu_seconds(relay_pid) - relay_before)
+        relay.stop()
+
+        for hz in self.settings.rtt_samples:
+            mine, sent, cpu_used = tcp[hz]
+            theirs, their_sent, relay_cpu = ros[hz]
+            if not mine or not theirs:
+                self.rows.append(Row(f"RTT @ {hz} Hz", "no pongs", ok=False))
+                continue
+            for label, q in (("p50", 50.0), ("p99", 99.0), ("max", 100.0)):
+                value, reference = percentile(mine, q) / 1000.0, percentile(theirs, q) / 1000.0
+                target, ok = "", None
+                if hz == 1000 and label == "p99":
+                    target, ok = "<= 1.0 ms", value <= 1.0
+                if hz == 1000 and label == "max":
+                    target, ok = "< 10 ms", value < 10.0
+                self.rows.append(Row(f"RTT @ {hz} Hz {label} [ms]", f"{value:.3f}", f"{reference:.3f}",
+                                     f"{value / reference:.2f}", target, ok))
+            self.rows.append(Row(f"  pongs received @ {hz} Hz", f"{len(mine)}/{sent}", f"{len(theirs)}/{their_sent}"))
+            self.rows.append(Row(f"  CPU s / 10k round trips @ {hz} Hz", f"{cpu_used / sent * 1e4:.3f}",
+                                 f"{relay_cpu / their_sent * 1e4:.3f}", f"{cpu_used / sent / (relay_cpu / their_sent):.2f}",
+                                 "(ceiling: relay node)"))
+
+    # --- 4: fan-out -------------------------------------------------------------------------------------------------
+    def fan_out(self) -> None:
+        window = self.settings.window_s
+        topic = "/bench/fan"
+        recorders = [Arrivals(keep_detail=True) for _ in range(FAN_CLIENTS)]
+        with self.clients_closed():
+            for recorder in recorders:
+                self.client().subscribe(topic, MESSAGE_NAME, recorder)
+            time.sleep(0.5)
+            cpu_before = self.cpu()
+            rate = self.node("rate", "--topic", topic, "--hz", "1000", "--seconds", str(window), "--delay", "1.0")
+            sent = self.result(rate, window + 40)["sent"]
+            for recorder in recorders:
+                recorder.wait_idle(1.0, 10.0)
+            cpu_used = self.cpu() - cpu_before
+        fractions = [len({seq for seq in r.seqs if seq < sent}) / sent for r in recorders]
+        latencies = [latency for r in recorders for latency in r.latencies_us]
+        self.rows.append(Row(f"Fan-out {FAN_CLIENTS} clients x 1 kHz: min delivered", f"{min(fractions):.4f}",
+                             target="1.0000 (all)", ok=min(fractions) >= 1.0))
+        self.rows.append(Row("  delivered per client", " ".join(f"{f:.3f}" for f in fractions),
+                             target=f"({sent:,} published)"))
+        if latencies:
+            self.rows.append(Row("  one-way latency p50/p99/max [ms]",
+                                 "/".join(f"{percentile(latencies, q) / 1000:.2f}" for q in (50, 99, 100))))
+        delivered = sum(r.count for r in recorders)
+        self.rows.append(Row("  endpoint CPU s / 10k delivered frames", f"{cpu_used / max(delivered, 1) * 1e4:.3f}"))
+
+    # --- 6a: 4 GiB length prefix ------------------------------------------------------------------------------------
+    def huge_prefix(self) -> None:
+        topic = "/bench/stream_a"
+        victim = Arrivals(keep_detail=True)
+        outcomes: list[str] = []
+        with self.clients_closed():
+            self.client().subscribe(topic, MESSAGE_NAME, victim)
+            time.sleep(0.3)
+            rate = self.node("rate", "--topic", topic, "--hz", "1000", "--seconds", "8", "--delay", "0.5")
+            rate.wait_for_output("PUBLISHING", 30)
+            sampler = RssSampler(self.pid, 0.005).start()
+            time.sleep(1.5)
+            event_start = time.monotonic()
+            destination = b"/bench/evil"
+            outcomes.append(huge_length_attack(self.endpoint.port, struct.pack("<I", len(destination)) + destination
+                                               + struct.pack("<I", 0xFFFFFFF0)))
+            outcomes.append(huge_length_attack(self.endpoint.port, struct.pack("<I", 0xFFFFFFF0)))
+            event_end = time.monotonic()
+            time.sleep(1.0)
+            sampler.stop()
+            self.result(rate, 40)
+        baseline = sampler.between(event_start - 1.0, event_start)
+        during = sampler.between(event_start, event_end + 1.0)
+        increase = (max(during) - min(baseline)) / MiB if baseline and during else float("nan")
+        gap_during = max_gap_ms(victim.times_ns, event_start, event_end + 1.0)
+        gap_before = max_gap_ms(victim.times_ns, event_start - 1.0, event_start)
+        self.rows.append(Row("4 GiB length prefix: endpoint RSS increase [MiB]", f"{increase:.2f}", target="< 10 MiB",
+                             ok=increase < 10.0))
+        self.rows.append(Row("4 GiB prefix: other client's max gap [ms]", f"{gap_during:.1f}",
+                             f"{gap_before:.1f} before", target=f"< {FREEZE_GAP_MS:.0f} ms (no freeze)",
+                             ok=gap_during < FREEZE_GAP_MS))
+        self.rows.append(Row("  attacker connection (payload len, dest len)", "; ".join(outcomes)))
+
+    # --- 6b: never-reading client -------------------------------------------------------------------------------------
+    def never_reader(self) -> None:
+        topic = "/bench/stream_b"
+        soak = self.settings.soak_s
+        good = Arrivals(keep_detail=True)
+        with self.clients_closed():
+            self.client().subscribe(topic, MESSAGE_NAME, good)
+            stalled = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+            stalled.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
+            try:
+                stalled.connect(("127.0.0.1", self.endpoint.port))
+                stalled.sendall(protocol.KEEPALIVE_FRAME + protocol.encode_syscommand(
+                    "__subscribe", {"topic": topic, "message_name": MESSAGE_NAME}))
+                time.sleep(0.5)
+                baseline = rss_bytes(self.pid)
+                rate = self.node("rate", "--topic", topic, "--hz", "1000", "--seconds", str(soak), "--delay", "0.5")
+                rate.wait_for_output("PUBLISHING", 30)
+                samples: list[int] = []
+                deadline = time.monotonic() + soak
+                while time.monotonic() < deadline:
+                    samples.append(rss_bytes(self.pid))
+                    time.sleep(0.5)
+                sent = self.result(rate, 40)["sent"]
+                good.wait_idle(1.0, 10.0)
+                samples.append(rss_bytes(self.pid))
+            finally:
+                stalled.close()
+        growth = (max(samples) - baseline) / MiB
+        delivered = len({seq for seq in good.seqs if seq < sent}) / max(sent, 1)
+        self.rows.append(Row(f"Never-reading client, {soak:.0f} s @ 1 kHz: RSS growth [MiB]", f"{growth:.2f}",
+                             target="< 10 MiB", ok=growth < 10.0))
+        self.rows.append(Row("  RSS at end - at start [MiB]", f"{(samples[-1] - baseline) / MiB:.2f}"))
+        self.rows.append(Row("  well-behaved client on the same topic: delivered", f"{delivered:.4f}",
+                             target=f"({sent:,} published)"))
+        if good.latencies_us:
+            self.rows.append(Row("  its one-way latency p99/max [ms]",
+                                 "/".join(f"{percentile(good.latencies_us, q) / 1000:.2f}" for q in (99, 100))))
+
+
+def start_endpoint(env: dict[str, str], log_dir: Path, bridge_dir: Path | None, extra: tuple[str, ...]) -> Any:
+    """The endpoint under test: this checkout's (tests.rosenv.EndpointProcess) or the `bridge` in `bridge_dir`."""
+    if bridge_dir is None:
+        return EndpointProcess(env, log_dir, name="bench_endpoint", extra=extra)
+    launcher = f"import sys; sys.path.insert(0, {str(bridge_dir)!r}); from bridge.__main__ import main; sys.exit(main())"
+    process = NodeProcess([PYTHON, "-c", launcher, "--tcp-port", "0", "--node-name", "bench_endpoint", *extra],
+                          env, log_dir, "bench_endpoint")
+    line = next(line for line in process.wait_for_output("listening on", 30).splitlines() if "listening on" in line)
+    process.port = int(line.rsplit(":", 1)[1])  # type: ignore[attr-defined]
+    return process
+
+
+def huge_length_attack(port: int, header: bytes) -> str:
+    """Send a keepalive and then a frame header announcing ~4 GiB; describe how the endpoint answers."""
+    with socket.create_connection(("127.0.0.1", port), timeout=5.0) as sock:
+        sock.sendall(protocol.KEEPALIVE_FRAME + header)
+        received = b""
+        deadline = time.monotonic() + 3.0
+        closed = False
+        try:
+            while time.monotonic() < deadline:
+                sock.settimeout(max(0.01, deadline - time.monotonic()))
+                data = sock.recv(65536)
+                if not data:
+                    closed = True
+                    break
+                received += data
+        except socket.timeout:
+            pass
+        except ConnectionResetError:
+            closed = True
+        error = b"__error" in received
+        if not closed:  # still open: push 1 MiB of junk, as a client streaming a huge body would
+            try:
+                sock.sendall(b"\xab" * MiB)
+            except OSError:
+                pass
+        return ("__error" if error else "no __error") + (" + closed" if closed else ", still open")
+
+
+def max_gap_ms(times_ns: list[int], start: float, end: float) -> float:
+    """Longest gap between consecutive arrivals, over arrivals in [start, end] (monotonic seconds)."""
+    window = [t for t in times_ns if start * 1e9 <= t <= end * 1e9]
+    if len(window) < 2:
+        return float("inf")
+    return max(b - a for a, b in zip(window, window[1:])) / 1e6
+
+
+def print_table(rows: list[Row], header: str) -> None:
+    columns = ("measurement", "endpoint", "rospy ceiling", "ratio", "target", "result")
+    cells = [(r.name, r.value, r.ceiling, r.ratio, r.target, "" if r.ok is None else "PASS" if r.ok else "MISS")
+             for r in rows]
+    widths = [max(len(c[i]) for c in [columns, *cells]) for i in range(len(columns))]
+    line = "  ".join("-" * w for w in widths)
+    print(header)
+    print(line)
+    print("  ".join(c.ljust(w) for c, w in zip(columns, widths)))
+    print(line)
+    for c in cells:
+        print("  ".join(v.ljust(w) for v, w in zip(c, widths)).rstrip())
+    print(line)
+    verdicts = [r.ok for r in rows if r.ok is not None]
+    print(f"{sum(verdicts)}/{len(verdicts)} targets met")
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="smoke run: 2 s windows, fewer RTT samples, 10 s soak")
+    parser.add_argument("--keep-logs", action="store_true", help="keep roscore/endpoint/node logs (path printed)")
+    parser.add_argument("--bridge-dir", type=Path, help="benchmark the `bridge` package in this directory instead")
+    parser.add_argument("--endpoint-arg", action="append", default=[], help="extra endpoint argument (repeatable)")
+    parser.add_argument("--only", nargs="+", choices=PHASES, help="run only these phases")
+    args = parser.parse_args(argv)
+    common = {"bridge_dir": args.bridge_dir, "endpoint_args": tuple(args.endpoint_arg)}
+    settings = (
+        Settings(window_s=2.0, rtt_samples={100: 300, 1000: 1000}, soak_s=10.0, quick=True, **common)
+        if args.quick
+        else Settings(window_s=5.0, rtt_samples={100: 2000, 1000: 5000}, soak_s=60.0, quick=False, **common)
+    )
+    started = time.monotonic()
+    load_at_start = os.getloadavg()[0]
+    core = RosCore()
+    log_dir = core.tmp / "bench"
+    log_dir.mkdir()
+    bench: Bench | None = None
+    failed = True
+    try:
+        bench = Bench(settings, core, log_dir)
+        for name in args.only or PHASES:
+            print(f"[{time.monotonic() - started:5.0f} s] {name} ...", file=sys.stderr, flush=True)
+            phase: Callable[[], None] = getattr(bench, name)
+            phase()
+        alive = bench.endpoint.process.poll() is None
+        bench.rows.append(Row("Endpoint alive at the end", "yes" if alive else "NO", ok=alive))
+        header = (
+            f"ROS-TCP endpoint benchmark ({'quick' if settings.quick else 'full'} run, {time.monotonic() - started:.0f} s):"
+            f" {MESSAGE_NAME} 7 joints, {len(bench.payload)} B payload; {os.cpu_count()} CPUs; "
+            f"Python {sys.version.split()[0]}; endpoint from {settings.bridge_dir or REPO} "
+            f"{' '.join(settings.endpoint_args)}\nload average (1 min) at start {load_at_start:.2f}, at end "
+            f"{os.getloadavg()[0]:.2f} (other processes on these CPUs skew every figure)"
+        )
+        print_table(bench.rows, header)
+        failed = False
+    finally:
+        if bench is not None:
+            bench.close()
+        core.stop()
+        if args.keep_logs or failed:
+            print(f"logs kept in {core.tmp}", file=sys.stderr)
+        else:
+            shutil.rmtree(core.tmp, ignore_errors=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,70 @@
+"""Shared pieces of the endpoint benchmark: the test message, its stamp/sequence fields, pacing and statistics.
+
+Every benchmark message is a serialized sensor_msgs/JointState with 7 joints. The first 12 bytes of a ROS 1
+serialized message with a Header are `u32 seq, u32 secs, u32 nsecs`; the benchmark writes a sequence number and a
+CLOCK_MONOTONIC time stamp there (monotonic time is shared by all processes of one Linux machine), so any process
+can compute one-way latency or a round-trip time from the bytes alone, without deserializing.
+"""
+from __future__ import annotations
+
+import io
+import math
+import struct
+import time
+from collections.abc import Iterator
+
+MESSAGE_NAME = "sensor_msgs/JointState"
+JOINTS = 7
+_SEQ_STAMP = struct.Struct("<III")
+_NS_PER_S = 1_000_000_000
+
+
+def joint_state_payload() -> bytes:
+    """One serialized 7-joint JointState (names, positions, velocities, efforts), as a robot arm sends it."""
+    from sensor_msgs.msg import JointState  # generated ROS 1 class; imported late so --help needs no ROS
+
+    message = JointState()
+    message.header.frame_id = "base_link"
+    message.name = [f"panda_joint{i + 1}" for i in range(JOINTS)]
+    message.position = [0.1 * i for i in range(JOINTS)]
+    message.velocity = [0.01 * i for i in range(JOINTS)]
+    message.effort = [1.0 * i for i in range(JOINTS)]
+    buffer = io.BytesIO()
+    message.serialize(buffer)
+    return buffer.getvalue()
+
+
+def stamped(template: bytes | bytearray, seq: int, now_ns: int | None = None) -> bytes:
+    """`template` with header.seq = seq and header.stamp = now (monotonic)."""
+    buffer = bytearray(template)
+    stamp_ns = time.monotonic_ns() if now_ns is None else now_ns
+    _SEQ_STAMP.pack_into(buffer, 0, seq & 0xFFFFFFFF, stamp_ns // _NS_PER_S, stamp_ns % _NS_PER_S)
+    return bytes(buffer)
+
+
+def read_stamp(payload: bytes) -> tuple[int, int]:
+    """(seq, monotonic stamp in ns) written by `stamped`."""
+    seq, secs, nsecs = _SEQ_STAMP.unpack_from(payload, 0)
+    return seq, secs * _NS_PER_S + nsecs
+
+
+def paced(rate_hz: float, count: int, max_seconds: float) -> Iterator[int]:
+    """Yield 0..count-1 on a fixed schedule of `rate_hz` (no catch-up bursts), stopping after `max_seconds`."""
+    period = 1.0 / rate_hz
+    start = time.monotonic()
+    deadline = start + max_seconds
+    for index in range(count):
+        now = time.monotonic()
+        if now > deadline:
+            return
+        target = start + index * period
+        if target > now:
+            time.sleep(target - now)
+        yield index
+
+
+def percentile(values: list[float], q: float) -> float:
+    """Nearest-rank percentile (q in 0..100) of a non-empty list."""
+    ordered = sorted(values)
+    rank = min(len(ordered) - 1, max(0, math.ceil(q / 100.0 * len(ordered)) - 1))
+    return ordered[rank]

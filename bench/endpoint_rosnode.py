@@ -1,0 +1,194 @@
+"""Plain rospy nodes for the endpoint benchmark, one role per process (so no two roles share a GIL).
+
+Roles (first argument):
+  count  - subscribe to a topic, count messages until idle; print CONNECTED once a publisher is connected.
+  flood  - publish pre-serialized messages as fast as rospy allows, bounded by count and time.
+  rate   - publish stamped messages (header.seq = 0, 1, ...) at a fixed rate, bounded by count and time.
+  relay  - republish the bytes received on IN unchanged on OUT (ping -> pong), until killed.
+  ping   - pure rospy round trip through `relay`: publish stamped pings, time the pongs.
+
+Every node uses a raw message class: it carries JointState's name/md5/definition, so rospy negotiates exactly as
+for the generated class, but it serializes stored bytes and deserializes by keeping them (the same bytes-only
+path the endpoint uses), so the rospy figures are a transport ceiling, not a (de)serialization benchmark.
+Results go to stdout as one line `RESULT <json>`.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+import genpy  # noqa: E402
+import rospy  # noqa: E402
+from sensor_msgs.msg import JointState  # noqa: E402
+
+from endpoint_common import joint_state_payload, paced, read_stamp, stamped  # noqa: E402
+
+
+class RawJointState(genpy.Message):
+    """JointState on the wire, bytes in Python: serialize writes `_buff`, deserialize keeps the bytes."""
+
+    __slots__ = ("_buff",)
+    _type = JointState._type
+    _md5sum = JointState._md5sum
+    _full_text = JointState._full_text
+    _has_header = False  # rospy must not rewrite header.seq
+    _slot_types: list[str] = []
+
+    def __init__(self, buff: bytes = b"") -> None:
+        self._buff = buff
+
+    def serialize(self, buff: Any) -> None:
+        buff.write(self._buff)
+
+    def deserialize(self, data: bytes) -> RawJointState:
+        self._buff = data
+        return self
+
+
+def emit(kind: str, **fields: Any) -> None:
+    print(f"{kind} {json.dumps(fields)}", flush=True)
+
+
+def wait_for_connections(endpoint: Any, wanted: int, timeout: float) -> bool:
+    deadline = time.monotonic() + timeout
+    while endpoint.get_num_connections() < wanted:
+        if time.monotonic() > deadline or rospy.is_shutdown():
+            return False
+        time.sleep(0.01)
+    return True
+
+
+def run_count(args: argparse.Namespace) -> None:
+    state = {"count": 0, "first": 0, "last": 0}
+
+    def on_message(_: RawJointState) -> None:
+        now = time.monotonic_ns()
+        if state["count"] == 0:
+            state["first"] = now
+        state["count"] += 1
+        state["last"] = now
+
+    subscriber = rospy.Subscriber(args.topic, RawJointState, on_message, tcp_nodelay=True)
+    if wait_for_connections(subscriber, 1, args.max_seconds):
+        print("CONNECTED", flush=True)
+    deadline = time.monotonic() + args.max_seconds
+    while time.monotonic() < deadline and not rospy.is_shutdown():
+        time.sleep(0.05)
+        if state["count"] and time.monotonic_ns() - state["last"] > args.idle * 1e9:
+            break
+    emit("RESULT", **state)
+
+
+def run_flood(args: argparse.Namespace) -> None:
+    # queue size 0 = rospy's synchronous publish (the caller's thread writes the socket)
+    publisher = rospy.Publisher(args.topic, RawJointState, queue_size=args.queue_size or None)
+    connected = wait_for_connections(publisher, args.subscribers, 30.0)
+    time.sleep(args.delay)
+    message = RawJointState(joint_state_payload())
+    sent = 0
+    start = time.monotonic()
+    deadline = start + args.seconds
+    # check the clock once per 100 messages: the loop itself is what is being measured
+    while sent < args.count and (sent % 100 or time.monotonic() < deadline):
+        publisher.publish(message)
+        sent += 1
+    emit("RESULT", sent=sent, seconds=time.monotonic() - start, connected=connected)
+    time.sleep(0.5)  # let rospy's writer threads flush the queue before the process goes
+
+
+def run_rate(args: argparse.Namespace) -> None:
+    publisher = rospy.Publisher(args.topic, RawJointState, queue_size=args.queue_size)
+    connected = wait_for_connections(publisher, args.subscribers, 30.0)
+    time.sleep(args.delay)
+    template = joint_state_payload()
+    print("PUBLISHING", flush=True)
+    sent = 0
+    for seq in paced(args.hz, args.count, args.seconds):
+        publisher.publish(RawJointState(stamped(template, seq)))
+        sent += 1
+    emit("RESULT", sent=sent, connected=connected)
+    time.sleep(0.5)
+
+
+def run_relay(args: argparse.Namespace) -> None:
+    for pair in args.pair:
+        source, target = pair.split(":")
+        publisher = rospy.Publisher(target, RawJointState, queue_size=100, tcp_nodelay=True)
+        rospy.Subscriber(source, RawJointState, publisher.publish, tcp_nodelay=True)
+    print("READY", flush=True)
+    rospy.spin()
+
+
+def run_ping(args: argparse.Namespace) -> None:
+    rtts_us: list[float] = []
+
+    def on_pong(message: RawJointState) -> None:
+        _, stamp_ns = read_stamp(message._buff)
+        rtts_us.append((time.monotonic_ns() - stamp_ns) / 1000.0)
+
+    publisher = rospy.Publisher(args.out_topic, RawJointState, queue_size=100, tcp_nodelay=True)
+    subscriber = rospy.Subscriber(args.in_topic, RawJointState, on_pong, tcp_nodelay=True)
+    wait_for_connections(publisher, 1, 30.0)
+    wait_for_connections(subscriber, 1, 30.0)
+    template = joint_state_payload()
+    # warm up: ping every 10 ms until the first pong is back (the relay's outgoing link is then up)
+    for seq in paced(100, 1000, 10.0):
+        if rtts_us:
+            break
+        publisher.publish(RawJointState(stamped(template, seq)))
+    time.sleep(0.5)
+    results: dict[str, dict[str, Any]] = {}
+    for spec in args.rates:
+        hz, count = (int(part) for part in spec.split(":"))
+        rtts_us.clear()
+        sent = 0
+        for seq in paced(hz, count, count / hz * 1.5 + 2.0):
+            publisher.publish(RawJointState(stamped(template, seq)))
+            sent += 1
+        time.sleep(0.5)  # stragglers
+        results[str(hz)] = {"sent": sent, "rtts_us": list(rtts_us)}
+    emit("RESULT", rates=results)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    roles = parser.add_subparsers(dest="role", required=True)
+    count = roles.add_parser("count")
+    count.add_argument("--topic", required=True)
+    count.add_argument("--idle", type=float, default=1.0, help="stop this long after the last message")
+    count.add_argument("--max-seconds", type=float, default=60.0)
+    flood = roles.add_parser("flood")
+    flood.add_argument("--topic", required=True)
+    flood.add_argument("--seconds", type=float, default=5.0)
+    flood.add_argument("--count", type=int, default=5_000_000)
+    flood.add_argument("--subscribers", type=int, default=1)
+    flood.add_argument("--delay", type=float, default=0.3)
+    flood.add_argument("--queue-size", type=int, default=100)
+    rate = roles.add_parser("rate")
+    rate.add_argument("--topic", required=True)
+    rate.add_argument("--hz", type=float, default=1000.0)
+    rate.add_argument("--seconds", type=float, default=5.0)
+    rate.add_argument("--count", type=int, default=10_000_000)
+    rate.add_argument("--subscribers", type=int, default=1)
+    rate.add_argument("--delay", type=float, default=0.5)
+    rate.add_argument("--queue-size", type=int, default=1000)
+    relay = roles.add_parser("relay")
+    relay.add_argument("--pair", action="append", required=True, metavar="IN:OUT")
+    ping = roles.add_parser("ping")
+    ping.add_argument("--out-topic", required=True)
+    ping.add_argument("--in-topic", required=True)
+    ping.add_argument("--rates", nargs="+", required=True, metavar="HZ:COUNT")
+    args = parser.parse_args(rospy.myargv()[1:])
+
+    rospy.init_node(f"bench_{args.role}", anonymous=True)
+    {"count": run_count, "flood": run_flood, "rate": run_rate, "relay": run_relay, "ping": run_ping}[args.role](args)
+
+
+if __name__ == "__main__":
+    main()
