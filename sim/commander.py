@@ -15,7 +15,7 @@ Timing (the contract with the engine): fixed steps of dt; the target of step k (
       along the velocity); no waiting.
 Start-up: wait (at most --connect-timeout s) until a partner node (one that publishes joint_states and
 subscribes the command topic) is connected to our command, /clock and pose publishers and our joint_states
-subscriber; publish /clock = 0. The engine anchors its step grid on the first /clock value and does not
+subscriber, and so is every node named with --wait-for (e.g. a rosbag recorder); publish /clock = 0. The engine anchors its step grid on the first /clock value and does not
 acknowledge it, so a short fixed pause (ANCHOR_SETTLE_S) follows: there is no condition to wait on.
 Approach (default, --approach MIN_S, 0 = off): the robot may not be at the scenario's first sample (the engine
 starts at home, or where a previous run left it). In lockstep, step 0 -> dt is a priming step with no new command
@@ -164,6 +164,9 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--export-csv", type=Path, help="write the desired joint trajectory as the engine's CSV")
     run.add_argument("--export-only", action="store_true", help="with --export-csv: only export, no ROS")
     run.add_argument("--node-name", help="ROS node name (default <robot>_commander)")
+    run.add_argument("--wait-for", action="append", default=[], metavar="NODE",
+                     help="also wait until NODE (e.g. a rosbag recorder) is connected to every topic of ours it "
+                     "subscribes, so it misses nothing (repeatable)")
     return parser
 
 
@@ -332,6 +335,13 @@ class Commander:
                     links["/clock"] = self.clock_pub.impl.has_connection(partner)
                 if self.pose_pub is not None and partner in subs.get(self.robot.pose_topic, set()):
                     links[self.robot.pose_topic] = self.pose_pub.impl.has_connection(partner)
+                for node in self.args.wait_for:
+                    node = node if node.startswith("/") else "/" + node
+                    for topic, publisher in self._publishers():
+                        if node in subs.get(topic, set()):
+                            links[f"{topic} -> {node}"] = publisher.impl.has_connection(node)
+                        elif not any(node in nodes for nodes in subs.values()):
+                            links[f"{node} (not registered)"] = False
                 if all(links.values()):
                     return partner
                 status = f"{partner} found, waiting for {[t for t, ok in links.items() if not ok]}"
@@ -343,6 +353,12 @@ class Commander:
                 )
             self.stop.wait(0.05)
         raise CommanderError("interrupted while waiting for the engine")
+
+    def _publishers(self) -> list[tuple[str, Any]]:
+        publishers = [(self.robot.command_topic, self.command_pub), ("/clock", self.clock_pub)]
+        if self.pose_pub is not None:
+            publishers.append((self.robot.pose_topic, self.pose_pub))
+        return publishers
 
     def _state_or_fail(self, stamp: float, timeout: float) -> JointStateSample:
         state = self.states.wait_for_stamp(stamp, timeout, self.stop)
