@@ -223,10 +223,15 @@ class Endpoint:
         with self._lock:
             shared = self._publishers.get(resolved)
             if shared is not None and shared.message_name != command.message_name:
-                raise ClientError(
-                    f"__publish: topic {resolved} is already published as {shared.message_name}, "
-                    f"not {command.message_name}"
-                )
+                if shared.clients:
+                    raise ClientError(
+                        f"__publish: topic {resolved} is already published as {shared.message_name}, "
+                        f"not {command.message_name}"
+                    )
+                # Kept advertised after its clients left (see release), but nobody uses it: retype it.
+                del self._publishers[resolved]
+                shared.publisher.unregister()
+                shared = None
             if shared is None:
                 publisher = self._ros_call(
                     lambda: self.ros.make_publisher(resolved, command.message_name, command.queue_size, command.latch)
@@ -236,7 +241,7 @@ class Endpoint:
             shared.clients.add(session)
             session.publishers[command.topic] = (resolved, shared.publisher)
 
-    def unregister_publisher(self, session: ClientSession, client_topic: str) -> None:
+    def unregister_publisher(self, session: ClientSession, client_topic: str, keep_advertised: bool = False) -> None:
         with self._lock:
             entry = session.publishers.pop(client_topic, None)
             if entry is None:
@@ -246,7 +251,7 @@ class Endpoint:
             if shared is None:
                 return
             shared.clients.discard(session)
-            if not shared.clients:
+            if not shared.clients and not keep_advertised:
                 del self._publishers[resolved]
                 shared.publisher.unregister()
 
@@ -299,8 +304,11 @@ class Endpoint:
             self._sessions.discard(session)
             for resolved in list(session.subscriptions):
                 self.unsubscribe(session, resolved)
+            # Publishers stay advertised (as in the original endpoint): a client that reconnects re-registers
+            # them, and re-advertising a topic from the same node races rospy's subscriber reconnect logic, so
+            # ROS subscribers would miss the first messages after every reconnect. __remove_publisher unadvertises.
             for client_topic in list(session.publishers):
-                self.unregister_publisher(session, client_topic)
+                self.unregister_publisher(session, client_topic, keep_advertised=True)
             for resolved in list(session.unity_services):
                 self.unregister_unity_service(session, resolved)
             session.ros_services.clear()
