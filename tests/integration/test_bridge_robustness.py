@@ -296,3 +296,38 @@ def test_client_reconnects_after_the_endpoint_restarts(roscore, ros_node, tmp_pa
             second.stop()
         publisher.unregister()
         ros_inbox.close()
+
+
+def test_ros_subscribers_stay_connected_while_a_client_reconnects(bridge, ros_node) -> None:
+    """The endpoint keeps a topic advertised while its client reconnects, so the first message after the
+    reconnect reaches ROS subscribers (re-advertising would make them reconnect, losing what comes meanwhile)."""
+    topic = unique("kept_advertised")
+    ros_inbox = RosInbox(ros_node, topic)
+    with tcp_client(bridge.port) as client:
+        client.register_publisher(topic, "std_msgs/String")
+        client.topic_list()
+        ros_inbox.wait_connected()
+        for round_ in range(3):
+            connections = client.connections
+            client.send_raw(u32(0xFFFFFFFF))  # cut; the client reconnects and re-sends __publish
+            wait_for(lambda: client.connections > connections and client.is_connected, 10, "the client to reconnect")
+            client.topic_list()
+            client.publish(topic, serialize(String(f"right after reconnect {round_}")))
+            assert ros_inbox.wait_count(round_ + 1, timeout=5)[-1] == serialize(String(f"right after reconnect {round_}"))
+    ros_inbox.close()
+
+
+def test_a_lingering_topic_can_be_registered_with_another_type_once_unused(bridge, ros_node) -> None:
+    topic = unique("retyped")
+    with RawConnection(bridge.port) as first:
+        first.register_publisher(topic, "std_msgs/String")
+        first.sync()
+    inbox = RosInbox(ros_node, topic)
+    with RawConnection(bridge.port) as second:
+        second.register_publisher(topic, "std_msgs/Int32")
+        second.sync()
+        assert second.errors() == []
+        inbox.wait_connected()
+        second.send_frame(topic, u32(7))
+        assert inbox.wait_count(1) == [u32(7)]
+    inbox.close()
