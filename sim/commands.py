@@ -24,11 +24,13 @@ class Target:
 class CommandBuffer:
     """Thread-safe: the TCP reader stores commands, the stepping loop reads targets."""
 
-    def __init__(self, initial_positions: np.ndarray, max_extrapolation_s: float = 0.1) -> None:
+    def __init__(self, initial_positions: np.ndarray, max_extrapolation_s: float = 0.1,
+                 stamp_tolerance_s: float = 1e-6) -> None:
         self._positions = np.array(initial_positions, dtype=float)
         self._velocities = np.zeros_like(self._positions)
         self._stamp: float | None = None
         self.max_extrapolation_s = max_extrapolation_s
+        self.stamp_tolerance_s = stamp_tolerance_s  # a command this close to t is the command for t (no extrapolation)
         self.received = 0
         self._lock = threading.Lock()
         self._changed = threading.Condition(self._lock)
@@ -63,6 +65,8 @@ class CommandBuffer:
             if self._stamp is None:
                 return Target(self._positions.copy(), self._velocities.copy())
             ahead = float(np.clip(t - self._stamp, -self.max_extrapolation_s, self.max_extrapolation_s))
+            if abs(ahead) <= self.stamp_tolerance_s:
+                ahead = 0.0  # stamped for t: ROS stamps are whole ns, so "exactly t" arrives as t ± 1 ns
             return Target(self._positions + self._velocities * ahead, self._velocities.copy())
 
 

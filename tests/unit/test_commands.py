@@ -1,0 +1,172 @@
+"""sim.commands: the engine's target for the end of each step (CommandBuffer) and its /clock estimate (ClockFollower)."""
+from __future__ import annotations
+
+import threading
+
+import numpy as np
+import pytest
+
+from sim.commands import ClockFollower, CommandBuffer
+from sim.rosmsgs import TrajectoryCommand
+
+NAN = np.nan
+START = np.array([0.1, 0.2, 0.3])
+
+
+def command(stamp: float, positions, velocities=None) -> TrajectoryCommand:
+    return TrajectoryCommand(stamp, np.array(positions, dtype=float),
+                             None if velocities is None else np.array(velocities, dtype=float))
+
+
+# --- CommandBuffer --------------------------------------------------------------------------------------------
+
+
+def test_before_any_command_the_target_is_the_start_pose_at_rest_whatever_the_time():
+    buffer = CommandBuffer(START)
+    for t in (0.0, 0.02, 100.0):
+        target = buffer.target_at(t)
+        np.testing.assert_array_equal(target.positions, START)
+        np.testing.assert_array_equal(target.velocities, np.zeros(3))
+    assert buffer.newest_stamp is None and buffer.received == 0
+
+
+def test_the_buffer_copies_its_start_pose_and_hands_out_copies():
+    start = START.copy()
+    buffer = CommandBuffer(start)
+    start[:] = 9.0
+    target = buffer.target_at(0.0)
+    target.positions[:] = -9.0
+    np.testing.assert_array_equal(buffer.target_at(0.0).positions, START)
+
+
+def test_a_command_for_the_step_end_is_the_target_exactly():
+    buffer = CommandBuffer(START)
+    buffer.store(command(1.0, [1.0, 2.0, 3.0], [0.5, -0.5, 0.25]))
+    target = buffer.target_at(1.0)
+    np.testing.assert_array_equal(target.positions, [1.0, 2.0, 3.0])
+    np.testing.assert_array_equal(target.velocities, [0.5, -0.5, 0.25])
+    assert buffer.newest_stamp == 1.0 and buffer.received == 1
+
+
+@pytest.mark.parametrize("offset", [1e-9, -1e-9, 3e-16, 1e-6])
+def test_a_stamp_a_nanosecond_off_the_step_end_is_not_extrapolated(offset):
+    # ROS stamps are whole nanoseconds (rospy's Time.from_sec truncates): "stamped t" arrives as t ± 1 ns, and
+    # no_physics must still reproduce the commanded positions exactly.
+    buffer = CommandBuffer(START)
+    buffer.store(command(1.16 + offset, [1.0, 2.0, 3.0], [5.0, -5.0, 0.3]))
+    np.testing.assert_array_equal(buffer.target_at(1.16).positions, [1.0, 2.0, 3.0])
+
+
+def test_the_target_is_extrapolated_along_the_velocity_to_the_step_end():
+    buffer = CommandBuffer(START)
+    buffer.store(command(1.0, [1.0, 2.0, 3.0], [0.5, -1.0, 0.0]))
+    target = buffer.target_at(1.04)
+    np.testing.assert_allclose(target.positions, [1.02, 1.96, 3.0], rtol=0, atol=1e-12)
+    np.testing.assert_array_equal(target.velocities, [0.5, -1.0, 0.0])
+    # backwards too (a step ending before the newest command's stamp)
+    np.testing.assert_allclose(buffer.target_at(0.98).positions, [0.99, 2.02, 3.0], rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("t, ahead", [(1.5, 0.1), (100.0, 0.1), (0.5, -0.1)])
+def test_extrapolation_is_clamped_to_max_extrapolation_either_way(t, ahead):
+    buffer = CommandBuffer(START, max_extrapolation_s=0.1)
+    buffer.store(command(1.0, [1.0, 2.0, 3.0], [0.5, -1.0, 2.0]))
+    expected = np.array([1.0, 2.0, 3.0]) + np.array([0.5, -1.0, 2.0]) * ahead
+    np.testing.assert_allclose(buffer.target_at(t).positions, expected, rtol=0, atol=1e-12)
+
+
+def test_a_command_without_velocities_holds_its_positions():
+    buffer = CommandBuffer(START)
+    buffer.store(command(1.0, [1.0, 2.0, 3.0], [1.0, 1.0, 1.0]))
+    buffer.store(command(2.0, [4.0, 5.0, 6.0]))
+    target = buffer.target_at(2.05)
+    np.testing.assert_array_equal(target.positions, [4.0, 5.0, 6.0])
+    np.testing.assert_array_equal(target.velocities, np.zeros(3))
+
+
+def test_an_unstamped_command_is_not_extrapolated():
+    buffer = CommandBuffer(START)
+    buffer.store(command(0.0, [1.0, 2.0, 3.0], [1.0, 1.0, 1.0]))
+    assert buffer.newest_stamp is None
+    np.testing.assert_array_equal(buffer.target_at(0.05).positions, [1.0, 2.0, 3.0])
+
+
+def test_joints_a_command_does_not_name_keep_their_target_and_get_no_velocity():
+    buffer = CommandBuffer(START)
+    buffer.store(command(1.0, [1.0, 2.0, 3.0]))
+    buffer.store(command(1.02, [NAN, 7.0, NAN], [NAN, 1.0, NAN]))  # only joint 2 named
+    target = buffer.target_at(1.04)
+    np.testing.assert_allclose(target.positions, [1.0, 7.02, 3.0], rtol=0, atol=1e-12)
+    np.testing.assert_array_equal(target.velocities, [0.0, 1.0, 0.0])
+    # a joint never named holds its start position
+    fresh = CommandBuffer(START)
+    fresh.store(command(1.0, [NAN, NAN, 9.0]))
+    np.testing.assert_array_equal(fresh.target_at(1.0).positions, [0.1, 0.2, 9.0])
+
+
+def test_velocities_that_are_not_finite_count_as_not_given():
+    buffer = CommandBuffer(START)
+    buffer.store(command(1.0, [1.0, 2.0, 3.0], [np.inf, NAN, 1.0]))
+    target = buffer.target_at(1.05)
+    np.testing.assert_allclose(target.positions, [1.0, 2.0, 3.05], rtol=0, atol=1e-12)
+    assert np.all(np.isfinite(target.velocities))
+
+
+def test_wait_for_stamp_times_out_without_a_new_enough_command():
+    buffer = CommandBuffer(START)
+    assert buffer.wait_for_stamp(1.0, timeout=0.01) is False
+    buffer.store(command(0.98, [1.0, 2.0, 3.0]))
+    assert buffer.wait_for_stamp(1.0, timeout=0.01) is False
+    assert buffer.wait_for_stamp(0.98, timeout=0.0) is True
+    assert buffer.wait_for_stamp(0.98 + 5e-7, timeout=0.0) is True  # within the 1 µs tolerance
+
+
+def test_wait_for_stamp_wakes_when_another_thread_stores_the_command():
+    buffer = CommandBuffer(START)
+    started, result = threading.Event(), {}
+
+    def waiter():
+        started.set()
+        result["ok"] = buffer.wait_for_stamp(1.0, timeout=5.0)
+
+    thread = threading.Thread(target=waiter)
+    thread.start()
+    assert started.wait(5.0)
+    buffer.store(command(0.5, [0.0, 0.0, 0.0]))  # too old: keeps waiting
+    buffer.store(command(1.0, [1.0, 2.0, 3.0]))
+    thread.join(5.0)
+    assert not thread.is_alive()
+    assert result == {"ok": True}
+
+
+# --- ClockFollower --------------------------------------------------------------------------------------------
+
+
+def test_clock_follower_has_no_estimate_before_any_clock():
+    assert ClockFollower().estimate(123.0) is None
+
+
+def test_clock_follower_extrapolates_the_last_clock_by_wall_time_times_scale():
+    follower = ClockFollower(time_scale=1.0)
+    follower.observe(10.0, wall_s=100.0)
+    assert follower.estimate(100.0) == 10.0
+    assert follower.estimate(100.25) == pytest.approx(10.25, abs=1e-12)
+    fast = ClockFollower(time_scale=4.0)
+    fast.observe(10.0, wall_s=100.0)
+    assert fast.estimate(100.25) == pytest.approx(11.0, abs=1e-12)
+
+
+def test_clock_follower_goes_stale_and_recovers_with_the_next_clock():
+    follower = ClockFollower(stale_after_s=1.0)
+    follower.observe(5.0, wall_s=0.0)
+    assert follower.estimate(1.0) == pytest.approx(6.0)
+    assert follower.estimate(1.001) is None
+    follower.observe(7.0, wall_s=2.0)
+    assert follower.estimate(2.5) == pytest.approx(7.5)
+
+
+def test_clock_follower_uses_the_newest_clock_even_when_it_goes_back():
+    follower = ClockFollower()
+    follower.observe(50.0, wall_s=1.0)
+    follower.observe(0.0, wall_s=1.1)  # a restarted controller or bag
+    assert follower.estimate(1.2) == pytest.approx(0.1)
