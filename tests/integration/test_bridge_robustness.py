@@ -322,11 +322,12 @@ def test_a_lingering_topic_can_be_registered_with_another_type_once_unused(bridg
     with RawConnection(bridge.port) as first:
         first.register_publisher(topic, "std_msgs/String")
         first.sync()
-    inbox = RosInbox(ros_node, topic)
     with RawConnection(bridge.port) as second:
         second.register_publisher(topic, "std_msgs/Int32")
         second.sync()
         assert second.errors() == []
+        # Subscribe only now: a subscriber of the old advertisement would race rospy's re-advertise handling.
+        inbox = RosInbox(ros_node, topic)
         inbox.wait_connected()
         second.send_frame(topic, u32(7))
         assert inbox.wait_count(1) == [u32(7)]
