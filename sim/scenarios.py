@@ -327,6 +327,8 @@ def build_motion(robot: RobotSpec, scenario: str, config: ScenarioConfig | None 
     if config.duration is not None and not (math.isfinite(config.duration) and config.duration > 0):
         raise ScenarioError(f"duration must be a finite number > 0 s, got {config.duration!r}")
     sample_times(1.0, config.dt)  # validates dt
+    if config.ik_restarts < 0:
+        raise ScenarioError(f"IK restarts must be >= 0, got {config.ik_restarts}")
     builders = {
         "single": _single,
         "one_joint": _one_joint,
