@@ -235,18 +235,38 @@ def read_joint_csv(path: Path, robot: RobotSpec) -> tuple[np.ndarray, list[str],
     unknown = [name for name in names if name not in robot.joint_names]
     if unknown or not names:
         raise EngineError(f"{path}: unknown joint column(s) {unknown}; {robot.name} has {list(robot.joint_names)}")
-    try:
-        data = np.array([[float(cell) for cell in row] for row in rows[1:] if row], dtype=float)
-    except ValueError as error:
-        raise EngineError(f"{path}: {error}") from None
-    if data.shape[1] != len(header):
-        raise EngineError(f"{path}: rows have {data.shape[1]} cells, the header has {len(header)}")
+    if len(set(names)) != len(names):
+        raise EngineError(f"{path}: a joint column appears twice: {names}")
+    values = []
+    for line, row in enumerate(rows[1:], start=2):
+        if not row:
+            continue
+        if len(row) != len(header):
+            raise EngineError(f"{path}: line {line} has {len(row)} cells, the header has {len(header)}")
+        try:
+            values.append([float(cell) for cell in row])
+        except ValueError:
+            bad = next(i for i, cell in enumerate(row) if not _is_number(cell))
+            raise EngineError(f"{path}: line {line}, column {header[bad]!r}: {row[bad]!r} is not a number") from None
+    if not values:
+        raise EngineError(f"{path}: needs a header row and at least one data row")
+    data = np.array(values, dtype=float)
     times = data[:, 0]
     if np.any(np.diff(times) <= 0):
-        raise EngineError(f"{path}: times must be strictly increasing")
+        k = int(np.flatnonzero(np.diff(times) <= 0)[0]) + 1
+        raise EngineError(f"{path}: times must be strictly increasing; data row {k + 1} has time {times[k]:g} "
+                          f"after {times[k - 1]:g}")
     if not np.all(np.isfinite(data)):
         raise EngineError(f"{path}: all values must be finite numbers")
     return times, names, data[:, 1:]
+
+
+def _is_number(cell: str) -> bool:
+    try:
+        float(cell)
+    except ValueError:
+        return False
+    return True
 
 
 def write_joint_csv(path: Path, names: Sequence[str], times: np.ndarray, positions: np.ndarray) -> None:
