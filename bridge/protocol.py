@@ -144,9 +144,11 @@ def encode_syscommand(command: str, params: dict[str, Any]) -> bytes:
 
 
 def handshake_frame() -> bytes:
+    # Byte for byte what the v0.7.0 endpoint sends: json.dumps with its default ", " and ": " separators.
     # metadata is a JSON *string* holding an object: the client parses it a second time.
     metadata = json.dumps({"protocol": ROS_DISTRO_PROTOCOL})
-    return encode_syscommand("__handshake", {"version": PROTOCOL_VERSION, "metadata": metadata})
+    body = json.dumps({"version": PROTOCOL_VERSION, "metadata": metadata})
+    return encode_frame("__handshake", body.encode("utf-8"))
 
 
 def log_frame(text: str) -> bytes:

@@ -177,9 +177,9 @@ def test_encode_frame_exact_bytes() -> None:
 
 
 def test_handshake_exact_bytes() -> None:
-    # The original v0.7.0 endpoint builds metadata with json.dumps({"protocol": "ROS1"}) (a JSON *string*
-    # holding an object, with json.dumps' default spacing); Unity parses the outer object and then that string.
-    body = b'{"version":"v0.7.0","metadata":"{\\"protocol\\": \\"ROS1\\"}"}'
+    # The original v0.7.0 endpoint writes json.dumps({"version": ..., "metadata": json.dumps({"protocol": "ROS1"})})
+    # with json.dumps' default spacing, outer and inner; Unity parses the outer object and then that string.
+    body = b'{"version": "v0.7.0", "metadata": "{\\"protocol\\": \\"ROS1\\"}"}'
     assert protocol.handshake_frame() == raw_frame(b"__handshake", body)
     params = json.loads(body)
     assert params["version"].startswith("v0.7.") and json.loads(params["metadata"]) == {"protocol": "ROS1"}
