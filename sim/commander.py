@@ -11,12 +11,12 @@ quaternion's x, y, z fields and w = 0) and logs desired vs achieved (`<prefix>/j
 Timing (the contract with the engine): fixed steps of dt; the target of step k (t_k -> t_k+1) is for its END.
   lockstep (default): publish the command stamped t_k+1, then /clock = t_k+1, then wait for a joint state stamped
       >= t_k+1 (at most --timeout s). The engine steps once when /clock reaches t_k+1, so a 40 s trial takes seconds.
-  --realtime: every dt of wall time publish /clock = t_k and the command stamped t_k+1 (the engine extrapolates
-      along the velocity); no waiting.
+  --realtime: every dt / --time-scale of wall time publish /clock = t_k and the command stamped t_k+1 (the engine
+      extrapolates along the velocity); no waiting.
 Start-up: wait (at most --connect-timeout s) until a partner node (one that publishes joint_states and
 subscribes the command topic) is connected to our command, /clock and pose publishers and our joint_states
-subscriber, and so is every node named with --wait-for (e.g. a rosbag recorder); publish /clock = 0. The engine anchors its step grid on the first /clock value and does not
-acknowledge it, so a short fixed pause (ANCHOR_SETTLE_S) follows: there is no condition to wait on.
+subscriber, and so is every node named with --wait-for (e.g. a rosbag recorder); publish /clock = 0. In lockstep,
+wait for the engine's answer to it: the joint state it publishes, stamped 0, when it anchors its step grid.
 Approach (default, --approach MIN_S, 0 = off): the robot may not be at the scenario's first sample (the engine
 starts at home, or where a previous run left it). In lockstep, step 0 -> dt is a priming step with no new command
 (the engine holds its target) whose joint state tells where the robot is; in realtime the first joint state does.
@@ -79,7 +79,6 @@ from sim.trajectory import ORDERS
 
 REPO = Path(__file__).resolve().parents[1]
 DEFAULT_LOG_DIR = REPO / "results" / "commander"
-ANCHOR_SETTLE_S = 0.1
 STAMP_TOLERANCE_S = 1e-6
 MIN_SPREAD = 1e-9  # rad or m: a reference moving less than this counts as held still
 EXIT_OK, EXIT_USAGE, EXIT_UNREACHABLE, EXIT_ROS, EXIT_INTERRUPTED = 0, 2, 3, 4, 130
@@ -155,6 +154,8 @@ def _parser() -> argparse.ArgumentParser:
     run = parser.add_argument_group("run options")
     run.add_argument("--dt", type=float, default=DEFAULT_DT, help=f"controller step in s (default {DEFAULT_DT})")
     run.add_argument("--realtime", action="store_true", help="pace by the wall clock instead of lockstep")
+    run.add_argument("--time-scale", type=float, default=1.0,
+                     help="realtime: sim seconds per wall second (default 1; the engine needs the same)")
     run.add_argument("--timeout", type=float, default=5.0, help="lockstep: max wait for each joint state in s (default 5)")
     run.add_argument("--connect-timeout", type=float, default=30.0, help="max wait for the engine at start in s (default 30)")
     run.add_argument("--approach", type=float, default=APPROACH_MIN_S,
@@ -376,11 +377,11 @@ class Commander:
     def run(self) -> tuple[Schedule, RunResult]:
         self.publish_goal()
         self.publish_clock(0.0)
-        # The engine anchors its step grid on the first /clock value it sees and does not acknowledge it; /clock dt
-        # must not overtake it in the engine's handling, and there is nothing to wait on: hence a fixed pause.
-        self.stop.wait(ANCHOR_SETTLE_S)
         if self.args.realtime:
             return self._run_realtime()
+        # The engine anchors its step grid on /clock 0 and answers with its joint state stamped 0: only then may
+        # /clock move on (a later value seen first would become the anchor and the lockstep would stall).
+        self._state_or_fail(0.0, self.args.connect_timeout)
         return self._run_lockstep()
 
     def _run_lockstep(self) -> tuple[Schedule, RunResult]:
@@ -420,6 +421,7 @@ class Commander:
 
     def _run_realtime(self) -> tuple[Schedule, RunResult]:
         dt = self.dt
+        wall_dt = dt / self.args.time_scale  # --time-scale 5: the controller's clock runs 5x faster than the wall
         q_start = None
         if self.args.approach > 0:
             q_start = self._state_or_fail(-math.inf, self.args.connect_timeout).positions
@@ -431,7 +433,7 @@ class Commander:
         started = time.monotonic()
         done = 0
         for k in range(steps):  # at wall time k·dt: /clock = t_k, command for t_k+1
-            delay = started + k * dt - time.monotonic()
+            delay = started + k * wall_dt - time.monotonic()
             if delay > 0 and self.stop.wait(delay):
                 break
             if self.stop.is_set():
@@ -444,7 +446,7 @@ class Commander:
                 achieved[k], stamps[k] = latest.positions, latest.stamp
             done = k + 1
         if done == steps and not self.stop.is_set():
-            self.stop.wait(max(0.0, started + steps * dt - time.monotonic()))
+            self.stop.wait(max(0.0, started + steps * wall_dt - time.monotonic()))
             self.publish_clock(steps * dt)
         result = RunResult(times, np.arange(1, steps + 1), schedule.positions[1:], achieved, stamps,
                            time.monotonic() - started, 0, done == steps)

@@ -3,7 +3,8 @@
 Online: subscribes `<robot>/arm_controller/command` (JointTrajectory), `/clock` and `<robot>/pose` through the
 endpoint, steps the pybullet physics, and publishes `<robot>/joint_states` after every step.
   auto-simulate on  (default): steps on its own wall clock (x `--time-scale`); stamps follow /clock if it runs.
-  auto-simulate off (--no-auto-simulate): steps only as /clock advances (lockstep with the commander).
+  auto-simulate off (--no-auto-simulate): steps only as /clock advances (lockstep with the commander); when it
+      (re)anchors its step grid on a /clock value it publishes its current joint state stamped with that value.
 Offline (`--csv`): replays desired joint positions from a CSV without ROS or TCP and logs the achieved ones.
 
 CSV formats (both): a header row `time,<joint name>,...` then one row per sample, time in s, positions in rad/m.
@@ -26,7 +27,7 @@ import numpy as np
 from bridge.client import TcpClient
 from sim import frames, rosmsgs
 from sim.commands import ClockFollower, CommandBuffer
-from sim.physics import DriveParams, Mode, PhysicsWorld, SimClock
+from sim.physics import DriveParams, JointStateSample, Mode, PhysicsWorld, SimClock
 from sim.robots import RobotSpec, get_robot
 
 log = logging.getLogger(__name__)
@@ -141,13 +142,15 @@ class EngineStandIn:
         """One fixed physics step whose end is `t_end`, then publish the resulting joint state."""
         target = self.commands.target_at(t_end)
         self.world.set_targets(target.positions, target.velocities)
-        sample = self.world.step()
-        self._seq += 1
         self.steps += 1
+        self._publish_state(t_end, self.world.step())
+
+    def _publish_state(self, stamp: float, sample: JointStateSample) -> None:
+        self._seq += 1
         self.client.publish(
             self.robot.joint_states_topic,
             rosmsgs.encode_joint_state(
-                self._seq, t_end, self.robot.joint_names, sample.positions, sample.velocities, sample.efforts
+                self._seq, stamp, self.robot.joint_names, sample.positions, sample.velocities, sample.efforts
             ),
         )
 
@@ -192,7 +195,12 @@ class EngineStandIn:
                 clock = self._clock_value
             if self._stop.is_set() or clock is None:
                 continue
+            anchored_at = self.sim_clock.last_step_end
             advance = self.sim_clock.advance_to(clock)  # logs a warning itself when it pauses and resumes
+            if anchored_at is None or advance.resynced:
+                # The step grid is (re)anchored on this /clock value: say where the robot is, stamped with it.
+                # This is the controller's cue that its clock has been taken (no steps were run).
+                self._publish_state(clock, self.world.state())
             for step_end in advance.step_ends:
                 self._await_lockstep_command(step_end, dt)
                 self.step_to(step_end)
