@@ -376,9 +376,9 @@ class Commander:
     # --- running ------------------------------------------------------------------------------------------
     def run(self) -> tuple[Schedule, RunResult]:
         self.publish_goal()
-        self.publish_clock(0.0)
         if self.args.realtime:
             return self._run_realtime()
+        self.publish_clock(0.0)
         # The engine anchors its step grid on /clock 0 and answers with its joint state stamped 0: only then may
         # /clock move on (a later value seen first would become the anchor and the lockstep would stall).
         self._state_or_fail(0.0, self.args.connect_timeout)
@@ -430,7 +430,9 @@ class Commander:
         times = np.arange(1, steps + 1) * dt
         achieved = np.full((steps, self.robot.dof), np.nan)
         stamps = np.full(steps, np.nan)
+        # /clock 0 goes out as the paced loop starts, so the controller's clock runs without a gap from 0 on.
         started = time.monotonic()
+        self.publish_clock(0.0)
         done = 0
         for k in range(steps):  # at wall time k·dt: /clock = t_k, command for t_k+1
             delay = started + k * wall_dt - time.monotonic()

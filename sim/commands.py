@@ -71,9 +71,14 @@ class CommandBuffer:
 
 
 class ClockFollower:
-    """Estimates the controller's time (from /clock) at any wall instant, for auto-simulated stepping."""
+    """Estimates the controller's time (from /clock) at any wall instant, for auto-simulated stepping.
 
-    def __init__(self, time_scale: float = 1.0, stale_after_s: float = 1.0) -> None:
+    Once a /clock value has been seen, estimates stay on the controller's time base (extrapolated at
+    `time_scale`) even when /clock pauses, so stamps never fall back to another base; `stale_after_s` (off by
+    default) makes old values expire instead.
+    """
+
+    def __init__(self, time_scale: float = 1.0, stale_after_s: float | None = None) -> None:
         self.time_scale = time_scale
         self.stale_after_s = stale_after_s
         self._clock: float | None = None
@@ -85,8 +90,10 @@ class ClockFollower:
             self._clock, self._wall = clock_s, wall_s
 
     def estimate(self, wall_s: float) -> float | None:
-        """Controller time now, or None when no /clock arrived within `stale_after_s` (wall)."""
+        """Controller time now, or None before the first /clock (or when it is older than `stale_after_s`)."""
         with self._lock:
-            if self._clock is None or wall_s - self._wall > self.stale_after_s:
+            if self._clock is None:
+                return None
+            if self.stale_after_s is not None and wall_s - self._wall > self.stale_after_s:
                 return None
             return self._clock + (wall_s - self._wall) * self.time_scale
