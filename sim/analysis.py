@@ -1,0 +1,333 @@
+"""Trial analysis: read recorded bags (rosbags, no ROS needed) or CSV logs, align desired and achieved joint
+positions by time, compute tracking metrics per joint, aggregate over trials, write a markdown report and plots.
+
+Desired = the commands' first points (stamp = the time the target is for); achieved = joint_states (stamp = the
+end of the physics step). Both are in the controller's time base, so achieved samples are compared with the
+desired trajectory interpolated at their stamps. Lost messages are counted from gaps in header.seq, which rospy
+numbers per publisher and the endpoint passes through unchanged.
+"""
+from __future__ import annotations
+
+import logging
+from collections import defaultdict
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from sim import rosmsgs
+from sim.metrics import TrackingMetrics, mean_and_std, resample, tracking_metrics
+from sim.robots import RobotSpec
+
+log = logging.getLogger(__name__)
+
+STATE_LEAD_TOLERANCE_S = 0.5  # how far (sim time) a joint state may lead the newest command recorded before it
+MOVING_JOINT_RANGE = 1e-3  # a joint whose desired range is below this (rad or m) does not move in the trial
+
+
+class AnalysisError(ValueError):
+    """A bag or log that cannot be analysed (missing topics, no overlap), named in the message."""
+
+
+@dataclass
+class TrialSeries:
+    """Desired and achieved joint positions of one trial, in the robot's joint order."""
+
+    robot: str
+    joint_names: tuple[str, ...]
+    desired_t: np.ndarray
+    desired_q: np.ndarray  # (n, dof)
+    achieved_t: np.ndarray
+    achieved_q: np.ndarray  # (m, dof)
+    commanded: int = 0  # messages the controller published (from seq numbers)
+    recorded_commands: int = 0
+    states_published: int = 0
+    recorded_states: int = 0
+
+    @property
+    def lost_messages(self) -> int:
+        return (self.commanded - self.recorded_commands) + (self.states_published - self.recorded_states)
+
+
+@dataclass
+class TrialResult:
+    robot: str
+    use_case: str
+    trial: int
+    metrics: dict[str, TrackingMetrics]  # by joint name, moving joints only
+    lost_messages: int
+    series: TrialSeries | None = field(default=None, repr=False)
+
+
+# --- reading ---------------------------------------------------------------------------------------------------
+
+
+def _seq_span(seqs: list[int]) -> int:
+    """How many messages a publisher sent between the first and last recorded seq (inclusive)."""
+    return 0 if not seqs else max(seqs) - min(seqs) + 1
+
+
+def read_bag(path: Path, robot: RobotSpec) -> TrialSeries:
+    from rosbags.rosbag1 import Reader
+
+    command_t, command_q, command_seq = [], [], []
+    state_t, state_q, state_seq = [], [], []
+    newest_command_stamp: float | None = None
+    hold = robot.home.copy()
+    with Reader(path) as reader:
+        wanted = [c for c in reader.connections if c.topic in (robot.command_topic, robot.joint_states_topic)]
+        if not any(c.topic == robot.joint_states_topic for c in wanted):
+            raise AnalysisError(f"{path}: no {robot.joint_states_topic} messages recorded")
+        for connection, _, raw in reader.messages(connections=wanted):  # in record order
+            if connection.topic == robot.command_topic:
+                command = rosmsgs.decode_joint_trajectory(raw, robot.joint_names)
+                newest_command_stamp = command.stamp_s
+                named = np.isfinite(command.positions)
+                hold = np.where(named, command.positions, hold)
+                command_t.append(command.stamp_s)
+                command_q.append(hold.copy())
+                command_seq.append(_header_seq(raw))
+            else:
+                state = rosmsgs.deserialize(raw, rosmsgs.JOINT_STATE)
+                # Until it hears /clock, an auto-simulating engine stamps with its own clock: a state stamped far
+                # ahead of every command recorded so far is not on the controller's time base yet.
+                stamp = rosmsgs.to_seconds(state.header.stamp)  # type: ignore[attr-defined]
+                if newest_command_stamp is None or stamp > newest_command_stamp + STATE_LEAD_TOLERANCE_S:
+                    continue
+                index = {name: i for i, name in enumerate(state.name)}  # type: ignore[attr-defined]
+                state_t.append(stamp)
+                state_q.append([state.position[index[name]] for name in robot.joint_names])  # type: ignore[attr-defined]
+                state_seq.append(state.header.seq)  # type: ignore[attr-defined]
+    if len(command_t) < 2:
+        raise AnalysisError(f"{path}: fewer than 2 commands on {robot.command_topic}")
+    return TrialSeries(
+        robot=robot.name,
+        joint_names=robot.joint_names,
+        desired_t=np.array(command_t),
+        desired_q=np.array(command_q),
+        achieved_t=np.array(state_t),
+        achieved_q=np.array(state_q),
+        commanded=_seq_span(command_seq),
+        recorded_commands=len(command_seq),
+        states_published=_seq_span(state_seq),
+        recorded_states=len(state_seq),
+    )
+
+
+def _header_seq(raw: bytes) -> int:
+    # std_msgs/Header is the first field of JointTrajectory; its seq is the first uint32.
+    return int.from_bytes(raw[:4], "little")
+
+
+def read_csv_pair(desired_csv: Path, achieved_csv: Path, robot: RobotSpec) -> TrialSeries:
+    """The no-ROS use cases: the engine's input CSV (desired) and its log (achieved)."""
+    from sim.engine import read_joint_csv
+
+    d_t, d_names, d_q = read_joint_csv(desired_csv, robot)
+    a_t, a_names, a_q = read_joint_csv(achieved_csv, robot)
+    desired = np.tile(robot.home, (d_t.size, 1))
+    desired[:, [robot.joint_names.index(n) for n in d_names]] = d_q
+    achieved = np.tile(robot.home, (a_t.size, 1))
+    achieved[:, [robot.joint_names.index(n) for n in a_names]] = a_q
+    return TrialSeries(robot.name, robot.joint_names, d_t, desired, a_t, achieved,
+                       commanded=d_t.size, recorded_commands=d_t.size,
+                       states_published=a_t.size, recorded_states=a_t.size)
+
+
+# --- metrics ---------------------------------------------------------------------------------------------------
+
+
+def align(series: TrialSeries) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(times, desired, achieved) at the achieved stamps that lie within the desired trajectory's time span."""
+    order = np.argsort(series.desired_t, kind="stable")
+    d_t, d_q = series.desired_t[order], series.desired_q[order]
+    keep_unique = np.concatenate(([True], np.diff(d_t) > 1e-9))
+    d_t, d_q = d_t[keep_unique], d_q[keep_unique]
+    inside = (series.achieved_t >= d_t[0] - 1e-9) & (series.achieved_t <= d_t[-1] + 1e-9)
+    times = series.achieved_t[inside]
+    if times.size < 2:
+        raise AnalysisError(
+            f"{series.robot}: joint states [{series.achieved_t.min(initial=np.nan):g} s…] do not overlap the "
+            f"commands [{d_t[0]:g}, {d_t[-1]:g}] s"
+        )
+    return times, resample(d_t, d_q, times), series.achieved_q[inside]
+
+
+def trial_metrics(series: TrialSeries, dt: float) -> dict[str, TrackingMetrics]:
+    """Metrics per moving joint (desired range above MOVING_JOINT_RANGE)."""
+    _, desired, achieved = align(series)
+    result = {}
+    for j, name in enumerate(series.joint_names):
+        if np.ptp(desired[:, j]) > MOVING_JOINT_RANGE:
+            result[name] = tracking_metrics(desired[:, j], achieved[:, j], dt)
+    return result
+
+
+# --- report ----------------------------------------------------------------------------------------------------
+
+_METRIC_COLUMNS = (
+    ("MAPE %", "mape_percent", "{:.4f}"),
+    ("WAPE %", "wape_percent", "{:.4f}"),
+    ("NRMSE %", "nrmse_percent", "{:.4f}"),
+    ("max |e|", "max_abs_error", "{:.2e}"),
+    ("lag ms", "lag_s", "{:.2f}"),
+)
+
+
+def _fmt(mean: float, std: float, spec: str, scale: float = 1.0) -> str:
+    if not np.isfinite(mean):
+        return "n/a"
+    return f"{spec.format(mean * scale)} ± {spec.format(std * scale)}"
+
+
+def summary_rows(results: Sequence[TrialResult]) -> list[dict[str, str]]:
+    """One row per (robot, use case, joint): mean ± std over trials of every metric, plus lost messages."""
+    grouped: dict[tuple[str, str, str], list[TrackingMetrics]] = defaultdict(list)
+    lost: dict[tuple[str, str], int] = defaultdict(int)
+    trials: dict[tuple[str, str], int] = defaultdict(int)
+    for result in results:
+        lost[(result.robot, result.use_case)] += result.lost_messages
+        trials[(result.robot, result.use_case)] += 1
+        for joint, metrics in result.metrics.items():
+            grouped[(result.robot, result.use_case, joint)].append(metrics)
+    rows = []
+    for (robot, use_case, joint), metrics in grouped.items():
+        row = {"robot": robot, "use case": use_case, "joint": joint, "trials": str(trials[(robot, use_case)])}
+        for title, attribute, spec in _METRIC_COLUMNS:
+            mean, std = mean_and_std([getattr(m, attribute) for m in metrics])
+            row[title] = _fmt(mean, std, spec, 1000.0 if attribute == "lag_s" else 1.0)
+        row["lost msgs"] = str(lost[(robot, use_case)])
+        rows.append(row)
+    return rows
+
+
+def markdown_table(rows: Sequence[dict[str, str]]) -> str:
+    if not rows:
+        return "(no results)\n"
+    headers = list(rows[0])
+    lines = ["| " + " | ".join(headers) + " |", "|" + "---|" * len(headers)]
+    lines += ["| " + " | ".join(row[h] for h in headers) + " |" for row in rows]
+    return "\n".join(lines) + "\n"
+
+
+def write_report(results: Sequence[TrialResult], out_dir: Path, title: str = "Tracking accuracy") -> Path:
+    """report.md with the summary table and links to the plots (written beside it)."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    plots = write_plots(results, out_dir)
+    lines = [f"# {title}", "", "Mean ± std over trials, per moving joint. MAPE leaves out samples with "
+             f"|desired| ≤ 1e-3 (rad or m); lag is the cross-correlation delay of achieved behind desired.", "",
+             markdown_table(summary_rows(results)), ""]
+    for plot in plots:
+        lines.append(f"![{plot.stem}]({plot.name})")
+    report = out_dir / "report.md"
+    report.write_text("\n".join(lines) + "\n")
+    return report
+
+
+def write_plots(results: Sequence[TrialResult], out_dir: Path) -> list[Path]:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    written = []
+    # Desired vs achieved per joint: the first trial of each (robot, use case).
+    seen = set()
+    for result in results:
+        key = (result.robot, result.use_case)
+        if key in seen or result.series is None:
+            continue
+        seen.add(key)
+        times, desired, achieved = align(result.series)
+        dof = desired.shape[1]
+        figure, axes = plt.subplots(dof, 1, figsize=(8, 1.6 * dof + 1), sharex=True, squeeze=False)
+        for j in range(dof):
+            axis = axes[j, 0]
+            axis.plot(times, desired[:, j], label="desired", linewidth=2.0)
+            axis.plot(times, achieved[:, j], "--", label="achieved", linewidth=1.2)
+            axis.set_ylabel(result.series.joint_names[j], fontsize=7)
+        axes[0, 0].legend(loc="upper right", fontsize=7)
+        axes[-1, 0].set_xlabel("time [s]")
+        figure.suptitle(f"{result.robot} — {result.use_case}: desired vs achieved")
+        figure.tight_layout()
+        path = out_dir / f"joints_{result.robot}_{result.use_case}.png"
+        figure.savefig(path, dpi=90)
+        plt.close(figure)
+        written.append(path)
+    # Bar charts per use case with error bars per robot (mean over moving joints, mean ± std over trials).
+    for title, attribute in (("MAPE %", "mape_percent"), ("WAPE %", "wape_percent")):
+        path = _bar_chart(results, attribute, title, out_dir, plt)
+        if path is not None:
+            written.append(path)
+    return written
+
+
+def _bar_chart(results: Sequence[TrialResult], attribute: str, title: str, out_dir: Path, plt) -> Path | None:
+    per_trial: dict[tuple[str, str], list[float]] = defaultdict(list)
+    for result in results:
+        values = [getattr(m, attribute) for m in result.metrics.values()]
+        values = [v for v in values if np.isfinite(v)]
+        if values:
+            per_trial[(result.robot, result.use_case)].append(float(np.mean(values)))
+    if not per_trial:
+        return None
+    robots = sorted({robot for robot, _ in per_trial})
+    use_cases = list(dict.fromkeys(use_case for _, use_case in per_trial))
+    width = 0.8 / len(robots)
+    figure, axis = plt.subplots(figsize=(max(6, 1.3 * len(use_cases)), 4))
+    for i, robot in enumerate(robots):
+        stats = [mean_and_std(per_trial.get((robot, uc), [])) for uc in use_cases]
+        positions = np.arange(len(use_cases)) + (i - (len(robots) - 1) / 2) * width
+        axis.bar(positions, [m for m, _ in stats], width, yerr=[s for _, s in stats], capsize=3, label=robot)
+    axis.set_xticks(np.arange(len(use_cases)), use_cases, rotation=25, ha="right", fontsize=8)
+    axis.set_ylabel(f"{title} (mean over moving joints)")
+    axis.set_yscale("symlog", linthresh=1e-3)
+    axis.legend()
+    axis.set_title(f"{title} per use case, mean ± std over trials")
+    figure.tight_layout()
+    path = out_dir / f"bars_{attribute.split('_')[0]}.png"
+    figure.savefig(path, dpi=90)
+    plt.close(figure)
+    return path
+
+
+def plot_ee_paths(
+    robot: RobotSpec, desired_q: np.ndarray, achieved_q: np.ndarray, goal: np.ndarray | None, path: Path
+) -> Path:
+    """The end-effector path (FK of desired and of achieved joint positions) and the goal, in 3-D."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from sim.kinematics import chain_for
+
+    chain = chain_for(robot)
+    desired_xyz = np.array([chain.fk(q)[:3, 3] for q in desired_q])
+    achieved_xyz = np.array([chain.fk(q)[:3, 3] for q in achieved_q])
+    figure = plt.figure(figsize=(6, 5))
+    axis = figure.add_subplot(projection="3d")
+    axis.plot(*desired_xyz.T, label="desired (FK of commands)", linewidth=2.0)
+    axis.plot(*achieved_xyz.T, "--", label="achieved (FK of joint states)")
+    if goal is not None:
+        axis.scatter(*np.asarray(goal)[:3], color="red", s=40, label="goal")
+    axis.set_xlabel("x [m]")
+    axis.set_ylabel("y [m]")
+    axis.set_zlabel("z [m]")
+    axis.legend(fontsize=7)
+    axis.set_title(f"{robot.name}: end-effector path")
+    figure.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    figure.savefig(path, dpi=90)
+    plt.close(figure)
+    return path
+
+
+def analyse_bags(entries: Iterable[tuple[str, str, int, Path]], robots: dict[str, RobotSpec], dt: float) -> list[TrialResult]:
+    """entries: (robot, use_case, trial, bag path) -> one TrialResult each."""
+    results = []
+    for robot_name, use_case, trial, bag in entries:
+        series = read_bag(bag, robots[robot_name])
+        results.append(TrialResult(robot_name, use_case, trial, trial_metrics(series, dt), series.lost_messages, series))
+    return results
