@@ -142,8 +142,8 @@ class Campaign:
         self.timeout_s = timeout_s
         self._roscore: RosCore | None = None
 
-    def paths(self, robot: RobotSpec, case: UseCase, trial: int) -> TrialPaths:
-        stem = f"{robot.name}_{case.name}_{trial}"
+    def paths(self, robot: RobotSpec, case: UseCase, trial: int, scenario: str = "trial") -> TrialPaths:
+        stem = f"{robot.name}_{case.name}_{trial}" if scenario == "trial" else f"{robot.name}_{case.name}_{scenario}_{trial}"
         return TrialPaths(
             bag=self.out_dir / "bags" / f"{stem}.bag",
             commander_log=self.out_dir / "commander" / f"{stem}.csv",
@@ -162,13 +162,16 @@ class Campaign:
             self._roscore = RosCore()
         return self._roscore
 
-    def run_trial(self, robot: RobotSpec, case: UseCase, trial: int) -> analysis.TrialResult:
-        paths = self.paths(robot, case, trial)
+    def run_trial(
+        self, robot: RobotSpec, case: UseCase, trial: int, scenario: Sequence[str] = ("trial",)
+    ) -> analysis.TrialResult:
+        """One run of the commander's `scenario` (name and options) under `case`, recorded and analysed."""
+        paths = self.paths(robot, case, trial, scenario[0])
         if case.transport == CSV:
             series = self._run_csv(robot, case, paths)
         elif case.transport == TCP:
             core = self.roscore()
-            self._run_ros(robot, case, paths, core.env, prefixes=None, endpoint_host="127.0.0.1")
+            self._run_ros(robot, case, paths, core.env, None, "127.0.0.1", scenario)
             series = analysis.read_bag(paths.bag, robot)
         else:
             tag = f"{trial}{robot.name[0]}"
@@ -178,7 +181,7 @@ class Campaign:
                 bridge_env = dict(core.env, ROS_HOSTNAME=NETNS_HOSTS["bridge"])
                 prefixes = {"ros": spaces.prefix(spaces.ros), "bridge": spaces.prefix(spaces.bridge),
                             "engine": spaces.prefix(spaces.engine), "bridge_env": bridge_env}
-                self._run_ros(robot, case, paths, core.env, prefixes, NETNS_HOSTS["bridge_engine_side"])
+                self._run_ros(robot, case, paths, core.env, prefixes, NETNS_HOSTS["bridge_engine_side"], scenario)
             series = analysis.read_bag(paths.bag, robot)
         return analysis.TrialResult(robot.name, case.name, trial, analysis.trial_metrics(series, DT),
                                     series.lost_messages, series)
@@ -203,6 +206,7 @@ class Campaign:
         env: dict[str, str],
         prefixes: dict | None,
         endpoint_host: str,
+        scenario: Sequence[str],
     ) -> None:
         logs = paths.process_logs
         prefix = (lambda host: prefixes[host]) if prefixes else (lambda host: [])
@@ -226,7 +230,7 @@ class Campaign:
             running.callback(lambda: _stop_recorder(recorder, paths.bag))
             engine.wait_for_output("connected to", timeout=60)
             recorder.wait_for_output("Recording to", timeout=30)
-            commander_args = [PYTHON, "-m", "sim.commander", "--robot", robot.name, "--scenario", "trial",
+            commander_args = [PYTHON, "-m", "sim.commander", "--robot", robot.name, "--scenario", *scenario,
                               "--dt", str(DT), "--log", str(paths.commander_log), "--wait-for", "trial_recorder",
                               "--timeout", "30"]
             if case.auto_simulate:
