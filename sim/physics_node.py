@@ -56,6 +56,16 @@ class RospyTransport:
             publisher.unregister()
 
 
+def _log_to_screen() -> None:
+    # init_node points the root logger at the node's log file only, which would hide the engine's errors (a
+    # rejected command, a clock jump) from the console; keep the file and show the sim's messages on stderr too.
+    handler = logging.StreamHandler(sys.stderr)
+    handler.setFormatter(logging.Formatter("[%(levelname)s] [%(name)s] %(message)s"))
+    logger = logging.getLogger("sim")
+    logger.addHandler(handler)
+    logger.setLevel(logging.INFO)
+
+
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(rospy.myargv(argv if argv is not None else sys.argv)[1:])
     try:
@@ -69,6 +79,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"sim.physics_node: error: {error}", file=sys.stderr)
         return 2
     rospy.init_node(f"{robot.name}_physics", disable_signals=True)
+    _log_to_screen()
     transport = RospyTransport()
     engine = EngineStandIn(robot, transport, options)  # type: ignore[arg-type]
     engine.attach()
