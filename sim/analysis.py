@@ -170,7 +170,7 @@ _METRIC_COLUMNS = (
     ("MAPE %", "mape_percent", "{:.4f}"),
     ("WAPE %", "wape_percent", "{:.4f}"),
     ("NRMSE %", "nrmse_percent", "{:.4f}"),
-    ("max |e|", "max_abs_error", "{:.2e}"),
+    ("max abs err", "max_abs_error", "{:.2e}"),
     ("lag ms", "lag_s", "{:.2f}"),
 )
 

@@ -1,0 +1,124 @@
+"""End to end: a short campaign through `python -m sim.trials` (real roscore, endpoint, engine, commander,
+rosbag record), its report checked against the bags.
+
+The check is independent of sim.analysis: the bags are read with ROS's own `rosbag` module (not rosbags), and
+the metrics are recomputed here with plain numpy.
+"""
+from __future__ import annotations
+
+import re
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+import rosbag
+
+from sim.processes import PYTHON, REPO
+from sim.robots import get_robot
+
+ROBOTS = ("panda", "igt")
+USE_CASES = ("auto_simulate_off", "no_ros")
+TRIALS = 2
+
+
+@pytest.fixture(scope="module")
+def campaign(tmp_path_factory, roscore) -> tuple[Path, str]:
+    out = tmp_path_factory.mktemp("campaign")
+    result = subprocess.run(
+        [PYTHON, "-m", "sim.trials", "--robots", *ROBOTS, "--use-cases", *USE_CASES, "--trials", str(TRIALS),
+         "--out", str(out), "--no-progress"],
+        cwd=REPO, env=roscore.env, capture_output=True, text=True, timeout=400,
+    )
+    assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-3000:]
+    return out, result.stdout
+
+
+def report_rows(report: Path) -> dict[tuple[str, str, str], dict[str, str]]:
+    lines = [line for line in report.read_text().splitlines() if line.startswith("| ")]
+    headers = [cell.strip() for cell in lines[0].strip("|").split("|")]
+    rows = {}
+    for line in lines[1:]:
+        cells = dict(zip(headers, (cell.strip() for cell in line.strip("|").split("|"))))
+        rows[(cells["robot"], cells["use case"], cells["joint"])] = cells
+    return rows
+
+
+def mean_of(cell: str) -> float:
+    return float(cell.split("±")[0])
+
+
+def bag_series(path: Path, robot_name: str) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, list[int]]:
+    """(command stamps, commanded positions, state stamps, state positions, command seqs) via ROS's rosbag."""
+    robot = get_robot(robot_name)
+    command_t, command_q, seqs, state_t, state_q = [], [], [], [], []
+    newest_command = None
+    with rosbag.Bag(str(path)) as bag:
+        for topic, message, _ in bag.read_messages(topics=[robot.command_topic, robot.joint_states_topic]):
+            if topic == robot.command_topic:
+                assert list(message.joint_names) == list(robot.joint_names)
+                newest_command = message.header.stamp.to_sec()
+                command_t.append(newest_command)
+                command_q.append(message.points[0].positions)
+                seqs.append(message.header.seq)
+            elif newest_command is not None and message.header.stamp.to_sec() <= newest_command + 0.5:
+                order = [list(message.name).index(name) for name in robot.joint_names]
+                state_t.append(message.header.stamp.to_sec())
+                state_q.append(np.asarray(message.position)[order])
+    return np.array(command_t), np.array(command_q), np.array(state_t), np.array(state_q), seqs
+
+
+def test_campaign_writes_a_report_with_every_robot_and_use_case(campaign) -> None:
+    out, stdout = campaign
+    rows = report_rows(out / "report.md")
+    for robot in ROBOTS:
+        moving = get_robot(robot).joint_names
+        for use_case in USE_CASES:
+            for joint in moving:
+                row = rows[(robot, use_case, joint)]
+                assert row["trials"] == str(TRIALS)
+                assert row["lost msgs"] == "0"
+    assert "messages lost: 0" in stdout
+    for plot in ("bars_mape.png", "bars_wape.png", "joints_panda_no_ros.png", "joints_igt_auto_simulate_off.png"):
+        assert (out / plot).stat().st_size > 10_000
+
+
+def test_report_numbers_match_the_bags(campaign) -> None:
+    out, _ = campaign
+    rows = report_rows(out / "report.md")
+    for robot in ROBOTS:
+        spec = get_robot(robot)
+        mape = {joint: [] for joint in spec.joint_names}
+        max_error = {joint: [] for joint in spec.joint_names}
+        for trial in range(1, TRIALS + 1):
+            bag = out / "bags" / f"{robot}_auto_simulate_off_{trial}.bag"
+            command_t, command_q, state_t, state_q, seqs = bag_series(bag, robot)
+            assert seqs == list(range(seqs[0], seqs[0] + len(seqs))), "commands lost or reordered"
+            assert len(command_t) >= 40 / 0.02, "the 40 s trial path at 50 Hz"
+            inside = (state_t >= command_t[0]) & (state_t <= command_t[-1])
+            for j, joint in enumerate(spec.joint_names):
+                desired = np.interp(state_t[inside], command_t, command_q[:, j])
+                achieved = state_q[inside, j]
+                used = np.abs(desired) > 1e-3
+                mape[joint].append(100 * np.mean(np.abs(achieved[used] - desired[used]) / np.abs(desired[used])))
+                max_error[joint].append(np.max(np.abs(achieved - desired)))
+        for joint in spec.joint_names:
+            row = rows[(robot, "auto_simulate_off", joint)]
+            assert mean_of(row["MAPE %"]) == pytest.approx(np.mean(mape[joint]), abs=6e-5)  # 4 decimals printed
+            assert mean_of(row["max abs err"]) == pytest.approx(np.mean(max_error[joint]), rel=6e-3)
+            # The lockstep use case tracks the trial path tightly (the issue's target is 0.05 % MAPE).
+            assert np.mean(mape[joint]) < 0.05
+
+
+def test_no_ros_use_case_compares_the_engines_csv_log_with_its_input(campaign) -> None:
+    out, _ = campaign
+    desired = np.loadtxt(out / "csv" / "igt_no_ros_1_desired.csv", delimiter=",", skiprows=1)
+    achieved = np.loadtxt(out / "csv" / "igt_no_ros_1_achieved.csv", delimiter=",", skiprows=1)
+    assert desired.shape[1] == achieved.shape[1] == 1 + get_robot("igt").dof
+    rows = report_rows(out / "report.md")
+    for j, joint in enumerate(get_robot("igt").joint_names, start=1):
+        reference = np.interp(achieved[:, 0], desired[:, 0], desired[:, j])
+        max_error = np.max(np.abs(achieved[:, j] - reference))
+        reported = re.split(r"\s*±\s*", rows[("igt", "no_ros", joint)]["max abs err"])[0]
+        assert max_error <= 2 * float(reported)  # trial 1 vs the mean of two near-identical trials
+        assert max_error < 1e-3
