@@ -97,6 +97,10 @@ class Controller:
         with self._lock:
             return list(self.states)
 
+    def snapshot_with_arrivals(self) -> tuple[list, list[float]]:
+        with self._lock:
+            return list(self.states), list(self.arrivals)
+
     def close(self) -> None:
         for handle in (self.command_pub, self.clock_pub, self.pose_pub, self.state_sub):
             handle.unregister()
