@@ -286,8 +286,20 @@ def write_joint_csv(path: Path, names: Sequence[str], times: np.ndarray, positio
             writer.writerow([f"{t:.6f}", *(f"{value:.9f}" for value in row)])
 
 
+def path_velocity(times: np.ndarray, positions: np.ndarray, t: float) -> np.ndarray:
+    """Velocity of the piecewise-linear path through (times, positions) at t: the slope of the segment holding t;
+    exactly at a sample, the mean of the slopes on either side (for a densely sampled smooth path, the central
+    difference; a one-sided slope would lag by half a sample); 0 outside the samples, where the path holds."""
+    slopes = np.diff(positions, axis=0) / np.diff(times)[:, None]
+    slopes = np.vstack([np.zeros(positions.shape[1]), slopes, np.zeros(positions.shape[1])])  # held outside
+    after = int(np.searchsorted(times, t))  # first sample at or after t
+    if after < len(times) and abs(times[after] - t) < 1e-9:
+        return 0.5 * (slopes[after] + slopes[after + 1])
+    return slopes[after]
+
+
 def replay_csv(robot: RobotSpec, csv_in: Path, log_out: Path, options: EngineOptions) -> int:
-    """Drive the physics through the CSV's positions (linear in time, slope as velocity feed-forward)."""
+    """Drive the physics through the CSV's positions: linear in time, the path's velocity as feed-forward."""
     times, names, desired = read_joint_csv(csv_in, robot)
     columns = [robot.joint_names.index(name) for name in names]
     with make_world(robot, options) as world:
@@ -300,10 +312,7 @@ def replay_csv(robot: RobotSpec, csv_in: Path, log_out: Path, options: EngineOpt
         for k, t_end in enumerate(step_ends):
             positions, velocities = start.copy(), np.zeros(robot.dof)
             positions[columns] = [np.interp(t_end, times, desired[:, j]) for j in range(len(names))]
-            if len(times) > 1:  # the slope of the segment holding t_end is the velocity feed-forward
-                segment = int(np.clip(np.searchsorted(times, t_end, side="right") - 1, 0, len(times) - 2))
-                if t_end <= times[-1]:
-                    velocities[columns] = (desired[segment + 1] - desired[segment]) / (times[segment + 1] - times[segment])
+            velocities[columns] = path_velocity(times, desired, t_end)
             world.set_targets(positions, velocities)
             achieved[k] = world.step().positions
     write_joint_csv(log_out, robot.joint_names, step_ends, achieved)
@@ -313,7 +322,7 @@ def replay_csv(robot: RobotSpec, csv_in: Path, log_out: Path, options: EngineOpt
 # ---------------------------------------------------------------------------------------------------------------
 
 
-def _parser() -> argparse.ArgumentParser:
+def argument_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="python -m sim.engine", description=__doc__.splitlines()[0])
     parser.add_argument("--robot", default="panda")
     parser.add_argument("--host", default="127.0.0.1", help="endpoint address")
@@ -334,18 +343,23 @@ def _parser() -> argparse.ArgumentParser:
     return parser
 
 
+def options_from_args(args: argparse.Namespace) -> EngineOptions:
+    """The engine's options from `argument_parser()`'s arguments (shared with the rospy physics node)."""
+    if args.dt <= 0 or args.time_scale <= 0:
+        raise EngineError(f"--dt and --time-scale must be > 0, got {args.dt} and {args.time_scale}")
+    return EngineOptions(
+        mode=Mode(args.mode), dt=args.dt, auto_simulate=not args.no_auto_simulate, time_scale=args.time_scale,
+        max_clock_jump_s=args.max_clock_jump, pose_convention=args.pose_convention,
+        stiffness=args.stiffness, damping=args.damping, force_limit=args.force_limit,
+    )
+
+
 def main(argv: list[str] | None = None) -> int:
-    args = _parser().parse_args(argv)
+    args = argument_parser().parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="[%(levelname)s] [%(name)s] %(message)s", stream=sys.stderr)
     try:
         robot = get_robot(args.robot)
-        options = EngineOptions(
-            mode=Mode(args.mode), dt=args.dt, auto_simulate=not args.no_auto_simulate, time_scale=args.time_scale,
-            max_clock_jump_s=args.max_clock_jump, pose_convention=args.pose_convention,
-            stiffness=args.stiffness, damping=args.damping, force_limit=args.force_limit,
-        )
-        if args.dt <= 0 or args.time_scale <= 0:
-            raise EngineError(f"--dt and --time-scale must be > 0, got {args.dt} and {args.time_scale}")
+        options = options_from_args(args)
         if args.csv is not None:
             steps = replay_csv(robot, args.csv, args.log, options)
             print(f"replayed {args.csv} in {steps} steps of {args.dt} s; achieved positions in {args.log}")

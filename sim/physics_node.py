@@ -13,8 +13,7 @@ from collections.abc import Callable
 
 import rospy
 
-from sim.engine import EngineError, EngineOptions, EngineStandIn, _parser
-from sim.physics import Mode
+from sim.engine import EngineError, EngineStandIn, argument_parser, options_from_args
 from sim.robots import get_robot
 
 log = logging.getLogger(__name__)
@@ -67,14 +66,10 @@ def _log_to_screen() -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    args = _parser().parse_args(rospy.myargv(argv if argv is not None else sys.argv)[1:])
+    args = argument_parser().parse_args(rospy.myargv(argv if argv is not None else sys.argv)[1:])
     try:
         robot = get_robot(args.robot)
-        options = EngineOptions(
-            mode=Mode(args.mode), dt=args.dt, auto_simulate=not args.no_auto_simulate, time_scale=args.time_scale,
-            max_clock_jump_s=args.max_clock_jump, pose_convention=args.pose_convention,
-            stiffness=args.stiffness, damping=args.damping, force_limit=args.force_limit,
-        )
+        options = options_from_args(args)
     except (EngineError, ValueError) as error:
         print(f"sim.physics_node: error: {error}", file=sys.stderr)
         return 2

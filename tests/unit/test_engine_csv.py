@@ -226,3 +226,15 @@ def test_pose_to_marker_rejects_an_unknown_convention():
 def test_identity_orientation_stays_identity_in_unity():
     marker = engine.pose_to_marker(np.zeros(3), np.array([0.0, 0.0, 0.0, 1.0]), engine.POSE_QUATERNION)
     np.testing.assert_allclose(np.abs(marker.orientation_unity), [0.0, 0.0, 0.0, 1.0], atol=1e-12)
+
+
+def test_path_velocity_is_the_slope_inside_segments_and_the_mean_at_samples():
+    from sim.engine import path_velocity
+
+    times = np.array([0.0, 1.0, 2.0, 4.0])
+    positions = np.array([[0.0, 5.0], [1.0, 5.0], [1.0, 3.0], [3.0, 3.0]])
+    np.testing.assert_allclose(path_velocity(times, positions, 0.5), [1.0, 0.0])
+    np.testing.assert_allclose(path_velocity(times, positions, 1.0), [0.5, -1.0])  # mean of both sides
+    np.testing.assert_allclose(path_velocity(times, positions, 3.0), [1.0, 0.0])
+    np.testing.assert_allclose(path_velocity(times, positions, 4.0), [0.5, 0.0])  # the path holds after the end
+    np.testing.assert_allclose(path_velocity(times, positions, 9.0), [0.0, 0.0])
