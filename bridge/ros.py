@@ -16,6 +16,8 @@ import genpy
 import rosgraph
 import rospy
 
+from bridge.layout import Layout, LayoutError
+
 log = logging.getLogger(__name__)
 
 
@@ -68,6 +70,7 @@ class TypeRegistry:
         self._raw_messages: dict[str, type[RawMessage]] = {}
         self._raw_services: dict[str, type] = {}
         self._generated: dict[str, type[genpy.Message]] = {}
+        self._layouts: dict[str, Layout] = {}  # read without the lock: entries are only ever added
 
     def message_class(self, message_name: str) -> type[genpy.Message]:
         with self._lock:
@@ -106,32 +109,25 @@ class TypeRegistry:
             return raw
 
     def validate(self, message_name: str, payload: bytes) -> None:
-        """Deserialize once to prove the bytes are a `message_name`; RosError says why they are not."""
-        cls = self.message_class(message_name)
-        checked = _CheckedPayload(payload)
+        """Prove the bytes are exactly one `message_name` (no truncation, no trailing bytes); RosError says why
+        not. Walks the length prefixes only (bridge.layout), ~1 µs for a JointState instead of ~4 µs for a genpy
+        deserialize, which would also need a bounds-checking wrapper (~11 µs) to catch truncated strings."""
+        layout = self._layouts.get(message_name)
+        if layout is None:
+            layout = self._layout(message_name)
         try:
-            cls().deserialize(checked)
-            if checked.read_to != len(payload):
-                raise ValueError(f"{len(payload) - checked.read_to} trailing byte(s) after the message")
-        except (genpy.DeserializationError, ValueError, TypeError, IndexError, UnicodeDecodeError) as error:
-            raise RosError(f"payload of {len(payload)} bytes is not a valid {message_name}: {error}") from None
-        except Exception as error:  # struct.error and friends from generated code
+            layout.check(payload)
+        except LayoutError as error:
             raise RosError(f"payload of {len(payload)} bytes is not a valid {message_name}: {error}") from None
 
-
-class _CheckedPayload(bytes):
-    """A payload for validation. genpy's generated deserializers slice strings and byte arrays without checking
-    the bounds, so a truncated payload would silently "deserialize"; slicing past the end raises here instead, and
-    the furthest byte read is recorded so trailing garbage is caught too."""
-
-    read_to = 0
-
-    def __getitem__(self, key: Any) -> Any:
-        if isinstance(key, slice) and key.stop is not None:
-            if key.stop > len(self):
-                raise IndexError(f"the message needs at least {key.stop} bytes")
-            self.read_to = max(self.read_to, key.stop)
-        return bytes.__getitem__(self, key)
+    def _layout(self, message_name: str) -> Layout:
+        cls = self.message_class(message_name)
+        try:
+            layout = Layout(cls, self.message_class)
+        except (LayoutError, ValueError) as error:
+            raise RosError(f"cannot validate {message_name}: {error}") from None
+        with self._lock:
+            return self._layouts.setdefault(message_name, layout)
 
 
 def _raw_class_like(generated: type[genpy.Message]) -> type[RawMessage]:
