@@ -1,4 +1,8 @@
-"""A bounded outgoing frame queue per client: drop the oldest topic frame when full, never a service frame."""
+"""Bounded frame queues: drop the oldest topic frame when full, never a service frame.
+
+Used per client for frames going out to it, and per bridged topic for client payloads waiting for the ROS
+publisher's pump thread (bridge.ros.RawPublisher).
+"""
 from __future__ import annotations
 
 import threading
@@ -35,16 +39,22 @@ class OutgoingQueue:
     def queued_bytes(self) -> int:
         return self._bytes
 
-    def put(self, data: bytes, droppable: bool = True) -> None:
+    def put(self, data: bytes, droppable: bool = True) -> int:
+        """Queue `data`; returns how many older frames were dropped to make room for it.
+
+        A queue is never emptied to make room, so one frame larger than `max_bytes` still goes through."""
         with self._condition:
             if self._closed:
-                return
+                return 0
             self._items.append((data, droppable))
             self._bytes += len(data)
-            while len(self._items) > self.max_frames or self._bytes > self.max_bytes:
+            dropped = 0
+            while (len(self._items) > self.max_frames or self._bytes > self.max_bytes) and len(self._items) > 1:
                 if not self._drop_oldest_droppable():
                     break
+                dropped += 1
             self._condition.notify()
+            return dropped
 
     def _drop_oldest_droppable(self) -> bool:
         if self._items[0][1]:
@@ -70,6 +80,13 @@ class OutgoingQueue:
             self._items.clear()
             self._bytes = 0
             return items
+
+    def wait(self, timeout: float | None = None) -> bool:
+        """Until something is queued (True) or `timeout` passed (True, maybe empty); False once closed and empty."""
+        with self._condition:
+            if not self._items and not self._closed:
+                self._condition.wait(timeout)
+            return bool(self._items) or not self._closed
 
     def close(self, discard: bool = False) -> None:
         """No more puts; the writer drains what is queued (unless `discard`) and then gets None."""

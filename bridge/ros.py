@@ -8,7 +8,9 @@ from __future__ import annotations
 
 import importlib
 import logging
+import struct
 import threading
+import warnings
 from collections.abc import Callable
 from typing import Any
 
@@ -17,8 +19,10 @@ import rosgraph
 import rospy
 
 from bridge.layout import Layout, LayoutError
+from bridge.queues import OutgoingQueue
 
 log = logging.getLogger(__name__)
+_U32 = struct.Struct("<I")
 
 
 class RosError(RuntimeError):
@@ -182,11 +186,16 @@ class RosGraph:
         return rospy.resolve_name(name)
 
     # --- topics -----------------------------------------------------------------------------------------------
-    def make_publisher(self, topic: str, message_name: str, queue_size: int, latch: bool) -> RawPublisher:
+    def make_publisher(
+        self, topic: str, message_name: str, queue_size: int, latch: bool, max_queue_bytes: int
+    ) -> RawPublisher:
         raw = self.types.raw_message_class(message_name)
-        # queue_size 0 would mean an unbounded rospy queue; keep at least one slot.
-        publisher = rospy.Publisher(topic, raw, queue_size=max(queue_size, 1), latch=latch)
-        return RawPublisher(publisher, raw, message_name)
+        # queue_size=None: rospy's synchronous publisher; RawPublisher's own pump thread and queue (of the
+        # client's queue_size, at least 1) keep client threads from ever waiting on ROS subscribers.
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", SyntaxWarning)  # rospy's "queue_size not specified" warning
+            publisher = rospy.Publisher(topic, raw, queue_size=None, latch=latch, tcp_nodelay=True)
+        return RawPublisher(publisher, raw, message_name, queue_size, max_queue_bytes)
 
     def make_subscriber(self, topic: str, message_name: str, callback: MessageCallback) -> Any:
         raw = self.types.raw_message_class(message_name)
@@ -217,16 +226,82 @@ class RosGraph:
 
 
 class RawPublisher:
-    def __init__(self, publisher: Any, raw_class: type[RawMessage], message_name: str) -> None:
+    """A ROS publisher fed by clients' reader threads, which must never block on ROS subscribers.
+
+    `publish` only queues the payload (bounded, drop-oldest: a queue of the client's `queue_size`, as rospy's
+    queued publisher would keep per subscriber). One pump thread per topic drains the queue a batch at a time into
+    rospy's *synchronous* publisher: one thread hand-off per batch instead of rospy's wake-up, sleep(0) and socket
+    write per message. A batch goes to each subscriber connection as one write of back-to-back TCPROS frames
+    (u32 length + bytes), see `_write_batch`. Trade-off: as with any synchronous rospy publisher, a ROS subscriber
+    that stops reading stalls this topic's other ROS subscribers once its socket buffer is full; the clients never
+    stall (the queue drops oldest and the publishing client is told).
+    """
+
+    def __init__(self, publisher: Any, raw_class: type[RawMessage], message_name: str, queue_size: int,
+                 max_queue_bytes: int) -> None:
         self._publisher = publisher
         self._raw_class = raw_class
+        self._latch = bool(publisher.impl.is_latch)
         self.message_name = message_name
+        self.queue = OutgoingQueue(max(queue_size, 1), max_queue_bytes)
+        self._pump = threading.Thread(target=self._pump_loop, name=f"pump {publisher.resolved_name}", daemon=True)
+        self._pump.start()
 
-    def publish(self, payload: bytes) -> None:
-        self._publisher.publish(self._raw_class(payload))
+    def publish(self, payload: bytes) -> int:
+        """Queue one message for ROS; returns how many older queued messages were dropped to make room."""
+        return self.queue.put(payload)
 
     def unregister(self) -> None:
-        self._publisher.unregister()
+        """The pump writes what is queued, then takes the topic off the graph (never waited for here: the caller
+        holds the endpoint's lock, and a write to a stalled subscriber may take long)."""
+        self.queue.close()
+
+    def _pump_loop(self) -> None:
+        while True:
+            batch = self.queue.take_all()
+            if batch is None:
+                self._publisher.unregister()
+                return
+            try:
+                if self._latch:
+                    # Latched topics take rospy's own path, which also records the latch for late subscribers.
+                    for payload in batch:
+                        self._publisher.publish(self._raw_class(payload))
+                else:
+                    self._write_batch(batch)
+            except Exception:  # rospy shutting down, topic closed: a lost batch, never a dead pump
+                if not rospy.is_shutdown():
+                    log.exception("publishing on %s failed", self._publisher.resolved_name)
+
+    def _write_batch(self, payloads: list[bytes]) -> None:
+        """What rospy's _PublisherImpl.publish does for one message (same lock, same failure handling: a
+        connection whose write fails is closed, and rospy then removes it), done once for the whole batch."""
+        impl = self._publisher.impl
+        if impl is None or impl.closed:
+            return
+        data = b"".join([part for payload in payloads for part in (_U32.pack(len(payload)), payload)])
+        failed = []
+        impl.acquire()
+        try:
+            if impl.closed or not impl.has_connections():
+                return
+            for connection in impl.connections:  # rospy replaces this list on change, never mutates it
+                try:
+                    if not rospy.is_shutdown():
+                        connection.write_data(data)
+                        connection.stat_num_msg += len(payloads) - 1  # write_data counted one message
+                except Exception:  # rospy: TransportTerminated and anything else drop the connection
+                    log.debug("publisher connection on %s failed", impl.resolved_name, exc_info=True)
+                    failed.append(connection)
+            impl.seq += len(payloads)
+            impl.message_data_sent += len(data)
+        finally:
+            impl.release()
+        for connection in failed:
+            try:
+                connection.close()  # calls back into impl.remove_connection
+            except Exception:
+                pass
 
 
 class RawServiceProxy:

@@ -234,7 +234,10 @@ class Endpoint:
                 shared = None
             if shared is None:
                 publisher = self._ros_call(
-                    lambda: self.ros.make_publisher(resolved, command.message_name, command.queue_size, command.latch)
+                    lambda: self.ros.make_publisher(
+                        resolved, command.message_name, command.queue_size, command.latch,
+                        self.config.client_queue_bytes,
+                    )
                 )
                 shared = _SharedPublisher(command.message_name, publisher)
                 self._publishers[resolved] = shared
@@ -351,7 +354,8 @@ class Endpoint:
                 self.ros.types.validate(publisher.message_name, frame.payload)
             except RosError as error:
                 raise ClientError(f"topic {resolved}: {error}; message not published") from None
-        publisher.publish(frame.payload)
+        # Never blocks: the publisher's pump thread writes to ROS. Drops are reported by the writer (__warn).
+        session.publish_drops += publisher.publish(frame.payload)
 
     def call_ros_service(self, session: ClientSession, srv_id: int, frame: Frame) -> None:
         proxy = session.ros_services.get(frame.destination)
@@ -445,7 +449,9 @@ class ClientSession:
         self.frames_in = 0
         self.frames_out = 0
         self._closed = threading.Event()
+        self.publish_drops = 0  # this client's messages dropped before reaching ROS (publisher queue full)
         self._reported_drops = 0
+        self._reported_publish_drops = 0
         self._last_drop_warning_at = 0.0
         self._reader = threading.Thread(target=self._read_loop, name=f"read {self.name}", daemon=True)
         self._writer = threading.Thread(target=self._write_loop, name=f"write {self.name}", daemon=True)
@@ -618,19 +624,27 @@ class ClientSession:
             self.close()
 
     def _drop_warning(self) -> bytes | None:
-        """At most once per wake-up (>= 1 s apart when idle): how many frames this slow reader lost."""
-        dropped = self.queue.dropped
-        if dropped == self._reported_drops:
+        """At most once per wake-up (>= 1 s apart when idle): how many frames were lost each way."""
+        dropped, publish_dropped = self.queue.dropped, self.publish_drops
+        if dropped == self._reported_drops and publish_dropped == self._reported_publish_drops:
             return None
         now = time.monotonic()
         if now - self._last_drop_warning_at < DROP_WARNING_INTERVAL_S:
             return None
         self._last_drop_warning_at = now
-        newly = dropped - self._reported_drops
-        self._reported_drops = dropped
-        return protocol.warn_frame(
-            f"client reads too slowly: {newly} outgoing message(s) dropped (oldest first), {dropped} in total"
-        )
+        parts = []
+        if dropped != self._reported_drops:
+            parts.append(
+                f"client reads too slowly: {dropped - self._reported_drops} outgoing message(s) dropped "
+                f"(oldest first), {dropped} in total"
+            )
+        if publish_dropped != self._reported_publish_drops:
+            parts.append(
+                f"ROS subscribers take this client's messages too slowly: {publish_dropped - self._reported_publish_drops} "
+                f"published message(s) dropped (oldest first; raise queue_size in __publish), {publish_dropped} in total"
+            )
+        self._reported_drops, self._reported_publish_drops = dropped, publish_dropped
+        return protocol.warn_frame("; ".join(parts))
 
 
 def _tune_socket(sock: socket.socket) -> None:

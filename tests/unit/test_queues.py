@@ -154,3 +154,24 @@ def test_thread_safety_smoke() -> None:
     for index in range(producers):  # per producer, order is kept
         mine = [int(item.split(b":")[1]) for item in taken if item.startswith(b"%d:" % index)]
         assert mine == sorted(mine)
+
+
+def test_put_returns_how_many_frames_it_dropped() -> None:
+    queue = OutgoingQueue(max_frames=2, max_bytes=1 << 20)
+    assert [queue.put(b"x") for _ in range(4)] == [0, 0, 1, 1]
+
+
+def test_a_frame_larger_than_the_byte_limit_still_goes_through() -> None:
+    queue = OutgoingQueue(max_frames=10, max_bytes=8)
+    queue.put(b"small")
+    assert queue.put(b"a big camera image") == 1  # the older frame makes room; the big one stays
+    assert queue.take_all(timeout=0) == [b"a big camera image"]
+
+
+def test_wait_reports_items_timeout_and_closed() -> None:
+    queue = OutgoingQueue(max_frames=10, max_bytes=100)
+    assert queue.wait(timeout=0.01) is True and len(queue) == 0  # timed out, still open
+    queue.put(b"a")
+    assert queue.wait() is True and len(queue) == 1  # does not take
+    queue.close(discard=True)
+    assert queue.wait() is False
