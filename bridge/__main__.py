@@ -75,9 +75,17 @@ def _log_to_screen() -> None:
     logger.setLevel(logging.INFO)
 
 
+# How long a busy thread may hold the GIL while another waits for it (CPython's default is 5 ms). The endpoint's
+# threads mostly hand bytes to each other; with 5 ms, one flooding client's reader makes every pump, writer and
+# rospy thread wait up to 5 ms per hand-off: publisher queues overflow and 1 kHz round trips get 5-10 ms spikes.
+GIL_SWITCH_INTERVAL_S = 0.0005
+
+
 def main(argv: list[str] | None = None) -> int:
     # rospy is imported here, not at module level, so `--help` works without a ROS install.
     import rospy
+
+    sys.setswitchinterval(GIL_SWITCH_INTERVAL_S)
 
     from bridge.ros import RosGraph
 
