@@ -283,18 +283,18 @@ def run_campaign(
     plan = [(robot, case, trial) for robot in specs for case in cases for trial in range(1, trials + 1)]
     campaign = Campaign(out_dir, time_scale)
     results: list[analysis.TrialResult] = []
-    skipped: list[str] = []
+    skipped: dict[tuple[str, str], str] = {}  # (robot, use case) -> why
     try:
         for robot, case, trial in tqdm(plan, desc="trials", unit="trial", disable=not progress):
-            if f"{robot.name}/{case.name}" in {s.split(":")[0] for s in skipped}:
+            if (robot.name, case.name) in skipped:
                 continue
             try:
                 results.append(campaign.run_trial(robot, case, trial))
             except TrialSkipped as why:
-                skipped.append(f"{robot.name}/{case.name}: skipped, {why}")
+                skipped[(robot.name, case.name)] = str(why)
     finally:
         campaign.close()
-    return results, skipped
+    return results, [f"{robot}/{case}: skipped, {why}" for (robot, case), why in skipped.items()]
 
 
 def _parser() -> argparse.ArgumentParser:
