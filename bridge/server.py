@@ -1,20 +1,26 @@
 """The endpoint's TCP server: one session per client, shared ROS topics and services, raw passthrough.
 
-Threads: one accept thread; per client a reader (frames in) and a writer (drains the client's bounded queue);
-rospy's own threads deliver ROS messages, which are fanned out to the subscribed clients' queues; ROS service
-calls and topic-list look-ups run on a small pool so a slow service never stalls a client's reader.
+Threads: one accept thread; per client a reader (frames in), a writer (drains the client's bounded queue when a
+direct send could not write everything, see ClientSession.send) and a few workers for its ROS service calls and
+topic-list look-ups (so a slow service never stalls a reader, nor another client's calls); per published topic a
+pump thread (bridge.ros.RawPublisher); rospy's own threads deliver ROS messages, which are fanned out to the
+subscribed clients.
 """
 from __future__ import annotations
 
+import fcntl
 import fnmatch
 import hmac
 import itertools
 import logging
 import socket
+import struct
+import termios
 import threading
 import time
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
+from collections.abc import Callable
 from typing import Any
 
 from bridge import protocol
@@ -40,6 +46,8 @@ from bridge.ros import RawPublisher, RawServiceProxy, RosError, RosGraph
 log = logging.getLogger(__name__)
 
 RECV_BYTES = 256 * 1024
+# A client with more than this waiting unacknowledged in its socket is not keeping up: no direct sends to it.
+DIRECT_SEND_MAX_UNSENT = 64 * 1024
 DROP_WARNING_INTERVAL_S = 1.0
 
 
@@ -56,7 +64,11 @@ class EndpointConfig:
     deny_topics: tuple[str, ...] = ()
     service_timeout_s: float = 10.0
     validate_payloads: bool = True
-    service_workers: int = 8
+    # Per client: ROS service calls and topic-list look-ups in flight at once, and queued behind them. Each client
+    # has its own workers, so one client calling missing services (each waiting service_timeout_s) delays only
+    # its own later calls.
+    client_call_workers: int = 4
+    client_max_pending_calls: int = 64
 
     def permits(self, resolved_name: str) -> bool:
         if any(fnmatch.fnmatchcase(resolved_name, pattern) for pattern in self.deny_topics):
@@ -119,7 +131,6 @@ class Endpoint:
         self._pending_unity_calls: dict[int, _PendingUnityCall] = {}
         self._unity_srv_ids = itertools.count(1001)
         self._client_ids = itertools.count(1)
-        self._pool = ThreadPoolExecutor(max_workers=config.service_workers, thread_name_prefix="ros-call")
         self._listener: socket.socket | None = None
         self._accept_thread: threading.Thread | None = None
         self._stopping = threading.Event()
@@ -153,7 +164,6 @@ class Endpoint:
             session.close()
         if self._accept_thread is not None:
             self._accept_thread.join(timeout=2)
-        self._pool.shutdown(wait=False, cancel_futures=True)
         log.info("endpoint stopped: %s", self.stats())
 
     def stats(self) -> dict[str, int]:
@@ -376,7 +386,7 @@ class Endpoint:
             # header and body back to back as one item: nothing can come between them on the wire.
             session.send(header + protocol.encode_frame(frame.destination, response), droppable=False)
 
-        self._pool.submit(call)
+        session.run_call(f"__request {srv_id} ({frame.destination})", call)
 
     def send_topic_list(self, session: ClientSession) -> None:
         def look_up() -> None:
@@ -387,7 +397,7 @@ class Endpoint:
                 return
             session.send(protocol.encode_syscommand("__topic_list", {"topics": topics, "types": types}), False)
 
-        self._pool.submit(look_up)
+        session.run_call("__topic_list", look_up)
 
     def _call_unity_service(self, resolved: str, request: bytes) -> bytes:
         """rospy service thread: forward a ROS request to the owning client and wait for its __response."""
@@ -449,6 +459,11 @@ class ClientSession:
         self.frames_in = 0
         self.frames_out = 0
         self._closed = threading.Event()
+        self._send_lock = threading.Lock()  # one writer of the socket at a time: direct sends or the writer thread
+        # Threads are started on demand, so a client that never calls a service costs none.
+        self._calls = ThreadPoolExecutor(config.client_call_workers, thread_name_prefix=f"calls {self.name}")
+        self._calls_lock = threading.Lock()
+        self._calls_pending = 0
         self.publish_drops = 0  # this client's messages dropped before reaching ROS (publisher queue full)
         self._reported_drops = 0
         self._reported_publish_drops = 0
@@ -467,11 +482,63 @@ class ClientSession:
         self._reader.start()
 
     def send(self, frame: bytes, droppable: bool = True) -> None:
+        """Send one frame (or a service header + body, as one item) without ever blocking the caller.
+
+        Direct path: when nothing is queued, nobody is writing and the peer keeps up, write it at once with a non-blocking send on
+        the calling thread (a rospy callback, a reader), which saves the writer thread's wake-up and keeps 1 kHz
+        latency low. Whatever the socket does not take goes to the queue: the unsent rest of a frame as
+        non-droppable (it must follow its first bytes), so frames stay whole and in order. The writer thread
+        takes the same lock for each batch, so the two paths never interleave bytes. A peer that does not keep up
+        (DIRECT_SEND_MAX_UNSENT bytes waiting in the kernel) is left to the writer thread: measured, sending to a
+        never-reading client from rospy's receive thread slowed that thread to ~580 msg/s for every client.
+        """
+        if self._send_lock.acquire(blocking=False):
+            try:
+                if not self.queue and not self._closed.is_set() and _unsent_bytes(self.sock) < DIRECT_SEND_MAX_UNSENT:
+                    try:
+                        sent = self.sock.send(frame, socket.MSG_DONTWAIT)
+                    except BlockingIOError:
+                        sent = 0
+                    except OSError:  # the connection is gone; the reader sees it too and cleans up
+                        self.close()
+                        return
+                    if sent == len(frame):
+                        self.frames_out += 1
+                        return
+                    if sent:
+                        self.queue.put(frame[sent:], droppable=False)
+                        return
+            finally:
+                self._send_lock.release()
         self.queue.put(frame, droppable)
+
+    def run_call(self, what: str, call: Callable[[], None]) -> None:
+        """Run a ROS call (service, topic list) on this client's own workers, so a slow ROS side holds up only this
+        client's calls; refused with __error when too many are waiting already."""
+        with self._calls_lock:
+            if self._calls_pending >= self.endpoint.config.client_max_pending_calls:
+                raise ClientError(
+                    f"{what}: refused, this client already has {self._calls_pending} ROS calls in progress; "
+                    "this call will not complete"
+                )
+            self._calls_pending += 1
+
+        def run() -> None:
+            try:
+                call()
+            finally:
+                with self._calls_lock:
+                    self._calls_pending -= 1
+
+        try:
+            self._calls.submit(run)
+        except RuntimeError:  # the session is closing and its workers are shut down
+            with self._calls_lock:
+                self._calls_pending -= 1
 
     def send_error(self, text: str) -> None:
         log.warning("client %s: %s", self.name, text)
-        self.queue.put(protocol.error_frame(text), droppable=False)
+        self.send(protocol.error_frame(text), droppable=False)
 
     def close(self) -> None:
         if self._closed.is_set():
@@ -507,6 +574,7 @@ class ClientSession:
 
     def _finish(self) -> None:
         self.endpoint.release(self)
+        self._calls.shutdown(wait=False, cancel_futures=True)  # running calls end by their timeout
         # Let the writer drain what is queued (e.g. the closing __error), then close the socket.
         self.queue.close()
         self._writer.join(timeout=2.0)
@@ -608,16 +676,17 @@ class ClientSession:
     # --- writer -----------------------------------------------------------------------------------------------
     def _write_loop(self) -> None:
         try:
-            while True:
-                batch = self.queue.take_all(timeout=DROP_WARNING_INTERVAL_S)
-                if batch is None:
-                    return
-                warning = self._drop_warning()
-                if warning is not None:
-                    batch.append(warning)
-                if batch:
-                    self.sock.sendall(b"".join(batch))
-                    self.frames_out += len(batch)
+            while self.queue.wait(timeout=DROP_WARNING_INTERVAL_S):
+                # Take the batch under the send lock: a direct send (see send) can then never slip between
+                # taking frames off the queue and writing them.
+                with self._send_lock:
+                    batch = self.queue.take_all(timeout=0) or []
+                    warning = self._drop_warning()
+                    if warning is not None:
+                        batch.append(warning)
+                    if batch:
+                        self.sock.sendall(b"".join(batch))
+                        self.frames_out += len(batch)
         except OSError as error:
             if not self._closed.is_set():
                 log.info("client %s: write failed: %s", self.name, error)
@@ -645,6 +714,18 @@ class ClientSession:
             )
         self._reported_drops, self._reported_publish_drops = dropped, publish_dropped
         return protocol.warn_frame("; ".join(parts))
+
+
+def _unsent_bytes(sock: socket.socket) -> int:
+    """Bytes in the socket's send queue not yet acknowledged by the peer (Linux SIOCOUTQ); 0 if unknown."""
+    try:
+        return _INT.unpack(fcntl.ioctl(sock.fileno(), termios.TIOCOUTQ, _INT_ZERO))[0]
+    except OSError:
+        return 0
+
+
+_INT = struct.Struct("i")
+_INT_ZERO = bytes(_INT.size)
 
 
 def _tune_socket(sock: socket.socket) -> None:
