@@ -49,6 +49,7 @@ RECV_BYTES = 256 * 1024
 # A client with more than this waiting unacknowledged in its socket is not keeping up: no direct sends to it.
 DIRECT_SEND_MAX_UNSENT = 64 * 1024
 DROP_WARNING_INTERVAL_S = 1.0
+ERROR_LOG_INTERVAL_S = 1.0
 
 
 @dataclass
@@ -468,6 +469,8 @@ class ClientSession:
         self._reported_drops = 0
         self._reported_publish_drops = 0
         self._last_drop_warning_at = 0.0
+        self._last_error_logged_at = -ERROR_LOG_INTERVAL_S
+        self._errors_not_logged = 0
         self._reader = threading.Thread(target=self._read_loop, name=f"read {self.name}", daemon=True)
         self._writer = threading.Thread(target=self._write_loop, name=f"write {self.name}", daemon=True)
 
@@ -537,8 +540,21 @@ class ClientSession:
                 self._calls_pending -= 1
 
     def send_error(self, text: str) -> None:
-        log.warning("client %s: %s", self.name, text)
-        self.send(protocol.error_frame(text), droppable=False)
+        # Errors are diagnostics (Unity only logs them): droppable, so a client that floods bad input and never
+        # reads cannot grow the endpoint's memory; and logged at most once a second per client, so it cannot
+        # flood the log either.
+        self._log_error(text)
+        self.send(protocol.error_frame(text), droppable=True)
+
+    def _log_error(self, text: str) -> None:
+        now = time.monotonic()
+        if now - self._last_error_logged_at < ERROR_LOG_INTERVAL_S:
+            self._errors_not_logged += 1
+            return
+        not_logged = f" ({self._errors_not_logged} more error(s) not logged)" if self._errors_not_logged else ""
+        log.warning("client %s: %s%s", self.name, text, not_logged)
+        self._last_error_logged_at = now
+        self._errors_not_logged = 0
 
     def close(self) -> None:
         if self._closed.is_set():

@@ -11,6 +11,7 @@ import pytest
 from std_msgs.msg import String
 
 from bridge import protocol
+from bridge.protocol import encode_frame
 from tests.integration.bridge_helpers import (
     Inbox,
     RawConnection,
@@ -332,3 +333,37 @@ def test_a_lingering_topic_can_be_registered_with_another_type_once_unused(bridg
         second.send_frame(topic, u32(7))
         assert inbox.wait_count(1) == [u32(7)]
     inbox.close()
+
+
+def _rss_kib(pid: int) -> int:
+    status = Path(f"/proc/{pid}/status").read_text()
+    return int(next(line.split()[1] for line in status.splitlines() if line.startswith("VmRSS:")))
+
+
+def test_a_client_flooding_bad_frames_without_reading_is_bounded_and_not_logged_per_frame(
+    roscore, ros_node, tmp_path: Path
+) -> None:
+    endpoint = start_endpoint(roscore, tmp_path, "--queue-frames", "64")
+    flood = 100_000  # each answer is a ~150-byte __error: 15 MB if the endpoint kept them all
+    try:
+        flooder = RawConnection(endpoint.port, rcvbuf=4096)
+        watcher = tcp_client(endpoint.port, reconnect=False)
+        watcher.topic_list()
+        rss_before = _rss_kib(endpoint.process.pid)
+        bad = b"".join(encode_frame("/never_registered", b"x") for _ in range(1000))
+        for _ in range(flood // 1000):  # bounded: 100 writes
+            flooder.send(bad)
+        # The reader handles frames in order: the answer to this request proves the whole flood was handled.
+        flooder.command("__topic_list")
+        flooder.wait_command("__topic_list", timeout=60)
+        errors = sum(1 for frame in flooder.received if frame.destination == "__error")
+        assert errors < flood, "every error was kept for a client that did not read"
+        assert _rss_kib(endpoint.process.pid) - rss_before < 8 * 1024, "the errors for the flood were all kept"
+        logged = endpoint.output().count("which this client has not registered with __publish")
+        assert 1 <= logged < 100, f"{logged} log lines for {flood} bad frames"
+        assert watcher.errors == [] and watcher.connections == 1
+        flooder.close()
+        watcher.close()
+    finally:
+        assert endpoint.stop() is not None
+
