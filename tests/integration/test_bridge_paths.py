@@ -38,15 +38,18 @@ def test_a_burst_reaches_every_ros_subscriber_whole_and_in_order(bridge, ros_nod
 
 def test_a_latched_topic_reaches_a_subscriber_that_comes_later(bridge, ros_node) -> None:
     topic = unique("latched")
+    first, last = serialize(String("first")), serialize(String("last"))
     with RawConnection(bridge.port) as client:
         client.register_publisher(topic, "std_msgs/String", latch=True)
         client.sync()
-        client.send_frame(topic, serialize(String("first")))
-        client.send_frame(topic, serialize(String("last")))
-        client.sync()
-        time.sleep(0.2)  # the pump has published both (nobody was subscribed)
+        early = RosInbox(ros_node, topic)
+        early.wait_connected()
+        client.send_frame(topic, first)
+        client.send_frame(topic, last)
+        assert early.wait_count(2) == [first, last]  # both are published: "last" is now the latched message
         late = RosInbox(ros_node, topic)
-        assert late.wait_count(1) == [serialize(String("last"))]
+        assert late.wait_count(1) == [last]
+        early.close()
         late.close()
 
 
