@@ -216,7 +216,7 @@ def write_report(results: Sequence[TrialResult], out_dir: Path, title: str = "Tr
     out_dir.mkdir(parents=True, exist_ok=True)
     plots = write_plots(results, out_dir)
     lines = [f"# {title}", "", "Mean ± std over trials, per moving joint. MAPE leaves out samples with "
-             f"|desired| ≤ 1e-3 (rad or m); lag is the cross-correlation delay of achieved behind desired.", "",
+             "|desired| ≤ 1e-3 (rad or m); lag is the cross-correlation delay of achieved behind desired.", "",
              markdown_table(summary_rows(results)), ""]
     for plot in plots:
         lines.append(f"![{plot.stem}]({plot.name})")
