@@ -82,14 +82,12 @@ GIL_SWITCH_INTERVAL_S = 0.0005
 
 
 def main(argv: list[str] | None = None) -> int:
-    # rospy is imported here, not at module level, so `--help` works without a ROS install.
-    import rospy
-
     sys.setswitchinterval(GIL_SWITCH_INTERVAL_S)
 
+    # bridge.ros (rospy) is imported here, not at module level, so `--help` works without a ROS install.
     from bridge.ros import RosGraph
 
-    args = _parser().parse_args(rospy.myargv(argv if argv is not None else sys.argv)[1:])
+    args = _parser().parse_args(RosGraph.strip_remappings(argv if argv is not None else sys.argv)[1:])
     ros = RosGraph()
     ros.init_node(args.node_name)
     _log_to_screen()

@@ -161,6 +161,11 @@ class RosGraph:
 
     # --- node lifecycle -----------------------------------------------------------------------------------------
     @staticmethod
+    def strip_remappings(argv: list[str]) -> list[str]:
+        """argv without ROS's `name:=value` remappings (roslaunch adds __name:= and __log:=)."""
+        return rospy.myargv(argv)
+
+    @staticmethod
     def init_node(name: str) -> None:
         # disable_signals: the endpoint installs its own SIGINT/SIGTERM handling and shuts rospy down itself.
         rospy.init_node(name, anonymous=False, disable_signals=True)

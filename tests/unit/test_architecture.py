@@ -1,0 +1,40 @@
+"""The house rules of ../shared/DESIGN.md that imports can break: checked in fresh interpreters."""
+import ast
+import subprocess
+
+import pytest
+
+from sim.processes import PYTHON, REPO
+
+ROS_MODULES = ("rospy", "roslaunch", "rosbag", "genpy")
+
+
+def imported_after(module: str) -> set[str]:
+    code = f"import sys, {module}; print(' '.join(sorted(sys.modules)))"
+    result = subprocess.run([PYTHON, "-c", code], cwd=REPO, capture_output=True, text=True, timeout=60)
+    assert result.returncode == 0, result.stderr
+    return set(result.stdout.split())
+
+
+@pytest.mark.parametrize("module", ["bridge.protocol", "bridge.layout", "bridge.queues"])
+def test_pure_bridge_modules_import_neither_sockets_nor_ros(module: str) -> None:
+    loaded = imported_after(module)
+    assert not loaded & {"socket", *ROS_MODULES}, loaded & {"socket", *ROS_MODULES}
+
+
+@pytest.mark.parametrize("module", ["bridge.client", "sim.engine", "sim.analysis", "sim.kinematics", "sim.physics"])
+def test_the_client_and_the_engine_stand_in_import_no_ros(module: str) -> None:
+    # Like Unity, the engine stand-in knows ROS only through the endpoint; it (de)serializes with rosbags.
+    loaded = imported_after(module)
+    assert not loaded & set(ROS_MODULES), loaded & set(ROS_MODULES)
+
+
+def test_sim_uses_no_bridge_internals_but_the_client() -> None:
+    imported = set()
+    for path in (REPO / "sim").rglob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.ImportFrom) and node.module and node.module.split(".")[0] == "bridge":
+                imported.add(node.module)
+            elif isinstance(node, ast.Import):
+                imported.update(alias.name for alias in node.names if alias.name.split(".")[0] == "bridge")
+    assert imported == {"bridge.client"}
