@@ -223,30 +223,16 @@ def tcp_client(port: int, **kwargs) -> TcpClient:
 # --- ROS side --------------------------------------------------------------------------------------------------
 
 
-class RosInbox:
+class RosInbox(Inbox):
     """A rospy.AnyMsg subscriber in the test process: `items` are the exact bytes each message arrived in."""
 
     def __init__(self, rospy, topic: str) -> None:
-        self._lock = threading.Lock()
-        self.items: list[bytes] = []
+        super().__init__()
         self.rospy, self.topic = rospy, topic
-        self.subscriber = rospy.Subscriber(topic, rospy.AnyMsg, self._received)
+        self.subscriber = rospy.Subscriber(topic, rospy.AnyMsg, lambda message: self(bytes(message._buff)))
 
-    def _received(self, message) -> None:
-        with self._lock:
-            self.items.append(bytes(message._buff))
-
-    def __len__(self) -> int:
-        with self._lock:
-            return len(self.items)
-
-    def snapshot(self) -> list[bytes]:
-        with self._lock:
-            return list(self.items)
-
-    def wait_count(self, count: int, timeout: float = 10.0) -> list[bytes]:
-        wait_for(lambda: len(self) >= count, timeout, f"{count} ROS messages (have {len(self)})")
-        return self.snapshot()
+    def wait_count(self, count: int, timeout: float = 10.0, what: str = "ROS messages") -> list[bytes]:
+        return super().wait_count(count, timeout, what)
 
     def wait_connected(self, timeout: float = 10.0) -> None:
         """Until the publishing node (the endpoint) has this connection in its own list, not just we in ours:
