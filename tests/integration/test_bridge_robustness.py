@@ -323,6 +323,9 @@ def test_a_lingering_topic_can_be_registered_with_another_type_once_unused(bridg
     with RawConnection(bridge.port) as first:
         first.register_publisher(topic, "std_msgs/String")
         first.sync()
+        host, port = first.sock.getsockname()[:2]
+    # The endpoint releases a client's registrations when its reader sees the close, and then logs it.
+    wait_for(lambda: f"{host}:{port} disconnected" in bridge.output(), 10, "the endpoint to release the first client")
     with RawConnection(bridge.port) as second:
         second.register_publisher(topic, "std_msgs/Int32")
         second.sync()
