@@ -27,7 +27,7 @@ import numpy as np
 from bridge.client import TcpClient
 from sim import frames, rosmsgs
 from sim.commands import ClockFollower, CommandBuffer
-from sim.physics import DriveParams, JointStateSample, Mode, PhysicsWorld, SimClock
+from sim.physics import DriveParams, JointStateSample, Mode, PhysicsWorld, SimClock, render_gif
 from sim.robots import RobotSpec, get_robot
 
 log = logging.getLogger(__name__)
@@ -82,11 +82,43 @@ def pose_to_marker(position: np.ndarray, orientation_fields: np.ndarray, convent
     return TargetMarker(frames.ros_to_unity_point(position), frames.ros_to_unity_quat(quaternion))
 
 
+class FrameRecorder:
+    """Pictures of the robot for --render (pybullet's headless TinyRenderer): the final pose as a PNG, or a frame
+    every `interval_s` of sim time as an animated GIF (at most `max_frames`; a frame costs ~10-30 ms, so GIFs slow
+    the run down and are opt-in)."""
+
+    def __init__(self, path: Path, dt: float, interval_s: float = 0.2, max_frames: int = 300,
+                 size: tuple[int, int] = (320, 240)) -> None:
+        suffix = path.suffix.lower()
+        if suffix not in (".png", ".gif"):
+            raise EngineError(f"--render {path}: the file name must end in .png (final pose) or .gif (animation)")
+        self.path = path
+        self.animated = suffix == ".gif"
+        self.every = max(1, round(interval_s / dt))
+        self.frame_duration_s = self.every * dt
+        self.max_frames = max_frames
+        self.size = size
+        self.frames: list[np.ndarray] = []
+
+    def after_step(self, world: PhysicsWorld, step: int) -> None:
+        if self.animated and step % self.every == 0 and len(self.frames) < self.max_frames:
+            self.frames.append(world.capture(*self.size))
+
+    def finish(self, world: PhysicsWorld) -> Path:
+        if not self.animated:
+            return world.render(self.path)
+        self.frames.append(world.capture(*self.size))
+        return render_gif(self.frames, self.path, self.frame_duration_s)
+
+
 class EngineStandIn:
     """Physics + the endpoint connection. Callbacks (TCP reader thread) only store; `run` (its own thread) steps."""
 
-    def __init__(self, robot: RobotSpec, client: TcpClient, options: EngineOptions) -> None:
+    def __init__(
+        self, robot: RobotSpec, client: TcpClient, options: EngineOptions, recorder: FrameRecorder | None = None
+    ) -> None:
         self.robot = robot
+        self.recorder = recorder
         self.client = client
         self.options = options
         self.world = make_world(robot, options)
@@ -144,6 +176,8 @@ class EngineStandIn:
         self.world.set_targets(target.positions, target.velocities)
         self.steps += 1
         self._publish_state(t_end, self.world.step())
+        if self.recorder is not None:
+            self.recorder.after_step(self.world, self.steps)
 
     def _publish_state(self, stamp: float, sample: JointStateSample) -> None:
         self._seq += 1
@@ -298,7 +332,9 @@ def path_velocity(times: np.ndarray, positions: np.ndarray, t: float) -> np.ndar
     return slopes[after]
 
 
-def replay_csv(robot: RobotSpec, csv_in: Path, log_out: Path, options: EngineOptions) -> int:
+def replay_csv(
+    robot: RobotSpec, csv_in: Path, log_out: Path, options: EngineOptions, recorder: FrameRecorder | None = None
+) -> int:
     """Drive the physics through the CSV's positions: linear in time, the path's velocity as feed-forward."""
     times, names, desired = read_joint_csv(csv_in, robot)
     columns = [robot.joint_names.index(name) for name in names]
@@ -315,6 +351,10 @@ def replay_csv(robot: RobotSpec, csv_in: Path, log_out: Path, options: EngineOpt
             velocities[columns] = path_velocity(times, desired, t_end)
             world.set_targets(positions, velocities)
             achieved[k] = world.step().positions
+            if recorder is not None:
+                recorder.after_step(world, k + 1)
+        if recorder is not None:
+            recorder.finish(world)
     write_joint_csv(log_out, robot.joint_names, step_ends, achieved)
     return int(step_ends.size)
 
@@ -339,7 +379,8 @@ def argument_parser() -> argparse.ArgumentParser:
     parser.add_argument("--duration", type=float, help="stop after this much sim time (s)")
     parser.add_argument("--csv", type=Path, help="offline: replay desired positions from this CSV (no ROS, no TCP)")
     parser.add_argument("--log", type=Path, default=Path("logged_test_data.csv"), help="offline: achieved positions")
-    parser.add_argument("--render", type=Path, help="write a picture of the final pose (.png) at exit")
+    parser.add_argument("--render", type=Path,
+                        help="out.png: a picture of the final pose; out.gif: an animation (a frame every 0.2 s)")
     return parser
 
 
@@ -360,21 +401,24 @@ def main(argv: list[str] | None = None) -> int:
     try:
         robot = get_robot(args.robot)
         options = options_from_args(args)
+        recorder = FrameRecorder(args.render, options.dt) if args.render is not None else None
         if args.csv is not None:
-            steps = replay_csv(robot, args.csv, args.log, options)
+            steps = replay_csv(robot, args.csv, args.log, options, recorder)
             print(f"replayed {args.csv} in {steps} steps of {args.dt} s; achieved positions in {args.log}")
             return 0
     except (EngineError, ValueError) as error:
         print(f"sim.engine: error: {error}", file=sys.stderr)
         return 2
-    return _run_online(robot, options, args)
+    return _run_online(robot, options, args, recorder)
 
 
-def _run_online(robot: RobotSpec, options: EngineOptions, args: argparse.Namespace) -> int:
+def _run_online(
+    robot: RobotSpec, options: EngineOptions, args: argparse.Namespace, recorder: FrameRecorder | None
+) -> int:
     import signal
 
     client = TcpClient(args.host, args.port)
-    engine = EngineStandIn(robot, client, options)
+    engine = EngineStandIn(robot, client, options, recorder)
     engine.attach()
     for signum in (signal.SIGINT, signal.SIGTERM):
         signal.signal(signum, lambda *_: engine.stop())
@@ -390,8 +434,8 @@ def _run_online(robot: RobotSpec, options: EngineOptions, args: argparse.Namespa
     try:
         engine.run(args.duration)
     finally:
-        if args.render is not None:
-            engine.world.render(args.render)
+        if recorder is not None:
+            print(f"engine: picture in {recorder.finish(engine.world)}", flush=True)
         client.close()
         engine.close()
         print(f"engine: stopped after {engine.steps} steps; {engine.commands.received} commands, "

@@ -238,3 +238,20 @@ def test_path_velocity_is_the_slope_inside_segments_and_the_mean_at_samples():
     np.testing.assert_allclose(path_velocity(times, positions, 3.0), [1.0, 0.0])
     np.testing.assert_allclose(path_velocity(times, positions, 4.0), [0.5, 0.0])  # the path holds after the end
     np.testing.assert_allclose(path_velocity(times, positions, 9.0), [0.0, 0.0])
+
+
+def test_render_writes_an_animation_of_the_replay_or_names_a_bad_file_name(tmp_path, capsys):
+    from PIL import Image
+
+    times, positions = sine_rows(IGT, IGT.joint_names, 2.0, 0.02)
+    source = write_csv(tmp_path / "in.csv", ["time", *IGT.joint_names],
+                       [[f"{t:.6f}", *map(str, row)] for t, row in zip(times, positions)])
+    animation = tmp_path / "motion.gif"
+    replay(tmp_path, source, "--robot", "igt", "--render", str(animation))
+    with Image.open(animation) as gif:
+        assert gif.n_frames > 5 and gif.size == (320, 240)
+        first = np.asarray(gif.convert("RGB"))
+        gif.seek(gif.n_frames // 2)
+        assert not np.array_equal(first, np.asarray(gif.convert("RGB"))), "the robot moves between frames"
+    assert engine.main(["--csv", str(source), "--log", str(tmp_path / "o.csv"), "--render", "x.bmp"]) == 2
+    assert "must end in .png" in capsys.readouterr().err
