@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from sim import rosmsgs
+from sim.jointcsv import read_joint_csv
 from sim.metrics import TrackingMetrics, mean_and_std, resample, tracking_metrics
 from sim.robots import RobotSpec
 
@@ -122,8 +123,6 @@ def _header_seq(raw: bytes) -> int:
 
 def read_csv_pair(desired_csv: Path, achieved_csv: Path, robot: RobotSpec) -> TrialSeries:
     """The no-ROS use cases: the engine's input CSV (desired) and its log (achieved)."""
-    from sim.engine import read_joint_csv
-
     d_t, d_names, d_q = read_joint_csv(desired_csv, robot)
     a_t, a_names, a_q = read_joint_csv(achieved_csv, robot)
     desired = np.tile(robot.home, (d_t.size, 1))

@@ -13,12 +13,10 @@ The input may name a subset of the joints (the others hold their start position)
 from __future__ import annotations
 
 import argparse
-import csv
 import logging
 import sys
 import threading
 import time
-from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -27,6 +25,7 @@ import numpy as np
 from bridge.client import TcpClient
 from sim import frames, rosmsgs
 from sim.commands import ClockFollower, CommandBuffer
+from sim.jointcsv import read_joint_csv, write_joint_csv
 from sim.physics import DriveParams, JointStateSample, Mode, PhysicsWorld, SimClock, render_gif
 from sim.robots import RobotSpec, get_robot
 
@@ -259,65 +258,6 @@ class EngineStandIn:
 
 # ---------------------------------------------------------------------------------------------------------------
 # Offline CSV mode (the seed's Manual_Test): no ROS, no TCP.
-
-
-def read_joint_csv(path: Path, robot: RobotSpec) -> tuple[np.ndarray, list[str], np.ndarray]:
-    """(times, joint names of the columns, positions[time, column]) with the checks a user needs named."""
-    try:
-        with open(path, newline="") as handle:
-            rows = list(csv.reader(handle))
-    except OSError as error:
-        raise EngineError(f"cannot read {path}: {error}") from None
-    if len(rows) < 2:
-        raise EngineError(f"{path}: needs a header row and at least one data row")
-    header = [cell.strip() for cell in rows[0]]
-    if not header or header[0] != "time":
-        raise EngineError(f"{path}: the first column must be 'time', got {header[:1]}")
-    names = header[1:]
-    unknown = [name for name in names if name not in robot.joint_names]
-    if unknown or not names:
-        raise EngineError(f"{path}: unknown joint column(s) {unknown}; {robot.name} has {list(robot.joint_names)}")
-    if len(set(names)) != len(names):
-        raise EngineError(f"{path}: a joint column appears twice: {names}")
-    values = []
-    for line, row in enumerate(rows[1:], start=2):
-        if not row:
-            continue
-        if len(row) != len(header):
-            raise EngineError(f"{path}: line {line} has {len(row)} cells, the header has {len(header)}")
-        try:
-            values.append([float(cell) for cell in row])
-        except ValueError:
-            bad = next(i for i, cell in enumerate(row) if not _is_number(cell))
-            raise EngineError(f"{path}: line {line}, column {header[bad]!r}: {row[bad]!r} is not a number") from None
-    if not values:
-        raise EngineError(f"{path}: needs a header row and at least one data row")
-    data = np.array(values, dtype=float)
-    times = data[:, 0]
-    if np.any(np.diff(times) <= 0):
-        k = int(np.flatnonzero(np.diff(times) <= 0)[0]) + 1
-        raise EngineError(f"{path}: times must be strictly increasing; data row {k + 1} has time {times[k]:g} "
-                          f"after {times[k - 1]:g}")
-    if not np.all(np.isfinite(data)):
-        raise EngineError(f"{path}: all values must be finite numbers")
-    return times, names, data[:, 1:]
-
-
-def _is_number(cell: str) -> bool:
-    try:
-        float(cell)
-    except ValueError:
-        return False
-    return True
-
-
-def write_joint_csv(path: Path, names: Sequence[str], times: np.ndarray, positions: np.ndarray) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with open(path, "w", newline="") as handle:
-        writer = csv.writer(handle)
-        writer.writerow(["time", *names])
-        for t, row in zip(times, positions):
-            writer.writerow([f"{t:.6f}", *(f"{value:.9f}" for value in row)])
 
 
 def path_velocity(times: np.ndarray, positions: np.ndarray, t: float) -> np.ndarray:

@@ -358,6 +358,12 @@ class PathIKResult:
         return bool(np.all(self.success))
 
 
+def rotation_vector(rotation: np.ndarray) -> np.ndarray:
+    """Rotation vector (axis · angle, angle in [0, π]) of a 3x3 rotation matrix: the log map the IK uses."""
+    rx, ry, rz, _ = _rotation_error(np.asarray(rotation, dtype=float).tolist())
+    return np.array([rx, ry, rz])
+
+
 def _rotation_error(r: list[list[float]]) -> tuple[float, float, float, float]:
     """Rotation vector (x, y, z) and angle of a rotation matrix given as nested lists (log map)."""
     lx, ly, lz = r[2][1] - r[1][2], r[0][2] - r[2][0], r[1][0] - r[0][1]

@@ -39,7 +39,6 @@ configuration found is used and the motion says so (`Motion.ik.fallback`).
 """
 from __future__ import annotations
 
-import csv
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -54,9 +53,11 @@ from sim.kinematics import (
     POSITION_WEIGHTS,
     KinematicChain,
     chain_for,
+    rotation_vector,
     solve_ik,
     solve_path_ik,
 )
+from sim.jointcsv import write_joint_csv
 from sim.robots import RobotSpec
 from sim.trajectory import ORDERS, PolynomialTrajectory
 
@@ -249,23 +250,6 @@ def _finish(motion: Motion) -> Motion:
 
 
 # --------------------------------------------------------------------------------------- rotation helpers
-def rotation_log(rotation: np.ndarray) -> np.ndarray:
-    """Rotation vector of a rotation matrix (axis · angle, angle in [0, π])."""
-    cos_angle = float(np.clip((np.trace(rotation) - 1.0) / 2.0, -1.0, 1.0))
-    angle = math.acos(cos_angle)
-    axis_sin = np.array([rotation[2, 1] - rotation[1, 2], rotation[0, 2] - rotation[2, 0], rotation[1, 0] - rotation[0, 1]])
-    if angle < 1e-9:
-        return 0.5 * axis_sin
-    if math.pi - angle < 1e-6:  # half turn: axis from the symmetric part
-        axis = np.sqrt(np.maximum((np.diag(rotation) + 1.0) / 2.0, 0.0))
-        i = int(np.argmax(axis))
-        for k in range(3):
-            if k != i:
-                axis[k] = math.copysign(axis[k], rotation[i, k] + rotation[k, i])
-        return angle * axis / np.linalg.norm(axis)
-    return angle * axis_sin / (2.0 * math.sin(angle))
-
-
 def rotation_exp(rotvec: np.ndarray) -> np.ndarray:
     angle = float(np.linalg.norm(rotvec))
     if angle < 1e-12:
@@ -289,7 +273,7 @@ def pose_errors(actual: np.ndarray, reference: np.ndarray, weights: Sequence[flo
     orientation_error = np.zeros(len(actual))
     if rot_axes.any():
         for k in range(len(actual)):
-            rotvec = rotation_log(reference[k, :3, :3] @ actual[k, :3, :3].T)
+            rotvec = rotation_vector(reference[k, :3, :3] @ actual[k, :3, :3].T)
             orientation_error[k] = np.linalg.norm(rotvec) if rot_axes.all() else np.linalg.norm(rotvec[rot_axes])
     return position_error, orientation_error
 
@@ -560,7 +544,7 @@ def _cartesian_path(start: np.ndarray, goal: np.ndarray, weights, move_time: flo
     s(t) from 0 to 1 with zero velocity (and acceleration for quintic) at both ends."""
     scaling = PolynomialTrajectory([0.0, move_time], [[0.0], [1.0]], order=order).sample(times).positions[:, 0]
     goal_rotation = goal[:3, :3] if np.any(np.asarray(weights)[3:] > 0) else start[:3, :3]
-    delta = rotation_log(goal_rotation @ start[:3, :3].T)
+    delta = rotation_vector(goal_rotation @ start[:3, :3].T)
     path = np.tile(np.eye(4), (len(times), 1, 1))
     for k, s in enumerate(scaling):
         path[k, :3, 3] = start[:3, 3] + s * (goal[:3, 3] - start[:3, 3])
@@ -574,15 +558,8 @@ def _cartesian_path(start: np.ndarray, goal: np.ndarray, weights, move_time: flo
 
 # ------------------------------------------------------------------------------------------------- CSV I/O
 def write_engine_csv(path: Path, motion: Motion) -> None:
-    """The desired joint positions as the engine's CSV (`time,<joint names>`; s, rad/m), every value written
-    with Python's shortest round-trip repr so the engine reads back the exact doubles."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with open(path, "w", newline="") as handle:
-        writer = csv.writer(handle)
-        writer.writerow(["time", *motion.robot.joint_names])
-        for t, row in zip(motion.times, motion.positions):
-            writer.writerow([repr(float(t)), *(repr(float(v)) for v in row)])
+    """The desired joint positions as the engine's CSV (sim.jointcsv), exact doubles."""
+    write_joint_csv(path, motion.robot.joint_names, motion.times, motion.positions, exact=True)
 
 
 # ----------------------------------------------------------------------------------------------- schedule
