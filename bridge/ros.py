@@ -157,7 +157,6 @@ class RosGraph:
 
     def __init__(self, types: TypeRegistry | None = None) -> None:
         self.types = types or TypeRegistry()
-        self._lock = threading.Lock()
 
     # --- node lifecycle -----------------------------------------------------------------------------------------
     @staticmethod

@@ -28,7 +28,6 @@ from bridge.session import ClientError, ClientSession, tune_socket
 log = logging.getLogger(__name__)
 
 
-
 @dataclass
 class EndpointConfig:
     tcp_ip: str = "127.0.0.1"
@@ -108,8 +107,10 @@ class Endpoint:
         self._listener: socket.socket | None = None
         self._accept_thread: threading.Thread | None = None
         self._stopping = threading.Event()
+        # Totals of the clients that have left (those still connected are summed in stats()).
         self.frames_in = 0
         self.frames_out = 0
+        self.dropped = 0
 
     # --- lifecycle ------------------------------------------------------------------------------------------
     def start(self) -> int:
@@ -147,7 +148,7 @@ class Endpoint:
             "clients": len(sessions),
             "frames_in": self.frames_in + sum(s.frames_in for s in sessions),
             "frames_out": self.frames_out + sum(s.frames_out for s in sessions),
-            "dropped": sum(s.queue.dropped for s in sessions),
+            "dropped": self.dropped + sum(s.queue.dropped for s in sessions),
         }
 
     def _accept_loop(self) -> None:
@@ -305,6 +306,7 @@ class Endpoint:
                     call.done.set()
             self.frames_in += session.frames_in
             self.frames_out += session.frames_out
+            self.dropped += session.queue.dropped
 
     @staticmethod
     def _ros_call(make: Any) -> Any:
