@@ -38,7 +38,6 @@ from __future__ import annotations
 import argparse
 import ast
 import csv
-import dataclasses
 import math
 import operator
 import signal
@@ -80,7 +79,6 @@ from sim.trajectory import ORDERS
 REPO = Path(__file__).resolve().parents[1]
 DEFAULT_LOG_DIR = REPO / "results" / "commander"
 STAMP_TOLERANCE_S = 1e-6
-MIN_SPREAD = 1e-9  # rad or m: a reference moving less than this counts as held still
 EXIT_OK, EXIT_USAGE, EXIT_UNREACHABLE, EXIT_ROS, EXIT_INTERRUPTED = 0, 2, 3, 4, 130
 
 
@@ -521,10 +519,7 @@ def write_log(path: Path, robot: RobotSpec, motion: Motion, schedule: Schedule, 
         full_times = (np.arange(len(schedule.positions)) + result.priming_steps) * motion.dt
         for j, name in enumerate(names):
             reference = np.interp(result.achieved_stamps[valid], full_times, schedule.positions[:, j])
-            joint_metrics = tracking_metrics(reference, result.achieved[valid, j], motion.dt)
-            if np.ptp(reference) < MIN_SPREAD:  # a joint held still: NRMSE and lag are undefined, not huge
-                joint_metrics = dataclasses.replace(joint_metrics, nrmse_percent=math.nan, lag_s=math.nan)
-            metrics[name] = joint_metrics
+            metrics[name] = tracking_metrics(reference, result.achieved[valid, j], motion.dt)
     return RunReport(
         joint_metrics=metrics,
         scenario_times=result.times[valid] - t_motion_start,

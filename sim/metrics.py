@@ -10,6 +10,9 @@ from dataclasses import dataclass
 import numpy as np
 
 DEFAULT_MAPE_FLOOR = 1e-3  # rad or m: samples with |reference| below this are left out of MAPE
+# rad or m: a reference whose spread is below this is held still (float noise, not motion); its NRMSE (relative
+# to the spread) and its lag are undefined, NaN rather than huge.
+HELD_STILL_SPREAD = 1e-9
 
 
 class MetricsError(ValueError):
@@ -55,19 +58,19 @@ def nrmse_percent(reference: np.ndarray, achieved: np.ndarray) -> float:
     reference, achieved = _pair(reference, achieved)
     spread = np.ptp(reference)
     rmse = np.sqrt(np.mean((achieved - reference) ** 2))
-    return float("nan") if spread == 0 else float(100.0 * rmse / spread)
+    return float("nan") if spread < HELD_STILL_SPREAD else float(100.0 * rmse / spread)
 
 
 def lag_seconds(reference: np.ndarray, achieved: np.ndarray, dt: float, max_lag_s: float = 1.0) -> float:
     """Delay of `achieved` behind `reference` (positive = trails), from the cross-correlation of their increments.
 
     Increments rather than values: the peak is sharp even for slow signals. Parabolic interpolation around the
-    peak gives sub-sample resolution. A constant reference has no defined lag: NaN.
+    peak gives sub-sample resolution. A reference held still (spread < HELD_STILL_SPREAD) has no defined lag: NaN.
     """
     reference, achieved = _pair(reference, achieved)
     d_ref = np.diff(reference)
     d_ach = np.diff(achieved)
-    if not np.any(d_ref) or not np.any(d_ach):
+    if np.ptp(reference) < HELD_STILL_SPREAD or not np.any(d_ach):
         return float("nan")
     max_lag = max(1, min(int(round(max_lag_s / dt)), (d_ref.size - 1) // 3))
     lags = np.arange(-max_lag, max_lag + 1)

@@ -71,3 +71,12 @@ def test_resample_interpolates_columns_and_refuses_extrapolation():
 def test_mean_and_std_over_trials():
     assert mean_and_std([1.0, 3.0]) == pytest.approx((2.0, np.sqrt(2.0)))
     assert mean_and_std([5.0]) == (5.0, 0.0)
+
+
+def test_a_reference_held_still_but_for_float_noise_has_no_nrmse_or_lag():
+    reference = 0.5 + 1e-15 * np.sin(np.arange(200))  # a held joint, as float arithmetic delivers it
+    achieved = reference + 1e-4 * np.cos(np.arange(200))
+    metrics = tracking_metrics(reference, achieved, dt=0.02)
+    assert np.isnan(metrics.nrmse_percent) and np.isnan(metrics.lag_s)
+    assert metrics.max_abs_error == pytest.approx(1e-4, rel=1e-3)  # the other metrics stay defined
+    assert metrics.wape_percent > 0
