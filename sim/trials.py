@@ -126,6 +126,19 @@ def network_hosts(tag: str) -> Iterator[Namespaces]:
 # --- one trial -------------------------------------------------------------------------------------------------
 
 
+@dataclass(frozen=True)
+class Placement:
+    """Where a trial's ROS processes run: roscore's host (commander, rosbag), the endpoint's, the engine's.
+    On one machine the prefixes are empty; across network namespaces they are `ip netns exec NAME`."""
+
+    ros_env: dict[str, str]
+    bridge_env: dict[str, str]
+    endpoint_host: str  # the endpoint's address as the engine reaches it
+    ros_prefix: Sequence[str] = ()
+    bridge_prefix: Sequence[str] = ()
+    engine_prefix: Sequence[str] = ()
+
+
 @dataclass
 class TrialPaths:
     bag: Path
@@ -170,18 +183,22 @@ class Campaign:
         if case.transport == CSV:
             series = self._run_csv(robot, case, paths)
         elif case.transport == TCP:
-            core = self.roscore()
-            self._run_ros(robot, case, paths, core.env, None, "127.0.0.1", scenario)
+            env = self.roscore().env
+            self._run_ros(robot, case, paths, Placement(env, env, "127.0.0.1"), scenario)
             series = analysis.read_bag(paths.bag, robot)
         else:
-            tag = f"{trial}{robot.name[0]}"
-            with network_hosts(tag) as spaces, ExitStack() as stack:
+            with network_hosts(f"{trial}{robot.name[0]}") as spaces, ExitStack() as stack:
                 core = RosCore(host=NETNS_HOSTS["ros"], prefix=spaces.prefix(spaces.ros))
                 stack.callback(core.stop)
-                bridge_env = dict(core.env, ROS_HOSTNAME=NETNS_HOSTS["bridge"])
-                prefixes = {"ros": spaces.prefix(spaces.ros), "bridge": spaces.prefix(spaces.bridge),
-                            "engine": spaces.prefix(spaces.engine), "bridge_env": bridge_env}
-                self._run_ros(robot, case, paths, core.env, prefixes, NETNS_HOSTS["bridge_engine_side"], scenario)
+                placement = Placement(
+                    ros_env=core.env,
+                    bridge_env=dict(core.env, ROS_HOSTNAME=NETNS_HOSTS["bridge"]),
+                    endpoint_host=NETNS_HOSTS["bridge_engine_side"],
+                    ros_prefix=spaces.prefix(spaces.ros),
+                    bridge_prefix=spaces.prefix(spaces.bridge),
+                    engine_prefix=spaces.prefix(spaces.engine),
+                )
+                self._run_ros(robot, case, paths, placement, scenario)
             series = analysis.read_bag(paths.bag, robot)
         return analysis.TrialResult(robot.name, case.name, trial, analysis.trial_metrics(series, DT),
                                     series.lost_messages, series)
@@ -199,34 +216,25 @@ class Campaign:
         return analysis.read_csv_pair(paths.desired_csv, paths.achieved_csv, robot)
 
     def _run_ros(
-        self,
-        robot: RobotSpec,
-        case: UseCase,
-        paths: TrialPaths,
-        env: dict[str, str],
-        prefixes: dict | None,
-        endpoint_host: str,
-        scenario: Sequence[str],
+        self, robot: RobotSpec, case: UseCase, paths: TrialPaths, where: Placement, scenario: Sequence[str]
     ) -> None:
         logs = paths.process_logs
-        prefix = (lambda host: prefixes[host]) if prefixes else (lambda host: [])
-        bridge_env = prefixes["bridge_env"] if prefixes else env
         paths.bag.parent.mkdir(parents=True, exist_ok=True)
         topics = [robot.command_topic, robot.joint_states_topic, "/clock", robot.pose_topic]
         with ExitStack() as running:
             endpoint = ManagedProcess(
-                [PYTHON, "-m", "bridge", "--tcp-ip", endpoint_host, "--tcp-port", "0", "--node-name", "endpoint"],
-                bridge_env, logs, "endpoint", prefix("bridge"))
+                [PYTHON, "-m", "bridge", "--tcp-ip", where.endpoint_host, "--tcp-port", "0", "--node-name", "endpoint"],
+                where.bridge_env, logs, "endpoint", where.bridge_prefix)
             running.callback(endpoint.stop)
             port = _reported_port(endpoint)
-            engine_args = [PYTHON, "-m", "sim.engine", "--robot", robot.name, "--host", endpoint_host,
+            engine_args = [PYTHON, "-m", "sim.engine", "--robot", robot.name, "--host", where.endpoint_host,
                            "--port", str(port), "--mode", case.mode.value, "--dt", str(DT)]
             engine_args += ["--time-scale", str(self.time_scale)] if case.auto_simulate else ["--no-auto-simulate"]
-            engine = ManagedProcess(engine_args, env, logs, "engine", prefix("engine"))
+            engine = ManagedProcess(engine_args, _plain_env(), logs, "engine", where.engine_prefix)
             running.callback(engine.stop)
             recorder = ManagedProcess(
                 ["stdbuf", "-oL", "-eL", "rosbag", "record", "-O", str(paths.bag), *topics, "__name:=trial_recorder"],
-                env, logs, "rosbag", prefix("ros"))
+                where.ros_env, logs, "rosbag", where.ros_prefix)
             running.callback(lambda: _stop_recorder(recorder, paths.bag))
             engine.wait_for_output("connected to", timeout=60)
             recorder.wait_for_output("Recording to", timeout=30)
@@ -235,7 +243,7 @@ class Campaign:
                               "--timeout", "30"]
             if case.auto_simulate:
                 commander_args += ["--realtime", "--time-scale", str(self.time_scale)]
-            commander = ManagedProcess(commander_args, env, logs, "commander", prefix("ros"))
+            commander = ManagedProcess(commander_args, where.ros_env, logs, "commander", where.ros_prefix)
             running.callback(commander.stop)
             _expect_success(commander, self.timeout_s)
         if not paths.bag.exists():
