@@ -6,6 +6,7 @@ publisher's pump thread (bridge.ros.RawPublisher).
 from __future__ import annotations
 
 import threading
+import time
 from collections import deque
 
 
@@ -25,7 +26,9 @@ class OutgoingQueue:
         self._bytes = 0
         self._closed = False
         self._dropped = 0
-        self._condition = threading.Condition(threading.Lock())
+        lock = threading.Lock()
+        self._not_empty = threading.Condition(lock)  # the consumer waits here
+        self._not_full = threading.Condition(lock)  # producers that may wait for room (put's wait_s) wait here
 
     @property
     def dropped(self) -> int:
@@ -39,11 +42,20 @@ class OutgoingQueue:
     def queued_bytes(self) -> int:
         return self._bytes
 
-    def put(self, data: bytes, droppable: bool = True) -> int:
+    def put(self, data: bytes, droppable: bool = True, wait_s: float = 0.0) -> int:
         """Queue `data`; returns how many older frames were dropped to make room for it.
 
+        With `wait_s`, a full queue is first given up to that long to make room (the consumer taking frames),
+        so a producer that outpaces the consumer is slowed to its pace instead of losing frames.
         A queue is never emptied to make room, so one frame larger than `max_bytes` still goes through."""
-        with self._condition:
+        with self._not_full:
+            if wait_s > 0.0 and not self._has_room(len(data)):
+                deadline = time.monotonic() + wait_s
+                while not self._closed and not self._has_room(len(data)):
+                    remaining = deadline - time.monotonic()
+                    if remaining <= 0.0:
+                        break
+                    self._not_full.wait(remaining)
             if self._closed:
                 return 0
             self._items.append((data, droppable))
@@ -53,8 +65,11 @@ class OutgoingQueue:
                 if not self._drop_oldest_droppable():
                     break
                 dropped += 1
-            self._condition.notify()
+            self._not_empty.notify()
             return dropped
+
+    def _has_room(self, size: int) -> bool:
+        return len(self._items) < self.max_frames and (not self._items or self._bytes + size <= self.max_bytes)
 
     def _drop_oldest_droppable(self) -> bool:
         if self._items[0][1]:
@@ -71,28 +86,30 @@ class OutgoingQueue:
 
     def take_all(self, timeout: float | None = None) -> list[bytes] | None:
         """Everything queued (waiting up to `timeout` for something); [] on timeout; None once closed and empty."""
-        with self._condition:
+        with self._not_empty:
             if not self._items and not self._closed:
-                self._condition.wait(timeout)
+                self._not_empty.wait(timeout)
             if not self._items:
                 return None if self._closed else []
             items = [data for data, _ in self._items]
             self._items.clear()
             self._bytes = 0
+            self._not_full.notify_all()
             return items
 
     def wait(self, timeout: float | None = None) -> bool:
         """Until something is queued (True) or `timeout` passed (True, maybe empty); False once closed and empty."""
-        with self._condition:
+        with self._not_empty:
             if not self._items and not self._closed:
-                self._condition.wait(timeout)
+                self._not_empty.wait(timeout)
             return bool(self._items) or not self._closed
 
     def close(self, discard: bool = False) -> None:
         """No more puts; the writer drains what is queued (unless `discard`) and then gets None."""
-        with self._condition:
+        with self._not_empty:
             self._closed = True
             if discard:
                 self._items.clear()
                 self._bytes = 0
-            self._condition.notify_all()
+            self._not_empty.notify_all()
+            self._not_full.notify_all()

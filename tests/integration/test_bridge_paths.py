@@ -1,8 +1,11 @@
 """The endpoint's fast paths keep their promises: client -> ROS through the per-topic pump (batched TCPROS writes,
-latching, order), and per-client service-call workers (one client's slow calls never delay another's)."""
+latching, order, flow control), and per-client service-call workers (one client's slow calls never delay
+another's)."""
 from __future__ import annotations
 
+import threading
 import time
+from pathlib import Path
 
 from std_msgs.msg import String
 from std_srvs.srv import Trigger, TriggerResponse
@@ -16,6 +19,7 @@ from tests.integration.bridge_helpers import (
     tcp_client,
     unique,
 )
+from tests.rosenv import wait_for
 
 
 def test_a_burst_reaches_every_ros_subscriber_whole_and_in_order(bridge, ros_node) -> None:
@@ -34,6 +38,78 @@ def test_a_burst_reaches_every_ros_subscriber_whole_and_in_order(bridge, ros_nod
         assert not client.errors()
     for inbox in inboxes:
         inbox.close()
+
+
+class SlowRosInbox(RosInbox):
+    """A ROS subscriber whose callback takes `delay_s` per message, or blocks while `hold` is set."""
+
+    def __init__(self, rospy, topic: str, delay_s: float = 0.0) -> None:
+        self.delay_s = delay_s
+        self.hold = threading.Event()
+        self.released = threading.Event()
+        super().__init__(rospy, topic)
+
+    def __call__(self, payload: bytes) -> None:
+        if self.hold.is_set():
+            self.released.wait(60)
+        time.sleep(self.delay_s)
+        super().__call__(payload)
+
+
+def test_a_client_faster_than_the_ros_subscriber_is_slowed_to_its_pace_and_loses_nothing(bridge, ros_node) -> None:
+    topic = unique("paced")
+    inbox = SlowRosInbox(ros_node, topic, delay_s=0.002)
+    payloads = [serialize(String(f"message {index}")) for index in range(200)]
+    with RawConnection(bridge.port) as client:
+        client.register_publisher(topic, "std_msgs/String", queue_size=5)  # 40 times fewer than the burst
+        client.sync()
+        inbox.wait_connected()
+        client.send(b"".join(protocol.encode_frame(topic, payload) for payload in payloads))  # one write
+        assert inbox.wait_count(len(payloads), timeout=30) == payloads
+        client.sync()
+        assert not client.errors()
+        assert not [frame for frame in client.received if frame.destination == "__warn"]
+    inbox.close()
+
+
+def _socket_buffers_bytes() -> int:
+    """The most loopback TCP can hold between the endpoint and a subscriber that stopped reading."""
+    most = 0
+    for name in ("tcp_rmem", "tcp_wmem"):
+        try:
+            most += int(Path(f"/proc/sys/net/ipv4/{name}").read_text().split()[2])
+        except (OSError, ValueError, IndexError):
+            most += 8 << 20
+    return most
+
+
+def test_a_stalled_ros_subscriber_costs_its_topic_old_messages_never_the_clients_other_traffic(
+    bridge, ros_node
+) -> None:
+    stuck_topic, other_topic = unique("stuck"), unique("unstuck")
+    stuck, other = SlowRosInbox(ros_node, stuck_topic), RosInbox(ros_node, other_topic)
+    big = serialize(String("x" * 256 * 1024))
+    count = min(400, _socket_buffers_bytes() // len(big) + 50)  # more than the kernel buffers and the queue hold
+    with RawConnection(bridge.port) as client:
+        client.register_publisher(stuck_topic, "std_msgs/String", queue_size=10)
+        client.register_publisher(other_topic, "std_msgs/String")
+        client.sync()
+        stuck.wait_connected()
+        other.wait_connected()
+        stuck.hold.set()
+        for _ in range(count):
+            client.send_frame(stuck_topic, big)
+        client.send_frame(other_topic, serialize(String("still served")))
+        # One wait for room (bridge.ros.PUBLISH_WAIT_S), then the stuck topic drops oldest without waiting.
+        assert other.wait_count(1, timeout=10) == [serialize(String("still served"))]
+        warning = client.wait_command("__warn", timeout=10)["text"]
+        assert "ROS subscribers take this client's messages too slowly" in warning
+        client.sync()
+        assert not client.errors()
+    stuck.released.set()
+    wait_for(lambda: len(stuck) > 0, 30, "the stuck subscriber to be served again once it reads")
+    stuck.close()
+    other.close()
 
 
 def test_a_latched_topic_reaches_a_subscriber_that_comes_later(bridge, ros_node) -> None:

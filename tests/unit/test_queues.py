@@ -175,3 +175,39 @@ def test_wait_reports_items_timeout_and_closed() -> None:
     assert queue.wait() is True and len(queue) == 1  # does not take
     queue.close(discard=True)
     assert queue.wait() is False
+
+
+def test_put_with_wait_takes_the_room_the_consumer_makes_and_drops_nothing() -> None:
+    queue = OutgoingQueue(max_frames=2, max_bytes=1 << 20)
+    queue.put(b"a")
+    queue.put(b"b")
+    timer = threading.Timer(0.05, queue.take_all, kwargs={"timeout": 0})
+    timer.start()
+    started = time.monotonic()
+    try:
+        assert queue.put(b"c", wait_s=5.0) == 0
+    finally:
+        timer.cancel()
+    assert time.monotonic() - started < 2.0
+    assert queue.dropped == 0 and queue.take_all(timeout=0) == [b"c"]
+
+
+def test_put_with_wait_drops_oldest_when_no_room_comes_in_time() -> None:
+    queue = OutgoingQueue(max_frames=2, max_bytes=1 << 20)
+    queue.put(b"a")
+    queue.put(b"b")
+    started = time.monotonic()
+    assert queue.put(b"c", wait_s=0.05) == 1
+    assert 0.04 <= time.monotonic() - started < 2.0
+    assert queue.take_all(timeout=0) == [b"b", b"c"]
+
+
+def test_put_with_wait_returns_at_once_when_there_is_room_or_the_queue_closes() -> None:
+    queue = OutgoingQueue(max_frames=1, max_bytes=1 << 20)
+    started = time.monotonic()
+    assert queue.put(b"a", wait_s=5.0) == 0  # room: no wait
+    closer = threading.Timer(0.05, queue.close)
+    closer.start()
+    assert queue.put(b"b", wait_s=5.0) == 0  # full: woken by close, and ignored like any put after close
+    assert time.monotonic() - started < 2.0
+    assert queue.take_all(timeout=0) == [b"a"]
