@@ -15,6 +15,7 @@ Results go to stdout as one line `RESULT <json>`.
 from __future__ import annotations
 
 import argparse
+import gc
 import json
 import sys
 import time
@@ -187,6 +188,8 @@ def main() -> None:
     args = parser.parse_args(rospy.myargv()[1:])
 
     rospy.init_node(f"bench_{args.role}", anonymous=True)
+    gc.collect()  # as the endpoint does: start-up objects out of the cyclic GC's view (see endpoint_bench.main)
+    gc.freeze()
     {"count": run_count, "flood": run_flood, "rate": run_rate, "relay": run_relay, "ping": run_ping}[args.role](args)
 
 
