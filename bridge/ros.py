@@ -20,11 +20,15 @@ import rospy
 
 from bridge.layout import Layout, LayoutError
 from bridge.queues import OutgoingQueue
+from bridge.sockets import unsent_bytes
 
 log = logging.getLogger(__name__)
 _U32 = struct.Struct("<I")
 # How long a client's reader waits for room in a full publisher queue before the ROS side counts as stalled.
 PUBLISH_WAIT_S = 0.05
+# Largest message written on a client's reader thread (RawPublisher's direct path): far below the smallest send
+# buffer (16 KiB), so an empty, acknowledged send queue always takes it whole.
+DIRECT_PUBLISH_MAX_BYTES = 8 * 1024
 
 
 class RosError(RuntimeError):
@@ -234,11 +238,16 @@ class RosGraph:
 class RawPublisher:
     """A ROS publisher fed by clients' reader threads, which must never block on ROS subscribers for long.
 
-    `publish` queues the payload (bounded, drop-oldest: a queue of the client's `queue_size`, as rospy's queued
-    publisher would keep per subscriber). One pump thread per topic drains the queue a batch at a time into
-    rospy's *synchronous* publisher: one thread hand-off per batch instead of rospy's wake-up, sleep(0) and socket
-    write per message. A batch goes to each subscriber connection as one write of back-to-back TCPROS frames
-    (u32 length + bytes), see `_write_batch`.
+    Two ways to ROS, one writer at a time (`_write_lock`), so messages keep their order:
+    - direct: a message that arrived alone (not in a burst), small, with nothing queued and every subscriber
+      connection's sent bytes acknowledged, is written at once on the reader's thread. That saves the pump's
+      wake-up, one thread hop of every 1 kHz round trip. An acknowledged, empty send queue takes a small write
+      whole, so this never blocks.
+    - queued: everything else goes to a bounded drop-oldest queue of the client's `queue_size` (as rospy's queued
+      publisher keeps per subscriber). One pump thread per topic drains it a batch at a time into rospy's
+      *synchronous* publisher: one hand-off per batch instead of rospy's wake-up, sleep(0) and socket write per
+      message. A batch goes to each subscriber connection as one write of back-to-back TCPROS frames
+      (u32 length + bytes), see `_write_batch`.
 
     Flow control: when the queue is full, `publish` waits up to PUBLISH_WAIT_S for the pump to make room, so the
     client's reader (and, through TCP, the client) is slowed to the pace of the ROS subscribers instead of having
@@ -257,17 +266,37 @@ class RawPublisher:
         self._latch = bool(publisher.impl.is_latch)
         self.message_name = message_name
         self.queue = OutgoingQueue(max(queue_size, 1), max_queue_bytes)
+        self._write_lock = threading.Lock()  # held while writing to the subscriber connections
         self._stalled = False  # set by publish when no room came in time; cleared by the pump's next write
         self._pump = threading.Thread(target=self._pump_loop, name=f"pump {publisher.resolved_name}", daemon=True)
         self._pump.start()
 
-    def publish(self, payload: bytes) -> int:
-        """Queue one message for ROS, waiting for room unless the ROS side is stalled (see the class); returns how
-        many older queued messages were dropped to make room."""
+    def publish(self, payload: bytes, alone: bool = False) -> int:
+        """Send one message to ROS: directly if it came `alone` and ROS keeps up, else through the queue, waiting
+        for room unless the ROS side is stalled (see the class). Returns how many older queued messages were
+        dropped to make room."""
+        if alone and len(payload) <= DIRECT_PUBLISH_MAX_BYTES and not self._latch \
+                and self._write_lock.acquire(blocking=False):
+            try:
+                if not self.queue and self._subscribers_keep_up():
+                    self._write_batch([payload])
+                    return 0
+            finally:
+                self._write_lock.release()
         dropped = self.queue.put(payload, wait_s=0.0 if self._stalled else PUBLISH_WAIT_S)
         if dropped:
             self._stalled = True
         return dropped
+
+    def _subscribers_keep_up(self) -> bool:
+        impl = self._publisher.impl
+        if impl is None:
+            return False
+        for connection in impl.connections:
+            sock = getattr(connection, "socket", None)
+            if sock is None or unsent_bytes(sock):
+                return False
+        return True
 
     def unregister(self) -> None:
         """The pump writes what is queued, then takes the topic off the graph (never waited for here: the caller
@@ -276,10 +305,15 @@ class RawPublisher:
 
     def _pump_loop(self) -> None:
         while True:
-            batch = self.queue.take_all()
-            if batch is None:
+            if not self.queue.wait():  # closed, and everything queued is written
                 self._publisher.unregister()
                 return
+            with self._write_lock:
+                self._write_queued()
+
+    def _write_queued(self) -> None:
+        batch = self.queue.take_all(timeout=0)
+        if batch:
             try:
                 if self._latch:
                     # Latched topics take rospy's own path, which also records the latch for late subscribers.

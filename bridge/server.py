@@ -23,7 +23,8 @@ from typing import Any
 from bridge import protocol
 from bridge.protocol import Frame, Publish, RosService, Subscribe, UnityService
 from bridge.ros import RawPublisher, RawServiceProxy, RosError, RosGraph
-from bridge.session import ClientError, ClientSession, tune_socket
+from bridge.session import ClientError, ClientSession
+from bridge.sockets import tune_socket
 
 log = logging.getLogger(__name__)
 
@@ -328,7 +329,7 @@ class Endpoint:
                 frame = frames[client_topic] = protocol.encode_frame(client_topic, payload)
             session.send(frame)
 
-    def publish(self, session: ClientSession, frame: Frame) -> None:
+    def publish(self, session: ClientSession, frame: Frame, alone: bool = False) -> None:
         entry = session.publishers.get(frame.destination)
         if entry is None:
             raise ClientError(
@@ -340,8 +341,8 @@ class Endpoint:
                 self.ros.types.validate(publisher.message_name, frame.payload)
             except RosError as error:
                 raise ClientError(f"topic {resolved}: {error}; message not published") from None
-        # Never blocks: the publisher's pump thread writes to ROS. Drops are reported by the writer (__warn).
-        session.publish_drops += publisher.publish(frame.payload)
+        # Never blocks for long (see RawPublisher). Drops are reported by the session's writer (__warn).
+        session.publish_drops += publisher.publish(frame.payload, alone)
 
     def call_ros_service(self, session: ClientSession, srv_id: int, frame: Frame) -> None:
         proxy = session.ros_services.get(frame.destination)

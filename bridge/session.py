@@ -6,12 +6,9 @@ drained by a writer thread, so a slow reader loses its oldest topic frames, neve
 """
 from __future__ import annotations
 
-import fcntl
 import hmac
 import logging
 import socket
-import struct
-import termios
 import threading
 import time
 from concurrent.futures import ThreadPoolExecutor
@@ -37,6 +34,7 @@ from bridge.protocol import (
 )
 from bridge.queues import OutgoingQueue
 from bridge.ros import RawPublisher, RawServiceProxy
+from bridge.sockets import unsent_bytes
 
 if TYPE_CHECKING:
     from bridge.server import Endpoint
@@ -111,7 +109,7 @@ class ClientSession:
         """
         if self._send_lock.acquire(blocking=False):
             try:
-                if not self.queue and not self._closed.is_set() and _unsent_bytes(self.sock) < DIRECT_SEND_MAX_UNSENT:
+                if not self.queue and not self._closed.is_set() and unsent_bytes(self.sock) < DIRECT_SEND_MAX_UNSENT:
                     try:
                         sent = self.sock.send(frame, socket.MSG_DONTWAIT)
                     except BlockingIOError:
@@ -193,8 +191,9 @@ class ClientSession:
                     # The stream position is lost: say why, flush, and close this connection only.
                     self.send_error(f"framing lost, closing the connection: {error}")
                     break
+                alone = len(frames) == 1  # frames that came together go to ROS together (RawPublisher)
                 for frame in frames:
-                    if not self._handle(frame):
+                    if not self._handle(frame, alone):
                         return
         except OSError as error:
             if not self._closed.is_set():
@@ -215,8 +214,8 @@ class ClientSession:
             self.name, self.frames_in, self.frames_out, self.queue.dropped,
         )
 
-    def _handle(self, item: Frame | BadFrame) -> bool:
-        """Handle one frame; False when the connection must close."""
+    def _handle(self, item: Frame | BadFrame, alone: bool = False) -> bool:
+        """Handle one frame (`alone`: the only one of its read); False when the connection must close."""
         self.frames_in += 1
         if isinstance(item, BadFrame):
             self.expect_body = None
@@ -233,7 +232,7 @@ class ClientSession:
             elif frame.is_syscommand:
                 self._handle_syscommand(frame)
             else:
-                self.endpoint.publish(self, frame)
+                self.endpoint.publish(self, frame, alone)
         except (ProtocolError, ClientError) as error:
             self.send_error(str(error))
         except Exception as error:  # a bug must cost one frame, never the connection or the endpoint
@@ -344,24 +343,3 @@ class ClientSession:
             )
         self._reported_drops, self._reported_publish_drops = dropped, publish_dropped
         return protocol.warn_frame("; ".join(parts))
-
-
-def _unsent_bytes(sock: socket.socket) -> int:
-    """Bytes in the socket's send queue not yet acknowledged by the peer (Linux SIOCOUTQ); 0 if unknown."""
-    try:
-        return _INT.unpack(fcntl.ioctl(sock.fileno(), termios.TIOCOUTQ, _INT_ZERO))[0]
-    except OSError:
-        return 0
-
-
-_INT = struct.Struct("i")
-_INT_ZERO = bytes(_INT.size)
-
-
-def tune_socket(sock: socket.socket) -> None:
-    # TCP_NODELAY: at 1 kHz, Nagle + delayed ACK would add 40 ms spikes. Keepalive reaps vanished peers.
-    sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
-    sock.setsockopt(socket.SOL_SOCKET, socket.SO_KEEPALIVE, 1)
-    for option, value in (("TCP_KEEPIDLE", 10), ("TCP_KEEPINTVL", 5), ("TCP_KEEPCNT", 3)):
-        if hasattr(socket, option):
-            sock.setsockopt(socket.IPPROTO_TCP, getattr(socket, option), value)

@@ -40,6 +40,29 @@ def test_a_burst_reaches_every_ros_subscriber_whole_and_in_order(bridge, ros_nod
         inbox.close()
 
 
+def test_single_frames_and_bursts_reach_ros_in_the_order_they_were_sent(bridge, ros_node) -> None:
+    """A frame that comes alone is written on the reader's thread, a burst goes through the pump: the two ways
+    must never overtake each other."""
+    topic = unique("mixed")
+    inbox = RosInbox(ros_node, topic)
+    payloads = [serialize(String(f"message {index}")) for index in range(400)]
+    with RawConnection(bridge.port) as client:
+        client.register_publisher(topic, "std_msgs/String", queue_size=1000)
+        client.sync()
+        inbox.wait_connected()
+        index = 0
+        while index < len(payloads):
+            size = 1 if (index // 10) % 2 == 0 else 25  # ten single writes, then a burst of 25 in one write
+            client.send(b"".join(protocol.encode_frame(topic, payload) for payload in payloads[index:index + size]))
+            index += size
+            if size == 1:
+                time.sleep(0.001)  # so single writes arrive as single reads
+        assert inbox.wait_count(len(payloads), timeout=30) == payloads
+        client.sync()
+        assert not client.errors()
+    inbox.close()
+
+
 class SlowRosInbox(RosInbox):
     """A ROS subscriber whose callback takes `delay_s` per message, or blocks while `hold` is set."""
 
