@@ -16,6 +16,7 @@ from collections.abc import Callable
 from typing import Any
 
 _U32 = struct.Struct("<I")
+_read_u32 = _U32.unpack_from
 _FIXED_SIZES = {
     "bool": 1, "int8": 1, "uint8": 1, "byte": 1, "char": 1, "int16": 2, "uint16": 2, "int32": 4, "uint32": 4,
     "int64": 8, "uint64": 8, "float32": 4, "float64": 8, "time": 8, "duration": 8,
@@ -90,7 +91,10 @@ def _compile(message_class: Any, resolve: ClassResolver, depth: int) -> tuple[in
             else:
                 flush_into(_counted_fixed(element_fixed))
             continue
-        flush_into(_counted_variable(element_fixed, element_steps, length))
+        if element_steps == [_string] and not element_fixed:
+            flush_into(_counted_strings(length))  # string[] (joint names): the commonest array, walked inline
+        else:
+            flush_into(_counted_variable(element_fixed, element_steps, length))
     if not steps:
         return pending, []
     if pending:  # fixed bytes after the last variable-size field
@@ -123,14 +127,30 @@ def _skip(size: int) -> Step:
 
 
 def _string(payload: bytes, offset: int) -> int:
-    return offset + 4 + _U32.unpack_from(payload, offset)[0]
+    return offset + 4 + _read_u32(payload, offset)[0]
+
+
+def _counted_strings(length: int | None) -> Step:
+    """`string[]` or `string[N]`: `_counted_variable` with the string step inlined (a call less per string)."""
+
+    def step(payload: bytes, offset: int) -> int:
+        if length is None:
+            count = _read_u32(payload, offset)[0]
+            offset += 4
+        else:
+            count = length
+        for _ in range(count):
+            offset += 4 + _read_u32(payload, offset)[0]
+        return offset
+
+    return step
 
 
 def _counted_fixed(element_size: int) -> Step:
     """`T[]` with fixed-size T: u32 count, then count * size bytes."""
 
     def step(payload: bytes, offset: int) -> int:
-        return offset + 4 + element_size * _U32.unpack_from(payload, offset)[0]
+        return offset + 4 + element_size * _read_u32(payload, offset)[0]
 
     return step
 
@@ -141,7 +161,7 @@ def _counted_variable(element_fixed: int, element_steps: list[Step], length: int
 
     def step(payload: bytes, offset: int) -> int:
         if length is None:
-            count = _U32.unpack_from(payload, offset)[0]
+            count = _read_u32(payload, offset)[0]
             offset += 4
         else:
             count = length
