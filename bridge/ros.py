@@ -80,7 +80,9 @@ class TypeRegistry:
         self._raw_messages: dict[str, type[RawMessage]] = {}
         self._raw_services: dict[str, type] = {}
         self._generated: dict[str, type[genpy.Message]] = {}
-        self._layouts: dict[str, Layout] = {}  # read without the lock: entries are only ever added
+        self._generated_services: dict[str, type] = {}
+        # 'pkg/Type' or 'pkg/Service request|response'; read without the lock: entries are only ever added
+        self._layouts: dict[str, Layout] = {}
 
     def message_class(self, message_name: str) -> type[genpy.Message]:
         with self._lock:
@@ -99,12 +101,20 @@ class TypeRegistry:
                 self._raw_messages[message_name] = raw
             return raw
 
+    def _generated_service(self, service_name: str) -> type:
+        with self._lock:
+            cls = self._generated_services.get(service_name)
+            if cls is None:
+                cls = _import_generated(service_name, "srv")
+                self._generated_services[service_name] = cls
+            return cls
+
     def raw_service_class(self, service_name: str) -> type:
+        generated = self._generated_service(service_name)
         with self._lock:
             raw = self._raw_services.get(service_name)
             if raw is not None:
                 return raw
-            generated = _import_generated(service_name, "srv")
             raw = type(
                 f"Raw{generated.__name__}",
                 (),
@@ -124,20 +134,33 @@ class TypeRegistry:
         deserialize, which would also need a bounds-checking wrapper (~11 µs) to catch truncated strings."""
         layout = self._layouts.get(message_name)
         if layout is None:
-            layout = self._layout(message_name)
+            layout = self._layout(message_name, lambda: self.message_class(message_name))
+        self._check(layout, message_name, payload)
+
+    def validate_service(self, service_name: str, part: str, payload: bytes) -> None:
+        """`validate` for one part ("request" or "response") of a `service_name` call."""
+        key = f"{service_name} {part}"
+        layout = self._layouts.get(key)
+        if layout is None:
+            generated = self._generated_service(service_name)
+            layout = self._layout(key, lambda: getattr(generated, f"_{part}_class"))
+        self._check(layout, key, payload)
+
+    @staticmethod
+    def _check(layout: Layout, what: str, payload: bytes) -> None:
         try:
             layout.check(payload)
         except LayoutError as error:
-            raise RosError(f"payload of {len(payload)} bytes is not a valid {message_name}: {error}") from None
+            raise RosError(f"payload of {len(payload)} bytes is not a valid {what}: {error}") from None
 
-    def _layout(self, message_name: str) -> Layout:
-        cls = self.message_class(message_name)
+    def _layout(self, key: str, message_class: Callable[[], type[genpy.Message]]) -> Layout:
+        cls = message_class()
         try:
             layout = Layout(cls, self.message_class)
         except (LayoutError, ValueError) as error:
-            raise RosError(f"cannot validate {message_name}: {error}") from None
+            raise RosError(f"cannot validate {key}: {error}") from None
         with self._lock:
-            return self._layouts.setdefault(message_name, layout)
+            return self._layouts.setdefault(key, layout)
 
 
 def _raw_class_like(generated: type[genpy.Message]) -> type[RawMessage]:
@@ -362,6 +385,7 @@ class RawServiceProxy:
         self._proxy = proxy
         self._request_class = raw_class._request_class
         self.service = service
+        self.service_name: str = raw_class._type
 
     def call(self, request: bytes, timeout: float) -> bytes:
         try:

@@ -85,6 +85,7 @@ class _UnityService:
 @dataclass
 class _PendingUnityCall:
     owner: ClientSession
+    service_name: str  # 'pkg/Service', to check the client's response
     done: threading.Event = field(default_factory=threading.Event)
     response: bytes | None = None
     failure: str | None = None
@@ -351,6 +352,11 @@ class Endpoint:
                 f"__request {srv_id}: service {frame.destination!r} was not registered with __ros_service; "
                 "this call will not complete"
             )
+        if self.config.validate_payloads:
+            try:
+                self.ros.types.validate_service(proxy.service_name, "request", frame.payload)
+            except RosError as error:
+                raise ClientError(f"__request {srv_id} ({frame.destination}): {error}; not sent to ROS") from None
         timeout = self.config.service_timeout_s
 
         def call() -> None:
@@ -383,7 +389,7 @@ class Endpoint:
             if service is None:
                 raise RosError(f"service {resolved} has no client any more")
             srv_id = next(self._unity_srv_ids)
-            call = _PendingUnityCall(service.owner)
+            call = _PendingUnityCall(service.owner, service.message_name)
             self._pending_unity_calls[srv_id] = call
             client_name = service.client_name
         header = protocol.encode_syscommand("__request", {"srv_id": srv_id})
@@ -409,5 +415,13 @@ class Endpoint:
             call = self._pending_unity_calls.get(srv_id)
         if call is None or call.owner is not session:
             raise ClientError(f"__response {srv_id}: the call timed out or is unknown; response discarded")
+        if self.config.validate_payloads:
+            try:
+                self.ros.types.validate_service(call.service_name, "response", frame.payload)
+            except RosError as error:
+                # The ROS caller hears at once instead of getting bytes it cannot read (or waiting for a timeout).
+                call.failure = f"client {session.name} answered with an invalid response: {error}"
+                call.done.set()
+                raise ClientError(f"__response {srv_id} ({frame.destination}): {error}; the ROS call fails") from None
         call.response = frame.payload
         call.done.set()

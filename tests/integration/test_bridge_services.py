@@ -135,6 +135,54 @@ def test_failing_ros_service_gives_an_error_naming_it_and_the_connection_keeps_w
     service.shutdown()
 
 
+def test_a_malformed_request_body_gets_an_error_and_never_reaches_the_ros_service(bridge, ros_node) -> None:
+    name = unique("checked_request")
+    calls: list = []
+    service = set_bool_service(ros_node, name, calls)
+    with RawConnection(bridge.port) as client:
+        client.command("__ros_service", topic=name, message_name="std_srvs/SetBool")
+        client.command("__request", srv_id=5)
+        client.send_frame(name, b"\x01\x00")  # SetBool's request is one bool byte: a trailing byte
+        text = client.expect_error("__request 5", name, "std_srvs/SetBool request", "trailing")
+        assert "not sent to ROS" in text
+        client.command("__request", srv_id=6)  # the connection and its framing state are intact
+        client.send_frame(name, serialize(SetBoolRequest(data=True)))
+        client.wait_command("__response")
+        assert client.next_frame().payload == serialize(SetBoolResponse(success=False, message="got True"))
+        assert calls == [True]
+    service.shutdown()
+
+
+def test_an_invalid_response_from_the_client_fails_the_ros_call_with_a_reason(bridge, ros_node) -> None:
+    name = unique("checked_response")
+    with RawConnection(bridge.port) as client:
+        client.command("__unity_service", topic=name, message_name="std_srvs/Trigger")
+        client.sync()
+        wait_for(lambda: service_exists(ros_node, name), 10, f"{name} advertised")
+        outcome: list = []
+
+        def call() -> None:
+            try:
+                outcome.append(ros_node.ServiceProxy(name, Trigger)())
+            except Exception as error:  # rospy.ServiceException
+                outcome.append(error)
+
+        caller = threading.Thread(target=call)
+        caller.start()
+        try:
+            srv_id = json.loads(client.wait_frame(lambda f: f.destination == "__request", "__request").payload)["srv_id"]
+            client.next_frame()  # the request body
+            client.command("__response", srv_id=srv_id)
+            client.send_frame(name, b"\x01\x05\x00\x00\x00ok")  # the message string claims 5 bytes, has 2
+        finally:
+            caller.join(timeout=10)
+        assert not caller.is_alive()
+        assert isinstance(outcome[0], ros_node.ServiceException)
+        assert "invalid response" in str(outcome[0]) and "truncated" in str(outcome[0])
+        client.expect_error(f"__response {srv_id}", "std_srvs/Trigger response", "truncated")
+        client.sync()
+
+
 def test_missing_ros_service_gives_an_error_naming_it(bridge, ros_node) -> None:
     missing, working = unique("missing"), unique("working")
     service = set_bool_service(ros_node, working)
