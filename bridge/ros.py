@@ -85,12 +85,7 @@ class TypeRegistry:
         self._layouts: dict[str, Layout] = {}
 
     def message_class(self, message_name: str) -> type[genpy.Message]:
-        with self._lock:
-            cls = self._generated.get(message_name)
-            if cls is None:
-                cls = _import_generated(message_name, "msg")
-                self._generated[message_name] = cls
-            return cls
+        return self._imported(self._generated, message_name, "msg")
 
     def raw_message_class(self, message_name: str) -> type[RawMessage]:
         generated = self.message_class(message_name)
@@ -102,11 +97,13 @@ class TypeRegistry:
             return raw
 
     def _generated_service(self, service_name: str) -> type:
+        return self._imported(self._generated_services, service_name, "srv")
+
+    def _imported(self, cache: dict[str, Any], name: str, kind: str) -> Any:
         with self._lock:
-            cls = self._generated_services.get(service_name)
+            cls = cache.get(name)
             if cls is None:
-                cls = _import_generated(service_name, "srv")
-                self._generated_services[service_name] = cls
+                cls = cache[name] = _import_generated(name, kind)
             return cls
 
     def raw_service_class(self, service_name: str) -> type:

@@ -33,6 +33,28 @@ def set_bool_service(rospy, name: str, calls: list | None = None):
     return service
 
 
+class BackgroundCall:
+    """One rospy service call on its own thread (the test meanwhile plays the client that answers it);
+    `outcome` is the response or the exception."""
+
+    def __init__(self, rospy, name: str, service_class=Trigger, *request_args) -> None:
+        self.outcome: object = None
+        self._thread = threading.Thread(
+            target=self._run, args=(rospy, name, service_class, request_args), daemon=True
+        )
+        self._thread.start()
+
+    def _run(self, rospy, name: str, service_class, request_args: tuple) -> None:
+        try:
+            self.outcome = rospy.ServiceProxy(name, service_class)(*request_args)
+        except Exception as error:  # rospy.ServiceException
+            self.outcome = error
+
+    def finished(self, timeout: float = 10.0) -> bool:
+        self._thread.join(timeout)
+        return not self._thread.is_alive()
+
+
 def test_client_calls_a_ros_service(bridge, ros_node) -> None:
     name = unique("set_bool")
     calls: list[bool] = []
@@ -95,21 +117,17 @@ def test_ros_request_wire_format_and_setbool_both_ways(bridge, ros_node) -> None
         client.command("__unity_service", topic=name, message_name="std_srvs/SetBool")
         client.sync()
         wait_for(lambda: service_exists(ros_node, name), 10, f"{name} advertised")
-        result: list = []
-        caller = threading.Thread(target=lambda: result.append(ros_node.ServiceProxy(name, SetBool)(True)))
-        caller.start()
-        try:
-            header = client.wait_frame(lambda f: f.destination == "__request", "__request")
-            srv_id = json.loads(header.payload)["srv_id"]
-            assert isinstance(srv_id, int) and srv_id >= 1001
-            body = client.next_frame()
-            assert body.destination == name and body.payload == serialize(SetBoolRequest(data=True))
-            client.command("__response", srv_id=srv_id)
-            client.send_frame(name, serialize(SetBoolResponse(success=True, message="from the client")))
-        finally:
-            caller.join(timeout=10)
-        assert not caller.is_alive()
-        assert (result[0].success, result[0].message) == (True, "from the client")
+        caller = BackgroundCall(ros_node, name, SetBool, True)
+        header = client.wait_frame(lambda f: f.destination == "__request", "__request")
+        srv_id = json.loads(header.payload)["srv_id"]
+        assert isinstance(srv_id, int) and srv_id >= 1001
+        body = client.next_frame()
+        assert body.destination == name and body.payload == serialize(SetBoolRequest(data=True))
+        client.command("__response", srv_id=srv_id)
+        client.send_frame(name, serialize(SetBoolResponse(success=True, message="from the client")))
+        assert caller.finished()
+        assert isinstance(caller.outcome, SetBoolResponse)
+        assert (caller.outcome.success, caller.outcome.message) == (True, "from the client")
         client.sync()
         assert client.errors() == []
 
@@ -159,26 +177,14 @@ def test_an_invalid_response_from_the_client_fails_the_ros_call_with_a_reason(br
         client.command("__unity_service", topic=name, message_name="std_srvs/Trigger")
         client.sync()
         wait_for(lambda: service_exists(ros_node, name), 10, f"{name} advertised")
-        outcome: list = []
-
-        def call() -> None:
-            try:
-                outcome.append(ros_node.ServiceProxy(name, Trigger)())
-            except Exception as error:  # rospy.ServiceException
-                outcome.append(error)
-
-        caller = threading.Thread(target=call)
-        caller.start()
-        try:
-            srv_id = json.loads(client.wait_frame(lambda f: f.destination == "__request", "__request").payload)["srv_id"]
-            client.next_frame()  # the request body
-            client.command("__response", srv_id=srv_id)
-            client.send_frame(name, b"\x01\x05\x00\x00\x00ok")  # the message string claims 5 bytes, has 2
-        finally:
-            caller.join(timeout=10)
-        assert not caller.is_alive()
-        assert isinstance(outcome[0], ros_node.ServiceException)
-        assert "invalid response" in str(outcome[0]) and "truncated" in str(outcome[0])
+        caller = BackgroundCall(ros_node, name)
+        srv_id = json.loads(client.wait_frame(lambda f: f.destination == "__request", "__request").payload)["srv_id"]
+        client.next_frame()  # the request body
+        client.command("__response", srv_id=srv_id)
+        client.send_frame(name, b"\x01\x05\x00\x00\x00ok")  # the message string claims 5 bytes, has 2
+        assert caller.finished()
+        assert isinstance(caller.outcome, ros_node.ServiceException)
+        assert "invalid response" in str(caller.outcome) and "truncated" in str(caller.outcome)
         client.expect_error(f"__response {srv_id}", "std_srvs/Trigger response", "truncated")
         client.sync()
 
@@ -264,21 +270,11 @@ def test_client_disconnecting_before_answering_fails_the_ros_call_quickly(bridge
     client.command("__unity_service", topic=name, message_name="std_srvs/Trigger")
     client.sync()
     wait_for(lambda: service_exists(ros_node, name), 10, f"{name} advertised")
-    outcome: list = []
-
-    def call() -> None:
-        try:
-            outcome.append(ros_node.ServiceProxy(name, Trigger)())
-        except Exception as error:  # rospy.ServiceException
-            outcome.append(error)
-
-    caller = threading.Thread(target=call)
-    caller.start()
+    caller = BackgroundCall(ros_node, name)
     client.wait_frame(lambda f: f.destination == "__request", "__request")
     client.close()
-    caller.join(timeout=10)
-    assert not caller.is_alive()
-    assert isinstance(outcome[0], ros_node.ServiceException)
+    assert caller.finished()
+    assert isinstance(caller.outcome, ros_node.ServiceException)
     wait_for(lambda: not service_exists(ros_node, name), 10, f"{name} withdrawn after the client left")
 
 
