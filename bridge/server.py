@@ -164,11 +164,19 @@ class Endpoint:
                 log.exception("accept failed")
                 time.sleep(0.1)
                 continue
-            tune_socket(sock)
-            session = ClientSession(self, sock, address, next(self._client_ids))
-            with self._lock:
-                self._sessions.add(session)
-            session.start()
+            session: ClientSession | None = None
+            try:
+                tune_socket(sock)
+                session = ClientSession(self, sock, address, next(self._client_ids))
+                with self._lock:
+                    self._sessions.add(session)
+                session.start()
+            except Exception:  # e.g. no thread to be had: this client goes, the endpoint keeps accepting others
+                log.exception("could not serve the client at %s:%d", *address[:2])
+                if session is not None:
+                    self.release(session)
+                    session.close()
+                sock.close()
 
     # --- registrations (called from a session's reader thread) --------------------------------------------------
     def _checked_name(self, name: str) -> str:

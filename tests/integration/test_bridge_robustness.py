@@ -370,3 +370,31 @@ def test_a_client_flooding_bad_frames_without_reading_is_bounded_and_not_logged_
     finally:
         assert endpoint.stop() is not None
 
+
+
+def test_a_client_that_cannot_be_set_up_is_closed_and_the_endpoint_keeps_accepting(ros_node, monkeypatch) -> None:
+    """Fault injection, in this process's endpoint: the first client's session fails to start (as when no thread
+    can be had). That client is closed; the next one is served as usual."""
+    from bridge import server
+    from bridge.ros import RosGraph
+
+    failures = iter([RuntimeError("can't start new thread")])
+    real_session = server.ClientSession
+
+    def session_or_failure(*args, **kwargs):
+        failure = next(failures, None)
+        if failure is not None:
+            raise failure
+        return real_session(*args, **kwargs)
+
+    monkeypatch.setattr(server, "ClientSession", session_or_failure)
+    endpoint = server.Endpoint(RosGraph(), server.EndpointConfig(tcp_port=0))
+    port = endpoint.start()
+    try:
+        with RawConnection(port, handshake=False) as refused:
+            refused.wait_closed()
+        with RawConnection(port) as served:  # RawConnection checks the handshake
+            served.sync()
+            assert served.errors() == []
+    finally:
+        endpoint.stop()
