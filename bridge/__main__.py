@@ -15,7 +15,7 @@ import threading
 from typing import Any
 
 from bridge.protocol import DEFAULT_MAX_PAYLOAD_BYTES
-from bridge.server import Endpoint, EndpointConfig
+from bridge.server import ConfigError, Endpoint, EndpointConfig
 
 log = logging.getLogger("bridge")
 
@@ -25,7 +25,8 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument("--tcp-ip", help="address to bind (default 127.0.0.1; 0.0.0.0 only when asked)")
     parser.add_argument("--tcp-port", type=int, help="port to listen on (default 10000; 0 = any free port)")
     parser.add_argument("--node-name", default="ros_tcp_endpoint")
-    parser.add_argument("--max-payload-bytes", type=int, help=f"largest accepted payload (default {DEFAULT_MAX_PAYLOAD_BYTES})")
+    parser.add_argument("--max-payload-bytes", type=int,
+                        help=f"largest accepted payload (default {DEFAULT_MAX_PAYLOAD_BYTES})")
     parser.add_argument("--queue-frames", type=int, help="per-client outgoing queue length (default 1024)")
     parser.add_argument("--auth-token", help="shared secret; clients must send __auth first (default off)")
     parser.add_argument("--allow", action="append", metavar="PATTERN", help="only bridge topics matching (repeatable)")
@@ -33,6 +34,20 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument("--service-timeout", type=float, help="seconds to wait for a service answer (default 10)")
     parser.add_argument("--no-validate", action="store_true", help="publish client payloads without checking them")
     return parser
+
+
+# Where each setting can be given, for error messages: EndpointConfig field -> "--option / ~rosparam".
+_SOURCES = {
+    "tcp_ip": "--tcp-ip / ~tcp_ip (/ROS_IP)",
+    "tcp_port": "--tcp-port / ~tcp_port (/ROS_TCP_PORT)",
+    "max_payload_bytes": "--max-payload-bytes / ~max_payload_bytes",
+    "client_queue_frames": "--queue-frames / ~queue_frames",
+    "auth_token": "--auth-token / ~auth_token",
+    "allow_topics": "--allow / ~allow_topics",
+    "deny_topics": "--deny / ~deny_topics",
+    "service_timeout_s": "--service-timeout / ~service_timeout",
+    "validate_payloads": "--no-validate / ~validate_payloads",
+}
 
 
 def _setting(cli_value: Any, ros: Any, param: str, fallback_param: str | None, default: Any) -> Any:
@@ -44,26 +59,60 @@ def _setting(cli_value: Any, ros: Any, param: str, fallback_param: str | None, d
     return default if value is None else value
 
 
-def _patterns(value: Any) -> tuple[str, ...]:
+_KIND_NAMES = {bool: "true or false", int: "a whole number", float: "a number", str: "a string"}
+
+
+def _typed(setting: str, value: Any, kind: type) -> Any:
+    """`value` (an option, or a rosparam, which may hold any YAML type) as `kind`; ConfigError names the setting."""
+    if isinstance(value, kind) and not (isinstance(value, bool) and kind is not bool):
+        return value
+    text = value.strip().lower() if isinstance(value, str) else None
+    if kind is bool and text in ("true", "false"):
+        return text == "true"
+    if kind is str and isinstance(value, (int, float)) and not isinstance(value, bool):
+        return str(value)  # e.g. a token written as digits in YAML
+    if kind is int and isinstance(value, float) and value.is_integer():
+        return int(value)
+    if kind in (int, float) and text is not None:
+        try:
+            return kind(text)
+        except ValueError:
+            pass
+    if kind is float and isinstance(value, int) and not isinstance(value, bool):
+        return float(value)
+    raise ConfigError(setting, f"{value!r} is not {_KIND_NAMES[kind]}")
+
+
+def _patterns(setting: str, value: Any) -> tuple[str, ...]:
     if value is None:
         return ()
     if isinstance(value, str):
         return tuple(part for part in value.replace(",", " ").split() if part)
-    return tuple(str(part) for part in value)
+    if isinstance(value, (list, tuple)):
+        return tuple(_typed(setting, part, str) for part in value)
+    raise ConfigError(setting, f"{value!r} is not a list of topic patterns")
 
 
 def build_config(args: argparse.Namespace, ros: Any) -> EndpointConfig:
+    """The endpoint's settings: command line over private rosparams over defaults; ConfigError names a bad one."""
     defaults = EndpointConfig()
+
+    def read(setting: str, cli_value: Any, param: str, kind: type, fallback_param: str | None = None) -> Any:
+        return _typed(setting, _setting(cli_value, ros, param, fallback_param, getattr(defaults, setting)), kind)
+
+    token = _setting(args.auth_token, ros, "~auth_token", None, None)
+    if token is not None:
+        token = _typed("auth_token", token, str) or None  # an empty token (the launch file's default) = off
     return EndpointConfig(
-        tcp_ip=str(_setting(args.tcp_ip, ros, "~tcp_ip", "/ROS_IP", defaults.tcp_ip)),
-        tcp_port=int(_setting(args.tcp_port, ros, "~tcp_port", "/ROS_TCP_PORT", defaults.tcp_port)),
-        max_payload_bytes=int(_setting(args.max_payload_bytes, ros, "~max_payload_bytes", None, defaults.max_payload_bytes)),
-        client_queue_frames=int(_setting(args.queue_frames, ros, "~queue_frames", None, defaults.client_queue_frames)),
-        auth_token=_setting(args.auth_token, ros, "~auth_token", None, None) or None,
-        allow_topics=_patterns(_setting(args.allow, ros, "~allow_topics", None, None)),
-        deny_topics=_patterns(_setting(args.deny, ros, "~deny_topics", None, None)),
-        service_timeout_s=float(_setting(args.service_timeout, ros, "~service_timeout", None, defaults.service_timeout_s)),
-        validate_payloads=not args.no_validate and bool(ros.get_param("~validate_payloads", True)),
+        tcp_ip=read("tcp_ip", args.tcp_ip, "~tcp_ip", str, "/ROS_IP"),
+        tcp_port=read("tcp_port", args.tcp_port, "~tcp_port", int, "/ROS_TCP_PORT"),
+        max_payload_bytes=read("max_payload_bytes", args.max_payload_bytes, "~max_payload_bytes", int),
+        client_queue_frames=read("client_queue_frames", args.queue_frames, "~queue_frames", int),
+        auth_token=token,
+        allow_topics=_patterns("allow_topics", _setting(args.allow, ros, "~allow_topics", None, None)),
+        deny_topics=_patterns("deny_topics", _setting(args.deny, ros, "~deny_topics", None, None)),
+        service_timeout_s=read("service_timeout_s", args.service_timeout, "~service_timeout", float),
+        validate_payloads=not args.no_validate and read("validate_payloads", None, "~validate_payloads", bool),
     )
 
 
@@ -92,7 +141,13 @@ def main(argv: list[str] | None = None) -> int:
     ros = RosGraph()
     ros.init_node(args.node_name)
     _log_to_screen()
-    config = build_config(args, ros)
+    try:
+        config = build_config(args, ros)
+    except ConfigError as error:
+        print(f"python -m bridge: bad setting {_SOURCES.get(error.setting, error.setting)}: {error.problem}",
+              file=sys.stderr)
+        ros.shutdown("bad setting")
+        return 2
     endpoint = Endpoint(ros, config)
     try:
         port = endpoint.start()

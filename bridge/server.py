@@ -14,6 +14,7 @@ from __future__ import annotations
 import fnmatch
 import itertools
 import logging
+import math
 import socket
 import threading
 import time
@@ -27,6 +28,19 @@ from bridge.session import ClientError, ClientSession
 from bridge.sockets import tune_socket
 
 log = logging.getLogger(__name__)
+
+
+class ConfigError(ValueError):
+    """A setting the endpoint cannot serve clients with; `setting` is the EndpointConfig field concerned."""
+
+    def __init__(self, setting: str, problem: str) -> None:
+        super().__init__(f"{setting}: {problem}")
+        self.setting = setting
+        self.problem = problem
+
+
+# Unity's client reads frame lengths as signed 32-bit integers: nothing longer can be framed.
+MAX_FRAME_LENGTH = 2**31 - 1
 
 
 @dataclass
@@ -48,12 +62,34 @@ class EndpointConfig:
     client_call_workers: int = 4
     client_max_pending_calls: int = 64
 
+    def __post_init__(self) -> None:
+        """Refuse, before anything starts, settings that would fail later: at bind, or at every client's connect."""
+        if not isinstance(self.tcp_ip, str) or not self.tcp_ip:
+            raise ConfigError("tcp_ip", f"must be an address or host name, got {self.tcp_ip!r}")
+        _check_whole("tcp_port", self.tcp_port, 0, 65535)
+        _check_whole("max_payload_bytes", self.max_payload_bytes, 1, MAX_FRAME_LENGTH)
+        _check_whole("max_destination_bytes", self.max_destination_bytes, 1, MAX_FRAME_LENGTH)
+        _check_whole("client_queue_frames", self.client_queue_frames, 1)
+        _check_whole("client_queue_bytes", self.client_queue_bytes, 1)
+        _check_whole("client_call_workers", self.client_call_workers, 1)
+        _check_whole("client_max_pending_calls", self.client_max_pending_calls, 1)
+        timeout = self.service_timeout_s
+        if isinstance(timeout, bool) or not isinstance(timeout, (int, float)) or not (0 < timeout < math.inf):
+            raise ConfigError("service_timeout_s", f"must be a positive number of seconds, got {timeout!r}")
+
     def permits(self, resolved_name: str) -> bool:
         if any(fnmatch.fnmatchcase(resolved_name, pattern) for pattern in self.deny_topics):
             return False
         return not self.allow_topics or any(
             fnmatch.fnmatchcase(resolved_name, pattern) for pattern in self.allow_topics
         )
+
+
+def _check_whole(setting: str, value: object, lowest: int, highest: int | None = None) -> None:
+    in_range = value >= lowest and (highest is None or value <= highest) if isinstance(value, int) else False
+    if isinstance(value, bool) or not in_range:
+        allowed = f"from {lowest} to {highest}" if highest is not None else f"of at least {lowest}"
+        raise ConfigError(setting, f"must be a whole number {allowed}, got {value!r}")
 
 
 # ---------------------------------------------------------------------------------------------------------------

@@ -1,8 +1,10 @@
-"""Endpoint settings and lifecycle: auth token, allow/deny lists, default loopback bind, clean SIGTERM."""
+"""Endpoint settings and lifecycle: auth token, allow/deny lists, default loopback bind, bad settings refused by name,
+clean SIGTERM, and the catkin package's roslaunch entry point."""
 from __future__ import annotations
 
 import os
 import signal
+import subprocess
 from pathlib import Path
 
 import pytest
@@ -11,6 +13,7 @@ from std_msgs.msg import String
 from tests.integration.bridge_helpers import (
     Inbox,
     RawConnection,
+    RosInbox,
     serialize,
     service_exists,
     start_endpoint,
@@ -18,7 +21,7 @@ from tests.integration.bridge_helpers import (
     unique,
     wait_subscribers,
 )
-from tests.rosenv import wait_for
+from tests.rosenv import PYTHON, REPO, ManagedProcess, free_port, wait_for
 
 TOKEN = "s3cret-token"
 
@@ -164,3 +167,67 @@ def test_sigterm_stops_the_endpoint_cleanly(roscore, ros_node, tmp_path: Path) -
         client.close()
     finally:
         endpoint.stop()
+
+
+@pytest.mark.parametrize(
+    ("options", "param", "named"),
+    [
+        (["--queue-frames", "0"], None, "--queue-frames / ~queue_frames: must be a whole number of at least 1, got 0"),
+        (["--tcp-port", "70000"], None, "--tcp-port / ~tcp_port (/ROS_TCP_PORT): must be a whole number from 0"),
+        (["--service-timeout", "-1"], None, "--service-timeout / ~service_timeout: must be a positive number"),
+        ([], ("tcp_port", "abc"), "--tcp-port / ~tcp_port (/ROS_TCP_PORT): 'abc' is not a whole number"),
+        ([], ("validate_payloads", "maybe"), "--no-validate / ~validate_payloads: 'maybe' is not true or false"),
+    ],
+)
+def test_a_bad_setting_stops_the_endpoint_at_once_with_a_message_naming_it(
+    roscore, ros_node, options: list[str], param: tuple[str, str] | None, named: str
+) -> None:
+    node = unique("bad_setting").lstrip("/")
+    if param is not None:
+        ros_node.set_param(f"/{node}/{param[0]}", param[1])
+    try:
+        result = subprocess.run(
+            [PYTHON, "-m", "bridge", "--node-name", node, *options],
+            env=roscore.env, cwd=REPO, capture_output=True, text=True, timeout=60,
+        )
+    finally:
+        if param is not None:
+            ros_node.delete_param(f"/{node}/{param[0]}")
+    assert result.returncode == 2, result.stderr
+    assert f"python -m bridge: bad setting {named}" in result.stderr
+    assert "Traceback" not in result.stderr and "listening" not in result.stdout
+
+
+def test_roslaunch_endpoint_launch_serves_clients_like_unitys(roscore, ros_node, tmp_path: Path) -> None:
+    """The catkin package's launch file, as a Unity user starts it, with its two arguments."""
+    port = free_port()
+    command = (f"source {REPO}/catkin_ws/devel/setup.bash && exec roslaunch ros_tcp_endpoint endpoint.launch "
+               f"tcp_ip:=127.0.0.1 tcp_port:={port}")
+    launch = ManagedProcess(["bash", "-c", command], roscore.env, tmp_path, "roslaunch")
+    to_ros, to_client = unique("launched_in"), unique("launched_out")
+    inbox = RosInbox(ros_node, to_ros)
+    publisher = ros_node.Publisher(to_client, String, queue_size=10)
+    try:
+        launch.wait_for_output(f"listening on 127.0.0.1:{port}", timeout=60)
+        assert ros_node.get_param("/ros_tcp_endpoint/actual_port") == port
+        received = Inbox()
+        with tcp_client(port, reconnect=False) as client:
+            client.subscribe(to_client, "std_msgs/String", received)
+            client.register_publisher(to_ros, "std_msgs/String")
+            client.topic_list()  # answered after the registrations before it
+            inbox.wait_connected()
+            client.publish(to_ros, serialize(String("to ROS")))
+            assert inbox.wait_count(1) == [serialize(String("to ROS"))]
+            wait_subscribers(publisher)
+            publisher.publish(String("to the client"))
+            assert received.wait_count(1) == [serialize(String("to the client"))]
+            assert client.errors == []
+        launch.stop(timeout=15)
+        assert "endpoint stopped" in launch.output()
+    finally:
+        launch.stop()
+        inbox.close()
+        publisher.unregister()
+        for name in ("tcp_ip", "tcp_port", "auth_token", "actual_port"):
+            if ros_node.has_param(f"/ros_tcp_endpoint/{name}"):
+                ros_node.delete_param(f"/ros_tcp_endpoint/{name}")

@@ -1,0 +1,102 @@
+"""The endpoint's settings: command line over private rosparams over defaults, and every bad value refused by name."""
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import pytest
+
+from bridge.__main__ import _parser, build_config
+from bridge.server import ConfigError, EndpointConfig
+
+
+class Params:
+    """The rosparams the endpoint node would see (its private names already spelled '~name')."""
+
+    def __init__(self, **values: Any) -> None:
+        self.values = {("~" + key if not key.startswith("ROS_") else "/" + key): value for key, value in values.items()}
+
+    def get_param(self, name: str, default: Any) -> Any:
+        return self.values.get(name, default)
+
+
+def config(argv: list[str], **params: Any) -> EndpointConfig:
+    return build_config(_parser().parse_args(argv), Params(**params))
+
+
+def test_defaults_are_a_loopback_endpoint_on_unitys_port() -> None:
+    defaults = config([])
+    assert (defaults.tcp_ip, defaults.tcp_port) == ("127.0.0.1", 10000)
+    assert defaults == EndpointConfig()
+
+
+def test_command_line_beats_rosparam_beats_the_original_endpoints_global_params() -> None:
+    assert config([], ROS_IP="10.1.2.3", ROS_TCP_PORT=10001).tcp_port == 10001
+    assert config([], tcp_port=10002, ROS_TCP_PORT=10001).tcp_port == 10002
+    assert config(["--tcp-port", "10003"], tcp_port=10002).tcp_port == 10003
+    assert config([], tcp_ip="0.0.0.0", ROS_IP="10.1.2.3").tcp_ip == "0.0.0.0"
+
+
+def test_rosparams_of_other_yaml_types_are_converted_when_unambiguous() -> None:
+    loaded = config([], tcp_port="10004", queue_frames=64.0, service_timeout=3, validate_payloads="False",
+                    auth_token=1234, allow_topics="/a/*, /b", deny_topics=["/a/secret"])
+    assert (loaded.tcp_port, loaded.client_queue_frames, loaded.service_timeout_s) == (10004, 64, 3.0)
+    assert loaded.validate_payloads is False
+    assert loaded.auth_token == "1234"
+    assert (loaded.allow_topics, loaded.deny_topics) == (("/a/*", "/b"), ("/a/secret",))
+
+
+def test_the_launch_files_empty_token_means_auth_is_off() -> None:
+    assert config([], auth_token="").auth_token is None
+    assert config(["--no-validate"], validate_payloads=True).validate_payloads is False
+
+
+@pytest.mark.parametrize(
+    ("params", "setting", "fragment"),
+    [
+        ({"tcp_port": "abc"}, "tcp_port", "'abc' is not a whole number"),
+        ({"tcp_port": 10000.5}, "tcp_port", "10000.5 is not a whole number"),
+        ({"tcp_port": True}, "tcp_port", "True is not a whole number"),
+        ({"ROS_TCP_PORT": "ten"}, "tcp_port", "'ten' is not a whole number"),
+        ({"queue_frames": [1]}, "client_queue_frames", "[1] is not a whole number"),
+        ({"service_timeout": "soon"}, "service_timeout_s", "'soon' is not a number"),
+        ({"validate_payloads": "maybe"}, "validate_payloads", "'maybe' is not true or false"),
+        ({"auth_token": ["a"]}, "auth_token", "['a'] is not a string"),
+        ({"allow_topics": 5}, "allow_topics", "5 is not a list of topic patterns"),
+        ({"deny_topics": ["/a", {"b": 1}]}, "deny_topics", "{'b': 1} is not a string"),
+    ],
+)
+def test_a_rosparam_of_the_wrong_type_is_named(params: dict[str, Any], setting: str, fragment: str) -> None:
+    with pytest.raises(ConfigError) as error:
+        config([], **params)
+    assert error.value.setting == setting and fragment in error.value.problem
+
+
+@pytest.mark.parametrize(
+    ("field", "value"),
+    [
+        ("tcp_ip", ""),
+        ("tcp_port", -1),
+        ("tcp_port", 65536),
+        ("max_payload_bytes", 0),
+        ("max_payload_bytes", 2**31),  # Unity's client reads lengths as int32
+        ("max_destination_bytes", 0),
+        ("client_queue_frames", 0),
+        ("client_queue_bytes", 0),
+        ("client_call_workers", 0),
+        ("client_max_pending_calls", 0),
+        ("service_timeout_s", 0.0),
+        ("service_timeout_s", -3.0),
+        ("service_timeout_s", math.nan),
+        ("service_timeout_s", math.inf),
+    ],
+)
+def test_a_value_the_endpoint_cannot_serve_with_is_refused_before_it_starts(field: str, value: Any) -> None:
+    with pytest.raises(ConfigError) as error:
+        EndpointConfig(**{field: value})
+    assert error.value.setting == field and repr(value) in error.value.problem
+
+
+def test_the_edges_of_each_range_are_accepted() -> None:
+    EndpointConfig(tcp_port=0, max_payload_bytes=1, client_queue_frames=1, service_timeout_s=1e-3)
+    EndpointConfig(tcp_port=65535, max_payload_bytes=2**31 - 1)
