@@ -153,10 +153,15 @@ def test_a_latched_topic_reaches_a_subscriber_that_comes_later(bridge, ros_node)
 
 
 def test_one_clients_slow_service_calls_do_not_delay_another_clients_call(bridge, ros_node) -> None:
+    """The busy client's calls stay blocked in the ROS service until the other client has had its answer: if the
+    other call waited behind them, it could not complete (it would time out) while they are still held."""
     slow, fast = unique("slow"), unique("fast")
+    release = threading.Event()
+    held = threading.Semaphore(0)
 
     def handle_slow(_request) -> TriggerResponse:
-        time.sleep(1.5)
+        held.release()
+        release.wait(timeout=30)
         return TriggerResponse(success=True, message="slow")
 
     services = [
@@ -170,10 +175,11 @@ def test_one_clients_slow_service_calls_do_not_delay_another_clients_call(bridge
         for srv_id in range(101, 111):  # more calls than the endpoint had workers in total before (8)
             busy.command("__request", srv_id=srv_id)
             busy.send_frame(slow, b"")
-        busy.sync()
-        started = time.monotonic()
-        response = other.call_service(fast, b"", timeout=10)
-        assert time.monotonic() - started < 1.0
+        assert held.acquire(timeout=10), "the busy client's calls never reached the slow service"
+        try:
+            response = other.call_service(fast, b"", timeout=10)  # raises if it waited behind the held calls
+        finally:
+            release.set()
         assert response == serialize(TriggerResponse(success=True, message="fast"))
         busy.wait_frame(lambda frame: frame.destination == "__response", "the busy client's first answer")
     for service in services:
