@@ -334,10 +334,12 @@ class TcpClient:
                 except Exception:
                     log.exception("subscriber callback for %s failed", frame.destination)
             return None
-        params = protocol.parse_json_params(frame.destination, frame.payload)
         command = frame.destination
         if command in ("__request", "__response"):
-            return int(params["srv_id"]) if command == "__request" else -int(params["srv_id"])
+            parsed = protocol.parse_syscommand(frame)  # the same srv_id checks as the endpoint's; ProtocolError
+            assert isinstance(parsed, (protocol.Request, protocol.Response))
+            return parsed.srv_id if command == "__request" else -parsed.srv_id
+        params = protocol.parse_json_params(frame.destination, frame.payload)
         if command == "__topic_list":
             self._answer_topic_list(params)
         elif command == "__error":

@@ -400,7 +400,11 @@ class Endpoint:
             try:
                 self.ros.types.validate_service(proxy.service_name, "request", frame.payload)
             except RosError as error:
-                raise ClientError(f"__request {srv_id} ({frame.destination}): {error}; not sent to ROS") from None
+                # The "__request <srv_id>:" prefix lets a client fail that call at once (bridge.client does).
+                raise ClientError(
+                    f"__request {srv_id}: service {frame.destination}: {error}; not sent to ROS, this call will not "
+                    "complete"
+                ) from None
         timeout = self.config.service_timeout_s
 
         def call() -> None:

@@ -161,13 +161,28 @@ def test_a_malformed_request_body_gets_an_error_and_never_reaches_the_ros_servic
         client.command("__ros_service", topic=name, message_name="std_srvs/SetBool")
         client.command("__request", srv_id=5)
         client.send_frame(name, b"\x01\x00")  # SetBool's request is one bool byte: a trailing byte
-        text = client.expect_error("__request 5", name, "std_srvs/SetBool request", "trailing")
+        text = client.expect_error("__request 5:", name, "std_srvs/SetBool request", "trailing")
         assert "not sent to ROS" in text
         client.command("__request", srv_id=6)  # the connection and its framing state are intact
         client.send_frame(name, serialize(SetBoolRequest(data=True)))
         client.wait_command("__response")
         assert client.next_frame().payload == serialize(SetBoolResponse(success=False, message="got True"))
         assert calls == [True]
+    service.shutdown()
+
+
+def test_the_tcp_client_hears_at_once_that_its_malformed_request_was_refused(bridge, ros_node) -> None:
+    name = unique("checked_request_client")
+    calls: list = []
+    service = set_bool_service(ros_node, name, calls)
+    with tcp_client(bridge.port, reconnect=False) as client:
+        client.register_ros_service(name, "std_srvs/SetBool")
+        with pytest.raises(ClientError, match="trailing"):
+            client.call_service(name, b"\x01\x00", timeout=30)  # fails on the __error, not the 30 s timeout
+        assert client.call_service(name, serialize(SetBoolRequest(data=False)), timeout=10) == serialize(
+            SetBoolResponse(success=True, message="got False")
+        )
+    assert calls == [False]
     service.shutdown()
 
 
