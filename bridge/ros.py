@@ -20,12 +20,16 @@ import rospy
 
 from bridge.layout import Layout, LayoutError
 from bridge.queues import OutgoingQueue
-from bridge.sockets import unsent_bytes
+from bridge.sockets import send_to_all, unsent_bytes
 
 log = logging.getLogger(__name__)
 _U32 = struct.Struct("<I")
 # How long a client's reader waits for room in a full publisher queue before the ROS side counts as stalled.
 PUBLISH_WAIT_S = 0.05
+# A ROS subscriber connection that takes no bytes for this long while a batch waits for it has stopped reading (a
+# frozen or wedged node): it is closed, so the topic's other subscribers, which already have the batch, get the next
+# one too. A subscriber that reads slowly but steadily is waited for instead (flow control, see RawPublisher).
+SUBSCRIBER_STALL_S = 1.0
 # Largest message written on a client's reader thread (RawPublisher's direct path): far below the smallest send
 # buffer (16 KiB), so an empty, acknowledged send queue always takes it whole.
 DIRECT_PUBLISH_MAX_BYTES = 8 * 1024
@@ -275,8 +279,9 @@ class RawPublisher:
     flooding at 230k msg/s made the endpoint spend its GIL on frames it then dropped, and only 86k msg/s reached
     ROS. A ROS side that makes no room within that time is stalled: the queue then drops oldest at once (the
     client is told by __warn) until the pump completes a write again, so a stuck ROS subscriber costs the client
-    one wait, never its other traffic. Trade-off: as with any synchronous rospy publisher, a ROS subscriber
-    that stops reading stalls this topic's other ROS subscribers once its socket buffer is full.
+    one wait, never its other traffic. A ROS subscriber that stops reading altogether is cut off after
+    SUBSCRIBER_STALL_S (rospy's synchronous publisher would wait for it forever, and the topic's other
+    subscribers with it); the others get every batch at once meanwhile.
     """
 
     def __init__(self, publisher: Any, raw_class: type[RawMessage], message_name: str, queue_size: int,
@@ -347,30 +352,33 @@ class RawPublisher:
                     log.exception("publishing on %s failed", self._publisher.resolved_name)
 
     def _write_batch(self, payloads: list[bytes]) -> None:
-        """What rospy's _PublisherImpl.publish does for one message (same lock, same failure handling: a
-        connection whose write fails is closed, and rospy then removes it), done once for the whole batch."""
+        """What rospy's _PublisherImpl.publish does for one message (same lock, same stats; a connection whose write
+        fails is closed, and rospy then removes it), done once for the whole batch, and without letting one ROS
+        subscriber that stopped reading hold up the others: see bridge.sockets.send_to_all and SUBSCRIBER_STALL_S."""
         impl = self._publisher.impl
         if impl is None or impl.closed:
             return
         data = b"".join([part for payload in payloads for part in (_U32.pack(len(payload)), payload)])
-        failed = []
+        failed = {}
         impl.acquire()
         try:
-            if impl.closed or not impl.has_connections():
+            if impl.closed or not impl.has_connections() or rospy.is_shutdown():
                 return
-            for connection in impl.connections:  # rospy replaces this list on change, never mutates it
-                try:
-                    if not rospy.is_shutdown():
-                        connection.write_data(data)
-                        connection.stat_num_msg += len(payloads) - 1  # write_data counted one message
-                except Exception:  # rospy: TransportTerminated and anything else drop the connection
-                    log.debug("publisher connection on %s failed", impl.resolved_name, exc_info=True)
-                    failed.append(connection)
+            # rospy replaces impl.connections on change, never mutates it
+            connections = [c for c in impl.connections if not c.done and c.socket is not None]
+            for index, why in send_to_all([c.socket for c in connections], data, SUBSCRIBER_STALL_S).items():
+                failed[connections[index]] = why
+            for connection in connections:
+                if connection not in failed:
+                    connection.stat_bytes += len(data)
+                    connection.stat_num_msg += len(payloads)
             impl.seq += len(payloads)
             impl.message_data_sent += len(data)
         finally:
             impl.release()
-        for connection in failed:
+        for connection, why in failed.items():
+            log.warning("ROS subscriber %s of %s: %s; connection closed (a rospy subscriber connects again)",
+                        connection.endpoint_id, impl.resolved_name, why)
             try:
                 connection.close()  # calls back into impl.remove_connection
             except Exception:

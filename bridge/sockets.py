@@ -2,9 +2,13 @@
 from __future__ import annotations
 
 import fcntl
+import math
+import select
 import socket
 import struct
 import termios
+import time
+from collections.abc import Sequence
 
 _INT = struct.Struct("i")
 _INT_ZERO = bytes(_INT.size)
@@ -26,3 +30,73 @@ def tune_socket(sock: socket.socket) -> None:
     for option, value in (("TCP_KEEPIDLE", 10), ("TCP_KEEPINTVL", 5), ("TCP_KEEPCNT", 3)):
         if hasattr(socket, option):
             sock.setsockopt(socket.IPPROTO_TCP, getattr(socket, option), value)
+
+
+def send_to_all(socks: Sequence[socket.socket], data: bytes, stall_s: float) -> dict[int, str]:
+    """Write `data` whole to every socket; returns {index: why} for those that failed.
+
+    Each socket first gets a non-blocking send, so healthy peers have the bytes at once whatever the others do.
+    Peers that did not take everything are then waited for together: one that keeps taking bytes is waited for as
+    long as it needs (the caller is slowed to its pace, as by a blocking sendall), one that takes nothing for
+    `stall_s` has stopped reading and fails. A failed socket holds part of `data`: its stream is no longer whole,
+    so the caller must close it.
+    """
+    failed: dict[int, str] = {}
+    behind: dict[int, memoryview] = {}
+    whole = memoryview(data)
+    for index, sock in enumerate(socks):
+        try:
+            sent = sock.send(whole, socket.MSG_DONTWAIT)
+        except BlockingIOError:
+            sent = 0
+        except OSError as error:
+            failed[index] = str(error)
+            continue
+        if sent < len(whole):
+            behind[index] = whole[sent:]
+    if behind:
+        failed.update(_finish_sends(socks, behind, stall_s))
+    return failed
+
+
+def _finish_sends(socks: Sequence[socket.socket], behind: dict[int, memoryview], stall_s: float) -> dict[int, str]:
+    """Keep writing the rest of `data` to the peers that are behind. Progress is the peer acknowledging bytes (the
+    kernel's unacknowledged count falls) or taking more: writability alone is too coarse a sign, since the kernel
+    reports a socket writable only once half its (autotuned, MiB-sized) send buffer is free."""
+    failed: dict[int, str] = {}
+    poller = select.poll()
+    index_of_fd: dict[int, int] = {}
+    last_progress: dict[int, float] = {}
+    last_unsent: dict[int, int] = {}
+    now = time.monotonic()
+    for index in behind:
+        fd = socks[index].fileno()
+        poller.register(fd, select.POLLOUT)
+        index_of_fd[fd] = index
+        last_progress[index] = now
+        last_unsent[index] = unsent_bytes(socks[index])
+    tick_ms = max(1, math.ceil(min(stall_s / 4, 0.05) * 1000))
+    while behind:
+        poller.poll(tick_ms)
+        now = time.monotonic()
+        for index in list(behind):
+            sock = socks[index]
+            try:
+                sent = sock.send(behind[index], socket.MSG_DONTWAIT)
+            except BlockingIOError:
+                sent = 0
+            except OSError as error:  # e.g. the peer hung up
+                failed[index] = str(error)
+                sent = len(behind[index])
+            unsent = unsent_bytes(sock)
+            if sent or unsent < last_unsent[index]:
+                last_progress[index] = now
+            last_unsent[index] = unsent
+            behind[index] = behind[index][sent:]
+            if behind[index] and now - last_progress[index] >= stall_s:
+                failed[index] = f"the peer took no bytes for {stall_s:g} s"
+                behind[index] = behind[index][:0]
+            if not behind[index]:
+                del behind[index]
+                poller.unregister(sock.fileno())
+    return failed

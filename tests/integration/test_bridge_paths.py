@@ -3,6 +3,8 @@ latching, order, flow control), and per-client service-call workers (one client'
 another's)."""
 from __future__ import annotations
 
+import os
+import signal
 import threading
 import time
 from pathlib import Path
@@ -19,7 +21,7 @@ from tests.integration.bridge_helpers import (
     tcp_client,
     unique,
 )
-from tests.rosenv import wait_for
+from tests.rosenv import PYTHON, ManagedProcess, wait_for
 
 
 def test_a_burst_reaches_every_ros_subscriber_whole_and_in_order(bridge, ros_node) -> None:
@@ -133,6 +135,52 @@ def test_a_stalled_ros_subscriber_costs_its_topic_old_messages_never_the_clients
     wait_for(lambda: len(stuck) > 0, 30, "the stuck subscriber to be served again once it reads")
     stuck.close()
     other.close()
+
+
+# A rospy node subscribing to argv[1]; prints GOT at its first message. The test freezes it with SIGSTOP.
+_SUBSCRIBER_NODE = """
+import sys
+import rospy
+from std_msgs.msg import String
+rospy.init_node("frozen_subscriber", anonymous=True)
+got = []
+def on_message(message):
+    if not got:
+        got.append(message)
+        print("GOT", flush=True)
+rospy.Subscriber(sys.argv[1], String, on_message, tcp_nodelay=True)
+rospy.spin()
+"""
+
+
+def test_a_frozen_ros_subscriber_is_cut_off_and_never_holds_up_the_topics_other_subscribers(
+    bridge, roscore, ros_node, tmp_path: Path
+) -> None:
+    topic = unique("frozen")
+    healthy = RosInbox(ros_node, topic)
+    frozen = ManagedProcess([PYTHON, "-c", _SUBSCRIBER_NODE, topic], roscore.env, tmp_path, "frozen_subscriber")
+    big = serialize(String("x" * 256 * 1024))
+    count = min(400, _socket_buffers_bytes() // len(big) + 50)  # more than the kernel buffers hold
+    marker = serialize(String("sent after the freeze"))
+    try:
+        with RawConnection(bridge.port) as client:
+            client.register_publisher(topic, "std_msgs/String", queue_size=10)
+            client.sync()
+            healthy.wait_connected()
+            wait_for(lambda: (client.send_frame(topic, serialize(String("hello"))), "GOT" in frozen.output())[1],
+                     30, "the subscriber node's first message")
+            os.kill(frozen.pid, signal.SIGSTOP)
+            for _ in range(count):
+                client.send_frame(topic, big)
+            client.send_frame(topic, marker)
+            wait_for(lambda: marker in healthy.snapshot(), 30, "the healthy subscriber to get the last message")
+            client.sync()
+            assert not client.errors()
+        assert "connection closed (a rospy subscriber connects again)" in bridge.output()
+    finally:
+        os.kill(frozen.pid, signal.SIGCONT)
+        frozen.stop()
+        healthy.close()
 
 
 def test_a_latched_topic_reaches_a_subscriber_that_comes_later(bridge, ros_node) -> None:
