@@ -11,7 +11,7 @@ from contextlib import contextmanager
 from bridge.sockets import send_to_all
 
 DATA = bytes(range(256)) * (32 * 1024)  # 8 MiB: more than loopback's socket buffers hold
-STALL_S = 0.3
+STALL_S = 1.0  # as the endpoint uses (bridge.ros.SUBSCRIBER_STALL_S)
 
 
 @contextmanager
@@ -74,7 +74,7 @@ def test_a_peer_that_stopped_reading_fails_alone_and_the_others_are_not_held_up(
 
 def test_a_slow_reader_that_keeps_reading_is_waited_for_however_long_it_takes() -> None:
     with tcp_pairs(2) as pairs:
-        # 64 KiB every 20 ms: ~2.5 s for the whole, far longer than STALL_S, but never STALL_S without progress
+        # 64 KiB every 20 ms: ~2.5 s for the whole, longer than STALL_S, but never STALL_S without progress
         slow = Reader(pairs[0][1], len(DATA), pause_s=0.02, chunk=64 * 1024)
         fast = Reader(pairs[1][1], len(DATA))
         assert send_to_all([sender for sender, _ in pairs], DATA, STALL_S) == {}
