@@ -49,24 +49,51 @@ class OutgoingQueue:
         so a producer that outpaces the consumer is slowed to its pace instead of losing frames.
         A queue is never emptied to make room, so one frame larger than `max_bytes` still goes through."""
         with self._not_full:
-            if wait_s > 0.0 and not self._has_room(len(data)):
-                deadline = time.monotonic() + wait_s
-                while not self._closed and not self._has_room(len(data)):
-                    remaining = deadline - time.monotonic()
-                    if remaining <= 0.0:
-                        break
-                    self._not_full.wait(remaining)
+            if wait_s > 0.0:
+                self._wait_for_room(len(data), wait_s)
             if self._closed:
                 return 0
-            self._items.append((data, droppable))
-            self._bytes += len(data)
-            dropped = 0
-            while (len(self._items) > self.max_frames or self._bytes > self.max_bytes) and len(self._items) > 1:
-                if not self._drop_oldest_droppable():
-                    break
-                dropped += 1
+            dropped = self._append(data, droppable)
             self._not_empty.notify()
             return dropped
+
+    def put_many(self, items: list[bytes], wait_s: float = 0.0) -> int:
+        """`put` (droppable) of each item in turn under one lock acquisition: what a client's reader hands over from
+        one read. While the queue is full, each item waits up to `wait_s` for room, as with `put`; once one waited
+        in vain, the rest drop oldest without waiting. Returns how many frames were dropped."""
+        dropped = 0
+        with self._not_full:
+            for data in items:
+                if wait_s > 0.0 and not self._has_room(len(data)):
+                    self._not_empty.notify()  # the consumer takes what is queued while we wait
+                    if not self._wait_for_room(len(data), wait_s):
+                        wait_s = 0.0
+                if self._closed:
+                    break
+                dropped += self._append(data, True)
+            self._not_empty.notify()
+        return dropped
+
+    def _wait_for_room(self, size: int, wait_s: float) -> bool:
+        """With the lock held: wait up to `wait_s` for room for `size` more bytes; whether there is room."""
+        deadline = time.monotonic() + wait_s
+        while not self._closed and not self._has_room(size):
+            remaining = deadline - time.monotonic()
+            if remaining <= 0.0:
+                return False
+            self._not_full.wait(remaining)
+        return True
+
+    def _append(self, data: bytes, droppable: bool) -> int:
+        """With the lock held: queue `data`, dropping the oldest droppable frames while over a limit; how many."""
+        self._items.append((data, droppable))
+        self._bytes += len(data)
+        dropped = 0
+        while (len(self._items) > self.max_frames or self._bytes > self.max_bytes) and len(self._items) > 1:
+            if not self._drop_oldest_droppable():
+                break
+            dropped += 1
+        return dropped
 
     def _has_room(self, size: int) -> bool:
         return len(self._items) < self.max_frames and (not self._items or self._bytes + size <= self.max_bytes)

@@ -296,19 +296,19 @@ class RawPublisher:
         self._pump = threading.Thread(target=self._pump_loop, name=f"pump {publisher.resolved_name}", daemon=True)
         self._pump.start()
 
-    def publish(self, payload: bytes, alone: bool = False) -> int:
-        """Send one message to ROS: directly if it came `alone` and ROS keeps up, else through the queue, waiting
-        for room unless the ROS side is stalled (see the class). Returns how many older queued messages were
-        dropped to make room."""
-        if alone and len(payload) <= DIRECT_PUBLISH_MAX_BYTES and not self._latch \
+    def publish(self, payloads: list[bytes], alone: bool = False) -> int:
+        """Send messages to ROS, in order: those of one client read (one lock hand-off for all of them). A message
+        that came `alone` goes directly if ROS keeps up; the rest through the queue, waiting for room unless the
+        ROS side is stalled (see the class). Returns how many older queued messages were dropped to make room."""
+        if alone and len(payloads) == 1 and len(payloads[0]) <= DIRECT_PUBLISH_MAX_BYTES and not self._latch \
                 and self._write_lock.acquire(blocking=False):
             try:
                 if not self.queue and self._subscribers_keep_up():
-                    self._write_batch([payload])
+                    self._write_batch(payloads)
                     return 0
             finally:
                 self._write_lock.release()
-        dropped = self.queue.put(payload, wait_s=0.0 if self._stalled else PUBLISH_WAIT_S)
+        dropped = self.queue.put_many(payloads, wait_s=0.0 if self._stalled else PUBLISH_WAIT_S)
         if dropped:
             self._stalled = True
         return dropped

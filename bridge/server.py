@@ -374,7 +374,10 @@ class Endpoint:
                 frame = frames[client_topic] = protocol.encode_frame(client_topic, payload)
             session.send(frame)
 
-    def publish(self, session: ClientSession, frame: Frame, alone: bool = False) -> None:
+    def publisher_for(self, session: ClientSession, frame: Frame) -> RawPublisher:
+        """The ROS publisher a client's topic frame goes to, once the client may publish there and the payload is
+        exactly one message of the topic's type; ClientError says why not. The session batches what one read
+        brought for the same publisher (RawPublisher.publish)."""
         entry = session.publishers.get(frame.destination)
         if entry is None:
             raise ClientError(
@@ -386,8 +389,7 @@ class Endpoint:
                 self.ros.types.validate(publisher.message_name, frame.payload)
             except RosError as error:
                 raise ClientError(f"topic {resolved}: {error}; message not published") from None
-        # Never blocks for long (see RawPublisher). Drops are reported by the session's writer (__warn).
-        session.publish_drops += publisher.publish(frame.payload, alone)
+        return publisher
 
     def call_ros_service(self, session: ClientSession, srv_id: int, frame: Frame) -> None:
         proxy = session.ros_services.get(frame.destination)

@@ -79,6 +79,9 @@ class ClientSession:
         self._calls_lock = threading.Lock()
         self._calls_pending = 0
         self.publish_drops = 0  # this client's messages dropped before reaching ROS (publisher queue full)
+        # Topic messages of the current read that go to one publisher, handed over together (_publish_pending)
+        self._pending_publisher: RawPublisher | None = None
+        self._pending_payloads: list[bytes] = []
         self._reported_drops = 0
         self._reported_publish_drops = 0
         self._last_drop_warning_at = 0.0
@@ -203,10 +206,11 @@ class ClientSession:
                     # The stream position is lost: say why, flush, and close this connection only.
                     self.send_error(f"framing lost, closing the connection: {error}")
                     break
-                alone = len(frames) == 1  # frames that came together go to ROS together (RawPublisher)
                 for frame in frames:
-                    if not self._handle(frame, alone):
+                    if not self._handle(frame):
                         return
+                # frames that came together go to ROS together; one that came alone may go directly (RawPublisher)
+                self._publish_pending(alone=len(frames) == 1)
         except OSError as error:
             if not self._closed.is_set():
                 log.info("client %s: connection error: %s", self.name, error)
@@ -226,8 +230,8 @@ class ClientSession:
             self.name, self.frames_in, self.frames_out, self.queue.dropped,
         )
 
-    def _handle(self, item: Frame | BadFrame, alone: bool = False) -> bool:
-        """Handle one frame (`alone`: the only one of its read); False when the connection must close."""
+    def _handle(self, item: Frame | BadFrame) -> bool:
+        """Handle one frame; False when the connection must close."""
         self.frames_in += 1
         if isinstance(item, BadFrame):
             self.expect_body = None
@@ -239,18 +243,40 @@ class ClientSession:
         try:
             if not self.authenticated:
                 return self._authenticate(frame)
+            if self.expect_body is None and not frame.is_syscommand:
+                self._collect_publication(frame)
+                return True
+            self._publish_pending()  # messages that came before a command go to ROS before it takes effect
             if self.expect_body is not None:
                 self._handle_body(frame)
-            elif frame.is_syscommand:
-                self._handle_syscommand(frame)
             else:
-                self.endpoint.publish(self, frame, alone)
+                self._handle_syscommand(frame)
         except (ProtocolError, ClientError) as error:
             self.send_error(str(error))
         except Exception as error:  # a bug must cost one frame, never the connection or the endpoint
             log.exception("client %s: unexpected failure on %r", self.name, frame.destination)
             self.send_error(f"internal error handling {frame.destination!r}: {error}")
         return True
+
+    def _collect_publication(self, frame: Frame) -> None:
+        publisher = self.endpoint.publisher_for(self, frame)  # ClientError: not registered, or invalid payload
+        if publisher is not self._pending_publisher:
+            self._publish_pending()
+            self._pending_publisher = publisher
+        self._pending_payloads.append(frame.payload)
+
+    def _publish_pending(self, alone: bool = False) -> None:
+        """Hand the collected messages to their publisher: one queue hand-off for a whole read's worth instead of
+        one per message. Never blocks for long (see RawPublisher); drops are reported by the writer (__warn)."""
+        publisher, payloads = self._pending_publisher, self._pending_payloads
+        if publisher is None:
+            return
+        self._pending_publisher, self._pending_payloads = None, []
+        try:
+            self.publish_drops += publisher.publish(payloads, alone)
+        except Exception as error:  # a bug must cost these messages, never the connection or the endpoint
+            log.exception("client %s: publishing %d message(s) failed", self.name, len(payloads))
+            self.send_error(f"internal error publishing {len(payloads)} message(s): {error}")
 
     def _authenticate(self, frame: Frame) -> bool:
         token = self.endpoint.config.auth_token

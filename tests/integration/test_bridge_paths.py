@@ -65,6 +65,42 @@ def test_single_frames_and_bursts_reach_ros_in_the_order_they_were_sent(bridge, 
     inbox.close()
 
 
+def test_messages_written_together_with_a_command_reach_ros_before_the_command_takes_effect(bridge, ros_node) -> None:
+    """The reader hands a read's messages to the publisher together; a command in the same read must still come
+    after the messages before it: here the topic is unadvertised only once they are published."""
+    topic = unique("then_removed")
+    inbox = RosInbox(ros_node, topic)
+    payloads = [serialize(String(f"message {index}")) for index in range(50)]
+    with RawConnection(bridge.port) as client:
+        client.register_publisher(topic, "std_msgs/String", queue_size=100)
+        client.sync()
+        inbox.wait_connected()
+        client.send(b"".join(protocol.encode_frame(topic, payload) for payload in payloads)
+                    + protocol.encode_syscommand("__remove_publisher", {"topic": topic}))  # one write
+        assert inbox.wait_count(len(payloads)) == payloads
+        client.sync()
+        assert not client.errors()
+    inbox.close()
+
+
+def test_an_invalid_message_in_a_burst_is_refused_alone_and_the_rest_keep_their_order(bridge, ros_node) -> None:
+    topic = unique("burst_with_garbage")
+    inbox = RosInbox(ros_node, topic)
+    payloads = [serialize(String(f"message {index}")) for index in range(40)]
+    frames = [protocol.encode_frame(topic, payload) for payload in payloads]
+    frames.insert(20, protocol.encode_frame(topic, serialize(String("trailing")) + b"\0"))
+    with RawConnection(bridge.port) as client:
+        client.register_publisher(topic, "std_msgs/String", queue_size=100)
+        client.sync()
+        inbox.wait_connected()
+        client.send(b"".join(frames))  # one write
+        client.expect_error(topic, "trailing", "not published")
+        assert inbox.wait_count(len(payloads)) == payloads
+        client.sync()
+        assert len(client.errors()) == 1
+    inbox.close()
+
+
 class SlowRosInbox(RosInbox):
     """A ROS subscriber whose callback takes `delay_s` per message, or blocks while `hold` is set."""
 

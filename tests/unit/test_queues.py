@@ -211,3 +211,45 @@ def test_put_with_wait_returns_at_once_when_there_is_room_or_the_queue_closes() 
     assert queue.put(b"b", wait_s=5.0) == 0  # full: woken by close, and ignored like any put after close
     assert time.monotonic() - started < 2.0
     assert queue.take_all(timeout=0) == [b"a"]
+
+
+def test_put_many_with_room_queues_everything_in_order() -> None:
+    queue = OutgoingQueue(max_frames=10, max_bytes=1 << 20)
+    assert queue.put_many([b"a", b"b", b"c"], wait_s=5.0) == 0
+    assert queue.take_all(timeout=0) == [b"a", b"b", b"c"]
+
+
+def test_put_many_hands_over_as_the_consumer_makes_room_and_drops_nothing() -> None:
+    """More items than the queue holds: the consumer is woken while the producer waits, and nothing is lost."""
+    queue = OutgoingQueue(max_frames=3, max_bytes=1 << 20)
+    items = [bytes([index]) for index in range(50)]
+    taken: list[bytes] = []
+
+    def consume() -> None:
+        while len(taken) < len(items):
+            batch = queue.take_all(timeout=5.0)
+            if not batch:
+                return
+            taken.extend(batch)
+
+    consumer = threading.Thread(target=consume)
+    consumer.start()
+    assert queue.put_many(items, wait_s=5.0) == 0
+    consumer.join(timeout=10)
+    assert taken == items and queue.dropped == 0
+
+
+def test_put_many_waits_once_then_drops_oldest_without_waiting_again() -> None:
+    queue = OutgoingQueue(max_frames=2, max_bytes=1 << 20)
+    started = time.monotonic()
+    assert queue.put_many([b"a", b"b", b"c", b"d", b"e"], wait_s=1.0) == 3
+    waited = time.monotonic() - started
+    assert 0.9 <= waited < 2.5  # one wait of 1 s for "c", none for "d" and "e" (each waiting would take 3 s)
+    assert queue.take_all(timeout=0) == [b"d", b"e"]
+
+
+def test_put_many_stops_when_the_queue_closes() -> None:
+    queue = OutgoingQueue(max_frames=1, max_bytes=1 << 20)
+    threading.Timer(0.05, queue.close).start()
+    assert queue.put_many([b"a", b"b", b"c"], wait_s=5.0) == 0
+    assert queue.take_all(timeout=0) == [b"a"]
