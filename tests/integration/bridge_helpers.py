@@ -106,6 +106,12 @@ class RawConnection:
         self.command("__publish", topic=topic, message_name=message_name, queue_size=queue_size, latch=latch)
 
     # reading
+    def offer_service(self, rospy, service: str, message_name: str) -> None:
+        """__unity_service, then wait until the ROS master lists the service (advertised by the endpoint)."""
+        self.command("__unity_service", topic=service, message_name=message_name)
+        self.sync()
+        wait_for(lambda: service_exists(rospy, service), 10, f"{service} advertised")
+
     def next_frame(self, timeout: float = 10.0) -> Frame:
         deadline = time.monotonic() + timeout
         while not self._unread:

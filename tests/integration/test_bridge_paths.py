@@ -7,6 +7,8 @@ import os
 import signal
 import threading
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 from std_msgs.msg import String
@@ -22,6 +24,22 @@ from tests.integration.bridge_helpers import (
     unique,
 )
 from tests.rosenv import PYTHON, ManagedProcess, wait_for
+
+
+@contextmanager
+def publishing_client(port: int, rospy, name: str, queue_size: int) -> Iterator[tuple[str, RawConnection, RosInbox]]:
+    """A raw client registered to publish std_msgs/String on a fresh topic, and a ROS subscriber of that topic
+    already connected to the endpoint: (topic, client, inbox)."""
+    topic = unique(name)
+    inbox = RosInbox(rospy, topic)
+    try:
+        with RawConnection(port) as client:
+            client.register_publisher(topic, "std_msgs/String", queue_size=queue_size)
+            client.sync()
+            inbox.wait_connected()
+            yield topic, client, inbox
+    finally:
+        inbox.close()
 
 
 def test_a_burst_reaches_every_ros_subscriber_whole_and_in_order(bridge, ros_node) -> None:
@@ -45,13 +63,8 @@ def test_a_burst_reaches_every_ros_subscriber_whole_and_in_order(bridge, ros_nod
 def test_single_frames_and_bursts_reach_ros_in_the_order_they_were_sent(bridge, ros_node) -> None:
     """A frame that comes alone is written on the reader's thread, a burst goes through the pump: the two ways
     must never overtake each other."""
-    topic = unique("mixed")
-    inbox = RosInbox(ros_node, topic)
     payloads = [serialize(String(f"message {index}")) for index in range(400)]
-    with RawConnection(bridge.port) as client:
-        client.register_publisher(topic, "std_msgs/String", queue_size=1000)
-        client.sync()
-        inbox.wait_connected()
+    with publishing_client(bridge.port, ros_node, "mixed", queue_size=1000) as (topic, client, inbox):
         index = 0
         while index < len(payloads):
             size = 1 if (index // 10) % 2 == 0 else 25  # ten single writes, then a burst of 25 in one write
@@ -62,43 +75,30 @@ def test_single_frames_and_bursts_reach_ros_in_the_order_they_were_sent(bridge, 
         assert inbox.wait_count(len(payloads), timeout=30) == payloads
         client.sync()
         assert not client.errors()
-    inbox.close()
 
 
 def test_messages_written_together_with_a_command_reach_ros_before_the_command_takes_effect(bridge, ros_node) -> None:
     """The reader hands a read's messages to the publisher together; a command in the same read must still come
     after the messages before it: here the topic is unadvertised only once they are published."""
-    topic = unique("then_removed")
-    inbox = RosInbox(ros_node, topic)
     payloads = [serialize(String(f"message {index}")) for index in range(50)]
-    with RawConnection(bridge.port) as client:
-        client.register_publisher(topic, "std_msgs/String", queue_size=100)
-        client.sync()
-        inbox.wait_connected()
+    with publishing_client(bridge.port, ros_node, "then_removed", queue_size=100) as (topic, client, inbox):
         client.send(b"".join(protocol.encode_frame(topic, payload) for payload in payloads)
                     + protocol.encode_syscommand("__remove_publisher", {"topic": topic}))  # one write
         assert inbox.wait_count(len(payloads)) == payloads
         client.sync()
         assert not client.errors()
-    inbox.close()
 
 
 def test_an_invalid_message_in_a_burst_is_refused_alone_and_the_rest_keep_their_order(bridge, ros_node) -> None:
-    topic = unique("burst_with_garbage")
-    inbox = RosInbox(ros_node, topic)
     payloads = [serialize(String(f"message {index}")) for index in range(40)]
-    frames = [protocol.encode_frame(topic, payload) for payload in payloads]
-    frames.insert(20, protocol.encode_frame(topic, serialize(String("trailing")) + b"\0"))
-    with RawConnection(bridge.port) as client:
-        client.register_publisher(topic, "std_msgs/String", queue_size=100)
-        client.sync()
-        inbox.wait_connected()
+    with publishing_client(bridge.port, ros_node, "burst_with_garbage", queue_size=100) as (topic, client, inbox):
+        frames = [protocol.encode_frame(topic, payload) for payload in payloads]
+        frames.insert(20, protocol.encode_frame(topic, serialize(String("trailing")) + b"\0"))
         client.send(b"".join(frames))  # one write
         client.expect_error(topic, "trailing", "not published")
         assert inbox.wait_count(len(payloads)) == payloads
         client.sync()
         assert len(client.errors()) == 1
-    inbox.close()
 
 
 class SlowRosInbox(RosInbox):

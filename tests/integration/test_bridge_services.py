@@ -114,9 +114,7 @@ def test_ros_calls_a_client_implemented_service(bridge, ros_node) -> None:
 def test_ros_request_wire_format_and_setbool_both_ways(bridge, ros_node) -> None:
     name = unique("client_set_bool")
     with RawConnection(bridge.port) as client:
-        client.command("__unity_service", topic=name, message_name="std_srvs/SetBool")
-        client.sync()
-        wait_for(lambda: service_exists(ros_node, name), 10, f"{name} advertised")
+        client.offer_service(ros_node, name, "std_srvs/SetBool")
         caller = BackgroundCall(ros_node, name, SetBool, True)
         header = client.wait_frame(lambda f: f.destination == "__request", "__request")
         srv_id = json.loads(header.payload)["srv_id"]
@@ -189,9 +187,7 @@ def test_the_tcp_client_hears_at_once_that_its_malformed_request_was_refused(bri
 def test_an_invalid_response_from_the_client_fails_the_ros_call_with_a_reason(bridge, ros_node) -> None:
     name = unique("checked_response")
     with RawConnection(bridge.port) as client:
-        client.command("__unity_service", topic=name, message_name="std_srvs/Trigger")
-        client.sync()
-        wait_for(lambda: service_exists(ros_node, name), 10, f"{name} advertised")
+        client.offer_service(ros_node, name, "std_srvs/Trigger")
         caller = BackgroundCall(ros_node, name)
         srv_id = json.loads(client.wait_frame(lambda f: f.destination == "__request", "__request").payload)["srv_id"]
         client.next_frame()  # the request body
@@ -282,9 +278,7 @@ def test_a_client_dying_mid_request_does_not_poison_the_next_client(bridge, ros_
 def test_client_disconnecting_before_answering_fails_the_ros_call_quickly(bridge, ros_node) -> None:
     name = unique("abandoned")
     client = RawConnection(bridge.port)
-    client.command("__unity_service", topic=name, message_name="std_srvs/Trigger")
-    client.sync()
-    wait_for(lambda: service_exists(ros_node, name), 10, f"{name} advertised")
+    client.offer_service(ros_node, name, "std_srvs/Trigger")
     caller = BackgroundCall(ros_node, name)
     client.wait_frame(lambda f: f.destination == "__request", "__request")
     client.close()

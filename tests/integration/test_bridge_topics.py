@@ -258,9 +258,7 @@ def test_remove_publisher(bridge, ros_node) -> None:
 def test_remove_unity_service_takes_the_service_off_the_graph(bridge, ros_node) -> None:
     service = unique("remove_unity_srv")
     with RawConnection(bridge.port) as client:
-        client.command("__unity_service", topic=service, message_name="std_srvs/Trigger")
-        client.sync()
-        wait_for(lambda: service_exists(ros_node, service), 10, f"{service} advertised")
+        client.offer_service(ros_node, service, "std_srvs/Trigger")
         client.command("__remove_unity_service", topic=service)
         wait_for(lambda: not service_exists(ros_node, service), 10, f"{service} withdrawn")
         client.sync()
