@@ -34,7 +34,7 @@ from bridge.protocol import (
 )
 from bridge.queues import OutgoingQueue
 from bridge.ros import RawPublisher, RawServiceProxy
-from bridge.sockets import unsent_bytes
+from bridge.sockets import send_now, unsent_bytes
 
 if TYPE_CHECKING:
     from bridge.server import Endpoint
@@ -117,9 +117,7 @@ class ClientSession:
             try:
                 if not self.queue and not self._closed.is_set() and self._peer_keeps_up(len(frame)):
                     try:
-                        sent = self.sock.send(frame, socket.MSG_DONTWAIT)
-                    except BlockingIOError:
-                        sent = 0
+                        sent = send_now(self.sock, frame)
                     except OSError:  # the connection is gone; the reader sees it too and cleans up
                         self.close()
                         return

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import fcntl
 import math
+import os
 import select
 import socket
 import struct
@@ -22,8 +23,27 @@ def unsent_bytes(sock: socket.socket) -> int:
         return 0
 
 
+def send_now(sock: socket.socket, data: bytes | memoryview) -> int:
+    """Write what the kernel takes at once and return how much that was; never waits.
+
+    MSG_DONTWAIT alone is not enough: on a socket with a Python timeout, CPython waits for writability (up to the
+    timeout) before sending. Such a socket's descriptor is non-blocking, so a plain write returns at once. rospy
+    sets a process-wide default timeout of 60 s when it connects a subscriber, which every socket made after
+    that inherits (rospy resets its own connections to blocking in their handshake; tune_socket does the same
+    for the endpoint's clients), so no socket's mode is taken for granted here."""
+    try:
+        if sock.gettimeout() is None:
+            return sock.send(data, socket.MSG_DONTWAIT)
+        return os.write(sock.fileno(), data)
+    except BlockingIOError:
+        return 0
+
+
 def tune_socket(sock: socket.socket) -> None:
-    """A client connection: no Nagle, and keepalive probes that reap vanished peers."""
+    """A client connection: blocking mode, no Nagle, and keepalive probes that reap vanished peers."""
+    # Blocking whatever the process-wide default timeout (see send_now): the writer thread's sendall must wait for
+    # a slow client as long as it takes (the per-client queue bounds memory), not give up after rospy's 60 s.
+    sock.settimeout(None)
     # TCP_NODELAY: at 1 kHz, Nagle + delayed ACK would add 40 ms spikes.
     sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
     sock.setsockopt(socket.SOL_SOCKET, socket.SO_KEEPALIVE, 1)
@@ -46,9 +66,7 @@ def send_to_all(socks: Sequence[socket.socket], data: bytes, stall_s: float) -> 
     whole = memoryview(data)
     for index, sock in enumerate(socks):
         try:
-            sent = sock.send(whole, socket.MSG_DONTWAIT)
-        except BlockingIOError:
-            sent = 0
+            sent = send_now(sock, whole)
         except OSError as error:
             failed[index] = str(error)
             continue
@@ -82,9 +100,7 @@ def _finish_sends(socks: Sequence[socket.socket], behind: dict[int, memoryview],
         for index in list(behind):
             sock = socks[index]
             try:
-                sent = sock.send(behind[index], socket.MSG_DONTWAIT)
-            except BlockingIOError:
-                sent = 0
+                sent = send_now(sock, behind[index])
             except OSError as error:  # e.g. the peer hung up
                 failed[index] = str(error)
                 sent = len(behind[index])
