@@ -472,6 +472,8 @@ class Endpoint:
                 # The ROS caller hears at once instead of getting bytes it cannot read (or waiting for a timeout).
                 call.failure = f"client {session.name} answered with an invalid response: {error}"
                 call.done.set()
-                raise ClientError(f"__response {srv_id} ({frame.destination}): {error}; the ROS call fails") from None
+                raise ClientError(
+                    f"__response {srv_id}: service {frame.destination}: {error}; the ROS call fails"
+                ) from None
         call.response = frame.payload
         call.done.set()
