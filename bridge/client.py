@@ -15,6 +15,7 @@ import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Any
 
 from bridge import protocol
 from bridge.protocol import BadFrame, Frame, FrameDecoder, ProtocolError
@@ -211,12 +212,13 @@ class TcpClient:
 
     def remove(self, kind: str, topic: str) -> None:
         """Undo a registration; kind is subscriber | publisher | ros_service | unity_service."""
-        registry = {
+        registries: dict[str, dict[str, Any]] = {
             "subscriber": self._subscriptions,
             "publisher": self._publishers,
             "ros_service": self._ros_services,
             "unity_service": self._unity_services,
-        }[kind]
+        }
+        registry = registries[kind]
         with self._state_lock:
             registry.pop(topic, None)
         self._send(protocol.encode_syscommand(f"__remove_{kind}", {"topic": topic}))
@@ -244,7 +246,7 @@ class TcpClient:
 
     def topic_list(self, timeout: float = 5.0) -> dict[str, str]:
         """The ROS graph's topics and their types, as the endpoint reports them."""
-        done, result = threading.Event(), {}
+        done, result = threading.Event(), dict[str, str]()
         with self._state_lock:
             self._topic_list_waiters.append((done, result))
         self._send_raw(protocol.encode_syscommand("__topic_list", {}))

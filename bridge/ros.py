@@ -82,9 +82,10 @@ class TypeRegistry:
     def __init__(self) -> None:
         self._lock = threading.Lock()
         self._raw_messages: dict[str, type[RawMessage]] = {}
-        self._raw_services: dict[str, type] = {}
+        # service classes (genpy's and ours) are plain classes whose attributes genpy sets: typed Any
+        self._raw_services: dict[str, Any] = {}
         self._generated: dict[str, type[genpy.Message]] = {}
-        self._generated_services: dict[str, type] = {}
+        self._generated_services: dict[str, Any] = {}
         # 'pkg/Type' or 'pkg/Service request|response'; read without the lock: entries are only ever added
         self._layouts: dict[str, Layout] = {}
 
@@ -100,7 +101,7 @@ class TypeRegistry:
                 self._raw_messages[message_name] = raw
             return raw
 
-    def _generated_service(self, service_name: str) -> type:
+    def _generated_service(self, service_name: str) -> Any:
         return self._imported(self._generated_services, service_name, "srv")
 
     def _imported(self, cache: dict[str, Any], name: str, kind: str) -> Any:
@@ -110,7 +111,7 @@ class TypeRegistry:
                 cls = cache[name] = _import_generated(name, kind)
             return cls
 
-    def raw_service_class(self, service_name: str) -> type:
+    def raw_service_class(self, service_name: str) -> Any:
         generated = self._generated_service(service_name)
         with self._lock:
             raw = self._raw_services.get(service_name)
@@ -386,7 +387,7 @@ class RawPublisher:
 
 
 class RawServiceProxy:
-    def __init__(self, proxy: Any, raw_class: type, service: str) -> None:
+    def __init__(self, proxy: Any, raw_class: Any, service: str) -> None:
         self._proxy = proxy
         self._request_class = raw_class._request_class
         self.service = service
