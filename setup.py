@@ -15,7 +15,7 @@ setup(
         "matplotlib>=3.6",
         "tqdm>=4.60",
     ],
-    extras_require={"dev": ["pytest>=7", "hypothesis>=6", "pytest-timeout>=2"]},
+    extras_require={"dev": ["pytest>=7", "hypothesis>=6", "pytest-timeout>=2", "mypy>=1.5"]},
     entry_points={
         "console_scripts": [
             "ros-tcp-endpoint=bridge.__main__:main",
