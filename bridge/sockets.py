@@ -83,19 +83,16 @@ def _finish_sends(socks: Sequence[socket.socket], behind: dict[int, memoryview],
     reports a socket writable only once half its (autotuned, MiB-sized) send buffer is free."""
     failed: dict[int, str] = {}
     poller = select.poll()
-    index_of_fd: dict[int, int] = {}
     last_progress: dict[int, float] = {}
     last_unsent: dict[int, int] = {}
     now = time.monotonic()
     for index in behind:
-        fd = socks[index].fileno()
-        poller.register(fd, select.POLLOUT)
-        index_of_fd[fd] = index
+        poller.register(socks[index].fileno(), select.POLLOUT)
         last_progress[index] = now
         last_unsent[index] = unsent_bytes(socks[index])
     tick_ms = max(1, math.ceil(min(stall_s / 4, 0.05) * 1000))
     while behind:
-        poller.poll(tick_ms)
+        poller.poll(tick_ms)  # wakes early when one becomes writable; every laggard is looked at each tick
         now = time.monotonic()
         for index in list(behind):
             sock = socks[index]
@@ -103,16 +100,15 @@ def _finish_sends(socks: Sequence[socket.socket], behind: dict[int, memoryview],
                 sent = send_now(sock, behind[index])
             except OSError as error:  # e.g. the peer hung up
                 failed[index] = str(error)
-                sent = len(behind[index])
-            unsent = unsent_bytes(sock)
-            if sent or unsent < last_unsent[index]:
-                last_progress[index] = now
-            last_unsent[index] = unsent
-            behind[index] = behind[index][sent:]
-            if behind[index] and now - last_progress[index] >= stall_s:
-                failed[index] = f"the peer took no bytes for {stall_s:g} s"
-                behind[index] = behind[index][:0]
-            if not behind[index]:
+            else:
+                unsent = unsent_bytes(sock)
+                if sent or unsent < last_unsent[index]:
+                    last_progress[index] = now
+                last_unsent[index] = unsent
+                behind[index] = behind[index][sent:]
+                if behind[index] and now - last_progress[index] >= stall_s:
+                    failed[index] = f"the peer took no bytes for {stall_s:g} s"
+            if index in failed or not behind[index]:
                 del behind[index]
                 poller.unregister(sock.fileno())
     return failed
