@@ -12,6 +12,7 @@ import logging
 import signal
 import sys
 import threading
+from dataclasses import dataclass
 from typing import Any
 
 from bridge.protocol import DEFAULT_MAX_PAYLOAD_BYTES
@@ -36,27 +37,43 @@ def _parser() -> argparse.ArgumentParser:
     return parser
 
 
-# Where each setting can be given, for error messages: EndpointConfig field -> "--option / ~rosparam".
+@dataclass(frozen=True)
+class _Source:
+    """Where one setting can be given: a command-line option, a private rosparam, maybe the original endpoint's
+    global rosparam as a fallback."""
+
+    option: str
+    param: str
+    fallback_param: str | None = None
+
+    def __str__(self) -> str:
+        fallback = f" ({self.fallback_param})" if self.fallback_param else ""
+        return f"{self.option} / {self.param}{fallback}"
+
+
+# EndpointConfig field -> where it is given (the options themselves are declared in _parser)
 _SOURCES = {
-    "tcp_ip": "--tcp-ip / ~tcp_ip (/ROS_IP)",
-    "tcp_port": "--tcp-port / ~tcp_port (/ROS_TCP_PORT)",
-    "max_payload_bytes": "--max-payload-bytes / ~max_payload_bytes",
-    "client_queue_frames": "--queue-frames / ~queue_frames",
-    "auth_token": "--auth-token / ~auth_token",
-    "allow_topics": "--allow / ~allow_topics",
-    "deny_topics": "--deny / ~deny_topics",
-    "service_timeout_s": "--service-timeout / ~service_timeout",
-    "validate_payloads": "--no-validate / ~validate_payloads",
+    "tcp_ip": _Source("--tcp-ip", "~tcp_ip", "/ROS_IP"),
+    "tcp_port": _Source("--tcp-port", "~tcp_port", "/ROS_TCP_PORT"),
+    "max_payload_bytes": _Source("--max-payload-bytes", "~max_payload_bytes"),
+    "client_queue_frames": _Source("--queue-frames", "~queue_frames"),
+    "auth_token": _Source("--auth-token", "~auth_token"),
+    "allow_topics": _Source("--allow", "~allow_topics"),
+    "deny_topics": _Source("--deny", "~deny_topics"),
+    "service_timeout_s": _Source("--service-timeout", "~service_timeout"),
+    "validate_payloads": _Source("--no-validate", "~validate_payloads"),
 }
 
 
-def _setting(cli_value: Any, ros: Any, param: str, fallback_param: str | None, default: Any) -> Any:
+def _given(setting: str, cli_value: Any, ros: Any) -> Any:
+    """The command line's value, else the rosparam's, else the fallback rosparam's; None where none is set."""
     if cli_value is not None:
         return cli_value
-    value = ros.get_param(param, None)
-    if value is None and fallback_param is not None:
-        value = ros.get_param(fallback_param, None)
-    return default if value is None else value
+    source = _SOURCES[setting]
+    value = ros.get_param(source.param, None)
+    if value is None and source.fallback_param is not None:
+        value = ros.get_param(source.fallback_param, None)
+    return value
 
 
 _KIND_NAMES = {bool: "true or false", int: "a whole number", float: "a number", str: "a string"}
@@ -97,22 +114,23 @@ def build_config(args: argparse.Namespace, ros: Any) -> EndpointConfig:
     """The endpoint's settings: command line over private rosparams over defaults; ConfigError names a bad one."""
     defaults = EndpointConfig()
 
-    def read(setting: str, cli_value: Any, param: str, kind: type, fallback_param: str | None = None) -> Any:
-        return _typed(setting, _setting(cli_value, ros, param, fallback_param, getattr(defaults, setting)), kind)
+    def read(setting: str, cli_value: Any, kind: type) -> Any:
+        value = _given(setting, cli_value, ros)
+        return getattr(defaults, setting) if value is None else _typed(setting, value, kind)
 
-    token = _setting(args.auth_token, ros, "~auth_token", None, None)
+    token = _given("auth_token", args.auth_token, ros)
     if token is not None:
         token = _typed("auth_token", token, str) or None  # an empty token (the launch file's default) = off
     return EndpointConfig(
-        tcp_ip=read("tcp_ip", args.tcp_ip, "~tcp_ip", str, "/ROS_IP"),
-        tcp_port=read("tcp_port", args.tcp_port, "~tcp_port", int, "/ROS_TCP_PORT"),
-        max_payload_bytes=read("max_payload_bytes", args.max_payload_bytes, "~max_payload_bytes", int),
-        client_queue_frames=read("client_queue_frames", args.queue_frames, "~queue_frames", int),
+        tcp_ip=read("tcp_ip", args.tcp_ip, str),
+        tcp_port=read("tcp_port", args.tcp_port, int),
+        max_payload_bytes=read("max_payload_bytes", args.max_payload_bytes, int),
+        client_queue_frames=read("client_queue_frames", args.queue_frames, int),
         auth_token=token,
-        allow_topics=_patterns("allow_topics", _setting(args.allow, ros, "~allow_topics", None, None)),
-        deny_topics=_patterns("deny_topics", _setting(args.deny, ros, "~deny_topics", None, None)),
-        service_timeout_s=read("service_timeout_s", args.service_timeout, "~service_timeout", float),
-        validate_payloads=not args.no_validate and read("validate_payloads", None, "~validate_payloads", bool),
+        allow_topics=_patterns("allow_topics", _given("allow_topics", args.allow, ros)),
+        deny_topics=_patterns("deny_topics", _given("deny_topics", args.deny, ros)),
+        service_timeout_s=read("service_timeout_s", args.service_timeout, float),
+        validate_payloads=not args.no_validate and read("validate_payloads", None, bool),
     )
 
 
