@@ -192,19 +192,18 @@ rospy.spin()
 def test_a_frozen_ros_subscriber_is_cut_off_and_never_holds_up_the_topics_other_subscribers(
     bridge, roscore, ros_node, tmp_path: Path
 ) -> None:
-    topic = unique("frozen")
-    healthy = RosInbox(ros_node, topic)
-    frozen = ManagedProcess([PYTHON, "-c", _SUBSCRIBER_NODE, topic], roscore.env, tmp_path, "frozen_subscriber")
     big = serialize(String("x" * 256 * 1024))
     count = min(400, _socket_buffers_bytes() // len(big) + 50)  # more than the kernel buffers hold
     marker = serialize(String("sent after the freeze"))
-    try:
-        with RawConnection(bridge.port) as client:
-            client.register_publisher(topic, "std_msgs/String", queue_size=10)
-            client.sync()
-            healthy.wait_connected()
-            wait_for(lambda: (client.send_frame(topic, serialize(String("hello"))), "GOT" in frozen.output())[1],
-                     30, "the subscriber node's first message")
+    with publishing_client(bridge.port, ros_node, "frozen", queue_size=10) as (topic, client, healthy):
+        frozen = ManagedProcess([PYTHON, "-c", _SUBSCRIBER_NODE, topic], roscore.env, tmp_path, "frozen_subscriber")
+        try:
+
+            def node_got_a_message() -> bool:  # publish until the node's connection is up and it has heard one
+                client.send_frame(topic, serialize(String("hello")))
+                return "GOT" in frozen.output()
+
+            wait_for(node_got_a_message, 30, "the subscriber node's first message", interval=0.05)
             os.kill(frozen.pid, signal.SIGSTOP)
             for _ in range(count):
                 client.send_frame(topic, big)
@@ -212,11 +211,10 @@ def test_a_frozen_ros_subscriber_is_cut_off_and_never_holds_up_the_topics_other_
             wait_for(lambda: marker in healthy.snapshot(), 30, "the healthy subscriber to get the last message")
             client.sync()
             assert not client.errors()
-        assert "connection closed (a rospy subscriber connects again)" in bridge.output()
-    finally:
-        os.kill(frozen.pid, signal.SIGCONT)
-        frozen.stop()
-        healthy.close()
+        finally:
+            os.kill(frozen.pid, signal.SIGCONT)
+            frozen.stop()
+    assert "connection closed (a rospy subscriber connects again)" in bridge.output()
 
 
 def test_a_latched_topic_reaches_a_subscriber_that_comes_later(bridge, ros_node) -> None:
