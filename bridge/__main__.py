@@ -16,7 +16,8 @@ from dataclasses import dataclass
 from typing import Any
 
 from bridge.protocol import DEFAULT_MAX_PAYLOAD_BYTES
-from bridge.server import ConfigError, Endpoint, EndpointConfig
+from bridge.config import ConfigError, EndpointConfig
+from bridge.server import Endpoint
 
 log = logging.getLogger("bridge")
 

@@ -8,17 +8,40 @@ Callbacks run on the client's reader thread: keep them short.
 from __future__ import annotations
 
 import itertools
-import json
 import logging
 import socket
 import threading
 import time
-from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+from datetime import datetime, timezone
+from typing import Any, Callable, Dict, List, Optional, Tuple
 
-from bridge import protocol
-from bridge.protocol import BadFrame, Frame, FrameDecoder, ProtocolError
+from bridge.protocol import (
+    Auth,
+    Conversation,
+    Error,
+    Event,
+    Handshake,
+    InvalidInput,
+    Keepalive,
+    Log,
+    Ping,
+    PingResponse,
+    Publish,
+    Remove,
+    Role,
+    RosService,
+    ServiceRequest,
+    ServiceResponse,
+    Subscribe,
+    TopicList,
+    TopicListQuery,
+    TopicMessage,
+    UnityService,
+    Warn,
+)
+
+__all__ = ["ClientError", "TcpClient"]
 
 log = logging.getLogger(__name__)
 
@@ -34,8 +57,8 @@ class ClientError(RuntimeError):
 class _PendingCall:
     service: str
     done: threading.Event = field(default_factory=threading.Event)
-    response: bytes | None = None
-    failure: str | None = None
+    response: Optional[bytes] = None
+    failure: Optional[str] = None
 
 
 class TcpClient:
@@ -47,8 +70,8 @@ class TcpClient:
         reconnect: bool = True,
         reconnect_delay_s: float = 1.0,
         keepalive_interval_s: float = 1.0,
-        auth_token: str | None = None,
-        on_error: Callable[[str], None] | None = None,
+        auth_token: Optional[str] = None,
+        on_error: Optional[Callable[[str], None]] = None,
     ) -> None:
         self.host = host
         self.port = port
@@ -57,26 +80,28 @@ class TcpClient:
         self.keepalive_interval_s = keepalive_interval_s
         self.auth_token = auth_token
         self.on_error = on_error
-        self.handshake: dict | None = None
-        self.errors: list[str] = []  # __error texts received (newest last, at most 100 kept)
-        self.warnings: list[str] = []
+        self.handshake: Optional[Handshake] = None
+        self.errors: List[str] = []  # __error texts received (newest last, at most 100 kept)
+        self.warnings: List[str] = []
         self.connections = 0  # successful connects so far (reconnects included)
-        self._sock: socket.socket | None = None
+        self._sock: Optional[socket.socket] = None
+        self._conversation = Conversation(Role.CLIENT)  # a new one for every connection
         self._write_lock = threading.Lock()
         self._state_lock = threading.Lock()
         self._connected = threading.Event()
         self._closing = threading.Event()
         self._last_send = 0.0
         # Registrations, re-sent on every (re)connect, in the order Unity sends them.
-        self._subscriptions: dict[str, tuple[str, list[MessageCallback]]] = {}
-        self._unity_services: dict[str, tuple[str, ServiceHandler]] = {}
-        self._publishers: dict[str, tuple[str, int, bool]] = {}
-        self._ros_services: dict[str, str] = {}
+        self._subscriptions: Dict[str, Tuple[Subscribe, List[MessageCallback]]] = {}
+        self._unity_services: Dict[str, Tuple[UnityService, ServiceHandler]] = {}
+        self._publishers: Dict[str, Publish] = {}
+        self._ros_services: Dict[str, RosService] = {}
         self._srv_ids = itertools.count(101)
-        self._pending: dict[int, _PendingCall] = {}
-        self._topic_list_waiters: list[tuple[threading.Event, dict]] = []
-        self._reader: threading.Thread | None = None
-        self._keepalive: threading.Thread | None = None
+        self._pending: Dict[int, _PendingCall] = {}
+        self._topic_list_waiters: List[Tuple[threading.Event, Dict[str, str]]] = []
+        self._ping_waiters: Dict[str, threading.Event] = {}
+        self._reader: Optional[threading.Thread] = None
+        self._keepalive: Optional[threading.Thread] = None
 
     # --- connection ---------------------------------------------------------------------------------------
     def connect(self, timeout: float = 10.0) -> TcpClient:
@@ -130,35 +155,23 @@ class TcpClient:
         sock = socket.create_connection((self.host, self.port), timeout=5.0)
         sock.settimeout(None)
         sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        self._conversation = Conversation(Role.CLIENT)
         self._sock = sock
         # Like Unity: a keepalive first, then every registration, before reading anything.
-        frames = [protocol.KEEPALIVE_FRAME]
+        events: List[Event] = [Keepalive()]
         if self.auth_token is not None:
-            frames.append(protocol.encode_syscommand("__auth", {"token": self.auth_token}))
-        frames.extend(self._registration_frames())
-        self._send_raw(b"".join(frames))
+            events.append(Auth(self.auth_token))
+        events.extend(self._registrations())
+        self._send_raw(b"".join(self._conversation.send(event) for event in events))
 
-    def _registration_frames(self) -> list[bytes]:
+    def _registrations(self) -> List[Event]:
         with self._state_lock:
-            frames = [
-                protocol.encode_syscommand("__subscribe", {"topic": topic, "message_name": name})
-                for topic, (name, _) in self._subscriptions.items()
+            return [
+                *(subscribe for subscribe, _ in self._subscriptions.values()),
+                *(offer for offer, _ in self._unity_services.values()),
+                *self._publishers.values(),
+                *self._ros_services.values(),
             ]
-            frames += [
-                protocol.encode_syscommand("__unity_service", {"topic": topic, "message_name": name})
-                for topic, (name, _) in self._unity_services.items()
-            ]
-            frames += [
-                protocol.encode_syscommand(
-                    "__publish", {"topic": topic, "message_name": name, "queue_size": queue_size, "latch": latch}
-                )
-                for topic, (name, queue_size, latch) in self._publishers.items()
-            ]
-            frames += [
-                protocol.encode_syscommand("__ros_service", {"topic": topic, "message_name": name})
-                for topic, name in self._ros_services.items()
-            ]
-        return frames
 
     def _send_raw(self, data: bytes) -> None:
         sock = self._sock
@@ -168,51 +181,57 @@ class TcpClient:
             sock.sendall(data)
             self._last_send = time.monotonic()
 
-    def _send(self, data: bytes) -> None:
-        """Send, or drop silently while disconnected (like Unity, the registration is re-sent on reconnect)."""
+    def _say(self, event: Event, *, or_raise: bool = False) -> None:
+        """Send an event. Unless `or_raise`, a failure while disconnected is silent: like Unity, registrations are
+        re-sent on reconnect."""
+        data = self._conversation.send(event)
         try:
             self._send_raw(data)
         except (OSError, ClientError) as error:
+            if or_raise:
+                raise
             log.debug("send failed (%s); reconnecting", error)
 
     def _keepalive_loop(self) -> None:
         while not self._closing.wait(self.keepalive_interval_s / 4):
             if self._connected.is_set() and time.monotonic() - self._last_send >= self.keepalive_interval_s:
-                self._send(protocol.KEEPALIVE_FRAME)
+                self._say(Keepalive())
 
     # --- registrations and data ----------------------------------------------------------------------------
-    def subscribe(self, topic: str, message_name: str, callback: MessageCallback) -> None:
+    def subscribe(self, topic: str, message_name: str, callback: MessageCallback,
+                  queue_size: Optional[int] = None) -> None:
+        subscribe = Subscribe(topic, message_name, queue_size)
         with self._state_lock:
-            entry = self._subscriptions.setdefault(topic, (message_name, []))
-            entry[1].append(callback)
-        self._send(protocol.encode_syscommand("__subscribe", {"topic": topic, "message_name": message_name}))
+            callbacks = self._subscriptions[topic][1] if topic in self._subscriptions else []
+            callbacks.append(callback)
+            self._subscriptions[topic] = (subscribe, callbacks)
+        self._say(subscribe)
 
     def register_publisher(self, topic: str, message_name: str, queue_size: int = 10, latch: bool = False) -> None:
+        publish = Publish(topic, message_name, queue_size, latch)
         with self._state_lock:
-            self._publishers[topic] = (message_name, queue_size, latch)
-        self._send(
-            protocol.encode_syscommand(
-                "__publish", {"topic": topic, "message_name": message_name, "queue_size": queue_size, "latch": latch}
-            )
-        )
+            self._publishers[topic] = publish
+        self._say(publish)
 
     def publish(self, topic: str, payload: bytes) -> None:
-        self._send(protocol.encode_frame(topic, payload))
+        self._say(TopicMessage(topic, payload))
 
     def register_ros_service(self, service: str, service_name: str) -> None:
+        registration = RosService(service, service_name)
         with self._state_lock:
-            self._ros_services[service] = service_name
-        self._send(protocol.encode_syscommand("__ros_service", {"topic": service, "message_name": service_name}))
+            self._ros_services[service] = registration
+        self._say(registration)
 
     def implement_service(self, service: str, service_name: str, handler: ServiceHandler) -> None:
         """Offer `service` to ROS; `handler` turns request bytes into response bytes."""
+        offer = UnityService(service, service_name)
         with self._state_lock:
-            self._unity_services[service] = (service_name, handler)
-        self._send(protocol.encode_syscommand("__unity_service", {"topic": service, "message_name": service_name}))
+            self._unity_services[service] = (offer, handler)
+        self._say(offer)
 
     def remove(self, kind: str, topic: str) -> None:
         """Undo a registration; kind is subscriber | publisher | ros_service | unity_service."""
-        registries: dict[str, dict[str, Any]] = {
+        registries: Dict[str, Dict[str, Any]] = {
             "subscriber": self._subscriptions,
             "publisher": self._publishers,
             "ros_service": self._ros_services,
@@ -221,7 +240,7 @@ class TcpClient:
         registry = registries[kind]
         with self._state_lock:
             registry.pop(topic, None)
-        self._send(protocol.encode_syscommand(f"__remove_{kind}", {"topic": topic}))
+        self._say(Remove(kind, topic))
 
     def call_service(self, service: str, request: bytes, timeout: float = 10.0) -> bytes:
         """Call a ROS service (registered with register_ros_service) and wait for its response bytes."""
@@ -230,8 +249,7 @@ class TcpClient:
         with self._state_lock:
             self._pending[srv_id] = call
         try:
-            header = protocol.encode_syscommand("__request", {"srv_id": srv_id})
-            self._send_raw(header + protocol.encode_frame(service, request))
+            self._say(ServiceRequest(srv_id, service, request), or_raise=True)
             if not call.done.wait(timeout):
                 raise ClientError(f"service {service}: no response within {timeout:g} s")
             if call.failure is not None:
@@ -244,15 +262,32 @@ class TcpClient:
             with self._state_lock:
                 self._pending.pop(srv_id, None)
 
-    def topic_list(self, timeout: float = 5.0) -> dict[str, str]:
+    def topic_list(self, timeout: float = 5.0) -> Dict[str, str]:
         """The ROS graph's topics and their types, as the endpoint reports them."""
-        done, result = threading.Event(), dict[str, str]()
+        done = threading.Event()
+        result: Dict[str, str] = {}
         with self._state_lock:
             self._topic_list_waiters.append((done, result))
-        self._send_raw(protocol.encode_syscommand("__topic_list", {}))
+        self._say(TopicListQuery(), or_raise=True)
         if not done.wait(timeout):
             raise ClientError(f"no __topic_list answer within {timeout:g} s")
         return result
+
+    def ping(self, timeout: float = 5.0) -> float:
+        """Seconds for a __ping to come back as __ping_response (newer connectors' ROSConnection.Ping)."""
+        request_time = datetime.now(timezone.utc).isoformat()
+        done = threading.Event()
+        with self._state_lock:
+            self._ping_waiters[request_time] = done
+        started = time.monotonic()
+        try:
+            self._say(Ping(request_time), or_raise=True)
+            if not done.wait(timeout):
+                raise ClientError(f"no __ping_response within {timeout:g} s")
+            return time.monotonic() - started
+        finally:
+            with self._state_lock:
+                self._ping_waiters.pop(request_time, None)
 
     def send_raw(self, data: bytes) -> None:
         """Write arbitrary bytes (tests and fault injection)."""
@@ -263,7 +298,7 @@ class TcpClient:
         while not self._closing.is_set():
             sock = self._sock
             if sock is not None:
-                self._read_connection(sock)
+                self._read_connection(sock, self._conversation)
             self._connected.clear()
             self._fail_pending("connection lost")
             if self._closing.is_set() or not self.reconnect:
@@ -276,27 +311,22 @@ class TcpClient:
                 self._sock = None
                 log.debug("reconnect to %s:%d failed: %s", self.host, self.port, error)
 
-    def _read_connection(self, sock: socket.socket) -> None:
-        decoder = FrameDecoder()
-        expect_body: int | None = None
-        got_handshake = False
+    def _read_connection(self, sock: socket.socket, conversation: Conversation) -> None:
         try:
             while True:
                 data = sock.recv(256 * 1024)
                 if not data:
                     return
-                for item in decoder.feed(data):
-                    if isinstance(item, BadFrame):
-                        continue
-                    if not got_handshake:
-                        got_handshake = self._check_handshake(item)
-                        continue
-                    if expect_body is not None:
-                        self._handle_body(expect_body, item)
-                        expect_body = None
+                for event in conversation.receive_data(data):
+                    if type(event) is TopicMessage:
+                        self._deliver(event)
+                    elif isinstance(event, InvalidInput):
+                        log.warning("endpoint %s:%d: %s", self.host, self.port, event.error)
+                        if event.error.fatal:
+                            return
                     else:
-                        expect_body = self._handle_frame(item)
-        except (OSError, ProtocolError) as error:
+                        self._handle(event)
+        except OSError as error:
             if not self._closing.is_set():
                 log.info("connection to %s:%d lost: %s", self.host, self.port, error)
         finally:
@@ -305,98 +335,76 @@ class TcpClient:
             except OSError:
                 pass
 
-    def _check_handshake(self, frame: Frame) -> bool:
-        if frame.destination != "__handshake":
-            log.warning("first frame from the endpoint was %r, not __handshake", frame.destination)
-            return False
-        params = protocol.parse_json_params("__handshake", frame.payload)
-        version = str(params.get("version", ""))
-        try:
-            metadata = json.loads(params.get("metadata", "{}"))
-        except json.JSONDecodeError:
-            metadata = {}
-        if not version.startswith("v0.7.") or metadata.get("protocol") != "ROS1":
-            log.warning("endpoint speaks %s / %s; this client expects v0.7.x / ROS1", version, metadata)
-        self.handshake = {"version": version, "metadata": metadata}
-        self.connections += 1
-        self._connected.set()
-        return True
+    def _deliver(self, message: TopicMessage) -> None:
+        with self._state_lock:
+            entry = self._subscriptions.get(message.topic)
+            callbacks = list(entry[1]) if entry else []
+        for callback in callbacks:  # messages for undeclared topics are ignored, like Unity does
+            try:
+                callback(message.payload)
+            except Exception:
+                log.exception("subscriber callback for %s failed", message.topic)
 
-    def _handle_frame(self, frame: Frame) -> int | None:
-        """Handle one frame; returns a srv_id when the next frame is a service body."""
-        if frame.is_keepalive:
-            return None
-        if not frame.is_syscommand:
+    def _handle(self, event: Event) -> None:
+        if isinstance(event, Handshake):
+            if not event.is_compatible:
+                log.warning("endpoint speaks %s / %s; this client expects v0.7.x / ROS1", event.version,
+                            event.metadata)
+            self.handshake = event
+            self.connections += 1
+            self._connected.set()
+        elif isinstance(event, ServiceResponse):
             with self._state_lock:
-                entry = self._subscriptions.get(frame.destination)
-                callbacks = list(entry[1]) if entry else []
-            for callback in callbacks:  # frames for undeclared topics are ignored, like Unity does
-                try:
-                    callback(frame.payload)
-                except Exception:
-                    log.exception("subscriber callback for %s failed", frame.destination)
-            return None
-        command = frame.destination
-        if command in ("__request", "__response"):
-            parsed = protocol.parse_syscommand(frame)  # the same srv_id checks as the endpoint's; ProtocolError
-            assert isinstance(parsed, (protocol.Request, protocol.Response))
-            return parsed.srv_id if command == "__request" else -parsed.srv_id
-        params = protocol.parse_json_params(frame.destination, frame.payload)
-        if command == "__topic_list":
-            self._answer_topic_list(params)
-        elif command == "__error":
-            self._record_error(str(params.get("text", "")))
-        elif command == "__warn":
-            self.warnings = (self.warnings + [str(params.get("text", ""))])[-100:]
-            log.warning("endpoint: %s", params.get("text"))
-        elif command == "__log":
-            log.info("endpoint: %s", params.get("text"))
-        return None
-
-    def _handle_body(self, signed_srv_id: int, frame: Frame) -> None:
-        if signed_srv_id < 0:  # a __response to one of our calls
-            with self._state_lock:
-                call = self._pending.get(-signed_srv_id)
+                call = self._pending.get(event.srv_id)
             if call is not None:
-                call.response = frame.payload
+                call.response = event.payload
                 call.done.set()
-            return
-        # A __request from ROS for a service this client implements.
+        elif isinstance(event, ServiceRequest):
+            self._answer(event)
+        elif isinstance(event, TopicList):
+            with self._state_lock:
+                waiters, self._topic_list_waiters = self._topic_list_waiters, []
+            for done, result in waiters:
+                result.update(zip(event.topics, event.types))
+                done.set()
+        elif isinstance(event, PingResponse):
+            with self._state_lock:
+                waiter = self._ping_waiters.get(event.request_time)
+            if waiter is not None:
+                waiter.set()
+        elif isinstance(event, Error):
+            self._record_error(event)
+        elif isinstance(event, Warn):
+            self.warnings = (self.warnings + [event.text])[-100:]
+            log.warning("endpoint: %s", event.text)
+        elif isinstance(event, Log):
+            log.info("endpoint: %s", event.text)
+
+    def _answer(self, request: ServiceRequest) -> None:
+        """A request from ROS for a service this client implements."""
         with self._state_lock:
-            entry = self._unity_services.get(frame.destination)
+            entry = self._unity_services.get(request.service)
         if entry is None:
-            log.warning("request for unknown service %s ignored", frame.destination)
+            log.warning("request for unknown service %s ignored", request.service)
             return
         try:
-            response = entry[1](frame.payload)
+            response = entry[1](request.payload)
         except Exception:
-            log.exception("service handler for %s failed; no response sent", frame.destination)
+            log.exception("service handler for %s failed; no response sent", request.service)
             return
-        header = protocol.encode_syscommand("__response", {"srv_id": signed_srv_id})
-        self._send(header + protocol.encode_frame(frame.destination, response))
+        self._say(ServiceResponse(request.srv_id, request.service, response))
 
-    def _answer_topic_list(self, params: dict) -> None:
-        topics, types = params.get("topics", []), params.get("types", [])
-        with self._state_lock:
-            waiters, self._topic_list_waiters = self._topic_list_waiters, []
-        for done, result in waiters:
-            result.update(zip(topics, types))
-            done.set()
-
-    def _record_error(self, text: str) -> None:
-        self.errors = (self.errors + [text])[-100:]
-        log.warning("endpoint error: %s", text)
-        # Our endpoint prefixes service failures with "__request <srv_id>:", so the waiting call fails at once.
-        if text.startswith("__request "):
-            srv_id_text = text[len("__request ") :].split(":", 1)[0]
-            if srv_id_text.isdigit():
-                with self._state_lock:
-                    call = self._pending.get(int(srv_id_text))
-                if call is not None:
-                    call.failure = text
-                    call.done.set()
+    def _record_error(self, error: Error) -> None:
+        self.errors = (self.errors + [error.text])[-100:]
+        log.warning("endpoint error: %s", error.text)
+        if error.srv_id is not None:  # the endpoint says which of our calls will not complete: fail it at once
+            with self._state_lock:
+                call = self._pending.get(error.srv_id)
+            if call is not None:
+                call.failure = error.text
+                call.done.set()
         if self.on_error is not None:
-            self.on_error(text)
+            self.on_error(error.text)
 
     def _fail_pending(self, reason: str) -> None:
         with self._state_lock:

@@ -1,18 +1,32 @@
-"""The ROS-TCP protocol v0.7.0 (ROS 1 flavour), sans I/O: framing and system commands.
+"""The ROS-TCP protocol v0.7.0 (ROS 1 flavour), sans I/O: framing, events, and the conversation of both ends.
 
-A frame is `u32 LE length + destination (UTF-8) + u32 LE length + payload`. Destination "" with an empty
-payload is a keepalive; destinations starting with "__" are system commands whose payload is one JSON object;
-anything else is a topic or service name with a plain ROS 1 serialized payload.
+A frame is `u32 LE length + destination (UTF-8) + u32 LE length + payload`. Destination "" with an empty payload
+is a keepalive; destinations starting with "__" are system commands whose payload is one JSON object; anything
+else is a topic or service name with a plain ROS 1 serialized payload. A `__request` or `__response` header says
+that the very next frame is a service body.
 
-This module imports neither socket nor rospy: it turns bytes into frames and frames into bytes, and checks every
-length against its limit *before* allocating for it.
+`Conversation(Role.ENDPOINT)` or `Conversation(Role.CLIENT)` holds the state of one connection (has the handshake
+been seen, is a service body due) and nothing else: `receive_data(bytes)` gives typed events, `send(event)` gives
+bytes. It never reads a socket or touches ROS (this module imports neither socket nor rospy), so every rule of the
+protocol is tested here without I/O. Lengths are checked against their limits *before* anything is allocated.
 """
 from __future__ import annotations
 
+import enum
 import json
 import struct
 from dataclasses import dataclass
-from typing import Any, Union
+from typing import Any, Callable, Dict, List, Optional, Tuple, Type, Union
+
+__all__ = [
+    "PROTOCOL_VERSION", "ROS_DISTRO_PROTOCOL", "MAX_DESTINATION_BYTES", "DEFAULT_MAX_PAYLOAD_BYTES",
+    "ProtocolError", "LocalProtocolError", "RemoteProtocolError", "FramingError",
+    "Frame", "BadFrame", "FrameDecoder", "encode_frame", "encode_syscommand", "KEEPALIVE_FRAME",
+    "Event", "Keepalive", "Handshake", "TopicMessage", "ServiceRequest", "ServiceResponse",
+    "Subscribe", "Publish", "RosService", "UnityService", "Remove", "TopicListQuery", "TopicList", "Auth",
+    "Ping", "PingResponse", "Log", "Warn", "Error", "InvalidInput",
+    "Role", "Conversation", "encode", "handshake",
+]
 
 PROTOCOL_VERSION = "v0.7.0"
 ROS_DISTRO_PROTOCOL = "ROS1"
@@ -22,16 +36,42 @@ DEFAULT_MAX_PAYLOAD_BYTES = 64 * 1024 * 1024
 _U32 = struct.Struct("<I")
 
 
+# --- errors ------------------------------------------------------------------------------------------------------
+
+
 class ProtocolError(ValueError):
-    """Input that breaks the protocol; the message names the offending command, field or value."""
+    """Something that breaks the protocol; the message names the offending command, field or value."""
 
 
-class FramingError(ProtocolError):
-    """The byte stream cannot be framed any more (a length over its limit): the connection must close."""
+class LocalProtocolError(ProtocolError):
+    """We were about to send something the protocol does not allow (a bug of ours, never of the peer)."""
 
 
-@dataclass(frozen=True, slots=True)
+class RemoteProtocolError(ProtocolError):
+    """The peer sent something the protocol does not allow. `srv_id` names the service call it concerns, if any;
+    `fatal` means the byte stream cannot be framed any more and the connection must close."""
+
+    def __init__(self, reason: str, srv_id: Optional[int] = None, fatal: bool = False) -> None:
+        super().__init__(reason)
+        self.srv_id = srv_id
+        self.fatal = fatal
+
+
+class FramingError(RemoteProtocolError):
+    """A length over its limit: the stream position is lost."""
+
+    def __init__(self, reason: str) -> None:
+        super().__init__(reason, fatal=True)
+
+
+# --- framing -----------------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
 class Frame:
+    """One frame as it is on the wire."""
+
+    __slots__ = ("destination", "payload")
     destination: str
     payload: bytes
 
@@ -44,18 +84,22 @@ class Frame:
         return self.destination.startswith("__")
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(frozen=True)
 class BadFrame:
     """A frame whose framing was intact but whose destination is not UTF-8; the stream stays usable."""
 
+    __slots__ = ("reason",)
     reason: str
 
 
-class FrameDecoder:
-    """Incremental decoder: feed it any fragments of the stream, get back the complete frames.
+RawFrame = Tuple[bytes, bytes]  # (destination bytes, payload) as framed, before the destination is decoded
 
-    Fragmentation and coalescing are both handled: a frame may arrive one byte at a time, and one `feed` may
-    carry many frames. After a FramingError the decoder refuses further input (the stream position is lost).
+
+class FrameDecoder:
+    """Incremental framing: feed it any fragments of the stream, get back the complete frames.
+
+    Fragmentation and coalescing are both handled: a frame may arrive one byte at a time, and one feed may carry
+    many frames. After a FramingError the decoder refuses further input (the stream position is lost).
     """
 
     def __init__(
@@ -66,36 +110,49 @@ class FrameDecoder:
         self.max_payload_bytes = max_payload_bytes
         self.max_destination_bytes = max_destination_bytes
         self._buffer = bytearray()
-        self._failed: FramingError | None = None
+        self._failed: Optional[FramingError] = None
 
     @property
     def buffered_bytes(self) -> int:
         return len(self._buffer)
 
-    def feed(self, data: bytes) -> list[Frame | BadFrame]:
+    def feed(self, data: bytes) -> List[Union[Frame, BadFrame]]:
+        """The complete frames, destinations decoded; raises FramingError when a length is over its limit."""
+        frames, failure = self.feed_raw(data)
+        if failure is not None:
+            raise failure
+        return [_decoded(destination, payload) for destination, payload in frames]
+
+    def feed_raw(self, data: bytes) -> Tuple[List[RawFrame], Optional[FramingError]]:
+        """The complete frames with undecoded destinations, and the FramingError that ended the stream if one did:
+        the frames before it are still returned. Raises the FramingError again once the stream has failed."""
         if self._failed is not None:
             raise self._failed
         self._buffer += data
-        frames: list[Frame | BadFrame] = []
-        offset = 0
         buffer = self._buffer
-        while True:
-            frame_end, item = self._parse_one(buffer, offset)
-            if item is None:
-                break
-            frames.append(item)
-            offset = frame_end
+        frames: List[RawFrame] = []
+        offset = 0
+        try:
+            while True:
+                frame_end, frame = self._parse_one(buffer, offset)
+                if frame is None:
+                    break
+                frames.append(frame)
+                offset = frame_end
+        except FramingError as error:
+            self._failed = error
+            self._buffer = bytearray()
+            return frames, error
         if offset:
             del buffer[:offset]
-        return frames
+        return frames, None
 
-    def _parse_one(self, buffer: bytearray, offset: int) -> tuple[int, Frame | BadFrame | None]:
-        available = len(buffer) - offset
-        if available < 4:
+    def _parse_one(self, buffer: bytearray, offset: int) -> Tuple[int, Optional[RawFrame]]:
+        if len(buffer) - offset < 4:
             return offset, None
         (destination_length,) = _U32.unpack_from(buffer, offset)
         if destination_length > self.max_destination_bytes:
-            self._fail(
+            raise FramingError(
                 f"destination length {destination_length} exceeds the limit of {self.max_destination_bytes} bytes"
             )
         payload_length_at = offset + 4 + destination_length
@@ -104,7 +161,7 @@ class FrameDecoder:
         (payload_length,) = _U32.unpack_from(buffer, payload_length_at)
         if payload_length > self.max_payload_bytes:
             destination = bytes(buffer[offset + 4 : payload_length_at]).decode("utf-8", "replace")
-            self._fail(
+            raise FramingError(
                 f"payload length {payload_length} for destination {destination!r} exceeds the limit of "
                 f"{self.max_payload_bytes} bytes"
             )
@@ -112,18 +169,24 @@ class FrameDecoder:
         frame_end = payload_at + payload_length
         if len(buffer) < frame_end:
             return offset, None
-        raw_destination = bytes(buffer[offset + 4 : payload_length_at]).rstrip(b"\0")
-        payload = bytes(buffer[payload_at:frame_end])
-        try:
-            destination = raw_destination.decode("utf-8")
-        except UnicodeDecodeError:
-            return frame_end, BadFrame(f"destination {raw_destination[:64]!r} is not valid UTF-8")
-        return frame_end, Frame(destination, payload)
+        return frame_end, (bytes(buffer[offset + 4 : payload_length_at]), bytes(buffer[payload_at:frame_end]))
 
-    def _fail(self, reason: str) -> None:
-        self._failed = FramingError(reason)
-        self._buffer = bytearray()
-        raise self._failed
+
+def _decode_destination(raw: bytes) -> str:
+    """The destination as text; trailing NULs (some clients pad) are not part of it. UnicodeDecodeError if bad."""
+    return raw.rstrip(b"\0").decode("utf-8")
+
+
+def _decoded(raw_destination: bytes, payload: bytes) -> Union[Frame, BadFrame]:
+    try:
+        return Frame(_decode_destination(raw_destination), payload)
+    except UnicodeDecodeError:
+        return BadFrame(_not_utf8(raw_destination))
+
+
+def _not_utf8(raw_destination: bytes) -> str:
+    shown = raw_destination.rstrip(b"\0")[:64]
+    return f"destination {shown!r} is not valid UTF-8"
 
 
 def encode_frame(destination: str, payload: bytes) -> bytes:
@@ -133,175 +196,192 @@ def encode_frame(destination: str, payload: bytes) -> bytes:
     )
 
 
-KEEPALIVE_FRAME = encode_frame("", b"")
-
-
-def encode_syscommand(command: str, params: dict[str, Any]) -> bytes:
-    """A system command frame; compact JSON with fields in the given order, as the Unity client writes them."""
+def encode_syscommand(command: str, params: Dict[str, Any]) -> bytes:
+    """A system command frame with any JSON object (compact, fields in the given order, as Unity writes them)."""
     if not command.startswith("__"):
-        raise ProtocolError(f"system command {command!r} must start with '__'")
+        raise LocalProtocolError(f"system command {command!r} must start with '__'")
     return encode_frame(command, json.dumps(params, separators=(",", ":")).encode("utf-8"))
 
 
-def handshake_frame() -> bytes:
-    # Byte for byte what the v0.7.0 endpoint sends: json.dumps with its default ", " and ": " separators.
-    # metadata is a JSON *string* holding an object: the client parses it a second time.
-    metadata = json.dumps({"protocol": ROS_DISTRO_PROTOCOL})
-    body = json.dumps({"version": PROTOCOL_VERSION, "metadata": metadata})
-    return encode_frame("__handshake", body.encode("utf-8"))
+KEEPALIVE_FRAME = encode_frame("", b"")
 
 
-def log_frame(text: str) -> bytes:
-    return encode_syscommand("__log", {"text": text})
+# --- events ------------------------------------------------------------------------------------------------------
 
 
-def warn_frame(text: str) -> bytes:
-    return encode_syscommand("__warn", {"text": text})
+class Event:
+    """Something one end says to the other. Every event is a frozen dataclass."""
+
+    __slots__ = ()
 
 
-def error_frame(text: str) -> bytes:
-    return encode_syscommand("__error", {"text": text})
+@dataclass(frozen=True)
+class Keepalive(Event):
+    """An empty frame; the client sends one after each second without sending. Received keepalives are not
+    reported as events: they mean nothing beyond the connection being alive."""
 
 
-# ---------------------------------------------------------------------------------------------------------------
-# System commands, client -> endpoint
+@dataclass(frozen=True)
+class Handshake(Event):
+    """The endpoint's first frame. `metadata` is sent as a JSON *string* holding an object (Unity parses it twice)."""
+
+    version: str
+    metadata: Dict[str, Any]
+
+    @property
+    def is_compatible(self) -> bool:
+        """What Unity's connector checks: a v0.7.x endpoint speaking ROS 1 (a mismatch is only logged there)."""
+        return self.version.startswith("v0.7.") and self.metadata.get("protocol") == ROS_DISTRO_PROTOCOL
 
 
-@dataclass(frozen=True, slots=True)
-class Subscribe:
+@dataclass(frozen=True)
+class TopicMessage(Event):
+    """One ROS 1 serialized message on a topic, either way. The payload is carried untouched."""
+
+    __slots__ = ("topic", "payload")
+    topic: str
+    payload: bytes
+
+
+@dataclass(frozen=True)
+class ServiceRequest(Event):
+    """A service call, with its request body: client -> endpoint calls a ROS service (ids from 101); endpoint ->
+    client calls a service the client implements (ids from 1001). On the wire, `__request` and the body frame."""
+
+    srv_id: int
+    service: str
+    payload: bytes
+
+
+@dataclass(frozen=True)
+class ServiceResponse(Event):
+    """The answer to the ServiceRequest with the same `srv_id`, with its response body."""
+
+    srv_id: int
+    service: str
+    payload: bytes
+
+
+@dataclass(frozen=True)
+class Subscribe(Event):
+    """Forward ROS messages on `topic` to this client. `queue_size`: newer connectors may send one."""
+
     topic: str
     message_name: str
+    queue_size: Optional[int] = None
 
 
-@dataclass(frozen=True, slots=True)
-class Publish:
+@dataclass(frozen=True)
+class Publish(Event):
+    """This client will publish on `topic`."""
+
     topic: str
     message_name: str
     queue_size: int = 10
     latch: bool = False
 
 
-@dataclass(frozen=True, slots=True)
-class RosService:
+@dataclass(frozen=True)
+class RosService(Event):
+    """This client will call the ROS service `topic` of type `message_name` (no Request/Response suffix)."""
+
     topic: str
     message_name: str
 
 
-@dataclass(frozen=True, slots=True)
-class UnityService:
+@dataclass(frozen=True)
+class UnityService(Event):
+    """This client implements the service `topic` for ROS."""
+
     topic: str
     message_name: str
 
 
-@dataclass(frozen=True, slots=True)
-class Request:
-    srv_id: int
+REMOVE_KINDS = ("subscriber", "publisher", "ros_service", "unity_service")
 
 
-@dataclass(frozen=True, slots=True)
-class Response:
-    srv_id: int
+@dataclass(frozen=True)
+class Remove(Event):
+    """Undo a registration: `kind` is one of REMOVE_KINDS (`__remove_<kind>` on the wire)."""
 
-
-@dataclass(frozen=True, slots=True)
-class TopicList:
-    pass
-
-
-@dataclass(frozen=True, slots=True)
-class Remove:
-    kind: str  # "subscriber" | "publisher" | "ros_service" | "unity_service"
+    kind: str
     topic: str
 
 
-@dataclass(frozen=True, slots=True)
-class Auth:
+@dataclass(frozen=True)
+class TopicListQuery(Event):
+    """Ask for the ROS graph's topics and their types."""
+
+
+@dataclass(frozen=True)
+class TopicList(Event):
+    """The answer to TopicListQuery: parallel tuples of topic names and type names."""
+
+    topics: Tuple[str, ...]
+    types: Tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class Auth(Event):
+    """Ours, not Unity's: the shared secret, as the first command, when the endpoint asks for one."""
+
     token: str
 
 
-SysCommand = Union[Subscribe, Publish, RosService, UnityService, Request, Response, TopicList, Remove, Auth]
+@dataclass(frozen=True)
+class Ping(Event):
+    """Newer connectors' ROSConnection.Ping: `request_time` is the client's clock, echoed back unchanged."""
 
-REMOVE_COMMANDS = {
-    "__remove_subscriber": "subscriber",
-    "__remove_publisher": "publisher",
-    "__remove_ros_service": "ros_service",
-    "__remove_unity_service": "unity_service",
-}
-
-# command -> (required fields with types, optional fields with types)
-_FIELDS: dict[str, tuple[dict[str, type], dict[str, type]]] = {
-    "__subscribe": ({"topic": str, "message_name": str}, {}),
-    "__publish": ({"topic": str, "message_name": str}, {"queue_size": int, "latch": bool}),
-    "__ros_service": ({"topic": str, "message_name": str}, {}),
-    "__unity_service": ({"topic": str, "message_name": str}, {}),
-    "__request": ({"srv_id": int}, {}),
-    "__response": ({"srv_id": int}, {}),
-    "__topic_list": ({}, {}),
-    "__auth": ({"token": str}, {}),
-    **{command: ({"topic": str}, {}) for command in REMOVE_COMMANDS},
-}
-CLIENT_COMMANDS = frozenset(_FIELDS)
+    request_time: str
 
 
-def parse_syscommand(frame: Frame) -> SysCommand:
-    """Validate a system command frame and return it as a typed command; ProtocolError names what is wrong."""
-    command = frame.destination
-    fields = _FIELDS.get(command)
-    if fields is None:
-        raise ProtocolError(f"unknown system command {command!r}")
-    params = _parse_json_object(command, frame.payload)
-    required, optional = fields
-    for name, expected in required.items():
+@dataclass(frozen=True)
+class PingResponse(Event):
+    request_time: str
+
+
+@dataclass(frozen=True)
+class Log(Event):
+    text: str
+
+
+@dataclass(frozen=True)
+class Warn(Event):
+    text: str
+
+
+@dataclass(frozen=True)
+class Error(Event):
+    """A refusal or failure, as text. `srv_id` (ours, beside the text) names the service call that will not
+    complete, so a client can fail it at once; Unity's connector reads only the text."""
+
+    text: str
+    srv_id: Optional[int] = None
+
+
+@dataclass(frozen=True)
+class InvalidInput(Event):
+    """The peer broke the protocol (see RemoteProtocolError). Not fatal unless `error.fatal`: the frames after it
+    are read as usual."""
+
+    error: RemoteProtocolError
+
+
+# --- system commands: JSON <-> events ----------------------------------------------------------------------------
+
+_Params = Dict[str, Any]
+_Parser = Callable[[str, _Params], Event]
+
+
+def _fields(command: str, params: _Params, required: Dict[str, type], optional: Dict[str, type]) -> None:
+    """Check the fields we know; fields we do not know are ignored, as Unity's JsonUtility ignores them, so newer
+    connectors and endpoints can add some."""
+    for name in required:
         if name not in params:
             raise ProtocolError(f"{command}: missing field {name!r}")
-    unexpected = sorted(set(params) - set(required) - set(optional))
-    if unexpected:
-        raise ProtocolError(f"{command}: unexpected field(s) {', '.join(map(repr, unexpected))}")
-    for name, expected in {**required, **optional}.items():
+    for name, expected in (*required.items(), *optional.items()):
         if name in params:
             _check_type(command, name, params[name], expected)
-    if "topic" in params:
-        _check_name(command, "topic", params["topic"])
-    if "message_name" in params:
-        _check_message_name(command, params["message_name"])
-
-    if command == "__subscribe":
-        return Subscribe(params["topic"], params["message_name"])
-    if command == "__publish":
-        queue_size = params.get("queue_size", 10)
-        if queue_size < 0:
-            raise ProtocolError(f"{command}: field 'queue_size' must be >= 0, got {queue_size}")
-        return Publish(params["topic"], params["message_name"], queue_size, params.get("latch", False))
-    if command == "__ros_service":
-        return RosService(params["topic"], params["message_name"])
-    if command == "__unity_service":
-        return UnityService(params["topic"], params["message_name"])
-    if command == "__request":
-        return Request(params["srv_id"])
-    if command == "__response":
-        return Response(params["srv_id"])
-    if command == "__topic_list":
-        return TopicList()
-    if command == "__auth":
-        return Auth(params["token"])
-    return Remove(REMOVE_COMMANDS[command], params["topic"])
-
-
-def parse_json_params(command: str, payload: bytes) -> dict[str, Any]:
-    """The JSON object of any system command (also endpoint -> client ones, for the client side)."""
-    return _parse_json_object(command, payload)
-
-
-def _parse_json_object(command: str, payload: bytes) -> dict[str, Any]:
-    try:
-        params = json.loads(payload.decode("utf-8")) if payload else {}
-    except UnicodeDecodeError:
-        raise ProtocolError(f"{command}: payload is not valid UTF-8") from None
-    except json.JSONDecodeError as error:
-        raise ProtocolError(f"{command}: malformed JSON ({error.msg} at position {error.pos})") from None
-    if not isinstance(params, dict):
-        raise ProtocolError(f"{command}: payload must be a JSON object, got {type(params).__name__}")
-    return params
 
 
 def _check_type(command: str, name: str, value: Any, expected: type) -> None:
@@ -321,3 +401,312 @@ def _check_message_name(command: str, message_name: str) -> None:
     package, _, type_name = message_name.partition("/")
     if not package or not type_name or "/" in type_name or not (package + type_name).replace("_", "").isalnum():
         raise ProtocolError(f"{command}: field 'message_name' must look like 'package/Type', got {message_name!r}")
+
+
+def _check_not_negative(command: str, field: str, value: int) -> None:
+    if value < 0:
+        raise ProtocolError(f"{command}: field {field!r} must be >= 0, got {value}")
+
+
+def _registration(command: str, params: _Params, optional: Optional[Dict[str, type]] = None) -> Tuple[str, str]:
+    _fields(command, params, {"topic": str, "message_name": str}, optional or {})
+    _check_name(command, "topic", params["topic"])
+    _check_message_name(command, params["message_name"])
+    return params["topic"], params["message_name"]
+
+
+def _parse_subscribe(command: str, params: _Params) -> Event:
+    topic, message_name = _registration(command, params, {"queue_size": int})
+    queue_size = params.get("queue_size")
+    if queue_size is not None:
+        _check_not_negative(command, "queue_size", queue_size)
+    return Subscribe(topic, message_name, queue_size)
+
+
+def _parse_publish(command: str, params: _Params) -> Event:
+    topic, message_name = _registration(command, params, {"queue_size": int, "latch": bool})
+    queue_size = params.get("queue_size", 10)
+    _check_not_negative(command, "queue_size", queue_size)
+    return Publish(topic, message_name, queue_size, params.get("latch", False))
+
+
+def _parse_remove(command: str, params: _Params) -> Event:
+    _fields(command, params, {"topic": str}, {})
+    _check_name(command, "topic", params["topic"])
+    return Remove(command[len("__remove_") :], params["topic"])
+
+
+def _parse_error(command: str, params: _Params) -> Event:
+    _fields(command, params, {"text": str}, {"srv_id": int})
+    return Error(params["text"], params.get("srv_id"))
+
+
+def _parse_topic_list(command: str, params: _Params) -> Event:
+    _fields(command, params, {"topics": list, "types": list}, {})
+    topics, types = params["topics"], params["types"]
+    if len(topics) != len(types) or not all(isinstance(name, str) for name in (*topics, *types)):
+        raise ProtocolError(f"{command}: 'topics' and 'types' must be lists of names of the same length")
+    return TopicList(tuple(topics), tuple(types))
+
+
+def _text_event(kind: Callable[[str], Event]) -> _Parser:
+    def parse(command: str, params: _Params) -> Event:
+        _fields(command, params, {"text": str}, {})
+        return kind(params["text"])
+
+    return parse
+
+
+def _time_event(kind: Callable[[str], Event]) -> _Parser:
+    def parse(command: str, params: _Params) -> Event:
+        _fields(command, params, {"request_time": str}, {})
+        return kind(params["request_time"])
+
+    return parse
+
+
+def _parse_auth(command: str, params: _Params) -> Event:
+    _fields(command, params, {"token": str}, {})
+    return Auth(params["token"])
+
+
+def _parse_handshake(command: str, params: _Params) -> Event:
+    _fields(command, params, {"version": str}, {"metadata": str})
+    try:
+        metadata = json.loads(params.get("metadata", "{}"))
+    except json.JSONDecodeError:
+        raise ProtocolError(f"{command}: field 'metadata' must hold a JSON object, got {params['metadata']!r}") \
+            from None
+    if not isinstance(metadata, dict):
+        raise ProtocolError(f"{command}: field 'metadata' must hold a JSON object, got {params['metadata']!r}")
+    return Handshake(params["version"], metadata)
+
+
+# What each role may say: command -> parser of its JSON. A service header is not here: it is paired with its body.
+_SENT_BY_CLIENT: Dict[str, _Parser] = {
+    "__subscribe": _parse_subscribe,
+    "__publish": _parse_publish,
+    "__ros_service": lambda command, params: RosService(*_registration(command, params)),
+    "__unity_service": lambda command, params: UnityService(*_registration(command, params)),
+    "__topic_list": lambda command, params: TopicListQuery(),
+    "__auth": _parse_auth,
+    "__ping": _time_event(Ping),
+    **{f"__remove_{kind}": _parse_remove for kind in REMOVE_KINDS},
+}
+_SENT_BY_ENDPOINT: Dict[str, _Parser] = {
+    "__handshake": _parse_handshake,
+    "__topic_list": _parse_topic_list,
+    "__ping_response": _time_event(PingResponse),
+    "__log": _text_event(Log),
+    "__warn": _text_event(Warn),
+    "__error": _parse_error,
+}
+_ServiceEvent = Union[Type[ServiceRequest], Type[ServiceResponse]]
+_SERVICE_HEADERS: Dict[str, _ServiceEvent] = {"__request": ServiceRequest, "__response": ServiceResponse}
+CLIENT_COMMANDS = frozenset((*_SENT_BY_CLIENT, *_SERVICE_HEADERS))
+ENDPOINT_COMMANDS = frozenset((*_SENT_BY_ENDPOINT, *_SERVICE_HEADERS))
+
+
+def _command_params(event: Event) -> Tuple[str, _Params]:
+    """The system command that carries `event`, and its JSON fields in the order Unity writes them."""
+    if isinstance(event, Subscribe):
+        params: _Params = {"topic": event.topic, "message_name": event.message_name}
+        if event.queue_size is not None:
+            params["queue_size"] = event.queue_size
+        return "__subscribe", params
+    if isinstance(event, Publish):
+        return "__publish", {"topic": event.topic, "message_name": event.message_name,
+                             "queue_size": event.queue_size, "latch": event.latch}
+    if isinstance(event, RosService):
+        return "__ros_service", {"topic": event.topic, "message_name": event.message_name}
+    if isinstance(event, UnityService):
+        return "__unity_service", {"topic": event.topic, "message_name": event.message_name}
+    if isinstance(event, Remove):
+        return f"__remove_{event.kind}", {"topic": event.topic}
+    if isinstance(event, TopicListQuery):
+        return "__topic_list", {}
+    if isinstance(event, TopicList):
+        return "__topic_list", {"topics": list(event.topics), "types": list(event.types)}
+    if isinstance(event, Auth):
+        return "__auth", {"token": event.token}
+    if isinstance(event, Ping):
+        return "__ping", {"request_time": event.request_time}
+    if isinstance(event, PingResponse):
+        return "__ping_response", {"request_time": event.request_time}
+    if isinstance(event, Log):
+        return "__log", {"text": event.text}
+    if isinstance(event, Warn):
+        return "__warn", {"text": event.text}
+    if isinstance(event, Error):
+        params = {"text": event.text}
+        if event.srv_id is not None:
+            params["srv_id"] = event.srv_id
+        return "__error", params
+    raise LocalProtocolError(f"{type(event).__name__} is not a system command")
+
+
+def handshake() -> bytes:
+    """The endpoint's first frame, byte for byte what the v0.7.0 endpoint sends."""
+    return encode(Handshake(PROTOCOL_VERSION, {"protocol": ROS_DISTRO_PROTOCOL}))
+
+
+def encode(event: Event) -> bytes:
+    """The bytes of any event, whoever sends it; a service event is its header and body back to back, so nothing
+    can come between them on the wire. Use Conversation.send to also check that your role may send it."""
+    if type(event) is TopicMessage:
+        return encode_frame(event.topic, event.payload)
+    if isinstance(event, (ServiceRequest, ServiceResponse)):
+        header = "__request" if isinstance(event, ServiceRequest) else "__response"
+        return encode_syscommand(header, {"srv_id": event.srv_id}) + encode_frame(event.service, event.payload)
+    if isinstance(event, Keepalive):
+        return KEEPALIVE_FRAME
+    if isinstance(event, Handshake):
+        # As the v0.7.0 endpoint writes it: json.dumps with its default ", " and ": " separators.
+        body = json.dumps({"version": event.version, "metadata": json.dumps(event.metadata)})
+        return encode_frame("__handshake", body.encode("utf-8"))
+    command, params = _command_params(event)
+    return encode_syscommand(command, params)
+
+
+# --- the conversation --------------------------------------------------------------------------------------------
+
+
+class Role(enum.Enum):
+    ENDPOINT = "endpoint"
+    CLIENT = "client"
+
+
+_PARSERS = {Role.CLIENT: _SENT_BY_CLIENT, Role.ENDPOINT: _SENT_BY_ENDPOINT}
+_EVENTS_SENT_BY: Dict[Role, Tuple[Type[Event], ...]] = {
+    Role.CLIENT: (Keepalive, TopicMessage, ServiceRequest, ServiceResponse, Subscribe, Publish, RosService,
+                  UnityService, Remove, TopicListQuery, Auth, Ping),
+    Role.ENDPOINT: (Handshake, TopicMessage, ServiceRequest, ServiceResponse, TopicList, PingResponse, Log, Warn,
+                    Error),
+}
+
+
+class Conversation:
+    """One connection's protocol state, for either end (`our_role`).
+
+    `receive_data` turns the peer's bytes into events, in order; the peer's mistakes come as InvalidInput events in
+    their place, so one bad frame never costs the frames around it. `send` turns our events into bytes and raises
+    LocalProtocolError for anything our role may not say. The receiving side is meant for one thread (the
+    connection's reader); `send` keeps no state and may be called from any thread.
+    """
+
+    def __init__(
+        self,
+        our_role: Role,
+        max_payload_bytes: int = DEFAULT_MAX_PAYLOAD_BYTES,
+        max_destination_bytes: int = MAX_DESTINATION_BYTES,
+    ) -> None:
+        self.our_role = our_role
+        self.their_role = Role.CLIENT if our_role is Role.ENDPOINT else Role.ENDPOINT
+        self._decoder = FrameDecoder(max_payload_bytes, max_destination_bytes)
+        self._their_commands = _PARSERS[self.their_role]
+        self._may_send = _EVENTS_SENT_BY[our_role]
+        # The receiving side's whole state:
+        self.awaiting_handshake = our_role is Role.CLIENT  # a client's first frame must be the handshake
+        self.pending_service: Optional[Tuple[_ServiceEvent, int]] = None
+        self.frames_received = 0
+
+    # --- receiving ---------------------------------------------------------------------------------------------
+    def receive_data(self, data: bytes) -> List[Event]:
+        """The events in `data` (any fragment of the stream), in order. After an InvalidInput that is fatal (a
+        length over its limit), the stream position is lost: a further call raises that error."""
+        frames, failure = self._decoder.feed_raw(data)
+        self.frames_received += len(frames)
+        events: List[Event] = []
+        for raw_destination, payload in frames:
+            # The hot path first: a topic message, outside a service exchange.
+            if self.pending_service is None and not self.awaiting_handshake and raw_destination[:2] != b"__" \
+                    and raw_destination:
+                try:
+                    events.append(TopicMessage(_decode_destination(raw_destination), payload))
+                except UnicodeDecodeError:
+                    events.append(InvalidInput(RemoteProtocolError(f"frame dropped: {_not_utf8(raw_destination)}")))
+                continue
+            event = self._receive_frame(raw_destination, payload)
+            if event is not None:
+                events.append(event)
+        if failure is not None:
+            self.pending_service = None
+            events.append(InvalidInput(failure))
+        return events
+
+    def _receive_frame(self, raw_destination: bytes, payload: bytes) -> Optional[Event]:
+        if not raw_destination and not payload:
+            return None  # a keepalive, wherever it comes (even between a service header and its body)
+        try:
+            destination = _decode_destination(raw_destination)
+        except UnicodeDecodeError:
+            srv_id = self._drop_pending_service()
+            return InvalidInput(RemoteProtocolError(f"frame dropped: {_not_utf8(raw_destination)}", srv_id))
+        if self.pending_service is not None:
+            kind, srv_id = self.pending_service
+            self.pending_service = None
+            return kind(srv_id, destination, payload)
+        if self.awaiting_handshake:
+            return self._receive_handshake(destination, payload)
+        if not destination.startswith("__"):
+            return TopicMessage(destination, payload)
+        try:
+            service_kind = _SERVICE_HEADERS.get(destination)
+            if service_kind is not None:
+                params = _json_object(destination, payload)
+                _fields(destination, params, {"srv_id": int}, {})
+                self.pending_service = (service_kind, params["srv_id"])
+                return None  # the event comes with the body, the next frame
+            parse = self._their_commands.get(destination)
+            if parse is None:
+                raise ProtocolError(f"unknown system command {destination!r}")
+            return parse(destination, _json_object(destination, payload))
+        except ProtocolError as error:
+            return InvalidInput(RemoteProtocolError(str(error)))
+
+    def _receive_handshake(self, destination: str, payload: bytes) -> Event:
+        if destination != "__handshake":
+            return InvalidInput(RemoteProtocolError(
+                f"the endpoint's first frame must be __handshake, got {destination!r}; frame dropped"
+            ))
+        try:
+            event = _parse_handshake(destination, _json_object(destination, payload))
+        except ProtocolError as error:
+            return InvalidInput(RemoteProtocolError(str(error)))
+        self.awaiting_handshake = False
+        return event
+
+    def _drop_pending_service(self) -> Optional[int]:
+        if self.pending_service is None:
+            return None
+        srv_id = self.pending_service[1]
+        self.pending_service = None
+        return srv_id
+
+    # --- sending -----------------------------------------------------------------------------------------------
+    def send(self, event: Event) -> bytes:
+        """The bytes that say `event` to the peer; LocalProtocolError if our role may not say it, or says it
+        wrongly (the same field checks as on receiving)."""
+        if not isinstance(event, self._may_send):
+            raise LocalProtocolError(f"the {self.our_role.value} does not send {type(event).__name__}")
+        if isinstance(event, TopicMessage) and (not event.topic or event.topic.startswith("__")):
+            raise LocalProtocolError(f"topic {event.topic!r} is not a valid ROS name")
+        if not isinstance(event, (TopicMessage, Keepalive, ServiceRequest, ServiceResponse, Handshake)):
+            command, params = _command_params(event)
+            try:
+                _PARSERS[self.our_role][command](command, params)
+            except ProtocolError as error:
+                raise LocalProtocolError(str(error)) from None
+        return encode(event)
+
+
+def _json_object(command: str, payload: bytes) -> _Params:
+    try:
+        params = json.loads(payload.decode("utf-8")) if payload else {}
+    except UnicodeDecodeError:
+        raise ProtocolError(f"{command}: payload is not valid UTF-8") from None
+    except json.JSONDecodeError as error:
+        raise ProtocolError(f"{command}: malformed JSON ({error.msg} at position {error.pos})") from None
+    if not isinstance(params, dict):
+        raise ProtocolError(f"{command}: payload must be a JSON object, got {type(params).__name__}")
+    return params

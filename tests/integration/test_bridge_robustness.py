@@ -70,9 +70,9 @@ BAD_INPUTS = {
     "non-object JSON": (syscommand("__publish", b"[1, 2]"), ["__publish", "JSON object"]),
     "non-UTF-8 JSON": (syscommand("__subscribe", b"\xff\xfe"), ["__subscribe", "UTF-8"]),
     "missing field": (syscommand("__subscribe", b'{"topic":"/x"}'), ["__subscribe", "missing field 'message_name'"]),
-    "extra field": (
-        syscommand("__subscribe", b'{"topic":"/x","message_name":"std_msgs/String","qos":1}'),
-        ["__subscribe", "unexpected field", "'qos'"],
+    "negative queue size": (
+        syscommand("__subscribe", b'{"topic":"/x","message_name":"std_msgs/String","queue_size":-1}'),
+        ["__subscribe", "'queue_size'", "-1"],
     ),
     "bool as int": (syscommand("__request", b'{"srv_id":true}'), ["__request", "'srv_id'", "integer"]),
     "bad topic": (

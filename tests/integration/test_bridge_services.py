@@ -225,6 +225,9 @@ def test_request_for_an_unregistered_service_is_refused(bridge) -> None:
         client.send_frame(name, serialize(SetBoolRequest(data=True)))
         text = client.expect_error("__request 101", name)
         assert "__ros_service" in text
+        # The call's id is also a field of the __error, so a client fails that call without reading the text.
+        (error,) = [json.loads(f.payload) for f in client.received if f.destination == "__error"]
+        assert error == {"text": text, "srv_id": 101}
         client.sync()
 
 
@@ -249,7 +252,7 @@ def test_unknown_response_id_gives_an_error_and_the_next_frame_is_discarded(brid
         inbox.wait_connected()
         client.command("__response", srv_id=987654)
         client.send_frame(topic, serialize(String("swallowed as the response body")))
-        client.expect_error("__response", "987654")
+        client.expect_error("__response", "987654", "discarded")
         client.send_frame(topic, serialize(String("published")))
         assert inbox.wait_count(1) == [serialize(String("published"))]
         client.sync()

@@ -278,3 +278,28 @@ def test_keepalives_are_ignored(bridge) -> None:
         client.send(b"\0" * 8 * 50)
         client.sync()
         assert client.errors() == []
+
+
+def test_the_newest_connectors_subscribe_and_ping_are_served(bridge, ros_node) -> None:
+    """ROS-TCP-Connector's dev branch: __subscribe may carry queue_size (and fields we do not know are ignored, as
+    Unity's JSON reader ignores them); __ping is answered with the client's own request_time."""
+    topic = unique("newest_connector")
+    publisher = ros_node.Publisher(topic, String, queue_size=10)
+    request_time = "2026-11-23T04:00:00.1234567Z"  # Unity's DateTime round-trip format
+    with RawConnection(bridge.port) as client:
+        client.command("__subscribe", topic=topic, message_name="std_msgs/String", queue_size=1, added_later=True)
+        client.command("__ping", request_time=request_time)
+        assert client.wait_command("__ping_response") == {"request_time": request_time}
+        client.sync()
+        wait_subscribers(publisher)
+        publisher.publish(String("hello"))
+        frame = client.wait_frame(lambda f: f.destination == topic, f"message on {topic}")
+        assert frame.payload == serialize(String("hello"))
+        assert not client.errors()
+    publisher.unregister()
+
+
+def test_the_tcp_client_pings(bridge) -> None:
+    with tcp_client(bridge.port) as client:
+        assert 0 < client.ping(timeout=5) < 5
+        assert client.errors == []

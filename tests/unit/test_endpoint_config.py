@@ -7,7 +7,7 @@ from typing import Any
 import pytest
 
 from bridge.__main__ import _parser, build_config
-from bridge.server import ConfigError, EndpointConfig
+from bridge.config import ConfigError, EndpointConfig
 
 
 class Params:

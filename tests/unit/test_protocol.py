@@ -1,4 +1,5 @@
-"""bridge.protocol, pure: framing (FrameDecoder, encode_frame), the handshake bytes and parse_syscommand."""
+"""bridge.protocol, pure: framing (FrameDecoder, encode_frame), the exact bytes of events, and the conversation
+of both roles (commands parsed and checked, service headers paired with their bodies, errors local and remote)."""
 from __future__ import annotations
 
 import json
@@ -13,20 +14,35 @@ from bridge import protocol
 from bridge.protocol import (
     Auth,
     BadFrame,
+    Conversation,
+    Error,
+    Event,
     Frame,
     FrameDecoder,
     FramingError,
+    Handshake,
+    InvalidInput,
+    Keepalive,
+    LocalProtocolError,
+    Log,
+    Ping,
+    PingResponse,
     ProtocolError,
     Publish,
+    RemoteProtocolError,
     Remove,
-    Request,
-    Response,
+    Role,
     RosService,
+    ServiceRequest,
+    ServiceResponse,
     Subscribe,
     TopicList,
+    TopicListQuery,
+    TopicMessage,
     UnityService,
+    Warn,
+    encode,
     encode_frame,
-    parse_syscommand,
 )
 
 
@@ -164,8 +180,10 @@ def test_decoder_refuses_input_after_a_framing_error() -> None:
         decoder.feed(b"")
 
 
-def test_framing_error_is_a_protocol_error() -> None:
-    assert issubclass(FramingError, ProtocolError) and issubclass(ProtocolError, ValueError)
+def test_framing_error_is_a_fatal_remote_protocol_error() -> None:
+    assert issubclass(FramingError, RemoteProtocolError) and issubclass(RemoteProtocolError, ProtocolError)
+    assert issubclass(LocalProtocolError, ProtocolError) and issubclass(ProtocolError, ValueError)
+    assert FramingError("x").fatal and not RemoteProtocolError("x").fatal
 
 
 # --- encoding: exact bytes ------------------------------------------------------------------------------------
@@ -180,40 +198,82 @@ def test_handshake_exact_bytes() -> None:
     # The original v0.7.0 endpoint writes json.dumps({"version": ..., "metadata": json.dumps({"protocol": "ROS1"})})
     # with json.dumps' default spacing, outer and inner; Unity parses the outer object and then that string.
     body = b'{"version": "v0.7.0", "metadata": "{\\"protocol\\": \\"ROS1\\"}"}'
-    assert protocol.handshake_frame() == raw_frame(b"__handshake", body)
+    assert protocol.handshake() == raw_frame(b"__handshake", body)
     params = json.loads(body)
     assert params["version"].startswith("v0.7.") and json.loads(params["metadata"]) == {"protocol": "ROS1"}
 
 
-def test_syscommand_encoding_is_compact_and_keeps_field_order() -> None:
-    frame = protocol.encode_syscommand(
-        "__publish", {"topic": "/t", "message_name": "std_msgs/String", "queue_size": 10, "latch": False}
+@pytest.mark.parametrize(
+    ("event", "destination", "payload"),
+    [
+        (Publish("/t", "std_msgs/String"), b"__publish",
+         b'{"topic":"/t","message_name":"std_msgs/String","queue_size":10,"latch":false}'),
+        (Subscribe("/t", "std_msgs/String"), b"__subscribe", b'{"topic":"/t","message_name":"std_msgs/String"}'),
+        (Subscribe("/t", "std_msgs/String", 1), b"__subscribe",
+         b'{"topic":"/t","message_name":"std_msgs/String","queue_size":1}'),
+        (RosService("/s", "std_srvs/SetBool"), b"__ros_service", b'{"topic":"/s","message_name":"std_srvs/SetBool"}'),
+        (UnityService("/u", "std_srvs/Trigger"), b"__unity_service",
+         b'{"topic":"/u","message_name":"std_srvs/Trigger"}'),
+        (Remove("unity_service", "/u"), b"__remove_unity_service", b'{"topic":"/u"}'),
+        (TopicListQuery(), b"__topic_list", b"{}"),
+        (TopicList(("/a", "/b"), ("std_msgs/String", "std_msgs/Empty")), b"__topic_list",
+         b'{"topics":["/a","/b"],"types":["std_msgs/String","std_msgs/Empty"]}'),
+        (Auth("s3cret"), b"__auth", b'{"token":"s3cret"}'),
+        (Ping("2026-11-23T04:00:00.0000000Z"), b"__ping", b'{"request_time":"2026-11-23T04:00:00.0000000Z"}'),
+        (PingResponse("t0"), b"__ping_response", b'{"request_time":"t0"}'),
+        (Error("bad"), b"__error", b'{"text":"bad"}'),
+        (Error("bad", 101), b"__error", b'{"text":"bad","srv_id":101}'),
+        (Warn("w"), b"__warn", b'{"text":"w"}'),
+        (Log("l"), b"__log", b'{"text":"l"}'),
+        (TopicMessage("/t", b"\x01\x02"), b"/t", b"\x01\x02"),
+        (Keepalive(), b"", b""),
+    ],
+)
+def test_events_encode_compactly_in_unitys_field_order(event: Event, destination: bytes, payload: bytes) -> None:
+    assert encode(event) == raw_frame(destination, payload)
+
+
+def test_a_service_event_is_its_header_and_body_back_to_back() -> None:
+    assert encode(ServiceRequest(101, "/srv", b"rq")) == raw_frame(b"__request", b'{"srv_id":101}') + raw_frame(
+        b"/srv", b"rq"
     )
-    assert frame == raw_frame(
-        b"__publish", b'{"topic":"/t","message_name":"std_msgs/String","queue_size":10,"latch":false}'
+    assert encode(ServiceResponse(1001, "/srv", b"")) == raw_frame(b"__response", b'{"srv_id":1001}') + raw_frame(
+        b"/srv", b""
     )
-    assert protocol.error_frame("bad") == raw_frame(b"__error", b'{"text":"bad"}')
-    assert protocol.warn_frame("w") == raw_frame(b"__warn", b'{"text":"w"}')
-    assert protocol.log_frame("l") == raw_frame(b"__log", b'{"text":"l"}')
-    with pytest.raises(ProtocolError, match="must start with '__'"):
+
+
+def test_encode_syscommand_writes_any_json_but_only_to_a_command() -> None:
+    assert protocol.encode_syscommand("__x", {"b": 1, "a": [2]}) == raw_frame(b"__x", b'{"b":1,"a":[2]}')
+    with pytest.raises(LocalProtocolError, match="must start with '__'"):
         protocol.encode_syscommand("subscribe", {})
 
 
-# --- system commands ------------------------------------------------------------------------------------------
+# --- the conversation, endpoint role: what a client says ------------------------------------------------------
 
 
-def command(destination: str, payload: bytes | str | dict) -> Frame:
+def received(data: bytes, role: Role = Role.ENDPOINT) -> list:
+    return Conversation(role).receive_data(data)
+
+
+def command(destination: str, payload: bytes | str | dict) -> bytes:
     if isinstance(payload, dict):
         payload = json.dumps(payload)
     if isinstance(payload, str):
         payload = payload.encode()
-    return Frame(destination, payload)
+    return encode_frame(destination, payload)
+
+
+def parsed(destination: str, payload: bytes | str | dict) -> Event:
+    (event,) = received(command(destination, payload))
+    return event
 
 
 @pytest.mark.parametrize(
     ("destination", "params", "expected"),
     [
         ("__subscribe", {"topic": "/t", "message_name": "std_msgs/String"}, Subscribe("/t", "std_msgs/String")),
+        ("__subscribe", {"topic": "/t", "message_name": "std_msgs/String", "queue_size": 1},
+         Subscribe("/t", "std_msgs/String", 1)),
         (
             "__publish",
             {"topic": "/t", "message_name": "sensor_msgs/JointState", "queue_size": 3, "latch": True},
@@ -222,44 +282,76 @@ def command(destination: str, payload: bytes | str | dict) -> Frame:
         ("__publish", {"topic": "t", "message_name": "std_msgs/Empty"}, Publish("t", "std_msgs/Empty", 10, False)),
         ("__ros_service", {"topic": "/srv", "message_name": "std_srvs/SetBool"}, RosService("/srv", "std_srvs/SetBool")),
         ("__unity_service", {"topic": "/u", "message_name": "std_srvs/Trigger"}, UnityService("/u", "std_srvs/Trigger")),
-        ("__request", {"srv_id": 101}, Request(101)),
-        ("__response", {"srv_id": 1001}, Response(1001)),
-        ("__topic_list", {}, TopicList()),
+        ("__topic_list", {}, TopicListQuery()),
         ("__remove_subscriber", {"topic": "/t"}, Remove("subscriber", "/t")),
         ("__remove_publisher", {"topic": "/t"}, Remove("publisher", "/t")),
         ("__remove_ros_service", {"topic": "/srv"}, Remove("ros_service", "/srv")),
         ("__remove_unity_service", {"topic": "/u"}, Remove("unity_service", "/u")),
         ("__auth", {"token": "s3cret"}, Auth("s3cret")),
+        ("__ping", {"request_time": "2026-11-23T04:00:00.1234567Z"}, Ping("2026-11-23T04:00:00.1234567Z")),
     ],
 )
-def test_every_command_parses(destination: str, params: dict, expected) -> None:
-    assert parse_syscommand(command(destination, params)) == expected
+def test_every_client_command_parses(destination: str, params: dict, expected: Event) -> None:
+    assert parsed(destination, params) == expected
 
 
-def test_topic_list_accepts_an_empty_payload() -> None:
-    assert parse_syscommand(Frame("__topic_list", b"")) == TopicList()
+@settings(max_examples=100, deadline=None)
+@given(event=st.one_of(
+    st.builds(Subscribe, st.just("/t"), st.just("std_msgs/String"), st.none() | st.integers(0, 1000)),
+    st.builds(Publish, st.just("/t"), st.just("a/B"), st.integers(0, 1000), st.booleans()),
+    st.builds(ServiceRequest, st.integers(0, 2**31), st.just("/s"), st.binary(max_size=50)),
+    st.builds(ServiceResponse, st.integers(0, 2**31), st.just("/s"), st.binary(max_size=50)),
+    st.builds(TopicMessage, st.just("/t"), st.binary(max_size=50)),
+    st.builds(Ping, st.text(max_size=30)),
+    st.builds(Auth, st.text(max_size=30)),
+))
+def test_what_a_client_sends_the_endpoint_receives_unchanged(event: Event) -> None:
+    assert received(Conversation(Role.CLIENT).send(event)) == [event]
+
+
+@settings(max_examples=100, deadline=None)
+@given(event=st.one_of(
+    st.builds(Error, st.text(max_size=30), st.none() | st.integers(0, 2**31)),
+    st.builds(Warn, st.text(max_size=30)),
+    st.builds(Log, st.text(max_size=30)),
+    st.builds(PingResponse, st.text(max_size=30)),
+    st.builds(ServiceRequest, st.integers(0, 2**31), st.just("/s"), st.binary(max_size=50)),
+    st.builds(ServiceResponse, st.integers(0, 2**31), st.just("/s"), st.binary(max_size=50)),
+    st.builds(TopicMessage, st.just("/t"), st.binary(max_size=50)),
+    st.lists(st.tuples(st.text(max_size=5), st.text(max_size=5)), max_size=3).map(
+        lambda pairs: TopicList(tuple(name for name, _ in pairs), tuple(kind for _, kind in pairs))),
+))
+def test_what_the_endpoint_sends_the_client_receives_unchanged(event: Event) -> None:
+    client = Conversation(Role.CLIENT)
+    assert client.receive_data(protocol.handshake() + Conversation(Role.ENDPOINT).send(event))[1:] == [event]
+
+
+def test_topic_list_query_accepts_an_empty_payload() -> None:
+    assert parsed("__topic_list", b"") == TopicListQuery()
 
 
 def test_client_commands_cover_the_table() -> None:
     assert protocol.CLIENT_COMMANDS == {
         "__subscribe", "__publish", "__ros_service", "__unity_service", "__request", "__response",
-        "__topic_list", "__auth", "__remove_subscriber", "__remove_publisher", "__remove_ros_service",
+        "__topic_list", "__auth", "__ping", "__remove_subscriber", "__remove_publisher", "__remove_ros_service",
         "__remove_unity_service",
     }
 
 
-def rejects(frame: Frame, *fragments: str) -> str:
-    with pytest.raises(ProtocolError) as raised:
-        parse_syscommand(frame)
-    message = str(raised.value)
+def rejects(data: bytes, *fragments: str, role: Role = Role.ENDPOINT) -> RemoteProtocolError:
+    (event,) = received(data, role)
+    assert isinstance(event, InvalidInput), event
+    message = str(event.error)
     for fragment in fragments:
         assert fragment in message, f"{fragment!r} not in {message!r}"
-    return message
+    assert not event.error.fatal
+    return event.error
 
 
 def test_unknown_command_is_named() -> None:
     rejects(command("__frobnicate", {}), "unknown system command", "__frobnicate")
     rejects(command("__handshake", {"version": "v0.7.0"}), "unknown system command", "__handshake")
+    rejects(command("__error", {"text": "a client cannot say this"}), "unknown system command", "__error")
 
 
 def test_malformed_json_names_the_command() -> None:
@@ -267,7 +359,7 @@ def test_malformed_json_names_the_command() -> None:
 
 
 def test_non_utf8_payload_names_the_command() -> None:
-    rejects(Frame("__subscribe", b"\xff{}"), "__subscribe", "UTF-8")
+    rejects(command("__subscribe", b"\xff{}"), "__subscribe", "UTF-8")
 
 
 @pytest.mark.parametrize("payload", ["[1, 2]", '"text"', "3", "null"])
@@ -284,6 +376,7 @@ def test_non_object_json_is_refused(payload: str) -> None:
         ("__request", {}, "srv_id"),
         ("__response", {}, "srv_id"),
         ("__auth", {}, "token"),
+        ("__ping", {}, "request_time"),
         ("__remove_subscriber", {}, "topic"),
         ("__remove_unity_service", {}, "topic"),
     ],
@@ -293,16 +386,19 @@ def test_missing_field_is_named(destination: str, params: dict, field: str) -> N
 
 
 @pytest.mark.parametrize(
-    ("destination", "params", "field"),
+    ("destination", "params", "expected"),
     [
-        ("__subscribe", {"topic": "/t", "message_name": "std_msgs/String", "queue_size": 1}, "queue_size"),
-        ("__topic_list", {"verbose": True}, "verbose"),
-        ("__request", {"srv_id": 1, "topic": "/s"}, "topic"),
-        ("__remove_publisher", {"topic": "/t", "latch": False}, "latch"),
+        ("__subscribe", {"topic": "/t", "message_name": "std_msgs/String", "priority": 1},
+         Subscribe("/t", "std_msgs/String")),
+        ("__topic_list", {"verbose": True}, TopicListQuery()),
+        ("__remove_publisher", {"topic": "/t", "latch": False}, Remove("publisher", "/t")),
+        ("__ping", {"request_time": "t", "sent_by": "Unity"}, Ping("t")),
     ],
 )
-def test_extra_field_is_named(destination: str, params: dict, field: str) -> None:
-    rejects(command(destination, params), destination, "unexpected field", repr(field))
+def test_fields_we_do_not_know_are_ignored_as_unitys_json_reader_ignores_them(
+    destination: str, params: dict, expected: Event
+) -> None:
+    assert parsed(destination, params) == expected
 
 
 @pytest.mark.parametrize(
@@ -315,20 +411,21 @@ def test_extra_field_is_named(destination: str, params: dict, field: str) -> Non
         ("__publish", {"topic": "/t", "message_name": "std_msgs/String", "queue_size": True}, "queue_size"),
         ("__publish", {"topic": "/t", "message_name": "std_msgs/String", "queue_size": "10"}, "queue_size"),
         ("__publish", {"topic": "/t", "message_name": "std_msgs/String", "latch": 1}, "latch"),
+        ("__subscribe", {"topic": "/t", "message_name": "std_msgs/String", "queue_size": 1.5}, "queue_size"),
         ("__subscribe", {"topic": 5, "message_name": "std_msgs/String"}, "topic"),
         ("__subscribe", {"topic": "/t", "message_name": ["std_msgs/String"]}, "message_name"),
         ("__auth", {"token": 1234}, "token"),
+        ("__ping", {"request_time": 1234}, "request_time"),
     ],
 )
 def test_wrong_type_is_named(destination: str, params: dict, field: str) -> None:
     rejects(command(destination, params), destination, f"field {field!r} must be")
 
 
-def test_negative_queue_size_is_refused() -> None:
-    rejects(
-        command("__publish", {"topic": "/t", "message_name": "std_msgs/String", "queue_size": -1}),
-        "__publish", "queue_size",
-    )
+@pytest.mark.parametrize("destination", ["__publish", "__subscribe"])
+def test_negative_queue_size_is_refused(destination: str) -> None:
+    rejects(command(destination, {"topic": "/t", "message_name": "std_msgs/String", "queue_size": -1}),
+            destination, "queue_size")
 
 
 @pytest.mark.parametrize("topic", ["", "__hidden", "/with space", "/tab\there", "/nul\0", "/new\nline"])
@@ -351,10 +448,147 @@ def test_bad_message_name_is_named(message_name: str) -> None:
 
 @pytest.mark.parametrize("message_name", ["std_msgs/String", "sensor_msgs/JointState", "tf2_msgs/TFMessage"])
 def test_good_message_names_pass(message_name: str) -> None:
-    assert parse_syscommand(command("__subscribe", {"topic": "/t", "message_name": message_name})).message_name == message_name
+    event = parsed("__subscribe", {"topic": "/t", "message_name": message_name})
+    assert isinstance(event, Subscribe) and event.message_name == message_name
 
 
-def test_parse_json_params_for_endpoint_commands() -> None:
-    assert protocol.parse_json_params("__error", b'{"text":"x"}') == {"text": "x"}
-    with pytest.raises(ProtocolError, match="__error"):
-        protocol.parse_json_params("__error", b"[")
+def test_keepalives_are_not_events() -> None:
+    assert received(protocol.KEEPALIVE_FRAME * 3) == []
+
+
+# --- the conversation: service headers and their bodies ---------------------------------------------------------
+
+
+def test_a_service_header_and_its_body_are_one_event_whatever_the_body_is_called() -> None:
+    header = command("__request", {"srv_id": 7})
+    conversation = Conversation(Role.ENDPOINT)
+    assert conversation.receive_data(header) == []
+    assert conversation.pending_service == (ServiceRequest, 7)
+    # The very next frame is the body, even one that looks like a command; a keepalive between them is skipped.
+    assert conversation.receive_data(protocol.KEEPALIVE_FRAME + encode_frame("__subscribe", b"body")) == [
+        ServiceRequest(7, "__subscribe", b"body")
+    ]
+    assert conversation.pending_service is None
+    assert conversation.receive_data(encode_frame("/t", b"x")) == [TopicMessage("/t", b"x")]
+
+
+@settings(max_examples=200, deadline=None)
+@given(events=st.lists(st.one_of(
+    st.builds(TopicMessage, st.sampled_from(["/a", "/b", "c"]), st.binary(max_size=20)),
+    st.builds(ServiceRequest, st.integers(0, 10**6), st.sampled_from(["/s", "__x"]), st.binary(max_size=20)),
+    st.builds(ServiceResponse, st.integers(0, 10**6), st.just("/s"), st.binary(max_size=20)),
+    st.builds(Subscribe, st.just("/t"), st.just("std_msgs/String")),
+    st.just(Keepalive()),
+), min_size=1, max_size=15), data=st.data())
+def test_any_split_of_a_conversation_gives_the_same_events(events: list, data) -> None:
+    client = Conversation(Role.CLIENT)
+    stream = b"".join(client.send(event) for event in events)
+    cuts = sorted(set(data.draw(st.lists(st.integers(0, len(stream)), max_size=20))))
+    endpoint = Conversation(Role.ENDPOINT)
+    got = []
+    for start, end in zip([0, *cuts], [*cuts, len(stream)]):
+        got += endpoint.receive_data(stream[start:end])
+    assert got == [event for event in events if not isinstance(event, Keepalive)]
+    assert endpoint.frames_received == sum(2 if isinstance(e, (ServiceRequest, ServiceResponse)) else 1
+                                           for e in events)
+
+
+def test_a_body_whose_name_is_not_utf8_fails_that_call_by_its_srv_id() -> None:
+    data = command("__response", {"srv_id": 1001}) + raw_frame(b"/s\xff", b"body") + encode_frame("/t", b"x")
+    invalid, message = received(data)
+    assert isinstance(invalid, InvalidInput) and invalid.error.srv_id == 1001 and "UTF-8" in str(invalid.error)
+    assert message == TopicMessage("/t", b"x")
+
+
+def test_a_bad_service_header_expects_no_body() -> None:
+    invalid, message = received(command("__request", {"srv_id": "7"}) + encode_frame("/t", b"x"))
+    assert isinstance(invalid, InvalidInput) and "srv_id" in str(invalid.error)
+    assert message == TopicMessage("/t", b"x")
+
+
+def test_a_bad_frame_costs_only_itself() -> None:
+    data = encode_frame("/a", b"1") + raw_frame(b"/bad\xfe", b"") + command("__nope", {}) + encode_frame("/b", b"2")
+    first, bad_name, unknown, last = received(data)
+    assert (first, last) == (TopicMessage("/a", b"1"), TopicMessage("/b", b"2"))
+    assert isinstance(bad_name, InvalidInput) and "UTF-8" in str(bad_name.error)
+    assert isinstance(unknown, InvalidInput) and "__nope" in str(unknown.error)
+
+
+def test_framing_loss_comes_after_the_frames_before_it_and_ends_the_conversation() -> None:
+    conversation = Conversation(Role.ENDPOINT, max_payload_bytes=4)
+    before, lost = conversation.receive_data(encode_frame("/a", b"1") + encode_frame("/b", b"12345"))
+    assert before == TopicMessage("/a", b"1")
+    assert isinstance(lost, InvalidInput) and lost.error.fatal and "limit" in str(lost.error)
+    with pytest.raises(RemoteProtocolError):
+        conversation.receive_data(encode_frame("/a", b"1"))
+
+
+# --- the conversation, client role: what an endpoint says -------------------------------------------------------
+
+
+def test_a_client_expects_the_handshake_first_and_reads_its_metadata() -> None:
+    client = Conversation(Role.CLIENT)
+    assert client.awaiting_handshake
+    (refused,) = client.receive_data(encode_frame("/t", b"x"))
+    assert isinstance(refused, InvalidInput) and "__handshake" in str(refused.error)
+    (handshake,) = client.receive_data(protocol.handshake())
+    assert handshake == Handshake("v0.7.0", {"protocol": "ROS1"}) and handshake.is_compatible
+    assert not client.awaiting_handshake
+    assert client.receive_data(encode_frame("/t", b"x")) == [TopicMessage("/t", b"x")]
+
+
+def test_an_incompatible_handshake_is_reported_as_such() -> None:
+    (handshake,) = Conversation(Role.CLIENT).receive_data(encode(Handshake("v0.6.0", {"protocol": "ROS2"})))
+    assert isinstance(handshake, Handshake) and not handshake.is_compatible
+    (bad,) = Conversation(Role.CLIENT).receive_data(command("__handshake", {"version": "v0.7.0", "metadata": "{"}))
+    assert isinstance(bad, InvalidInput) and "metadata" in str(bad.error)
+
+
+def test_an_error_names_the_call_it_fails() -> None:
+    client = Conversation(Role.CLIENT)
+    events = client.receive_data(protocol.handshake() + command("__error", {"text": "no", "srv_id": 101})
+                                 + command("__error", {"text": "plain"}))
+    assert events[1:] == [Error("no", 101), Error("plain")]
+
+
+def test_a_client_refuses_what_only_clients_say() -> None:
+    client = Conversation(Role.CLIENT)
+    client.receive_data(protocol.handshake())
+    (event,) = client.receive_data(command("__subscribe", {"topic": "/t", "message_name": "a/B"}))
+    assert isinstance(event, InvalidInput) and "unknown system command" in str(event.error)
+
+
+def test_a_topic_list_must_pair_names_and_types() -> None:
+    client = Conversation(Role.CLIENT)
+    client.receive_data(protocol.handshake())
+    (event,) = client.receive_data(command("__topic_list", {"topics": ["/a"], "types": []}))
+    assert isinstance(event, InvalidInput) and "same length" in str(event.error)
+
+
+# --- the conversation: what we may send ---------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("role", "event"),
+    [
+        (Role.CLIENT, Error("only endpoints report errors")),
+        (Role.CLIENT, TopicList((), ())),
+        (Role.CLIENT, Handshake("v0.7.0", {})),
+        (Role.ENDPOINT, Subscribe("/t", "std_msgs/String")),
+        (Role.ENDPOINT, Ping("t")),
+        (Role.ENDPOINT, Keepalive()),
+    ],
+)
+def test_each_role_sends_only_its_own_events(role: Role, event: Event) -> None:
+    with pytest.raises(LocalProtocolError, match=type(event).__name__):
+        Conversation(role).send(event)
+
+
+@pytest.mark.parametrize(
+    "event",
+    [Subscribe("", "std_msgs/String"), Publish("/t", "String"), Publish("/t", "a/B", -1), Remove("publisher", "a b"),
+     TopicMessage("__t", b""), TopicMessage("", b"")],
+)
+def test_we_never_send_what_we_would_refuse(event: Event) -> None:
+    with pytest.raises(LocalProtocolError):
+        Conversation(Role.CLIENT).send(event)

@@ -1,0 +1,73 @@
+"""The endpoint's settings, checked before it listens: EndpointConfig and the ConfigError a bad one raises."""
+from __future__ import annotations
+
+import fnmatch
+import math
+from dataclasses import dataclass
+from typing import Optional, Tuple
+
+from bridge.protocol import DEFAULT_MAX_PAYLOAD_BYTES, MAX_DESTINATION_BYTES
+
+__all__ = ["ConfigError", "EndpointConfig", "MAX_FRAME_LENGTH"]
+
+
+class ConfigError(ValueError):
+    """A setting the endpoint cannot serve clients with; `setting` is the EndpointConfig field concerned."""
+
+    def __init__(self, setting: str, problem: str) -> None:
+        super().__init__(f"{setting}: {problem}")
+        self.setting = setting
+        self.problem = problem
+
+
+# Unity's client reads frame lengths as signed 32-bit integers: nothing longer can be framed.
+MAX_FRAME_LENGTH = 2**31 - 1
+
+
+@dataclass
+class EndpointConfig:
+    tcp_ip: str = "127.0.0.1"
+    tcp_port: int = 10000
+    max_payload_bytes: int = DEFAULT_MAX_PAYLOAD_BYTES
+    max_destination_bytes: int = MAX_DESTINATION_BYTES
+    client_queue_frames: int = 1024
+    client_queue_bytes: int = 4 * 1024 * 1024
+    auth_token: Optional[str] = None  # off by default: Unity's client cannot send __auth
+    allow_topics: Tuple[str, ...] = ()  # fnmatch patterns on resolved names; empty = everything
+    deny_topics: Tuple[str, ...] = ()
+    service_timeout_s: float = 10.0
+    validate_payloads: bool = True
+    # Per client: ROS service calls and topic-list look-ups in flight at once, and queued behind them. Each client
+    # has its own workers, so one client calling missing services (each waiting service_timeout_s) delays only
+    # its own later calls.
+    client_call_workers: int = 4
+    client_max_pending_calls: int = 64
+
+    def __post_init__(self) -> None:
+        """Refuse, before anything starts, settings that would fail later: at bind, or at every client's connect."""
+        if not isinstance(self.tcp_ip, str) or not self.tcp_ip:
+            raise ConfigError("tcp_ip", f"must be an address or host name, got {self.tcp_ip!r}")
+        _check_whole("tcp_port", self.tcp_port, 0, 65535)
+        _check_whole("max_payload_bytes", self.max_payload_bytes, 1, MAX_FRAME_LENGTH)
+        _check_whole("max_destination_bytes", self.max_destination_bytes, 1, MAX_FRAME_LENGTH)
+        _check_whole("client_queue_frames", self.client_queue_frames, 1)
+        _check_whole("client_queue_bytes", self.client_queue_bytes, 1)
+        _check_whole("client_call_workers", self.client_call_workers, 1)
+        _check_whole("client_max_pending_calls", self.client_max_pending_calls, 1)
+        timeout = self.service_timeout_s
+        if isinstance(timeout, bool) or not isinstance(timeout, (int, float)) or not (0 < timeout < math.inf):
+            raise ConfigError("service_timeout_s", f"must be a positive number of seconds, got {timeout!r}")
+
+    def permits(self, resolved_name: str) -> bool:
+        if any(fnmatch.fnmatchcase(resolved_name, pattern) for pattern in self.deny_topics):
+            return False
+        return not self.allow_topics or any(
+            fnmatch.fnmatchcase(resolved_name, pattern) for pattern in self.allow_topics
+        )
+
+
+def _check_whole(setting: str, value: object, lowest: int, highest: Optional[int] = None) -> None:
+    in_range = value >= lowest and (highest is None or value <= highest) if isinstance(value, int) else False
+    if isinstance(value, bool) or not in_range:
+        allowed = f"from {lowest} to {highest}" if highest is not None else f"of at least {lowest}"
+        raise ConfigError(setting, f"must be a whole number {allowed}, got {value!r}")
