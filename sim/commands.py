@@ -14,6 +14,8 @@ import numpy as np
 
 from sim.rosmsgs import TrajectoryCommand
 
+__all__ = ["Target", "CommandBuffer"]
+
 
 @dataclass(frozen=True)
 class Target:
@@ -68,32 +70,3 @@ class CommandBuffer:
             if abs(ahead) <= self.stamp_tolerance_s:
                 ahead = 0.0  # stamped for t: ROS stamps are whole ns, so "exactly t" arrives as t ± 1 ns
             return Target(self._positions + self._velocities * ahead, self._velocities.copy())
-
-
-class ClockFollower:
-    """Estimates the controller's time (from /clock) at any wall instant, for auto-simulated stepping.
-
-    Once a /clock value has been seen, estimates stay on the controller's time base (extrapolated at
-    `time_scale`) even when /clock pauses, so stamps never fall back to another base; `stale_after_s` (off by
-    default) makes old values expire instead.
-    """
-
-    def __init__(self, time_scale: float = 1.0, stale_after_s: float | None = None) -> None:
-        self.time_scale = time_scale
-        self.stale_after_s = stale_after_s
-        self._clock: float | None = None
-        self._wall: float = 0.0
-        self._lock = threading.Lock()
-
-    def observe(self, clock_s: float, wall_s: float) -> None:
-        with self._lock:
-            self._clock, self._wall = clock_s, wall_s
-
-    def estimate(self, wall_s: float) -> float | None:
-        """Controller time now, or None before the first /clock (or when it is older than `stale_after_s`)."""
-        with self._lock:
-            if self._clock is None:
-                return None
-            if self.stale_after_s is not None and wall_s - self._wall > self.stale_after_s:
-                return None
-            return self._clock + (wall_s - self._wall) * self.time_scale

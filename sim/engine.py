@@ -24,10 +24,17 @@ import numpy as np
 
 from bridge.client import TcpClient
 from sim import frames, rosmsgs
-from sim.commands import ClockFollower, CommandBuffer
+from sim.clock import ClockAdvance, StepClock
+from sim.commands import CommandBuffer
 from sim.jointcsv import read_joint_csv, write_joint_csv
-from sim.physics import DriveParams, JointStateSample, Mode, PhysicsWorld, SimClock, render_gif
+from sim.physics import DriveParams, Mode, PhysicsWorld, SimulatedJointState, render_gif
 from sim.robots import RobotSpec, get_robot
+
+__all__ = [
+    "POSE_QUATERNION", "POSE_EULER", "EngineError", "EngineOptions", "make_world", "TargetMarker",
+    "pose_to_marker", "FrameRecorder", "EngineStandIn", "path_velocity", "replay_csv", "argument_parser",
+    "options_from_args", "main",
+]
 
 log = logging.getLogger(__name__)
 
@@ -122,13 +129,11 @@ class EngineStandIn:
         self.options = options
         self.world = make_world(robot, options)
         self.commands = CommandBuffer(self.world.state().positions)
-        self.follower = ClockFollower(options.time_scale)
-        self.sim_clock = SimClock(dt=options.dt, max_jump=options.max_clock_jump_s)
+        self.clock = StepClock(options.dt, options.auto_simulate, options.time_scale, options.max_clock_jump_s)
         self.marker: TargetMarker | None = None
         self.rejected_commands = 0
         self.steps = 0
-        self._clock_value: float | None = None
-        self._clock_changed = threading.Condition()
+        self._clock_changed = threading.Condition()  # a new /clock value (clock-driven stepping waits for it)
         self._stop = threading.Event()
         self._seq = 0
         self._lockstep = False  # True once commands arrive stamped exactly at step ends
@@ -156,9 +161,8 @@ class EngineStandIn:
         except rosmsgs.MessageError as error:
             log.error("/clock message rejected: %s", error)
             return
-        self.follower.observe(value, time.monotonic())
         with self._clock_changed:
-            self._clock_value = value
+            self.clock.observe_clock(value, time.monotonic())
             self._clock_changed.notify_all()
 
     def _on_pose(self, payload: bytes) -> None:
@@ -178,7 +182,7 @@ class EngineStandIn:
         if self.recorder is not None:
             self.recorder.after_step(self.world, self.steps)
 
-    def _publish_state(self, stamp: float, sample: JointStateSample) -> None:
+    def _publish_state(self, stamp: float, sample: SimulatedJointState) -> None:
         self._seq += 1
         self.client.publish(
             self.robot.joint_states_topic,
@@ -200,45 +204,43 @@ class EngineStandIn:
             self._clock_changed.notify_all()
 
     def _run_auto(self, duration_s: float | None) -> None:
-        dt = self.options.dt
-        wall_period = dt / self.options.time_scale
-        next_wall = time.monotonic()
-        own_time = 0.0
-        while not self._stop.is_set() and (duration_s is None or own_time < duration_s - 1e-9):
-            next_wall += wall_period
-            delay = next_wall - time.monotonic()
-            if delay > 0:
-                self._stop.wait(delay)
-            elif delay < -1.0:  # far behind (machine stalled): skip ahead rather than burst
-                next_wall = time.monotonic()
-            own_time += dt
-            # Stamps follow the controller's /clock while it runs, so commands and states share one time base.
-            estimate = self.follower.estimate(time.monotonic())
-            self.step_to(estimate if estimate is not None else own_time)
+        clock = self.clock
+        clock.poll(time.monotonic())  # anchors the step grid: the first step ends one step from now
+        while not self._stop.is_set() and (duration_s is None or clock.time < duration_s - 1e-9):
+            next_step = clock.next_step_wall()
+            assert next_step is not None
+            delay = next_step - time.monotonic()
+            if delay > 0 and self._stop.wait(delay):
+                return
+            advance = clock.poll(time.monotonic())
+            self._log_resync(advance)
+            for step_end in advance.step_ends:
+                self.step_to(step_end)
 
     def _run_clock_driven(self, duration_s: float | None) -> None:
-        dt = self.options.dt
+        clock = self.clock
         while not self._stop.is_set():
             with self._clock_changed:
-                self._clock_changed.wait_for(
-                    lambda: self._stop.is_set()
-                    or (self._clock_value is not None and self.sim_clock.pending(self._clock_value) > 0),
-                    timeout=0.5,
-                )
-                clock = self._clock_value
-            if self._stop.is_set() or clock is None:
-                continue
-            anchored_at = self.sim_clock.last_step_end
-            advance = self.sim_clock.advance_to(clock)  # logs a warning itself when it pauses and resumes
-            if anchored_at is None or advance.resynced:
+                self._clock_changed.wait_for(lambda: self._stop.is_set() or clock.pending() > 0, timeout=0.5)
+                if self._stop.is_set():
+                    return
+                advance = clock.advance()
+            self._log_resync(advance)
+            if advance.anchored_at is not None:
                 # The step grid is (re)anchored on this /clock value: say where the robot is, stamped with it.
                 # This is the controller's cue that its clock has been taken (no steps were run).
-                self._publish_state(clock, self.world.state())
+                self._publish_state(advance.anchored_at, self.world.state())
             for step_end in advance.step_ends:
-                self._await_lockstep_command(step_end, dt)
+                self._await_lockstep_command(step_end, clock.dt)
                 self.step_to(step_end)
-            if duration_s is not None and self.sim_clock.time >= duration_s - 1e-9:
+            if duration_s is not None and clock.time >= duration_s - 1e-9:
                 return
+
+    @staticmethod
+    def _log_resync(advance: ClockAdvance) -> None:
+        if advance.resynced:
+            log.warning("the clock jumped by %.3f s: paused and resumed at %.3f without catching up",
+                        advance.jump, advance.anchored_at)
 
     def _await_lockstep_command(self, step_end: float, dt: float) -> None:
         """In lockstep, wait briefly for this step's command: it may arrive just after the /clock tick."""
@@ -326,8 +328,9 @@ def argument_parser() -> argparse.ArgumentParser:
 
 def options_from_args(args: argparse.Namespace) -> EngineOptions:
     """The engine's options from `argument_parser()`'s arguments (shared with the rospy physics node)."""
-    if args.dt <= 0 or args.time_scale <= 0:
-        raise EngineError(f"--dt and --time-scale must be > 0, got {args.dt} and {args.time_scale}")
+    if not (args.dt > 0 and args.time_scale > 0 and args.max_clock_jump > 0):
+        raise EngineError(f"--dt, --time-scale and --max-clock-jump must be > 0, got {args.dt}, {args.time_scale} "
+                          f"and {args.max_clock_jump}")
     return EngineOptions(
         mode=Mode(args.mode), dt=args.dt, auto_simulate=not args.no_auto_simulate, time_scale=args.time_scale,
         max_clock_jump_s=args.max_clock_jump, pose_convention=args.pose_convention,

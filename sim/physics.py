@@ -28,8 +28,7 @@ from __future__ import annotations
 
 import logging
 import math
-import time
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from enum import Enum
 from pathlib import Path
@@ -38,6 +37,11 @@ import numpy as np
 import pybullet as p
 
 from sim.robots import RobotSpec
+
+__all__ = [
+    "GRAVITY", "PhysicsError", "Mode", "DriveParams", "implicit_drive_step", "SimulatedJointState",
+    "PhysicsWorld", "render_gif",
+]
 
 log = logging.getLogger(__name__)
 
@@ -196,7 +200,9 @@ def _drive_residual(velocity: np.ndarray, inertia: np.ndarray, momentum: np.ndar
 
 
 @dataclass(frozen=True)
-class JointStateSample:
+class SimulatedJointState:
+    """The physics world's joint state after a step, as the engine publishes it on joint_states."""
+
     time: float  # sim seconds since the world was made
     positions: np.ndarray  # rad or m, robot.joint_names order
     velocities: np.ndarray  # rad/s or m/s
@@ -322,7 +328,7 @@ class PhysicsWorld:
         self._engine_synced = False
 
     # --- stepping -----------------------------------------------------------------------------------------------
-    def step(self) -> JointStateSample:
+    def step(self) -> SimulatedJointState:
         """Advance exactly one fixed step dt towards the targets set before it."""
         self._require_open()
         if self.mode is Mode.NO_PHYSICS:
@@ -392,8 +398,8 @@ class PhysicsWorld:
     def time(self) -> float:
         return self._time
 
-    def state(self) -> JointStateSample:
-        return JointStateSample(self._time, self._q.copy(), self._v.copy(), self._effort.copy())
+    def state(self) -> SimulatedJointState:
+        return SimulatedJointState(self._time, self._q.copy(), self._v.copy(), self._effort.copy())
 
     def _sync_engine(self) -> int:
         """Copy our joint state into pybullet (only needed for kinematics and pictures, hence lazily)."""
@@ -454,139 +460,3 @@ def render_gif(frames: Sequence[np.ndarray], path: str | Path, frame_duration_s:
     images[0].save(path, format="GIF", save_all=True, append_images=images[1:],
                    duration=max(int(round(frame_duration_s * 1000)), 10), loop=0)
     return path
-
-
-# --------------------------------------------------------------------------------------------------------------
-# When to step
-
-
-CLOCK_TOLERANCE_S = 1e-6
-
-
-@dataclass(frozen=True)
-class ClockAdvance:
-    """What one look at the clock asks for: run `steps` fixed steps ending at `step_ends` (clock time base)."""
-
-    steps: int
-    step_ends: tuple[float, ...]
-    resynced: bool  # the clock jumped by more than max_jump (or backwards): no catch-up, resumed at its value
-    jump: float  # the clock's change since the previous look, in s (0 on the first look)
-
-    def __int__(self) -> int:
-        return self.steps
-
-
-class SimClock:
-    """When to run fixed steps of `dt`. Pure logic: it never sleeps and never steps anything itself.
-
-    auto_simulate=True: the engine's own wall clock drives it (`poll()`): sim time = wall time × time_scale
-      (time_scale 2 = twice as fast as real time, if the machine keeps up).
-    auto_simulate=False: an external clock (/clock) drives it (`advance_to(t)`): as many steps as fit between
-      the first value seen and t; the step ends are on the grid first_value + k·dt of that clock.
-    Failsafe, both policies: when the clock moves by more than `max_jump` s at once (a stalled machine, a paused
-    controller, a restarted bag) or backwards, it does not run the missed steps in a burst; it pauses and resumes
-    (re-anchors at the new value, runs 0 steps) and says so in `ClockAdvance.resynced` for the caller to log.
-    """
-
-    def __init__(
-        self,
-        dt: float,
-        auto_simulate: bool = False,
-        time_scale: float = 1.0,
-        max_jump: float = 1.0,
-        wall_clock: Callable[[], float] = time.monotonic,
-    ) -> None:
-        if not (math.isfinite(dt) and dt > 0):
-            raise PhysicsError(f"SimClock dt must be > 0 s, got {dt!r}")
-        if not (math.isfinite(time_scale) and time_scale > 0):
-            raise PhysicsError(f"SimClock time_scale must be > 0, got {time_scale!r}")
-        if not max_jump > 0:
-            raise PhysicsError(f"SimClock max_jump must be > 0 s, got {max_jump!r}")
-        self.dt = float(dt)
-        self.auto_simulate = auto_simulate
-        self.time_scale = float(time_scale)
-        self.max_jump = float(max_jump)
-        self._wall_clock = wall_clock
-        self._anchor: float | None = None  # clock value of the grid's origin
-        self._last_seen: float | None = None
-        self._steps_since_anchor = 0
-        self.steps = 0  # fixed steps run in total
-        self.resyncs = 0
-        self.paused = False
-
-    @property
-    def time(self) -> float:
-        """Sim seconds simulated so far (steps × dt), whatever the clock's origin and jumps."""
-        return self.steps * self.dt
-
-    @property
-    def last_step_end(self) -> float | None:
-        """The clock value at the end of the last step run (None before the first)."""
-        if self._anchor is None:
-            return None
-        return self._anchor + self._steps_since_anchor * self.dt
-
-    def _due(self, t: float) -> int:
-        assert self._anchor is not None
-        # A clock value on the grid counts as reached even when it arrives a little early: ROS stamps are whole
-        # nanoseconds and rospy's Time.from_sec truncates (1.16 s arrives as 1.159999999 s).
-        return max(int(math.floor((t - self._anchor + CLOCK_TOLERANCE_S) / self.dt)) - self._steps_since_anchor, 0)
-
-    def _needs_resync(self, t: float) -> bool:
-        assert self._last_seen is not None
-        return t < self._last_seen - 1e-12 or t - self._last_seen > self.max_jump
-
-    def pending(self, t: float) -> int:
-        """Steps advance_to(t) would run, without changing anything; 1 if it would (re-)anchor instead.
-
-        Non-zero means "call advance_to(t) now" (a waiting loop must not sleep through a jump or the first value).
-        """
-        if self.paused:
-            return 0
-        if self._anchor is None or self._needs_resync(t):
-            return 1
-        return self._due(t)
-
-    def advance_to(self, t: float) -> ClockAdvance:
-        """The steps to run now that the driving clock reads `t` (s), marked as done."""
-        if not math.isfinite(t):
-            raise PhysicsError(f"clock value must be finite, got {t!r}")
-        if self.paused:
-            return ClockAdvance(0, (), False, 0.0)
-        if self._anchor is None:
-            self._reanchor(t)
-            return ClockAdvance(0, (), False, 0.0)
-        jump = t - self._last_seen
-        if self._needs_resync(t):
-            self.resyncs += 1
-            log.warning("clock jumped by %.3f s (max %.3f s): paused and resumed at %.3f s without catching up",
-                        jump, self.max_jump, t)
-            self._reanchor(t)
-            return ClockAdvance(0, (), True, jump)
-        self._last_seen = t
-        due = self._due(t)
-        first = self._steps_since_anchor + 1
-        ends = tuple(self._anchor + k * self.dt for k in range(first, first + due))
-        self._steps_since_anchor += due
-        self.steps += due
-        return ClockAdvance(due, ends, False, jump)
-
-    def poll(self, now: float | None = None) -> ClockAdvance:
-        """auto_simulate: the steps due by the wall clock (`now`, s, defaults to the wall_clock given)."""
-        if not self.auto_simulate:
-            raise PhysicsError("poll() is for auto_simulate=True; an external clock drives this one via advance_to")
-        wall = self._wall_clock() if now is None else now
-        return self.advance_to(wall * self.time_scale)
-
-    def pause(self) -> None:
-        self.paused = True
-
-    def resume(self) -> None:
-        """Carry on from the clock's next value, without running the steps missed while paused."""
-        self.paused = False
-        self._anchor = None
-
-    def _reanchor(self, t: float) -> None:
-        self._anchor = t
-        self._last_seen = t
-        self._steps_since_anchor = 0

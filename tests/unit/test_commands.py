@@ -1,4 +1,4 @@
-"""sim.commands: the engine's target for the end of each step (CommandBuffer) and its /clock estimate (ClockFollower)."""
+"""sim.commands: the engine's target for the end of each step (CommandBuffer)."""
 from __future__ import annotations
 
 import threading
@@ -6,7 +6,7 @@ import threading
 import numpy as np
 import pytest
 
-from sim.commands import ClockFollower, CommandBuffer
+from sim.commands import CommandBuffer
 from sim.rosmsgs import TrajectoryCommand
 
 NAN = np.nan
@@ -137,36 +137,3 @@ def test_wait_for_stamp_wakes_when_another_thread_stores_the_command():
     thread.join(5.0)
     assert not thread.is_alive()
     assert result == {"ok": True}
-
-
-# --- ClockFollower --------------------------------------------------------------------------------------------
-
-
-def test_clock_follower_has_no_estimate_before_any_clock():
-    assert ClockFollower().estimate(123.0) is None
-
-
-def test_clock_follower_extrapolates_the_last_clock_by_wall_time_times_scale():
-    follower = ClockFollower(time_scale=1.0)
-    follower.observe(10.0, wall_s=100.0)
-    assert follower.estimate(100.0) == 10.0
-    assert follower.estimate(100.25) == pytest.approx(10.25, abs=1e-12)
-    fast = ClockFollower(time_scale=4.0)
-    fast.observe(10.0, wall_s=100.0)
-    assert fast.estimate(100.25) == pytest.approx(11.0, abs=1e-12)
-
-
-def test_clock_follower_goes_stale_and_recovers_with_the_next_clock():
-    follower = ClockFollower(stale_after_s=1.0)
-    follower.observe(5.0, wall_s=0.0)
-    assert follower.estimate(1.0) == pytest.approx(6.0)
-    assert follower.estimate(1.001) is None
-    follower.observe(7.0, wall_s=2.0)
-    assert follower.estimate(2.5) == pytest.approx(7.5)
-
-
-def test_clock_follower_uses_the_newest_clock_even_when_it_goes_back():
-    follower = ClockFollower()
-    follower.observe(50.0, wall_s=1.0)
-    follower.observe(0.0, wall_s=1.1)  # a restarted controller or bag
-    assert follower.estimate(1.2) == pytest.approx(0.1)

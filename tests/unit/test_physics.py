@@ -1,4 +1,4 @@
-"""sim.physics: the three modes, the implicit drive, input checks, determinism, SimClock policies. Fast, no ROS."""
+"""sim.physics: the three modes, the implicit drive, input checks, determinism. Fast, no ROS."""
 from __future__ import annotations
 
 import numpy as np
@@ -9,7 +9,6 @@ from sim.physics import (
     Mode,
     PhysicsError,
     PhysicsWorld,
-    SimClock,
     implicit_drive_step,
     render_gif,
 )
@@ -281,72 +280,3 @@ def test_render_writes_a_png_and_a_gif(tmp_path):
     assert frames[0].std() > 0  # not a blank picture
     gif = render_gif(frames, tmp_path / "igt.gif")
     assert gif.read_bytes()[:6] == b"GIF89a"
-
-
-# --- SimClock -----------------------------------------------------------------------------------------------------
-
-
-def test_external_clock_steps_as_it_advances_on_a_fixed_grid():
-    clock = SimClock(dt=DT, auto_simulate=False)
-    assert clock.pending(10.0) == 1  # "call advance_to": the first value anchors
-    first = clock.advance_to(10.0)
-    assert first.steps == 0 and not first.resynced
-    assert clock.pending(10.05) == 2 and clock.steps == 0  # pending changes nothing
-    advance = clock.advance_to(10.05)
-    assert int(advance) == 2
-    np.testing.assert_allclose(advance.step_ends, [10.02, 10.04])
-    assert clock.advance_to(10.059).steps == 0
-    advance = clock.advance_to(10.06)  # exactly on the grid counts
-    assert advance.steps == 1 and advance.step_ends[0] == pytest.approx(10.06)
-    assert clock.time == pytest.approx(3 * DT) and clock.last_step_end == pytest.approx(10.06)
-    assert sum(clock.advance_to(10.06 + k * 0.001).steps for k in range(1, 1001)) == 50  # no drift
-
-
-def test_a_big_clock_jump_resyncs_instead_of_catching_up():
-    clock = SimClock(dt=DT, max_jump=1.0)
-    clock.advance_to(0.0)
-    clock.advance_to(0.5)
-    assert clock.pending(30.0) == 1
-    advance = clock.advance_to(30.0)
-    assert advance.resynced and advance.steps == 0 and advance.jump == pytest.approx(29.5)
-    assert clock.resyncs == 1
-    advance = clock.advance_to(30.04)  # resumed on a grid from 30.0
-    assert advance.steps == 2 and not advance.resynced
-    np.testing.assert_allclose(advance.step_ends, [30.02, 30.04])
-    backwards = clock.advance_to(5.0)  # e.g. a bag restarted
-    assert backwards.resynced and backwards.steps == 0
-    assert clock.advance_to(5.02).steps == 1
-    assert clock.advance_to(5.02 + 0.99).steps == 49  # below max_jump: caught up in full
-
-
-def test_pause_and_resume_skip_the_paused_time():
-    clock = SimClock(dt=DT)
-    clock.advance_to(0.0)
-    clock.pause()
-    assert clock.advance_to(0.5).steps == 0 and clock.pending(0.6) == 0
-    clock.resume()
-    assert clock.advance_to(0.7).steps == 0  # re-anchors
-    assert clock.advance_to(0.74).steps == 2
-
-
-def test_auto_simulate_follows_the_wall_clock_times_the_time_scale():
-    wall = [100.0]
-    clock = SimClock(dt=DT, auto_simulate=True, time_scale=2.0, max_jump=1.0, wall_clock=lambda: wall[0])
-    assert clock.poll().steps == 0
-    wall[0] += 0.1  # 0.2 s of sim time at time_scale 2
-    assert clock.poll().steps == 10
-    wall[0] += 5.0  # the machine stalled: no burst of 500 steps
-    stalled = clock.poll()
-    assert stalled.resynced and stalled.steps == 0
-    assert clock.poll(now=wall[0] + 0.01).steps == 1
-
-
-def test_clock_input_checks():
-    with pytest.raises(PhysicsError, match="dt"):
-        SimClock(dt=0)
-    with pytest.raises(PhysicsError, match="time_scale"):
-        SimClock(dt=DT, time_scale=-1)
-    with pytest.raises(PhysicsError, match="poll"):
-        SimClock(dt=DT).poll()
-    with pytest.raises(PhysicsError, match="finite"):
-        SimClock(dt=DT).advance_to(float("nan"))
