@@ -18,8 +18,14 @@ import numpy as np
 
 from sim import rosmsgs
 from sim.jointcsv import read_joint_csv
-from sim.metrics import TrackingMetrics, mean_and_std, resample, tracking_metrics
+from sim.metrics import TrackingMetrics, mean_and_std, per_joint_metrics, resample
 from sim.robots import RobotSpec
+
+__all__ = [
+    "STATE_LEAD_TOLERANCE_S", "MOVING_JOINT_RANGE", "AnalysisError", "TrialSeries", "TrialResult", "read_bag",
+    "read_csv_pair", "align", "trial_metrics", "summary_rows", "markdown_table", "write_report", "write_plots",
+    "plot_ee_paths", "analyse_bags",
+]
 
 log = logging.getLogger(__name__)
 
@@ -156,11 +162,7 @@ def align(series: TrialSeries) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 def trial_metrics(series: TrialSeries, dt: float) -> dict[str, TrackingMetrics]:
     """Metrics per moving joint (desired range above MOVING_JOINT_RANGE)."""
     _, desired, achieved = align(series)
-    result = {}
-    for j, name in enumerate(series.joint_names):
-        if np.ptp(desired[:, j]) > MOVING_JOINT_RANGE:
-            result[name] = tracking_metrics(desired[:, j], achieved[:, j], dt)
-    return result
+    return per_joint_metrics(series.joint_names, desired, achieved, dt, MOVING_JOINT_RANGE)
 
 
 # --- report ----------------------------------------------------------------------------------------------------

@@ -36,10 +36,7 @@ a joint state that does not come), 130 interrupted.
 from __future__ import annotations
 
 import argparse
-import ast
-import csv
 import math
-import operator
 import signal
 import sys
 import threading
@@ -51,10 +48,11 @@ from typing import Any
 
 import numpy as np
 
+from sim.cli_values import CliValueError, parse_numbers
 from sim.frames import matrix_to_quat, quat_to_euler_xyz
-from sim.kinematics import chain_for
-from sim.metrics import TrackingMetrics, tracking_metrics
 from sim.robots import ROBOT_NAMES, RobotError, RobotSpec, get_robot
+from sim.run_log import RunResult, write_log
+from sim.run_summary import format_fk_confirm, format_summary
 from sim.scenarios import (
     APPROACH_MIN_S,
     DEFAULT_DT,
@@ -70,11 +68,15 @@ from sim.scenarios import (
     UnreachableGoalError,
     build_motion,
     build_schedule,
-    fk_path,
-    pose_errors,
     write_engine_csv,
 )
 from sim.trajectory import ORDERS
+
+__all__ = [
+    "REPO", "DEFAULT_LOG_DIR", "STAMP_TOLERANCE_S", "EXIT_OK", "EXIT_USAGE", "EXIT_UNREACHABLE", "EXIT_ROS",
+    "EXIT_INTERRUPTED", "CommanderError", "config_from_args", "ReceivedJointState", "StateListener", "Commander",
+    "main",
+]
 
 REPO = Path(__file__).resolve().parents[1]
 DEFAULT_LOG_DIR = REPO / "results" / "commander"
@@ -84,44 +86,6 @@ EXIT_OK, EXIT_USAGE, EXIT_UNREACHABLE, EXIT_ROS, EXIT_INTERRUPTED = 0, 2, 3, 4, 
 
 class CommanderError(RuntimeError):
     """A ROS-side failure: no partner, a joint state that does not arrive, a malformed joint state."""
-
-
-# ----------------------------------------------------------------------------------------------- CLI input
-_OPERATORS = {ast.Add: operator.add, ast.Sub: operator.sub, ast.Mult: operator.mul, ast.Div: operator.truediv}
-
-
-def _number(text: str) -> float:
-    """A float, or a small arithmetic expression of numbers and `pi` (e.g. pi/4, -2*pi/5)."""
-
-    def evaluate(node: ast.AST) -> float:
-        if isinstance(node, ast.Constant) and isinstance(node.value, (int, float)):
-            return float(node.value)
-        if isinstance(node, ast.Name) and node.id == "pi":
-            return math.pi
-        if isinstance(node, ast.UnaryOp) and isinstance(node.op, (ast.USub, ast.UAdd)):
-            value = evaluate(node.operand)
-            return -value if isinstance(node.op, ast.USub) else value
-        if isinstance(node, ast.BinOp) and type(node.op) in _OPERATORS:
-            return _OPERATORS[type(node.op)](evaluate(node.left), evaluate(node.right))
-        raise ValueError(text)
-
-    try:
-        value = evaluate(ast.parse(text.strip(), mode="eval").body)
-    except (SyntaxError, ValueError, ZeroDivisionError):
-        raise ScenarioError(f"not a number: {text!r} (use e.g. 0.5, -2.45, pi/4)") from None
-    if not math.isfinite(value):
-        raise ScenarioError(f"not a finite number: {text!r}")
-    return value
-
-
-def parse_numbers(tokens: list[str] | None, what: str) -> list[float] | None:
-    """Numbers given space- and/or comma-separated: `--goal 0.5 0.375 0.75` or `--goal=0.5,0.375,0.75`."""
-    if tokens is None:
-        return None
-    parts = [part for token in tokens for part in token.replace(",", " ").split()]
-    if not parts:
-        raise ScenarioError(f"{what}: no numbers given")
-    return [_number(part) for part in parts]
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -191,7 +155,9 @@ def config_from_args(args: argparse.Namespace) -> ScenarioConfig:
 
 # ------------------------------------------------------------------------------------------------ the node
 @dataclass
-class JointStateSample:
+class ReceivedJointState:
+    """A joint state as the commander received it: its stamp and the positions in registry joint order."""
+
     stamp: float
     positions: np.ndarray
 
@@ -201,7 +167,7 @@ class StateListener:
 
     def __init__(self, robot: RobotSpec) -> None:
         self.robot = robot
-        self.latest: JointStateSample | None = None
+        self.latest: ReceivedJointState | None = None
         self.received = 0
         self.error: str | None = None
         self._changed = threading.Condition()
@@ -217,11 +183,11 @@ class StateListener:
                 self._changed.notify_all()
             return
         with self._changed:
-            self.latest = JointStateSample(message.header.stamp.to_sec(), positions)
+            self.latest = ReceivedJointState(message.header.stamp.to_sec(), positions)
             self.received += 1
             self._changed.notify_all()
 
-    def wait_for_stamp(self, stamp: float, timeout: float, stop: threading.Event) -> JointStateSample | None:
+    def wait_for_stamp(self, stamp: float, timeout: float, stop: threading.Event) -> ReceivedJointState | None:
         """The latest state once its stamp is >= `stamp` (None after `timeout` s or when stopped)."""
         deadline = time.monotonic() + timeout
         with self._changed:
@@ -238,19 +204,6 @@ class StateListener:
     def wake(self) -> None:
         with self._changed:
             self._changed.notify_all()
-
-
-@dataclass
-class RunResult:
-    times: np.ndarray  # (S,) step end times
-    schedule_index: np.ndarray  # (S,) index into the schedule
-    desired: np.ndarray  # (S, n)
-    achieved: np.ndarray  # (S, n), NaN where no state was known yet (realtime)
-    achieved_stamps: np.ndarray  # (S,)
-    wall_seconds: float
-    priming_steps: int
-    complete: bool
-    error: str | None = None  # why the run stopped early
 
 
 class Commander:
@@ -359,7 +312,7 @@ class Commander:
             publishers.append((self.robot.pose_topic, self.pose_pub))
         return publishers
 
-    def _state_or_fail(self, stamp: float, timeout: float) -> JointStateSample:
+    def _state_or_fail(self, stamp: float, timeout: float) -> ReceivedJointState:
         state = self.states.wait_for_stamp(stamp, timeout, self.stop)
         if state is None:
             if self.stop.is_set():
@@ -459,120 +412,6 @@ class Commander:
                 endpoint.unregister()
 
 
-# ---------------------------------------------------------------------------------------- log and summary
-@dataclass
-class RunReport:
-    joint_metrics: dict[str, TrackingMetrics]
-    scenario_times: np.ndarray  # scenario time of each scenario row with a joint state
-    ee_position_error: np.ndarray | None  # per scenario row: FK(achieved) vs the reference path
-    ee_orientation_error: np.ndarray | None
-    final_goal_error: tuple[float, float] | None  # FK(last achieved) vs the goal: m, rad
-    rows: int  # scenario rows with a joint state
-    approach_rows: int
-
-
-def write_log(path: Path, robot: RobotSpec, motion: Motion, schedule: Schedule, result: RunResult) -> RunReport:
-    """The per-step CSV log; returns the metrics of the scenario rows (approach rows left out)."""
-    motion_index = schedule.motion_index[result.schedule_index]
-    t_motion_start = (result.priming_steps + schedule.approach_steps) * motion.dt
-    scenario = motion_index >= 0
-    valid = scenario & np.isfinite(result.achieved_stamps)
-
-    ee_columns: list[str] = []
-    ee_data = np.empty((len(result.times), 0))
-    pos_err = rot_err = None
-    final_goal_error = None
-    if motion.reference_path is not None and motion.ik is not None:
-        chain = chain_for(robot)
-        # The reference at each achieved state's stamp (lockstep: the step end; realtime: whatever the engine reached).
-        at = np.where(np.isfinite(result.achieved_stamps), result.achieved_stamps, result.times)
-        ref_index = np.clip(np.round(at / motion.dt).astype(int) - result.priming_steps, 0, len(schedule.positions) - 1)
-        ref_motion = schedule.motion_index[ref_index]
-        reference = np.where((ref_motion >= 0)[:, None, None], motion.reference_path[np.maximum(ref_motion, 0)],
-                             fk_path(chain, schedule.positions[ref_index]))
-        achieved_fk = np.array([chain.fk(q) if np.all(np.isfinite(q)) else np.full((4, 4), np.nan) for q in result.achieved])
-        pos_err, rot_err = pose_errors(achieved_fk, reference, motion.ik.weights)
-        ref_q = np.array([matrix_to_quat(r[:3, :3]) for r in reference])
-        ach_q = np.array([matrix_to_quat(a[:3, :3]) if np.all(np.isfinite(a)) else np.full(4, np.nan) for a in achieved_fk])
-        axes = ("x", "y", "z", "qx", "qy", "qz", "qw")
-        ee_columns = [f"ref_{a}" for a in axes] + [f"ee_{a}" for a in axes] + ["ee_pos_err", "ee_rot_err"]
-        ee_data = np.column_stack([reference[:, :3, 3], ref_q, achieved_fk[:, :3, 3], ach_q, pos_err, rot_err])
-        if np.any(valid) and motion.goal is not None:
-            last = int(np.flatnonzero(valid)[-1])
-            goal_p, goal_r = pose_errors(achieved_fk[last][None], motion.goal[None], motion.ik.weights)
-            final_goal_error = (float(goal_p[0]), float(goal_r[0]))
-
-    path.parent.mkdir(parents=True, exist_ok=True)
-    names = robot.joint_names
-    with open(path, "w", newline="") as handle:
-        writer = csv.writer(handle)
-        writer.writerow(["time", "scenario_time", "phase", *(f"desired_{n}" for n in names),
-                         *(f"achieved_{n}" for n in names), "achieved_stamp", *ee_columns])
-        for k, t in enumerate(result.times):
-            writer.writerow([f"{t:.6f}", f"{t - t_motion_start:.6f}", "scenario" if scenario[k] else "approach",
-                             *(f"{v:.9f}" for v in result.desired[k]), *(f"{v:.9f}" for v in result.achieved[k]),
-                             f"{result.achieved_stamps[k]:.6f}", *(f"{v:.9f}" for v in ee_data[k])])
-
-    metrics: dict[str, TrackingMetrics] = {}
-    if np.count_nonzero(valid) >= 2:
-        # Desired at the achieved states' stamps (equal to the step ends in lockstep).
-        full_times = (np.arange(len(schedule.positions)) + result.priming_steps) * motion.dt
-        for j, name in enumerate(names):
-            reference = np.interp(result.achieved_stamps[valid], full_times, schedule.positions[:, j])
-            metrics[name] = tracking_metrics(reference, result.achieved[valid, j], motion.dt)
-    return RunReport(
-        joint_metrics=metrics,
-        scenario_times=result.times[valid] - t_motion_start,
-        ee_position_error=None if pos_err is None else pos_err[valid],
-        ee_orientation_error=None if rot_err is None else rot_err[valid],
-        final_goal_error=final_goal_error,
-        rows=int(np.count_nonzero(valid)),
-        approach_rows=int(np.count_nonzero(~scenario)),
-    )
-
-
-def format_summary(robot: RobotSpec, motion: Motion, result: RunResult, report: RunReport, log_path: Path, realtime: bool) -> str:
-    lines = [
-        f"commander: {robot.name} {motion.scenario} ({motion.description})",
-        f"  {'realtime' if realtime else 'lockstep'}, dt {motion.dt:g} s: {len(result.times)} steps "
-        f"({report.rows} scenario, {report.approach_rows} approach, {result.priming_steps} priming) in {result.wall_seconds:.2f} s wall"
-        + ("" if result.complete else " -- INCOMPLETE"),
-        f"  log: {log_path}",
-    ]
-    if report.joint_metrics:
-        lines.append(f"  {'joint':<14} {'MAPE %':>9} {'WAPE %':>9} {'NRMSE %':>9} {'max|e|':>10} {'lag s':>7}")
-        for name, m in report.joint_metrics.items():
-            lines.append(f"  {name:<14} {m.mape_percent:9.4f} {m.wape_percent:9.4f} {m.nrmse_percent:9.4f} "
-                         f"{m.max_abs_error:10.3e} {m.lag_s:7.3f}")
-    if motion.ik is not None and report.ee_position_error is not None and report.ee_position_error.size:
-        ik = motion.ik
-        lines.append(
-            f"  IK ({ik.space} space, weights {ik.weights}): commanded goal error {ik.goal_position_error:.3e} m, "
-            f"{ik.goal_orientation_error:.3e} rad" + (f"; max joint jump {ik.max_joint_jump:.4f}" if ik.space == "cartesian" else "")
-        )
-        lines.append(
-            f"  FK(achieved) vs reference path: max {report.ee_position_error.max():.3e} m, "
-            f"{report.ee_orientation_error.max():.3e} rad"
-        )
-    if report.final_goal_error is not None:
-        lines.append(f"  FK(achieved) at the end vs goal: {report.final_goal_error[0]:.3e} m, {report.final_goal_error[1]:.3e} rad")
-    for note in motion.warnings:
-        lines.append(f"  warning: {note}")
-    return "\n".join(lines)
-
-
-def format_fk_confirm(report: RunReport, samples: int = 11) -> str:
-    """The end-effector error over time (FK of the achieved joints vs the reference path), at a few instants."""
-    if report.ee_position_error is None or report.ee_position_error.size == 0:
-        return ""
-    errors_p, errors_r = report.ee_position_error, report.ee_orientation_error
-    rows = np.unique(np.linspace(0, len(errors_p) - 1, samples).round().astype(int))
-    lines = ["  fk_confirm: FK(achieved) vs reference path", f"  {'t s':>7} {'pos err m':>11} {'rot err rad':>12}"]
-    for k in rows:
-        lines.append(f"  {report.scenario_times[k]:7.2f} {errors_p[k]:11.3e} {errors_r[k]:12.3e}")
-    return "\n".join(lines)
-
-
 # ------------------------------------------------------------------------------------------------------ main
 def _default_log_path(robot: str, scenario: str) -> Path:
     return DEFAULT_LOG_DIR / f"{robot}_{scenario}_{datetime.now().strftime('%Y%m%d-%H%M%S-%f')}.csv"
@@ -597,7 +436,7 @@ def main(argv: list[str] | None = None) -> int:
     except UnreachableGoalError as error:
         print(f"sim.commander: UNREACHABLE: {error}", file=sys.stderr)
         return EXIT_UNREACHABLE
-    except (ScenarioError, RobotError) as error:
+    except (ScenarioError, RobotError, CliValueError) as error:
         print(f"sim.commander: error: {error}", file=sys.stderr)
         return EXIT_USAGE
     for note in motion.warnings:

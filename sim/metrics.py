@@ -5,9 +5,15 @@ MAPE (the seed's metric) explodes where the reference crosses zero, so it is com
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+
+__all__ = [
+    "DEFAULT_MAPE_FLOOR", "HELD_STILL_SPREAD", "MetricsError", "TrackingMetrics", "mape_percent", "wape_percent",
+    "nrmse_percent", "lag_seconds", "tracking_metrics", "per_joint_metrics", "resample", "mean_and_std",
+]
 
 DEFAULT_MAPE_FLOOR = 1e-3  # rad or m: samples with |reference| below this are left out of MAPE
 # rad or m: a reference whose spread is below this is held still (float noise, not motion); its NRMSE (relative
@@ -104,6 +110,18 @@ def tracking_metrics(
         samples=int(reference.size),
         mape_samples=mape_samples,
     )
+
+
+def per_joint_metrics(
+    joint_names: Sequence[str], desired: np.ndarray, achieved: np.ndarray, dt: float, min_range: float = 0.0
+) -> dict[str, TrackingMetrics]:
+    """The metrics of each joint whose desired range exceeds `min_range` (0: every joint). `desired` and `achieved`
+    are (samples, joints), taken at the same instants, `dt` apart."""
+    return {
+        name: tracking_metrics(desired[:, j], achieved[:, j], dt)
+        for j, name in enumerate(joint_names)
+        if min_range <= 0 or np.ptp(desired[:, j]) > min_range
+    }
 
 
 def resample(times: np.ndarray, values: np.ndarray, at: np.ndarray) -> np.ndarray:
