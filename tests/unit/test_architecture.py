@@ -1,4 +1,4 @@
-"""The house rules of ../shared/DESIGN.md that imports can break: checked in fresh interpreters."""
+"""The house rules that imports can break (docs/architecture.md), checked in fresh interpreters."""
 import ast
 import subprocess
 
@@ -48,3 +48,11 @@ def test_the_endpoint_type_checks() -> None:
         cwd=REPO, capture_output=True, text=True, timeout=240,
     )
     assert result.returncode == 0, result.stdout + result.stderr
+
+
+def test_the_repository_stands_on_its_own() -> None:
+    """Docs, code and tests cite only what is in the repository: no notes from outside it."""
+    tracked = subprocess.run(["git", "ls-files"], cwd=REPO, capture_output=True, text=True, timeout=60).stdout.split()
+    outside = "../" + "shared"
+    citing = [name for name in tracked if (REPO / name).is_file() and outside in (REPO / name).read_text(errors="ignore")]
+    assert citing == []
