@@ -7,7 +7,7 @@ setup(
     description="Drop-in ROS-TCP-Endpoint (protocol v0.7.0, ROS 1) plus simulated robots, controllers and trials",
     python_requires=">=3.11",
     packages=find_packages(include=["bridge", "bridge.*", "sim", "sim.*"]),
-    package_data={"sim.robots": ["urdf/*.urdf"]},
+    package_data={"bridge": ["py.typed"], "sim": ["py.typed"], "sim.robots": ["urdf/*.urdf"]},
     install_requires=[
         "numpy>=1.24",
         "pybullet>=3.2.5",

@@ -19,6 +19,8 @@ from bridge.protocol import DEFAULT_MAX_PAYLOAD_BYTES
 from bridge.config import ConfigError, EndpointConfig
 from bridge.server import Endpoint
 
+__all__ = ["build_config", "GIL_SWITCH_INTERVAL_S", "main"]
+
 log = logging.getLogger("bridge")
 
 

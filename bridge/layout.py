@@ -12,8 +12,9 @@ payload passes here exactly when it is a well-formed message of the type. Import
 from __future__ import annotations
 
 import struct
-from collections.abc import Callable
-from typing import Any
+from typing import Any, Callable
+
+__all__ = ["Step", "ClassResolver", "LayoutError", "Layout"]
 
 _U32 = struct.Struct("<I")
 _read_u32 = _U32.unpack_from

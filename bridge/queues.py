@@ -9,6 +9,8 @@ import threading
 import time
 from collections import deque
 
+__all__ = ["OutgoingQueue"]
+
 
 class OutgoingQueue:
     """Frames waiting for one client's writer.

@@ -11,8 +11,7 @@ import logging
 import struct
 import threading
 import warnings
-from collections.abc import Callable
-from typing import Any
+from typing import Any, Callable
 
 import genpy
 import rosgraph
@@ -21,6 +20,11 @@ import rospy
 from bridge.layout import Layout, LayoutError
 from bridge.queues import OutgoingQueue
 from bridge.sockets import send_to_all, unsent_bytes
+
+__all__ = [
+    "PUBLISH_WAIT_S", "SUBSCRIBER_STALL_S", "DIRECT_PUBLISH_MAX_BYTES", "RosError", "RawMessage", "TypeRegistry",
+    "MessageCallback", "ServiceHandler", "RosGraph", "RawPublisher", "RawServiceProxy",
+]
 
 log = logging.getLogger(__name__)
 _U32 = struct.Struct("<I")

@@ -11,6 +11,8 @@ import termios
 import time
 from collections.abc import Sequence
 
+__all__ = ["unsent_bytes", "send_now", "tune_socket", "send_to_all"]
+
 _INT = struct.Struct("i")
 _INT_ZERO = bytes(_INT.size)
 

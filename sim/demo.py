@@ -20,6 +20,8 @@ from sim.processes import ProcessError
 from sim.robots import get_robot
 from sim.trials import USE_CASES, Campaign, TrialError
 
+__all__ = ["IK_GOAL", "main"]
+
 IK_GOAL = (0.5, 0.375, 0.75)
 
 

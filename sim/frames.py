@@ -22,6 +22,12 @@ import math
 
 import numpy as np
 
+__all__ = [
+    "FrameError", "ros_to_unity_point", "unity_to_ros_point", "ros_to_unity_quat", "unity_to_ros_quat",
+    "ros_to_unity_matrix", "quat_to_matrix", "matrix_to_quat", "rpy_to_matrix", "matrix_to_rpy",
+    "euler_xyz_to_quat", "quat_to_euler_xyz", "quat_multiply",
+]
+
 _ROS_TO_UNITY = np.array([[0.0, -1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]])
 
 

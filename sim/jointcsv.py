@@ -14,6 +14,8 @@ import numpy as np
 
 from sim.robots import RobotSpec
 
+__all__ = ["JointCsvError", "read_joint_csv", "write_joint_csv"]
+
 
 class JointCsvError(ValueError):
     """A joint CSV that cannot be used; the message names the file, line, column or value."""

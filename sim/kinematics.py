@@ -36,6 +36,12 @@ import numpy as np
 
 from sim.frames import quat_to_matrix, rpy_to_matrix
 
+__all__ = [
+    "MOVABLE_TYPES", "FULL_POSE_WEIGHTS", "POSITION_WEIGHTS", "PLANAR_WEIGHTS", "DEFAULT_DAMPING_BIAS",
+    "KinematicsError", "ChainJoint", "pose_matrix", "planar_pose", "KinematicChain", "chain_for", "panda_dh_fk",
+    "IKResult", "PathIKResult", "rotation_vector", "solve_ik", "solve_path_ik",
+]
+
 MOVABLE_TYPES = ("revolute", "continuous", "prismatic")
 FULL_POSE_WEIGHTS = (1.0, 1.0, 1.0, 1.0, 1.0, 1.0)
 POSITION_WEIGHTS = (1.0, 1.0, 1.0, 0.0, 0.0, 0.0)

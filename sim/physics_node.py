@@ -16,6 +16,8 @@ import rospy
 from sim.engine import EngineError, EngineStandIn, argument_parser, options_from_args
 from sim.robots import get_robot
 
+__all__ = ["RospyTransport", "main"]
+
 log = logging.getLogger(__name__)
 
 

@@ -18,6 +18,11 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import TypeVar
 
+__all__ = [
+    "REPO", "PYTHON", "ProcessError", "free_port", "wait_for", "kill_process", "ros_environment",
+    "ManagedProcess", "RosCore",
+]
+
 REPO = Path(__file__).resolve().parents[1]
 PYTHON = sys.executable
 

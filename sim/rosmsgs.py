@@ -10,6 +10,12 @@ from dataclasses import dataclass
 import numpy as np
 from rosbags.typesys import Stores, get_typestore
 
+__all__ = [
+    "TYPESTORE", "Header", "Time", "JointStateMsg", "JOINT_STATE", "JOINT_TRAJECTORY", "CLOCK", "POSE",
+    "MessageError", "serialize", "deserialize", "time_msg", "to_seconds", "encode_joint_state", "encode_clock",
+    "decode_clock", "TrajectoryCommand", "decode_joint_trajectory", "encode_joint_trajectory", "decode_pose",
+]
+
 TYPESTORE = get_typestore(Stores.ROS1_NOETIC)
 _T = TYPESTORE.types
 Header = _T["std_msgs/msg/Header"]

@@ -61,6 +61,16 @@ from sim.jointcsv import write_joint_csv
 from sim.robots import RobotSpec
 from sim.trajectory import ORDERS, PolynomialTrajectory
 
+__all__ = [
+    "SCENARIOS", "IK_SCENARIOS", "SPACES", "DEFAULT_DT", "SINGLE_DURATION_S", "ONE_JOINT_DEFAULTS",
+    "ONE_JOINT_SPACING_S", "ONE_JOINT_HOLD_S", "IK_MOVE_TIME_S", "IK_HOLD_S", "IK_RESTARTS", "IK_SEED",
+    "IK_TOL_POS", "IK_TOL_ROT", "IK_GOALS", "ORIENTATION_GOALS", "TRIAL_DURATION_S", "TRIAL_SEGMENT_S",
+    "TRIAL_PATTERN", "TRIAL_TABLES", "APPROACH_MIN_S", "APPROACH_SPEED_FRACTION", "ScenarioError",
+    "UnreachableGoalError", "ScenarioConfig", "IKReport", "Motion", "sample_times", "joint_index",
+    "check_position_limits", "velocity_warnings", "rotation_exp", "pose_errors", "fk_path",
+    "pose_to_position_quat", "approach", "build_motion", "write_engine_csv", "Schedule", "build_schedule",
+]
+
 SCENARIOS: tuple[str, ...] = (
     "single", "one_joint", "ik_joints", "ik_cartesian", "ik_orientation", "fk_confirm", "trial",
 )

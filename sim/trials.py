@@ -34,6 +34,11 @@ from sim.physics import Mode
 from sim.processes import PYTHON, REPO, ManagedProcess, ProcessError, RosCore
 from sim.robots import ROBOT_NAMES, RobotSpec, get_robot
 
+__all__ = [
+    "DT", "TCP", "CSV", "NETNS", "UseCase", "USE_CASES", "USE_CASE_NAMES", "TrialError", "TrialSkipped",
+    "NETNS_HOSTS", "Namespaces", "network_hosts", "Placement", "TrialPaths", "Campaign", "run_campaign", "main",
+]
+
 log = logging.getLogger(__name__)
 
 DT = 0.02

@@ -10,6 +10,8 @@ from pathlib import Path
 
 import numpy as np
 
+__all__ = ["URDF_DIR", "RobotError", "RobotSpec", "ROBOT_NAMES", "get_robot"]
+
 URDF_DIR = Path(__file__).resolve().parent / "urdf"
 
 
