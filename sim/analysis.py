@@ -13,6 +13,7 @@ from collections import defaultdict
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -193,10 +194,10 @@ def summary_rows(results: Sequence[TrialResult]) -> list[dict[str, str]]:
         for joint, metrics in result.metrics.items():
             grouped[(result.robot, result.use_case, joint)].append(metrics)
     rows = []
-    for (robot, use_case, joint), metrics in grouped.items():
+    for (robot, use_case, joint), joint_trials in grouped.items():
         row = {"robot": robot, "use case": use_case, "joint": joint, "trials": str(trials[(robot, use_case)])}
         for title, attribute, spec in _METRIC_COLUMNS:
-            mean, std = mean_and_std([getattr(m, attribute) for m in metrics])
+            mean, std = mean_and_std([getattr(m, attribute) for m in joint_trials])
             row[title] = _fmt(mean, std, spec, 1000.0 if attribute == "lag_s" else 1.0)
         row["lost msgs"] = str(lost[(robot, use_case)])
         rows.append(row)
@@ -258,13 +259,13 @@ def write_plots(results: Sequence[TrialResult], out_dir: Path) -> list[Path]:
         written.append(path)
     # Bar charts per use case with error bars per robot (mean over moving joints, mean ± std over trials).
     for title, attribute in (("MAPE %", "mape_percent"), ("WAPE %", "wape_percent")):
-        path = _bar_chart(results, attribute, title, out_dir, plt)
-        if path is not None:
-            written.append(path)
+        chart = _bar_chart(results, attribute, title, out_dir, plt)
+        if chart is not None:
+            written.append(chart)
     return written
 
 
-def _bar_chart(results: Sequence[TrialResult], attribute: str, title: str, out_dir: Path, plt) -> Path | None:
+def _bar_chart(results: Sequence[TrialResult], attribute: str, title: str, out_dir: Path, plt: Any) -> Path | None:
     per_trial: dict[tuple[str, str], list[float]] = defaultdict(list)
     for result in results:
         values = [getattr(m, attribute) for m in result.metrics.values()]

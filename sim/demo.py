@@ -15,17 +15,19 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
+
 from sim import analysis
 from sim.processes import ProcessError
 from sim.robots import get_robot
-from sim.trials import USE_CASES, Campaign, TrialError
+from sim.trials import USE_CASES, Campaign, TrialError, UseCase
 
 __all__ = ["IK_GOAL", "main"]
 
 IK_GOAL = (0.5, 0.375, 0.75)
 
 
-def _case(name: str):
+def _case(name: str) -> UseCase:
     return next(case for case in USE_CASES if case.name == name)
 
 
@@ -58,7 +60,7 @@ def main(argv: list[str] | None = None) -> int:
     report = analysis.write_report(results, out, title="Demo: Panda base case and IK scenario")
     assert ik.series is not None
     _, desired, achieved = analysis.align(ik.series)
-    ee_plot = analysis.plot_ee_paths(robot, desired, achieved, IK_GOAL, out / "ee_path_ik_cartesian.png")
+    ee_plot = analysis.plot_ee_paths(robot, desired, achieved, np.array(IK_GOAL), out / "ee_path_ik_cartesian.png")
     print()
     print(analysis.markdown_table(analysis.summary_rows(results)))
     lost = sum(result.lost_messages for result in results)

@@ -21,6 +21,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 __all__ = [
     "FrameError", "ros_to_unity_point", "unity_to_ros_point", "ros_to_unity_quat", "unity_to_ros_quat",
@@ -35,43 +36,43 @@ class FrameError(ValueError):
     """A point, quaternion or matrix of the wrong shape, or a zero quaternion."""
 
 
-def _vec(value, size: int, what: str) -> np.ndarray:
+def _vec(value: ArrayLike, size: int, what: str) -> np.ndarray:
     arr = np.asarray(value, dtype=float)
     if arr.shape[-1:] != (size,):
         raise FrameError(f"{what} must have a last dimension of {size}, got shape {arr.shape}")
     return arr
 
 
-def ros_to_unity_point(p) -> np.ndarray:
+def ros_to_unity_point(p: ArrayLike) -> np.ndarray:
     """ROS FLU point(s) (..., 3) → Unity RUF point(s): (-y, z, x)."""
     p = _vec(p, 3, "point")
     return np.stack([-p[..., 1], p[..., 2], p[..., 0]], axis=-1)
 
 
-def unity_to_ros_point(p) -> np.ndarray:
+def unity_to_ros_point(p: ArrayLike) -> np.ndarray:
     """Unity RUF point(s) (..., 3) → ROS FLU point(s): (z, -x, y)."""
     p = _vec(p, 3, "point")
     return np.stack([p[..., 2], -p[..., 0], p[..., 1]], axis=-1)
 
 
-def ros_to_unity_quat(q) -> np.ndarray:
+def ros_to_unity_quat(q: ArrayLike) -> np.ndarray:
     """ROS quaternion(s) (x, y, z, w) → Unity quaternion(s): (y, -z, -x, w)."""
     q = _vec(q, 4, "quaternion")
     return np.stack([q[..., 1], -q[..., 2], -q[..., 0], q[..., 3]], axis=-1)
 
 
-def unity_to_ros_quat(q) -> np.ndarray:
+def unity_to_ros_quat(q: ArrayLike) -> np.ndarray:
     """Unity quaternion(s) (x, y, z, w) → ROS quaternion(s): (-z, x, -y, w)."""
     q = _vec(q, 4, "quaternion")
     return np.stack([-q[..., 2], q[..., 0], -q[..., 1], q[..., 3]], axis=-1)
 
 
-def ros_to_unity_matrix(rotation) -> np.ndarray:
+def ros_to_unity_matrix(rotation: ArrayLike) -> np.ndarray:
     """A ROS rotation matrix expressed in Unity axes (M R Mᵀ)."""
     return _ROS_TO_UNITY @ np.asarray(rotation, dtype=float) @ _ROS_TO_UNITY.T
 
 
-def quat_to_matrix(q) -> np.ndarray:
+def quat_to_matrix(q: ArrayLike) -> np.ndarray:
     """Rotation matrix (3, 3) of a quaternion (x, y, z, w); the quaternion is normalised first."""
     x, y, z, w = _vec(q, 4, "quaternion").reshape(4)
     norm = math.sqrt(x * x + y * y + z * z + w * w)
@@ -87,7 +88,7 @@ def quat_to_matrix(q) -> np.ndarray:
     )
 
 
-def matrix_to_quat(rotation) -> np.ndarray:
+def matrix_to_quat(rotation: ArrayLike) -> np.ndarray:
     """Unit quaternion (x, y, z, w) with w ≥ 0 of a rotation matrix (Shepperd's method, stable for all angles)."""
     r = np.asarray(rotation, dtype=float)
     if r.shape != (3, 3):
@@ -126,7 +127,7 @@ def rpy_to_matrix(roll: float, pitch: float, yaw: float) -> np.ndarray:
     )
 
 
-def matrix_to_rpy(rotation) -> tuple[float, float, float]:
+def matrix_to_rpy(rotation: ArrayLike) -> tuple[float, float, float]:
     """(roll, pitch, yaw) with R = Rz·Ry·Rx, pitch in [-π/2, π/2]; at pitch = ±π/2 roll is set to 0."""
     r = np.asarray(rotation, dtype=float)
     pitch = math.asin(max(-1.0, min(1.0, -r[2, 0])))
@@ -155,12 +156,12 @@ def euler_xyz_to_quat(roll: float, pitch: float, yaw: float) -> np.ndarray:
     return -q if q[3] < 0 else q
 
 
-def quat_to_euler_xyz(q) -> tuple[float, float, float]:
+def quat_to_euler_xyz(q: ArrayLike) -> tuple[float, float, float]:
     """(roll, pitch, yaw) of a quaternion (x, y, z, w), inverse of `euler_xyz_to_quat` (pitch in [-π/2, π/2])."""
     return matrix_to_rpy(quat_to_matrix(q))
 
 
-def quat_multiply(a, b) -> np.ndarray:
+def quat_multiply(a: ArrayLike, b: ArrayLike) -> np.ndarray:
     """Hamilton product a ⊗ b of quaternions (x, y, z, w): the rotation b followed by a."""
     ax, ay, az, aw = _vec(a, 4, "quaternion")
     bx, by, bz, bw = _vec(b, 4, "quaternion")

@@ -31,10 +31,13 @@ import xml.etree.ElementTree as ET
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from sim.frames import quat_to_matrix, rpy_to_matrix
+from sim.robots import RobotSpec
 
 __all__ = [
     "MOVABLE_TYPES", "FULL_POSE_WEIGHTS", "POSITION_WEIGHTS", "PLANAR_WEIGHTS", "DEFAULT_DAMPING_BIAS",
@@ -68,7 +71,8 @@ class ChainJoint:
     upper: float
 
 
-def pose_matrix(position: Sequence[float] = (0.0, 0.0, 0.0), quat_xyzw=None, rpy=None) -> np.ndarray:
+def pose_matrix(position: Sequence[float] = (0.0, 0.0, 0.0), quat_xyzw: ArrayLike | None = None, rpy: ArrayLike | None = None
+) -> np.ndarray:
     """4x4 transform from a position and at most one of a quaternion (x, y, z, w) or URDF rpy."""
     if quat_xyzw is not None and rpy is not None:
         raise KinematicsError(f"give either quat_xyzw={quat_xyzw} or rpy={rpy}, not both")
@@ -80,7 +84,8 @@ def pose_matrix(position: Sequence[float] = (0.0, 0.0, 0.0), quat_xyzw=None, rpy
     if quat_xyzw is not None:
         pose[:3, :3] = quat_to_matrix(quat_xyzw)
     elif rpy is not None:
-        pose[:3, :3] = rpy_to_matrix(*(float(a) for a in rpy))
+        roll, pitch, yaw = np.asarray(rpy, dtype=float).reshape(3)
+        pose[:3, :3] = rpy_to_matrix(float(roll), float(pitch), float(yaw))
     return pose
 
 
@@ -158,11 +163,11 @@ class KinematicChain:
         path: list[ET.Element] = []  # joints from ee_link up to base_link
         link = ee_link
         while link != base_link:
-            joint = by_child.get(link)
-            if joint is None:
+            above = by_child.get(link)
+            if above is None:
                 raise KinematicsError(f"link {ee_link!r} is not below base_link {base_link!r} in {urdf_path}")
-            path.append(joint)
-            parent = joint.find("parent")
+            path.append(above)
+            parent = above.find("parent")
             link = parent.get("link", "") if parent is not None else ""
         path.reverse()
 
@@ -201,7 +206,7 @@ class KinematicChain:
             )
         return chain
 
-    def with_limits(self, lower: Sequence[float], upper: Sequence[float]) -> KinematicChain:
+    def with_limits(self, lower: ArrayLike, upper: ArrayLike) -> KinematicChain:
         """The same chain with other joint limits (e.g. a datasheet's instead of the URDF's)."""
         lower_arr, upper_arr = np.asarray(lower, dtype=float), np.asarray(upper, dtype=float)
         if lower_arr.shape != (self._n,) or upper_arr.shape != (self._n,) or np.any(lower_arr > upper_arr):
@@ -233,7 +238,7 @@ class KinematicChain:
     def upper(self) -> np.ndarray:
         return self._upper.copy()
 
-    def _q(self, q) -> np.ndarray:
+    def _q(self, q: ArrayLike) -> np.ndarray:
         q_arr = np.asarray(q, dtype=float)
         if q_arr.shape != (self._n,):
             raise KinematicsError(f"q must have shape ({self._n},) for joints {self.joint_names}, got {q_arr.shape}")
@@ -270,20 +275,20 @@ class KinematicChain:
             jac[3:] *= self._revolute
         return jac
 
-    def fk(self, q) -> np.ndarray:
+    def fk(self, q: ArrayLike) -> np.ndarray:
         """Pose (4x4) of ee_link in base_link at joint positions q."""
         return self._frames(self._q(q))[-1].copy()
 
-    def fk_link_frames(self, q) -> list[np.ndarray]:
+    def fk_link_frames(self, q: ArrayLike) -> list[np.ndarray]:
         """Pose (4x4) in base_link of each movable joint's child link, in chain order."""
         frames = self._frames(self._q(q))
         return [frames[i].copy() for i in range(self._n)]
 
-    def jacobian(self, q) -> np.ndarray:
+    def jacobian(self, q: ArrayLike) -> np.ndarray:
         """Geometric Jacobian (6 x n) at the ee origin in the base frame, rows (v, ω)."""
         return self._jacobian_from_frames(self._frames(self._q(q)))
 
-    def within_limits(self, q, tol: float = 1e-9) -> bool:
+    def within_limits(self, q: ArrayLike, tol: float = 1e-9) -> bool:
         q_arr = self._q(q)
         return bool(np.all(q_arr >= self._lower - tol) and np.all(q_arr <= self._upper + tol))
 
@@ -291,7 +296,7 @@ class KinematicChain:
 _CHAINS: dict[str, KinematicChain] = {}
 
 
-def chain_for(robot) -> KinematicChain:
+def chain_for(robot: RobotSpec) -> KinematicChain:
     """The chain of a `RobotSpec` (cached per robot name), with the spec's joint limits."""
     chain = _CHAINS.get(robot.name)
     if chain is None:
@@ -319,7 +324,7 @@ _PANDA_DH = (
 )
 
 
-def panda_dh_fk(q) -> np.ndarray:
+def panda_dh_fk(q: ArrayLike) -> np.ndarray:
     """Panda flange pose (base → panda_link8) from Franka's modified DH table; an independent check of the URDF."""
     q_arr = np.asarray(q, dtype=float)
     if q_arr.shape != (7,):
@@ -488,26 +493,26 @@ def _attempt(
     return q, pos_err <= tol_pos and rot_err <= tol_rot, energy, pos_err, rot_err, iterations
 
 
-def _weights(weights, position_only: bool) -> np.ndarray:
+def _weights(weights: ArrayLike | None, position_only: bool) -> np.ndarray:
     if weights is None:
         w = np.array(POSITION_WEIGHTS if position_only else FULL_POSE_WEIGHTS)
     else:
         if position_only:
-            raise KinematicsError(f"give either weights={weights} or position_only=True, not both")
+            raise KinematicsError(f"give either weights={weights!r} or position_only=True, not both")
         w = np.asarray(weights, dtype=float)
     if w.shape != (6,) or np.any(w < 0) or not np.any(w > 0) or not np.all(np.isfinite(w)):
-        raise KinematicsError(f"weights must be 6 finite values ≥ 0, not all zero; got {weights}")
+        raise KinematicsError(f"weights must be 6 finite values ≥ 0, not all zero; got {weights!r}")
     return w
 
 
 def solve_ik(
     chain: KinematicChain,
-    target,
-    q0,
+    target: np.ndarray,
+    q0: ArrayLike,
     *,
-    lower=None,
-    upper=None,
-    weights=None,
+    lower: ArrayLike | None = None,
+    upper: ArrayLike | None = None,
+    weights: ArrayLike | None = None,
     position_only: bool = False,
     tol_pos: float = 1e-6,
     tol_rot: float = 1e-5,
@@ -550,6 +555,7 @@ def solve_ik(
             best = outcome
         if outcome[1]:
             break
+    assert best is not None  # the loop runs at least once
     q_best, success, _, pos_err, rot_err, _ = best
     used_restarts = attempt
     if success:
@@ -562,7 +568,9 @@ def solve_ik(
     return IKResult(q_best, success, pos_err, rot_err, total_iterations, used_restarts, message)
 
 
-def solve_path_ik(chain: KinematicChain, targets: Sequence[np.ndarray] | np.ndarray, q0, **ik_kwargs) -> PathIKResult:
+def solve_path_ik(
+    chain: KinematicChain, targets: Sequence[np.ndarray] | np.ndarray, q0: ArrayLike, **ik_kwargs: Any
+) -> PathIKResult:
     """IK for each of `targets` in turn, each warm-started from the previous solution (the first from q0)."""
     results: list[IKResult] = []
     q = chain._q(q0)

@@ -16,7 +16,7 @@ import time
 import xmlrpc.client
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import TypeVar
+from typing import Any, TypeVar
 
 __all__ = [
     "REPO", "PYTHON", "ProcessError", "free_port", "wait_for", "kill_process", "ros_environment",
@@ -162,5 +162,6 @@ class RosCore(ManagedProcess):
 
     def subscribers(self, topic: str) -> list[str]:
         """Node names subscribed to `topic`, as the master sees them."""
-        _, _, (_, subscribers, _) = xmlrpc.client.ServerProxy(self.uri).getSystemState("/probe")
+        state: Any = xmlrpc.client.ServerProxy(self.uri).getSystemState("/probe")
+        _, _, (_, subscribers, _) = state
         return next((nodes for name, nodes in subscribers if name == topic), [])

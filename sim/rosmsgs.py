@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from rosbags.typesys import Stores, get_typestore
@@ -49,7 +50,7 @@ def deserialize(data: bytes, ros1_name: str) -> object:
         raise MessageError(f"{len(data)} bytes are not a valid {ros1_name}: {error}") from None
 
 
-def time_msg(seconds: float) -> object:
+def time_msg(seconds: float) -> Any:
     sec = int(np.floor(seconds))
     nanosec = int(round((seconds - sec) * 1e9))
     if nanosec >= 1_000_000_000:

@@ -25,7 +25,8 @@ def format_summary(robot: RobotSpec, motion: Motion, result: RunResult, report: 
         for name, m in report.joint_metrics.items():
             lines.append(f"  {name:<14} {m.mape_percent:9.4f} {m.wape_percent:9.4f} {m.nrmse_percent:9.4f} "
                          f"{m.max_abs_error:10.3e} {m.lag_s:7.3f}")
-    if motion.ik is not None and report.ee_position_error is not None and report.ee_position_error.size:
+    if motion.ik is not None and report.ee_position_error is not None and report.ee_orientation_error is not None \
+            and report.ee_position_error.size:
         ik = motion.ik
         lines.append(
             f"  IK ({ik.space} space, weights {ik.weights}): commanded goal error {ik.goal_position_error:.3e} m, "
@@ -44,9 +45,9 @@ def format_summary(robot: RobotSpec, motion: Motion, result: RunResult, report: 
 
 def format_fk_confirm(report: RunReport, samples: int = 11) -> str:
     """The end-effector error over time (FK of the achieved joints vs the reference path), at a few instants."""
-    if report.ee_position_error is None or report.ee_position_error.size == 0:
-        return ""
     errors_p, errors_r = report.ee_position_error, report.ee_orientation_error
+    if errors_p is None or errors_r is None or errors_p.size == 0:
+        return ""
     rows = np.unique(np.linspace(0, len(errors_p) - 1, samples).round().astype(int))
     lines = ["  fk_confirm: FK(achieved) vs reference path", f"  {'t s':>7} {'pos err m':>11} {'rot err rad':>12}"]
     for k in rows:

@@ -51,6 +51,7 @@ from sim.kinematics import (
     FULL_POSE_WEIGHTS,
     PLANAR_WEIGHTS,
     POSITION_WEIGHTS,
+    IKResult,
     KinematicChain,
     chain_for,
     rotation_vector,
@@ -194,7 +195,7 @@ def sample_times(duration: float, dt: float) -> np.ndarray:
     return np.arange(steps + 1) * dt
 
 
-def _vector(values: Sequence[float] | None, size: int | tuple[int, ...], what: str) -> np.ndarray:
+def _vector(values: Sequence[float] | np.ndarray | None, size: int | tuple[int, ...], what: str) -> np.ndarray:
     sizes = (size,) if isinstance(size, int) else size
     array = np.asarray(values, dtype=float).reshape(-1)
     if array.size not in sizes:
@@ -308,7 +309,7 @@ def approach(robot: RobotSpec, q_from: np.ndarray, q_to: np.ndarray, dt: float, 
     needed = float(np.max(1.875 * np.abs(q_to - q_from) / (APPROACH_SPEED_FRACTION * robot.max_velocity)))
     duration = max(min_time, needed)
     times = sample_times(duration, dt)
-    traj = PolynomialTrajectory([0.0, times[-1]], [q_from, q_to], order="quintic")
+    traj = PolynomialTrajectory([0.0, times[-1]], np.array([q_from, q_to]), order="quintic")
     return _sample_trajectory(traj, times)
 
 
@@ -404,6 +405,8 @@ class _GoalSpec:
 
 def _goal_spec(robot: RobotSpec, scenario: str, config: ScenarioConfig, chain: KinematicChain) -> _GoalSpec:
     home_pose = chain.fk(robot.home)
+    default_position: tuple[float, float, float]
+    default_rpy: tuple[float, float, float] | None
     if scenario == "ik_orientation":
         default_position, default_rpy = ORIENTATION_GOALS[robot.name]
     else:
@@ -415,9 +418,8 @@ def _goal_spec(robot: RobotSpec, scenario: str, config: ScenarioConfig, chain: K
         position = _vector(config.goal, (2, 3) if planar else 3, "goal position (x, y, z in m)" if not planar else "igt goal (x, y [, z ignored] in m)")
         if position.size == 2:
             position = np.append(position, 0.0)
-    rpy = config.goal_rpy if config.goal_rpy is not None else default_rpy
-    if rpy is not None:
-        rpy = _vector(rpy, 3, "goal rpy (XYZ Euler angles in rad)")
+    given_rpy = config.goal_rpy if config.goal_rpy is not None else default_rpy
+    rpy = None if given_rpy is None else _vector(given_rpy, 3, "goal rpy (XYZ Euler angles in rad)")
     if planar:
         position[2] = home_pose[2, 3]  # the tool tip's height is fixed by construction
         yaw = 0.0 if rpy is None else float(rpy[2])
@@ -445,12 +447,14 @@ def _start_target(robot: RobotSpec, config: ScenarioConfig, chain: KinematicChai
     return start
 
 
-def _solve(chain: KinematicChain, target: np.ndarray, q0: np.ndarray, weights, config: ScenarioConfig):
+def _solve(
+    chain: KinematicChain, target: np.ndarray, q0: np.ndarray, weights: Sequence[float], config: ScenarioConfig
+) -> IKResult:
     return solve_ik(chain, target, q0, weights=weights, tol_pos=IK_TOL_POS, tol_rot=IK_TOL_ROT,
                     restarts=config.ik_restarts, rng=config.seed)
 
 
-def _unreachable(what: str, result, weights, nearest_hint: bool = True) -> UnreachableGoalError:
+def _unreachable(what: str, result: IKResult, weights: Sequence[float], nearest_hint: bool = True) -> UnreachableGoalError:
     hint = "; pass --nearest to command the nearest configuration found instead" if nearest_hint else ""
     return UnreachableGoalError(
         f"{what} is unreachable: best residual {result.position_error:.4g} m, {result.orientation_error:.4g} rad "
@@ -501,7 +505,7 @@ def _ik_motion(robot: RobotSpec, scenario: str, config: ScenarioConfig) -> Motio
     max_jump = 0.0
     failed = 0
     if space == "joint":
-        traj = PolynomialTrajectory([0.0, config.move_time], [q_start, goal_result.q], order=config.order)
+        traj = PolynomialTrajectory([0.0, config.move_time], np.array([q_start, goal_result.q]), order=config.order)
         positions, velocities = _sample_trajectory(traj, times)
         reference = fk_path(chain, positions)
     else:
@@ -549,7 +553,7 @@ def _ik_motion(robot: RobotSpec, scenario: str, config: ScenarioConfig) -> Motio
                   goal=goal.target, reference_path=reference, ik=report, warnings=notes)
 
 
-def _cartesian_path(start: np.ndarray, goal: np.ndarray, weights, move_time: float, order: str, times: np.ndarray) -> np.ndarray:
+def _cartesian_path(start: np.ndarray, goal: np.ndarray, weights: Sequence[float], move_time: float, order: str, times: np.ndarray) -> np.ndarray:
     """Poses along a straight line (position) and the geodesic (orientation), both timed by one polynomial
     s(t) from 0 to 1 with zero velocity (and acceleration for quintic) at both ends."""
     scaling = PolynomialTrajectory([0.0, move_time], [[0.0], [1.0]], order=order).sample(times).positions[:, 0]

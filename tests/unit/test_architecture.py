@@ -40,11 +40,13 @@ def test_sim_uses_no_bridge_internals_but_the_client() -> None:
     assert imported == {"bridge.client"}
 
 
-def test_the_endpoint_type_checks() -> None:
-    """bridge/ is fully typed: mypy finds nothing (rospy and genpy have no type information, hence Any there)."""
+@pytest.mark.parametrize("package", ["bridge", "sim"])
+def test_every_package_type_checks(package: str) -> None:
+    """Fully typed: every def annotated, and mypy finds nothing (rospy, genpy and pybullet have no type
+    information, hence Any there)."""
     result = subprocess.run(
-        [PYTHON, "-m", "mypy", "--ignore-missing-imports", "--follow-imports=silent", "--cache-dir=/dev/null",
-         "bridge"],
+        [PYTHON, "-m", "mypy", "--ignore-missing-imports", "--follow-imports=silent", "--disallow-untyped-defs",
+         "--cache-dir=/dev/null", package],
         cwd=REPO, capture_output=True, text=True, timeout=240,
     )
     assert result.returncode == 0, result.stdout + result.stderr
