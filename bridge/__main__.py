@@ -37,6 +37,8 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument("--deny", action="append", metavar="PATTERN", help="never bridge topics matching (repeatable)")
     parser.add_argument("--service-timeout", type=float, help="seconds to wait for a service answer (default 10)")
     parser.add_argument("--no-validate", action="store_true", help="publish client payloads without checking them")
+    parser.add_argument("--wait", action="store_true",
+                        help="wait for the ROS master before starting (what Unity's tutorial launch files pass)")
     return parser
 
 
@@ -158,10 +160,16 @@ def main(argv: list[str] | None = None) -> int:
     # bridge.ros (rospy) is imported here, not at module level, so `--help` works without a ROS install.
     from bridge.ros import RosGraph
 
-    args = _parser().parse_args(RosGraph.strip_remappings(argv if argv is not None else sys.argv)[1:])
+    # Arguments we do not know are ignored with a warning, never an exit: launch files written for other endpoints
+    # pass their own. A known option with a bad value is still an error (exit 2).
+    args, unknown = _parser().parse_known_args(RosGraph.strip_remappings(argv if argv is not None else sys.argv)[1:])
     ros = RosGraph()
+    if args.wait:
+        ros.wait_for_master()
     ros.init_node(args.node_name)
     _log_to_screen()
+    if unknown:
+        log.warning("ignoring argument(s) the endpoint does not know: %s", " ".join(unknown))
     try:
         config = build_config(args, ros)
     except ConfigError as error:

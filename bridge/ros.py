@@ -9,7 +9,9 @@ from __future__ import annotations
 import importlib
 import logging
 import struct
+import sys
 import threading
+import time
 import warnings
 from typing import Any, Callable
 
@@ -198,6 +200,15 @@ class RosGraph:
     def strip_remappings(argv: list[str]) -> list[str]:
         """argv without ROS's `name:=value` remappings (roslaunch adds __name:= and __log:=)."""
         return rospy.myargv(argv)
+
+    @staticmethod
+    def wait_for_master(poll_s: float = 0.5) -> None:
+        """Block until the ROS master answers (what roslaunch's --wait means), saying once what it waits for."""
+        if rosgraph.is_master_online():
+            return
+        print(f"waiting for the ROS master at {rosgraph.get_master_uri()}", file=sys.stderr, flush=True)
+        while not rosgraph.is_master_online():
+            time.sleep(poll_s)
 
     @staticmethod
     def init_node(name: str) -> None:

@@ -1,8 +1,13 @@
 #!/usr/bin/env bash
-# The README's test command: set up (idempotently), then run the whole suite. Extra args go to pytest.
+# The README's test command: set up (idempotently), then run the whole suite, then the endpoint's own tests again
+# on ROS Noetic's Python 3.8 with Debian's rospy. Extra args go to pytest (both runs).
 set -euo pipefail
 repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 "$repo/launch_scripts/setup.sh"
+"$repo/launch_scripts/setup_python38.sh"
 cd "$repo"
 # pytest exits 5 when it collected nothing: that must fail CI, and it does since we pass the code through.
-exec .venv/bin/python -m pytest -q -p no:cacheprovider "$@" tests
+.venv/bin/python -m pytest -q -p no:cacheprovider "$@" tests
+echo "test.sh: the endpoint's tests on $(.venv38/bin/python --version)"
+PYTHONPATH=/usr/lib/python3/dist-packages exec .venv38/bin/python -m pytest -q -p no:cacheprovider "$@" \
+  tests/unit/test_bridge_*.py tests/integration/test_bridge_*.py

@@ -1,0 +1,209 @@
+"""The endpoint where ROS users put it: this repository in a fresh catkin workspace's src/, beside a message and
+service package of the user's own, built by plain `catkin_make` (and `catkin_make install`) with the system Python
+and no venv, then started by rosrun or roslaunch, from devel and from install space.
+
+The user's package (tests/fixtures/catkin/vr_test_msgs) has a message with nested standard types, a service using
+it, a service node, and a launch file shaped like those of Unity's ROS integration tutorial (global ROS_IP
+parameter; both nodes started with args="--wait" and respawn="true").
+"""
+from __future__ import annotations
+
+import io
+import os
+import shutil
+import subprocess
+import sys
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from bridge.client import TcpClient
+from tests.rosenv import REPO, ManagedProcess, RosCore, free_port, wait_for
+
+# What a ROS user's shell has: the system Python first, no venv, nothing of this repository on the path.
+USER_PATH = "/usr/local/sbin:/usr/local/bin:/usr/sbin:/usr/bin:/sbin:/bin"
+
+
+def user_env(**ros: str) -> dict[str, str]:
+    env = {"HOME": os.environ.get("HOME", "/root"), "PATH": USER_PATH, "LANG": "C.UTF-8", "PYTHONUNBUFFERED": "1"}
+    env.update(ros)
+    return env
+
+
+def ros_env(master_port: int, home: Path) -> dict[str, str]:
+    return user_env(ROS_MASTER_URI=f"http://127.0.0.1:{master_port}/", ROS_HOSTNAME="127.0.0.1",
+                    ROS_HOME=str(home / "ros_home"), ROS_LOG_DIR=str(home / "log"))
+
+
+def sourced(workspace: Path, space: str, command: str) -> list[str]:
+    return ["bash", "-c", f"source {workspace / space / 'setup.bash'} && exec {command}"]
+
+
+@pytest.fixture(scope="module")
+def workspace(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A new workspace: this repository as a user gets it (the files git has, as they are in this tree) and the
+    user's own package in src/; built, and installed."""
+    workspace = tmp_path_factory.mktemp("user_ws")
+    clone = workspace / "src" / "vr_ros_toolkit"
+    listed = subprocess.run(["git", "ls-files", "-z", "--cached", "--others", "--exclude-standard"], cwd=REPO,
+                            capture_output=True, check=True, timeout=60).stdout.decode()
+    for name in filter(None, listed.split("\0")):
+        source = REPO / name
+        if source.is_file() or source.is_symlink():
+            (clone / name).parent.mkdir(parents=True, exist_ok=True)
+            shutil.copy2(source, clone / name, follow_symlinks=False)
+    shutil.copytree(REPO / "tests" / "fixtures" / "catkin" / "vr_test_msgs", workspace / "src" / "vr_test_msgs")
+    for command in ("catkin_make", "catkin_make install"):
+        result = subprocess.run(["bash", "-c", command], cwd=workspace, env=user_env(), capture_output=True,
+                                text=True, timeout=600)
+        assert result.returncode == 0, f"{command} failed:\n{result.stdout[-4000:]}\n{result.stderr[-4000:]}"
+    return workspace
+
+
+@pytest.fixture(scope="module")
+def user_types(workspace: Path) -> Any:
+    """The user's generated message and service classes (genpy), to build the payloads a Unity client sends."""
+    sys.path.insert(0, str(workspace / "devel" / "lib" / "python3" / "dist-packages"))
+    import vr_test_msgs.msg
+    import vr_test_msgs.srv
+
+    return vr_test_msgs
+
+
+@pytest.fixture
+def own_master(tmp_path: Path) -> Iterator[RosCore]:
+    core = RosCore(tmp=tmp_path / "core")
+    try:
+        yield core
+    finally:
+        core.stop()
+
+
+def serialize(message: Any) -> bytes:
+    buffer = io.BytesIO()
+    message.serialize(buffer)
+    return buffer.getvalue()
+
+
+def marker(types: Any, label: str, x: float) -> Any:
+    message = types.msg.Marker(label=label, weights=[0.25, 0.5])
+    message.header.frame_id = "table"
+    message.pose.position.x = x
+    message.pose.orientation.w = 1.0
+    return message
+
+
+def run_in(workspace: Path, env: dict[str, str], command: str, timeout: float = 60) -> str:
+    result = subprocess.run(sourced(workspace, "devel", command), cwd=workspace, env=env, capture_output=True,
+                            text=True, timeout=timeout)
+    assert result.returncode == 0, f"{command}:\n{result.stdout[-3000:]}\n{result.stderr[-3000:]}"
+    return result.stdout
+
+
+def test_the_user_workspace_has_bridge_from_devel_and_install_space(workspace: Path) -> None:
+    for space in ("devel", "install"):
+        result = subprocess.run(sourced(workspace, space, "python3 -c 'import bridge.server; print(bridge.__file__)'"),
+                                cwd=workspace, env=user_env(), capture_output=True, text=True, timeout=60)
+        assert result.returncode == 0, result.stderr
+        assert result.stdout.startswith(str(workspace / space)), result.stdout
+    # The install space is a copy: it works without the sources.
+    assert (workspace / "install" / "lib" / "python3" / "dist-packages" / "bridge" / "protocol.py").is_file()
+
+
+def test_a_tutorial_launch_file_waits_for_the_master_serves_user_types_both_ways_and_respawns(
+    workspace: Path, user_types: Any, tmp_path: Path
+) -> None:
+    port, master_port = free_port(), free_port()
+    env = ros_env(master_port, tmp_path)
+    launch = ManagedProcess(sourced(workspace, "devel", f"roslaunch --wait vr_test_msgs demo.launch port:={port}"),
+                            env, tmp_path, "roslaunch")
+    core = None
+    try:
+        launch.wait_for_output("will wait for it to start", timeout=30)  # roslaunch --wait, before any master
+        core = RosCore(port=master_port, tmp=tmp_path / "core")
+        with TcpClient("127.0.0.1", port, reconnect_delay_s=0.2).connect(timeout=60) as client, \
+                TcpClient("127.0.0.1", port, reconnect_delay_s=0.2).connect(timeout=10) as listener:
+            types = user_types
+            # A Unity client calls the user's ROS service, with the user's types.
+            client.register_ros_service("/nudge", "vr_test_msgs/Nudge")
+            wait_for(lambda: "/nudge" in run_in(workspace, env, "rosservice list"), 30, "/nudge offered")
+            request = types.srv.NudgeRequest(marker=marker(types, "cube", 1.0), step=0.5)
+            response = types.srv.NudgeResponse()
+            response.deserialize(client.call_service("/nudge", serialize(request), timeout=20))
+            assert response.ok and response.moved.pose.position.x == 1.5 and response.moved.label == "cube (nudged)"
+
+            # Client -> ROS -> client: one client publishes, another subscribes, through the ROS graph.
+            received: list[bytes] = []
+            listener.subscribe("/markers", "vr_test_msgs/Marker", received.append)
+            client.register_publisher("/markers", "vr_test_msgs/Marker")
+            listener.topic_list()
+            sent = serialize(marker(types, "sphere", 2.0))
+            echo = subprocess.Popen(sourced(workspace, "devel", "rostopic echo -n 1 /markers/label"), cwd=workspace,
+                                    env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+            try:
+                def delivered() -> bool:
+                    client.publish("/markers", sent)  # until every subscriber is connected
+                    return bool(received) and echo.poll() is not None
+                wait_for(delivered, 30, "a marker at the listener and at rostopic echo", interval=0.3)
+                assert "sphere" in (echo.stdout.read() if echo.stdout else "")
+            finally:
+                echo.kill()
+                echo.wait()
+            assert received[0] == sent
+
+            # ROS calls a service the Unity client implements, with the user's types.
+            def echo_back(payload: bytes) -> bytes:
+                call = types.srv.NudgeRequest()
+                call.deserialize(payload)
+                return serialize(types.srv.NudgeResponse(moved=call.marker, ok=call.step > 0))
+            client.implement_service("/marker_echo", "vr_test_msgs/Nudge", echo_back)
+            wait_for(lambda: "/marker_echo" in run_in(workspace, env, "rosservice list"), 30, "/marker_echo offered")
+            answer = run_in(workspace, env, "rosservice call /marker_echo \"{marker: {label: 'from ros'}, step: 1.0}\"")
+            assert "from ros" in answer and "ok: True" in answer
+
+            # respawn="true": the endpoint node is killed, roslaunch starts it again, the client reconnects.
+            run_in(workspace, env, "rosnode kill /server_endpoint")
+            wait_for(lambda: client.connections >= 2 and client.is_connected, 60, "the respawned endpoint")
+            assert client.ping(timeout=10) < 10
+    finally:
+        launch.stop()
+        if core is not None:
+            core.stop()
+
+
+def test_rosrun_from_devel_accepts_remappings_wait_and_unknown_arguments(
+    workspace: Path, own_master: RosCore, tmp_path: Path
+) -> None:
+    port = free_port()
+    env = {**own_master.env, "PATH": USER_PATH}
+    env.pop("PYTHONPATH", None)
+    node = ManagedProcess(sourced(workspace, "devel", f"rosrun ros_tcp_endpoint default_server_endpoint.py "
+                                                      f"_tcp_port:={port} --wait --a-flag-from-another-endpoint"),
+                          env, tmp_path, "rosrun")
+    try:
+        output = node.wait_for_output("listening on", timeout=30)
+        assert "ignoring argument(s) the endpoint does not know: --a-flag-from-another-endpoint" in output
+        with TcpClient("127.0.0.1", port).connect(timeout=10) as client:
+            assert client.handshake is not None and client.handshake.is_compatible
+    finally:
+        node.stop()
+
+
+def test_roslaunch_endpoint_launch_from_install_space(workspace: Path, own_master: RosCore, tmp_path: Path) -> None:
+    port = free_port()
+    env = {**own_master.env, "PATH": USER_PATH}
+    env.pop("PYTHONPATH", None)
+    launch = ManagedProcess(sourced(workspace, "install", f"roslaunch ros_tcp_endpoint endpoint.launch "
+                                                          f"tcp_ip:=127.0.0.1 tcp_port:={port}"), env, tmp_path,
+                            "roslaunch")
+    try:
+        launch.wait_for_output("listening on", timeout=30)
+        with TcpClient("127.0.0.1", port).connect(timeout=10) as client:
+            # A user type resolved from the install space: the subscription is accepted without an __error.
+            client.subscribe("/install_markers", "vr_test_msgs/Marker", lambda payload: None)
+            assert "/install_markers" in client.topic_list()
+            assert client.errors == []
+    finally:
+        launch.stop()
