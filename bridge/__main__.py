@@ -37,6 +37,8 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument("--deny", action="append", metavar="PATTERN", help="never bridge topics matching (repeatable)")
     parser.add_argument("--service-timeout", type=float, help="seconds to wait for a service answer (default 10)")
     parser.add_argument("--no-validate", action="store_true", help="publish client payloads without checking them")
+    parser.add_argument("--echo-own-publications", action="store_true",
+                        help="send a client its own messages back on topics it also subscribes to (default off)")
     parser.add_argument("--wait", action="store_true",
                         help="wait for the ROS master before starting (what Unity's tutorial launch files pass)")
     return parser
@@ -67,6 +69,7 @@ _SOURCES = {
     "deny_topics": _Source("--deny", "~deny_topics"),
     "service_timeout_s": _Source("--service-timeout", "~service_timeout"),
     "validate_payloads": _Source("--no-validate", "~validate_payloads"),
+    "echo_own_publications": _Source("--echo-own-publications", "~echo_own_publications"),
 }
 
 
@@ -136,6 +139,7 @@ def build_config(args: argparse.Namespace, ros: Any) -> EndpointConfig:
         deny_topics=_patterns("deny_topics", _given("deny_topics", args.deny, ros)),
         service_timeout_s=read("service_timeout_s", args.service_timeout, float),
         validate_payloads=not args.no_validate and read("validate_payloads", None, bool),
+        echo_own_publications=args.echo_own_publications or read("echo_own_publications", None, bool),
     )
 
 

@@ -22,6 +22,7 @@ from bridge.protocol import (
     Error,
     Event,
     Handshake,
+    IgnoredFields,
     InvalidInput,
     Keepalive,
     Log,
@@ -41,7 +42,7 @@ from bridge.protocol import (
     Warn,
 )
 
-__all__ = ["ClientError", "TcpClient"]
+__all__ = ["ClientError", "PingResult", "TcpClient"]
 
 log = logging.getLogger(__name__)
 
@@ -51,6 +52,15 @@ ServiceHandler = Callable[[bytes], bytes]
 
 class ClientError(RuntimeError):
     """Connection, handshake or service-call failure of the TCP client."""
+
+
+@dataclass(frozen=True)
+class PingResult:
+    """One __ping: its round trip, and how far ROS time is ahead of this machine's clock (time.time()), taking the
+    endpoint's answer as given half-way through the round trip (None from an endpoint that does not say)."""
+
+    round_trip_s: float
+    ros_clock_offset_s: Optional[float]
 
 
 @dataclass
@@ -99,7 +109,7 @@ class TcpClient:
         self._srv_ids = itertools.count(101)
         self._pending: Dict[int, _PendingCall] = {}
         self._topic_list_waiters: List[Tuple[threading.Event, Dict[str, str]]] = []
-        self._ping_waiters: Dict[str, threading.Event] = {}
+        self._ping_waiters: Dict[str, Tuple[threading.Event, List[PingResponse]]] = {}
         self._reader: Optional[threading.Thread] = None
         self._keepalive: Optional[threading.Thread] = None
 
@@ -273,18 +283,22 @@ class TcpClient:
             raise ClientError(f"no __topic_list answer within {timeout:g} s")
         return result
 
-    def ping(self, timeout: float = 5.0) -> float:
-        """Seconds for a __ping to come back as __ping_response (newer connectors' ROSConnection.Ping)."""
+    def ping(self, timeout: float = 5.0) -> PingResult:
+        """A __ping (newer connectors' ROSConnection.Ping) and its answer: round trip and ROS clock offset."""
         request_time = datetime.now(timezone.utc).isoformat()
         done = threading.Event()
+        answer: List[PingResponse] = []
         with self._state_lock:
-            self._ping_waiters[request_time] = done
-        started = time.monotonic()
+            self._ping_waiters[request_time] = (done, answer)
         try:
+            sent_at, started = time.time(), time.monotonic()
             self._say(Ping(request_time), or_raise=True)
             if not done.wait(timeout):
                 raise ClientError(f"no __ping_response within {timeout:g} s")
-            return time.monotonic() - started
+            round_trip = time.monotonic() - started
+            ros_time = answer[0].ros_time
+            offset = None if ros_time is None else ros_time - (sent_at + round_trip / 2)
+            return PingResult(round_trip, offset)
         finally:
             with self._state_lock:
                 self._ping_waiters.pop(request_time, None)
@@ -371,7 +385,8 @@ class TcpClient:
             with self._state_lock:
                 waiter = self._ping_waiters.get(event.request_time)
             if waiter is not None:
-                waiter.set()
+                waiter[1].append(event)
+                waiter[0].set()
         elif isinstance(event, Error):
             self._record_error(event)
         elif isinstance(event, Warn):
@@ -379,6 +394,8 @@ class TcpClient:
             log.warning("endpoint: %s", event.text)
         elif isinstance(event, Log):
             log.info("endpoint: %s", event.text)
+        elif isinstance(event, IgnoredFields):
+            log.info("endpoint's %s has field(s) %s this client does not know", event.command, event.fields)
 
     def _answer(self, request: ServiceRequest) -> None:
         """A request from ROS for a service this client implements."""

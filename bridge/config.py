@@ -37,6 +37,9 @@ class EndpointConfig:
     deny_topics: Tuple[str, ...] = ()
     service_timeout_s: float = 10.0
     validate_payloads: bool = True
+    # A client that publishes and subscribes on one topic gets the others' messages, not its own back (what Unity's
+    # users asked for in ROS-TCP-Endpoint PR #159); True sends them back as the original endpoint does.
+    echo_own_publications: bool = False
     # Per client: ROS service calls and topic-list look-ups in flight at once, and queued behind them. Each client
     # has its own workers, so one client calling missing services (each waiting service_timeout_s) delays only
     # its own later calls.

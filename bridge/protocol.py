@@ -16,7 +16,7 @@ import enum
 import json
 import struct
 from dataclasses import dataclass
-from typing import Any, Callable, Dict, List, Optional, Tuple, Type, Union
+from typing import Any, Callable, Dict, List, Optional, Set, Tuple, Type, Union
 
 __all__ = [
     "PROTOCOL_VERSION", "ROS_DISTRO_PROTOCOL", "MAX_DESTINATION_BYTES", "DEFAULT_MAX_PAYLOAD_BYTES",
@@ -24,7 +24,7 @@ __all__ = [
     "Frame", "BadFrame", "FrameDecoder", "encode_frame", "encode_syscommand", "KEEPALIVE_FRAME",
     "Event", "Keepalive", "Handshake", "TopicMessage", "ServiceRequest", "ServiceResponse",
     "Subscribe", "Publish", "RosService", "UnityService", "Remove", "TopicListQuery", "TopicList", "Auth",
-    "Ping", "PingResponse", "Log", "Warn", "Error", "InvalidInput",
+    "Ping", "PingResponse", "Log", "Warn", "Error", "IgnoredFields", "InvalidInput",
     "Role", "Conversation", "encode", "handshake",
 ]
 
@@ -337,7 +337,11 @@ class Ping(Event):
 
 @dataclass(frozen=True)
 class PingResponse(Event):
+    """The answer to Ping: its `request_time`, and (ours) the endpoint's ROS time in seconds when it answered, from
+    which a client estimates the offset of its clock to ROS time."""
+
     request_time: str
+    ros_time: Optional[float] = None
 
 
 @dataclass(frozen=True)
@@ -360,6 +364,15 @@ class Error(Event):
 
 
 @dataclass(frozen=True)
+class IgnoredFields(Event):
+    """A command carried fields this side does not know (a newer peer's): the command is carried out without them.
+    Reported once per command and field on a connection, before the command's own event."""
+
+    command: str
+    fields: Tuple[str, ...]
+
+
+@dataclass(frozen=True)
 class InvalidInput(Event):
     """The peer broke the protocol (see RemoteProtocolError). Not fatal unless `error.fatal`: the frames after it
     are read as usual."""
@@ -370,139 +383,128 @@ class InvalidInput(Event):
 # --- system commands: JSON <-> events ----------------------------------------------------------------------------
 
 _Params = Dict[str, Any]
-_Parser = Callable[[str, _Params], Event]
+_Fields = Dict[str, type]
 
 
-def _fields(command: str, params: _Params, required: Dict[str, type], optional: Dict[str, type]) -> None:
-    """Check the fields we know; fields we do not know are ignored, as Unity's JsonUtility ignores them, so newer
-    connectors and endpoints can add some."""
-    for name in required:
-        if name not in params:
-            raise ProtocolError(f"{command}: missing field {name!r}")
-    for name, expected in (*required.items(), *optional.items()):
-        if name in params:
-            _check_type(command, name, params[name], expected)
+@dataclass(frozen=True)
+class _Command:
+    """One system command's JSON: the fields it must have, those it may have (each with its type), and how its
+    checked fields make the event. Fields outside both are not this protocol's: ignored, and reported once."""
+
+    required: _Fields
+    optional: _Fields
+    build: Callable[[str, _Params], Event]
+
+    def parse(self, command: str, params: _Params) -> Event:
+        for name in self.required:
+            if name not in params:
+                raise ProtocolError(f"{command}: missing field {name!r}")
+        for name, expected in (*self.required.items(), *self.optional.items()):
+            if name in params:
+                _check_type(command, name, params[name], expected)
+        return self.build(command, params)
+
+    def unknown_fields(self, params: _Params) -> Tuple[str, ...]:
+        return tuple(sorted(name for name in params if name not in self.required and name not in self.optional))
 
 
 def _check_type(command: str, name: str, value: Any, expected: type) -> None:
     # bool is a subclass of int in Python; a srv_id of `true` is still wrong.
     if expected is int and (isinstance(value, bool) or not isinstance(value, int)):
         raise ProtocolError(f"{command}: field {name!r} must be an integer, got {value!r}")
+    if expected is float and not isinstance(value, bool) and isinstance(value, int):
+        return  # JSON writes 3.0 as 3
     if not isinstance(value, expected):
         raise ProtocolError(f"{command}: field {name!r} must be a {expected.__name__}, got {value!r}")
 
 
-def _check_name(command: str, field: str, name: str) -> None:
+def _check_name(command: str, field: str, name: str) -> str:
     if not name or name.startswith("__") or any(c.isspace() or c == "\0" for c in name):
         raise ProtocolError(f"{command}: field {field!r} is not a valid ROS name: {name!r}")
+    return name
 
 
-def _check_message_name(command: str, message_name: str) -> None:
+def _check_message_name(command: str, message_name: str) -> str:
     package, _, type_name = message_name.partition("/")
     if not package or not type_name or "/" in type_name or not (package + type_name).replace("_", "").isalnum():
         raise ProtocolError(f"{command}: field 'message_name' must look like 'package/Type', got {message_name!r}")
+    return message_name
 
 
-def _check_not_negative(command: str, field: str, value: int) -> None:
+def _not_negative(command: str, field: str, value: int) -> int:
     if value < 0:
         raise ProtocolError(f"{command}: field {field!r} must be >= 0, got {value}")
+    return value
 
 
-def _registration(command: str, params: _Params, optional: Optional[Dict[str, type]] = None) -> Tuple[str, str]:
-    _fields(command, params, {"topic": str, "message_name": str}, optional or {})
-    _check_name(command, "topic", params["topic"])
-    _check_message_name(command, params["message_name"])
-    return params["topic"], params["message_name"]
+def _topic_and_type(command: str, params: _Params) -> Tuple[str, str]:
+    return _check_name(command, "topic", params["topic"]), _check_message_name(command, params["message_name"])
 
 
-def _parse_subscribe(command: str, params: _Params) -> Event:
-    topic, message_name = _registration(command, params, {"queue_size": int})
+def _subscribe(command: str, params: _Params) -> Event:
     queue_size = params.get("queue_size")
-    if queue_size is not None:
-        _check_not_negative(command, "queue_size", queue_size)
-    return Subscribe(topic, message_name, queue_size)
+    return Subscribe(*_topic_and_type(command, params),
+                     None if queue_size is None else _not_negative(command, "queue_size", queue_size))
 
 
-def _parse_publish(command: str, params: _Params) -> Event:
-    topic, message_name = _registration(command, params, {"queue_size": int, "latch": bool})
-    queue_size = params.get("queue_size", 10)
-    _check_not_negative(command, "queue_size", queue_size)
-    return Publish(topic, message_name, queue_size, params.get("latch", False))
+def _publish(command: str, params: _Params) -> Event:
+    return Publish(*_topic_and_type(command, params), _not_negative(command, "queue_size", params.get("queue_size", 10)),
+                   params.get("latch", False))
 
 
-def _parse_remove(command: str, params: _Params) -> Event:
-    _fields(command, params, {"topic": str}, {})
-    _check_name(command, "topic", params["topic"])
-    return Remove(command[len("__remove_") :], params["topic"])
-
-
-def _parse_error(command: str, params: _Params) -> Event:
-    _fields(command, params, {"text": str}, {"srv_id": int})
-    return Error(params["text"], params.get("srv_id"))
-
-
-def _parse_topic_list(command: str, params: _Params) -> Event:
-    _fields(command, params, {"topics": list, "types": list}, {})
+def _topic_list(command: str, params: _Params) -> Event:
     topics, types = params["topics"], params["types"]
     if len(topics) != len(types) or not all(isinstance(name, str) for name in (*topics, *types)):
         raise ProtocolError(f"{command}: 'topics' and 'types' must be lists of names of the same length")
     return TopicList(tuple(topics), tuple(types))
 
 
-def _text_event(kind: Callable[[str], Event]) -> _Parser:
-    def parse(command: str, params: _Params) -> Event:
-        _fields(command, params, {"text": str}, {})
-        return kind(params["text"])
-
-    return parse
-
-
-def _time_event(kind: Callable[[str], Event]) -> _Parser:
-    def parse(command: str, params: _Params) -> Event:
-        _fields(command, params, {"request_time": str}, {})
-        return kind(params["request_time"])
-
-    return parse
-
-
-def _parse_auth(command: str, params: _Params) -> Event:
-    _fields(command, params, {"token": str}, {})
-    return Auth(params["token"])
-
-
-def _parse_handshake(command: str, params: _Params) -> Event:
-    _fields(command, params, {"version": str}, {"metadata": str})
+def _handshake(command: str, params: _Params) -> Event:
     try:
         metadata = json.loads(params.get("metadata", "{}"))
     except json.JSONDecodeError:
-        raise ProtocolError(f"{command}: field 'metadata' must hold a JSON object, got {params['metadata']!r}") \
-            from None
+        metadata = None
     if not isinstance(metadata, dict):
         raise ProtocolError(f"{command}: field 'metadata' must hold a JSON object, got {params['metadata']!r}")
     return Handshake(params["version"], metadata)
 
 
-# What each role may say: command -> parser of its JSON. A service header is not here: it is paired with its body.
-_SENT_BY_CLIENT: Dict[str, _Parser] = {
-    "__subscribe": _parse_subscribe,
-    "__publish": _parse_publish,
-    "__ros_service": lambda command, params: RosService(*_registration(command, params)),
-    "__unity_service": lambda command, params: UnityService(*_registration(command, params)),
-    "__topic_list": lambda command, params: TopicListQuery(),
-    "__auth": _parse_auth,
-    "__ping": _time_event(Ping),
-    **{f"__remove_{kind}": _parse_remove for kind in REMOVE_KINDS},
+_TOPIC: _Fields = {"topic": str}
+_REGISTRATION: _Fields = {"topic": str, "message_name": str}
+_TEXT: _Fields = {"text": str}
+_REQUEST_TIME: _Fields = {"request_time": str}
+_SRV_ID: _Fields = {"srv_id": int}
+
+# What each role may say: command -> its JSON. A service header (`_SERVICE_HEADERS`) is paired with its body.
+_SENT_BY_CLIENT: Dict[str, _Command] = {
+    "__subscribe": _Command(_REGISTRATION, {"queue_size": int}, _subscribe),
+    "__publish": _Command(_REGISTRATION, {"queue_size": int, "latch": bool}, _publish),
+    "__ros_service": _Command(_REGISTRATION, {}, lambda command, params: RosService(*_topic_and_type(command, params))),
+    "__unity_service": _Command(_REGISTRATION, {},
+                                lambda command, params: UnityService(*_topic_and_type(command, params))),
+    "__topic_list": _Command({}, {}, lambda command, params: TopicListQuery()),
+    "__auth": _Command({"token": str}, {}, lambda command, params: Auth(params["token"])),
+    "__ping": _Command(_REQUEST_TIME, {}, lambda command, params: Ping(params["request_time"])),
+    **{
+        f"__remove_{kind}": _Command(
+            _TOPIC, {}, lambda command, params: Remove(command[len("__remove_"):], _check_name(command, "topic",
+                                                                                               params["topic"]))
+        )
+        for kind in REMOVE_KINDS
+    },
 }
-_SENT_BY_ENDPOINT: Dict[str, _Parser] = {
-    "__handshake": _parse_handshake,
-    "__topic_list": _parse_topic_list,
-    "__ping_response": _time_event(PingResponse),
-    "__log": _text_event(Log),
-    "__warn": _text_event(Warn),
-    "__error": _parse_error,
+_SENT_BY_ENDPOINT: Dict[str, _Command] = {
+    "__handshake": _Command({"version": str}, {"metadata": str}, _handshake),
+    "__topic_list": _Command({"topics": list, "types": list}, {}, _topic_list),
+    "__ping_response": _Command(_REQUEST_TIME, {"ros_time": float},
+                                lambda command, params: PingResponse(params["request_time"], params.get("ros_time"))),
+    "__log": _Command(_TEXT, {}, lambda command, params: Log(params["text"])),
+    "__warn": _Command(_TEXT, {}, lambda command, params: Warn(params["text"])),
+    "__error": _Command(_TEXT, {"srv_id": int}, lambda command, params: Error(params["text"], params.get("srv_id"))),
 }
 _ServiceEvent = Union[Type[ServiceRequest], Type[ServiceResponse]]
 _SERVICE_HEADERS: Dict[str, _ServiceEvent] = {"__request": ServiceRequest, "__response": ServiceResponse}
+_SERVICE_HEADER = _Command(_SRV_ID, {}, lambda command, params: Event())  # the event comes with the body
 CLIENT_COMMANDS = frozenset((*_SENT_BY_CLIENT, *_SERVICE_HEADERS))
 ENDPOINT_COMMANDS = frozenset((*_SENT_BY_ENDPOINT, *_SERVICE_HEADERS))
 
@@ -532,7 +534,10 @@ def _command_params(event: Event) -> Tuple[str, _Params]:
     if isinstance(event, Ping):
         return "__ping", {"request_time": event.request_time}
     if isinstance(event, PingResponse):
-        return "__ping_response", {"request_time": event.request_time}
+        params = {"request_time": event.request_time}
+        if event.ros_time is not None:
+            params["ros_time"] = event.ros_time
+        return "__ping_response", params
     if isinstance(event, Log):
         return "__log", {"text": event.text}
     if isinstance(event, Warn):
@@ -609,6 +614,7 @@ class Conversation:
         self.awaiting_handshake = our_role is Role.CLIENT  # a client's first frame must be the handshake
         self.pending_service: Optional[Tuple[_ServiceEvent, int]] = None
         self.frames_received = 0
+        self._reported_fields: Set[Tuple[str, str]] = set()  # (command, field) already reported as IgnoredFields
 
     # --- receiving ---------------------------------------------------------------------------------------------
     def receive_data(self, data: bytes) -> List[Event]:
@@ -626,55 +632,55 @@ class Conversation:
                 except UnicodeDecodeError:
                     events.append(InvalidInput(RemoteProtocolError(f"frame dropped: {_not_utf8(raw_destination)}")))
                 continue
-            event = self._receive_frame(raw_destination, payload)
-            if event is not None:
-                events.append(event)
+            events.extend(self._receive_frame(raw_destination, payload))
         if failure is not None:
             self.pending_service = None
             events.append(InvalidInput(failure))
         return events
 
-    def _receive_frame(self, raw_destination: bytes, payload: bytes) -> Optional[Event]:
+    def _receive_frame(self, raw_destination: bytes, payload: bytes) -> Tuple[Event, ...]:
+        """The events of one frame other than a plain topic message: none (a keepalive, a service header), one, or
+        IgnoredFields and then the command's own."""
         if not raw_destination and not payload:
-            return None  # a keepalive, wherever it comes (even between a service header and its body)
+            return ()  # a keepalive, wherever it comes (even between a service header and its body)
         try:
             destination = _decode_destination(raw_destination)
         except UnicodeDecodeError:
             srv_id = self._drop_pending_service()
-            return InvalidInput(RemoteProtocolError(f"frame dropped: {_not_utf8(raw_destination)}", srv_id))
+            return (InvalidInput(RemoteProtocolError(f"frame dropped: {_not_utf8(raw_destination)}", srv_id)),)
         if self.pending_service is not None:
             kind, srv_id = self.pending_service
             self.pending_service = None
-            return kind(srv_id, destination, payload)
-        if self.awaiting_handshake:
-            return self._receive_handshake(destination, payload)
+            return (kind(srv_id, destination, payload),)
+        if self.awaiting_handshake and destination != "__handshake":
+            return (InvalidInput(RemoteProtocolError(
+                f"the endpoint's first frame must be __handshake, got {destination!r}; frame dropped")),)
         if not destination.startswith("__"):
-            return TopicMessage(destination, payload)
+            return (TopicMessage(destination, payload),)
+        service_kind = _SERVICE_HEADERS.get(destination)
+        spec = _SERVICE_HEADER if service_kind is not None else self._their_commands.get(destination)
         try:
-            service_kind = _SERVICE_HEADERS.get(destination)
-            if service_kind is not None:
-                params = _json_object(destination, payload)
-                _fields(destination, params, {"srv_id": int}, {})
-                self.pending_service = (service_kind, params["srv_id"])
-                return None  # the event comes with the body, the next frame
-            parse = self._their_commands.get(destination)
-            if parse is None:
+            if spec is None:
                 raise ProtocolError(f"unknown system command {destination!r}")
-            return parse(destination, _json_object(destination, payload))
+            params = _json_object(destination, payload)
+            event = spec.parse(destination, params)
         except ProtocolError as error:
-            return InvalidInput(RemoteProtocolError(str(error)))
+            return (InvalidInput(RemoteProtocolError(str(error))),)
+        ignored = self._newly_ignored(destination, spec.unknown_fields(params))
+        if service_kind is not None:
+            self.pending_service = (service_kind, params["srv_id"])
+            return ignored  # the service event comes with the body, the next frame
+        if isinstance(event, Handshake):
+            self.awaiting_handshake = False
+        return (*ignored, event)
 
-    def _receive_handshake(self, destination: str, payload: bytes) -> Event:
-        if destination != "__handshake":
-            return InvalidInput(RemoteProtocolError(
-                f"the endpoint's first frame must be __handshake, got {destination!r}; frame dropped"
-            ))
-        try:
-            event = _parse_handshake(destination, _json_object(destination, payload))
-        except ProtocolError as error:
-            return InvalidInput(RemoteProtocolError(str(error)))
-        self.awaiting_handshake = False
-        return event
+    def _newly_ignored(self, command: str, fields: Tuple[str, ...]) -> Tuple[Event, ...]:
+        """IgnoredFields for the fields not reported before on this connection, if any."""
+        new = tuple(name for name in fields if (command, name) not in self._reported_fields)
+        if not new:
+            return ()
+        self._reported_fields.update((command, name) for name in new)
+        return (IgnoredFields(command, new),)
 
     def _drop_pending_service(self) -> Optional[int]:
         if self.pending_service is None:
@@ -694,7 +700,7 @@ class Conversation:
         if not isinstance(event, (TopicMessage, Keepalive, ServiceRequest, ServiceResponse, Handshake)):
             command, params = _command_params(event)
             try:
-                _PARSERS[self.our_role][command](command, params)
+                _PARSERS[self.our_role][command].parse(command, params)
             except ProtocolError as error:
                 raise LocalProtocolError(str(error)) from None
         return encode(event)

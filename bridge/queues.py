@@ -8,6 +8,7 @@ from __future__ import annotations
 import threading
 import time
 from collections import deque
+from typing import Dict, Optional, Tuple
 
 __all__ = ["OutgoingQueue"]
 
@@ -17,6 +18,8 @@ class OutgoingQueue:
 
     Bounded by frame count and bytes. When full, the oldest *droppable* frame (a topic message) goes; service
     request/response pairs and errors are never dropped, so a slow reader loses stale samples, not answers.
+    A frame may also carry a key (its topic) with a limit of its own: at most that many frames of the key wait, the
+    oldest of them going first (a client's queue_size for a topic).
     """
 
     def __init__(self, max_frames: int, max_bytes: int) -> None:
@@ -24,7 +27,8 @@ class OutgoingQueue:
             raise ValueError(f"queue limits must be positive, got max_frames={max_frames}, max_bytes={max_bytes}")
         self.max_frames = max_frames
         self.max_bytes = max_bytes
-        self._items: deque[tuple[bytes, bool]] = deque()
+        self._items: deque[Tuple[bytes, bool, Optional[str]]] = deque()  # (frame, droppable, key)
+        self._key_counts: Dict[str, int] = {}  # frames queued per key
         self._bytes = 0
         self._closed = False
         self._dropped = 0
@@ -44,8 +48,10 @@ class OutgoingQueue:
     def queued_bytes(self) -> int:
         return self._bytes
 
-    def put(self, data: bytes, droppable: bool = True, wait_s: float = 0.0) -> int:
-        """Queue `data`; returns how many older frames were dropped to make room for it.
+    def put(self, data: bytes, droppable: bool = True, wait_s: float = 0.0, key: Optional[str] = None,
+            key_limit: int = 0) -> int:
+        """Queue `data`; returns how many older frames were dropped to make room for it (and, with a `key` and a
+        positive `key_limit`, to keep at most that many frames of the key).
 
         With `wait_s`, a full queue is first given up to that long to make room (the consumer taking frames),
         so a producer that outpaces the consumer is slowed to its pace instead of losing frames.
@@ -55,7 +61,7 @@ class OutgoingQueue:
                 self._wait_for_room(len(data), wait_s)
             if self._closed:
                 return 0
-            dropped = self._append(data, droppable)
+            dropped = self._append(data, droppable, key, key_limit)
             self._not_empty.notify()
             return dropped
 
@@ -86,11 +92,16 @@ class OutgoingQueue:
             self._not_full.wait(remaining)
         return True
 
-    def _append(self, data: bytes, droppable: bool) -> int:
+    def _append(self, data: bytes, droppable: bool, key: Optional[str] = None, key_limit: int = 0) -> int:
         """With the lock held: queue `data`, dropping the oldest droppable frames while over a limit; how many."""
-        self._items.append((data, droppable))
-        self._bytes += len(data)
         dropped = 0
+        if key is not None:
+            if key_limit > 0:
+                while self._key_counts.get(key, 0) >= key_limit and self._drop_oldest_of(key):
+                    dropped += 1
+            self._key_counts[key] = self._key_counts.get(key, 0) + 1
+        self._items.append((data, droppable, key))
+        self._bytes += len(data)
         while (len(self._items) > self.max_frames or self._bytes > self.max_bytes) and len(self._items) > 1:
             if not self._drop_oldest_droppable():
                 break
@@ -101,17 +112,26 @@ class OutgoingQueue:
         return len(self._items) < self.max_frames and (not self._items or self._bytes + size <= self.max_bytes)
 
     def _drop_oldest_droppable(self) -> bool:
-        if self._items[0][1]:
-            data, _ = self._items.popleft()
-        else:
-            index = next((i for i, (_, droppable) in enumerate(self._items) if droppable), None)
-            if index is None:
-                return False
-            data, _ = self._items[index]
-            del self._items[index]
+        index = 0 if self._items[0][1] else next((i for i, item in enumerate(self._items) if item[1]), None)
+        if index is None:
+            return False
+        self._drop_at(index)
+        return True
+
+    def _drop_oldest_of(self, key: str) -> bool:
+        index = next((i for i, item in enumerate(self._items) if item[2] == key), None)
+        if index is None:
+            return False
+        self._drop_at(index)
+        return True
+
+    def _drop_at(self, index: int) -> None:
+        data, _, key = self._items[index]
+        del self._items[index]
         self._bytes -= len(data)
         self._dropped += 1
-        return True
+        if key is not None:
+            self._key_counts[key] -= 1
 
     def take_all(self, timeout: float | None = None) -> list[bytes] | None:
         """Everything queued (waiting up to `timeout` for something); [] on timeout; None once closed and empty."""
@@ -120,8 +140,9 @@ class OutgoingQueue:
                 self._not_empty.wait(timeout)
             if not self._items:
                 return None if self._closed else []
-            items = [data for data, _ in self._items]
+            items = [item[0] for item in self._items]
             self._items.clear()
+            self._key_counts.clear()
             self._bytes = 0
             self._not_full.notify_all()
             return items
@@ -139,6 +160,7 @@ class OutgoingQueue:
             self._closed = True
             if discard:
                 self._items.clear()
+                self._key_counts.clear()
                 self._bytes = 0
             self._not_empty.notify_all()
             self._not_full.notify_all()

@@ -185,7 +185,7 @@ def _raw_class_like(generated: type[genpy.Message]) -> type[RawMessage]:
     )
 
 
-MessageCallback = Callable[[str, bytes], None]
+MessageCallback = Callable[[str, bytes, str], None]  # (topic, message bytes, the publishing node's name)
 ServiceHandler = Callable[[bytes], bytes]
 
 
@@ -232,6 +232,15 @@ class RosGraph:
         return rospy.is_shutdown()
 
     @staticmethod
+    def node_name() -> str:
+        return rospy.get_name()
+
+    @staticmethod
+    def now() -> float:
+        """ROS time in seconds (simulated time when /use_sim_time is set)."""
+        return rospy.get_rostime().to_sec()
+
+    @staticmethod
     def resolve(name: str) -> str:
         return rospy.resolve_name(name)
 
@@ -251,7 +260,8 @@ class RosGraph:
         raw = self.types.raw_message_class(message_name)
         # tcp_nodelay: a 1 kHz stream must not wait for Nagle; buff_size large enough for big messages.
         return rospy.Subscriber(
-            topic, raw, lambda msg: callback(topic, msg._buff), tcp_nodelay=True, buff_size=1 << 20
+            topic, raw, lambda msg: callback(topic, msg._buff, msg._connection_header.get("callerid", "")),
+            tcp_nodelay=True, buff_size=1 << 20,
         )
 
     def topic_types(self) -> tuple[list[str], list[str]]:

@@ -16,14 +16,17 @@ import logging
 import socket
 import threading
 import time
+from collections import deque
 from dataclasses import dataclass, field
-from typing import Any, Callable, Dict, Optional, Set, Tuple, TypeVar
+from typing import Any, Callable, Deque, Dict, Optional, Set, Tuple, TypeVar
 
 from bridge import protocol
 from bridge.config import EndpointConfig
 from bridge.protocol import (
     Auth,
     Event,
+    Ping,
+    PingResponse,
     Publish,
     Remove,
     RosService,
@@ -43,6 +46,8 @@ __all__ = ["Endpoint"]
 
 log = logging.getLogger(__name__)
 _Made = TypeVar("_Made")
+# Client messages remembered per topic until they come back from ROS (see _SharedSubscriber.echoes)
+ECHO_RECORD_MAX = 4096
 
 
 @dataclass
@@ -55,12 +60,24 @@ class _Registrations:
     unity_services: Set[str] = field(default_factory=set)  # resolved names
 
 
+@dataclass(frozen=True)
+class _Subscription:
+    session: ClientSession
+    client_topic: str  # the topic as that client spells it
+    queue_size: int  # at most this many of the topic's frames wait for the client; 0: only the client's own bound
+
+
 @dataclass
 class _SharedSubscriber:
     message_name: str
     handle: Any
-    # (session, topic as that client spells it); replaced whole so rospy callbacks read it without a lock
-    clients: Tuple[Tuple[ClientSession, str], ...] = ()
+    # replaced whole, never changed in place, so rospy callbacks read it without a lock
+    clients: Tuple[_Subscription, ...] = ()
+    # Per client that publishes on the topic and subscribes to it: what it published, in its order, so the copy that
+    # comes back from ROS (through our own publisher) skips it. Each client's messages reach ROS in the order it sent
+    # them; different clients' messages interleave in any order.
+    echoes: Dict[ClientSession, Deque[bytes]] = field(default_factory=dict)
+    echoes_lock: threading.Lock = field(default_factory=threading.Lock)  # readers append, rospy's thread takes
 
 
 @dataclass
@@ -94,6 +111,7 @@ class Endpoint:
         self.ros = ros
         self.config = config
         self._lock = threading.RLock()
+        self._node_name = ros.node_name()
         self._clients: Dict[ClientSession, _Registrations] = {}
         self._subscribers: Dict[str, _SharedSubscriber] = {}
         self._publishers: Dict[str, _SharedPublisher] = {}
@@ -119,6 +137,7 @@ class Endpoint:
             ServiceRequest: self._call_ros_service,
             ServiceResponse: self._complete_unity_call,
             TopicListQuery: self._send_topic_list,
+            Ping: self._answer_ping,
             Auth: lambda session, event: None,  # already authenticated (or auth is off): harmless
         }
 
@@ -211,6 +230,12 @@ class Endpoint:
                 self.ros.types.validate(publisher.message_name, message.payload)
             except RosError as error:
                 raise RequestRefused(f"topic {resolved}: {error}; message not published") from None
+        subscribed = self._subscribers.get(resolved)
+        if subscribed is not None and subscribed.echoes:
+            own = subscribed.echoes.get(session)
+            if own is not None:
+                with subscribed.echoes_lock:
+                    own.append(message.payload)
         return publisher
 
     def release(self, session: ClientSession) -> None:
@@ -258,9 +283,10 @@ class Endpoint:
                 )
                 shared = _SharedSubscriber(command.message_name, handle)
                 self._subscribers[resolved] = shared
-            others = tuple(entry for entry in shared.clients if entry[0] is not session)
-            shared.clients = others + ((session, command.topic),)
+            others = tuple(entry for entry in shared.clients if entry.session is not session)
+            shared.clients = others + (_Subscription(session, command.topic, command.queue_size or 0),)
             self._clients[session].subscriptions[resolved] = command.topic
+            self._guard_echoes(resolved)
 
     def _unsubscribe(self, session: ClientSession, registrations: _Registrations, resolved: str) -> None:
         with self._lock:
@@ -268,10 +294,12 @@ class Endpoint:
             shared = self._subscribers.get(resolved)
             if shared is None:
                 return
-            shared.clients = tuple(entry for entry in shared.clients if entry[0] is not session)
+            shared.clients = tuple(entry for entry in shared.clients if entry.session is not session)
             if not shared.clients:
                 del self._subscribers[resolved]
                 shared.handle.unregister()
+            else:
+                self._guard_echoes(resolved)
 
     def _register_publisher(self, session: ClientSession, command: Publish) -> None:
         resolved = self._checked_name(command.topic)
@@ -298,6 +326,7 @@ class Endpoint:
                 self._publishers[resolved] = shared
             shared.clients.add(session)
             self._clients[session].publishers[command.topic] = (resolved, shared.publisher)
+            self._guard_echoes(resolved)
 
     def _unregister_publisher(self, session: ClientSession, registrations: _Registrations, client_topic: str,
                               keep_advertised: bool = False) -> None:
@@ -312,6 +341,7 @@ class Endpoint:
             if not shared.clients and not keep_advertised:
                 del self._publishers[entry[0]]
                 shared.publisher.unregister()
+            self._guard_echoes(entry[0])
 
     def _register_ros_service(self, session: ClientSession, command: RosService) -> None:
         resolved = self._checked_name(command.topic)
@@ -359,6 +389,20 @@ class Endpoint:
             del self._unity_services[resolved]
             service.handle.shutdown("client removed the service")
 
+    def _guard_echoes(self, resolved: str) -> None:
+        """Keep an echo record for exactly the clients that both publish and subscribe on the topic (none when clients
+        are configured to get their own messages back). Called with the lock held."""
+        subscribed = self._subscribers.get(resolved)
+        if subscribed is None or self.config.echo_own_publications:
+            return
+        published = self._publishers.get(resolved)
+        publishing = published.clients if published is not None else set()
+        with subscribed.echoes_lock:
+            subscribed.echoes = {
+                entry.session: subscribed.echoes.get(entry.session) or deque(maxlen=ECHO_RECORD_MAX)
+                for entry in subscribed.clients if entry.session in publishing
+            }
+
     def _remove(self, session: ClientSession, command: Remove) -> None:
         registrations = self._clients[session]
         if command.kind == "subscriber":
@@ -371,17 +415,24 @@ class Endpoint:
             self._unregister_unity_service(session, registrations, self.ros.resolve(command.topic))
 
     # --- data paths -------------------------------------------------------------------------------------------
-    def _fan_out(self, resolved: str, payload: bytes) -> None:
-        """rospy callback: one received message to every client subscribed to the topic, bytes untouched."""
+    def _fan_out(self, resolved: str, payload: bytes, publisher_node: str) -> None:
+        """rospy callback: one received message to every client subscribed to the topic, bytes untouched; a client's
+        own message, come back through our publisher, skips that client (see _SharedSubscriber.echoes)."""
         shared = self._subscribers.get(resolved)
         if shared is None:
             return
+        sender = None
+        if shared.echoes and publisher_node == self._node_name:
+            with shared.echoes_lock:
+                sender = _take_echo(shared.echoes, payload)
         frames: Dict[str, bytes] = {}
-        for session, client_topic in shared.clients:
-            frame = frames.get(client_topic)
+        for entry in shared.clients:
+            if entry.session is sender:
+                continue
+            frame = frames.get(entry.client_topic)
             if frame is None:
-                frame = frames[client_topic] = protocol.encode_frame(client_topic, payload)
-            session.send(frame)
+                frame = frames[entry.client_topic] = protocol.encode_frame(entry.client_topic, payload)
+            entry.session.send(frame, key=resolved, key_limit=entry.queue_size)
 
     def _call_ros_service(self, session: ClientSession, request: ServiceRequest) -> None:
         srv_id = request.srv_id
@@ -410,6 +461,9 @@ class Endpoint:
             session.send(protocol.encode(ServiceResponse(srv_id, request.service, response)), droppable=False)
 
         session.run_call(f"__request {srv_id} ({request.service})", call, srv_id)
+
+    def _answer_ping(self, session: ClientSession, ping: Ping) -> None:
+        session.send(protocol.encode(PingResponse(ping.request_time, self.ros.now())), droppable=False)
 
     def _send_topic_list(self, session: ClientSession, query: TopicListQuery) -> None:
         def look_up() -> None:
@@ -465,6 +519,23 @@ class Endpoint:
                 ) from None
         call.response = response.payload
         call.done.set()
+
+
+def _take_echo(echoes: Dict[ClientSession, Deque[bytes]], payload: bytes) -> Optional[ClientSession]:
+    """The client that published `payload`, now come back from ROS through our own publisher, and its record up to
+    that message taken. A client's messages come back in its order, so its next one is at the front of its record;
+    one found further in means those before it never came back (dropped before ROS): they go too."""
+    for session, published in echoes.items():
+        if published and published[0] == payload:
+            published.popleft()
+            return session
+    for session, published in echoes.items():
+        for index, earlier in enumerate(published):
+            if earlier == payload:
+                for _ in range(index + 1):
+                    published.popleft()
+                return session
+    return None
 
 
 def _made_for_client(make: Callable[[], _Made]) -> _Made:

@@ -18,7 +18,7 @@ from typing import Callable, List, Optional, Protocol, Set
 
 from bridge import protocol
 from bridge.config import EndpointConfig
-from bridge.protocol import Auth, Conversation, Event, InvalidInput, Ping, PingResponse, Role, TopicMessage
+from bridge.protocol import Auth, Conversation, Event, IgnoredFields, InvalidInput, Role, TopicMessage, Warn
 from bridge.queues import OutgoingQueue
 from bridge.ros import RawPublisher
 from bridge.sockets import send_now, unsent_bytes
@@ -105,7 +105,7 @@ class ClientSession:
         self._writer.start()
         self._reader.start()
 
-    def send(self, frame: bytes, droppable: bool = True) -> None:
+    def send(self, frame: bytes, droppable: bool = True, key: Optional[str] = None, key_limit: int = 0) -> None:
         """Send one frame (or a service header + body, as one item) without ever blocking the caller.
 
         Direct path: when nothing is queued, nobody is writing and the peer keeps up, write it at once with a
@@ -116,7 +116,8 @@ class ClientSession:
         keep up (DIRECT_SEND_MAX_UNSENT bytes waiting in the kernel) is left to the writer thread: measured, sending
         to a never-reading client from rospy's receive thread slowed that thread to ~580 msg/s for every client.
         The kernel is asked (an ioctl, a fifth of a fan-out's cost) only when what was written since it last
-        answered could have reached the limit.
+        answered could have reached the limit. `key` and `key_limit`: at most that many frames of the key (a topic)
+        wait in the queue, the oldest going first (the client's queue_size for the topic).
         """
         if self._send_lock.acquire(blocking=False):
             try:
@@ -135,7 +136,7 @@ class ClientSession:
                         return
             finally:
                 self._send_lock.release()
-        self.queue.put(frame, droppable)
+        self.queue.put(frame, droppable, key=key, key_limit=key_limit)
 
     def _peer_keeps_up(self, size: int) -> bool:
         """Fewer than DIRECT_SEND_MAX_UNSENT bytes would wait in the kernel after sending `size` more. Called with
@@ -267,13 +268,14 @@ class ClientSession:
                 return False
             if self.authenticated:
                 return True
+        elif isinstance(event, IgnoredFields):
+            names = ", ".join(map(repr, event.fields))
+            self.send(protocol.encode(Warn(f"{event.command}: field(s) {names} not known to this endpoint, ignored")))
+            return True
         if not self.authenticated:
             return self._authenticate(event)
         try:
-            if isinstance(event, Ping):
-                self.send(protocol.encode(PingResponse(event.request_time)), droppable=False)
-            else:
-                self.owner.handle(self, event)
+            self.owner.handle(self, event)
         except RequestRefused as refusal:
             self.send_error(str(refusal), refusal.srv_id)
         except Exception as error:  # a bug must cost one event, never the connection or the endpoint

@@ -1,6 +1,9 @@
 """Topics through a real endpoint on a real roscore: byte-exact both ways, many clients, registrations, removal."""
 from __future__ import annotations
 
+import json
+import time
+
 import pytest
 import rospy  # noqa: F401 - the session's rospy node (ros_node fixture) is what the tests use
 from geometry_msgs.msg import Point, Pose, Quaternion
@@ -16,6 +19,7 @@ from tests.integration.bridge_helpers import (
     bridge,  # noqa: F401 - module-scoped endpoint fixture
     serialize,
     service_exists,
+    start_endpoint,
     tcp_client,
     unique,
     wait_no_subscribers,
@@ -281,25 +285,112 @@ def test_keepalives_are_ignored(bridge) -> None:
 
 
 def test_the_newest_connectors_subscribe_and_ping_are_served(bridge, ros_node) -> None:
-    """ROS-TCP-Connector's dev branch: __subscribe may carry queue_size (and fields we do not know are ignored, as
-    Unity's JSON reader ignores them); __ping is answered with the client's own request_time."""
+    """ROS-TCP-Connector's dev branch: __subscribe may carry queue_size, and __ping is answered with the client's
+    own request_time (plus the endpoint's ROS time). A field the endpoint does not know is ignored, with one __warn
+    per command and field."""
     topic = unique("newest_connector")
     publisher = ros_node.Publisher(topic, String, queue_size=10)
     request_time = "2026-11-23T04:00:00.1234567Z"  # Unity's DateTime round-trip format
     with RawConnection(bridge.port) as client:
-        client.command("__subscribe", topic=topic, message_name="std_msgs/String", queue_size=1, added_later=True)
+        for _ in range(3):
+            client.command("__subscribe", topic=topic, message_name="std_msgs/String", queue_size=1, added_later=True)
         client.command("__ping", request_time=request_time)
-        assert client.wait_command("__ping_response") == {"request_time": request_time}
+        answer = client.wait_command("__ping_response")
+        assert answer["request_time"] == request_time and abs(answer["ros_time"] - time.time()) < 5
         client.sync()
         wait_subscribers(publisher)
         publisher.publish(String("hello"))
         frame = client.wait_frame(lambda f: f.destination == topic, f"message on {topic}")
         assert frame.payload == serialize(String("hello"))
         assert not client.errors()
+        warnings = [json.loads(f.payload)["text"] for f in client.received if f.destination == "__warn"]
+        assert warnings == ["__subscribe: field(s) 'added_later' not known to this endpoint, ignored"]
     publisher.unregister()
 
 
-def test_the_tcp_client_pings(bridge) -> None:
+def test_the_tcp_client_pings_and_estimates_its_offset_to_ros_time(bridge) -> None:
     with tcp_client(bridge.port) as client:
-        assert 0 < client.ping(timeout=5) < 5
+        result = client.ping(timeout=5)
+        assert 0 < result.round_trip_s < 5
+        # Same machine, ROS time = wall time: the offset is within the round trip (plus rounding).
+        assert result.ros_clock_offset_s is not None and abs(result.ros_clock_offset_s) < result.round_trip_s + 0.01
         assert client.errors == []
+
+
+def test_a_client_gets_the_others_messages_on_a_topic_it_publishes_but_not_its_own(bridge, ros_node) -> None:
+    """Unity's users asked for this (ROS-TCP-Endpoint PR #159): a client that publishes and subscribes on a topic is
+    not sent its own messages back, while every other message on the topic reaches it."""
+    topic = unique("no_echo")
+    own, other = Inbox(), Inbox()
+    warm_up = serialize(String("warm-up"))
+    with tcp_client(bridge.port) as chatty, tcp_client(bridge.port) as quiet:
+        for client, inbox in ((chatty, own), (quiet, other)):
+            client.subscribe(topic, "std_msgs/String", inbox)
+            client.register_publisher(topic, "std_msgs/String")
+            client.topic_list()
+
+        def warmed_up() -> bool:  # the endpoint's subscriber is connected to its own publisher
+            chatty.publish(topic, warm_up)
+            return warm_up in other.snapshot()
+        wait_for(warmed_up, 10, "a message from one client at the other", interval=0.1)
+        ros_publisher = ros_node.Publisher(topic, String, queue_size=10)
+        wait_subscribers(ros_publisher)
+        for index in range(20):
+            chatty.publish(topic, serialize(String(f"chatty {index}")))
+            quiet.publish(topic, serialize(String(f"quiet {index}")))
+        ros_publisher.publish(String("from ros"))
+        expected_own = {serialize(String(f"quiet {i}")) for i in range(20)} | {serialize(String("from ros"))}
+        expected_other = {serialize(String(f"chatty {i}")) for i in range(20)} | {serialize(String("from ros"))}
+        wait_for(lambda: expected_own <= set(own.snapshot()) and expected_other <= set(other.snapshot()), 10,
+                 "every other client's message at each client")
+        chatty.topic_list()
+        quiet.topic_list()  # anything else in flight has arrived by now
+        assert set(own.snapshot()) == expected_own and len(own) == 21  # none of its own, not even a warm-up
+        assert set(other.snapshot()) - {warm_up} == expected_other
+        ros_publisher.unregister()
+
+
+def test_an_endpoint_configured_so_sends_clients_their_own_messages_back(roscore, ros_node, tmp_path) -> None:
+    topic = unique("echo_on")
+    process = start_endpoint(roscore, tmp_path, "--echo-own-publications")
+    try:
+        own = Inbox()
+        with tcp_client(process.port) as client:
+            client.subscribe(topic, "std_msgs/String", own)
+            client.register_publisher(topic, "std_msgs/String")
+            client.topic_list()
+            message = serialize(String("mine"))
+
+            def echoed() -> bool:
+                client.publish(topic, message)
+                return message in own.snapshot()
+            wait_for(echoed, 10, "its own message back", interval=0.1)
+    finally:
+        process.stop()
+
+
+def test_a_subscription_with_queue_size_keeps_only_that_many_waiting_for_a_slow_client(bridge, ros_node) -> None:
+    """__subscribe's queue_size is that client's queue depth for the topic: a client that does not read gets the
+    newest messages when it reads again, and is told how many were dropped."""
+    topic = unique("queue_size")
+    publisher = ros_node.Publisher(topic, String, queue_size=1000)
+    with RawConnection(bridge.port, rcvbuf=4096) as latest_only, RawConnection(bridge.port, rcvbuf=4096) as all_of_it:
+        latest_only.command("__subscribe", topic=topic, message_name="std_msgs/String", queue_size=1)
+        all_of_it.command("__subscribe", topic=topic, message_name="std_msgs/String")
+        latest_only.sync()
+        all_of_it.sync()
+        wait_subscribers(publisher, count=1)
+        sent = [serialize(String(f"sample {index:04d} " + "x" * 200)) for index in range(600)]
+        for index in range(600):
+            publisher.publish(String(f"sample {index:04d} " + "x" * 200))
+        # neither client reads until everything was published and handed to them (or queued)
+        time.sleep(1.0)
+        latest_only.sync()
+        all_of_it.sync()
+        got_latest, got_all = latest_only.messages(topic), all_of_it.messages(topic)
+        assert got_latest[-1] == sent[-1] and got_all[-1] == sent[-1]
+        assert len(got_latest) < len(got_all) <= len(sent)
+        assert got_latest == [payload for payload in sent if payload in set(got_latest)]  # in order, no duplicates
+        warnings = " ".join(json.loads(f.payload)["text"] for f in latest_only.received if f.destination == "__warn")
+        assert "dropped" in warnings
+    publisher.unregister()

@@ -21,6 +21,7 @@ from bridge.protocol import (
     FrameDecoder,
     FramingError,
     Handshake,
+    IgnoredFields,
     InvalidInput,
     Keepalive,
     LocalProtocolError,
@@ -221,6 +222,7 @@ def test_handshake_exact_bytes() -> None:
         (Auth("s3cret"), b"__auth", b'{"token":"s3cret"}'),
         (Ping("2026-11-23T04:00:00.0000000Z"), b"__ping", b'{"request_time":"2026-11-23T04:00:00.0000000Z"}'),
         (PingResponse("t0"), b"__ping_response", b'{"request_time":"t0"}'),
+        (PingResponse("t0", 1700000000.25), b"__ping_response", b'{"request_time":"t0","ros_time":1700000000.25}'),
         (Error("bad"), b"__error", b'{"text":"bad"}'),
         (Error("bad", 101), b"__error", b'{"text":"bad","srv_id":101}'),
         (Warn("w"), b"__warn", b'{"text":"w"}'),
@@ -314,7 +316,7 @@ def test_what_a_client_sends_the_endpoint_receives_unchanged(event: Event) -> No
     st.builds(Error, st.text(max_size=30), st.none() | st.integers(0, 2**31)),
     st.builds(Warn, st.text(max_size=30)),
     st.builds(Log, st.text(max_size=30)),
-    st.builds(PingResponse, st.text(max_size=30)),
+    st.builds(PingResponse, st.text(max_size=30), st.none() | st.floats(0, 2e9)),
     st.builds(ServiceRequest, st.integers(0, 2**31), st.just("/s"), st.binary(max_size=50)),
     st.builds(ServiceResponse, st.integers(0, 2**31), st.just("/s"), st.binary(max_size=50)),
     st.builds(TopicMessage, st.just("/t"), st.binary(max_size=50)),
@@ -395,10 +397,27 @@ def test_missing_field_is_named(destination: str, params: dict, field: str) -> N
         ("__ping", {"request_time": "t", "sent_by": "Unity"}, Ping("t")),
     ],
 )
-def test_fields_we_do_not_know_are_ignored_as_unitys_json_reader_ignores_them(
+def test_a_command_with_fields_we_do_not_know_is_carried_out_and_they_are_reported_once(
     destination: str, params: dict, expected: Event
 ) -> None:
-    assert parsed(destination, params) == expected
+    conversation = Conversation(Role.ENDPOINT)
+    unknown = tuple(sorted(set(params) - {"topic", "message_name", "request_time"}))
+    assert conversation.receive_data(command(destination, params)) == [IgnoredFields(destination, unknown), expected]
+    assert conversation.receive_data(command(destination, params) * 2) == [expected, expected]
+
+
+def test_unknown_fields_are_reported_per_command_and_field() -> None:
+    conversation = Conversation(Role.ENDPOINT)
+    first = {"topic": "/t", "message_name": "a/B", "x": 1}
+    events = conversation.receive_data(command("__subscribe", first) + command("__subscribe", {**first, "y": 2})
+                                       + command("__publish", first) + command("__request", {"srv_id": 5, "x": 1})
+                                       + encode_frame("/srv", b"body"))
+    assert events == [
+        IgnoredFields("__subscribe", ("x",)), Subscribe("/t", "a/B"),
+        IgnoredFields("__subscribe", ("y",)), Subscribe("/t", "a/B"),
+        IgnoredFields("__publish", ("x",)), Publish("/t", "a/B"),
+        IgnoredFields("__request", ("x",)), ServiceRequest(5, "/srv", b"body"),
+    ]
 
 
 @pytest.mark.parametrize(

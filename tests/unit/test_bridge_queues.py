@@ -253,3 +253,27 @@ def test_put_many_stops_when_the_queue_closes() -> None:
     threading.Timer(0.05, queue.close).start()
     assert queue.put_many([b"a", b"b", b"c"], wait_s=5.0) == 0
     assert queue.take_all(timeout=0) == [b"a"]
+
+
+def test_a_keyed_frame_keeps_at_most_its_limit_of_that_key_oldest_going_first() -> None:
+    queue = OutgoingQueue(max_frames=100, max_bytes=10_000)
+    for index in range(5):
+        queue.put(f"latest{index}".encode(), key="/pose", key_limit=1)
+        queue.put(f"all{index}".encode(), key="/joint_states", key_limit=0)  # 0: no limit of its own
+    assert queue.put(b"service", droppable=False) == 0
+    assert queue.take_all(timeout=0) == [b"all0", b"all1", b"all2", b"all3", b"latest4", b"all4", b"service"]
+    assert queue.dropped == 4
+
+
+def test_a_keys_count_follows_every_way_a_frame_leaves() -> None:
+    queue = OutgoingQueue(max_frames=3, max_bytes=10_000)
+    queue.put(b"a1", key="/a", key_limit=2)
+    queue.put(b"b1")
+    queue.put(b"b2")
+    queue.put(b"b3")  # over max_frames: a1 goes, so /a has none queued
+    queue.put(b"a2", key="/a", key_limit=2)
+    queue.put(b"a3", key="/a", key_limit=2)
+    assert queue.take_all(timeout=0) == [b"b3", b"a2", b"a3"]
+    queue.put(b"a4", key="/a", key_limit=2)  # taken frames no longer count
+    queue.put(b"a5", key="/a", key_limit=2)
+    assert queue.take_all(timeout=0) == [b"a4", b"a5"]
