@@ -7,18 +7,28 @@ deserializes by keeping them; `_has_header = False` keeps rospy from rewriting `
 from __future__ import annotations
 
 import importlib
+import io
 import logging
+import socket
 import struct
 import sys
 import threading
 import time
 import warnings
-from typing import Any, Callable
+from typing import Any, Callable, List, Optional, Tuple
 
 import genpy
 import rosgraph
+import rosgraph.network
 import rospy
+import xmlrpc.client
 
+from bridge.definitions import (
+    DefinitionError,
+    message_class_from_files,
+    message_class_from_text,
+    service_class_from_files,
+)
 from bridge.layout import Layout, LayoutError
 from bridge.queues import OutgoingQueue
 from bridge.sockets import send_to_all, unsent_bytes
@@ -74,12 +84,24 @@ def _split_name(message_name: str) -> tuple[str, str]:
 
 
 def _import_generated(message_name: str, kind: str) -> Any:
+    """The generated class of a message (kind "msg") or service ("srv"): the package's Python module, else one built
+    from the definition files on ROS_PACKAGE_PATH (bridge.definitions). RosError says what to build or source."""
     package, type_name = _split_name(message_name)
     try:
         module = importlib.import_module(f"{package}.{kind}")
         return getattr(module, type_name)
     except (ImportError, AttributeError):
-        raise RosError(f"unknown {'message' if kind == 'msg' else 'service'} type {message_name!r}") from None
+        pass
+    try:
+        if kind == "msg":
+            return message_class_from_files(message_name)
+        return service_class_from_files(message_name)
+    except DefinitionError as error:
+        what = "message" if kind == "msg" else "service"
+        raise RosError(
+            f"unknown {what} type {message_name!r}: no Python module {package}.{kind} has it (build the package, "
+            f"and source its workspace's devel/setup.bash where the endpoint runs), and {error}"
+        ) from None
 
 
 class TypeRegistry:
@@ -97,6 +119,15 @@ class TypeRegistry:
 
     def message_class(self, message_name: str) -> type[genpy.Message]:
         return self._imported(self._generated, message_name, "msg")
+
+    def learn(self, message_name: str, full_text: str) -> None:
+        """Take `message_name`'s class from its full definition (e.g. a publisher's connection header)."""
+        try:
+            cls = message_class_from_text(message_name, full_text)
+        except DefinitionError as error:
+            raise RosError(str(error)) from None
+        with self._lock:
+            self._generated.setdefault(message_name, cls)
 
     def raw_message_class(self, message_name: str) -> type[RawMessage]:
         generated = self.message_class(message_name)
@@ -248,7 +279,15 @@ class RosGraph:
     def make_publisher(
         self, topic: str, message_name: str, queue_size: int, latch: bool, max_queue_bytes: int
     ) -> RawPublisher:
-        raw = self.types.raw_message_class(message_name)
+        try:
+            raw = self.types.raw_message_class(message_name)
+        except RosError as unknown:
+            # The last place to look: a publisher of the topic already on the graph states the full definition.
+            stated = self.definition_from_publishers(topic)
+            if stated is None or stated[0] != message_name:
+                raise RosError(f"{unknown}; and no publisher of {topic} on the graph states it") from None
+            self.types.learn(message_name, stated[1])
+            raw = self.types.raw_message_class(message_name)
         # queue_size=None: rospy's synchronous publisher; RawPublisher's own pump thread and queue (of the
         # client's queue_size, at least 1) keep client threads from ever waiting on ROS subscribers.
         with warnings.catch_warnings():
@@ -256,13 +295,65 @@ class RosGraph:
             publisher = rospy.Publisher(topic, raw, queue_size=None, latch=latch, tcp_nodelay=True)
         return RawPublisher(publisher, raw, message_name, queue_size, max_queue_bytes)
 
-    def make_subscriber(self, topic: str, message_name: str, callback: MessageCallback) -> Any:
-        raw = self.types.raw_message_class(message_name)
+    def make_subscriber(self, topic: str, message_name: str, callback: MessageCallback) -> Tuple[Any, Optional[str]]:
+        """The subscriber, and why it has no class of `message_name` if it has none (then it passes on only what
+        publishers say is of that type)."""
+        try:
+            raw = self.types.raw_message_class(message_name)
+        except RosError as unknown:
+            return self._subscribe_untyped(topic, message_name, callback), str(unknown)
         # tcp_nodelay: a 1 kHz stream must not wait for Nagle; buff_size large enough for big messages.
-        return rospy.Subscriber(
+        subscriber = rospy.Subscriber(
             topic, raw, lambda msg: callback(topic, msg._buff, msg._connection_header.get("callerid", "")),
             tcp_nodelay=True, buff_size=1 << 20,
         )
+        return subscriber, None
+
+    @staticmethod
+    def _subscribe_untyped(topic: str, message_name: str, callback: MessageCallback) -> Any:
+        """A type with no class anywhere: bytes need none. Subscribe like rospy.AnyMsg (type and md5sum "*"),
+        and pass on only messages whose connection header says they are `message_name`."""
+        mismatches: list = []
+
+        def deliver(msg: Any) -> None:
+            header = msg._connection_header
+            if header.get("type") == message_name:
+                callback(topic, msg._buff, header.get("callerid", ""))
+            elif not mismatches:
+                mismatches.append(header.get("type"))
+                log.warning("%s carries %s, not the %s a client subscribed to: not forwarded", topic,
+                            header.get("type"), message_name)
+
+        return rospy.Subscriber(topic, RawMessage, deliver, tcp_nodelay=True, buff_size=1 << 20)
+
+    @staticmethod
+    def definition_from_publishers(topic: str) -> Optional[Tuple[str, str]]:
+        """(type, full definition) as a publisher of `topic` on the graph states them in its TCPROS connection
+        header (rostopic's way to know a type); None when no publisher answers."""
+        me = rospy.get_name()
+        master = rosgraph.Master(me)
+        try:
+            publishers, _, _ = master.getSystemState()
+            nodes: List[str] = next((nodes for name, nodes in publishers if name == topic), [])
+            apis = [master.lookupNode(node) for node in nodes if node != me]
+        except (OSError, rosgraph.MasterException):
+            return None
+        for api in apis:
+            try:
+                answer: Any = xmlrpc.client.ServerProxy(api).requestTopic(me, topic, [["TCPROS"]])
+                code, _, protocol = answer
+                if code != 1 or not protocol or protocol[0] != "TCPROS":
+                    continue
+                with socket.create_connection((str(protocol[1]), int(protocol[2])), timeout=2.0) as sock:
+                    sock.sendall(rosgraph.network.encode_ros_handshake_header(
+                        {"callerid": me, "topic": topic, "md5sum": "*", "type": "*", "message_definition": ""}
+                    ))
+                    header = rosgraph.network.read_ros_handshake_header(sock, io.BytesIO(), 65536)
+            except (OSError, xmlrpc.client.Error, rosgraph.network.ROSHandshakeException):
+                continue
+            if header.get("type") and header.get("message_definition"):
+                return header["type"], header["message_definition"]
+        return None
 
     def topic_types(self) -> tuple[list[str], list[str]]:
         """All topics the master knows (published or subscribed) and their types, as parallel lists."""

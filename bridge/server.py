@@ -37,6 +37,7 @@ from bridge.protocol import (
     TopicListQuery,
     TopicMessage,
     UnityService,
+    Warn,
 )
 from bridge.ros import RawPublisher, RawServiceProxy, RosError, RosGraph
 from bridge.session import ClientSession, RequestRefused
@@ -73,6 +74,7 @@ class _SharedSubscriber:
     handle: Any
     # replaced whole, never changed in place, so rospy callbacks read it without a lock
     clients: Tuple[_Subscription, ...] = ()
+    untyped: Optional[str] = None  # why there is no class of the type, when there is none
     # Per client that publishes on the topic and subscribes to it: what it published, in its order, so the copy that
     # comes back from ROS (through our own publisher) skips it. Each client's messages reach ROS in the order it sent
     # them; different clients' messages interleave in any order.
@@ -278,11 +280,16 @@ class Endpoint:
                     f"not {command.message_name}"
                 )
             if shared is None:
-                handle = _made_for_client(
+                handle, untyped = _made_for_client(
                     lambda: self.ros.make_subscriber(resolved, command.message_name, self._fan_out)
                 )
-                shared = _SharedSubscriber(command.message_name, handle)
+                shared = _SharedSubscriber(command.message_name, handle, untyped=untyped)
                 self._subscribers[resolved] = shared
+            if shared.untyped is not None:
+                session.send(protocol.encode(Warn(
+                    f"__subscribe {resolved}: {shared.untyped}. Subscribed without it: messages are passed on when "
+                    f"their publisher says they are {command.message_name}"
+                )))
             others = tuple(entry for entry in shared.clients if entry.session is not session)
             shared.clients = others + (_Subscription(session, command.topic, command.queue_size or 0),)
             self._clients[session].subscriptions[resolved] = command.topic

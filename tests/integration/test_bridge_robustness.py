@@ -84,8 +84,8 @@ BAD_INPUTS = {
         ["__subscribe", "'message_name'", "NoPackage"],
     ),
     "unknown message type": (
-        syscommand("__subscribe", b'{"topic":"/bt_unknown_type","message_name":"no_such_pkg/Nope"}'),
-        ["unknown message type", "no_such_pkg/Nope"],
+        syscommand("__publish", b'{"topic":"/bt_unknown_type","message_name":"no_such_pkg/Nope"}'),
+        ["unknown message type", "no_such_pkg/Nope", "ROS_PACKAGE_PATH", "no publisher of /bt_unknown_type"],
     ),
     "unknown service type": (
         syscommand("__ros_service", b'{"topic":"/bt_unknown_srv","message_name":"std_srvs/NoSuchSrv"}'),

@@ -20,7 +20,7 @@ from typing import Any
 import pytest
 
 from bridge.client import TcpClient
-from tests.rosenv import REPO, ManagedProcess, RosCore, free_port, wait_for
+from tests.rosenv import PYTHON, REPO, ManagedProcess, RosCore, free_port, wait_for
 
 # What a ROS user's shell has: the system Python first, no venv, nothing of this repository on the path.
 USER_PATH = "/usr/local/sbin:/usr/local/bin:/usr/sbin:/usr/bin:/sbin:/bin"
@@ -207,3 +207,100 @@ def test_roslaunch_endpoint_launch_from_install_space(workspace: Path, own_maste
             assert client.errors == []
     finally:
         launch.stop()
+
+
+def endpoint_without_the_users_python(master: RosCore, tmp_path: Path, package_path: str) -> ManagedProcess:
+    """`python -m bridge` started where the user's workspace was never built or sourced: vr_test_msgs has no Python
+    module there; `package_path` is all it may find of its definitions."""
+    env = {**master.env, "ROS_PACKAGE_PATH": package_path}
+    process = ManagedProcess([PYTHON, "-m", "bridge", "--tcp-port", "0", "--node-name", "unsourced_endpoint"], env,
+                             tmp_path, "endpoint")
+    output = process.wait_for_output("listening on", timeout=30)
+    process.port = int(next(line for line in output.splitlines() if "listening on" in line).rsplit(":", 1)[1])
+    return process
+
+
+def test_user_types_without_their_python_from_the_definitions_on_the_package_path(
+    workspace: Path, user_types: Any, own_master: RosCore, tmp_path: Path
+) -> None:
+    env = {**own_master.env, "PATH": USER_PATH}
+    env.pop("PYTHONPATH", None)
+    service_node = ManagedProcess(sourced(workspace, "devel", "rosrun vr_test_msgs nudge_service.py"), env, tmp_path,
+                                  "nudge_service")
+    endpoint = endpoint_without_the_users_python(own_master, tmp_path, str(workspace / "src"))
+    types = user_types
+    try:
+        service_node.wait_for_output("nudge service ready", timeout=30)
+        with TcpClient("127.0.0.1", endpoint.port).connect(timeout=10) as sender, \
+                TcpClient("127.0.0.1", endpoint.port).connect(timeout=10) as listener:
+            sender.register_ros_service("/nudge", "vr_test_msgs/Nudge")
+            request = types.srv.NudgeRequest(marker=marker(types, "cone", -1.0), step=2.0)
+            response = types.srv.NudgeResponse()
+            response.deserialize(sender.call_service("/nudge", serialize(request), timeout=20))
+            assert response.ok and response.moved.pose.position.x == 1.0
+
+            received: list[bytes] = []
+            listener.subscribe("/defined_markers", "vr_test_msgs/Marker", received.append)
+            sender.register_publisher("/defined_markers", "vr_test_msgs/Marker")
+            listener.topic_list()
+            sent = serialize(marker(types, "torus", 3.0))
+
+            def delivered() -> bool:
+                sender.publish("/defined_markers", sent)
+                return bool(received)
+            wait_for(delivered, 30, "a marker through ROS", interval=0.3)
+            assert received[0] == sent
+            assert sender.errors == [] and listener.errors == []
+
+            # A type defined nowhere: the error says what to build or source.
+            sender.register_publisher("/nowhere", "vr_test_msgs/NoSuchType")
+            sender.topic_list()
+            (error,) = sender.errors
+            assert "vr_test_msgs/NoSuchType" in error and "source" in error and "ROS_PACKAGE_PATH" in error
+    finally:
+        endpoint.stop()
+        service_node.stop()
+
+
+def test_user_types_with_no_definition_at_all_from_the_graph(
+    workspace: Path, user_types: Any, own_master: RosCore, tmp_path: Path
+) -> None:
+    """Subscriptions need no class at all; a client may publish a type a publisher on the graph states."""
+    env = {**own_master.env, "PATH": USER_PATH}
+    env.pop("PYTHONPATH", None)
+    ros_publisher = ManagedProcess(
+        sourced(workspace, "devel", "rostopic pub -r 20 /graph_markers vr_test_msgs/Marker \"{label: 'from ros'}\""),
+        env, tmp_path, "rostopic_pub")
+    endpoint = endpoint_without_the_users_python(own_master, tmp_path, "")
+    types = user_types
+    try:
+        with TcpClient("127.0.0.1", endpoint.port).connect(timeout=10) as client:
+            received: list[bytes] = []
+            client.subscribe("/graph_markers", "vr_test_msgs/Marker", received.append)
+            wait_for(lambda: received, 30, "a marker from rostopic pub")
+            message = types.msg.Marker()
+            message.deserialize(received[0])
+            assert message.label == "from ros"
+            (warning,) = client.warnings  # a typo in a type name does not pass unnoticed
+            assert "vr_test_msgs/Marker" in warning and "Subscribed without it" in warning
+            # Publishing too: the endpoint learns the type from rostopic pub's connection header.
+            client.register_publisher("/graph_markers", "vr_test_msgs/Marker")
+            client.topic_list()
+            assert client.errors == []
+            sent = serialize(marker(types, "from unity", 5.0))
+
+            echo = subprocess.Popen(sourced(workspace, "devel", "rostopic echo -n 30 /graph_markers/label"),
+                                    cwd=workspace, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+            try:
+                def heard() -> bool:  # rostopic pub and the client both publish; rostopic echo hears both
+                    client.publish("/graph_markers", sent)
+                    return echo.poll() is not None
+                wait_for(heard, 30, "30 markers at rostopic echo", interval=0.05)
+                assert "from unity" in (echo.stdout.read() if echo.stdout else "")
+            finally:
+                echo.kill()
+                echo.wait()
+            assert client.errors == []
+    finally:
+        endpoint.stop()
+        ros_publisher.stop()

@@ -1,0 +1,105 @@
+"""Message and service classes for types whose generated Python was never built or sourced, from their definitions.
+
+The ROS tools' own sources of a definition: the .msg/.srv files of packages on ROS_PACKAGE_PATH (found with
+rospkg; genmsg loads them with everything they depend on and computes the md5sum), or, for a topic, the full
+definition a publisher sends in its connection header. genpy.dynamic then generates the classes in memory, as
+rostopic does. Imports neither socket nor rospy.
+"""
+from __future__ import annotations
+
+import os
+from typing import Any, Dict, List, Tuple
+
+import genmsg
+import genmsg.msg_loader
+import genpy
+import genpy.dynamic
+import rospkg
+
+__all__ = ["DefinitionError", "message_class_from_files", "message_class_from_text", "service_class_from_files"]
+
+
+class DefinitionError(LookupError):
+    """No definition of the type could be found or read; the text says where it was looked for."""
+
+
+class _PackageDirs(Dict[str, List[str]]):
+    """genmsg's search path (package -> directories of its .msg and .srv files), filled in from ROS_PACKAGE_PATH as
+    genmsg asks for packages, so only the packages a type depends on are looked up."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self._rospack = rospkg.RosPack()
+
+    def __contains__(self, package: object) -> bool:
+        if not isinstance(package, str):
+            return False
+        if not super().__contains__(package):
+            try:
+                path = self._rospack.get_path(package)
+            except rospkg.ResourceNotFound:
+                return False
+            self[package] = [os.path.join(path, "msg"), os.path.join(path, "srv")]
+        return True
+
+
+def _split(name: str) -> Tuple[str, str]:
+    package, _, type_name = name.partition("/")
+    if not package or not type_name or "/" in type_name:
+        raise DefinitionError(f"type name {name!r} is not of the form 'package/Type'")
+    return package, type_name
+
+
+def _where(package: str, kind: str, type_name: str) -> str:
+    return (f"no {package}/{kind}/{type_name}.{kind} in the packages on ROS_PACKAGE_PATH "
+            f"({os.environ.get('ROS_PACKAGE_PATH') or 'not set'})")
+
+
+def message_class_from_text(message_name: str, full_text: str) -> Any:
+    """The class of `message_name` generated from its full definition (the .msg text followed by those of the
+    types it uses, as `_full_text` and connection headers carry it)."""
+    try:
+        classes = genpy.dynamic.generate_dynamic(message_name, full_text)
+    except (genmsg.InvalidMsgSpec, genmsg.MsgGenerationException, genpy.MessageException, ValueError) as error:
+        raise DefinitionError(f"the definition of {message_name} does not parse: {error}") from None
+    if message_name not in classes:
+        raise DefinitionError(f"the definition given for {message_name} does not define it")
+    return classes[message_name]
+
+
+def message_class_from_files(message_name: str) -> Any:
+    """The class of `message_name` from its .msg file and those of its dependencies, on ROS_PACKAGE_PATH."""
+    package, type_name = _split(message_name)
+    context = genmsg.MsgContext.create_default()
+    search_path = _PackageDirs()
+    try:
+        spec = genmsg.msg_loader.load_msg_by_type(context, message_name, search_path)
+        genmsg.msg_loader.load_depends(context, spec, search_path)
+        full_text = genmsg.compute_full_text(context, spec)
+    except genmsg.MsgNotFound:
+        raise DefinitionError(_where(package, "msg", type_name)) from None
+    except (genmsg.InvalidMsgSpec, OSError) as error:
+        raise DefinitionError(f"{message_name}: {error}") from None
+    return message_class_from_text(message_name, full_text)
+
+
+def service_class_from_files(service_name: str) -> Any:
+    """A service class of `service_name` (its type, md5sum, request and response classes) from its .srv file and
+    the .msg files it depends on, on ROS_PACKAGE_PATH."""
+    package, type_name = _split(service_name)
+    context = genmsg.MsgContext.create_default()
+    search_path = _PackageDirs()
+    try:
+        spec = genmsg.msg_loader.load_srv_by_type(context, service_name, search_path)
+        genmsg.msg_loader.load_depends(context, spec, search_path)
+        request_text = genmsg.compute_full_text(context, spec.request)
+        response_text = genmsg.compute_full_text(context, spec.response)
+        md5sum = genmsg.compute_md5(context, spec)
+    except genmsg.MsgNotFound:
+        raise DefinitionError(_where(package, "srv", type_name)) from None
+    except (genmsg.InvalidMsgSpec, OSError) as error:
+        raise DefinitionError(f"{service_name}: {error}") from None
+    request = message_class_from_text(f"{service_name}Request", request_text)
+    response = message_class_from_text(f"{service_name}Response", response_text)
+    return type(type_name, (), {"_type": service_name, "_md5sum": md5sum, "_request_class": request,
+                                "_response_class": response})
