@@ -110,6 +110,7 @@ class TcpClient:
         self._pending: Dict[int, _PendingCall] = {}
         self._topic_list_waiters: List[Tuple[threading.Event, Dict[str, str]]] = []
         self._ping_waiters: Dict[str, Tuple[threading.Event, List[PingResponse]]] = {}
+        self._last_round_trip: Optional[float] = None  # told to the endpoint with the next ping, for its diagnostics
         self._reader: Optional[threading.Thread] = None
         self._keepalive: Optional[threading.Thread] = None
 
@@ -292,10 +293,11 @@ class TcpClient:
             self._ping_waiters[request_time] = (done, answer)
         try:
             sent_at, started = time.time(), time.monotonic()
-            self._say(Ping(request_time), or_raise=True)
+            self._say(Ping(request_time, self._last_round_trip), or_raise=True)
             if not done.wait(timeout):
                 raise ClientError(f"no __ping_response within {timeout:g} s")
             round_trip = time.monotonic() - started
+            self._last_round_trip = round_trip
             ros_time = answer[0].ros_time
             offset = None if ros_time is None else ros_time - (sent_at + round_trip / 2)
             return PingResult(round_trip, offset)

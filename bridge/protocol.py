@@ -330,9 +330,11 @@ class Auth(Event):
 
 @dataclass(frozen=True)
 class Ping(Event):
-    """Newer connectors' ROSConnection.Ping: `request_time` is the client's clock, echoed back unchanged."""
+    """Newer connectors' ROSConnection.Ping: `request_time` is the client's clock, echoed back unchanged.
+    `round_trip` (ours, optional): the client's measure of its previous ping, for the endpoint's diagnostics."""
 
     request_time: str
+    round_trip: Optional[float] = None
 
 
 @dataclass(frozen=True)
@@ -484,7 +486,8 @@ _SENT_BY_CLIENT: Dict[str, _Command] = {
                                 lambda command, params: UnityService(*_topic_and_type(command, params))),
     "__topic_list": _Command({}, {}, lambda command, params: TopicListQuery()),
     "__auth": _Command({"token": str}, {}, lambda command, params: Auth(params["token"])),
-    "__ping": _Command(_REQUEST_TIME, {}, lambda command, params: Ping(params["request_time"])),
+    "__ping": _Command(_REQUEST_TIME, {"round_trip": float},
+                       lambda command, params: Ping(params["request_time"], params.get("round_trip"))),
     **{
         f"__remove_{kind}": _Command(
             _TOPIC, {}, lambda command, params: Remove(command[len("__remove_"):], _check_name(command, "topic",
@@ -532,7 +535,10 @@ def _command_params(event: Event) -> Tuple[str, _Params]:
     if isinstance(event, Auth):
         return "__auth", {"token": event.token}
     if isinstance(event, Ping):
-        return "__ping", {"request_time": event.request_time}
+        params = {"request_time": event.request_time}
+        if event.round_trip is not None:
+            params["round_trip"] = event.round_trip
+        return "__ping", params
     if isinstance(event, PingResponse):
         params = {"request_time": event.request_time}
         if event.ros_time is not None:

@@ -30,6 +30,7 @@ class OutgoingQueue:
         self._items: deque[Tuple[bytes, bool, Optional[str]]] = deque()  # (frame, droppable, key)
         self._key_counts: Dict[str, int] = {}  # frames queued per key
         self._bytes = 0
+        self._filled_at = 0.0  # monotonic time the queue last went from empty to not empty
         self._closed = False
         self._dropped = 0
         lock = threading.Lock()
@@ -47,6 +48,11 @@ class OutgoingQueue:
     @property
     def queued_bytes(self) -> int:
         return self._bytes
+
+    def oldest_age(self) -> Optional[float]:
+        """How long the oldest queued frame has waited, at most (s); None when nothing is queued. Frames leave all
+        at once (take_all), so the queue's oldest came when it was last empty."""
+        return time.monotonic() - self._filled_at if self._items else None
 
     def put(self, data: bytes, droppable: bool = True, wait_s: float = 0.0, key: Optional[str] = None,
             key_limit: int = 0) -> int:
@@ -100,6 +106,8 @@ class OutgoingQueue:
                 while self._key_counts.get(key, 0) >= key_limit and self._drop_oldest_of(key):
                     dropped += 1
             self._key_counts[key] = self._key_counts.get(key, 0) + 1
+        if not self._items:
+            self._filled_at = time.monotonic()
         self._items.append((data, droppable, key))
         self._bytes += len(data)
         while (len(self._items) > self.max_frames or self._bytes > self.max_bytes) and len(self._items) > 1:

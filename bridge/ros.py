@@ -29,6 +29,7 @@ from bridge.definitions import (
     message_class_from_text,
     service_class_from_files,
 )
+from bridge.diagnostics import Status
 from bridge.layout import Layout, LayoutError
 from bridge.queues import OutgoingQueue
 from bridge.sockets import send_to_all, unsent_bytes
@@ -225,6 +226,7 @@ class RosGraph:
 
     def __init__(self, types: TypeRegistry | None = None) -> None:
         self.types = types or TypeRegistry()
+        self._diagnostics: Any = None  # (publisher, message classes) once made; False without diagnostic_msgs
 
     # --- node lifecycle -----------------------------------------------------------------------------------------
     @staticmethod
@@ -265,6 +267,29 @@ class RosGraph:
     @staticmethod
     def node_name() -> str:
         return rospy.get_name()
+
+    def publish_diagnostics(self, statuses: List[Status]) -> None:
+        """The statuses as one diagnostic_msgs/DiagnosticArray on /diagnostics (skipped, with one warning, where
+        diagnostic_msgs is not installed)."""
+        if self._diagnostics is None:
+            try:
+                from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+            except ImportError:
+                log.warning("diagnostic_msgs is not installed: no /diagnostics")
+                self._diagnostics = False
+                return
+            publisher = rospy.Publisher("/diagnostics", DiagnosticArray, queue_size=1)
+            self._diagnostics = (publisher, DiagnosticArray, DiagnosticStatus, KeyValue)
+        if self._diagnostics is False:
+            return
+        publisher, array, status, key_value = self._diagnostics
+        message = array(status=[
+            status(level=entry.level, name=entry.name, message=entry.message, hardware_id=entry.hardware_id,
+                   values=[key_value(key=key, value=value) for key, value in entry.values])
+            for entry in statuses
+        ])
+        message.header.stamp = rospy.Time.now()
+        publisher.publish(message)
 
     @staticmethod
     def now() -> float:

@@ -18,10 +18,11 @@ import threading
 import time
 from collections import deque
 from dataclasses import dataclass, field
-from typing import Any, Callable, Deque, Dict, Optional, Set, Tuple, TypeVar
+from typing import Any, Callable, Deque, Dict, List, Optional, Set, Tuple, TypeVar
 
 from bridge import protocol
 from bridge.config import EndpointConfig
+from bridge.diagnostics import ClientSnapshot, TopicSnapshot, parse_client_time, report
 from bridge.protocol import (
     Auth,
     Event,
@@ -49,6 +50,7 @@ log = logging.getLogger(__name__)
 _Made = TypeVar("_Made")
 # Client messages remembered per topic until they come back from ROS (see _SharedSubscriber.echoes)
 ECHO_RECORD_MAX = 4096
+DIAGNOSTICS_PERIOD_S = 1.0  # /diagnostics at 1 Hz, as ROS's diagnostic tools expect
 
 
 @dataclass
@@ -75,6 +77,7 @@ class _SharedSubscriber:
     # replaced whole, never changed in place, so rospy callbacks read it without a lock
     clients: Tuple[_Subscription, ...] = ()
     untyped: Optional[str] = None  # why there is no class of the type, when there is none
+    delivered: int = 0  # messages from ROS fanned out (for /diagnostics; rospy's threads count, roughly)
     # Per client that publishes on the topic and subscribes to it: what it published, in its order, so the copy that
     # comes back from ROS (through our own publisher) skips it. Each client's messages reach ROS in the order it sent
     # them; different clients' messages interleave in any order.
@@ -87,6 +90,7 @@ class _SharedPublisher:
     message_name: str
     publisher: RawPublisher
     clients: Set[ClientSession] = field(default_factory=set)
+    published: int = 0  # client messages handed to the publisher (for /diagnostics)
 
 
 @dataclass
@@ -124,6 +128,8 @@ class Endpoint:
         self._client_ids = itertools.count(1)
         self._listener: Optional[socket.socket] = None
         self._accept_thread: Optional[threading.Thread] = None
+        self._diagnostics_thread: Optional[threading.Thread] = None
+        self._address = ""
         self._stopping = threading.Event()
         # Totals of the clients that have left (those still connected are summed in stats()).
         self.frames_in = 0
@@ -154,6 +160,9 @@ class Endpoint:
         self._accept_thread = threading.Thread(target=self._accept_loop, name="accept", daemon=True)
         self._accept_thread.start()
         port: int = listener.getsockname()[1]
+        self._address = f"{self.config.tcp_ip}:{port}"
+        self._diagnostics_thread = threading.Thread(target=self._diagnostics_loop, name="diagnostics", daemon=True)
+        self._diagnostics_thread.start()
         log.info("ROS-TCP endpoint listening on %s:%d", self.config.tcp_ip, port)
         return port
 
@@ -169,9 +178,11 @@ class Endpoint:
         with self._lock:
             sessions = list(self._clients)
         for session in sessions:
-            session.close()
+            session.close("the endpoint is stopping")
         if self._accept_thread is not None:
             self._accept_thread.join(timeout=2)
+        if self._diagnostics_thread is not None:
+            self._diagnostics_thread.join(timeout=2)
         log.info("endpoint stopped: %s", self.stats())
 
     def stats(self) -> Dict[str, int]:
@@ -232,6 +243,9 @@ class Endpoint:
                 self.ros.types.validate(publisher.message_name, message.payload)
             except RosError as error:
                 raise RequestRefused(f"topic {resolved}: {error}; message not published") from None
+        shared_publisher = self._publishers.get(resolved)
+        if shared_publisher is not None:
+            shared_publisher.published += 1
         subscribed = self._subscribers.get(resolved)
         if subscribed is not None and subscribed.echoes:
             own = subscribed.echoes.get(session)
@@ -428,6 +442,7 @@ class Endpoint:
         shared = self._subscribers.get(resolved)
         if shared is None:
             return
+        shared.delivered += 1
         sender = None
         if shared.echoes and publisher_node == self._node_name:
             with shared.echoes_lock:
@@ -470,7 +485,47 @@ class Endpoint:
         session.run_call(f"__request {srv_id} ({request.service})", call, srv_id)
 
     def _answer_ping(self, session: ClientSession, ping: Ping) -> None:
-        session.send(protocol.encode(PingResponse(ping.request_time, self.ros.now())), droppable=False)
+        ros_time = self.ros.now()
+        client_time = parse_client_time(ping.request_time)
+        session.note_ping(ping.round_trip, None if client_time is None else ros_time - client_time)
+        session.send(protocol.encode(PingResponse(ping.request_time, ros_time)), droppable=False)
+
+    # --- /diagnostics ------------------------------------------------------------------------------------------
+    def _diagnostics_loop(self) -> None:
+        counts: Dict[str, Tuple[int, int]] = {}
+        while not self._stopping.wait(DIAGNOSTICS_PERIOD_S):
+            try:
+                clients, topics = self._snapshot()
+                statuses, counts = report(self.ros.node_name(), self._address, time.time(), clients, topics,
+                                          counts, DIAGNOSTICS_PERIOD_S)
+                self.ros.publish_diagnostics(statuses)
+            except Exception:  # diagnostics must never take the endpoint down
+                log.exception("publishing /diagnostics failed")
+
+    def _snapshot(self) -> Tuple[List[ClientSnapshot], List[TopicSnapshot]]:
+        with self._lock:
+            sessions = list(self._clients)
+            subscribers = dict(self._subscribers)
+            publishers = dict(self._publishers)
+        clients = [
+            ClientSnapshot(
+                s.name, s.connected_at, s.authenticated, s.frames_in, s.frames_out, s.bytes_in, s.bytes_out,
+                len(s.queue), s.queue.max_frames, s.queue.oldest_age(), s.dropped, s.publish_drops, s.pings,
+                s.ping_clock_offset_s, s.ping_round_trip_s,
+            )
+            for s in sessions
+        ]
+        topics = []
+        for topic in sorted(set(subscribers) | set(publishers)):
+            subscribed, published = subscribers.get(topic), publishers.get(topic)
+            message_name = subscribed.message_name if subscribed is not None else published.message_name \
+                if published is not None else ""
+            topics.append(TopicSnapshot(
+                topic, message_name,
+                len(subscribed.clients) if subscribed else 0, len(published.clients) if published else 0,
+                subscribed.delivered if subscribed else 0, published.published if published else 0,
+            ))
+        return clients, topics
 
     def _send_topic_list(self, session: ClientSession, query: TopicListQuery) -> None:
         def look_up() -> None:

@@ -69,6 +69,13 @@ class ClientSession:
         self._auth_token = config.auth_token
         self.authenticated = config.auth_token is None
         self.frames_out = 0
+        self.bytes_in = 0
+        self.bytes_out = 0
+        self.connected_at = time.time()
+        self.pings = 0
+        self.ping_clock_offset_s: Optional[float] = None  # see bridge.diagnostics.ClientSnapshot
+        self.ping_round_trip_s: Optional[float] = None
+        self._end_reason: Optional[str] = None  # why the connection ended, first cause only
         self.publish_drops = 0  # this client's messages dropped before reaching ROS (publisher queue full)
         self._closed = threading.Event()
         self._send_lock = threading.Lock()  # one writer of the socket at a time: direct sends or the writer thread
@@ -99,7 +106,8 @@ class ClientSession:
         return self.queue.dropped
 
     def start(self) -> None:
-        log.info("client %s connected", self.name)
+        log.info("client %s connected; handshake sent%s", self.name,
+                 "" if self.authenticated else ", waiting for __auth")
         # The handshake goes out at once, before the client says anything.
         self.queue.put(protocol.handshake(), droppable=False)
         self._writer.start()
@@ -124,10 +132,11 @@ class ClientSession:
                 if not self.queue and not self._closed.is_set() and self._peer_keeps_up(len(frame)):
                     try:
                         sent = send_now(self.sock, frame)
-                    except OSError:  # the connection is gone; the reader sees it too and cleans up
-                        self.close()
+                    except OSError as error:  # the connection is gone; the reader sees it too and cleans up
+                        self.close(f"send failed: {error}")
                         return
                     self._unsent_bound += sent
+                    self.bytes_out += sent
                     if sent == len(frame):
                         self.frames_out += 1
                         return
@@ -185,9 +194,11 @@ class ClientSession:
         self._last_error_logged_at = now
         self._errors_not_logged = 0
 
-    def close(self) -> None:
+    def close(self, reason: Optional[str] = None) -> None:
         if self._closed.is_set():
             return
+        if reason is not None:
+            self._ended(reason)
         self._closed.set()
         self.queue.close(discard=True)
         try:
@@ -201,7 +212,9 @@ class ClientSession:
             while not self._closed.is_set():
                 data = self.sock.recv(RECV_BYTES)
                 if not data:
+                    self._ended("closed by the client")
                     break
+                self.bytes_in += len(data)
                 events = self.conversation.receive_data(data)
                 for event in events:
                     if type(event) is TopicMessage and self.authenticated:
@@ -211,8 +224,7 @@ class ClientSession:
                 # messages that came together go to ROS together; one that came alone may go directly (RawPublisher)
                 self._publish_pending(alone=len(events) == 1)
         except OSError as error:
-            if not self._closed.is_set():
-                log.info("client %s: connection error: %s", self.name, error)
+            self._ended(f"connection error: {error}")
         finally:
             self._finish()
 
@@ -229,9 +241,21 @@ class ClientSession:
         self.close()
         self.sock.close()
         log.info(
-            "client %s disconnected (frames in %d, out %d, dropped %d)",
-            self.name, self.frames_in, self.frames_out, self.dropped,
+            "client %s disconnected: %s (frames in %d, out %d, dropped %d)",
+            self.name, self._end_reason or "closed by the endpoint", self.frames_in, self.frames_out, self.dropped,
         )
+
+    def _ended(self, reason: str) -> None:
+        if self._end_reason is None and not self._closed.is_set():
+            self._end_reason = reason
+
+    def note_ping(self, round_trip: Optional[float], clock_offset: Optional[float]) -> None:
+        """A __ping came: what it tells of the client's clock and (if it says) of its last round trip."""
+        self.pings += 1
+        if clock_offset is not None:
+            self.ping_clock_offset_s = clock_offset
+        if round_trip is not None:
+            self.ping_round_trip_s = round_trip
 
     def _collect_publication(self, message: TopicMessage) -> None:
         try:
@@ -265,6 +289,7 @@ class ClientSession:
             self.send_error(f"framing lost, closing the connection: {error}" if error.fatal else str(error),
                             error.srv_id)
             if error.fatal:
+                self._ended(f"framing lost: {error}")
                 return False
             if self.authenticated:
                 return True
@@ -287,7 +312,11 @@ class ClientSession:
         assert self._auth_token is not None
         if isinstance(event, Auth) and hmac.compare_digest(event.token.encode(), self._auth_token.encode()):
             self.authenticated = True
+            log.info("client %s authenticated", self.name)
             return True
+        reason = "a wrong token" if isinstance(event, Auth) else f"{type(event).__name__} before __auth"
+        log.warning("client %s: authentication failed (%s)", self.name, reason)
+        self._ended(f"authentication failed ({reason})")
         self.send_error("authentication required: the first command must be __auth with the endpoint's token")
         return False
 
@@ -305,11 +334,11 @@ class ClientSession:
                     if batch:
                         data = b"".join(batch)
                         self.sock.sendall(data)
+                        self.bytes_out += len(data)
                         self.frames_out += len(batch)
                         self._unsent_bound += len(data)
         except OSError as error:
-            if not self._closed.is_set():
-                log.info("client %s: write failed: %s", self.name, error)
+            self._ended(f"write failed: {error}")
             self.close()
 
     def _drop_warning(self) -> Optional[bytes]:
