@@ -44,6 +44,8 @@ class TopicSnapshot:
     publishing_clients: int  # clients publishing it to ROS
     to_clients: int  # messages from ROS fanned out so far
     from_clients: int  # client messages handed to the ROS publisher so far
+    ros_publishers: int  # connections from ROS publishers to the endpoint's subscriber
+    ros_subscribers: int  # connections from ROS subscribers to the endpoint's publisher
 
 
 @dataclass(frozen=True)
@@ -104,6 +106,8 @@ def report(node: str, address: str, now: float, clients: Sequence[ClientSnapshot
             ("type", topic.message_name),
             ("subscribed clients", str(topic.subscribed_clients)),
             ("publishing clients", str(topic.publishing_clients)),
+            ("ROS publishers", str(topic.ros_publishers)),
+            ("ROS subscribers", str(topic.ros_subscribers)),
             ("rate to clients [msg/s]", f"{rate_to:.1f}"),
             ("rate from clients [msg/s]", f"{rate_from:.1f}"),
             ("messages to clients", str(topic.to_clients)),

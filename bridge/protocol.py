@@ -14,10 +14,53 @@ from __future__ import annotations
 
 import enum
 import json
-import struct
 from dataclasses import dataclass
 from typing import Any, Callable, Dict, List, Optional, Set, Tuple, Type, Union
 
+from bridge.events import (
+    PROTOCOL_VERSION,
+    REMOVE_KINDS,
+    ROS_DISTRO_PROTOCOL,
+    Auth,
+    Error,
+    Event,
+    FramingError,
+    Handshake,
+    IgnoredFields,
+    InvalidInput,
+    Keepalive,
+    LocalProtocolError,
+    Log,
+    Ping,
+    PingResponse,
+    ProtocolError,
+    Publish,
+    RemoteProtocolError,
+    Remove,
+    RosService,
+    ServiceRequest,
+    ServiceResponse,
+    Subscribe,
+    TopicList,
+    TopicListQuery,
+    TopicMessage,
+    UnityService,
+    Warn,
+)
+from bridge.framing import (
+    DEFAULT_MAX_PAYLOAD_BYTES,
+    KEEPALIVE_FRAME,
+    MAX_DESTINATION_BYTES,
+    BadFrame,
+    Frame,
+    FrameDecoder,
+    decode_destination,
+    encode_frame,
+    encode_syscommand,
+    not_utf8,
+)
+
+# The protocol's whole public surface, in one place (the events and framing modules hold the parts).
 __all__ = [
     "PROTOCOL_VERSION", "ROS_DISTRO_PROTOCOL", "MAX_DESTINATION_BYTES", "DEFAULT_MAX_PAYLOAD_BYTES",
     "ProtocolError", "LocalProtocolError", "RemoteProtocolError", "FramingError",
@@ -25,361 +68,8 @@ __all__ = [
     "Event", "Keepalive", "Handshake", "TopicMessage", "ServiceRequest", "ServiceResponse",
     "Subscribe", "Publish", "RosService", "UnityService", "Remove", "TopicListQuery", "TopicList", "Auth",
     "Ping", "PingResponse", "Log", "Warn", "Error", "IgnoredFields", "InvalidInput",
-    "Role", "Conversation", "encode", "handshake",
+    "Role", "Conversation", "encode", "handshake", "CLIENT_COMMANDS", "ENDPOINT_COMMANDS",
 ]
-
-PROTOCOL_VERSION = "v0.7.0"
-ROS_DISTRO_PROTOCOL = "ROS1"
-MAX_DESTINATION_BYTES = 1024
-DEFAULT_MAX_PAYLOAD_BYTES = 64 * 1024 * 1024
-
-_U32 = struct.Struct("<I")
-
-
-# --- errors ------------------------------------------------------------------------------------------------------
-
-
-class ProtocolError(ValueError):
-    """Something that breaks the protocol; the message names the offending command, field or value."""
-
-
-class LocalProtocolError(ProtocolError):
-    """We were about to send something the protocol does not allow (a bug of ours, never of the peer)."""
-
-
-class RemoteProtocolError(ProtocolError):
-    """The peer sent something the protocol does not allow. `srv_id` names the service call it concerns, if any;
-    `fatal` means the byte stream cannot be framed any more and the connection must close."""
-
-    def __init__(self, reason: str, srv_id: Optional[int] = None, fatal: bool = False) -> None:
-        super().__init__(reason)
-        self.srv_id = srv_id
-        self.fatal = fatal
-
-
-class FramingError(RemoteProtocolError):
-    """A length over its limit: the stream position is lost."""
-
-    def __init__(self, reason: str) -> None:
-        super().__init__(reason, fatal=True)
-
-
-# --- framing -----------------------------------------------------------------------------------------------------
-
-
-@dataclass(frozen=True)
-class Frame:
-    """One frame as it is on the wire."""
-
-    __slots__ = ("destination", "payload")
-    destination: str
-    payload: bytes
-
-    @property
-    def is_keepalive(self) -> bool:
-        return self.destination == "" and not self.payload
-
-    @property
-    def is_syscommand(self) -> bool:
-        return self.destination.startswith("__")
-
-
-@dataclass(frozen=True)
-class BadFrame:
-    """A frame whose framing was intact but whose destination is not UTF-8; the stream stays usable."""
-
-    __slots__ = ("reason",)
-    reason: str
-
-
-RawFrame = Tuple[bytes, bytes]  # (destination bytes, payload) as framed, before the destination is decoded
-
-
-class FrameDecoder:
-    """Incremental framing: feed it any fragments of the stream, get back the complete frames.
-
-    Fragmentation and coalescing are both handled: a frame may arrive one byte at a time, and one feed may carry
-    many frames. After a FramingError the decoder refuses further input (the stream position is lost).
-    """
-
-    def __init__(
-        self,
-        max_payload_bytes: int = DEFAULT_MAX_PAYLOAD_BYTES,
-        max_destination_bytes: int = MAX_DESTINATION_BYTES,
-    ) -> None:
-        self.max_payload_bytes = max_payload_bytes
-        self.max_destination_bytes = max_destination_bytes
-        self._buffer = bytearray()
-        self._failed: Optional[FramingError] = None
-
-    @property
-    def buffered_bytes(self) -> int:
-        return len(self._buffer)
-
-    def feed(self, data: bytes) -> List[Union[Frame, BadFrame]]:
-        """The complete frames, destinations decoded; raises FramingError when a length is over its limit."""
-        frames, failure = self.feed_raw(data)
-        if failure is not None:
-            raise failure
-        return [_decoded(destination, payload) for destination, payload in frames]
-
-    def feed_raw(self, data: bytes) -> Tuple[List[RawFrame], Optional[FramingError]]:
-        """The complete frames with undecoded destinations, and the FramingError that ended the stream if one did:
-        the frames before it are still returned. Raises the FramingError again once the stream has failed."""
-        if self._failed is not None:
-            raise self._failed
-        self._buffer += data
-        buffer = self._buffer
-        frames: List[RawFrame] = []
-        offset = 0
-        try:
-            while True:
-                frame_end, frame = self._parse_one(buffer, offset)
-                if frame is None:
-                    break
-                frames.append(frame)
-                offset = frame_end
-        except FramingError as error:
-            self._failed = error
-            self._buffer = bytearray()
-            return frames, error
-        if offset:
-            del buffer[:offset]
-        return frames, None
-
-    def _parse_one(self, buffer: bytearray, offset: int) -> Tuple[int, Optional[RawFrame]]:
-        if len(buffer) - offset < 4:
-            return offset, None
-        (destination_length,) = _U32.unpack_from(buffer, offset)
-        if destination_length > self.max_destination_bytes:
-            raise FramingError(
-                f"destination length {destination_length} exceeds the limit of {self.max_destination_bytes} bytes"
-            )
-        payload_length_at = offset + 4 + destination_length
-        if len(buffer) < payload_length_at + 4:
-            return offset, None
-        (payload_length,) = _U32.unpack_from(buffer, payload_length_at)
-        if payload_length > self.max_payload_bytes:
-            destination = bytes(buffer[offset + 4 : payload_length_at]).decode("utf-8", "replace")
-            raise FramingError(
-                f"payload length {payload_length} for destination {destination!r} exceeds the limit of "
-                f"{self.max_payload_bytes} bytes"
-            )
-        payload_at = payload_length_at + 4
-        frame_end = payload_at + payload_length
-        if len(buffer) < frame_end:
-            return offset, None
-        return frame_end, (bytes(buffer[offset + 4 : payload_length_at]), bytes(buffer[payload_at:frame_end]))
-
-
-def _decode_destination(raw: bytes) -> str:
-    """The destination as text; trailing NULs (some clients pad) are not part of it. UnicodeDecodeError if bad."""
-    return raw.rstrip(b"\0").decode("utf-8")
-
-
-def _decoded(raw_destination: bytes, payload: bytes) -> Union[Frame, BadFrame]:
-    try:
-        return Frame(_decode_destination(raw_destination), payload)
-    except UnicodeDecodeError:
-        return BadFrame(_not_utf8(raw_destination))
-
-
-def _not_utf8(raw_destination: bytes) -> str:
-    shown = raw_destination.rstrip(b"\0")[:64]
-    return f"destination {shown!r} is not valid UTF-8"
-
-
-def encode_frame(destination: str, payload: bytes) -> bytes:
-    encoded_destination = destination.encode("utf-8")
-    return b"".join(
-        (_U32.pack(len(encoded_destination)), encoded_destination, _U32.pack(len(payload)), payload)
-    )
-
-
-def encode_syscommand(command: str, params: Dict[str, Any]) -> bytes:
-    """A system command frame with any JSON object (compact, fields in the given order, as Unity writes them)."""
-    if not command.startswith("__"):
-        raise LocalProtocolError(f"system command {command!r} must start with '__'")
-    return encode_frame(command, json.dumps(params, separators=(",", ":")).encode("utf-8"))
-
-
-KEEPALIVE_FRAME = encode_frame("", b"")
-
-
-# --- events ------------------------------------------------------------------------------------------------------
-
-
-class Event:
-    """Something one end says to the other. Every event is a frozen dataclass."""
-
-    __slots__ = ()
-
-
-@dataclass(frozen=True)
-class Keepalive(Event):
-    """An empty frame; the client sends one after each second without sending. Received keepalives are not
-    reported as events: they mean nothing beyond the connection being alive."""
-
-
-@dataclass(frozen=True)
-class Handshake(Event):
-    """The endpoint's first frame. `metadata` is sent as a JSON *string* holding an object (Unity parses it twice)."""
-
-    version: str
-    metadata: Dict[str, Any]
-
-    @property
-    def is_compatible(self) -> bool:
-        """What Unity's connector checks: a v0.7.x endpoint speaking ROS 1 (a mismatch is only logged there)."""
-        return self.version.startswith("v0.7.") and self.metadata.get("protocol") == ROS_DISTRO_PROTOCOL
-
-
-@dataclass(frozen=True)
-class TopicMessage(Event):
-    """One ROS 1 serialized message on a topic, either way. The payload is carried untouched."""
-
-    __slots__ = ("topic", "payload")
-    topic: str
-    payload: bytes
-
-
-@dataclass(frozen=True)
-class ServiceRequest(Event):
-    """A service call, with its request body: client -> endpoint calls a ROS service (ids from 101); endpoint ->
-    client calls a service the client implements (ids from 1001). On the wire, `__request` and the body frame."""
-
-    srv_id: int
-    service: str
-    payload: bytes
-
-
-@dataclass(frozen=True)
-class ServiceResponse(Event):
-    """The answer to the ServiceRequest with the same `srv_id`, with its response body."""
-
-    srv_id: int
-    service: str
-    payload: bytes
-
-
-@dataclass(frozen=True)
-class Subscribe(Event):
-    """Forward ROS messages on `topic` to this client. `queue_size`: newer connectors may send one."""
-
-    topic: str
-    message_name: str
-    queue_size: Optional[int] = None
-
-
-@dataclass(frozen=True)
-class Publish(Event):
-    """This client will publish on `topic`."""
-
-    topic: str
-    message_name: str
-    queue_size: int = 10
-    latch: bool = False
-
-
-@dataclass(frozen=True)
-class RosService(Event):
-    """This client will call the ROS service `topic` of type `message_name` (no Request/Response suffix)."""
-
-    topic: str
-    message_name: str
-
-
-@dataclass(frozen=True)
-class UnityService(Event):
-    """This client implements the service `topic` for ROS."""
-
-    topic: str
-    message_name: str
-
-
-REMOVE_KINDS = ("subscriber", "publisher", "ros_service", "unity_service")
-
-
-@dataclass(frozen=True)
-class Remove(Event):
-    """Undo a registration: `kind` is one of REMOVE_KINDS (`__remove_<kind>` on the wire)."""
-
-    kind: str
-    topic: str
-
-
-@dataclass(frozen=True)
-class TopicListQuery(Event):
-    """Ask for the ROS graph's topics and their types."""
-
-
-@dataclass(frozen=True)
-class TopicList(Event):
-    """The answer to TopicListQuery: parallel tuples of topic names and type names."""
-
-    topics: Tuple[str, ...]
-    types: Tuple[str, ...]
-
-
-@dataclass(frozen=True)
-class Auth(Event):
-    """Ours, not Unity's: the shared secret, as the first command, when the endpoint asks for one."""
-
-    token: str
-
-
-@dataclass(frozen=True)
-class Ping(Event):
-    """Newer connectors' ROSConnection.Ping: `request_time` is the client's clock, echoed back unchanged.
-    `round_trip` (ours, optional): the client's measure of its previous ping, for the endpoint's diagnostics."""
-
-    request_time: str
-    round_trip: Optional[float] = None
-
-
-@dataclass(frozen=True)
-class PingResponse(Event):
-    """The answer to Ping: its `request_time`, and (ours) the endpoint's ROS time in seconds when it answered, from
-    which a client estimates the offset of its clock to ROS time."""
-
-    request_time: str
-    ros_time: Optional[float] = None
-
-
-@dataclass(frozen=True)
-class Log(Event):
-    text: str
-
-
-@dataclass(frozen=True)
-class Warn(Event):
-    text: str
-
-
-@dataclass(frozen=True)
-class Error(Event):
-    """A refusal or failure, as text. `srv_id` (ours, beside the text) names the service call that will not
-    complete, so a client can fail it at once; Unity's connector reads only the text."""
-
-    text: str
-    srv_id: Optional[int] = None
-
-
-@dataclass(frozen=True)
-class IgnoredFields(Event):
-    """A command carried fields this side does not know (a newer peer's): the command is carried out without them.
-    Reported once per command and field on a connection, before the command's own event."""
-
-    command: str
-    fields: Tuple[str, ...]
-
-
-@dataclass(frozen=True)
-class InvalidInput(Event):
-    """The peer broke the protocol (see RemoteProtocolError). Not fatal unless `error.fatal`: the frames after it
-    are read as usual."""
-
-    error: RemoteProtocolError
 
 
 # --- system commands: JSON <-> events ----------------------------------------------------------------------------
@@ -634,9 +324,9 @@ class Conversation:
             if self.pending_service is None and not self.awaiting_handshake and raw_destination[:2] != b"__" \
                     and raw_destination:
                 try:
-                    events.append(TopicMessage(_decode_destination(raw_destination), payload))
+                    events.append(TopicMessage(decode_destination(raw_destination), payload))
                 except UnicodeDecodeError:
-                    events.append(InvalidInput(RemoteProtocolError(f"frame dropped: {_not_utf8(raw_destination)}")))
+                    events.append(InvalidInput(RemoteProtocolError(f"frame dropped: {not_utf8(raw_destination)}")))
                 continue
             events.extend(self._receive_frame(raw_destination, payload))
         if failure is not None:
@@ -650,10 +340,10 @@ class Conversation:
         if not raw_destination and not payload:
             return ()  # a keepalive, wherever it comes (even between a service header and its body)
         try:
-            destination = _decode_destination(raw_destination)
+            destination = decode_destination(raw_destination)
         except UnicodeDecodeError:
             srv_id = self._drop_pending_service()
-            return (InvalidInput(RemoteProtocolError(f"frame dropped: {_not_utf8(raw_destination)}", srv_id)),)
+            return (InvalidInput(RemoteProtocolError(f"frame dropped: {not_utf8(raw_destination)}", srv_id)),)
         if self.pending_service is not None:
             kind, srv_id = self.pending_service
             self.pending_service = None

@@ -101,11 +101,12 @@ class OutgoingQueue:
     def _append(self, data: bytes, droppable: bool, key: Optional[str] = None, key_limit: int = 0) -> int:
         """With the lock held: queue `data`, dropping the oldest droppable frames while over a limit; how many."""
         dropped = 0
-        if key is not None:
-            if key_limit > 0:
-                while self._key_counts.get(key, 0) >= key_limit and self._drop_oldest_of(key):
-                    dropped += 1
+        if key is not None and key_limit > 0:  # only frames with a limit of their own are counted by key
+            while self._key_counts.get(key, 0) >= key_limit and self._drop_oldest_of(key):
+                dropped += 1
             self._key_counts[key] = self._key_counts.get(key, 0) + 1
+        else:
+            key = None
         if not self._items:
             self._filled_at = time.monotonic()
         self._items.append((data, droppable, key))
@@ -120,7 +121,10 @@ class OutgoingQueue:
         return len(self._items) < self.max_frames and (not self._items or self._bytes + size <= self.max_bytes)
 
     def _drop_oldest_droppable(self) -> bool:
-        index = 0 if self._items[0][1] else next((i for i, item in enumerate(self._items) if item[1]), None)
+        if self._items[0][1]:  # the usual case, and the cheap one
+            self._forget(self._items.popleft())
+            return True
+        index = next((i for i, item in enumerate(self._items) if item[1]), None)
         if index is None:
             return False
         self._drop_at(index)
@@ -134,12 +138,16 @@ class OutgoingQueue:
         return True
 
     def _drop_at(self, index: int) -> None:
-        data, _, key = self._items[index]
+        item = self._items[index]
         del self._items[index]
-        self._bytes -= len(data)
+        self._forget(item)
+
+    def _forget(self, item: Tuple[bytes, bool, Optional[str]]) -> None:
+        """Account for a dropped frame."""
+        self._bytes -= len(item[0])
         self._dropped += 1
-        if key is not None:
-            self._key_counts[key] -= 1
+        if item[2] is not None:
+            self._key_counts[item[2]] -= 1
 
     def take_all(self, timeout: float | None = None) -> list[bytes] | None:
         """Everything queued (waiting up to `timeout` for something); [] on timeout; None once closed and empty."""

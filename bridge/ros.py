@@ -15,7 +15,7 @@ import sys
 import threading
 import time
 import warnings
-from typing import Any, Callable, List, Optional, Tuple
+from typing import Any, Callable, Dict, List, Optional, Tuple
 
 import genpy
 import rosgraph
@@ -217,7 +217,8 @@ def _raw_class_like(generated: type[genpy.Message]) -> type[RawMessage]:
     )
 
 
-MessageCallback = Callable[[str, bytes, str], None]  # (topic, message bytes, the publishing node's name)
+# (topic, message bytes, the TCPROS connection header it came with: "callerid" names the publishing node)
+MessageCallback = Callable[[str, bytes, Dict[str, str]], None]
 ServiceHandler = Callable[[bytes], bytes]
 
 
@@ -329,7 +330,7 @@ class RosGraph:
             return self._subscribe_untyped(topic, message_name, callback), str(unknown)
         # tcp_nodelay: a 1 kHz stream must not wait for Nagle; buff_size large enough for big messages.
         subscriber = rospy.Subscriber(
-            topic, raw, lambda msg: callback(topic, msg._buff, msg._connection_header.get("callerid", "")),
+            topic, raw, lambda msg: callback(topic, msg._buff, msg._connection_header),
             tcp_nodelay=True, buff_size=1 << 20,
         )
         return subscriber, None
@@ -343,7 +344,7 @@ class RosGraph:
         def deliver(msg: Any) -> None:
             header = msg._connection_header
             if header.get("type") == message_name:
-                callback(topic, msg._buff, header.get("callerid", ""))
+                callback(topic, msg._buff, header)
             elif not mismatches:
                 mismatches.append(header.get("type"))
                 log.warning("%s carries %s, not the %s a client subscribed to: not forwarded", topic,
@@ -435,6 +436,7 @@ class RawPublisher:
         self.queue = OutgoingQueue(max(queue_size, 1), max_queue_bytes)
         self._write_lock = threading.Lock()  # held while writing to the subscriber connections
         self._stalled = False  # set by publish when no room came in time; cleared by the pump's next write
+        self.published = 0  # client messages handed over (for /diagnostics)
         self._pump = threading.Thread(target=self._pump_loop, name=f"pump {publisher.resolved_name}", daemon=True)
         self._pump.start()
 
@@ -442,6 +444,7 @@ class RawPublisher:
         """Send messages to ROS, in order: those of one client read (one lock hand-off for all of them). A message
         that came `alone` goes directly if ROS keeps up; the rest through the queue, waiting for room unless the
         ROS side is stalled (see the class). Returns how many older queued messages were dropped to make room."""
+        self.published += len(payloads)
         if alone and len(payloads) == 1 and len(payloads[0]) <= DIRECT_PUBLISH_MAX_BYTES and not self._latch \
                 and self._write_lock.acquire(blocking=False):
             try:
@@ -464,6 +467,10 @@ class RawPublisher:
             if sock is None or unsent_bytes(sock):
                 return False
         return True
+
+    def connections(self) -> int:
+        """ROS subscribers connected."""
+        return int(self._publisher.get_num_connections())
 
     def unregister(self) -> None:
         """The pump writes what is queued, then takes the topic off the graph (never waited for here: the caller

@@ -76,6 +76,8 @@ def test_diagnostics_show_each_client_and_topic(roscore, ros_node, tmp_path) -> 
             assert int(shown["frames in"]) >= 55 and int(shown["bytes out"]) > 0
             assert values(diagnostics.find(topic_in))["messages from clients"] == "50"
             assert values(diagnostics.find(topic_in))["publishing clients"] == "1"
+            assert values(diagnostics.find(topic_in))["ROS subscribers"] == "1"  # the test's RosInbox
+            assert values(diagnostics.find(topic_out))["ROS publishers"] == "1"  # the test's publisher
             assert values(diagnostics.find("endpoint"))["clients"] == "1"
         wait_for(lambda: "disconnected: closed by the client" in endpoint.output(), 10, "the disconnect's log line")
         wait_for(lambda: diagnostics.find("client #") is None, 10, "the client gone from /diagnostics")

@@ -16,7 +16,10 @@ def imported_after(module: str) -> set[str]:
     return set(result.stdout.split())
 
 
-@pytest.mark.parametrize("module", ["bridge.protocol", "bridge.layout", "bridge.queues"])
+@pytest.mark.parametrize(
+    "module", ["bridge.protocol", "bridge.events", "bridge.framing", "bridge.layout", "bridge.queues",
+               "bridge.diagnostics"],
+)
 def test_pure_bridge_modules_import_neither_sockets_nor_ros(module: str) -> None:
     loaded = imported_after(module)
     assert not loaded & {"socket", *ROS_MODULES}, loaded & {"socket", *ROS_MODULES}

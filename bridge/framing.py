@@ -1,0 +1,160 @@
+"""ROS-TCP framing, sans I/O: `u32 LE length + destination (UTF-8) + u32 LE length + payload`, split out of any
+fragments of a stream, with every length checked against its limit before anything is allocated for it.
+"""
+from __future__ import annotations
+
+import json
+import struct
+from dataclasses import dataclass
+from typing import Any, Dict, List, Optional, Tuple, Union
+
+from bridge.events import FramingError, LocalProtocolError
+
+__all__ = [
+    "MAX_DESTINATION_BYTES", "DEFAULT_MAX_PAYLOAD_BYTES", "Frame", "BadFrame", "RawFrame", "FrameDecoder",
+    "decode_destination", "not_utf8", "encode_frame", "encode_syscommand", "KEEPALIVE_FRAME",
+]
+
+MAX_DESTINATION_BYTES = 1024
+DEFAULT_MAX_PAYLOAD_BYTES = 64 * 1024 * 1024
+
+_U32 = struct.Struct("<I")
+
+
+@dataclass(frozen=True)
+class Frame:
+    """One frame as it is on the wire."""
+
+    __slots__ = ("destination", "payload")
+    destination: str
+    payload: bytes
+
+    @property
+    def is_keepalive(self) -> bool:
+        return self.destination == "" and not self.payload
+
+    @property
+    def is_syscommand(self) -> bool:
+        return self.destination.startswith("__")
+
+
+@dataclass(frozen=True)
+class BadFrame:
+    """A frame whose framing was intact but whose destination is not UTF-8; the stream stays usable."""
+
+    __slots__ = ("reason",)
+    reason: str
+
+
+RawFrame = Tuple[bytes, bytes]  # (destination bytes, payload) as framed, before the destination is decoded
+
+
+class FrameDecoder:
+    """Incremental framing: feed it any fragments of the stream, get back the complete frames.
+
+    Fragmentation and coalescing are both handled: a frame may arrive one byte at a time, and one feed may carry
+    many frames. After a FramingError the decoder refuses further input (the stream position is lost).
+    """
+
+    def __init__(
+        self,
+        max_payload_bytes: int = DEFAULT_MAX_PAYLOAD_BYTES,
+        max_destination_bytes: int = MAX_DESTINATION_BYTES,
+    ) -> None:
+        self.max_payload_bytes = max_payload_bytes
+        self.max_destination_bytes = max_destination_bytes
+        self._buffer = bytearray()
+        self._failed: Optional[FramingError] = None
+
+    @property
+    def buffered_bytes(self) -> int:
+        return len(self._buffer)
+
+    def feed(self, data: bytes) -> List[Union[Frame, BadFrame]]:
+        """The complete frames, destinations decoded; raises FramingError when a length is over its limit."""
+        frames, failure = self.feed_raw(data)
+        if failure is not None:
+            raise failure
+        return [_decoded(destination, payload) for destination, payload in frames]
+
+    def feed_raw(self, data: bytes) -> Tuple[List[RawFrame], Optional[FramingError]]:
+        """The complete frames with undecoded destinations, and the FramingError that ended the stream if one did:
+        the frames before it are still returned. Raises the FramingError again once the stream has failed."""
+        if self._failed is not None:
+            raise self._failed
+        self._buffer += data
+        buffer = self._buffer
+        frames: List[RawFrame] = []
+        offset = 0
+        try:
+            while True:
+                frame_end, frame = self._parse_one(buffer, offset)
+                if frame is None:
+                    break
+                frames.append(frame)
+                offset = frame_end
+        except FramingError as error:
+            self._failed = error
+            self._buffer = bytearray()
+            return frames, error
+        if offset:
+            del buffer[:offset]
+        return frames, None
+
+    def _parse_one(self, buffer: bytearray, offset: int) -> Tuple[int, Optional[RawFrame]]:
+        if len(buffer) - offset < 4:
+            return offset, None
+        (destination_length,) = _U32.unpack_from(buffer, offset)
+        if destination_length > self.max_destination_bytes:
+            raise FramingError(
+                f"destination length {destination_length} exceeds the limit of {self.max_destination_bytes} bytes"
+            )
+        payload_length_at = offset + 4 + destination_length
+        if len(buffer) < payload_length_at + 4:
+            return offset, None
+        (payload_length,) = _U32.unpack_from(buffer, payload_length_at)
+        if payload_length > self.max_payload_bytes:
+            destination = bytes(buffer[offset + 4 : payload_length_at]).decode("utf-8", "replace")
+            raise FramingError(
+                f"payload length {payload_length} for destination {destination!r} exceeds the limit of "
+                f"{self.max_payload_bytes} bytes"
+            )
+        payload_at = payload_length_at + 4
+        frame_end = payload_at + payload_length
+        if len(buffer) < frame_end:
+            return offset, None
+        return frame_end, (bytes(buffer[offset + 4 : payload_length_at]), bytes(buffer[payload_at:frame_end]))
+
+
+def decode_destination(raw: bytes) -> str:
+    """The destination as text; trailing NULs (some clients pad) are not part of it. UnicodeDecodeError if bad."""
+    return raw.rstrip(b"\0").decode("utf-8")
+
+
+def _decoded(raw_destination: bytes, payload: bytes) -> Union[Frame, BadFrame]:
+    try:
+        return Frame(decode_destination(raw_destination), payload)
+    except UnicodeDecodeError:
+        return BadFrame(not_utf8(raw_destination))
+
+
+def not_utf8(raw_destination: bytes) -> str:
+    shown = raw_destination.rstrip(b"\0")[:64]
+    return f"destination {shown!r} is not valid UTF-8"
+
+
+def encode_frame(destination: str, payload: bytes) -> bytes:
+    encoded_destination = destination.encode("utf-8")
+    return b"".join(
+        (_U32.pack(len(encoded_destination)), encoded_destination, _U32.pack(len(payload)), payload)
+    )
+
+
+def encode_syscommand(command: str, params: Dict[str, Any]) -> bytes:
+    """A system command frame with any JSON object (compact, fields in the given order, as Unity writes them)."""
+    if not command.startswith("__"):
+        raise LocalProtocolError(f"system command {command!r} must start with '__'")
+    return encode_frame(command, json.dumps(params, separators=(",", ":")).encode("utf-8"))
+
+
+KEEPALIVE_FRAME = encode_frame("", b"")
