@@ -1,10 +1,11 @@
 """The engine's one clock: when to run the fixed physics steps, and the time each step ends at. Pure logic.
 
 Two policies, like Unity's Physics.autoSimulate:
-- **auto-simulate**: the engine's own wall clock drives the steps, `time_scale` times faster than real time. Step
-  ends are stamped on the controller's time base once a /clock value has been seen (that value, extrapolated along
-  the wall clock × time_scale), so commands and joint states share one time base; before that, on the engine's own
-  sim time (steps × dt).
+- **auto-simulate**: the engine's own wall clock drives the steps, `time_scale` times faster than real time. Once a
+  /clock value has been seen, a step ends at the controller's time when it runs (its newest /clock, extrapolated
+  along the wall clock × time_scale), so commands and joint states share one time base, and stamps never go back
+  behind a /clock already seen; steps that fall due together end dt apart, the last one now. Before any /clock,
+  steps end on the engine's own sim time (steps × dt).
 - **clock-driven** (lockstep): the controller's /clock drives the steps. They end on the grid first value + k·dt,
   up to the newest /clock value.
 
@@ -161,11 +162,13 @@ class StepClock:
         first = self.steps + 1
         self.steps += len(wall_ends)
         controller = self._controller
+        due = len(wall_ends)
         if controller is None:
-            ends = tuple((first + k) * self.dt for k in range(len(wall_ends)))
+            ends = tuple((first + k) * self.dt for k in range(due))
         else:
-            value, seen_at = controller
-            ends = tuple(value + (wall_end - seen_at) * self.time_scale for wall_end in wall_ends)
+            # When the step runs, not when it was due: a late wake-up after a new /clock must not stamp behind it.
+            now = controller[0] + (wall_s - controller[1]) * self.time_scale
+            ends = tuple(now - (due - 1 - k) * self.dt for k in range(due))
         return self._advance(ends, anchored_at, jump)
 
     def next_step_wall(self) -> float | None:

@@ -76,10 +76,13 @@ def test_auto_simulate_stamps_follow_the_controllers_clock_once_seen() -> None:
     clock = StepClock(DT, auto_simulate=True, time_scale=4.0)
     clock.poll(100.0)
     clock.observe_clock(10.0, wall_s=100.001)
-    advance = clock.poll(100.0105)  # two steps were due: at 100.005 and 100.010 wall
-    # the controller's time at each step's wall end: 10 + (wall end - 100.001) x 4
-    np.testing.assert_allclose(advance.step_ends, [10.016, 10.036])
+    advance = clock.poll(100.0105)  # two steps were due (at 100.005 and 100.010 wall); they run now
+    # the last ends at the controller's time now, 10 + (100.0105 - 100.001) x 4; the one before dt earlier
+    np.testing.assert_allclose(advance.step_ends, [10.018, 10.038])
     assert clock.controller_time(100.251) == pytest.approx(11.0)
+    clock.observe_clock(10.1, wall_s=100.0152)  # a /clock came just after the next step fell due (100.015)
+    (late,) = clock.poll(100.0158).step_ends  # the engine woke late: the step runs at 100.0158
+    assert late == pytest.approx(10.1024) and late > 10.1  # never behind the /clock already seen
     clock.observe_clock(0.0, wall_s=100.3)  # a restarted controller: its newest value is the base
     assert clock.controller_time(100.4) == pytest.approx(0.4)
 
