@@ -16,7 +16,10 @@ import genpy
 import genpy.dynamic
 import rospkg
 
-__all__ = ["DefinitionError", "message_class_from_files", "message_class_from_text", "service_class_from_files"]
+__all__ = [
+    "DefinitionError", "split_type_name", "message_class_from_files", "message_class_from_text",
+    "service_class_from_files",
+]
 
 
 class DefinitionError(LookupError):
@@ -43,7 +46,8 @@ class _PackageDirs(Dict[str, List[str]]):
         return True
 
 
-def _split(name: str) -> Tuple[str, str]:
+def split_type_name(name: str) -> Tuple[str, str]:
+    """('package', 'Type') of 'package/Type'; DefinitionError for anything else."""
     package, _, type_name = name.partition("/")
     if not package or not type_name or "/" in type_name:
         raise DefinitionError(f"type name {name!r} is not of the form 'package/Type'")
@@ -67,39 +71,35 @@ def message_class_from_text(message_name: str, full_text: str) -> Any:
     return classes[message_name]
 
 
-def message_class_from_files(message_name: str) -> Any:
-    """The class of `message_name` from its .msg file and those of its dependencies, on ROS_PACKAGE_PATH."""
-    package, type_name = _split(message_name)
+def _load(name: str, kind: str) -> Tuple[Any, Any]:
+    """(genmsg context, spec) of the message (kind "msg") or service ("srv") `name`, with everything it uses
+    loaded, from the files on ROS_PACKAGE_PATH."""
+    package, type_name = split_type_name(name)
     context = genmsg.MsgContext.create_default()
     search_path = _PackageDirs()
+    load = genmsg.msg_loader.load_msg_by_type if kind == "msg" else genmsg.msg_loader.load_srv_by_type
     try:
-        spec = genmsg.msg_loader.load_msg_by_type(context, message_name, search_path)
+        spec = load(context, name, search_path)
         genmsg.msg_loader.load_depends(context, spec, search_path)
-        full_text = genmsg.compute_full_text(context, spec)
     except genmsg.MsgNotFound:
-        raise DefinitionError(_where(package, "msg", type_name)) from None
+        raise DefinitionError(_where(package, kind, type_name)) from None
     except (genmsg.InvalidMsgSpec, OSError) as error:
-        raise DefinitionError(f"{message_name}: {error}") from None
-    return message_class_from_text(message_name, full_text)
+        raise DefinitionError(f"{name}: {error}") from None
+    return context, spec
+
+
+def message_class_from_files(message_name: str) -> Any:
+    """The class of `message_name` from its .msg file and those of its dependencies, on ROS_PACKAGE_PATH."""
+    context, spec = _load(message_name, "msg")
+    return message_class_from_text(message_name, genmsg.compute_full_text(context, spec))
 
 
 def service_class_from_files(service_name: str) -> Any:
     """A service class of `service_name` (its type, md5sum, request and response classes) from its .srv file and
     the .msg files it depends on, on ROS_PACKAGE_PATH."""
-    package, type_name = _split(service_name)
-    context = genmsg.MsgContext.create_default()
-    search_path = _PackageDirs()
-    try:
-        spec = genmsg.msg_loader.load_srv_by_type(context, service_name, search_path)
-        genmsg.msg_loader.load_depends(context, spec, search_path)
-        request_text = genmsg.compute_full_text(context, spec.request)
-        response_text = genmsg.compute_full_text(context, spec.response)
-        md5sum = genmsg.compute_md5(context, spec)
-    except genmsg.MsgNotFound:
-        raise DefinitionError(_where(package, "srv", type_name)) from None
-    except (genmsg.InvalidMsgSpec, OSError) as error:
-        raise DefinitionError(f"{service_name}: {error}") from None
-    request = message_class_from_text(f"{service_name}Request", request_text)
-    response = message_class_from_text(f"{service_name}Response", response_text)
-    return type(type_name, (), {"_type": service_name, "_md5sum": md5sum, "_request_class": request,
-                                "_response_class": response})
+    context, spec = _load(service_name, "srv")
+    request = message_class_from_text(f"{service_name}Request", genmsg.compute_full_text(context, spec.request))
+    response = message_class_from_text(f"{service_name}Response", genmsg.compute_full_text(context, spec.response))
+    type_name = split_type_name(service_name)[1]
+    return type(type_name, (), {"_type": service_name, "_md5sum": genmsg.compute_md5(context, spec),
+                                "_request_class": request, "_response_class": response})

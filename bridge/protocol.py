@@ -205,10 +205,8 @@ ENDPOINT_COMMANDS = frozenset((*_SENT_BY_ENDPOINT, *_SERVICE_HEADERS))
 def _command_params(event: Event) -> Tuple[str, _Params]:
     """The system command that carries `event`, and its JSON fields in the order Unity writes them."""
     if isinstance(event, Subscribe):
-        params: _Params = {"topic": event.topic, "message_name": event.message_name}
-        if event.queue_size is not None:
-            params["queue_size"] = event.queue_size
-        return "__subscribe", params
+        return "__subscribe", _given({"topic": event.topic, "message_name": event.message_name},
+                                     queue_size=event.queue_size)
     if isinstance(event, Publish):
         return "__publish", {"topic": event.topic, "message_name": event.message_name,
                              "queue_size": event.queue_size, "latch": event.latch}
@@ -225,25 +223,22 @@ def _command_params(event: Event) -> Tuple[str, _Params]:
     if isinstance(event, Auth):
         return "__auth", {"token": event.token}
     if isinstance(event, Ping):
-        params = {"request_time": event.request_time}
-        if event.round_trip is not None:
-            params["round_trip"] = event.round_trip
-        return "__ping", params
+        return "__ping", _given({"request_time": event.request_time}, round_trip=event.round_trip)
     if isinstance(event, PingResponse):
-        params = {"request_time": event.request_time}
-        if event.ros_time is not None:
-            params["ros_time"] = event.ros_time
-        return "__ping_response", params
+        return "__ping_response", _given({"request_time": event.request_time}, ros_time=event.ros_time)
     if isinstance(event, Log):
         return "__log", {"text": event.text}
     if isinstance(event, Warn):
         return "__warn", {"text": event.text}
     if isinstance(event, Error):
-        params = {"text": event.text}
-        if event.srv_id is not None:
-            params["srv_id"] = event.srv_id
-        return "__error", params
+        return "__error", _given({"text": event.text}, srv_id=event.srv_id)
     raise LocalProtocolError(f"{type(event).__name__} is not a system command")
+
+
+def _given(params: _Params, **optional: Any) -> _Params:
+    """`params` and the optional fields that have a value (an absent field is left out, not sent as null)."""
+    params.update((name, value) for name, value in optional.items() if value is not None)
+    return params
 
 
 def handshake() -> bytes:

@@ -28,6 +28,7 @@ from bridge.definitions import (
     message_class_from_files,
     message_class_from_text,
     service_class_from_files,
+    split_type_name,
 )
 from bridge.diagnostics import Status
 from bridge.layout import Layout, LayoutError
@@ -78,10 +79,10 @@ class RawMessage(genpy.Message):
 
 
 def _split_name(message_name: str) -> tuple[str, str]:
-    package, _, type_name = message_name.partition("/")
-    if not package or not type_name or "/" in type_name:
-        raise RosError(f"type name {message_name!r} is not of the form 'package/Type'")
-    return package, type_name
+    try:
+        return split_type_name(message_name)
+    except DefinitionError as error:
+        raise RosError(str(error)) from None
 
 
 def _import_generated(message_name: str, kind: str) -> Any:
