@@ -287,3 +287,35 @@ def service_exists(rospy, service: str) -> bool:
         return True
     except rosgraph.MasterError:
         return False
+
+
+# --- /diagnostics ----------------------------------------------------------------------------------------------
+
+
+class DiagnosticsInbox:
+    """The newest /diagnostics statuses of one endpoint node, by name."""
+
+    def __init__(self, rospy, node: str) -> None:
+        self.node = node
+        self._lock = threading.Lock()
+        self.statuses: dict = {}
+        from diagnostic_msgs.msg import DiagnosticArray
+
+        self._subscriber = rospy.Subscriber("/diagnostics", DiagnosticArray, self._store)
+
+    def _store(self, array) -> None:
+        mine = {status.name: status for status in array.status if status.name.startswith(self.node + ":")}
+        if mine:
+            with self._lock:
+                self.statuses = mine
+
+    def find(self, fragment: str):
+        with self._lock:
+            return next((status for name, status in self.statuses.items() if fragment in name), None)
+
+    def close(self) -> None:
+        self._subscriber.unregister()
+
+
+def status_values(status) -> dict:
+    return {entry.key: entry.value for entry in status.values}

@@ -1,48 +1,20 @@
 """A window into the endpoint: /diagnostics (diagnostic_msgs/DiagnosticArray, 1 Hz) and its log lines."""
 from __future__ import annotations
 
-import threading
-
-from diagnostic_msgs.msg import DiagnosticArray
 from std_msgs.msg import String
 
 from tests.integration.bridge_helpers import (
+    DiagnosticsInbox,
     RawConnection,
     RosInbox,
     serialize,
     start_endpoint,
+    status_values,
     tcp_client,
     unique,
     wait_subscribers,
 )
 from tests.rosenv import wait_for
-
-
-class DiagnosticsInbox:
-    """The newest /diagnostics statuses of one endpoint node, by name."""
-
-    def __init__(self, rospy, node: str) -> None:
-        self.node = node
-        self._lock = threading.Lock()
-        self.statuses: dict = {}
-        self._subscriber = rospy.Subscriber("/diagnostics", DiagnosticArray, self._store)
-
-    def _store(self, array: DiagnosticArray) -> None:
-        mine = {status.name: status for status in array.status if status.name.startswith(self.node + ":")}
-        if mine:
-            with self._lock:
-                self.statuses = mine
-
-    def find(self, fragment: str):
-        with self._lock:
-            return next((status for name, status in self.statuses.items() if fragment in name), None)
-
-    def close(self) -> None:
-        self._subscriber.unregister()
-
-
-def values(status) -> dict:
-    return {entry.key: entry.value for entry in status.values}
 
 
 def test_diagnostics_show_each_client_and_topic(roscore, ros_node, tmp_path) -> None:
@@ -65,20 +37,20 @@ def test_diagnostics_show_each_client_and_topic(roscore, ros_node, tmp_path) -> 
                 publisher.publish(String(f"out {index}"))
                 client.publish(topic_in, serialize(String(f"in {index}")))
             inbox.wait_count(50)
-            wait_for(lambda: (s := diagnostics.find(topic_out)) and values(s)["messages to clients"] == "50", 10,
+            wait_for(lambda: (s := diagnostics.find(topic_out)) and status_values(s)["messages to clients"] == "50", 10,
                      "the topic's count on /diagnostics")
             mine = diagnostics.find("client #")
             assert mine is not None and mine.level == 0
-            shown = values(mine)
+            shown = status_values(mine)
             assert shown["address"].startswith("127.0.0.1:") and shown["authenticated"] == "yes"
             assert shown["pings"] == "2" and float(shown["last ping round trip [s]"]) > 0
             assert abs(float(shown["last ping clock offset to ROS [s]"])) < 1.0
             assert int(shown["frames in"]) >= 55 and int(shown["bytes out"]) > 0
-            assert values(diagnostics.find(topic_in))["messages from clients"] == "50"
-            assert values(diagnostics.find(topic_in))["publishing clients"] == "1"
-            assert values(diagnostics.find(topic_in))["ROS subscribers"] == "1"  # the test's RosInbox
-            assert values(diagnostics.find(topic_out))["ROS publishers"] == "1"  # the test's publisher
-            assert values(diagnostics.find("endpoint"))["clients"] == "1"
+            assert status_values(diagnostics.find(topic_in))["messages from clients"] == "50"
+            assert status_values(diagnostics.find(topic_in))["publishing clients"] == "1"
+            assert status_values(diagnostics.find(topic_in))["ROS subscribers"] == "1"  # the test's RosInbox
+            assert status_values(diagnostics.find(topic_out))["ROS publishers"] == "1"  # the test's publisher
+            assert status_values(diagnostics.find("endpoint"))["clients"] == "1"
         wait_for(lambda: "disconnected: closed by the client" in endpoint.output(), 10, "the disconnect's log line")
         wait_for(lambda: diagnostics.find("client #") is None, 10, "the client gone from /diagnostics")
     finally:

@@ -13,6 +13,7 @@ from std_msgs.msg import Header, String
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 from tests.integration.bridge_helpers import (
+    DiagnosticsInbox,
     Inbox,
     RawConnection,
     RosInbox,
@@ -20,6 +21,7 @@ from tests.integration.bridge_helpers import (
     serialize,
     service_exists,
     start_endpoint,
+    status_values,
     tcp_client,
     unique,
     wait_no_subscribers,
@@ -374,6 +376,7 @@ def test_a_subscription_with_queue_size_keeps_only_that_many_waiting_for_a_slow_
     newest messages when it reads again, and is told how many were dropped."""
     topic = unique("queue_size")
     publisher = ros_node.Publisher(topic, String, queue_size=1000)
+    diagnostics = DiagnosticsInbox(ros_node, "/" + bridge.name)
     with RawConnection(bridge.port, rcvbuf=4096) as latest_only, RawConnection(bridge.port, rcvbuf=4096) as all_of_it:
         latest_only.command("__subscribe", topic=topic, message_name="std_msgs/String", queue_size=1)
         all_of_it.command("__subscribe", topic=topic, message_name="std_msgs/String")
@@ -383,8 +386,10 @@ def test_a_subscription_with_queue_size_keeps_only_that_many_waiting_for_a_slow_
         sent = [serialize(String(f"sample {index:04d} " + "x" * 200)) for index in range(600)]
         for index in range(600):
             publisher.publish(String(f"sample {index:04d} " + "x" * 200))
-        # neither client reads until everything was published and handed to them (or queued)
-        time.sleep(1.0)
+        # neither client reads until the endpoint has handed every message to them (sent, or queued): it counts them
+        # on /diagnostics
+        wait_for(lambda: (status := diagnostics.find(topic)) and status_values(status)["messages to clients"] == "600",
+                 15, f"600 messages of {topic} handed to the clients")
         latest_only.sync()
         all_of_it.sync()
         got_latest, got_all = latest_only.messages(topic), all_of_it.messages(topic)
@@ -393,4 +398,5 @@ def test_a_subscription_with_queue_size_keeps_only_that_many_waiting_for_a_slow_
         assert got_latest == [payload for payload in sent if payload in set(got_latest)]  # in order, no duplicates
         warnings = " ".join(json.loads(f.payload)["text"] for f in latest_only.received if f.destination == "__warn")
         assert "dropped" in warnings
+    diagnostics.close()
     publisher.unregister()
