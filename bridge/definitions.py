@@ -7,7 +7,9 @@ rostopic does. Imports neither socket nor rospy.
 """
 from __future__ import annotations
 
+import importlib.util
 import os
+import threading
 from typing import Any, Dict, List, Tuple
 
 import genmsg
@@ -17,7 +19,7 @@ import genpy.dynamic
 import rospkg
 
 __all__ = [
-    "DefinitionError", "split_type_name", "message_class_from_files", "message_class_from_text",
+    "DefinitionError", "split_type_name", "RosPackages", "message_class_from_files", "message_class_from_text",
     "service_class_from_files",
 ]
 
@@ -44,6 +46,38 @@ class _PackageDirs(Dict[str, List[str]]):
                 return False
             self[package] = [os.path.join(path, "msg"), os.path.join(path, "srv")]
         return True
+
+
+class RosPackages:
+    """Which packages are ROS packages: those rospack finds (ROS_PACKAGE_PATH, or the install's share directory),
+    and those whose Python holds generated message or service modules (Debian's python3-*-msgs ship only those).
+    Found from the files alone, so deciding never imports anything: a client's type name may only ever import the
+    `<package>.msg` or `.srv` module genpy generated (importing a module runs its code)."""
+
+    def __init__(self) -> None:
+        self._rospack = rospkg.RosPack()
+        self._lock = threading.Lock()  # RosPack's first look-up crawls the package path; once
+
+    def exists(self, package: str) -> bool:
+        with self._lock:
+            try:
+                self._rospack.get_path(package)
+            except rospkg.ResourceNotFound:
+                return False
+        return True
+
+    @staticmethod
+    def has_generated(package: str, kind: str, type_name: str) -> bool:
+        """Whether `package`'s Python (found, not imported) has the generated module of `type_name` in its `kind`
+        ("msg" or "srv") subpackage, as genpy writes it: <package>/<kind>/_<Type>.py."""
+        try:
+            spec = importlib.util.find_spec(package)  # a top-level name: finding it runs nothing
+        except (ImportError, ValueError):
+            return False
+        if spec is None or not spec.submodule_search_locations:
+            return False
+        return any(os.path.isfile(os.path.join(directory, kind, f"_{type_name}.py"))
+                   for directory in spec.submodule_search_locations)
 
 
 def split_type_name(name: str) -> Tuple[str, str]:

@@ -59,6 +59,7 @@ from bridge.framing import (
     encode_syscommand,
     not_utf8,
 )
+from bridge.names import graph_name_problem, type_name_problem
 
 # The protocol's whole public surface, in one place (the events and framing modules hold the parts).
 __all__ = [
@@ -111,15 +112,16 @@ def _check_type(command: str, name: str, value: Any, expected: type) -> None:
 
 
 def _check_name(command: str, field: str, name: str) -> str:
-    if not name or name.startswith("__") or any(c.isspace() or c == "\0" for c in name):
-        raise ProtocolError(f"{command}: field {field!r} is not a valid ROS name: {name!r}")
+    problem = graph_name_problem(name)
+    if problem is not None:
+        raise ProtocolError(f"{command}: field {field!r} is not a valid ROS name: {name!r} {problem}")
     return name
 
 
 def _check_message_name(command: str, message_name: str) -> str:
-    package, _, type_name = message_name.partition("/")
-    if not package or not type_name or "/" in type_name or not (package + type_name).replace("_", "").isalnum():
-        raise ProtocolError(f"{command}: field 'message_name' must look like 'package/Type', got {message_name!r}")
+    problem = type_name_problem(message_name)
+    if problem is not None:
+        raise ProtocolError(f"{command}: field 'message_name' is not a ROS type name: {message_name!r} {problem}")
     return message_name
 
 
@@ -272,6 +274,8 @@ class Role(enum.Enum):
     CLIENT = "client"
 
 
+# Events that name a topic or service (checked ASCII by then, so a character is a byte)
+_NAMED = (Subscribe, Publish, RosService, UnityService, Remove)
 _PARSERS = {Role.CLIENT: _SENT_BY_CLIENT, Role.ENDPOINT: _SENT_BY_ENDPOINT}
 _EVENTS_SENT_BY: Dict[Role, Tuple[Type[Event], ...]] = {
     Role.CLIENT: (Keepalive, TopicMessage, ServiceRequest, ServiceResponse, Subscribe, Publish, RosService,
@@ -299,6 +303,7 @@ class Conversation:
         self.our_role = our_role
         self.their_role = Role.CLIENT if our_role is Role.ENDPOINT else Role.ENDPOINT
         self._decoder = FrameDecoder(max_payload_bytes, max_destination_bytes)
+        self._max_destination_bytes = max_destination_bytes
         self._their_commands = _PARSERS[self.their_role]
         self._may_send = _EVENTS_SENT_BY[our_role]
         # The receiving side's whole state:
@@ -355,6 +360,10 @@ class Conversation:
                 raise ProtocolError(f"unknown system command {destination!r}")
             params = _json_object(destination, payload)
             event = spec.parse(destination, params)
+            if isinstance(event, _NAMED) and len(event.topic) > self._max_destination_bytes:
+                # One limit for a name everywhere: a topic a client registers is one it can send frames to.
+                raise ProtocolError(f"{destination}: field 'topic' is not a valid ROS name: {event.topic[:64]!r}... "
+                                    f"{graph_name_problem(event.topic, self._max_destination_bytes)}")
         except ProtocolError as error:
             return (InvalidInput(RemoteProtocolError(str(error))),)
         ignored = self._newly_ignored(destination, spec.unknown_fields(params))
@@ -404,6 +413,8 @@ def _json_object(command: str, payload: bytes) -> _Params:
         raise ProtocolError(f"{command}: payload is not valid UTF-8") from None
     except json.JSONDecodeError as error:
         raise ProtocolError(f"{command}: malformed JSON ({error.msg} at position {error.pos})") from None
+    except RecursionError:
+        raise ProtocolError(f"{command}: JSON nested too deeply") from None
     if not isinstance(params, dict):
         raise ProtocolError(f"{command}: payload must be a JSON object, got {type(params).__name__}")
     return params

@@ -9,6 +9,7 @@ from __future__ import annotations
 import importlib
 import io
 import logging
+import os
 import socket
 import struct
 import sys
@@ -25,6 +26,7 @@ import xmlrpc.client
 
 from bridge.definitions import (
     DefinitionError,
+    RosPackages,
     message_class_from_files,
     message_class_from_text,
     service_class_from_files,
@@ -85,21 +87,28 @@ def _split_name(message_name: str) -> tuple[str, str]:
         raise RosError(str(error)) from None
 
 
-def _import_generated(message_name: str, kind: str) -> Any:
+def _import_generated(message_name: str, kind: str, packages: RosPackages) -> Any:
     """The generated class of a message (kind "msg") or service ("srv"): the package's Python module, else one built
-    from the definition files on ROS_PACKAGE_PATH (bridge.definitions). RosError says what to build or source."""
+    from the definition files on ROS_PACKAGE_PATH (bridge.definitions). Only a ROS package's own generated module is
+    ever imported (see RosPackages). RosError says what to build or source."""
     package, type_name = _split_name(message_name)
-    try:
-        module = importlib.import_module(f"{package}.{kind}")
-        return getattr(module, type_name)
-    except (ImportError, AttributeError):
-        pass
+    what = "message" if kind == "msg" else "service"
+    if packages.has_generated(package, kind, type_name):
+        try:
+            return getattr(importlib.import_module(f"{package}.{kind}"), type_name)
+        except (ImportError, AttributeError):
+            pass
+    elif not packages.exists(package):
+        raise RosError(
+            f"unknown {what} type {message_name!r}: {package!r} is not a ROS package (no generated Python "
+            f"{package}/{kind}/_{type_name}.py, and not on ROS_PACKAGE_PATH: "
+            f"{os.environ.get('ROS_PACKAGE_PATH') or 'not set'}); nothing was imported"
+        )
     try:
         if kind == "msg":
             return message_class_from_files(message_name)
         return service_class_from_files(message_name)
     except DefinitionError as error:
-        what = "message" if kind == "msg" else "service"
         raise RosError(
             f"unknown {what} type {message_name!r}: no Python module {package}.{kind} has it (build the package, "
             f"and source its workspace's devel/setup.bash where the endpoint runs), and {error}"
@@ -110,7 +119,8 @@ class TypeRegistry:
     """Resolves 'pkg/Type' names to the generated classes and builds (cached) raw classes for them."""
 
     def __init__(self) -> None:
-        self._lock = threading.Lock()
+        self._lock = threading.Lock()  # held only to read and fill the caches, never while a type is looked up
+        self._packages = RosPackages()
         self._raw_messages: dict[str, type[RawMessage]] = {}
         # service classes (genpy's and ours) are plain classes whose attributes genpy sets: typed Any
         self._raw_services: dict[str, Any] = {}
@@ -144,11 +154,14 @@ class TypeRegistry:
         return self._imported(self._generated_services, service_name, "srv")
 
     def _imported(self, cache: dict[str, Any], name: str, kind: str) -> Any:
-        with self._lock:
-            cls = cache.get(name)
-            if cls is None:
-                cls = cache[name] = _import_generated(name, kind)
+        cls = cache.get(name)  # entries are only ever added
+        if cls is not None:
             return cls
+        # Looked up outside the lock: a look-up may take a while (files, genmsg), and other clients' types must
+        # not wait for it. Two clients looking up one type at once both do; the first result is kept.
+        cls = _import_generated(name, kind, self._packages)
+        with self._lock:
+            return cache.setdefault(name, cls)
 
     def raw_service_class(self, service_name: str) -> Any:
         generated = self._generated_service(service_name)

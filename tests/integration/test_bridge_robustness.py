@@ -91,6 +91,28 @@ BAD_INPUTS = {
         syscommand("__ros_service", b'{"topic":"/bt_unknown_srv","message_name":"std_srvs/NoSuchSrv"}'),
         ["unknown service type", "std_srvs/NoSuchSrv"],
     ),
+    # Names the master's XML-RPC cannot carry: rospy would retry their registration forever (the one-frame wedge)
+    "control character in a subscribed topic": (
+        syscommand("__subscribe", b'{"topic":"/bt_\\u0001x","message_name":"std_msgs/String"}'),
+        ["__subscribe", "'topic'", "U+0001"],
+    ),
+    "escape in a published topic": (
+        syscommand("__publish", b'{"topic":"/bt_\\u001bx","message_name":"std_msgs/String"}'),
+        ["__publish", "'topic'", "U+001B"],
+    ),
+    "U+FFFF in a service name": (
+        syscommand("__unity_service", b'{"topic":"/bt_\\uffffx","message_name":"std_srvs/Trigger"}'),
+        ["__unity_service", "'topic'", "U+FFFF"],
+    ),
+    "topic longer than a destination": (
+        syscommand("__subscribe", b'{"topic":"/' + b"a" * 1024 + b'","message_name":"std_msgs/String"}'),
+        ["__subscribe", "'topic'", "1025 bytes long"],
+    ),
+    "deeply nested JSON": (syscommand("__subscribe", b"[" * 50_000 + b"]" * 50_000), ["__subscribe", "nested"]),
+    "importable module as a type": (
+        syscommand("__publish", b'{"topic":"/bt_zen","message_name":"this/Foo"}'),
+        ["this/Foo", "not a ROS package", "nothing was imported"],
+    ),
     "non-UTF-8 destination": (u32(4) + b"/a\xff\xfe" + u32(2) + b"{}", ["not valid UTF-8"]),
     "topic never registered": (protocol.encode_frame("/bt_nobody", b"\0" * 4), ["/bt_nobody", "__publish"]),
 }
@@ -105,7 +127,18 @@ def test_bad_input_gets_a_named_error_and_the_connection_is_kept(bridge, observe
         client.expect_error(*fragments)
         client.sync()  # still framed, still served
         assert len(client.errors()) == 1, client.errors()
+    with RawConnection(bridge.port) as newcomer:  # still accepting: a handshake, and a command answered
+        newcomer.sync()
     observer.check()
+
+
+def test_a_type_name_never_imports_a_module_that_is_not_a_ros_message_package(bridge) -> None:
+    """`this` prints the Zen of Python when imported: any import-time code would run the same way."""
+    with RawConnection(bridge.port) as client:
+        for command in ("__publish", "__subscribe", "__ros_service", "__unity_service"):
+            client.command(command, topic=unique("zen"), message_name="this/Foo")
+        client.sync()
+    assert "Beautiful is better than ugly" not in bridge.output()
 
 
 def test_undeserializable_payload_is_refused_and_not_published(bridge, ros_node, observer) -> None:

@@ -447,10 +447,38 @@ def test_negative_queue_size_is_refused(destination: str) -> None:
             destination, "queue_size")
 
 
-@pytest.mark.parametrize("topic", ["", "__hidden", "/with space", "/tab\there", "/nul\0", "/new\nline"])
+@pytest.mark.parametrize("topic", ["", "__hidden", "/with space", "/tab\there", "/nul\0", "/new\nline", "\x01x",
+                                   "/esc\x1b", "/x\uffff", "/caf\u00e9", "//double", "/a-b", "1st"])
 @pytest.mark.parametrize("destination", ["__subscribe", "__publish", "__ros_service", "__unity_service"])
 def test_bad_topic_is_named(destination: str, topic: str) -> None:
     rejects(command(destination, {"topic": topic, "message_name": "std_msgs/String"}), destination, "'topic'")
+
+
+@pytest.mark.parametrize("character", ["\x01", "\x1b", "\uffff"])
+def test_a_bad_character_in_a_name_is_shown_with_its_code_point(character: str) -> None:
+    rejects(command("__subscribe", {"topic": f"/a{character}", "message_name": "std_msgs/String"}),
+            f"U+{ord(character):04X}", "position 2")
+
+
+def test_a_registered_name_is_no_longer_than_a_destination_may_be() -> None:
+    """One limit everywhere: a client can send frames to every topic it may register."""
+    conversation = Conversation(Role.ENDPOINT, max_destination_bytes=32)
+    longest = "/" + "a" * 31
+    (accepted,) = conversation.receive_data(command("__publish", {"topic": longest, "message_name": "std_msgs/Empty"}))
+    assert isinstance(accepted, Publish)
+    (refused,) = conversation.receive_data(
+        command("__publish", {"topic": longest + "a", "message_name": "std_msgs/Empty"}))
+    assert isinstance(refused, InvalidInput) and "33 bytes long" in str(refused.error)
+
+
+@pytest.mark.parametrize("topic", ["/t", "t", "~private", "/ns/sub_topic/x1", "/Robot_2/joint_states"])
+def test_good_names_pass(topic: str) -> None:
+    event = parsed("__subscribe", {"topic": topic, "message_name": "std_msgs/String"})
+    assert isinstance(event, Subscribe) and event.topic == topic
+
+
+def test_deeply_nested_json_is_refused_as_bad_input() -> None:
+    rejects(protocol.encode_frame("__subscribe", b"[" * 100_000 + b"]" * 100_000), "__subscribe", "nested")
 
 
 def test_bad_topic_in_remove_is_named() -> None:
@@ -459,7 +487,8 @@ def test_bad_topic_in_remove_is_named() -> None:
 
 @pytest.mark.parametrize(
     "message_name",
-    ["String", "std_msgs/", "/String", "std_msgs/msg/String", "std msgs/String", "std_msgs/Str-ing", "", "a/b/c"],
+    ["String", "std_msgs/", "/String", "std_msgs/msg/String", "std msgs/String", "std_msgs/Str-ing", "", "a/b/c",
+     "1pkg/Type", "pkg/_Type", "caf\u00e9/Type", "std_msgs/String\x00"],
 )
 def test_bad_message_name_is_named(message_name: str) -> None:
     rejects(command("__subscribe", {"topic": "/t", "message_name": message_name}), "__subscribe", "'message_name'")
