@@ -36,6 +36,8 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument("--allow", action="append", metavar="PATTERN", help="only bridge topics matching (repeatable)")
     parser.add_argument("--deny", action="append", metavar="PATTERN", help="never bridge topics matching (repeatable)")
     parser.add_argument("--service-timeout", type=float, help="seconds to wait for a service answer (default 10)")
+    parser.add_argument("--publisher-grace", type=float,
+                        help="seconds a publisher stays advertised after its last client left (default 10)")
     parser.add_argument("--no-validate", action="store_true", help="publish client payloads without checking them")
     parser.add_argument("--echo-own-publications", action="store_true",
                         help="send a client its own messages back on topics it also subscribes to (default off)")
@@ -68,6 +70,7 @@ _SOURCES = {
     "allow_topics": _Source("--allow", "~allow_topics"),
     "deny_topics": _Source("--deny", "~deny_topics"),
     "service_timeout_s": _Source("--service-timeout", "~service_timeout"),
+    "publisher_grace_s": _Source("--publisher-grace", "~publisher_grace"),
     "validate_payloads": _Source("--no-validate", "~validate_payloads"),
     "echo_own_publications": _Source("--echo-own-publications", "~echo_own_publications"),
 }
@@ -138,6 +141,7 @@ def build_config(args: argparse.Namespace, ros: Any) -> EndpointConfig:
         allow_topics=_patterns("allow_topics", _given("allow_topics", args.allow, ros)),
         deny_topics=_patterns("deny_topics", _given("deny_topics", args.deny, ros)),
         service_timeout_s=read("service_timeout_s", args.service_timeout, float),
+        publisher_grace_s=read("publisher_grace_s", args.publisher_grace, float),
         validate_payloads=not args.no_validate and read("validate_payloads", None, bool),
         echo_own_publications=args.echo_own_publications or read("echo_own_publications", None, bool),
     )
@@ -189,6 +193,7 @@ def main(argv: list[str] | None = None) -> int:
         ros.shutdown("bind failed")
         return 1
     ros.set_param("~actual_port", port)
+    ros.master.on_new_master(lambda: ros.set_param("~actual_port", port))  # a new master's parameters are empty
     # What start-up made (modules, rospy's node and threads) lives as long as the process: take it out of the
     # cyclic GC's view, so a full collection scans only what was made since. Measured: a full collection over
     # the start-up objects froze every endpoint thread for 20-30 ms, the worst case of 1 kHz round trips.

@@ -36,6 +36,9 @@ class EndpointConfig:
     allow_topics: Tuple[str, ...] = ()  # fnmatch patterns on resolved names; empty = everything
     deny_topics: Tuple[str, ...] = ()
     service_timeout_s: float = 10.0
+    # How long a publisher stays advertised after its last client left (rosbridge's unregister_timeout): a client
+    # that reconnects within it keeps its ROS subscribers connected.
+    publisher_grace_s: float = 10.0
     validate_payloads: bool = True
     # A client that publishes and subscribes on one topic gets the others' messages, not its own back (what Unity's
     # users asked for in ROS-TCP-Endpoint PR #159); True sends them back as the original endpoint does.
@@ -57,9 +60,8 @@ class EndpointConfig:
         _check_whole("client_queue_bytes", self.client_queue_bytes, 1)
         _check_whole("client_call_workers", self.client_call_workers, 1)
         _check_whole("client_max_pending_calls", self.client_max_pending_calls, 1)
-        timeout = self.service_timeout_s
-        if isinstance(timeout, bool) or not isinstance(timeout, (int, float)) or not (0 < timeout < math.inf):
-            raise ConfigError("service_timeout_s", f"must be a positive number of seconds, got {timeout!r}")
+        _check_seconds("service_timeout_s", self.service_timeout_s)
+        _check_seconds("publisher_grace_s", self.publisher_grace_s, zero_allowed=True)
 
     def permits(self, resolved_name: str) -> bool:
         if any(fnmatch.fnmatchcase(resolved_name, pattern) for pattern in self.deny_topics):
@@ -67,6 +69,13 @@ class EndpointConfig:
         return not self.allow_topics or any(
             fnmatch.fnmatchcase(resolved_name, pattern) for pattern in self.allow_topics
         )
+
+
+def _check_seconds(setting: str, value: object, zero_allowed: bool = False) -> None:
+    number = isinstance(value, (int, float)) and not isinstance(value, bool)
+    if not number or not (0 <= value < math.inf) or (value == 0 and not zero_allowed):  # type: ignore[operator]
+        kind = "a number of seconds of at least 0" if zero_allowed else "a positive number of seconds"
+        raise ConfigError(setting, f"must be {kind}, got {value!r}")
 
 
 def _check_whole(setting: str, value: object, lowest: int, highest: Optional[int] = None) -> None:

@@ -34,6 +34,7 @@ from bridge.definitions import (
 )
 from bridge.diagnostics import Status
 from bridge.layout import Layout, LayoutError
+from bridge.master import MasterError, MasterLink, call_master, timed_proxy
 from bridge.queues import OutgoingQueue
 from bridge.sockets import send_to_all, unsent_bytes
 
@@ -241,6 +242,7 @@ class RosGraph:
 
     def __init__(self, types: TypeRegistry | None = None) -> None:
         self.types = types or TypeRegistry()
+        self.master = MasterLink()
         self._diagnostics: Any = None  # (publisher, message classes) once made; False without diagnostic_msgs
 
     # --- node lifecycle -----------------------------------------------------------------------------------------
@@ -258,10 +260,10 @@ class RosGraph:
         while not rosgraph.is_master_online():
             time.sleep(poll_s)
 
-    @staticmethod
-    def init_node(name: str) -> None:
+    def init_node(self, name: str) -> None:
         # disable_signals: the endpoint installs its own SIGINT/SIGTERM handling and shuts rospy down itself.
         rospy.init_node(name, anonymous=False, disable_signals=True)
+        self.master.install()  # from now on, registrations never wait for the master (bridge.master)
 
     @staticmethod
     def get_param(name: str, default: Any) -> Any:
@@ -271,8 +273,8 @@ class RosGraph:
     def set_param(name: str, value: Any) -> None:
         rospy.set_param(name, value)
 
-    @staticmethod
-    def shutdown(reason: str) -> None:
+    def shutdown(self, reason: str) -> None:
+        self.master.stop()
         rospy.signal_shutdown(reason)
 
     @staticmethod
@@ -316,38 +318,52 @@ class RosGraph:
         return rospy.resolve_name(name)
 
     # --- topics -----------------------------------------------------------------------------------------------
-    def make_publisher(
-        self, topic: str, message_name: str, queue_size: int, latch: bool, max_queue_bytes: int
-    ) -> RawPublisher:
+    # Type look-ups (the first of a type reads files; a publisher's may ask the graph) are separate from making
+    # the rospy objects, so the endpoint never holds its lock while one takes long.
+    def publisher_type(self, topic: str, message_name: str) -> type[RawMessage]:
+        """The raw class to publish `message_name` on `topic` with. Where no package has the type, the last place
+        to look is a publisher of the topic already on the graph: it states the full definition."""
         try:
-            raw = self.types.raw_message_class(message_name)
+            return self.types.raw_message_class(message_name)
         except RosError as unknown:
-            # The last place to look: a publisher of the topic already on the graph states the full definition.
             stated = self.definition_from_publishers(topic)
             if stated is None or stated[0] != message_name:
                 raise RosError(f"{unknown}; and no publisher of {topic} on the graph states it") from None
             self.types.learn(message_name, stated[1])
-            raw = self.types.raw_message_class(message_name)
+            return self.types.raw_message_class(message_name)
+
+    def subscriber_type(self, message_name: str) -> Tuple[Optional[type[RawMessage]], Optional[str]]:
+        """The raw class to subscribe with, or None and why there is none (then only messages whose publisher says
+        they are `message_name` are passed on, see make_subscriber)."""
+        try:
+            return self.types.raw_message_class(message_name), None
+        except RosError as unknown:
+            return None, str(unknown)
+
+    def service_type(self, service_name: str) -> Any:
+        return self.types.raw_service_class(service_name)
+
+    @staticmethod
+    def make_publisher(topic: str, raw: type[RawMessage], queue_size: int, latch: bool,
+                       max_queue_bytes: int) -> RawPublisher:
         # queue_size=None: rospy's synchronous publisher; RawPublisher's own pump thread and queue (of the
         # client's queue_size, at least 1) keep client threads from ever waiting on ROS subscribers.
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", SyntaxWarning)  # rospy's "queue_size not specified" warning
             publisher = rospy.Publisher(topic, raw, queue_size=None, latch=latch, tcp_nodelay=True)
-        return RawPublisher(publisher, raw, message_name, queue_size, max_queue_bytes)
+        return RawPublisher(publisher, raw, raw._type, queue_size, max_queue_bytes)
 
-    def make_subscriber(self, topic: str, message_name: str, callback: MessageCallback) -> Tuple[Any, Optional[str]]:
-        """The subscriber, and why it has no class of `message_name` if it has none (then it passes on only what
-        publishers say is of that type)."""
-        try:
-            raw = self.types.raw_message_class(message_name)
-        except RosError as unknown:
-            return self._subscribe_untyped(topic, message_name, callback), str(unknown)
+    def make_subscriber(self, topic: str, raw: Optional[type[RawMessage]], message_name: str,
+                        callback: MessageCallback) -> Any:
+        """A subscriber of `raw` (from subscriber_type); without one, of whatever publishers say is
+        `message_name`."""
+        if raw is None:
+            return self._subscribe_untyped(topic, message_name, callback)
         # tcp_nodelay: a 1 kHz stream must not wait for Nagle; buff_size large enough for big messages.
-        subscriber = rospy.Subscriber(
+        return rospy.Subscriber(
             topic, raw, lambda msg: callback(topic, msg._buff, msg._connection_header),
             tcp_nodelay=True, buff_size=1 << 20,
         )
-        return subscriber, None
 
     @staticmethod
     def _subscribe_untyped(topic: str, message_name: str, callback: MessageCallback) -> Any:
@@ -371,16 +387,15 @@ class RosGraph:
         """(type, full definition) as a publisher of `topic` on the graph states them in its TCPROS connection
         header (rostopic's way to know a type); None when no publisher answers."""
         me = rospy.get_name()
-        master = rosgraph.Master(me)
         try:
-            publishers, _, _ = master.getSystemState()
+            publishers, _, _ = call_master("getSystemState", me)
             nodes: List[str] = next((nodes for name, nodes in publishers if name == topic), [])
-            apis = [master.lookupNode(node) for node in nodes if node != me]
-        except (OSError, rosgraph.MasterException):
+            apis = [call_master("lookupNode", me, node) for node in nodes if node != me]
+        except MasterError:
             return None
         for api in apis:
             try:
-                answer: Any = xmlrpc.client.ServerProxy(api).requestTopic(me, topic, [["TCPROS"]])
+                answer: Any = timed_proxy(api).requestTopic(me, topic, [["TCPROS"]])
                 code, _, protocol = answer
                 if code != 1 or not protocol or protocol[0] != "TCPROS":
                     continue
@@ -396,18 +411,18 @@ class RosGraph:
         return None
 
     def topic_types(self) -> tuple[list[str], list[str]]:
-        """All topics the master knows (published or subscribed) and their types, as parallel lists."""
-        master = rosgraph.Master(rospy.get_name())
-        pairs = sorted(master.getTopicTypes())
+        """All topics the master knows (published or subscribed) and their types, as parallel lists; MasterError
+        (an OSError) when the master does not answer in time."""
+        pairs = sorted(call_master("getTopicTypes", rospy.get_name()))
         return [name for name, _ in pairs], [type_name for _, type_name in pairs]
 
     # --- services ---------------------------------------------------------------------------------------------
-    def make_service_proxy(self, service: str, service_name: str) -> RawServiceProxy:
-        raw = self.types.raw_service_class(service_name)
+    @staticmethod
+    def make_service_proxy(service: str, raw: Any) -> RawServiceProxy:
         return RawServiceProxy(rospy.ServiceProxy(service, raw), raw, service)
 
-    def make_service(self, service: str, service_name: str, handler: ServiceHandler) -> Any:
-        raw = self.types.raw_service_class(service_name)
+    @staticmethod
+    def make_service(service: str, raw: Any, handler: ServiceHandler) -> Any:
         response_class = raw._response_class
 
         def handle(request: RawMessage) -> RawMessage:

@@ -89,6 +89,7 @@ class _SharedPublisher:
     message_name: str
     publisher: RawPublisher
     clients: Set[ClientSession] = field(default_factory=set)
+    unused_since: Optional[float] = None  # monotonic time its last client left (see Endpoint.release)
 
 
 @dataclass
@@ -126,7 +127,7 @@ class Endpoint:
         self._client_ids = itertools.count(1)
         self._listener: Optional[socket.socket] = None
         self._accept_thread: Optional[threading.Thread] = None
-        self._diagnostics_thread: Optional[threading.Thread] = None
+        self._housekeeping_thread: Optional[threading.Thread] = None
         self._address = ""
         self._stopping = threading.Event()
         # Totals of the clients that have left (those still connected are summed in stats()).
@@ -159,8 +160,9 @@ class Endpoint:
         self._accept_thread.start()
         port: int = listener.getsockname()[1]
         self._address = f"{self.config.tcp_ip}:{port}"
-        self._diagnostics_thread = threading.Thread(target=self._diagnostics_loop, name="diagnostics", daemon=True)
-        self._diagnostics_thread.start()
+        self._housekeeping_thread = threading.Thread(target=self._housekeeping_loop, name="housekeeping",
+                                                     daemon=True)
+        self._housekeeping_thread.start()
         log.info("ROS-TCP endpoint listening on %s:%d", self.config.tcp_ip, port)
         return port
 
@@ -179,8 +181,8 @@ class Endpoint:
             session.close("the endpoint is stopping")
         if self._accept_thread is not None:
             self._accept_thread.join(timeout=2)
-        if self._diagnostics_thread is not None:
-            self._diagnostics_thread.join(timeout=2)
+        if self._housekeeping_thread is not None:
+            self._housekeeping_thread.join(timeout=2)
         log.info("endpoint stopped: %s", self.stats())
 
     def stats(self) -> Dict[str, int]:
@@ -257,9 +259,10 @@ class Endpoint:
                 return
             for resolved in list(registrations.subscriptions):
                 self._unsubscribe(session, registrations, resolved)
-            # Publishers stay advertised (as in the original endpoint): a client that reconnects re-registers
-            # them, and re-advertising a topic from the same node races rospy's subscriber reconnect logic, so
-            # ROS subscribers would miss the first messages after every reconnect. __remove_publisher unadvertises.
+            # Publishers stay advertised for config.publisher_grace_s after their last client left (rosbridge's
+            # unregister_timeout): a client that reconnects re-registers them, and re-advertising a topic from the
+            # same node races rospy's subscriber reconnect logic, so ROS subscribers would miss the first messages
+            # after every reconnect. Then they go (_end_unused_publishers). __remove_publisher unadvertises at once.
             for client_topic in list(registrations.publishers):
                 self._unregister_publisher(session, registrations, client_topic, keep_advertised=True)
             for resolved in list(registrations.unity_services):
@@ -281,6 +284,7 @@ class Endpoint:
 
     def _subscribe(self, session: ClientSession, command: Subscribe) -> None:
         resolved = self._checked_name(command.topic)
+        raw, untyped = self.ros.subscriber_type(command.message_name)  # outside the lock: may read files
         with self._lock:
             shared = self._subscribers.get(resolved)
             if shared is not None and shared.message_name != command.message_name:
@@ -289,8 +293,8 @@ class Endpoint:
                     f"not {command.message_name}"
                 )
             if shared is None:
-                handle, untyped = _made_for_client(
-                    lambda: self.ros.make_subscriber(resolved, command.message_name, self._fan_out)
+                handle = _made_for_client(
+                    lambda: self.ros.make_subscriber(resolved, raw, command.message_name, self._fan_out)
                 )
                 shared = _SharedSubscriber(command.message_name, handle, untyped=untyped)
                 self._subscribers[resolved] = shared
@@ -319,6 +323,8 @@ class Endpoint:
 
     def _register_publisher(self, session: ClientSession, command: Publish) -> None:
         resolved = self._checked_name(command.topic)
+        # Outside the lock: the first look-up of a type reads files, and may ask the topic's publishers.
+        raw = _made_for_client(lambda: self.ros.publisher_type(resolved, command.message_name))
         with self._lock:
             shared = self._publishers.get(resolved)
             if shared is not None and shared.message_name != command.message_name:
@@ -334,13 +340,14 @@ class Endpoint:
             if shared is None:
                 publisher = _made_for_client(
                     lambda: self.ros.make_publisher(
-                        resolved, command.message_name, command.queue_size, command.latch,
+                        resolved, raw, command.queue_size, command.latch,
                         self.config.client_queue_bytes,
                     )
                 )
                 shared = _SharedPublisher(command.message_name, publisher)
                 self._publishers[resolved] = shared
             shared.clients.add(session)
+            shared.unused_since = None
             self._clients[session].publishers[command.topic] = (resolved, shared.publisher)
             self._guard_echoes(resolved)
 
@@ -354,23 +361,36 @@ class Endpoint:
             if shared is None:
                 return
             shared.clients.discard(session)
-            if not shared.clients and not keep_advertised:
-                del self._publishers[entry[0]]
-                shared.publisher.unregister()
+            if not shared.clients:
+                if keep_advertised:
+                    shared.unused_since = time.monotonic()
+                else:
+                    del self._publishers[entry[0]]
+                    shared.publisher.unregister()
             self._guard_echoes(entry[0])
+
+    def _end_unused_publishers(self) -> None:
+        """Unadvertise the publishers no client has used for the grace period."""
+        now = time.monotonic()
+        with self._lock:
+            for resolved, shared in list(self._publishers.items()):
+                if not shared.clients and shared.unused_since is not None \
+                        and now - shared.unused_since >= self.config.publisher_grace_s:
+                    del self._publishers[resolved]
+                    shared.publisher.unregister()
 
     def _register_ros_service(self, session: ClientSession, command: RosService) -> None:
         resolved = self._checked_name(command.topic)
+        raw = _made_for_client(lambda: self.ros.service_type(command.message_name))
         with self._lock:
             key = (resolved, command.message_name)
             if key not in self._service_proxies:
-                self._service_proxies[key] = _made_for_client(
-                    lambda: self.ros.make_service_proxy(resolved, command.message_name)
-                )
+                self._service_proxies[key] = _made_for_client(lambda: self.ros.make_service_proxy(resolved, raw))
             self._clients[session].ros_services[command.topic] = self._service_proxies[key]
 
     def _register_unity_service(self, session: ClientSession, command: UnityService) -> None:
         resolved = self._checked_name(command.topic)
+        raw = _made_for_client(lambda: self.ros.service_type(command.message_name))
         with self._lock:
             existing = self._unity_services.get(resolved)
             if existing is not None and existing.message_name == command.message_name:
@@ -389,7 +409,7 @@ class Endpoint:
                 )
             handle = _made_for_client(
                 lambda: self.ros.make_service(
-                    resolved, command.message_name, lambda request: self._call_unity_service(resolved, request)
+                    resolved, raw, lambda request: self._call_unity_service(resolved, request)
                 )
             )
             self._unity_services[resolved] = _UnityService(command.message_name, handle, session, command.topic)
@@ -485,10 +505,15 @@ class Endpoint:
         session.note_ping(ping.round_trip, None if client_time is None else ros_time - client_time)
         session.send(protocol.encode(PingResponse(ping.request_time, ros_time)), droppable=False)
 
-    # --- /diagnostics ------------------------------------------------------------------------------------------
-    def _diagnostics_loop(self) -> None:
+    # --- housekeeping: unused publishers, /diagnostics ------------------------------------------------------------------------------------------
+    def _housekeeping_loop(self) -> None:
+        """Once a second: unused publishers end, and /diagnostics goes out."""
         counts: Dict[str, Tuple[int, int]] = {}
         while not self._stopping.wait(DIAGNOSTICS_PERIOD_S):
+            try:
+                self._end_unused_publishers()
+            except Exception:
+                log.exception("ending unused publishers failed")
             try:
                 clients, topics = self._snapshot()
                 statuses, counts = report(self.ros.node_name(), self._address, time.time(), clients, topics,

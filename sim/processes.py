@@ -165,3 +165,9 @@ class RosCore(ManagedProcess):
         state: Any = xmlrpc.client.ServerProxy(self.uri).getSystemState("/probe")
         _, _, (_, subscribers, _) = state
         return next((nodes for name, nodes in subscribers if name == topic), [])
+
+    def publishers(self, topic: str) -> list[str]:
+        """Node names publishing `topic`, as the master sees them."""
+        state: Any = xmlrpc.client.ServerProxy(self.uri).getSystemState("/probe")
+        _, _, (publishers, _, _) = state
+        return next((nodes for name, nodes in publishers if name == topic), [])

@@ -351,6 +351,24 @@ def test_ros_subscribers_stay_connected_while_a_client_reconnects(bridge, ros_no
     ros_inbox.close()
 
 
+def test_a_departed_clients_publisher_ends_after_the_grace_period(roscore, ros_node, tmp_path: Path) -> None:
+    endpoint = start_endpoint(roscore, tmp_path, "--publisher-grace", "1", name="grace_endpoint")
+    topic = unique("grace")
+    try:
+        with RawConnection(endpoint.port) as client:
+            client.register_publisher(topic, "std_msgs/String")
+            client.sync()
+            wait_for(lambda: roscore.publishers(topic) == ["/grace_endpoint"], 10, "the client's publisher")
+        left = time.monotonic()
+        with RawConnection(endpoint.port) as returning:  # back within the grace period: the same publisher
+            returning.register_publisher(topic, "std_msgs/String")
+            returning.sync()
+        wait_for(lambda: roscore.publishers(topic) == [], 10, "the publisher to end")
+        assert time.monotonic() - left >= 1.0
+    finally:
+        endpoint.stop()
+
+
 def test_a_lingering_topic_can_be_registered_with_another_type_once_unused(bridge, ros_node) -> None:
     topic = unique("retyped")
     with RawConnection(bridge.port) as first:

@@ -89,6 +89,9 @@ def test_a_rosparam_of_the_wrong_type_is_named(params: dict[str, Any], setting: 
         ("service_timeout_s", -3.0),
         ("service_timeout_s", math.nan),
         ("service_timeout_s", math.inf),
+        ("publisher_grace_s", -1.0),
+        ("publisher_grace_s", math.nan),
+        ("publisher_grace_s", True),
     ],
 )
 def test_a_value_the_endpoint_cannot_serve_with_is_refused_before_it_starts(field: str, value: Any) -> None:
@@ -98,5 +101,6 @@ def test_a_value_the_endpoint_cannot_serve_with_is_refused_before_it_starts(fiel
 
 
 def test_the_edges_of_each_range_are_accepted() -> None:
-    EndpointConfig(tcp_port=0, max_payload_bytes=1, client_queue_frames=1, service_timeout_s=1e-3)
+    EndpointConfig(tcp_port=0, max_payload_bytes=1, client_queue_frames=1, service_timeout_s=1e-3,
+                   publisher_grace_s=0)
     EndpointConfig(tcp_port=65535, max_payload_bytes=2**31 - 1)

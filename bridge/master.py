@@ -1,0 +1,244 @@
+"""The endpoint node's link to the ROS master: registrations that never block, survive outages and follow restarts.
+
+rospy tells its registration listeners of every publisher, subscriber and service the process creates or drops;
+its own listener (RegManager) calls the master right there, under rospy's topic manager lock, retrying forever
+while the master does not answer. `MasterLink` takes that listener's place: it only notes the change in a
+RegistrationBook (bridge.registry) and wakes its thread, which makes the calls with a timeout, watches the master's
+identity (its pid and /run_id) once a second, and registers everything again when another master answers. rospy's
+RegManager keeps its other job, connecting subscribers to the publishers the master names.
+
+Every master call of the endpoint goes through `call_master`, with a timeout: a frozen master costs the caller
+at most that, never a thread forever.
+"""
+from __future__ import annotations
+
+import logging
+import threading
+import time
+import xmlrpc.client
+from typing import Any, Callable, Hashable, List, Optional
+
+import rosgraph
+import rospy
+import rospy.impl.registration as rospy_registration
+import rospy.impl.statistics as rospy_statistics
+from rospy.impl.registration import Registration as RospyRegistration
+
+from bridge.registry import Registration, RegistrationBook
+
+__all__ = ["MASTER_TIMEOUT_S", "MASTER_POLL_S", "MasterError", "MasterRefused", "timed_proxy", "call_master", "MasterLink"]
+
+log = logging.getLogger(__name__)
+
+MASTER_TIMEOUT_S = 2.0  # one XML-RPC call to the master, connection included
+MASTER_POLL_S = 1.0  # how often the master's identity is checked
+
+_KIND_OF = {RospyRegistration.PUB: "publisher", RospyRegistration.SUB: "subscriber", RospyRegistration.SRV: "service"}
+
+
+class MasterError(OSError):
+    """The master did not answer in time, could not be reached, or refused the call (the text says which)."""
+
+
+class MasterRefused(MasterError):
+    """The master answered, and said no (e.g. a name it does not take)."""
+
+
+class _TimedTransport(xmlrpc.client.Transport):
+    def __init__(self, timeout_s: float) -> None:
+        super().__init__()
+        self._timeout_s = timeout_s
+
+    def make_connection(self, host: Any) -> Any:
+        connection = super().make_connection(host)
+        connection.timeout = self._timeout_s  # used when it connects, and for every read
+        return connection
+
+
+def timed_proxy(uri: str, timeout_s: float = MASTER_TIMEOUT_S) -> xmlrpc.client.ServerProxy:
+    """An XML-RPC proxy of a ROS master or node whose every call gives up after `timeout_s`."""
+    return xmlrpc.client.ServerProxy(uri, transport=_TimedTransport(timeout_s))
+
+
+def call_master(method: str, *args: Any, timeout_s: float = MASTER_TIMEOUT_S) -> Any:
+    """The value of one master API call (its code checked); MasterError when it fails or takes too long."""
+    uri = rosgraph.get_master_uri()
+    proxy = timed_proxy(uri, timeout_s)
+    try:
+        code, message, value = getattr(proxy, method)(*args)
+    except (OSError, xmlrpc.client.Error) as error:
+        raise MasterError(f"the ROS master at {uri} did not answer {method} ({error})") from None
+    if code != 1:
+        raise MasterRefused(f"the ROS master refused {method}: {message}")
+    return value
+
+
+def _ask_for_statistics_once() -> None:
+    """rospy asks the parameter server whether /enable_statistics is set each time a subscriber is made, with no
+    timeout and under its topic manager lock: a frozen master would hold up every registration of the process.
+    Asked once here instead (with a timeout), and rospy's check answers from that."""
+    try:
+        enabled = bool(call_master("getParam", rospy.get_caller_id(), "/enable_statistics"))
+    except MasterError:
+        enabled = False  # not set (the usual case), or no answer: rospy's own check says False then too
+    rospy_statistics.SubscriberStatisticsLogger.is_enabled = classmethod(lambda cls: enabled)
+
+
+class MasterLink(rospy_registration.RegistrationListener):
+    """Keeps the node's registrations on whatever master answers at ROS_MASTER_URI (see the module)."""
+
+    def __init__(self, poll_s: float = MASTER_POLL_S, timeout_s: float = MASTER_TIMEOUT_S) -> None:
+        self._poll_s = poll_s
+        self._timeout_s = timeout_s
+        self._book = RegistrationBook()
+        self._changed = threading.Condition()
+        self._stopping = False
+        self._thread: Optional[threading.Thread] = None
+        self._rospy_registrar: Any = None  # rospy's RegManager: still connects our subscribers to publishers
+        self.master_up = True
+        self.restarts = 0  # other masters seen since start
+        self._on_new_master: List[Callable[[], None]] = []
+
+    def on_new_master(self, callback: Callable[[], None]) -> None:
+        """Call `callback` (on the link's thread) once everything is registered with a master that replaced another
+        (e.g. to set parameters again: a new master's parameter server is empty)."""
+        self._on_new_master.append(callback)
+
+    # --- taking rospy's place -------------------------------------------------------------------------------------
+    def install(self, wait_s: float = 30.0) -> None:
+        """Replace rospy's registration listener with this link, once rospy has registered the node (init_node
+        starts that on a thread of its own), and start the link's thread."""
+        listeners = rospy_registration.get_registration_listeners()
+        deadline = time.monotonic() + wait_s
+        while True:
+            with listeners.lock:
+                registrar = next((l for l in listeners.listeners if isinstance(l, rospy_registration.RegManager)),
+                                 None)
+            if registrar is not None:
+                break
+            if time.monotonic() > deadline:
+                raise MasterError(f"rospy did not register the node with the ROS master within {wait_s:g} s")
+            time.sleep(0.01)
+        try:
+            identity: Optional[Hashable] = self._identity()  # the master rospy registered with
+        except MasterError as error:
+            self._master_lost(error)
+            identity = None
+        topics, services = rospy_registration.get_topic_manager(), rospy_registration.get_service_manager()
+        # What rospy registered so far, with no registration in between (both managers notify under their locks).
+        with topics.lock, services.lock, listeners.lock:
+            registered = [Registration("publisher", name, kind) for name, kind in topics.get_publications()]
+            registered += [Registration("subscriber", name, kind) for name, kind in topics.get_subscriptions()]
+            registered += [Registration("service", name, uri) for name, uri in services.get_services()]
+            self._book = RegistrationBook(tuple(registered), identity)
+            listeners.listeners[listeners.listeners.index(registrar)] = self
+        self._rospy_registrar = registrar
+        _ask_for_statistics_once()
+        self._thread = threading.Thread(target=self._run, name="ROS master link", daemon=True)
+        self._thread.start()
+
+    def stop(self) -> None:
+        with self._changed:
+            self._stopping = True
+            self._changed.notify()
+        if self._thread is not None:
+            self._thread.join(timeout=self._timeout_s * 2)
+
+    # --- rospy's RegistrationListener: called under rospy's locks, so only noted here --------------------------
+    def reg_added(self, resolved_name: str, data_type_or_uri: str, reg_type: str) -> None:
+        with self._changed:
+            self._book.add(Registration(_KIND_OF[reg_type], resolved_name, data_type_or_uri))
+            self._changed.notify()
+
+    def reg_removed(self, resolved_name: str, data_type_or_uri: str, reg_type: str) -> None:
+        with self._changed:
+            self._book.remove(Registration(_KIND_OF[reg_type], resolved_name, data_type_or_uri))
+            self._changed.notify()
+
+    # --- the link's thread ---------------------------------------------------------------------------------------
+    def _run(self) -> None:
+        next_check = 0.0
+        while True:
+            with self._changed:
+                if not self._stopping and not self._owed():
+                    self._changed.wait(max(0.0, next_check - time.monotonic()))
+                if self._stopping:
+                    return
+            try:
+                if time.monotonic() >= next_check:
+                    next_check = time.monotonic() + self._poll_s
+                    self._check_master()
+                if self.master_up:
+                    self._settle()
+            except MasterError as error:
+                self._master_lost(error)
+                next_check = time.monotonic() + self._poll_s
+            except Exception:  # the link must outlive any surprise: it is what keeps the node on the graph
+                log.exception("ROS master link: unexpected failure")
+                next_check = time.monotonic() + self._poll_s
+
+    def _owed(self) -> bool:
+        return self.master_up and bool(self._book.to_register() or self._book.to_unregister())
+
+    def _identity(self) -> Hashable:
+        caller = rospy.get_caller_id()
+        pid = call_master("getPid", caller, timeout_s=self._timeout_s)
+        try:
+            run_id = call_master("getParam", caller, "/run_id", timeout_s=self._timeout_s)
+        except MasterError:
+            run_id = None  # a bare rosmaster has no /run_id; its pid tells it apart
+        return (pid, run_id)
+
+    def _check_master(self) -> None:
+        identity = self._identity()
+        with self._changed:
+            another = self._book.master_is(identity)
+            counts = self._book.counts()
+        if not self.master_up:
+            self.master_up = True
+            if not another:
+                log.warning("the ROS master at %s answers again", rosgraph.get_master_uri())
+        if another:
+            self.restarts += 1
+            log.warning("a new ROS master at %s: registering %d publishers, %d subscribers and %d services again",
+                        rosgraph.get_master_uri(), counts["publisher"], counts["subscriber"], counts["service"])
+            self._settle()
+            for callback in self._on_new_master:
+                callback()
+
+    def _master_lost(self, error: MasterError) -> None:
+        if self.master_up:
+            log.warning("%s; the endpoint keeps serving its clients, and registers with the master when it answers",
+                        error)
+        self.master_up = False
+
+    def _settle(self) -> None:
+        """Take back what was withdrawn, then register what is owed; MasterError if the master stops answering."""
+        with self._changed:
+            withdrawn, owed = self._book.to_unregister(), self._book.to_register()
+        for registration in withdrawn:
+            self._call("unregister", registration)
+            with self._changed:
+                self._book.unregistered(registration)
+        for registration in owed:
+            publishers = self._call("register", registration)
+            with self._changed:
+                self._book.registered(registration)
+            if registration.kind == "subscriber" and publishers is not None:
+                self._rospy_registrar.publisher_update(registration.name, publishers)
+
+    def _call(self, action: str, registration: Registration) -> Any:
+        """One (un)registration; a refusal is logged and counts as done (asking again would be refused again)."""
+        method = f"{action}{registration.kind.capitalize()}"
+        caller, node_uri = rospy.get_caller_id(), rospy.core.get_node_uri()
+        if registration.kind == "service":
+            args = (caller, registration.name, registration.detail, node_uri) if action == "register" else \
+                (caller, registration.name, registration.detail)
+        else:
+            args = (caller, registration.name, registration.detail, node_uri) if action == "register" else \
+                (caller, registration.name, node_uri)
+        try:
+            return call_master(method, *args, timeout_s=self._timeout_s)
+        except MasterRefused as refusal:
+            log.error("%s %s: %s", method, registration.name, refusal)
+            return None
