@@ -121,7 +121,6 @@ class Endpoint:
         self._subscribers: Dict[str, _SharedSubscriber] = {}
         self._publishers: Dict[str, _SharedPublisher] = {}
         self._unity_services: Dict[str, _UnityService] = {}
-        self._service_proxies: Dict[Tuple[str, str], RawServiceProxy] = {}
         self._pending_unity_calls: Dict[int, _PendingUnityCall] = {}
         self._unity_srv_ids = itertools.count(1001)
         self._client_ids = itertools.count(1)
@@ -382,11 +381,9 @@ class Endpoint:
     def _register_ros_service(self, session: ClientSession, command: RosService) -> None:
         resolved = self._checked_name(command.topic)
         raw = _made_for_client(lambda: self.ros.service_type(command.message_name))
+        proxy = self.ros.make_service_proxy(resolved, raw, self.config.max_payload_bytes)
         with self._lock:
-            key = (resolved, command.message_name)
-            if key not in self._service_proxies:
-                self._service_proxies[key] = _made_for_client(lambda: self.ros.make_service_proxy(resolved, raw))
-            self._clients[session].ros_services[command.topic] = self._service_proxies[key]
+            self._clients[session].ros_services[command.topic] = proxy
 
     def _register_unity_service(self, session: ClientSession, command: UnityService) -> None:
         resolved = self._checked_name(command.topic)
@@ -491,7 +488,7 @@ class Endpoint:
 
         def call() -> None:
             try:
-                response = proxy.call(request.payload, timeout)
+                response = proxy.call(request.payload, timeout, session.gone)
             except RosError as error:
                 session.send_error(f"__request {srv_id}: {error}; this call will not complete", srv_id)
                 return
@@ -558,7 +555,7 @@ class Endpoint:
                 return
             session.send(protocol.encode(TopicList(tuple(topics), tuple(types))), droppable=False)
 
-        session.run_call("__topic_list", look_up)
+        session.run_lookup("__topic_list", look_up)
 
     def _call_unity_service(self, resolved: str, request: bytes) -> bytes:
         """rospy service thread: forward a ROS request to the owning client and wait for its __response."""

@@ -78,10 +78,14 @@ class ClientSession:
         self._end_reason: Optional[str] = None  # why the connection ended, first cause only
         self.publish_drops = 0  # this client's messages dropped before reaching ROS (publisher queue full)
         self._closed = threading.Event()
+        # Set once the reader has ended: the client will read no more answers, so its ROS calls may give up.
+        self.gone = threading.Event()
         self._send_lock = threading.Lock()  # one writer of the socket at a time: direct sends or the writer thread
         self._unsent_bound = 0  # at least the bytes waiting in the kernel's send queue (see _peer_keeps_up)
-        # Threads are started on demand, so a client that never calls a service costs none.
+        # Threads are started on demand, so a client that never calls a service costs none. Look-ups at the master
+        # (topic lists) have a worker of their own: service calls in flight never hold them up.
         self._calls = ThreadPoolExecutor(config.client_call_workers, thread_name_prefix=f"calls {self.name}")
+        self._lookups = ThreadPoolExecutor(1, thread_name_prefix=f"look-ups {self.name}")
         self._max_pending_calls = config.client_max_pending_calls
         self._calls_lock = threading.Lock()
         self._pending_calls: Set[Future] = set()
@@ -163,8 +167,15 @@ class ClientSession:
         self.send(protocol.encode(protocol.Error(text, srv_id)), droppable=True)
 
     def run_call(self, what: str, call: Callable[[], None], srv_id: Optional[int] = None) -> None:
-        """Run a ROS call (service, topic list) on this client's own workers, so a slow ROS side holds up only this
-        client's calls; RequestRefused when too many are waiting already."""
+        """Run a ROS service call on this client's own workers, so a slow ROS side holds up only this client's
+        calls; RequestRefused when too many are waiting already."""
+        self._submit(self._calls, what, call, srv_id)
+
+    def run_lookup(self, what: str, look_up: Callable[[], None]) -> None:
+        """Run a look-up at the ROS master (a topic list) on this client's look-up worker."""
+        self._submit(self._lookups, what, look_up, None)
+
+    def _submit(self, workers: ThreadPoolExecutor, what: str, call: Callable[[], None], srv_id: Optional[int]) -> None:
         with self._calls_lock:
             if len(self._pending_calls) >= self._max_pending_calls:
                 raise RequestRefused(
@@ -172,7 +183,7 @@ class ClientSession:
                     "this call will not complete", srv_id,
                 )
             try:
-                future = self._calls.submit(call)
+                future = workers.submit(call)
             except RuntimeError:  # the session is closing and its workers are shut down
                 return
             self._pending_calls.add(future)
@@ -229,12 +240,14 @@ class ClientSession:
             self._finish()
 
     def _finish(self) -> None:
+        self.gone.set()
         self.owner.release(self)
         # Calls not started yet are dropped; running ones end by their timeout.
         with self._calls_lock:
             for future in self._pending_calls:
                 future.cancel()
         self._calls.shutdown(wait=False)
+        self._lookups.shutdown(wait=False)
         # Let the writer drain what is queued (e.g. the closing __error), then close the socket.
         self.queue.close()
         self._writer.join(timeout=2.0)

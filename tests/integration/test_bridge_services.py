@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import json
+import os
 import threading
 import time
 
@@ -17,6 +18,7 @@ from tests.integration.bridge_helpers import (
     bridge,  # noqa: F401 - module-scoped endpoint fixture (service timeout 2 s)
     serialize,
     service_exists,
+    start_endpoint,
     tcp_client,
     unique,
 )
@@ -299,3 +301,81 @@ def test_reregistering_a_unity_service_moves_it_to_the_newest_client(bridge, ros
         new.topic_list()
         wait_for(lambda: service_exists(ros_node, name), 10, f"{name} advertised")
         assert ros_node.ServiceProxy(name, Trigger)().message == "new"
+
+
+class HungService:
+    """A rospy service in this process that answers only when released (at the end of the test)."""
+
+    def __init__(self, rospy, name: str) -> None:
+        self.release = threading.Event()
+        self.started = 0
+        self.service = rospy.Service(name, Trigger, self._handle)
+
+    def _handle(self, request: TriggerRequest) -> TriggerResponse:
+        self.started += 1
+        self.release.wait(60)
+        return TriggerResponse(success=True, message="late")
+
+    def close(self) -> None:
+        self.release.set()
+        self.service.shutdown()
+
+
+def test_a_ros_service_that_never_answers_fails_the_call_by_its_deadline(bridge, ros_node) -> None:
+    name = unique("hung")
+    hung = HungService(ros_node, name)
+    try:
+        with RawConnection(bridge.port) as client:
+            client.command("__ros_service", topic=name, message_name="std_srvs/Trigger")
+            started = time.monotonic()
+            client.command("__request", srv_id=7)
+            client.send_frame(name, b"")
+            client.expect_error("__request 7", name, "did not answer within 2 s", timeout=10)
+            assert time.monotonic() - started < 6  # the endpoint's --service-timeout is 2 s
+            (error,) = [json.loads(f.payload) for f in client.received if f.destination == "__error"]
+            assert error["srv_id"] == 7
+            client.sync()
+    finally:
+        hung.close()
+
+
+def test_calls_in_flight_never_hold_up_the_clients_other_commands(bridge, ros_node) -> None:
+    name = unique("hung_many")
+    hung = HungService(ros_node, name)
+    try:
+        with RawConnection(bridge.port) as client:
+            client.command("__ros_service", topic=name, message_name="std_srvs/Trigger")
+            for srv_id in range(10, 16):  # more than the client's call workers
+                client.command("__request", srv_id=srv_id)
+                client.send_frame(name, b"")
+            wait_for(lambda: hung.started >= 4, 10, "calls in flight")
+            client.command("__topic_list")
+            client.wait_command("__topic_list", timeout=1.5)  # before any call's 2 s deadline
+            assert client.errors() == []
+    finally:
+        hung.close()
+
+
+def thread_count(pid: int) -> int:
+    return len(os.listdir(f"/proc/{pid}/task"))
+
+
+def test_a_departed_clients_calls_end_with_it(roscore, ros_node, tmp_path) -> None:
+    endpoint = start_endpoint(roscore, tmp_path, "--service-timeout", "60", name="departed_calls_endpoint")
+    name = unique("hung_departed")
+    hung = HungService(ros_node, name)
+    try:
+        # The endpoint's own threads, all started: the last is /diagnostics' publisher, made at the first tick.
+        wait_for(lambda: "/departed_calls_endpoint" in roscore.publishers("/diagnostics"), 10, "/diagnostics")
+        baseline = thread_count(endpoint.pid)
+        with RawConnection(endpoint.port) as client:
+            client.command("__ros_service", topic=name, message_name="std_srvs/Trigger")
+            for srv_id in range(4):
+                client.command("__request", srv_id=srv_id)
+                client.send_frame(name, b"")
+            wait_for(lambda: hung.started >= 4, 10, "calls in flight")
+            assert thread_count(endpoint.pid) > baseline
+        wait_for(lambda: thread_count(endpoint.pid) <= baseline, 5, "the calls' threads to end (deadline is 60 s)")
+    finally:
+        hung.close()
+        endpoint.stop()
