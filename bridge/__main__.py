@@ -43,7 +43,23 @@ def _parser() -> argparse.ArgumentParser:
                         help="send a client its own messages back on topics it also subscribes to (default off)")
     parser.add_argument("--wait", action="store_true",
                         help="wait for the ROS master before starting (what Unity's tutorial launch files pass)")
+    limits = parser.add_argument_group("limits", "what no client, nor all of them together, may exceed")
+    defaults = EndpointConfig()
+    for setting, option, text in _LIMITS:
+        default = getattr(defaults, setting)
+        limits.add_argument(option, type=type(default), metavar="N", help=f"{text} (default {default:g})")
     return parser
+
+
+# Limits given as one number each: (EndpointConfig field, option, what it bounds); the rosparam is the option's
+# name with underscores, e.g. ~max_clients.
+_LIMITS = (
+    ("max_clients", "--max-clients", "clients connected at once"),
+    ("max_clients_per_address", "--max-clients-per-address", "clients connected at once from one address"),
+    ("max_registrations_per_client", "--max-registrations-per-client",
+     "topics published and subscribed and services, per client"),
+    ("max_registrations", "--max-registrations", "topics and services bridged for all clients together"),
+)
 
 
 @dataclass(frozen=True)
@@ -73,6 +89,7 @@ _SOURCES = {
     "publisher_grace_s": _Source("--publisher-grace", "~publisher_grace"),
     "validate_payloads": _Source("--no-validate", "~validate_payloads"),
     "echo_own_publications": _Source("--echo-own-publications", "~echo_own_publications"),
+    **{setting: _Source(option, "~" + option[2:].replace("-", "_")) for setting, option, _ in _LIMITS},
 }
 
 
@@ -132,7 +149,10 @@ def build_config(args: argparse.Namespace, ros: Any) -> EndpointConfig:
     token = _given("auth_token", args.auth_token, ros)
     if token is not None:
         token = _typed("auth_token", token, str) or None  # an empty token (the launch file's default) = off
+    limits = {setting: read(setting, getattr(args, option[2:].replace("-", "_")), type(getattr(defaults, setting)))
+              for setting, option, _ in _LIMITS}
     return EndpointConfig(
+        **limits,
         tcp_ip=read("tcp_ip", args.tcp_ip, str),
         tcp_port=read("tcp_port", args.tcp_port, int),
         max_payload_bytes=read("max_payload_bytes", args.max_payload_bytes, int),

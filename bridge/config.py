@@ -48,6 +48,12 @@ class EndpointConfig:
     # its own later calls.
     client_call_workers: int = 4
     client_max_pending_calls: int = 64
+    # Limits, so that no client (nor a crowd of them) can take what the others need: descriptors, threads, memory.
+    # Past one, the client gets a clear __error and stays connected where that is safe.
+    max_clients: int = 64
+    max_clients_per_address: int = 16
+    max_registrations_per_client: int = 256  # topics published and subscribed, services either way
+    max_registrations: int = 2048  # topics and services bridged for all clients together (each a ROS object)
 
     def __post_init__(self) -> None:
         """Refuse, before anything starts, settings that would fail later: at bind, or at every client's connect."""
@@ -60,6 +66,10 @@ class EndpointConfig:
         _check_whole("client_queue_bytes", self.client_queue_bytes, 1)
         _check_whole("client_call_workers", self.client_call_workers, 1)
         _check_whole("client_max_pending_calls", self.client_max_pending_calls, 1)
+        _check_whole("max_clients", self.max_clients, 1)
+        _check_whole("max_clients_per_address", self.max_clients_per_address, 1)
+        _check_whole("max_registrations_per_client", self.max_registrations_per_client, 1)
+        _check_whole("max_registrations", self.max_registrations, 1)
         _check_seconds("service_timeout_s", self.service_timeout_s)
         _check_seconds("publisher_grace_s", self.publisher_grace_s, zero_allowed=True)
 

@@ -30,6 +30,7 @@ class OutgoingQueue:
         self._items: deque[Tuple[bytes, bool, Optional[str]]] = deque()  # (frame, droppable, key)
         self._key_counts: Dict[str, int] = {}  # frames queued per key
         self._bytes = 0
+        self._kept_bytes = 0  # of frames that are never dropped (answers)
         self._filled_at = 0.0  # monotonic time the queue last went from empty to not empty
         self._closed = False
         self._dropped = 0
@@ -48,6 +49,12 @@ class OutgoingQueue:
     @property
     def queued_bytes(self) -> int:
         return self._bytes
+
+    @property
+    def kept_bytes(self) -> int:
+        """Bytes of queued frames that are never dropped (answers): what a peer that reads nothing piles up; the
+        producer must stop making them (the queue cannot drop them)."""
+        return self._kept_bytes
 
     def oldest_age(self) -> Optional[float]:
         """How long the oldest queued frame has waited, at most (s); None when nothing is queued. Frames leave all
@@ -111,6 +118,8 @@ class OutgoingQueue:
             self._filled_at = time.monotonic()
         self._items.append((data, droppable, key))
         self._bytes += len(data)
+        if not droppable:
+            self._kept_bytes += len(data)
         while (len(self._items) > self.max_frames or self._bytes > self.max_bytes) and len(self._items) > 1:
             if not self._drop_oldest_droppable():
                 break
@@ -159,7 +168,7 @@ class OutgoingQueue:
             items = [item[0] for item in self._items]
             self._items.clear()
             self._key_counts.clear()
-            self._bytes = 0
+            self._bytes = self._kept_bytes = 0
             self._not_full.notify_all()
             return items
 
@@ -177,6 +186,6 @@ class OutgoingQueue:
             if discard:
                 self._items.clear()
                 self._key_counts.clear()
-                self._bytes = 0
+                self._bytes = self._kept_bytes = 0
             self._not_empty.notify_all()
             self._not_full.notify_all()

@@ -40,7 +40,7 @@ from bridge.sockets import send_to_all, unsent_bytes
 
 __all__ = [
     "PUBLISH_WAIT_S", "SUBSCRIBER_STALL_S", "DIRECT_PUBLISH_MAX_BYTES", "RosError", "RawMessage", "TypeRegistry",
-    "MessageCallback", "ServiceHandler", "RosGraph", "RawPublisher", "RawServiceProxy",
+    "MessageCallback", "ServiceHandler", "RosGraph", "RawPublisher", "RawServiceProxy", "end_topic",
 ]
 
 log = logging.getLogger(__name__)
@@ -218,6 +218,17 @@ class TypeRegistry:
             raise RosError(f"cannot validate {key}: {error}") from None
         with self._lock:
             return self._layouts.setdefault(key, layout)
+
+
+def end_topic(topic: Any) -> None:
+    """Unregister a rospy publisher or subscriber and, once rospy has closed the topic, free its poller's
+    descriptor: rospy leaves it to the garbage collector, which may not run for a long time (an endpoint whose
+    clients come and go would run out of descriptors)."""
+    impl = topic.impl
+    topic.unregister()
+    poller: Any = getattr(getattr(impl, "connection_poll", None), "poller", None)
+    if impl is not None and impl.closed and hasattr(poller, "close"):
+        poller.close()
 
 
 def _raw_class_like(generated: type[genpy.Message]) -> type[RawMessage]:
@@ -511,7 +522,7 @@ class RawPublisher:
     def _pump_loop(self) -> None:
         while True:
             if not self.queue.wait():  # closed, and everything queued is written
-                self._publisher.unregister()
+                end_topic(self._publisher)
                 return
             with self._write_lock:
                 self._write_queued()

@@ -40,9 +40,10 @@ from bridge.protocol import (
     UnityService,
     Warn,
 )
-from bridge.ros import RawPublisher, RawServiceProxy, RosError, RosGraph
+from bridge.ros import RawPublisher, RawServiceProxy, RosError, RosGraph, end_topic
 from bridge.session import ClientSession, RequestRefused
-from bridge.sockets import tune_socket
+from bridge.sockets import send_now, tune_socket
+from bridge.throttle import LogThrottle
 
 __all__ = ["Endpoint"]
 
@@ -53,6 +54,10 @@ ECHO_RECORD_MAX = 4096
 DIAGNOSTICS_PERIOD_S = 1.0  # /diagnostics at 1 Hz, as ROS's diagnostic tools expect
 
 
+# Requests whose answer the client must read (it is never dropped), and how they are named in a refusal
+_ANSWERED: Dict[type, str] = {TopicListQuery: "__topic_list", Ping: "__ping", ServiceRequest: "__request"}
+
+
 @dataclass
 class _Registrations:
     """What one client registered, as the endpoint keeps it (the session knows none of it)."""
@@ -61,6 +66,9 @@ class _Registrations:
     publishers: Dict[str, Tuple[str, RawPublisher]] = field(default_factory=dict)  # client topic -> (resolved, ...)
     ros_services: Dict[str, RawServiceProxy] = field(default_factory=dict)  # client's service name -> proxy
     unity_services: Set[str] = field(default_factory=set)  # resolved names
+
+    def __len__(self) -> int:
+        return len(self.subscriptions) + len(self.publishers) + len(self.ros_services) + len(self.unity_services)
 
 
 # One client's subscription to a topic: (its session, the topic as it spells it, its queue depth for the topic: at
@@ -129,6 +137,8 @@ class Endpoint:
         self._housekeeping_thread: Optional[threading.Thread] = None
         self._address = ""
         self._stopping = threading.Event()
+        self._turned_away = LogThrottle(log)
+        self._accept_failures = LogThrottle(log)
         # Totals of the clients that have left (those still connected are summed in stats()).
         self.frames_in = 0
         self.frames_out = 0
@@ -199,11 +209,16 @@ class Endpoint:
         while not self._stopping.is_set():
             try:
                 sock, address = self._listener.accept()
-            except OSError:
+            except OSError as error:
                 if self._stopping.is_set():
                     return
-                log.exception("accept failed")
+                self._accept_failures.warning("accepting a connection failed: %s", error)  # e.g. no descriptors left
                 time.sleep(0.1)
+                continue
+            refusal = self._admission_refusal(address[0])
+            if refusal is not None:
+                _turn_away(sock, refusal)
+                self._turned_away.warning("turned away a client at %s:%d: %s", address[0], address[1], refusal)
                 continue
             session: Optional[ClientSession] = None
             try:
@@ -219,12 +234,32 @@ class Endpoint:
                     session.close()
                 sock.close()
 
+    def _admission_refusal(self, host: str) -> Optional[str]:
+        """Why a new client from `host` cannot be served now (a limit reached); None when it can."""
+        with self._lock:
+            connected = len(self._clients)
+            from_host = sum(1 for session in self._clients if session.host == host)
+        if connected >= self.config.max_clients:
+            return f"the endpoint serves {connected} clients already, its limit (--max-clients)"
+        if from_host >= self.config.max_clients_per_address:
+            return (f"the endpoint serves {from_host} clients from {host} already, its limit per address "
+                    "(--max-clients-per-address)")
+        return None
+
     # --- the session's owner: every client event lands here ------------------------------------------------------
     def handle(self, session: ClientSession, event: Event) -> None:
         """Act on a client's command or service event (on its reader thread); RequestRefused says why not."""
         handler = self._handlers.get(type(event))
         if handler is None:
             raise RequestRefused(f"{type(event).__name__} is not accepted by the endpoint")
+        if type(event) in _ANSWERED:
+            unread = session.queue.kept_bytes
+            if unread > self.config.client_queue_bytes:  # answers are never dropped: stop making them
+                srv_id = event.srv_id if isinstance(event, ServiceRequest) else None
+                raise RequestRefused(
+                    f"{_ANSWERED[type(event)]}: refused, {unread} bytes of earlier answers wait unread by this "
+                    "client", srv_id,
+                )
         handler(session, event)
 
     def publisher_for(self, session: ClientSession, message: TopicMessage) -> RawPublisher:
@@ -291,6 +326,8 @@ class Endpoint:
                     f"__subscribe: topic {resolved} is already bridged as {shared.message_name}, "
                     f"not {command.message_name}"
                 )
+            self._check_room(session, "__subscribe", resolved, resolved in self._clients[session].subscriptions,
+                             shared is None)
             if shared is None:
                 handle = _made_for_client(
                     lambda: self.ros.make_subscriber(resolved, raw, command.message_name, self._fan_out)
@@ -307,6 +344,23 @@ class Endpoint:
             self._clients[session].subscriptions[resolved] = command.topic
             self._guard_echoes(resolved)
 
+    def _check_room(self, session: ClientSession, command: str, resolved: str, registered: bool,
+                    new_on_ros: bool) -> None:
+        """Refuse a registration past the client's limit (unless it has this one already) or past the endpoint's
+        (when it would make a new ROS object). Called with the lock held."""
+        if not registered and len(self._clients[session]) >= self.config.max_registrations_per_client:
+            raise RequestRefused(
+                f"{command} {resolved}: refused, this client has {self.config.max_registrations_per_client} "
+                "registrations already, its limit (--max-registrations-per-client)"
+            )
+        if new_on_ros:
+            bridged = len(self._subscribers) + len(self._publishers) + len(self._unity_services)
+            if bridged >= self.config.max_registrations:
+                raise RequestRefused(
+                    f"{command} {resolved}: refused, the endpoint bridges {bridged} topics and services already, its "
+                    "limit for all clients together (--max-registrations)"
+                )
+
     def _unsubscribe(self, session: ClientSession, registrations: _Registrations, resolved: str) -> None:
         with self._lock:
             registrations.subscriptions.pop(resolved, None)
@@ -316,7 +370,7 @@ class Endpoint:
             shared.clients = tuple(entry for entry in shared.clients if entry[0] is not session)
             if not shared.clients:
                 del self._subscribers[resolved]
-                shared.handle.unregister()
+                end_topic(shared.handle)
             else:
                 self._guard_echoes(resolved)
 
@@ -336,6 +390,8 @@ class Endpoint:
                 del self._publishers[resolved]
                 shared.publisher.unregister()
                 shared = None
+            self._check_room(session, "__publish", resolved, command.topic in self._clients[session].publishers,
+                             shared is None)
             if shared is None:
                 publisher = _made_for_client(
                     lambda: self.ros.make_publisher(
@@ -383,7 +439,10 @@ class Endpoint:
         raw = _made_for_client(lambda: self.ros.service_type(command.message_name))
         proxy = self.ros.make_service_proxy(resolved, raw, self.config.max_payload_bytes)
         with self._lock:
-            self._clients[session].ros_services[command.topic] = proxy
+            registrations = self._clients[session]
+            # A proxy holds no ROS object: it counts for the client only.
+            self._check_room(session, "__ros_service", resolved, command.topic in registrations.ros_services, False)
+            registrations.ros_services[command.topic] = proxy
 
     def _register_unity_service(self, session: ClientSession, command: UnityService) -> None:
         resolved = self._checked_name(command.topic)
@@ -392,6 +451,8 @@ class Endpoint:
             existing = self._unity_services.get(resolved)
             if existing is not None and existing.message_name == command.message_name:
                 # Re-registration (typically a reconnect): the newest client answers from now on.
+                self._check_room(session, "__unity_service", resolved,
+                                 resolved in self._clients[session].unity_services, False)
                 previous = self._clients.get(existing.owner)
                 if previous is not None:
                     previous.unity_services.discard(resolved)
@@ -404,6 +465,7 @@ class Endpoint:
                     f"__unity_service: service {resolved} is already provided as {existing.message_name}, "
                     f"not {command.message_name}"
                 )
+            self._check_room(session, "__unity_service", resolved, False, True)
             handle = _made_for_client(
                 lambda: self.ros.make_service(
                     resolved, raw, lambda request: self._call_unity_service(resolved, request)
@@ -563,6 +625,8 @@ class Endpoint:
             service = self._unity_services.get(resolved)
             if service is None:
                 raise RosError(f"service {resolved} has no client any more")
+            if service.owner.queue.kept_bytes > self.config.client_queue_bytes:
+                raise RosError(f"the client providing {resolved} does not read what it is sent")
             srv_id = next(self._unity_srv_ids)
             call = _PendingUnityCall(service.owner, service.message_name)
             self._pending_unity_calls[srv_id] = call
@@ -600,6 +664,15 @@ class Endpoint:
                 ) from None
         call.response = response.payload
         call.done.set()
+
+
+def _turn_away(sock: socket.socket, reason: str) -> None:
+    """Tell a client that cannot be served why (an __error, in place of the handshake), and close."""
+    try:
+        send_now(sock, protocol.encode(protocol.Error(f"connection refused: {reason}")))
+    except OSError:
+        pass
+    sock.close()
 
 
 def _take_echo(echoes: Dict[ClientSession, Deque[bytes]], payload: bytes) -> Optional[ClientSession]:

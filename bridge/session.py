@@ -22,6 +22,7 @@ from bridge.protocol import Auth, Conversation, Event, IgnoredFields, InvalidInp
 from bridge.queues import OutgoingQueue
 from bridge.ros import RawPublisher
 from bridge.sockets import send_now, unsent_bytes
+from bridge.throttle import LogThrottle
 
 __all__ = ["ClientSession", "RequestRefused", "SessionOwner"]
 
@@ -64,6 +65,7 @@ class ClientSession:
         self.owner = owner
         self.sock = sock
         self.name = f"#{client_id} {address[0]}:{address[1]}"
+        self.host: str = address[0]
         self.queue = OutgoingQueue(config.client_queue_frames, config.client_queue_bytes)
         self.conversation = Conversation(Role.ENDPOINT, config.max_payload_bytes, config.max_destination_bytes)
         self._auth_token = config.auth_token
@@ -95,8 +97,7 @@ class ClientSession:
         self._reported_drops = 0
         self._reported_publish_drops = 0
         self._last_drop_warning_at = 0.0
-        self._last_error_logged_at = -ERROR_LOG_INTERVAL_S
-        self._errors_not_logged = 0
+        self._error_log = LogThrottle(log, ERROR_LOG_INTERVAL_S)
         self._reader = threading.Thread(target=self._read_loop, name=f"read {self.name}", daemon=True)
         self._writer = threading.Thread(target=self._write_loop, name=f"write {self.name}", daemon=True)
 
@@ -163,7 +164,7 @@ class ClientSession:
         # Errors are diagnostics (Unity only logs them): droppable, so a client that floods bad input and never
         # reads cannot grow the endpoint's memory; and logged at most once a second per client, so it cannot
         # flood the log either.
-        self._log_error(text)
+        self._error_log.warning("client %s: %s", self.name, text)
         self.send(protocol.encode(protocol.Error(text, srv_id)), droppable=True)
 
     def run_call(self, what: str, call: Callable[[], None], srv_id: Optional[int] = None) -> None:
@@ -194,16 +195,6 @@ class ClientSession:
             self._pending_calls.discard(future)
         if not future.cancelled() and future.exception() is not None:
             log.error("client %s: a ROS call failed", self.name, exc_info=future.exception())
-
-    def _log_error(self, text: str) -> None:
-        now = time.monotonic()
-        if now - self._last_error_logged_at < ERROR_LOG_INTERVAL_S:
-            self._errors_not_logged += 1
-            return
-        not_logged = f" ({self._errors_not_logged} more error(s) not logged)" if self._errors_not_logged else ""
-        log.warning("client %s: %s%s", self.name, text, not_logged)
-        self._last_error_logged_at = now
-        self._errors_not_logged = 0
 
     def close(self, reason: Optional[str] = None) -> None:
         if self._closed.is_set():

@@ -1,0 +1,175 @@
+"""Limits per client and overall: past one, a clear __error; the client stays connected where that is safe; threads,
+descriptors and memory are bounded by the limits, not by what a client asks for, and released when it leaves."""
+from __future__ import annotations
+
+import json
+import os
+import socket
+import time
+from pathlib import Path
+
+import pytest
+
+from bridge import protocol
+from bridge.protocol import FrameDecoder
+from tests.integration.bridge_helpers import LOOPBACK, RawConnection, start_endpoint, unique
+from tests.rosenv import wait_for
+
+
+def threads(pid: int) -> int:
+    return len(os.listdir(f"/proc/{pid}/task"))
+
+
+def descriptors(pid: int) -> int:
+    return len(os.listdir(f"/proc/{pid}/fd"))
+
+
+def rss_mib(pid: int) -> float:
+    with open(f"/proc/{pid}/status") as status:
+        line = next(line for line in status if line.startswith("VmRSS:"))
+    return int(line.split()[1]) / 1024
+
+
+def settled(roscore, endpoint, node: str) -> None:
+    """The endpoint's own threads all started (the last, /diagnostics' publisher, at its first tick)."""
+    wait_for(lambda: node in roscore.publishers("/diagnostics"), 10, "/diagnostics")
+
+
+def connect_from(port: int, source: str) -> tuple[socket.socket, protocol.Frame | None]:
+    """A connection from `source` (a loopback address) and the first frame the endpoint sends on it (None if it
+    closes the connection without one)."""
+    sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+    sock.bind((source, 0))
+    sock.settimeout(10)
+    sock.connect((LOOPBACK, port))
+    decoder = FrameDecoder()
+    while True:
+        data = sock.recv(65536)
+        if not data:
+            return sock, None
+        frames = decoder.feed(data)
+        if frames:
+            return sock, frames[0]
+
+
+def refusal(port: int, source: str) -> str:
+    """The reason the endpoint gives a client from `source` for turning it away (and it closes the connection)."""
+    sock, frame = connect_from(port, source)
+    with sock:
+        assert frame is not None and frame.destination == "__error", frame
+        assert sock.recv(1) == b""
+    return json.loads(frame.payload)["text"]
+
+
+def test_clients_past_the_limits_are_turned_away_with_the_reason(roscore, ros_node, tmp_path: Path) -> None:
+    endpoint = start_endpoint(roscore, tmp_path, "--max-clients", "3", "--max-clients-per-address", "2")
+    try:
+        first, second = RawConnection(endpoint.port), RawConnection(endpoint.port)  # from 127.0.0.1
+        assert "--max-clients-per-address" in refusal(endpoint.port, "127.0.0.1")
+        third, handshake = connect_from(endpoint.port, "127.0.0.2")  # another address may still come
+        assert handshake is not None and handshake.destination == "__handshake"
+        assert "--max-clients)" in refusal(endpoint.port, "127.0.0.3")
+        first.sync()  # those connected are served all along
+        second.close()
+
+        def admitted() -> bool:
+            sock, frame = connect_from(endpoint.port, "127.0.0.1")
+            sock.close()
+            return frame is not None and frame.destination == "__handshake"
+
+        wait_for(admitted, 10, "room again once a client left")
+        third.close()
+        first.close()
+    finally:
+        endpoint.stop()
+
+
+def test_a_full_endpoint_says_so_to_everyone(roscore, ros_node, tmp_path: Path) -> None:
+    endpoint = start_endpoint(roscore, tmp_path, "--max-clients", "1")
+    try:
+        with RawConnection(endpoint.port) as only:
+            assert "--max-clients)" in refusal(endpoint.port, "127.0.0.3")
+            only.sync()
+    finally:
+        endpoint.stop()
+
+
+def test_registrations_past_the_limits_are_refused_and_the_client_stays(roscore, ros_node, tmp_path: Path) -> None:
+    endpoint = start_endpoint(roscore, tmp_path, "--max-registrations-per-client", "5", "--max-registrations", "8",
+                              "--publisher-grace", "0")
+    try:
+        topics = [unique("limited") for _ in range(6)]
+        with RawConnection(endpoint.port) as subscriber, RawConnection(endpoint.port) as publisher:
+            for topic in topics:
+                subscriber.subscribe(topic, "std_msgs/String")
+            subscriber.expect_error("__subscribe", topics[5], "--max-registrations-per-client")
+            subscriber.subscribe(topics[0], "std_msgs/String")  # one it has already: not a new registration
+            subscriber.sync()
+            assert len(subscriber.errors()) == 1
+
+            published = [unique("limited_pub") for _ in range(4)]
+            for topic in published:
+                publisher.register_publisher(topic, "std_msgs/String")
+            publisher.expect_error("__publish", published[3], "--max-registrations")
+            publisher.sync()
+            assert len(publisher.errors()) == 1
+            subscriber.close()
+            wait_for(lambda: _registers(publisher, published[3]), 10,
+                     "room once the subscriber left")
+    finally:
+        endpoint.stop()
+
+
+def _registers(client: RawConnection, topic: str) -> bool:
+    before = len(client.errors())
+    client.register_publisher(topic, "std_msgs/String")
+    client.sync()
+    return len(client.errors()) == before
+
+
+def test_a_registration_flood_is_bounded_and_released_when_the_client_leaves(roscore, ros_node,
+                                                                             tmp_path: Path) -> None:
+    endpoint = start_endpoint(roscore, tmp_path, "--publisher-grace", "0", name="flood_endpoint")
+    try:
+        settled(roscore, endpoint, "/flood_endpoint")
+        baseline = threads(endpoint.pid), descriptors(endpoint.pid)
+        with RawConnection(endpoint.port) as flood:
+            for index in range(300):
+                flood.register_publisher(unique(f"flood{index}"), "std_msgs/String")
+            flood.sync(timeout=60)
+            refused = [text for text in flood.errors() if "--max-registrations-per-client" in text]
+            assert len(refused) == 300 - 256
+            during = threads(endpoint.pid), descriptors(endpoint.pid)
+            print(f"threads, descriptors: {baseline} before, {during} with 256 publishers")
+            assert during[0] <= baseline[0] + 256 + 8  # a pump per publisher, the client's reader and writer
+        wait_for(lambda: threads(endpoint.pid) <= baseline[0] and descriptors(endpoint.pid) <= baseline[1], 20,
+                 f"threads and descriptors back to {baseline}")
+    finally:
+        endpoint.stop()
+
+
+def test_a_client_that_never_reads_its_answers_costs_a_bounded_amount(roscore, ros_node, tmp_path: Path) -> None:
+    endpoint = start_endpoint(roscore, tmp_path, name="unread_endpoint")
+    try:
+        settled(roscore, endpoint, "/unread_endpoint")
+        with RawConnection(endpoint.port, rcvbuf=4096) as silent, RawConnection(endpoint.port) as good:
+            for index in range(200):  # a graph whose topic list is some 40 kB
+                good.register_publisher(unique(f"answer_size_{index}_" + "x" * 160), "std_msgs/String")
+            good.sync()
+            before = rss_mib(endpoint.pid)
+            query = protocol.encode_syscommand("__topic_list", {}) * 50
+            deadline = time.monotonic() + 15
+            while time.monotonic() < deadline:  # a few thousand answers, of some kB each, never read
+                silent.send(query)
+                time.sleep(0.02)
+            good.sync()  # everyone else is still served
+            grown = rss_mib(endpoint.pid) - before
+            print(f"endpoint RSS grew {grown:.1f} MiB")
+            assert grown < 32
+            silent.sock.settimeout(10)
+            silent.sync(timeout=30)  # and the silent one, once it reads
+    finally:
+        endpoint.stop()
+
+
+pytestmark = pytest.mark.timeout(180)
