@@ -59,6 +59,12 @@ _LIMITS = (
     ("max_registrations_per_client", "--max-registrations-per-client",
      "topics published and subscribed and services, per client"),
     ("max_registrations", "--max-registrations", "topics and services bridged for all clients together"),
+    ("max_partial_frame_bytes", "--max-partial-frame-bytes",
+     "bytes of frames not yet complete, all clients together (up to 1 MiB per client is not counted)"),
+    ("frame_timeout_s", "--frame-timeout", "seconds a frame may take to arrive once begun"),
+    ("auth_timeout_s", "--auth-timeout", "seconds a client has to send __auth (with --auth-token)"),
+    ("dead_peer_timeout_s", "--dead-peer-timeout",
+     "seconds without ACKs or keepalive answers after which a client counts as gone"),
 )
 
 

@@ -54,6 +54,12 @@ class EndpointConfig:
     max_clients_per_address: int = 16
     max_registrations_per_client: int = 256  # topics published and subscribed, services either way
     max_registrations: int = 2048  # topics and services bridged for all clients together (each a ROS object)
+    max_partial_frame_bytes: int = 256 * 1024 * 1024  # frames not yet complete, all clients together
+    # Deadlines: a frame begun must be complete within frame_timeout_s; with a token, __auth must come within
+    # auth_timeout_s; a peer that vanished (no ACKs, no keepalive answers) is dropped within dead_peer_timeout_s.
+    frame_timeout_s: float = 30.0
+    auth_timeout_s: float = 10.0
+    dead_peer_timeout_s: float = 10.0
 
     def __post_init__(self) -> None:
         """Refuse, before anything starts, settings that would fail later: at bind, or at every client's connect."""
@@ -70,6 +76,10 @@ class EndpointConfig:
         _check_whole("max_clients_per_address", self.max_clients_per_address, 1)
         _check_whole("max_registrations_per_client", self.max_registrations_per_client, 1)
         _check_whole("max_registrations", self.max_registrations, 1)
+        _check_whole("max_partial_frame_bytes", self.max_partial_frame_bytes, 1)
+        _check_seconds("frame_timeout_s", self.frame_timeout_s)
+        _check_seconds("auth_timeout_s", self.auth_timeout_s)
+        _check_seconds("dead_peer_timeout_s", self.dead_peer_timeout_s)
         _check_seconds("service_timeout_s", self.service_timeout_s)
         _check_seconds("publisher_grace_s", self.publisher_grace_s, zero_allowed=True)
 

@@ -94,9 +94,10 @@ class FrameDecoder:
                 frames.append(frame)
                 offset = frame_end
         except FramingError as error:
-            self._failed = error
+            # Kept without its traceback: that would keep this frame's locals, the whole buffer among them.
+            self._failed = error.with_traceback(None)
             self._buffer = bytearray()
-            return frames, error
+            return frames, self._failed
         if offset:
             del buffer[:offset]
         return frames, None

@@ -16,10 +16,11 @@ import logging
 import threading
 import time
 import xmlrpc.client
-from typing import Any, Callable, Hashable, List, Optional
+from typing import Any, Callable, Hashable, List, Optional, Tuple
 
 import rosgraph
 import rospy
+import rospy.impl.paramserver as rospy_paramserver
 import rospy.impl.registration as rospy_registration
 import rospy.impl.statistics as rospy_statistics
 from rospy.impl.registration import Registration as RospyRegistration
@@ -73,15 +74,26 @@ def call_master(method: str, *args: Any, timeout_s: float = MASTER_TIMEOUT_S) ->
     return value
 
 
-def _ask_for_statistics_once() -> None:
-    """rospy asks the parameter server whether /enable_statistics is set each time a subscriber is made, with no
-    timeout and under its topic manager lock: a frozen master would hold up every registration of the process.
-    Asked once here instead (with a timeout), and rospy's check answers from that."""
+def _read_rospys_parameters_once() -> None:
+    """Parameters rospy reads from the master with no timeout, at moments a frozen master must not block: asked
+    once here instead.
+
+    - Whether /enable_statistics is set, each time a subscriber is made, under rospy's topic manager lock (every
+      registration of the process would wait): asked here with a timeout, and rospy's check answers from that.
+    - /rosout_disable_topics_generation, on every message logged to /rosout while it is not set (e.g. a failed
+      service call, on a rospy thread, holding the log handler's lock): read here with a timeout and put in rospy's
+      parameter cache, which it reads first.
+    """
     try:
         enabled = bool(call_master("getParam", rospy.get_caller_id(), "/enable_statistics"))
     except MasterError:
         enabled = False  # not set (the usual case), or no answer: rospy's own check says False then too
     rospy_statistics.SubscriberStatisticsLogger.is_enabled = classmethod(lambda cls: enabled)
+    try:
+        disabled = bool(call_master("getParam", rospy.get_caller_id(), "/rosout_disable_topics_generation"))
+    except MasterError:
+        disabled = False  # rospy's default
+    rospy_paramserver.get_param_server_cache().set("/rosout_disable_topics_generation", disabled)
 
 
 class MasterLink(rospy_registration.RegistrationListener):
@@ -133,16 +145,45 @@ class MasterLink(rospy_registration.RegistrationListener):
             self._book = RegistrationBook(tuple(registered), identity)
             listeners.listeners[listeners.listeners.index(registrar)] = self
         self._rospy_registrar = registrar
-        _ask_for_statistics_once()
+        # rospy's clean-up at shutdown unregisters over XML-RPC with no timeout (a frozen master would keep the
+        # process from ever exiting): the link does it instead, as the last thing it does.
+        hooks = rospy.core._preshutdown_hooks
+        if registrar.cleanup in hooks:
+            hooks[hooks.index(registrar.cleanup)] = self._clean_up
+        _read_rospys_parameters_once()
         self._thread = threading.Thread(target=self._run, name="ROS master link", daemon=True)
         self._thread.start()
 
     def stop(self) -> None:
+        """Take back from the master what was withdrawn and not yet taken back (rospy's own clean-up at shutdown
+        knows only what still exists), then end the link's thread; a master that does not answer is not waited
+        for longer than one call's timeout."""
         with self._changed:
             self._stopping = True
             self._changed.notify()
         if self._thread is not None:
-            self._thread.join(timeout=self._timeout_s * 2)
+            self._thread.join(timeout=self._timeout_s + 0.5)
+
+    def _clean_up(self, reason: str) -> None:
+        """rospy's pre-shutdown hook in place of RegManager.cleanup: the same work, each master call bounded."""
+        with self._rospy_registrar.cond:
+            self._rospy_registrar.cond.notify_all()  # its thread sees the shutdown
+        rospy_registration.get_registration_listeners().clear()
+        self.stop()
+        with self._changed:
+            registrations = self._book.to_unregister() + self._book.wanted()
+        if self.master_up and registrations:
+            caller, node_uri = rospy.get_caller_id(), rospy.core.get_node_uri()
+            calls = xmlrpc.client.MultiCall(timed_proxy(rosgraph.get_master_uri(), self._timeout_s))
+            for registration in registrations:
+                method, args = _unregistration(registration, caller, node_uri)
+                getattr(calls, method)(*args)
+            try:
+                calls()
+            except (OSError, xmlrpc.client.Error) as error:
+                log.warning("could not unregister from the ROS master at shutdown: %s", error)
+        rospy_registration.get_topic_manager().close_all()
+        rospy_registration.get_service_manager().unregister_all()
 
     # --- rospy's RegistrationListener: called under rospy's locks, so only noted here --------------------------
     def reg_added(self, resolved_name: str, data_type_or_uri: str, reg_type: str) -> None:
@@ -162,8 +203,14 @@ class MasterLink(rospy_registration.RegistrationListener):
             with self._changed:
                 if not self._stopping and not self._owed():
                     self._changed.wait(max(0.0, next_check - time.monotonic()))
-                if self._stopping:
-                    return
+                stopping = self._stopping
+            if stopping:
+                if self.master_up:
+                    try:
+                        self._settle(register=False)
+                    except MasterError:
+                        pass
+                return
             try:
                 if time.monotonic() >= next_check:
                     next_check = time.monotonic() + self._poll_s
@@ -212,10 +259,10 @@ class MasterLink(rospy_registration.RegistrationListener):
                         error)
         self.master_up = False
 
-    def _settle(self) -> None:
+    def _settle(self, register: bool = True) -> None:
         """Take back what was withdrawn, then register what is owed; MasterError if the master stops answering."""
         with self._changed:
-            withdrawn, owed = self._book.to_unregister(), self._book.to_register()
+            withdrawn, owed = self._book.to_unregister(), self._book.to_register() if register else []
         for registration in withdrawn:
             self._call("unregister", registration)
             with self._changed:
@@ -229,16 +276,22 @@ class MasterLink(rospy_registration.RegistrationListener):
 
     def _call(self, action: str, registration: Registration) -> Any:
         """One (un)registration; a refusal is logged and counts as done (asking again would be refused again)."""
-        method = f"{action}{registration.kind.capitalize()}"
         caller, node_uri = rospy.get_caller_id(), rospy.core.get_node_uri()
-        if registration.kind == "service":
-            args = (caller, registration.name, registration.detail, node_uri) if action == "register" else \
-                (caller, registration.name, registration.detail)
+        if action == "register":
+            method = f"register{registration.kind.capitalize()}"
+            args: Tuple[str, ...] = (caller, registration.name, registration.detail, node_uri)
         else:
-            args = (caller, registration.name, registration.detail, node_uri) if action == "register" else \
-                (caller, registration.name, node_uri)
+            method, args = _unregistration(registration, caller, node_uri)
         try:
             return call_master(method, *args, timeout_s=self._timeout_s)
         except MasterRefused as refusal:
             log.error("%s %s: %s", method, registration.name, refusal)
             return None
+
+
+def _unregistration(registration: Registration, caller: str, node_uri: str) -> Tuple[str, Tuple[str, ...]]:
+    """The master API call that takes `registration` back: a service by its URI, a topic by the node's."""
+    method = f"unregister{registration.kind.capitalize()}"
+    if registration.kind == "service":
+        return method, (caller, registration.name, registration.detail)
+    return method, (caller, registration.name, node_uri)

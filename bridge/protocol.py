@@ -312,6 +312,11 @@ class Conversation:
         self.frames_received = 0
         self._reported_fields: Set[Tuple[str, str]] = set()  # (command, field) already reported as IgnoredFields
 
+    @property
+    def buffered_bytes(self) -> int:
+        """Bytes received of a frame not yet complete."""
+        return self._decoder.buffered_bytes
+
     # --- receiving ---------------------------------------------------------------------------------------------
     def receive_data(self, data: bytes) -> List[Event]:
         """The events in `data` (any fragment of the stream), in order. After an InvalidInput that is fatal (a

@@ -10,7 +10,7 @@ import time
 from collections import deque
 from typing import Dict, Optional, Tuple
 
-__all__ = ["OutgoingQueue"]
+__all__ = ["OutgoingQueue", "ByteBudget"]
 
 
 class OutgoingQueue:
@@ -189,3 +189,26 @@ class OutgoingQueue:
                 self._bytes = self._kept_bytes = 0
             self._not_empty.notify_all()
             self._not_full.notify_all()
+
+
+class ByteBudget:
+    """Bytes that many holders share under one limit (e.g. partly received frames across all clients); thread-safe.
+    Each holder says how much it holds now; a holder asking for more than is left is told no and holds what it
+    held."""
+
+    def __init__(self, limit: int) -> None:
+        self.limit = limit
+        self._lock = threading.Lock()
+        self._used = 0
+
+    @property
+    def used(self) -> int:
+        return self._used
+
+    def resize(self, held: int, wanted: int) -> bool:
+        """Go from holding `held` bytes to `wanted`; False (and no change) when that would pass the limit."""
+        with self._lock:
+            if wanted > held and self._used - held + wanted > self.limit:
+                return False
+            self._used += wanted - held
+            return True

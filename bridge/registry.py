@@ -70,6 +70,10 @@ class RegistrationBook:
         owed = [r for key, r in self._wanted.items() if self._accepted.get(key) != r]
         return sorted(owed, key=lambda r: (KINDS.index(r.kind), r.name))
 
+    def wanted(self) -> List[Registration]:
+        """Every registration the node has now."""
+        return list(self._wanted.values())
+
     def to_unregister(self) -> List[Registration]:
         """What the master holds that the node withdrew: to be taken back before anything is registered (a name
         withdrawn and registered again must end registered)."""

@@ -286,9 +286,9 @@ class RosGraph:
     def set_param(name: str, value: Any) -> None:
         rospy.set_param(name, value)
 
-    def shutdown(self, reason: str) -> None:
-        self.master.stop()
-        rospy.signal_shutdown(reason)
+    @staticmethod
+    def shutdown(reason: str) -> None:
+        rospy.signal_shutdown(reason)  # the master link unregisters the node (see MasterLink._clean_up)
 
     @staticmethod
     def is_shutdown() -> bool:

@@ -42,6 +42,8 @@ from bridge.protocol import (
 )
 from bridge.ros import RawPublisher, RawServiceProxy, RosError, RosGraph, end_topic
 from bridge.session import ClientSession, RequestRefused
+from bridge.auth import AuthGuard
+from bridge.queues import ByteBudget
 from bridge.sockets import send_now, tune_socket
 from bridge.throttle import LogThrottle
 
@@ -138,6 +140,8 @@ class Endpoint:
         self._address = ""
         self._stopping = threading.Event()
         self._turned_away = LogThrottle(log)
+        self._auth = AuthGuard(config.auth_token) if config.auth_token is not None else None
+        self._partial_frames = ByteBudget(config.max_partial_frame_bytes)
         self._accept_failures = LogThrottle(log)
         # Totals of the clients that have left (those still connected are summed in stats()).
         self.frames_in = 0
@@ -186,8 +190,11 @@ class Endpoint:
             self._listener.close()
         with self._lock:
             sessions = list(self._clients)
+            for call in self._pending_unity_calls.values():  # ROS callers of clients' services hear at once
+                call.failure = "the endpoint is shutting down"
+                call.done.set()
         for session in sessions:
-            session.close("the endpoint is stopping")
+            session.close("the endpoint is shutting down", tell_client=True)
         if self._accept_thread is not None:
             self._accept_thread.join(timeout=2)
         if self._housekeeping_thread is not None:
@@ -222,8 +229,9 @@ class Endpoint:
                 continue
             session: Optional[ClientSession] = None
             try:
-                tune_socket(sock)
-                session = ClientSession(self, self.config, sock, address, next(self._client_ids))
+                tune_socket(sock, self.config.dead_peer_timeout_s)
+                session = ClientSession(self, self.config, sock, address, next(self._client_ids), self._auth,
+                                        self._partial_frames)
                 with self._lock:
                     self._clients[session] = _Registrations()
                 session.start()

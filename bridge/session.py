@@ -8,8 +8,8 @@ oldest topic frames, never the endpoint's memory.
 """
 from __future__ import annotations
 
-import hmac
 import logging
+import select
 import socket
 import threading
 import time
@@ -17,9 +17,10 @@ from concurrent.futures import Future, ThreadPoolExecutor
 from typing import Callable, List, Optional, Protocol, Set
 
 from bridge import protocol
+from bridge.auth import AuthGuard
 from bridge.config import EndpointConfig
 from bridge.protocol import Auth, Conversation, Event, IgnoredFields, InvalidInput, Role, TopicMessage, Warn
-from bridge.queues import OutgoingQueue
+from bridge.queues import ByteBudget, OutgoingQueue
 from bridge.ros import RawPublisher
 from bridge.sockets import send_now, unsent_bytes
 from bridge.throttle import LogThrottle
@@ -33,7 +34,9 @@ RECV_BYTES = 256 * 1024
 DIRECT_SEND_MAX_UNSENT = 64 * 1024
 DROP_WARNING_INTERVAL_S = 1.0
 ERROR_LOG_INTERVAL_S = 1.0
-
+# A client may hold this much of a frame not yet complete without counting against the endpoint's budget for them.
+PARTIAL_FRAME_FREE_BYTES = 1024 * 1024
+_AUTH_FAILURES_LOG = LogThrottle(log)  # wrong tokens may come thousands a second: logged once a second
 
 class RequestRefused(Exception):
     """A request of one client that the endpoint refuses. The text goes back to that client as __error, with the
@@ -61,15 +64,22 @@ class ClientSession:
     """One connected client: its conversation, its outgoing queue and writer, and the workers of its ROS calls."""
 
     def __init__(self, owner: SessionOwner, config: EndpointConfig, sock: socket.socket, address: tuple,
-                 client_id: int) -> None:
+                 client_id: int, auth: Optional[AuthGuard] = None, partial_frames: Optional[ByteBudget] = None
+                 ) -> None:
         self.owner = owner
         self.sock = sock
         self.name = f"#{client_id} {address[0]}:{address[1]}"
         self.host: str = address[0]
         self.queue = OutgoingQueue(config.client_queue_frames, config.client_queue_bytes)
         self.conversation = Conversation(Role.ENDPOINT, config.max_payload_bytes, config.max_destination_bytes)
-        self._auth_token = config.auth_token
-        self.authenticated = config.auth_token is None
+        self._auth = auth
+        self.authenticated = auth is None
+        self._auth_deadline = time.monotonic() + config.auth_timeout_s
+        self._frame_timeout_s = config.frame_timeout_s
+        self._frame_started: Optional[float] = None  # monotonic time the frame now partly received began
+        # Partly received frames above PARTIAL_FRAME_FREE_BYTES count against the endpoint's budget for all clients
+        self._partial_frames = partial_frames
+        self._partial_held = 0
         self.frames_out = 0
         self.bytes_in = 0
         self.bytes_out = 0
@@ -196,11 +206,20 @@ class ClientSession:
         if not future.cancelled() and future.exception() is not None:
             log.error("client %s: a ROS call failed", self.name, exc_info=future.exception())
 
-    def close(self, reason: Optional[str] = None) -> None:
+    def close(self, reason: Optional[str] = None, tell_client: bool = False) -> None:
+        """End the connection; with `tell_client`, the reason goes to the client first as a __warn, if its socket
+        takes it at once (nothing waits for a client that does not read)."""
         if self._closed.is_set():
             return
         if reason is not None:
             self._ended(reason)
+            if tell_client and self._send_lock.acquire(blocking=False):
+                try:
+                    send_now(self.sock, protocol.encode(Warn(f"closing the connection: {reason}")))
+                except OSError:
+                    pass
+                finally:
+                    self._send_lock.release()
         self._closed.set()
         self.queue.close(discard=True)
         try:
@@ -210,14 +229,21 @@ class ClientSession:
 
     # --- reader -----------------------------------------------------------------------------------------------
     def _read_loop(self) -> None:
+        readable = select.poll()
+        readable.register(self.sock, select.POLLIN)
         try:
             while not self._closed.is_set():
+                if not self._readable_in_time(readable):
+                    break
                 data = self.sock.recv(RECV_BYTES)
                 if not data:
                     self._ended("closed by the client")
                     break
                 self.bytes_in += len(data)
+                frames_before = self.conversation.frames_received
                 events = self.conversation.receive_data(data)
+                if not self._account_partial_frame(self.conversation.frames_received > frames_before):
+                    break
                 for event in events:
                     if type(event) is TopicMessage and self.authenticated:
                         self._collect_publication(event)
@@ -230,13 +256,58 @@ class ClientSession:
         finally:
             self._finish()
 
+    def _readable_in_time(self, readable: select.poll) -> bool:
+        """Wait for bytes while a deadline runs (a frame begun, __auth due); False when it passed (the client was
+        told). Without one, recv simply waits: keepalives and TCP keepalive tell a live peer from a dead one."""
+        deadlines = []
+        if not self.authenticated:
+            deadlines.append((self._auth_deadline, "no __auth within the endpoint's --auth-timeout"))
+        if self._frame_started is not None:
+            deadlines.append((self._frame_started + self._frame_timeout_s,
+                              f"a frame begun was not completed within {self._frame_timeout_s:g} s (--frame-timeout)"))
+        if not deadlines:
+            return True
+        deadline, why = min(deadlines)
+        while not readable.poll(max(0.0, deadline - time.monotonic()) * 1000):
+            if time.monotonic() >= deadline:
+                self.send_error(f"closing the connection: {why}")
+                self._ended(why)
+                return False
+        return True
+
+    def _account_partial_frame(self, frames_completed: bool) -> bool:
+        """After a read: when the frame now partly received began, and its bytes against the endpoint's budget;
+        False when the budget cannot take them (the client was told)."""
+        buffered = self.conversation.buffered_bytes
+        if not buffered:
+            self._frame_started = None
+        elif self._frame_started is None or frames_completed:
+            self._frame_started = time.monotonic()
+        wanted = buffered if buffered > PARTIAL_FRAME_FREE_BYTES else 0
+        if self._partial_frames is None or wanted == self._partial_held:
+            return True
+        if self._partial_frames.resize(self._partial_held, wanted):
+            self._partial_held = wanted
+            return True
+        why = (f"the endpoint holds {self._partial_frames.used} bytes of frames not yet complete from all clients, "
+               f"its limit (--max-partial-frame-bytes): the frame begun here ({buffered} bytes so far) cannot be "
+               "taken")
+        self.send_error(f"closing the connection: {why}")
+        self._ended(why)
+        return False
+
     def _finish(self) -> None:
         self.gone.set()
+        if self._partial_frames is not None:
+            self._partial_frames.resize(self._partial_held, 0)
+            self._partial_held = 0
         self.owner.release(self)
-        # Calls not started yet are dropped; running ones end by their timeout.
+        # Calls not started yet are dropped; running ones see `gone` and end. Cancelled outside the lock: cancel()
+        # runs the done callback (_call_done), which takes it.
         with self._calls_lock:
-            for future in self._pending_calls:
-                future.cancel()
+            pending = list(self._pending_calls)
+        for future in pending:
+            future.cancel()
         self._calls.shutdown(wait=False)
         self._lookups.shutdown(wait=False)
         # Let the writer drain what is queued (e.g. the closing __error), then close the socket.
@@ -313,13 +384,18 @@ class ClientSession:
         return True
 
     def _authenticate(self, event: Event) -> bool:
-        assert self._auth_token is not None
-        if isinstance(event, Auth) and hmac.compare_digest(event.token.encode(), self._auth_token.encode()):
-            self.authenticated = True
-            log.info("client %s authenticated", self.name)
-            return True
-        reason = "a wrong token" if isinstance(event, Auth) else f"{type(event).__name__} before __auth"
-        log.warning("client %s: authentication failed (%s)", self.name, reason)
+        assert self._auth is not None
+        if isinstance(event, Auth):
+            hold_back = self._auth.check(self.host, event.token)
+            if not hold_back:
+                self.authenticated = True
+                log.info("client %s authenticated", self.name)
+                return True
+            reason = f"a wrong token, {self._auth.failures(self.host)} in a row from {self.host}"
+            self._closed.wait(hold_back)  # the verdict on a wrong token is held back: guessing is slow
+        else:
+            reason = f"{type(event).__name__} before __auth"
+        _AUTH_FAILURES_LOG.warning("client %s: authentication failed (%s)", self.name, reason)
         self._ended(f"authentication failed ({reason})")
         self.send_error("authentication required: the first command must be __auth with the endpoint's token")
         return False

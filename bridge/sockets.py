@@ -41,15 +41,23 @@ def send_now(sock: socket.socket, data: bytes | memoryview) -> int:
         return 0
 
 
-def tune_socket(sock: socket.socket) -> None:
-    """A client connection: blocking mode, no Nagle, and keepalive probes that reap vanished peers."""
+def tune_socket(sock: socket.socket, dead_peer_timeout_s: float) -> None:
+    """A client connection: blocking mode, no Nagle, and a vanished peer noticed within `dead_peer_timeout_s`."""
     # Blocking whatever the process-wide default timeout (see send_now): the writer thread's sendall must wait for
     # a slow client as long as it takes (the per-client queue bounds memory), not give up after rospy's 60 s.
     sock.settimeout(None)
     # TCP_NODELAY: at 1 kHz, Nagle + delayed ACK would add 40 ms spikes.
     sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+    # An idle peer is probed (keepalive: a third of the time idle, then probes filling the rest); one that does not
+    # acknowledge what it is sent is given up after the whole time (TCP_USER_TIMEOUT; without it, Linux retries
+    # for some 15 minutes). So is one whose receive window stays shut that long (Linux applies the user timeout to
+    # window probes too): a client that takes nothing for that long cannot be served anyway.
+    idle = max(1, int(dead_peer_timeout_s / 3))
+    interval = max(1, int(dead_peer_timeout_s / 6))
+    count = max(1, int((dead_peer_timeout_s - idle) / interval))
     sock.setsockopt(socket.SOL_SOCKET, socket.SO_KEEPALIVE, 1)
-    for option, value in (("TCP_KEEPIDLE", 10), ("TCP_KEEPINTVL", 5), ("TCP_KEEPCNT", 3)):
+    for option, value in (("TCP_KEEPIDLE", idle), ("TCP_KEEPINTVL", interval), ("TCP_KEEPCNT", count),
+                          ("TCP_USER_TIMEOUT", int(dead_peer_timeout_s * 1000))):
         if hasattr(socket, option):
             sock.setsockopt(socket.IPPROTO_TCP, getattr(socket, option), value)
 

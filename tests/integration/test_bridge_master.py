@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import os
 import signal
+import socket
 import struct
 import time
 import xmlrpc.client
@@ -15,7 +16,8 @@ from pathlib import Path
 import pytest
 
 from bridge.client import ClientError, TcpClient
-from tests.integration.bridge_helpers import Inbox, serialize, start_endpoint, tcp_client, unique
+from bridge import protocol
+from tests.integration.bridge_helpers import Inbox, RawConnection, serialize, start_endpoint, tcp_client, unique
 from tests.rosenv import EndpointProcess, NodeProcess, RosCore, wait_for
 
 String = pytest.importorskip("std_msgs.msg").String
@@ -145,3 +147,46 @@ def test_a_frozen_master_holds_up_no_client_and_gets_the_registrations_when_it_t
         assert client.is_connected and client.connections == 1
     finally:
         client.close()
+
+
+def test_sigterm_ends_the_endpoint_within_seconds_whatever_is_in_flight(core: RosCore, tmp_path: Path) -> None:
+    """A hung ROS service call, a ROS caller waiting for a client, a client that reads nothing, a frozen master."""
+    endpoint = start_endpoint(core, tmp_path, "--service-timeout", "60", name="sigterm_endpoint")
+    hung_service, client_service = unique("never_answers"), unique("client_never_answers")
+    silent_server = socket.create_server(("127.0.0.1", 0))  # a ROS service that accepts and never answers
+    master = xmlrpc.client.ServerProxy(core.uri)
+    master.registerService("/fake_node", hung_service, f"rosrpc://127.0.0.1:{silent_server.getsockname()[1]}",
+                           "http://127.0.0.1:9/")
+    caller = None
+    pid = None
+    try:
+        with RawConnection(endpoint.port) as calling, RawConnection(endpoint.port) as serving, \
+                RawConnection(endpoint.port, rcvbuf=4096) as silent:
+            calling.command("__ros_service", topic=hung_service, message_name="std_srvs/Trigger")
+            calling.command("__request", srv_id=1)
+            calling.send_frame(hung_service, b"")
+            serving.command("__unity_service", topic=client_service, message_name="std_srvs/Trigger")
+            serving.sync()
+            caller = ros_tool(core, tmp_path, "rosservice", "call", client_service)
+            serving.wait_command("__request", timeout=30)  # the ROS caller waits for the client now
+            silent.send(protocol.encode_syscommand("__topic_list", {}) * 200)  # answers it never reads
+            pid = master_pid(core)
+            os.kill(pid, signal.SIGSTOP)
+            started = time.monotonic()
+            endpoint.process.send_signal(signal.SIGTERM)
+            assert endpoint.process.wait(15) == 0
+            took = time.monotonic() - started
+            print(f"endpoint exited {took:.2f} s after SIGTERM")
+            assert took < 8
+            serving.wait_frame(lambda f: f.destination == "__warn" and b"shutting down" in f.payload,
+                               "the endpoint saying it shuts down")
+            calling.wait_closed()
+            # The ROS caller got an error at once, not a hang (it cannot exit before the master thaws: rospy)
+            wait_for(lambda: "the endpoint is shutting down" in caller.output(), 10, "the ROS caller's error")
+    finally:
+        if pid is not None:
+            os.kill(pid, signal.SIGCONT)
+        if caller is not None:
+            caller.stop()
+        silent_server.close()
+        endpoint.stop()

@@ -119,7 +119,23 @@ def test_send_now_returns_at_once_from_a_full_socket_in_either_mode(sender_timeo
 
 def test_tune_socket_puts_a_client_connection_in_blocking_mode() -> None:
     """Sockets accepted after rospy set its process-wide default timeout (60 s) inherit it; the endpoint's client
-    connections must not keep it, or its writer would drop a live client that reads nothing for 60 s."""
+    connections must not keep it: the dead-peer timeout is TCP's business (see the next test)."""
     with tcp_pairs(1, 60.0) as [(accepted, _)]:
-        tune_socket(accepted)
+        tune_socket(accepted, 10.0)
         assert accepted.gettimeout() is None
+
+
+def test_tune_socket_gives_a_peer_that_takes_nothing_up_after_the_dead_peer_timeout() -> None:
+    with tcp_pairs(1, None) as [(accepted, _)]:
+        tune_socket(accepted, 2.0)
+        assert accepted.getsockopt(socket.IPPROTO_TCP, socket.TCP_USER_TIMEOUT) == 2000
+        idle = accepted.getsockopt(socket.IPPROTO_TCP, socket.TCP_KEEPIDLE)
+        interval = accepted.getsockopt(socket.IPPROTO_TCP, socket.TCP_KEEPINTVL)
+        count = accepted.getsockopt(socket.IPPROTO_TCP, socket.TCP_KEEPCNT)
+        assert idle + interval * count <= 2
+        started = time.monotonic()
+        with pytest.raises(OSError):
+            while time.monotonic() - started < 30:  # the peer never reads: its window shuts, then the timeout
+                send_now(accepted, b"x" * 65536)
+                time.sleep(0.01)
+        assert time.monotonic() - started < 15

@@ -181,6 +181,26 @@ def test_decoder_refuses_input_after_a_framing_error() -> None:
         decoder.feed(b"")
 
 
+def test_a_lost_stream_keeps_nothing_it_had_received() -> None:
+    """The error that ends a stream is kept (and raised again), but not its traceback: that would keep the frame
+    being read and the buffer with it (up to the payload limit) alive with the connection's objects."""
+    import gc
+    import weakref
+
+    conversation = Conversation(Role.ENDPOINT, max_payload_bytes=1 << 20)
+    conversation.receive_data(encode_frame("/t", b"x" * 4096)[:-1])  # a partial frame in the buffer
+    *_, lost = conversation.receive_data(b"x" + b"\xff" * 16)  # then a length far over the limit
+    assert isinstance(lost, InvalidInput) and lost.error.fatal and lost.error.__traceback__ is None
+    assert conversation.buffered_bytes == 0
+    watched = weakref.ref(conversation)
+    gc.disable()  # freed by reference counting alone, at once: nothing refers back to it
+    try:
+        del conversation, lost
+        assert watched() is None
+    finally:
+        gc.enable()
+
+
 def test_framing_error_is_a_fatal_remote_protocol_error() -> None:
     assert issubclass(FramingError, RemoteProtocolError) and issubclass(RemoteProtocolError, ProtocolError)
     assert issubclass(LocalProtocolError, ProtocolError) and issubclass(ProtocolError, ValueError)

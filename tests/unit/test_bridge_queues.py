@@ -6,7 +6,7 @@ import time
 
 import pytest
 
-from bridge.queues import OutgoingQueue
+from bridge.queues import ByteBudget, OutgoingQueue
 
 
 def test_limits_must_be_positive() -> None:
@@ -277,3 +277,12 @@ def test_a_keys_count_follows_every_way_a_frame_leaves() -> None:
     queue.put(b"a4", key="/a", key_limit=2)  # taken frames no longer count
     queue.put(b"a5", key="/a", key_limit=2)
     assert queue.take_all(timeout=0) == [b"a4", b"a5"]
+
+
+def test_a_byte_budget_is_shared_and_refuses_growth_past_its_limit() -> None:
+    budget = ByteBudget(100)
+    assert budget.resize(0, 60) and budget.used == 60
+    assert not budget.resize(0, 50) and budget.used == 60  # a second holder may not take what is not left
+    assert budget.resize(0, 40) and budget.used == 100
+    assert budget.resize(60, 10) and budget.used == 50  # shrinking always works
+    assert budget.resize(10, 0) and budget.resize(40, 0) and budget.used == 0
