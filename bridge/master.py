@@ -107,6 +107,7 @@ class MasterLink(rospy_registration.RegistrationListener):
         self._stopping = False
         self._thread: Optional[threading.Thread] = None
         self._rospy_registrar: Any = None  # rospy's RegManager: still connects our subscribers to publishers
+        self._proxy: Optional[xmlrpc.client.ServerProxy] = None  # the identity checks' connection
         self.master_up = True
         self.restarts = 0  # other masters seen since start
         self._on_new_master: List[Callable[[], None]] = []
@@ -228,13 +229,28 @@ class MasterLink(rospy_registration.RegistrationListener):
         return self.master_up and bool(self._book.to_register() or self._book.to_unregister())
 
     def _identity(self) -> Hashable:
-        caller = rospy.get_caller_id()
-        pid = call_master("getPid", caller, timeout_s=self._timeout_s)
-        try:
-            run_id = call_master("getParam", caller, "/run_id", timeout_s=self._timeout_s)
-        except MasterError:
-            run_id = None  # a bare rosmaster has no /run_id; its pid tells it apart
-        return (pid, run_id)
+        """(pid, /run_id) of the master answering now, in one request on the link's own connection, kept open
+        between checks (a new connection each second would cost the master a thread each time). A kept connection
+        that fails (the master restarted) is replaced and asked again at once."""
+        for fresh in (self._proxy is None, True):
+            if fresh or self._proxy is None:
+                self._proxy = timed_proxy(rosgraph.get_master_uri(), self._timeout_s)
+            calls = xmlrpc.client.MultiCall(self._proxy)
+            caller = rospy.get_caller_id()
+            calls.getPid(caller)
+            calls.getParam(caller, "/run_id")
+            try:
+                answers: Any = calls()
+                break
+            except (OSError, xmlrpc.client.Error) as error:
+                self._proxy = None
+                if fresh:
+                    raise MasterError(f"the ROS master at {rosgraph.get_master_uri()} did not answer ({error})") \
+                        from None
+        (pid_code, _, pid), (run_id_code, _, run_id) = answers[0], answers[1]
+        if pid_code != 1:
+            raise MasterError(f"the ROS master did not give its pid (code {pid_code})")
+        return (pid, run_id if run_id_code == 1 else None)  # a bare rosmaster has no /run_id: its pid tells
 
     def _check_master(self) -> None:
         identity = self._identity()

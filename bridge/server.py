@@ -69,7 +69,7 @@ class _Registrations:
     ros_services: Dict[str, RawServiceProxy] = field(default_factory=dict)  # client's service name -> proxy
     unity_services: Set[str] = field(default_factory=set)  # resolved names
 
-    def __len__(self) -> int:
+    def count(self) -> int:
         return len(self.subscriptions) + len(self.publishers) + len(self.ros_services) + len(self.unity_services)
 
 
@@ -356,7 +356,7 @@ class Endpoint:
                     new_on_ros: bool) -> None:
         """Refuse a registration past the client's limit (unless it has this one already) or past the endpoint's
         (when it would make a new ROS object). Called with the lock held."""
-        if not registered and len(self._clients[session]) >= self.config.max_registrations_per_client:
+        if not registered and self._clients[session].count() >= self.config.max_registrations_per_client:
             raise RequestRefused(
                 f"{command} {resolved}: refused, this client has {self.config.max_registrations_per_client} "
                 "registrations already, its limit (--max-registrations-per-client)"

@@ -15,6 +15,7 @@ from tests.integration.bridge_helpers import (
     Inbox,
     RosInbox,
     serialize,
+    settled,
     start_endpoint,
     tcp_client,
     unique,
@@ -23,11 +24,6 @@ from tests.integration.bridge_helpers import (
 from tests.rosenv import wait_for
 
 SEED = 20261123
-
-
-def settled(roscore, node: str) -> None:
-    """The endpoint's own threads all started (the last, /diagnostics' publisher, at its first tick)."""
-    wait_for(lambda: node in roscore.publishers("/diagnostics"), 10, "/diagnostics")
 
 
 # The master's XML-RPC workers (roscore starts three) may each keep a connection to the endpoint's node after calling

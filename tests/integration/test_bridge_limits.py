@@ -3,7 +3,6 @@ descriptors and memory are bounded by the limits, not by what a client asks for,
 from __future__ import annotations
 
 import json
-import os
 import socket
 import time
 from pathlib import Path
@@ -12,27 +11,9 @@ import pytest
 
 from bridge import protocol
 from bridge.protocol import FrameDecoder
-from tests.integration.bridge_helpers import LOOPBACK, RawConnection, start_endpoint, unique
+from tests.chaos import figures
+from tests.integration.bridge_helpers import LOOPBACK, RawConnection, settled, start_endpoint, unique
 from tests.rosenv import wait_for
-
-
-def threads(pid: int) -> int:
-    return len(os.listdir(f"/proc/{pid}/task"))
-
-
-def descriptors(pid: int) -> int:
-    return len(os.listdir(f"/proc/{pid}/fd"))
-
-
-def rss_mib(pid: int) -> float:
-    with open(f"/proc/{pid}/status") as status:
-        line = next(line for line in status if line.startswith("VmRSS:"))
-    return int(line.split()[1]) / 1024
-
-
-def settled(roscore, endpoint, node: str) -> None:
-    """The endpoint's own threads all started (the last, /diagnostics' publisher, at its first tick)."""
-    wait_for(lambda: node in roscore.publishers("/diagnostics"), 10, "/diagnostics")
 
 
 def connect_from(port: int, source: str) -> tuple[socket.socket, protocol.Frame | None]:
@@ -131,19 +112,19 @@ def test_a_registration_flood_is_bounded_and_released_when_the_client_leaves(ros
                                                                              tmp_path: Path) -> None:
     endpoint = start_endpoint(roscore, tmp_path, "--publisher-grace", "0", name="flood_endpoint")
     try:
-        settled(roscore, endpoint, "/flood_endpoint")
-        baseline = threads(endpoint.pid), descriptors(endpoint.pid)
+        settled(roscore, "/flood_endpoint")
+        baseline = figures(endpoint.pid)
         with RawConnection(endpoint.port) as flood:
             for index in range(300):
                 flood.register_publisher(unique(f"flood{index}"), "std_msgs/String")
             flood.sync(timeout=60)
             refused = [text for text in flood.errors() if "--max-registrations-per-client" in text]
             assert len(refused) == 300 - 256
-            during = threads(endpoint.pid), descriptors(endpoint.pid)
-            print(f"threads, descriptors: {baseline} before, {during} with 256 publishers")
-            assert during[0] <= baseline[0] + 256 + 8  # a pump per publisher, the client's reader and writer
-        wait_for(lambda: threads(endpoint.pid) <= baseline[0] and descriptors(endpoint.pid) <= baseline[1], 20,
-                 f"threads and descriptors back to {baseline}")
+            during = figures(endpoint.pid)
+            print(f"{baseline} before, {during} with 256 publishers")
+            assert during.threads <= baseline.threads + 256 + 8  # a pump per publisher, the client's reader, writer
+        wait_for(lambda: figures(endpoint.pid).threads <= baseline.threads
+                 and figures(endpoint.pid).descriptors <= baseline.descriptors, 20, f"back to {baseline}")
     finally:
         endpoint.stop()
 
@@ -151,19 +132,19 @@ def test_a_registration_flood_is_bounded_and_released_when_the_client_leaves(ros
 def test_a_client_that_never_reads_its_answers_costs_a_bounded_amount(roscore, ros_node, tmp_path: Path) -> None:
     endpoint = start_endpoint(roscore, tmp_path, name="unread_endpoint")
     try:
-        settled(roscore, endpoint, "/unread_endpoint")
+        settled(roscore, "/unread_endpoint")
         with RawConnection(endpoint.port, rcvbuf=4096) as silent, RawConnection(endpoint.port) as good:
             for index in range(200):  # a graph whose topic list is some 40 kB
                 good.register_publisher(unique(f"answer_size_{index}_" + "x" * 160), "std_msgs/String")
             good.sync()
-            before = rss_mib(endpoint.pid)
+            before = figures(endpoint.pid).rss_mib
             query = protocol.encode_syscommand("__topic_list", {}) * 50
             deadline = time.monotonic() + 15
             while time.monotonic() < deadline:  # a few thousand answers, of some kB each, never read
                 silent.send(query)
                 time.sleep(0.02)
             good.sync()  # everyone else is still served
-            grown = rss_mib(endpoint.pid) - before
+            grown = figures(endpoint.pid).rss_mib - before
             print(f"endpoint RSS grew {grown:.1f} MiB")
             assert grown < 32
             silent.sock.settimeout(10)

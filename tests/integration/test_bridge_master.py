@@ -15,8 +15,8 @@ from pathlib import Path
 
 import pytest
 
-from bridge.client import ClientError, TcpClient
 from bridge import protocol
+from bridge.client import ClientError, TcpClient
 from tests.integration.bridge_helpers import Inbox, RawConnection, serialize, start_endpoint, tcp_client, unique
 from tests.rosenv import EndpointProcess, NodeProcess, RosCore, wait_for
 

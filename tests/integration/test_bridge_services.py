@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import json
-import os
 import threading
 import time
 
@@ -12,12 +11,14 @@ from std_srvs.srv import SetBool, SetBoolRequest, SetBoolResponse, Trigger, Trig
 
 from bridge import protocol
 from bridge.client import ClientError
+from tests.chaos import figures
 from tests.integration.bridge_helpers import (
     RawConnection,
     RosInbox,
     bridge,  # noqa: F401 - module-scoped endpoint fixture (service timeout 2 s)
     serialize,
     service_exists,
+    settled,
     start_endpoint,
     tcp_client,
     unique,
@@ -356,26 +357,21 @@ def test_calls_in_flight_never_hold_up_the_clients_other_commands(bridge, ros_no
         hung.close()
 
 
-def thread_count(pid: int) -> int:
-    return len(os.listdir(f"/proc/{pid}/task"))
-
-
 def test_a_departed_clients_calls_end_with_it(roscore, ros_node, tmp_path) -> None:
     endpoint = start_endpoint(roscore, tmp_path, "--service-timeout", "60", name="departed_calls_endpoint")
     name = unique("hung_departed")
     hung = HungService(ros_node, name)
     try:
-        # The endpoint's own threads, all started: the last is /diagnostics' publisher, made at the first tick.
-        wait_for(lambda: "/departed_calls_endpoint" in roscore.publishers("/diagnostics"), 10, "/diagnostics")
-        baseline = thread_count(endpoint.pid)
+        settled(roscore, "/departed_calls_endpoint")
+        baseline = figures(endpoint.pid).threads
         with RawConnection(endpoint.port) as client:
             client.command("__ros_service", topic=name, message_name="std_srvs/Trigger")
             for srv_id in range(4):
                 client.command("__request", srv_id=srv_id)
                 client.send_frame(name, b"")
             wait_for(lambda: hung.started >= 4, 10, "calls in flight")
-            assert thread_count(endpoint.pid) > baseline
-        wait_for(lambda: thread_count(endpoint.pid) <= baseline, 5, "the calls' threads to end (deadline is 60 s)")
+            assert figures(endpoint.pid).threads > baseline
+        wait_for(lambda: figures(endpoint.pid).threads <= baseline, 5, "the calls' threads to end (deadline is 60 s)")
     finally:
         hung.close()
         endpoint.stop()
