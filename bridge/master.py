@@ -161,7 +161,7 @@ class MasterLink(rospy_registration.RegistrationListener):
         for longer than one call's timeout."""
         with self._changed:
             self._stopping = True
-            self._changed.notify()
+            self._changed.notify_all()
         if self._thread is not None:
             self._thread.join(timeout=self._timeout_s + 0.5)
 
@@ -186,16 +186,29 @@ class MasterLink(rospy_registration.RegistrationListener):
         rospy_registration.get_topic_manager().close_all()
         rospy_registration.get_service_manager().unregister_all()
 
+    def wait_registered(self, kind: str, name: str, timeout_s: float) -> bool:
+        """Wait (up to `timeout_s`, and not at all while the master is not answering) until the master holds the
+        registration of `name` as a `kind` ("publisher", "subscriber", "service"); whether it does. What a client
+        registers is thus on the graph when its next command runs, as it was when rospy registered synchronously."""
+        deadline = time.monotonic() + timeout_s
+        with self._changed:
+            while not self._book.holds(kind, name):
+                remaining = deadline - time.monotonic()
+                if remaining <= 0 or not self.master_up or self._stopping:
+                    return False
+                self._changed.wait(remaining)
+            return True
+
     # --- rospy's RegistrationListener: called under rospy's locks, so only noted here --------------------------
     def reg_added(self, resolved_name: str, data_type_or_uri: str, reg_type: str) -> None:
         with self._changed:
             self._book.add(Registration(_KIND_OF[reg_type], resolved_name, data_type_or_uri))
-            self._changed.notify()
+            self._changed.notify_all()
 
     def reg_removed(self, resolved_name: str, data_type_or_uri: str, reg_type: str) -> None:
         with self._changed:
             self._book.remove(Registration(_KIND_OF[reg_type], resolved_name, data_type_or_uri))
-            self._changed.notify()
+            self._changed.notify_all()
 
     # --- the link's thread ---------------------------------------------------------------------------------------
     def _run(self) -> None:
@@ -273,7 +286,9 @@ class MasterLink(rospy_registration.RegistrationListener):
         if self.master_up:
             log.warning("%s; the endpoint keeps serving its clients, and registers with the master when it answers",
                         error)
-        self.master_up = False
+        with self._changed:
+            self.master_up = False
+            self._changed.notify_all()  # nobody waits for a registration while the master does not answer
 
     def _settle(self, register: bool = True) -> None:
         """Take back what was withdrawn, then register what is owed; MasterError if the master stops answering."""
@@ -287,6 +302,7 @@ class MasterLink(rospy_registration.RegistrationListener):
             publishers = self._call("register", registration)
             with self._changed:
                 self._book.registered(registration)
+                self._changed.notify_all()  # wait_registered
             if registration.kind == "subscriber" and publishers is not None:
                 self._rospy_registrar.publisher_update(registration.name, publishers)
 

@@ -70,6 +70,11 @@ class RegistrationBook:
         owed = [r for key, r in self._wanted.items() if self._accepted.get(key) != r]
         return sorted(owed, key=lambda r: (KINDS.index(r.kind), r.name))
 
+    def holds(self, kind: str, name: str) -> bool:
+        """Whether the master holds the node's registration of `name` as a `kind` (as the node has it now)."""
+        wanted = self._wanted.get((kind, name))
+        return wanted is not None and self._accepted.get((kind, name)) == wanted
+
     def wanted(self) -> List[Registration]:
         """Every registration the node has now."""
         return list(self._wanted.values())

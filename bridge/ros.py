@@ -54,6 +54,8 @@ SUBSCRIBER_STALL_S = 1.0
 # Largest message written on a client's reader thread (RawPublisher's direct path): far below the smallest send
 # buffer (16 KiB), so an empty, acknowledged send queue always takes it whole.
 DIRECT_PUBLISH_MAX_BYTES = 8 * 1024
+# How long a client's new registration may wait for the master to hold it before its next command runs.
+REGISTRATION_WAIT_S = 1.0
 # A ROS service call looks this often whether its client has gone, and whether the service has been advertised.
 SERVICE_POLL_S = 0.2
 
@@ -320,6 +322,11 @@ class RosGraph:
         ])
         message.header.stamp = rospy.Time.now()
         publisher.publish(message)
+
+    def wait_registered(self, kind: str, name: str) -> None:
+        """Until the master holds a new registration (see MasterLink.wait_registered), REGISTRATION_WAIT_S at most:
+        called on the registering client's reader, outside the endpoint's lock."""
+        self.master.wait_registered(kind, name, REGISTRATION_WAIT_S)
 
     @staticmethod
     def now() -> float:

@@ -193,6 +193,7 @@ class Endpoint:
             for call in self._pending_unity_calls.values():  # ROS callers of clients' services hear at once
                 call.failure = "the endpoint is shutting down"
                 call.done.set()
+        self._wait_for_ros_callers_answered()
         for session in sessions:
             session.close("the endpoint is shutting down", tell_client=True)
         if self._accept_thread is not None:
@@ -200,6 +201,16 @@ class Endpoint:
         if self._housekeeping_thread is not None:
             self._housekeeping_thread.join(timeout=2)
         log.info("endpoint stopped: %s", self.stats())
+
+    def _wait_for_ros_callers_answered(self, timeout_s: float = 1.0) -> None:
+        """Until the ROS calls waiting for clients (just failed) have left for rospy to send their callers the error,
+        before rospy's shutdown closes the connections (else a caller hears only that the connection broke)."""
+        deadline = time.monotonic() + timeout_s
+        while time.monotonic() < deadline:
+            with self._lock:
+                if not self._pending_unity_calls:
+                    return
+            time.sleep(0.01)
 
     def stats(self) -> Dict[str, int]:
         with self._lock:
@@ -336,6 +347,7 @@ class Endpoint:
                 )
             self._check_room(session, "__subscribe", resolved, resolved in self._clients[session].subscriptions,
                              shared is None)
+            created = shared is None
             if shared is None:
                 handle = _made_for_client(
                     lambda: self.ros.make_subscriber(resolved, raw, command.message_name, self._fan_out)
@@ -351,6 +363,8 @@ class Endpoint:
             shared.clients = others + ((session, command.topic, command.queue_size or 0),)
             self._clients[session].subscriptions[resolved] = command.topic
             self._guard_echoes(resolved)
+        if created:
+            self.ros.wait_registered("subscriber", resolved)
 
     def _check_room(self, session: ClientSession, command: str, resolved: str, registered: bool,
                     new_on_ros: bool) -> None:
@@ -400,6 +414,7 @@ class Endpoint:
                 shared = None
             self._check_room(session, "__publish", resolved, command.topic in self._clients[session].publishers,
                              shared is None)
+            created = shared is None
             if shared is None:
                 publisher = _made_for_client(
                     lambda: self.ros.make_publisher(
@@ -413,6 +428,8 @@ class Endpoint:
             shared.unused_since = None
             self._clients[session].publishers[command.topic] = (resolved, shared.publisher)
             self._guard_echoes(resolved)
+        if created:
+            self.ros.wait_registered("publisher", resolved)
 
     def _unregister_publisher(self, session: ClientSession, registrations: _Registrations, client_topic: str,
                               keep_advertised: bool = False) -> None:
@@ -481,6 +498,7 @@ class Endpoint:
             )
             self._unity_services[resolved] = _UnityService(command.message_name, handle, session, command.topic)
             self._clients[session].unity_services.add(resolved)
+        self.ros.wait_registered("service", resolved)
 
     def _unregister_unity_service(self, session: ClientSession, registrations: _Registrations,
                                   resolved: str) -> None:
