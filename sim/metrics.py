@@ -54,10 +54,14 @@ def mape_percent(reference: np.ndarray, achieved: np.ndarray, floor: float = DEF
     return float(100.0 * np.mean(np.abs(achieved[used] - reference[used]) / np.abs(reference[used]))), int(used.sum())
 
 
-def wape_percent(reference: np.ndarray, achieved: np.ndarray) -> float:
+def wape_percent(reference: np.ndarray, achieved: np.ndarray, floor: float = DEFAULT_MAPE_FLOOR) -> float:
+    """sum |e| / sum |ref| in %; NaN for a reference whose mean magnitude is below `floor` (a joint held at zero,
+    where float noise such as 1e-12 rad would otherwise make the ratio 1e10 %)."""
     reference, achieved = _pair(reference, achieved)
-    total = np.sum(np.abs(reference))
-    return float("nan") if total == 0 else float(100.0 * np.sum(np.abs(achieved - reference)) / total)
+    magnitude = np.abs(reference)
+    if np.mean(magnitude) < floor:
+        return float("nan")
+    return float(100.0 * np.sum(np.abs(achieved - reference)) / np.sum(magnitude))
 
 
 def nrmse_percent(reference: np.ndarray, achieved: np.ndarray) -> float:
@@ -103,7 +107,7 @@ def tracking_metrics(
     mape, mape_samples = mape_percent(reference, achieved, mape_floor)
     return TrackingMetrics(
         mape_percent=mape,
-        wape_percent=wape_percent(reference, achieved),
+        wape_percent=wape_percent(reference, achieved, mape_floor),
         nrmse_percent=nrmse_percent(reference, achieved),
         max_abs_error=float(np.max(np.abs(achieved - reference))),
         lag_s=lag_seconds(reference, achieved, dt),

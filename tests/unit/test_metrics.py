@@ -33,6 +33,20 @@ def test_mape_leaves_out_samples_near_zero_instead_of_exploding():
     assert mape_percent(np.zeros(3), np.ones(3))[0] != mape_percent(np.zeros(3), np.ones(3))[0]  # NaN
 
 
+@pytest.mark.parametrize("held_at", [0.0, 1e-12, -3e-7])
+def test_wape_of_a_joint_held_at_zero_is_undefined_not_huge(held_at):
+    """Float noise around zero (a joint held still at 0 rad) once printed WAPE ~ 1e10 %."""
+    reference = np.full(100, held_at)
+    achieved = reference + 1e-6
+    assert np.isnan(wape_percent(reference, achieved))
+    assert np.isnan(tracking_metrics(reference, achieved, dt=0.02).wape_percent)
+
+
+def test_wape_of_a_joint_held_away_from_zero_is_defined():
+    reference = np.full(100, 0.5)
+    assert wape_percent(reference, reference + 0.005) == pytest.approx(1.0)
+
+
 def test_perfect_tracking_is_zero_error_and_zero_lag():
     t = np.arange(0, 10, 0.02)
     reference = np.sin(t)
