@@ -293,12 +293,23 @@ class KinematicChain:
         return bool(np.all(q_arr >= self._lower - tol) and np.all(q_arr <= self._upper + tol))
 
 
-_CHAINS: dict[str, KinematicChain] = {}
+_ChainKey = tuple[str, int, int, str, str, tuple[str, ...], tuple[float, ...], tuple[float, ...]]
+_CHAINS: dict[_ChainKey, KinematicChain] = {}
+
+
+def _chain_key(robot: RobotSpec) -> _ChainKey:
+    """What a chain is made of: the URDF file as it is now (path, modification time, size), the links and joints,
+    and the limits. Never the robot's name: two URDFs may carry one name."""
+    urdf = Path(robot.urdf_path).resolve()
+    stat = urdf.stat()
+    return (str(urdf), stat.st_mtime_ns, stat.st_size, robot.base_link, robot.ee_link, tuple(robot.joint_names),
+            tuple(float(v) for v in robot.lower), tuple(float(v) for v in robot.upper))
 
 
 def chain_for(robot: RobotSpec) -> KinematicChain:
-    """The chain of a `RobotSpec` (cached per robot name), with the spec's joint limits."""
-    chain = _CHAINS.get(robot.name)
+    """The chain of a `RobotSpec`, with the spec's joint limits (cached by what it is made of, see _chain_key)."""
+    key = _chain_key(robot)
+    chain = _CHAINS.get(key)
     if chain is None:
         chain = KinematicChain.from_urdf(robot.urdf_path, robot.base_link, robot.ee_link)
         if chain.joint_names != tuple(robot.joint_names):
@@ -307,7 +318,7 @@ def chain_for(robot: RobotSpec) -> KinematicChain:
                 f"{chain.joint_names}, the registry says {tuple(robot.joint_names)}"
             )
         chain = chain.with_limits(robot.lower, robot.upper)
-        _CHAINS[robot.name] = chain
+        _CHAINS[key] = chain
     return chain
 
 

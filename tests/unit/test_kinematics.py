@@ -55,6 +55,17 @@ def test_chain_matches_the_registry(name):
     assert chain_for(robot) is chain  # cached
 
 
+def test_two_urdfs_with_one_name_never_share_a_chain():
+    import dataclasses
+
+    panda, igt = get_robot("panda"), get_robot("igt")
+    impostor = dataclasses.replace(igt, name="panda")  # igt's URDF under panda's name
+    assert chain_for(impostor).joint_names == igt.joint_names
+    assert chain_for(panda).joint_names == panda.joint_names
+    narrower = dataclasses.replace(panda, upper=panda.upper - 0.1)  # same URDF, other limits: another chain
+    np.testing.assert_array_equal(chain_for(narrower).upper, panda.upper - 0.1)
+
+
 @pytest.mark.parametrize("name", ["panda", "igt"])
 def test_fk_matches_pybullet_link_frames(bullet, name):
     robot = get_robot(name)
