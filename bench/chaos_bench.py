@@ -37,6 +37,7 @@ sys.path[:0] = [str(REPO)]
 from bridge import protocol  # noqa: E402
 from bridge.client import TcpClient  # noqa: E402
 from tests.chaos import LOOPBACK, FuzzStats, ProcessFigures, churn, figures, fuzz_client  # noqa: E402
+from tests.integration.bridge_helpers import settled  # noqa: E402
 from tests.rosenv import EndpointProcess, NodeProcess, RosCore, wait_for  # noqa: E402
 
 PHASES = ("churn", "flood", "unread", "slow", "tokens", "master", "fuzz")
@@ -55,8 +56,7 @@ def endpoint_on_own_core(*options: str, name: str = "chaos_endpoint") -> Iterato
     endpoint = None
     try:
         endpoint = EndpointProcess(core.env, core.tmp, name=name, extra=options)
-        # its own threads all started: the last, /diagnostics' publisher, comes with the first tick
-        wait_for(lambda: f"/{name}" in core.publishers("/diagnostics"), 15, "/diagnostics")
+        settled(core, f"/{name}")
         yield core, endpoint
     finally:
         if endpoint is not None:

@@ -409,8 +409,7 @@ class Endpoint:
                         f"not {command.message_name}"
                     )
                 # Kept advertised after its clients left (see release), but nobody uses it: retype it.
-                del self._publishers[resolved]
-                shared.publisher.unregister()
+                self._end_publisher(resolved)
                 shared = None
             self._check_room(session, "__publish", resolved, command.topic in self._clients[session].publishers,
                              shared is None)
@@ -445,8 +444,7 @@ class Endpoint:
                 if keep_advertised:
                     shared.unused_since = time.monotonic()
                 else:
-                    del self._publishers[entry[0]]
-                    shared.publisher.unregister()
+                    self._end_publisher(entry[0])
             self._guard_echoes(entry[0])
 
     def _end_unused_publishers(self) -> None:
@@ -456,8 +454,11 @@ class Endpoint:
             for resolved, shared in list(self._publishers.items()):
                 if not shared.clients and shared.unused_since is not None \
                         and now - shared.unused_since >= self.config.publisher_grace_s:
-                    del self._publishers[resolved]
-                    shared.publisher.unregister()
+                    self._end_publisher(resolved)
+
+    def _end_publisher(self, resolved: str) -> None:
+        """Take the topic's publisher off the bridge and the graph. Called with the lock held."""
+        self._publishers.pop(resolved).publisher.unregister()
 
     def _register_ros_service(self, session: ClientSession, command: RosService) -> None:
         resolved = self._checked_name(command.topic)
