@@ -14,13 +14,13 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
+from std_msgs.msg import String
 
 from bridge import protocol
 from bridge.client import ClientError, TcpClient
 from tests.integration.bridge_helpers import Inbox, RawConnection, serialize, start_endpoint, tcp_client, unique
 from tests.rosenv import EndpointProcess, NodeProcess, RosCore, wait_for
 
-String = pytest.importorskip("std_msgs.msg").String
 
 
 def trigger_response(message: str) -> bytes:
