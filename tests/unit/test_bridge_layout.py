@@ -4,14 +4,11 @@ from __future__ import annotations
 
 import io
 
+import genpy
 import pytest
-
-genpy = pytest.importorskip("genpy")
-
-from geometry_msgs.msg import Point, Pose, PoseArray, Quaternion  # noqa: E402
-from sensor_msgs.msg import CameraInfo, Image, JointState  # noqa: E402
-from std_msgs.msg import Empty, Header, String  # noqa: E402
-from geometry_msgs.msg import TransformStamped  # noqa: E402
+from geometry_msgs.msg import Point, Pose, PoseArray, Quaternion, TransformStamped
+from sensor_msgs.msg import CameraInfo, Image, JointState
+from std_msgs.msg import Empty, Header, String
 from tf2_msgs.msg import TFMessage  # noqa: E402
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint  # noqa: E402
 
