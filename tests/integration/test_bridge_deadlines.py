@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 from bridge import protocol
-from tests.integration.bridge_helpers import RawConnection, start_endpoint, tcp_client
+from tests.integration.bridge_helpers import ConnectionClosed, RawConnection, start_endpoint, tcp_client
 
 TOKEN = "deadline-secret"
 
@@ -85,20 +85,41 @@ def test_frames_not_yet_complete_share_one_budget(roscore, ros_node, tmp_path: P
 
         with RawConnection(endpoint.port) as first, RawConnection(endpoint.port) as second, \
                 RawConnection(endpoint.port) as good:
-            first.send(header(b"/bt_budget_a") + b"\0" * (5 << 20))  # 5 MiB held of a 6 MiB frame
-            good.sync()  # the endpoint has read it by now (frames are read in order)
-            second.send(header(b"/bt_budget_b") + b"\0" * (5 << 20))  # would make 10 MiB
-            second.expect_error("--max-partial-frame-bytes", timeout=10)
-            second.wait_closed(timeout=10)
-            first.send(b"\0" * (1 << 20))  # the first completes its frame: a message for an unregistered topic
-            first.expect_error("/bt_budget_a", "__publish")
-            first.sync()
+            # 5 MiB of a 6 MiB frame each would make 10 MiB. Each connection has its own reader thread, and sendall
+            # returns once the kernel holds the bytes, so which of the two the endpoint reads first is not ours to
+            # choose: whichever comes second is refused, the other keeps its frame.
+            begun = {first: b"/bt_budget_a", second: b"/bt_budget_b"}
+            for connection, destination in begun.items():
+                try:
+                    connection.send(header(destination) + b"\0" * (5 << 20))
+                except OSError:  # refused (and reset) while sending
+                    pass
+            refused = first_closed([first, second], timeout=20)
+            assert any("--max-partial-frame-bytes" in text for text in refused.errors()), refused.summary()
+            kept = second if refused is first else first
+            kept.send(b"\0" * (1 << 20))  # it completes its frame: a message for an unregistered topic
+            kept.expect_error(begun[kept].decode(), "__publish")
+            kept.sync()
             good.sync()
         with RawConnection(endpoint.port) as later:  # the budget is free again
             later.send(header(b"/bt_budget_c") + b"\0" * big)
             later.expect_error("/bt_budget_c", "__publish")
     finally:
         endpoint.stop()
+
+
+def first_closed(connections: list[RawConnection], timeout: float) -> RawConnection:
+    """The first of `connections` the endpoint closes, reading (and keeping) their frames meanwhile."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        for connection in connections:
+            try:
+                connection.next_frame(0.05)
+            except TimeoutError:
+                continue
+            except ConnectionClosed:
+                return connection
+    raise TimeoutError(f"none of the connections was closed within {timeout} s")
 
 
 pytestmark = pytest.mark.timeout(120)

@@ -130,7 +130,9 @@ def test_a_registration_flood_is_bounded_and_released_when_the_client_leaves(ros
 
 
 def test_a_client_that_never_reads_its_answers_costs_a_bounded_amount(roscore, ros_node, tmp_path: Path) -> None:
-    endpoint = start_endpoint(roscore, tmp_path, name="unread_endpoint")
+    # 15 s of a shut receive window would pass the default --dead-peer-timeout (10 s), after which Linux gives the
+    # client up as documented (TCP_USER_TIMEOUT counts window probes): the bound on memory is what is tested here.
+    endpoint = start_endpoint(roscore, tmp_path, "--dead-peer-timeout", "60", name="unread_endpoint")
     try:
         settled(roscore, "/unread_endpoint")
         with RawConnection(endpoint.port, rcvbuf=4096) as silent, RawConnection(endpoint.port) as good:
