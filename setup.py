@@ -9,13 +9,17 @@ setup(
     # packages and installs the ROS way, through the catkin package catkin_ws/src/ros_tcp_endpoint.
     python_requires=">=3.11",
     packages=find_packages(include=["bridge", "bridge.*", "sim", "sim.*"]),
-    package_data={"bridge": ["py.typed"], "sim": ["py.typed"], "sim.robots": ["urdf/*.urdf"]},
+    package_data={
+        "bridge": ["py.typed"], "sim": ["py.typed"], "sim.robots": ["*.yaml", "urdf/*.urdf"], "sim.study": ["*.yaml"],
+    },
     install_requires=[
         "numpy>=1.24",
         "pybullet>=3.2.5",
         "rosbags>=0.9.20",
         "matplotlib>=3.6",
         "tqdm>=4.60",
+        "PyYAML>=5.4",
+        "scipy>=1.10",
     ],
     extras_require={"dev": ["pytest>=7", "hypothesis>=6", "pytest-timeout>=2", "mypy>=1.5"]},
     entry_points={

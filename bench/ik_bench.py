@@ -1,7 +1,8 @@
 """IK benchmark: success rate and solve times of sim.kinematics on the Panda and the igt, against the targets.
 
-Run: .venv/bin/python bench/ik_bench.py [--targets 500] [--seed 0]
+Run: .venv/bin/python bench/ik_bench.py [--targets 500] [--seed 0] [--robots path/to/arm.urdf ...]
 Every case solves IK for FK poses of random configurations within the datasheet limits, so all are reachable.
+`--robots` adds a near-seed case per robot, on the axes its chain controls (sim.scenario_defaults).
 """
 from __future__ import annotations
 
@@ -18,7 +19,8 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from sim.kinematics import PLANAR_WEIGHTS, IKResult, chain_for, planar_pose, solve_ik, solve_path_ik  # noqa: E402
-from sim.robots import RobotSpec, get_robot  # noqa: E402
+from sim.robots import RobotSpec, load_robot  # noqa: E402
+from sim.scenario_defaults import controllable_weights, describe_axes  # noqa: E402
 
 NEAR_SEED_NOISE = 0.1  # rad (m for the rail): how far the warm start is from a solution
 RESTARTS = 20  # for cold starts
@@ -67,7 +69,7 @@ def _run_case(
 
 
 def _panda_cases(n: int, seed: int) -> list[CaseResult]:
-    panda = get_robot("panda")
+    panda = load_robot("panda")
     chain = chain_for(panda)
     return [
         _run_case(
@@ -90,7 +92,7 @@ def _panda_cases(n: int, seed: int) -> list[CaseResult]:
 
 
 def _igt_case(n: int, seed: int) -> CaseResult:
-    igt = get_robot("igt")
+    igt = load_robot("igt")
     chain = chain_for(igt)
 
     def solve(pose: np.ndarray, q0: np.ndarray, rng: np.random.Generator) -> IKResult:
@@ -100,9 +102,20 @@ def _igt_case(n: int, seed: int) -> CaseResult:
     return _run_case("igt x, y, yaw, near seed", igt, n, seed + 4, solve, True, 1.0)
 
 
+def _robot_case(reference: str, n: int, seed: int) -> CaseResult:
+    robot = load_robot(reference)
+    chain = chain_for(robot)
+    weights = controllable_weights(chain, robot.home)
+
+    def solve(pose: np.ndarray, q0: np.ndarray, rng: np.random.Generator) -> IKResult:
+        return solve_ik(chain, pose, q0, weights=weights)
+
+    return _run_case(f"{robot.name} {describe_axes(weights)}, near seed", robot, n, seed + 5, solve, True, 0.99)
+
+
 def _path_case(points: int, repeats: int) -> tuple[float, float, float, bool]:
     """Median time (ms) of a warm-started straight-line path, its max joint jump, the per-point time, all solved."""
-    panda = get_robot("panda")
+    panda = load_robot("panda")
     chain = chain_for(panda)
     start = chain.fk(panda.home)
     targets = []
@@ -124,11 +137,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--targets", type=int, default=500, help="targets per case")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--path-points", type=int, default=250)
+    parser.add_argument("--robots", nargs="*", default=[], metavar="ROBOT", help="more robots: URDF or YAML paths")
     args = parser.parse_args(argv)
 
     cases = _panda_cases(args.targets, args.seed) + [_igt_case(args.targets, args.seed)]
+    cases += [_robot_case(reference, args.targets, args.seed) for reference in args.robots]
     all_met = True
-    header = f"{'case':<46} {'success':>8} {'target':>8} {'median ms':>10} {'target':>8} {'p95 ms':>8}"
+    header = f"{'case':<52} {'success':>8} {'target':>8} {'median ms':>10} {'target':>8} {'p95 ms':>8}"
     print(f"IK benchmark, {args.targets} targets per case (numpy {np.__version__})")
     print(header)
     print("-" * len(header))
@@ -139,7 +154,7 @@ def main(argv: list[str] | None = None) -> int:
         all_met = all_met and met
         median_target = f"≤{case.median_target_ms:.2f}" if case.median_target_ms is not None else "-"
         print(
-            f"{case.name:<46} {100 * case.success_rate:>7.1f}% {'≥' + format(100 * case.success_target, '.1f') + '%':>8} "
+            f"{case.name:<52} {100 * case.success_rate:>7.1f}% {'≥' + format(100 * case.success_target, '.1f') + '%':>8} "
             f"{case.median_ms:>10.3f} {median_target:>8} {case.p95_ms:>8.3f}{'' if met else '  MISSED'}"
         )
 

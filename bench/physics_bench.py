@@ -30,7 +30,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from sim.metrics import DEFAULT_MAPE_FLOOR, tracking_metrics  # noqa: E402
 from sim.physics import Mode, PhysicsWorld  # noqa: E402
-from sim.robots import ROBOT_NAMES, get_robot  # noqa: E402
+from sim.robots import ROBOT_NAMES, RobotSpec, load_robot  # noqa: E402
 from sim.trajectory import PolynomialTrajectory  # noqa: E402
 
 DT = 0.02
@@ -39,9 +39,8 @@ MAPE_TARGET_PERCENT = 0.05
 SEED_WAYPOINTS_J1 = [0.25, 1.0, 2.75, 1.5, -2.0, -2.45]  # rad, one every 2 s
 
 
-def real_time_factor(robot_name: str, mode: Mode, steps: int) -> tuple[float, float]:
+def real_time_factor(robot: RobotSpec, mode: Mode, steps: int) -> tuple[float, float]:
     """(sim s per wall s, wall µs per step) stepping towards a slow sine around home."""
-    robot = get_robot(robot_name)
     amplitude = np.where(np.array(robot.joint_types) == "prismatic", 0.05, 0.3)
     with PhysicsWorld(robot, mode=mode, dt=DT) as world:
         start = time.perf_counter()
@@ -66,7 +65,7 @@ def seed_reference() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 def track(mode: Mode, positions: np.ndarray, velocities: np.ndarray, lead: int = 0) -> np.ndarray:
     """Achieved positions at every step end; `lead` = -1 passes each target one step early."""
-    robot = get_robot("panda")
+    robot = load_robot("panda")
     with PhysicsWorld(robot, mode=mode, dt=DT, q0=positions[0]) as world:
         achieved = [world.state().positions]
         for k in range(1, len(positions)):
@@ -83,15 +82,18 @@ def _fmt(value: float, spec: str) -> str:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--steps", type=int, default=1000, help="steps per real-time-factor measurement")
+    parser.add_argument("--robots", nargs="+", default=list(ROBOT_NAMES), metavar="ROBOT",
+                        help="names or URDF / robot YAML paths (default: the bundled robots)")
     args = parser.parse_args(argv)
+    robots = [load_robot(reference) for reference in args.robots]
 
     print(f"Real-time factor at dt = {DT} s ({args.steps} steps, moving target)")
-    print(f"{'robot':<7}{'mode':<20}{'RTF':>10}{'µs/step':>10}   target")
-    for robot_name in ROBOT_NAMES:
+    print(f"{'robot':<10}{'mode':<20}{'RTF':>10}{'µs/step':>10}   target")
+    for robot in robots:
         for mode in Mode:
-            rtf, micros = real_time_factor(robot_name, mode, args.steps)
+            rtf, micros = real_time_factor(robot, mode, args.steps)
             target = f">= {RTF_TARGET:g}  {'met' if rtf >= RTF_TARGET else 'MISSED'}" if mode is Mode.PHYSICS else "-"
-            print(f"{robot_name:<7}{mode.value:<20}{rtf:>10.0f}{micros:>10.1f}   {target}")
+            print(f"{robot.name:<10}{mode.value:<20}{rtf:>10.0f}{micros:>10.1f}   {target}")
 
     times, reference, velocities = seed_reference()
     print(f"\nTracking, seed's test (Panda joint 1 through {SEED_WAYPOINTS_J1} rad every 2 s, quintic; other joints 0)")

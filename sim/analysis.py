@@ -8,10 +8,11 @@ numbers per publisher and the endpoint passes through unchanged.
 """
 from __future__ import annotations
 
+import csv
 import logging
 from collections import defaultdict
-from collections.abc import Iterable, Sequence
-from dataclasses import dataclass, field
+from collections.abc import Sequence
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -24,8 +25,8 @@ from sim.robots import RobotSpec
 
 __all__ = [
     "STATE_LEAD_TOLERANCE_S", "MOVING_JOINT_RANGE", "AnalysisError", "TrialSeries", "TrialResult", "read_bag",
-    "read_csv_pair", "align", "trial_metrics", "summary_rows", "markdown_table", "write_report", "write_plots",
-    "plot_ee_paths", "analyse_bags",
+    "read_csv_pair", "scenario_start", "without_approach", "align", "trial_metrics", "summary_rows", "markdown_table", "write_report", "write_plots",
+    "plot_ee_paths",
 ]
 
 log = logging.getLogger(__name__)
@@ -121,6 +122,23 @@ def read_bag(path: Path, robot: RobotSpec) -> TrialSeries:
         states_published=_seq_span(state_seq),
         recorded_states=len(state_seq),
     )
+
+
+def scenario_start(commander_log: Path) -> float:
+    """The stamp of the scenario's first sample, from the commander's log: rows before it (phase "approach") only
+    bring the robot from wherever it was to the scenario's start, and are no part of the scenario."""
+    with commander_log.open(newline="") as handle:
+        for row in csv.DictReader(handle):
+            if row.get("phase") != "approach":
+                return float(row["time"])
+    raise AnalysisError(f"{commander_log}: no scenario row")
+
+
+def without_approach(series: TrialSeries, start_s: float) -> TrialSeries:
+    """`series` from the scenario's first sample on (see `scenario_start`); message counts are kept."""
+    desired, achieved = series.desired_t >= start_s - 1e-9, series.achieved_t >= start_s - 1e-9
+    return replace(series, desired_t=series.desired_t[desired], desired_q=series.desired_q[desired],
+                   achieved_t=series.achieved_t[achieved], achieved_q=series.achieved_q[achieved])
 
 
 def _header_seq(raw: bytes) -> int:
@@ -324,12 +342,3 @@ def plot_ee_paths(
     figure.savefig(path, dpi=90)
     plt.close(figure)
     return path
-
-
-def analyse_bags(entries: Iterable[tuple[str, str, int, Path]], robots: dict[str, RobotSpec], dt: float) -> list[TrialResult]:
-    """entries: (robot, use_case, trial, bag path) -> one TrialResult each."""
-    results = []
-    for robot_name, use_case, trial, bag in entries:
-        series = read_bag(bag, robots[robot_name])
-        results.append(TrialResult(robot_name, use_case, trial, trial_metrics(series, dt), series.lost_messages, series))
-    return results

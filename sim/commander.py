@@ -50,7 +50,7 @@ import numpy as np
 
 from sim.cli_values import CliValueError, parse_numbers
 from sim.frames import matrix_to_quat, quat_to_euler_xyz
-from sim.robots import ROBOT_NAMES, RobotError, RobotSpec, get_robot
+from sim.robots import RobotError, RobotSpec, add_robot_arguments, robot_from_args
 from sim.run_log import RunResult, write_log
 from sim.run_summary import format_fk_confirm, format_summary
 from sim.scenarios import (
@@ -96,7 +96,7 @@ def _parser() -> argparse.ArgumentParser:
         "negative number: use spaces (--waypoints -2 1) or '=' (--waypoints=-2,1). Defaults of every scenario: "
         "see `python -c 'import sim.scenarios; help(sim.scenarios)'`.",
     )
-    parser.add_argument("--robot", default="panda", help=f"one of {', '.join(ROBOT_NAMES)} (default panda)")
+    add_robot_arguments(parser)
     parser.add_argument("--scenario", required=True, help=f"one of {', '.join(SCENARIOS)}")
     group = parser.add_argument_group("scenario options")
     group.add_argument("--positions", nargs="+", metavar="Q", help="single: joint positions (default: home)")
@@ -105,8 +105,10 @@ def _parser() -> argparse.ArgumentParser:
     group.add_argument("--times", nargs="+", metavar="T", help="one_joint: waypoint times in s (default: every 2 s from 0)")
     group.add_argument("--order", default="quintic", help=f"polynomial order: {' | '.join(ORDERS)} (default quintic)")
     group.add_argument("--start", nargs="+", metavar="X", help="IK: start position in m (default: the home end-effector position)")
-    group.add_argument("--goal", nargs="+", metavar="X", help="IK: goal position in m (igt: x y)")
-    group.add_argument("--goal-rpy", nargs="+", metavar="A", help="IK: goal XYZ Euler angles in rad (panda: full-pose IK)")
+    group.add_argument("--goal", nargs="+", metavar="X", help="IK: goal position in m (x y where z is not controlled, e.g. igt)")
+    group.add_argument("--goal-rpy", nargs="+", metavar="A", help="IK: goal XYZ Euler angles in rad (IK on every axis the robot controls)")
+    group.add_argument("--weights", nargs="+", metavar="W",
+                       help="IK: weights of x, y, z, roll, pitch, yaw (default: the axes the robot controls)")
     group.add_argument("--move-time", type=float, default=IK_MOVE_TIME_S, help=f"IK: motion time in s (default {IK_MOVE_TIME_S:g})")
     group.add_argument("--hold", type=float, default=IK_HOLD_S, help=f"IK: hold at the goal in s (default {IK_HOLD_S:g})")
     group.add_argument("--space", help=f"ik_orientation / fk_confirm: {' | '.join(SPACES)}")
@@ -145,6 +147,7 @@ def config_from_args(args: argparse.Namespace) -> ScenarioConfig:
         start=parse_numbers(args.start, "--start"),
         goal=parse_numbers(args.goal, "--goal"),
         goal_rpy=parse_numbers(args.goal_rpy, "--goal-rpy"),
+        weights=parse_numbers(args.weights, "--weights"),
         move_time=args.move_time,
         hold=args.hold,
         space=args.space,
@@ -422,7 +425,7 @@ def main(argv: list[str] | None = None) -> int:
     raw = [a for a in raw if not a.startswith("__name:=") and not a.startswith("__log:=")]
     args = _parser().parse_args(raw)
     try:
-        robot = get_robot(args.robot)
+        robot = robot_from_args(args)
         if args.scenario not in SCENARIOS:
             raise ScenarioError(f"unknown scenario {args.scenario!r}; known: {', '.join(SCENARIOS)}")
         if args.export_only and args.export_csv is None:

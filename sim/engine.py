@@ -27,8 +27,8 @@ from sim import frames, rosmsgs
 from sim.clock import ClockAdvance, StepClock
 from sim.commands import CommandBuffer
 from sim.jointcsv import read_joint_csv, write_joint_csv
-from sim.physics import DriveParams, Mode, PhysicsWorld, SimulatedJointState, render_gif
-from sim.robots import RobotSpec, get_robot
+from sim.physics import Mode, PhysicsError, PhysicsWorld, SimulatedJointState, render_gif
+from sim.robots import RobotSpec, add_robot_arguments, robot_from_args
 
 __all__ = [
     "POSE_QUATERNION", "POSE_EULER", "EngineError", "EngineOptions", "make_world", "TargetMarker",
@@ -59,12 +59,20 @@ class EngineOptions:
     stiffness: float | None = None
     damping: float | None = None
     force_limit: float | None = None
+    gravity_feedforward: bool = True
 
 
-def make_world(robot: RobotSpec, options: EngineOptions) -> PhysicsWorld:
-    drive = DriveParams.for_robot(robot)
-    drive = drive.with_overrides(stiffness=options.stiffness, damping=options.damping, force_limit=options.force_limit)
-    return PhysicsWorld(robot, mode=options.mode, dt=options.dt, drive=drive)
+def make_world(robot: RobotSpec, options: EngineOptions, shapes: bool = False) -> PhysicsWorld:
+    """The engine's physics world; `shapes` for pictures (--render)."""
+    world = PhysicsWorld(robot, mode=options.mode, dt=options.dt, gravity_feedforward=options.gravity_feedforward,
+                         shapes=shapes)
+    try:
+        world.set_drive(world.drive.with_overrides(stiffness=options.stiffness, damping=options.damping,
+                                                   force_limit=options.force_limit))
+    except PhysicsError:
+        world.close()
+        raise
+    return world
 
 
 @dataclass(frozen=True)
@@ -127,7 +135,7 @@ class EngineStandIn:
         self.recorder = recorder
         self.client = client
         self.options = options
-        self.world = make_world(robot, options)
+        self.world = make_world(robot, options, shapes=recorder is not None)
         self.commands = CommandBuffer(self.world.state().positions)
         self.clock = StepClock(options.dt, options.auto_simulate, options.time_scale, options.max_clock_jump_s)
         self.marker: TargetMarker | None = None
@@ -280,7 +288,7 @@ def replay_csv(
     """Drive the physics through the CSV's positions: linear in time, the path's velocity as feed-forward."""
     times, names, desired = read_joint_csv(csv_in, robot)
     columns = [robot.joint_names.index(name) for name in names]
-    with make_world(robot, options) as world:
+    with make_world(robot, options, shapes=recorder is not None) as world:
         start = world.state().positions.copy()
         if times[0] <= 0:
             start[columns] = desired[0]
@@ -306,7 +314,7 @@ def replay_csv(
 
 def argument_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="python -m sim.engine", description=__doc__.splitlines()[0])
-    parser.add_argument("--robot", default="panda")
+    add_robot_arguments(parser)
     parser.add_argument("--host", default="127.0.0.1", help="endpoint address")
     parser.add_argument("--port", type=int, default=10000, help="endpoint port")
     parser.add_argument("--mode", choices=[m.value for m in Mode], default=Mode.PHYSICS.value)
@@ -318,6 +326,8 @@ def argument_parser() -> argparse.ArgumentParser:
     parser.add_argument("--stiffness", type=float, help="drive stiffness for every joint (N·m/rad or N/m)")
     parser.add_argument("--damping", type=float, help="drive damping for every joint (N·m·s/rad or N·s/m)")
     parser.add_argument("--force-limit", type=float, help="drive force limit for every joint")
+    parser.add_argument("--no-gravity-feedforward", action="store_true",
+                        help="physics mode: the drives do not add the gravity torque (Unity's drives do not)")
     parser.add_argument("--duration", type=float, help="stop after this much sim time (s)")
     parser.add_argument("--csv", type=Path, help="offline: replay desired positions from this CSV (no ROS, no TCP)")
     parser.add_argument("--log", type=Path, default=Path("logged_test_data.csv"), help="offline: achieved positions")
@@ -335,6 +345,7 @@ def options_from_args(args: argparse.Namespace) -> EngineOptions:
         mode=Mode(args.mode), dt=args.dt, auto_simulate=not args.no_auto_simulate, time_scale=args.time_scale,
         max_clock_jump_s=args.max_clock_jump, pose_convention=args.pose_convention,
         stiffness=args.stiffness, damping=args.damping, force_limit=args.force_limit,
+        gravity_feedforward=not args.no_gravity_feedforward,
     )
 
 
@@ -342,7 +353,7 @@ def main(argv: list[str] | None = None) -> int:
     args = argument_parser().parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="[%(levelname)s] [%(name)s] %(message)s", stream=sys.stderr)
     try:
-        robot = get_robot(args.robot)
+        robot = robot_from_args(args)
         options = options_from_args(args)
         recorder = FrameRecorder(args.render, options.dt) if args.render is not None else None
         if args.csv is not None:

@@ -1,6 +1,6 @@
 """Forward kinematics, geometric Jacobian and numerical inverse kinematics of serial chains read from URDF.
 
-Pure numpy; the only I/O is parsing the URDF once (xml.etree). Conventions:
+Pure numpy; the only I/O is reading the URDF once (parsed by sim.robots.urdf_model). Conventions:
 
 * Transforms are 4x4 homogeneous matrices from the chain's base link to a link.
 * URDF joint origins: translation xyz, then fixed-axis roll-pitch-yaw, R = Rz(y)·Ry(p)·Rx(r).
@@ -27,7 +27,6 @@ the norm of the selected components of its rotation vector. For `planar_pose` ta
 from __future__ import annotations
 
 import math
-import xml.etree.ElementTree as ET
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -37,7 +36,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from sim.frames import quat_to_matrix, rpy_to_matrix
-from sim.robots import RobotSpec
+from sim.robots import RobotError, RobotSpec
+from sim.robots.urdf_model import parse_urdf
 
 __all__ = [
     "MOVABLE_TYPES", "FULL_POSE_WEIGHTS", "POSITION_WEIGHTS", "PLANAR_WEIGHTS", "DEFAULT_DAMPING_BIAS",
@@ -98,15 +98,6 @@ def _skew(v: np.ndarray) -> np.ndarray:
     return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
 
 
-def _parse_floats(text: str | None, default: tuple[float, ...], what: str) -> np.ndarray:
-    if text is None:
-        return np.array(default, dtype=float)
-    values = np.array([float(v) for v in text.split()])
-    if values.shape != (len(default),):
-        raise KinematicsError(f"{what} must have {len(default)} numbers, got {text!r}")
-    return values
-
-
 class KinematicChain:
     """A serial chain of movable joints from `base_link` to `ee_link`."""
 
@@ -151,51 +142,30 @@ class KinematicChain:
         """Parse `urdf_path` and build the chain base_link → ee_link; `joint_names`, if given, must equal
         the chain's movable joints in order."""
         try:
-            root = ET.parse(str(urdf_path)).getroot()
-        except (OSError, ET.ParseError) as exc:
+            model = parse_urdf(Path(urdf_path).read_text(encoding="utf-8"), str(urdf_path))
+            path = model.path(base_link, ee_link)
+        except (OSError, UnicodeDecodeError) as exc:
             raise KinematicsError(f"cannot read URDF {urdf_path}: {exc}") from exc
-        by_child: dict[str, ET.Element] = {}
-        for joint in root.iter("joint"):
-            child = joint.find("child")
-            if child is not None and joint.get("type") is not None:
-                by_child[child.get("link", "")] = joint
-
-        path: list[ET.Element] = []  # joints from ee_link up to base_link
-        link = ee_link
-        while link != base_link:
-            above = by_child.get(link)
-            if above is None:
-                raise KinematicsError(f"link {ee_link!r} is not below base_link {base_link!r} in {urdf_path}")
-            path.append(above)
-            parent = above.find("parent")
-            link = parent.get("link", "") if parent is not None else ""
-        path.reverse()
+        except RobotError as exc:
+            raise KinematicsError(str(exc)) from exc
 
         joints: list[ChainJoint] = []
         pending = np.eye(4)  # fixed transforms accumulated since the last movable joint
         for joint in path:
-            name, jtype = joint.get("name", "?"), joint.get("type")
-            origin_el = joint.find("origin")
-            xyz = _parse_floats(origin_el.get("xyz") if origin_el is not None else None, (0.0,) * 3, f"{name} xyz")
-            rpy = _parse_floats(origin_el.get("rpy") if origin_el is not None else None, (0.0,) * 3, f"{name} rpy")
             origin = np.eye(4)
-            origin[:3, :3] = rpy_to_matrix(*rpy)
-            origin[:3, 3] = xyz
+            origin[:3, :3] = rpy_to_matrix(*joint.rpy)
+            origin[:3, 3] = joint.xyz
             pending = pending @ origin
-            if jtype == "fixed":
+            if joint.joint_type == "fixed":
                 continue
-            if jtype not in MOVABLE_TYPES:
-                raise KinematicsError(f"joint {name!r} has unsupported type {jtype!r} (supported: fixed, {MOVABLE_TYPES})")
-            axis_el = joint.find("axis")
-            axis = _parse_floats(axis_el.get("xyz") if axis_el is not None else None, (1.0, 0.0, 0.0), f"{name} axis")
-            norm = float(np.linalg.norm(axis))
-            if norm < 1e-12:
-                raise KinematicsError(f"joint {name!r} has a zero axis")
+            if joint.joint_type not in MOVABLE_TYPES:
+                raise KinematicsError(f"joint {joint.name!r} has unsupported type {joint.joint_type!r} "
+                                      f"(supported: fixed, {MOVABLE_TYPES})")
             lower, upper = -math.inf, math.inf
-            limit = joint.find("limit")
-            if jtype != "continuous" and limit is not None:
-                lower, upper = float(limit.get("lower", "-inf")), float(limit.get("upper", "inf"))
-            joints.append(ChainJoint(name, jtype, pending, axis / norm, lower, upper))
+            if joint.joint_type != "continuous" and joint.limit is not None:
+                lower = -math.inf if joint.limit.lower is None else joint.limit.lower
+                upper = math.inf if joint.limit.upper is None else joint.limit.upper
+            joints.append(ChainJoint(joint.name, joint.joint_type, pending, np.array(joint.axis), lower, upper))
             pending = np.eye(4)
 
         chain = cls(joints, pending, base_link, ee_link)

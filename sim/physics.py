@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import logging
 import math
+import tempfile
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from enum import Enum
@@ -36,10 +37,11 @@ from pathlib import Path
 import numpy as np
 import pybullet as p
 
-from sim.robots import RobotSpec
+from sim.robots import RobotSpec, find_ros_package
+from sim.robots.meshes import resolve_shapes, without_shapes
 
 __all__ = [
-    "GRAVITY", "PhysicsError", "Mode", "DriveParams", "implicit_drive_step", "SimulatedJointState",
+    "GRAVITY", "DEFAULT_STIFFNESS", "PhysicsError", "Mode", "DriveParams", "implicit_drive_step", "SimulatedJointState",
     "PhysicsWorld", "render_gif",
 ]
 
@@ -61,28 +63,24 @@ class Mode(str, Enum):
 # --------------------------------------------------------------------------------------------------------------
 # Drive parameters
 
-# Per-robot defaults (Unity ArticulationDrive units: N·m/rad, N·m·s/rad, N·m; N/m, N·s/m, N for prismatic joints).
-# Stiffness: as stiff as Unity users set position drives (1e4–1e5), which the implicit drive keeps stable at any dt.
-# Damping: 2·sqrt(stiffness · M_ii) with M_ii the joint's inertia at the robot's home pose, i.e. critically damped
-# in continuous time (rounded), so the response does not depend on dt (backward Euler adds numerical damping of
-# its own, which shrinks with dt). With these values joint 1 of the seed's test tracks to ~0.01 % MAPE. Less damping
-# tracks closer still (damping weighs the end-of-step velocity feed-forward, which differs from the step's mean
-# velocity by ~dt·acceleration/2, against the position target: D = 100 gives ~0.0004 %), but the drive is then
-# under-damped and rings after disturbances once dt is small.
-# Force limit: the robot's rated max_effort. The seed's test needs at most ~6.3 N·m on Panda joint 1 (87 N·m
-# allowed), so the limit never binds there; a step target saturates the drive, as it would on the real robot.
-_DEFAULT_STIFFNESS = {
-    "panda": np.array([1e5, 1e5, 1e5, 1e5, 1e5, 1e5, 1e5]),
-    "igt": np.array([1e5, 1e5, 1e5]),
-}
-_DEFAULT_DAMPING = {
-    # M_ii(home) ≈ [1.56, 2.35, 1.78, 1.65, 0.83, 0.74, 0.60] kg·m² (pybullet_data's panda.urdf inertias)
-    "panda": np.array([790.0, 970.0, 840.0, 810.0, 580.0, 540.0, 490.0]),
-    # M_ii(home) ≈ [10.7 kg, 0.54 kg·m², 0.044 kg·m²]
-    "igt": np.array([2070.0, 460.0, 130.0]),
-}
-_FALLBACK_STIFFNESS = 1e5  # robots without a tuned entry: stiff, with damping for a 1 kg·m² joint
-_FALLBACK_DAMPING = 630.0
+# Defaults for any robot, from its model (Unity ArticulationDrive units: N·m/rad, N·m·s/rad, N·m; N/m, N·s/m, N for
+# prismatic joints):
+# Stiffness: DEFAULT_STIFFNESS on every joint, as stiff as Unity users set position drives (1e4–1e5), which the
+# implicit drive keeps stable at any dt.
+# Damping: 2·sqrt(stiffness · M_ii) with M_ii the joint's inertia at the robot's home pose (pybullet's mass
+# matrix), i.e. critically damped in continuous time, so the response does not depend on dt (backward Euler adds
+# numerical damping of its own, which shrinks with dt). For the Panda, M_ii(home) ≈ [1.56, 2.35, 1.78, 1.65, 0.83,
+# 0.74, 0.60] kg·m² gives ≈ [790, 970, 840, 810, 580, 540, 490]. With these values joint 1 of the seed's test tracks
+# to ~0.01 % MAPE. Less damping tracks closer still (damping weighs the end-of-step velocity feed-forward, which
+# differs from the step's mean velocity by ~dt·acceleration/2, against the position target: D = 100 gives
+# ~0.0004 %), but the drive is then under-damped and rings after disturbances once dt is small.
+# Force limit: the robot's rated max_effort (unlimited where its URDF states none). The seed's test needs at most
+# ~6.3 N·m on Panda joint 1 (87 N·m allowed), so the limit never binds there; a step target saturates the drive,
+# as it would on the real robot.
+# Gravity feed-forward (physics mode, on by default): the drive adds the gravity torque g(q) of the measured state,
+# as a real position controller with a model does, so a heavy link does not sag by m·g/K (a 20 kg vertical lift at
+# K = 1e5 N/m would sit 2 mm low). The force limit bounds the sum.
+DEFAULT_STIFFNESS = 1e5
 
 
 @dataclass(frozen=True)
@@ -94,12 +92,12 @@ class DriveParams:
     force_limit: np.ndarray  # N·m or N, the largest |drive force|; inf = unlimited
 
     @classmethod
-    def for_robot(cls, robot: RobotSpec) -> "DriveParams":
-        """The documented defaults for `robot` (see _DEFAULT_STIFFNESS / _DEFAULT_DAMPING above)."""
-        stiffness = _DEFAULT_STIFFNESS.get(robot.name, np.full(robot.dof, _FALLBACK_STIFFNESS))
-        damping = _DEFAULT_DAMPING.get(robot.name, np.full(robot.dof, _FALLBACK_DAMPING))
-        return cls(np.array(stiffness, dtype=float), np.array(damping, dtype=float),
-                   np.array(robot.max_effort, dtype=float))
+    def for_robot(cls, robot: RobotSpec, home_inertia: np.ndarray) -> "DriveParams":
+        """The defaults for `robot` (see DEFAULT_STIFFNESS above), `home_inertia` being the diagonal of its mass
+        matrix at home (`PhysicsWorld.home_inertia()`)."""
+        stiffness = np.full(robot.dof, DEFAULT_STIFFNESS)
+        damping = 2.0 * np.sqrt(stiffness * np.maximum(np.asarray(home_inertia, dtype=float), 0.0))
+        return cls(stiffness, damping, np.array(robot.max_effort, dtype=float))
 
     def with_overrides(
         self, stiffness: float | None = None, damping: float | None = None, force_limit: float | None = None
@@ -140,6 +138,7 @@ def implicit_drive_step(
     drive: DriveParams,
     dt: float,
     bias_jacobian: np.ndarray | None = None,
+    feedforward: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """(v⁺, F): next velocity and drive force of one backward-Euler step of M·q̈ + c(q, q̇) = F.
 
@@ -158,10 +157,14 @@ def implicit_drive_step(
     backtracking on |residual|²: exact in a few iterations. Clamping joints one by one instead can cycle or settle
     on a wrong set of clamped joints, which feeds the robot energy (seen: NaN within seconds on a far step target).
     v⁺ is finally recomputed from the forces so that M·(v⁺ − v)/dt = F − c holds to rounding.
+
+    feedforward (optional): a force added to the drive law before the limit, e.g. the gravity torque g(q).
     """
     stiffness, damping, limit = drive.stiffness, drive.damping, drive.force_limit
     inertia = mass if bias_jacobian is None else mass + dt * bias_jacobian
     spring = stiffness * (target - q) + damping * target_velocity  # the drive's terms that do not depend on v⁺
+    if feedforward is not None:
+        spring = spring + feedforward
     slope = dt * stiffness + damping  # the drive law is spring − slope·v⁺
     momentum = inertia @ v - dt * bias
     v_next = np.linalg.solve(inertia + dt * np.diag(slope), momentum + dt * spring)  # the unlimited solution
@@ -221,6 +224,8 @@ class PhysicsWorld:
         drive: DriveParams | None = None,
         gravity: bool = True,
         q0: Sequence[float] | np.ndarray | None = None,
+        gravity_feedforward: bool = True,
+        shapes: bool = False,
     ) -> None:
         if not (isinstance(dt, (int, float)) and math.isfinite(dt) and dt > 0):
             raise PhysicsError(f"dt must be a finite number > 0 s, got {dt!r}")
@@ -230,13 +235,25 @@ class PhysicsWorld:
         self.mode = Mode(mode)
         self.dt = float(dt)
         self.substeps = substeps
-        self.drive = (drive if drive is not None else DriveParams.for_robot(robot)).validated(robot.dof)
+        self.shapes = shapes  # visual and collision shapes: only pictures need them (there are no contacts)
+        # Gravity feed-forward only where there is gravity to feed forward and a drive to add it to.
+        self.gravity_feedforward = bool(gravity_feedforward and gravity and self.mode is Mode.PHYSICS)
         self._client = p.connect(p.DIRECT)
         try:
             self._load(gravity)
+            self.drive = (drive if drive is not None else DriveParams.for_robot(robot, self.home_inertia())
+                          ).validated(robot.dof)
         except Exception:
             p.disconnect(physicsClientId=self._client)
             raise
+        if robot.default_inertia_links and self.mode is not Mode.NO_PHYSICS:
+            log.warning("%s: link(s) %s have no <inertial> in %s; pybullet gives each 1 kg and a default inertia, "
+                        "which the dynamics then include", robot.name, ", ".join(robot.default_inertia_links),
+                        robot.urdf_path)
+        if robot.zeroed_inertia_links and self.mode is not Mode.NO_PHYSICS:
+            log.warning("%s: link(s) %s have inertia tensors that are not physical in %s (principal moments that "
+                        "break the triangle inequality); pybullet sets their inertia to zero and keeps the mass",
+                        robot.name, ", ".join(robot.zeroed_inertia_links), robot.urdf_path)
         start = robot.home if q0 is None else q0
         self._q = self._checked("q0", start)
         self._v = np.zeros(robot.dof)
@@ -251,9 +268,23 @@ class PhysicsWorld:
         cid = self._client
         p.setGravity(0.0, 0.0, GRAVITY if gravity else 0.0, physicsClientId=cid)
         p.setTimeStep(self.dt / self.substeps, physicsClientId=cid)
-        # URDF_USE_INERTIA_FROM_FILE: the URDF's inertias, not pybullet's estimate from the collision shapes.
-        self._body = p.loadURDF(str(self.robot.urdf_path), useFixedBase=True,
-                                flags=p.URDF_USE_INERTIA_FROM_FILE, physicsClientId=cid)
+        # The dynamics come from <inertial> alone. With shapes (for pictures), their files are found as ROS finds
+        # them (package:// through rospack), and shapes whose mesh is nowhere are left out.
+        urdf = self.robot.urdf_path
+        text = urdf.read_text(encoding="utf-8")
+        if not self.shapes:
+            text = without_shapes(text)
+        else:
+            text, missing = resolve_shapes(text, urdf.parent, find_ros_package)
+            if missing:
+                log.warning("%s: %d mesh or texture file(s) named in %s are nowhere (e.g. %s); pictures show the "
+                            "robot without them", self.robot.name, len(missing), urdf, missing[0])
+        with tempfile.TemporaryDirectory(prefix="sim_urdf_") as folder:
+            resolved = Path(folder) / urdf.name
+            resolved.write_text(text, encoding="utf-8")
+            # URDF_USE_INERTIA_FROM_FILE: the URDF's inertias, not pybullet's estimate from the collision shapes.
+            self._body = p.loadURDF(str(resolved), useFixedBase=True, flags=p.URDF_USE_INERTIA_FROM_FILE,
+                                    physicsClientId=cid)
         names_to_index: dict[str, int] = {}
         self._link_index = {p.getBodyInfo(self._body, physicsClientId=cid)[0].decode(): -1}
         self._dof_indices: list[int] = []  # pybullet joint index of every movable joint, in DoF order
@@ -277,6 +308,15 @@ class PhysicsWorld:
         # Only our forces act: pybullet's default velocity motors would otherwise brake every joint.
         p.setJointMotorControlArray(self._body, self._dof_indices, p.VELOCITY_CONTROL,
                                     forces=[0.0] * len(self._dof_indices), physicsClientId=cid)
+
+    def home_inertia(self) -> np.ndarray:
+        """The diagonal of the mass matrix over the controlled joints at home: each joint's inertia (kg·m² or kg)."""
+        mass, _ = self._dynamics(np.asarray(self.robot.home, dtype=float), np.zeros(self.robot.dof))
+        return np.diag(mass).copy()
+
+    def set_drive(self, drive: DriveParams) -> None:
+        """Other drive gains from the next step on (e.g. `world.drive.with_overrides(stiffness=1e4)`)."""
+        self.drive = drive.validated(self.robot.dof)
 
     # --- life cycle ---------------------------------------------------------------------------------------------
     def close(self) -> None:
@@ -353,8 +393,10 @@ class PhysicsWorld:
             target = self._start_target + share * (self._target - self._start_target)
             target_velocity = self._start_velocity + share * (self._target_velocity - self._start_velocity)
             mass, bias = self._dynamics(self._q, self._v)
+            feedforward = self._gravity(self._q) if self.gravity_feedforward else None
             v_next, force = implicit_drive_step(mass, bias, self._q, self._v, target, target_velocity, self.drive, h,
-                                                bias_jacobian=self._bias_jacobian(self._q, self._v))
+                                                bias_jacobian=self._bias_jacobian(self._q, self._v),
+                                                feedforward=feedforward)
             self._q = self._q + h * v_next
             self._v = v_next
             self._effort = force
@@ -378,6 +420,10 @@ class PhysicsWorld:
         bias = p.calculateInverseDynamics(self._body, full_q, full_v, [0.0] * len(full_q),
                                           physicsClientId=self._client)
         return np.array(bias)[self._controlled]
+
+    def _gravity(self, q: np.ndarray) -> np.ndarray:
+        """g(q): the joint torques that hold the robot still at q against gravity."""
+        return self._bias(q, np.zeros_like(q))
 
     def _full_vectors(self, q: np.ndarray, v: np.ndarray) -> tuple[list[float], list[float]]:
         """Pybullet's full DoF vectors: the controlled joints from q, v; the locked ones at rest where they are."""
@@ -425,6 +471,8 @@ class PhysicsWorld:
 
     def capture(self, width: int = 640, height: int = 480) -> np.ndarray:
         """An RGB picture (height, width, 3 uint8) of the robot from pybullet's headless TinyRenderer."""
+        if not self.shapes:
+            raise PhysicsError("this world was made without shapes; make it with shapes=True to take pictures")
         cid = self._sync_engine()
         base = np.array(p.getBasePositionAndOrientation(self._body, physicsClientId=cid)[0])
         ee, _ = self.ee_pose()

@@ -14,7 +14,7 @@ from collections.abc import Callable
 import rospy
 
 from sim.engine import EngineError, EngineStandIn, argument_parser, options_from_args
-from sim.robots import get_robot
+from sim.robots import robot_from_args
 
 __all__ = ["RospyTransport", "main"]
 
@@ -70,7 +70,7 @@ def _log_to_screen() -> None:
 def main(argv: list[str] | None = None) -> int:
     args = argument_parser().parse_args(rospy.myargv(argv if argv is not None else sys.argv)[1:])
     try:
-        robot = get_robot(args.robot)
+        robot = robot_from_args(args)
         options = options_from_args(args)
     except (EngineError, ValueError) as error:
         print(f"sim.physics_node: error: {error}", file=sys.stderr)

@@ -5,10 +5,13 @@ t_k = k·dt, k = 0..N-1, of joint positions and velocities (robot joint order, r
 IK scenarios also the end-effector goal (4x4, base frame, ROS RH z-up), the Cartesian reference path (one 4x4 per
 sample), the IK weights and a goal report.
 
-Scenarios (defaults in brackets; "home" = the registry's home configuration):
+Scenarios (defaults in brackets; "home" = the robot's home configuration). Defaults not stated for a robot are
+computed from its limits and its chain (sim.scenario_defaults); the Panda's and the igt's below are kept in their
+robot YAML (sim/robots/*.yaml) so that they stay the motions the README documents:
 
   single          constant joint positions [home]; runs `duration` [5 s]. Like the seed's a_SingleInput.
   one_joint       one joint through waypoints at times, polynomial (`order` [quintic]), others hold home.
+                  [computed: the first joint through fractions of its range, slowed to 0.8 of its velocity limit];
                   panda [joint 1 through 0.25, 1, 2.75, 1.5, -2, -2.45 rad at t = 0, 2, ..., 10 s];
                   igt [the rail through 0.05, 0.2, 0, -0.2, 0.05, -0.15 m at t = 0, 2, ..., 10 s];
                   `duration` [last waypoint time + 1 s]. (The seed held the other Panda joints at 0, but 0 is
@@ -16,12 +19,15 @@ Scenarios (defaults in brackets; "home" = the registry's home configuration):
                   Note: the seed's 1.5 -> -2 rad in 2 s peaks at 3.28 rad/s, above the Panda's 2.175 rad/s joint-1
                   limit; this is kept as the seed had it and reported as a warning.
   ik_joints       IK of start and goal, then a polynomial in joint space over `move_time` [4 s] and a `hold` [1 s].
+                  IK weights [the axes the chain controls; position only where it controls x, y and z and no goal
+                  orientation is given] (`weights`). [computed: FK of a reachable offset from home];
                   panda [start = home flange position, goal 0.5, 0.375, 0.75 m, position only];
                   igt [start = home tool tip, goal x, y = 0.3, 0.4 m, yaw 1.0 rad; x, y, yaw weights].
   ik_cartesian    polynomial in Cartesian space (position quintic, orientation along the geodesic with the same
                   time scaling), IK of every sample warm-started from the previous one; the max joint jump between
                   samples is reported. Same defaults as ik_joints.
-  ik_orientation  position + XYZ Euler goal (fixed axes, R = Rz·Ry·Rx, = URDF rpy) with full-pose weights,
+  ik_orientation  position + XYZ Euler goal (fixed axes, R = Rz·Ry·Rx, = URDF rpy), weighting every axis the chain
+                  controls (the full pose for the Panda) [computed: FK of an offset from home the other way],
                   panda [0.3, 0.5, 0.75 m at pi/4, pi/5, pi/3 rad; reachable: IK finds it after a few restarts];
                   igt [x, y = 0.45, -0.25 m, yaw -1.0 rad] (the igt can only reach x, y, yaw).
                   `space` [joint] or cartesian.
@@ -30,9 +36,9 @@ Scenarios (defaults in brackets; "home" = the registry's home configuration):
                   space: the Cartesian polynomial (cartesian) or FK of the desired joints (joint).
   trial           the accuracy trial, `duration` [40 s]: every joint at once follows
                   c -> c+A -> c -> c-A -> c -> c-A -> c -> c+A -> c in eight quintic segments of 5 s (time-symmetric,
-                  amplitude-antisymmetric), with per-joint centres c and amplitudes A from `TRIAL_TABLES`: inside
-                  Franka's official limits with margin, and of one sign over the whole swing (c ± A ≠ 0) so that
-                  MAPE, which divides by the reference, stays meaningful. Peak speeds are well below the limits.
+                  amplitude-antisymmetric), with per-joint centres c and amplitudes A (`trial_table`): inside the
+                  limits with margin, and of one sign over the whole swing (c ± A ≠ 0) so that MAPE, which divides
+                  by the reference, stays meaningful. Peak speeds are well below the limits.
 
 Unreachable IK goals raise `UnreachableGoalError` with the best residual, unless `nearest=True`: then the best
 configuration found is used and the motion says so (`Motion.ik.fallback`).
@@ -48,9 +54,6 @@ import numpy as np
 
 from sim.frames import matrix_to_quat, matrix_to_rpy, rpy_to_matrix
 from sim.kinematics import (
-    FULL_POSE_WEIGHTS,
-    PLANAR_WEIGHTS,
-    POSITION_WEIGHTS,
     IKResult,
     KinematicChain,
     chain_for,
@@ -60,13 +63,23 @@ from sim.kinematics import (
 )
 from sim.jointcsv import write_joint_csv
 from sim.robots import RobotSpec
+from sim.scenario_defaults import (
+    ONE_JOINT_SPEED_FRACTION,
+    controllable_weights,
+    describe_axes,
+    rotates_about_z_only,
+    ik_goal,
+    one_joint_default,
+    position_weights,
+    trial_table,
+)
 from sim.trajectory import ORDERS, PolynomialTrajectory
 
 __all__ = [
-    "SCENARIOS", "IK_SCENARIOS", "SPACES", "DEFAULT_DT", "SINGLE_DURATION_S", "ONE_JOINT_DEFAULTS",
+    "SCENARIOS", "IK_SCENARIOS", "SPACES", "DEFAULT_DT", "SINGLE_DURATION_S",
     "ONE_JOINT_SPACING_S", "ONE_JOINT_HOLD_S", "IK_MOVE_TIME_S", "IK_HOLD_S", "IK_RESTARTS", "IK_SEED",
-    "IK_TOL_POS", "IK_TOL_ROT", "IK_GOALS", "ORIENTATION_GOALS", "TRIAL_DURATION_S", "TRIAL_SEGMENT_S",
-    "TRIAL_PATTERN", "TRIAL_TABLES", "APPROACH_MIN_S", "APPROACH_SPEED_FRACTION", "ScenarioError",
+    "IK_TOL_POS", "IK_TOL_ROT", "TRIAL_DURATION_S", "TRIAL_SEGMENT_S",
+    "TRIAL_PATTERN", "APPROACH_MIN_S", "APPROACH_SPEED_FRACTION", "ScenarioError",
     "UnreachableGoalError", "ScenarioConfig", "IKReport", "Motion", "sample_times", "joint_index",
     "check_position_limits", "velocity_warnings", "rotation_exp", "pose_errors", "fk_path",
     "pose_to_position_quat", "approach", "build_motion", "write_engine_csv", "Schedule", "build_schedule",
@@ -80,10 +93,6 @@ SPACES = ("joint", "cartesian")
 
 DEFAULT_DT = 0.02
 SINGLE_DURATION_S = 5.0
-ONE_JOINT_DEFAULTS: dict[str, tuple[int, tuple[float, ...]]] = {  # robot -> (joint index, waypoints)
-    "panda": (0, (0.25, 1.0, 2.75, 1.5, -2.0, -2.45)),
-    "igt": (0, (0.05, 0.2, 0.0, -0.2, 0.05, -0.15)),
-}
 ONE_JOINT_SPACING_S = 2.0
 ONE_JOINT_HOLD_S = 1.0
 IK_MOVE_TIME_S = 4.0
@@ -92,23 +101,9 @@ IK_RESTARTS = 20
 IK_SEED = 0
 IK_TOL_POS = 1e-6  # m
 IK_TOL_ROT = 1e-5  # rad
-# robot -> (position [m], rpy [rad] or None for position only). igt: z is ignored (fixed by construction).
-IK_GOALS: dict[str, tuple[tuple[float, float, float], tuple[float, float, float] | None]] = {
-    "panda": ((0.5, 0.375, 0.75), None),
-    "igt": ((0.3, 0.4, 0.0), (0.0, 0.0, 1.0)),
-}
-ORIENTATION_GOALS: dict[str, tuple[tuple[float, float, float], tuple[float, float, float]]] = {
-    "panda": ((0.3, 0.5, 0.75), (math.pi / 4, math.pi / 5, math.pi / 3)),
-    "igt": ((0.45, -0.25, 0.0), (0.0, 0.0, -1.0)),
-}
 TRIAL_DURATION_S = 40.0
 TRIAL_SEGMENT_S = 5.0
 TRIAL_PATTERN = (0.0, 1.0, 0.0, -1.0, 0.0, -1.0, 0.0, 1.0, 0.0)  # multiples of A around c, one per 5 s
-# robot -> (centres c, amplitudes A), rad or m, in joint order.
-TRIAL_TABLES: dict[str, tuple[tuple[float, ...], tuple[float, ...]]] = {
-    "panda": ((0.8, -0.785, 0.6, -2.356, 0.6, 1.571, 0.785), (0.5, 0.4, 0.4, 0.5, 0.4, 0.5, 0.5)),
-    "igt": ((0.1, 0.5, -1.0), (0.08, 0.3, 0.4)),
-}
 APPROACH_MIN_S = 2.0
 APPROACH_SPEED_FRACTION = 0.5  # approach segments peak at no more than this fraction of the velocity limits
 
@@ -138,8 +133,9 @@ class ScenarioConfig:
     times: Sequence[float] | None = None  # one_joint
     order: str = "quintic"
     start: Sequence[float] | None = None  # IK: start position (m); default FK(home)
-    goal: Sequence[float] | None = None  # IK: goal position (m); igt: x, y (a third value is ignored)
-    goal_rpy: Sequence[float] | None = None  # IK: goal XYZ Euler angles (rad); given -> full pose (panda)
+    goal: Sequence[float] | None = None  # IK: goal position (m); x, y only where z is not controlled
+    goal_rpy: Sequence[float] | None = None  # IK: goal XYZ Euler angles (rad); given -> the axes the chain controls
+    weights: Sequence[float] | None = None  # IK: x, y, z, roll, pitch, yaw weights (>= 0); default: see above
     move_time: float = IK_MOVE_TIME_S
     hold: float = IK_HOLD_S
     space: str | None = None  # ik_orientation / fk_confirm: joint | cartesian
@@ -347,12 +343,14 @@ def _single(robot: RobotSpec, scenario: str, config: ScenarioConfig) -> Motion:
 
 
 def _one_joint(robot: RobotSpec, scenario: str, config: ScenarioConfig) -> Motion:
-    default_joint, default_points = ONE_JOINT_DEFAULTS[robot.name]
+    default_joint, default_points = one_joint_default(robot)
     j = default_joint if config.joint is None else joint_index(robot, config.joint)
     if config.waypoints is None:
         if config.joint is not None and j != default_joint:
             raise ScenarioError(f"--joint {config.joint} needs --waypoints (the defaults are for {robot.joint_names[default_joint]})")
-        points = np.array(default_points)
+        points = default_points
+        if robot.hints.one_joint_waypoints is None:  # computed: slowed down to stay within the velocity limit
+            points = _slowed(points, j, robot, config)
     else:
         points = _vector(config.waypoints, tuple(range(2, 1000)), "waypoints (at least 2)")
     if config.times is None:
@@ -382,8 +380,21 @@ def _one_joint(robot: RobotSpec, scenario: str, config: ScenarioConfig) -> Motio
     return Motion(scenario, robot, config.dt, times, positions, velocities, description)
 
 
+def _slowed(points: np.ndarray, j: int, robot: RobotSpec, config: ScenarioConfig) -> np.ndarray:
+    """Computed one_joint waypoints drawn towards their mean until the motion peaks at ONE_JOINT_SPEED_FRACTION of
+    the joint's velocity limit (the polynomial is linear in the waypoints, so one scaling does it)."""
+    times = np.arange(len(points)) * ONE_JOINT_SPACING_S if config.times is None else np.asarray(config.times)
+    if len(times) != len(points):
+        return points  # the times are wrong; the caller reports it
+    centre = float(np.mean(points))
+    speeds = PolynomialTrajectory(times, points, order=config.order).sample(sample_times(times[-1], config.dt))
+    peak = float(np.abs(speeds.velocities).max())
+    limit = ONE_JOINT_SPEED_FRACTION * float(robot.max_velocity[j])
+    return points if peak <= limit else centre + (points - centre) * (limit / peak)
+
+
 def _trial(robot: RobotSpec, scenario: str, config: ScenarioConfig) -> Motion:
-    centres, amplitudes = (np.array(v) for v in TRIAL_TABLES[robot.name])
+    centres, amplitudes = trial_table(robot)
     pattern = np.array(TRIAL_PATTERN)
     wp_times = np.arange(len(pattern)) * TRIAL_SEGMENT_S
     points = centres[None, :] + pattern[:, None] * amplitudes[None, :]
@@ -403,46 +414,69 @@ class _GoalSpec:
     text: str
 
 
+def _default_goal(robot: RobotSpec, scenario: str, chain: KinematicChain) -> tuple[np.ndarray, np.ndarray | None]:
+    """(position, rpy or None for position only): the robot YAML's, or computed (sim.scenario_defaults)."""
+    hints = robot.hints
+    if scenario == "ik_orientation":
+        if hints.orientation_goal_position is not None:
+            given = hints.orientation_goal_rpy
+            return np.array(hints.orientation_goal_position), None if given is None else np.array(given)
+        return ik_goal(robot, chain, orientation=True)
+    if hints.ik_goal_position is not None:
+        return np.array(hints.ik_goal_position), None if hints.ik_goal_rpy is None else np.array(hints.ik_goal_rpy)
+    position, computed_rpy = ik_goal(robot, chain, orientation=False)
+    # Position only where the chain controls x, y and z; else the goal's orientation is part of the goal.
+    return position, None if all(controllable_weights(chain, robot.home)[:3]) else computed_rpy
+
+
+def _weights(config: ScenarioConfig, chain: KinematicChain, robot: RobotSpec, oriented: bool) -> tuple[float, ...]:
+    if config.weights is not None:
+        weights = _vector(config.weights, 6, "IK weights (x, y, z, roll, pitch, yaw)")
+        if np.any(weights < 0) or not np.any(weights > 0):
+            raise ScenarioError(f"IK weights must be >= 0 with at least one > 0, got {weights.tolist()}")
+        return tuple(float(w) for w in weights)
+    controllable = controllable_weights(chain, robot.home)
+    return controllable if oriented else position_weights(controllable)
+
+
 def _goal_spec(robot: RobotSpec, scenario: str, config: ScenarioConfig, chain: KinematicChain) -> _GoalSpec:
     home_pose = chain.fk(robot.home)
-    default_position: tuple[float, float, float]
-    default_rpy: tuple[float, float, float] | None
-    if scenario == "ik_orientation":
-        default_position, default_rpy = ORIENTATION_GOALS[robot.name]
-    else:
-        default_position, default_rpy = IK_GOALS[robot.name]
-    planar = robot.name == "igt"
+    default_position, default_rpy = _default_goal(robot, scenario, chain)
+    given_rpy = config.goal_rpy if config.goal_rpy is not None else default_rpy
+    rpy = None if given_rpy is None else _vector(given_rpy, 3, "goal rpy (XYZ Euler angles in rad)")
+    weights = _weights(config, chain, robot, oriented=rpy is not None or scenario == "ik_orientation")
+    free_z = weights[2] == 0
     if config.goal is None:
         position = np.array(default_position, dtype=float)
     else:
-        position = _vector(config.goal, (2, 3) if planar else 3, "goal position (x, y, z in m)" if not planar else "igt goal (x, y [, z ignored] in m)")
-        if position.size == 2:
-            position = np.append(position, 0.0)
-    given_rpy = config.goal_rpy if config.goal_rpy is not None else default_rpy
-    rpy = None if given_rpy is None else _vector(given_rpy, 3, "goal rpy (XYZ Euler angles in rad)")
-    if planar:
-        position[2] = home_pose[2, 3]  # the tool tip's height is fixed by construction
-        yaw = 0.0 if rpy is None else float(rpy[2])
-        if rpy is not None and (abs(rpy[0]) > 1e-12 or abs(rpy[1]) > 1e-12):
-            raise ScenarioError(f"the igt can only reach x, y and yaw: goal rpy {list(rpy)} must have roll = pitch = 0")
-        target = np.eye(4)
-        target[:3, :3] = rpy_to_matrix(0.0, 0.0, yaw)
-        target[:3, 3] = position
-        return _GoalSpec(target, PLANAR_WEIGHTS, f"x, y = {position[0]:g}, {position[1]:g} m, yaw {yaw:g} rad")
+        position = _vector(config.goal, (2, 3) if free_z else 3,
+                           f"{robot.name} goal (x, y [, z ignored] in m)" if free_z else "goal position (x, y, z in m)")
+    if position.size == 2 or free_z:  # the end effector's height is not controlled: it stays where home has it
+        position = np.append(position[:2], home_pose[2, 3])
     target = np.eye(4)
     target[:3, 3] = position
-    if rpy is None and scenario != "ik_orientation":
+    if not any(weights[3:]):
         target[:3, :3] = home_pose[:3, :3]  # reference orientation only; not weighted
-        return _GoalSpec(target, POSITION_WEIGHTS, f"position {position.tolist()} m (position only)")
-    assert rpy is not None
+        axes = describe_axes(weights)
+        return _GoalSpec(target, weights, f"position {np.round(position, 6).tolist()} m ({axes} only)")
+    if rpy is None:  # ik_orientation with no goal orientation given: keep home's
+        rpy = np.array(matrix_to_rpy(home_pose[:3, :3]))
+    home_rpy = matrix_to_rpy(home_pose[:3, :3])
+    if rotates_about_z_only(chain, robot.home) and abs(home_rpy[0]) < 1e-9 and abs(home_rpy[1]) < 1e-9:
+        if abs(rpy[0]) > 1e-12 or abs(rpy[1]) > 1e-12:  # e.g. the igt: rotations about z only, by construction
+            raise ScenarioError(f"the {robot.name} can only reach {describe_axes(weights)}: goal rpy {list(rpy)} must "
+                                f"have roll = pitch = 0")
     target[:3, :3] = rpy_to_matrix(*rpy)
-    return _GoalSpec(target, FULL_POSE_WEIGHTS, f"position {position.tolist()} m, XYZ Euler {np.round(rpy, 6).tolist()} rad")
+    axes = "" if all(weights) else f" ({describe_axes(weights)})"
+    return _GoalSpec(target, weights, f"position {np.round(position, 6).tolist()} m, XYZ Euler "
+                                      f"{np.round(rpy, 6).tolist()} rad{axes}")
 
 
-def _start_target(robot: RobotSpec, config: ScenarioConfig, chain: KinematicChain) -> np.ndarray:
+def _start_target(robot: RobotSpec, config: ScenarioConfig, chain: KinematicChain, weights: Sequence[float]
+                  ) -> np.ndarray:
     start = chain.fk(robot.home)
     if config.start is not None:
-        position = _vector(config.start, (2, 3) if robot.name == "igt" else 3, "start position")
+        position = _vector(config.start, (2, 3) if weights[2] == 0 else 3, "start position")
         start[: position.size, 3] = position
     return start
 
@@ -480,7 +514,7 @@ def _ik_motion(robot: RobotSpec, scenario: str, config: ScenarioConfig) -> Motio
     notes: list[str] = []
     fallback = False
 
-    start_result = _solve(chain, _start_target(robot, config, chain), robot.home, weights, config)
+    start_result = _solve(chain, _start_target(robot, config, chain, weights), robot.home, weights, config)
     if not start_result.success:
         if not config.nearest:
             raise _unreachable("start pose", start_result, weights)

@@ -32,11 +32,12 @@ from pathlib import Path
 from sim import analysis
 from sim.physics import Mode
 from sim.processes import PYTHON, REPO, ManagedProcess, ProcessError, RosCore
-from sim.robots import ROBOT_NAMES, RobotSpec, get_robot
+from sim.scenarios import ScenarioConfig, ScenarioError, build_motion
+from sim.robots import ROBOT_NAMES, RobotError, RobotSpec, load_robot
 
 __all__ = [
     "DT", "TCP", "CSV", "NETNS", "UseCase", "USE_CASES", "USE_CASE_NAMES", "TrialError", "TrialSkipped",
-    "NETNS_HOSTS", "Namespaces", "network_hosts", "Placement", "TrialPaths", "Campaign", "run_campaign", "main",
+    "NETNS_HOSTS", "Namespaces", "network_hosts", "Placement", "TrialPaths", "Campaign", "load_robots", "run_campaign", "main",
 ]
 
 log = logging.getLogger(__name__)
@@ -190,7 +191,7 @@ class Campaign:
         elif case.transport == TCP:
             env = self.roscore().env
             self._run_ros(robot, case, paths, Placement(env, env, "127.0.0.1"), scenario)
-            series = analysis.read_bag(paths.bag, robot)
+            series = self._scenario_part(paths, robot)
         else:
             with network_hosts(f"{trial}{robot.name[0]}") as spaces, ExitStack() as stack:
                 core = RosCore(host=NETNS_HOSTS["ros"], prefix=spaces.prefix(spaces.ros))
@@ -204,18 +205,25 @@ class Campaign:
                     engine_prefix=spaces.prefix(spaces.engine),
                 )
                 self._run_ros(robot, case, paths, placement, scenario)
-            series = analysis.read_bag(paths.bag, robot)
+            series = self._scenario_part(paths, robot)
         return analysis.TrialResult(robot.name, case.name, trial, analysis.trial_metrics(series, DT),
                                     series.lost_messages, series)
+
+    @staticmethod
+    def _scenario_part(paths: TrialPaths, robot: RobotSpec) -> analysis.TrialSeries:
+        """The bag's series from the scenario's start on: the commander's approach to it is left out, as in the
+        commander's own metrics (CSV use cases export the scenario alone)."""
+        series = analysis.read_bag(paths.bag, robot)
+        return analysis.without_approach(series, analysis.scenario_start(paths.commander_log))
 
     def _run_csv(self, robot: RobotSpec, case: UseCase, paths: TrialPaths) -> analysis.TrialSeries:
         logs = paths.process_logs
         commander = ManagedProcess(
-            [PYTHON, "-m", "sim.commander", "--robot", robot.name, "--scenario", "trial", "--dt", str(DT),
+            [PYTHON, "-m", "sim.commander", *robot.cli_args, "--scenario", "trial", "--dt", str(DT),
              "--export-csv", str(paths.desired_csv), "--export-only"], _plain_env(), logs, "commander")
         _expect_success(commander, self.timeout_s)
         engine = ManagedProcess(
-            [PYTHON, "-m", "sim.engine", "--robot", robot.name, "--mode", case.mode.value, "--dt", str(DT),
+            [PYTHON, "-m", "sim.engine", *robot.cli_args, "--mode", case.mode.value, "--dt", str(DT),
              "--csv", str(paths.desired_csv), "--log", str(paths.achieved_csv)], _plain_env(), logs, "engine")
         _expect_success(engine, self.timeout_s)
         return analysis.read_csv_pair(paths.desired_csv, paths.achieved_csv, robot)
@@ -232,7 +240,7 @@ class Campaign:
                 where.bridge_env, logs, "endpoint", where.bridge_prefix)
             running.callback(endpoint.stop)
             port = _reported_port(endpoint)
-            engine_args = [PYTHON, "-m", "sim.engine", "--robot", robot.name, "--host", where.endpoint_host,
+            engine_args = [PYTHON, "-m", "sim.engine", *robot.cli_args, "--host", where.endpoint_host,
                            "--port", str(port), "--mode", case.mode.value, "--dt", str(DT)]
             engine_args += ["--time-scale", str(self.time_scale)] if case.auto_simulate else ["--no-auto-simulate"]
             engine = ManagedProcess(engine_args, _plain_env(), logs, "engine", where.engine_prefix)
@@ -243,7 +251,7 @@ class Campaign:
             running.callback(lambda: _stop_recorder(recorder, paths.bag))
             engine.wait_for_output("connected to", timeout=60)
             recorder.wait_for_output("Recording to", timeout=30)
-            commander_args = [PYTHON, "-m", "sim.commander", "--robot", robot.name, "--scenario", *scenario,
+            commander_args = [PYTHON, "-m", "sim.commander", *robot.cli_args, "--scenario", *scenario,
                               "--dt", str(DT), "--log", str(paths.commander_log), "--wait-for", "trial_recorder",
                               "--timeout", "30"]
             if case.auto_simulate:
@@ -286,14 +294,23 @@ def _stop_recorder(recorder: ManagedProcess, bag: Path) -> None:
 # --- campaign --------------------------------------------------------------------------------------------------
 
 
+def load_robots(references: Sequence[str]) -> list[RobotSpec]:
+    """The campaign's robots (names or URDF/YAML paths); their names key bags and reports, so they must differ."""
+    specs = [load_robot(reference) for reference in references]
+    names = [spec.name for spec in specs]
+    twice = sorted({name for name in names if names.count(name) > 1})
+    if twice:
+        raise RobotError(f"two robots are named {', '.join(twice)}; give one another name in a robot YAML beside its URDF")
+    return specs
+
+
 def run_campaign(
-    robots: Sequence[str], use_cases: Sequence[str], trials: int, out_dir: Path, time_scale: float, progress: bool
+    robots: Sequence[RobotSpec], use_cases: Sequence[str], trials: int, out_dir: Path, time_scale: float, progress: bool
 ) -> tuple[list[analysis.TrialResult], list[str]]:
     from tqdm import tqdm
 
-    specs = [get_robot(name) for name in robots]
     cases = [next(case for case in USE_CASES if case.name == name) for name in use_cases]
-    plan = [(robot, case, trial) for robot in specs for case in cases for trial in range(1, trials + 1)]
+    plan = [(robot, case, trial) for robot in robots for case in cases for trial in range(1, trials + 1)]
     campaign = Campaign(out_dir, time_scale)
     results: list[analysis.TrialResult] = []
     skipped: dict[tuple[str, str], str] = {}  # (robot, use case) -> why
@@ -312,7 +329,8 @@ def run_campaign(
 
 def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="python -m sim.trials", description=__doc__.splitlines()[0])
-    parser.add_argument("--robots", nargs="+", default=list(ROBOT_NAMES), choices=ROBOT_NAMES)
+    parser.add_argument("--robots", nargs="+", default=list(ROBOT_NAMES), metavar="ROBOT",
+                        help=f"names ({', '.join(ROBOT_NAMES)}) or URDF / robot YAML paths (default: all names)")
     parser.add_argument("--use-cases", nargs="+", default=list(USE_CASE_NAMES), choices=USE_CASE_NAMES)
     parser.add_argument("--trials", type=int, default=5)
     parser.add_argument("--out", type=Path, default=Path("results"))
@@ -327,9 +345,16 @@ def main(argv: list[str] | None = None) -> int:
     if args.trials < 1 or args.time_scale <= 0:
         print("sim.trials: error: --trials must be >= 1 and --time-scale > 0", file=sys.stderr)
         return 2
+    try:
+        robots = load_robots(args.robots)
+        for robot in robots:  # a robot whose trial path cannot be built is bad input, found before anything runs
+            build_motion(robot, "trial", ScenarioConfig(dt=DT))
+    except (RobotError, ScenarioError) as error:
+        print(f"sim.trials: error: {error}", file=sys.stderr)
+        return 2
     started = time.monotonic()
     try:
-        results, skipped = run_campaign(args.robots, args.use_cases, args.trials, args.out, args.time_scale,
+        results, skipped = run_campaign(robots, args.use_cases, args.trials, args.out, args.time_scale,
                                         progress=not args.no_progress)
     except (TrialError, ProcessError, TimeoutError, analysis.AnalysisError) as error:
         print(f"sim.trials: error: {error}", file=sys.stderr)

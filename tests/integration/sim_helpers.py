@@ -249,3 +249,16 @@ def reference_run(robot: RobotSpec, mode: Mode, positions: np.ndarray, velocitie
             out.append(world.step().positions)
     return np.array(out)
 
+
+def report_rows(report: Path) -> dict[tuple[str, str, str], dict[str, str]]:
+    lines = [line for line in report.read_text().splitlines() if line.startswith("| ")]
+    headers = [cell.strip() for cell in lines[0].strip("|").split("|")]
+    rows = {}
+    for line in lines[1:]:
+        cells = dict(zip(headers, (cell.strip() for cell in line.strip("|").split("|"))))
+        rows[(cells["robot"], cells["use case"], cells["joint"])] = cells
+    return rows
+
+
+def mean_of(cell: str) -> float:
+    return float(cell.split("±")[0])

@@ -16,7 +16,7 @@ import pytest
 
 from sim.frames import matrix_to_quat
 from sim.kinematics import chain_for
-from sim.robots import get_robot
+from sim.robots import load_robot
 from sim.scenarios import ScenarioConfig, build_motion, pose_errors
 from tests.rosenv import PYTHON, REPO, NodeProcess, wait_for
 
@@ -80,7 +80,7 @@ def engines(roscore, ros_node, tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def probes(ros_node, engines):
-    made = {name: Probe(ros_node, get_robot(name)) for name in ("panda", "igt")}
+    made = {name: Probe(ros_node, load_robot(name)) for name in ("panda", "igt")}
     yield made
     for probe in made.values():
         probe.close()
@@ -132,7 +132,7 @@ def check_stream(probe: Probe, robot, rows: list[dict[str, str]], priming: int) 
 
 # ------------------------------------------------------------------------------------------------------ tests
 def test_trial_lockstep_stream_log_and_summary(roscore, ros_node, probes, tmp_path):
-    robot = get_robot("panda")
+    robot = load_robot("panda")
     probe = probes["panda"]
     probe.clear()
     log = tmp_path / "trial.csv"
@@ -157,7 +157,7 @@ def test_trial_lockstep_stream_log_and_summary(roscore, ros_node, probes, tmp_pa
 @pytest.mark.parametrize("robot_name", ["panda", "igt"])
 @pytest.mark.parametrize("scenario, options", [("single", ["--duration", "0.3"]), ("one_joint", ["--duration", "0.6"])])
 def test_joint_scenarios_publish_their_motion(roscore, ros_node, probes, tmp_path, robot_name, scenario, options):
-    robot = get_robot(robot_name)
+    robot = load_robot(robot_name)
     probe = probes[robot_name]
     probe.clear()
     log = tmp_path / "run.csv"
@@ -180,7 +180,7 @@ IK_CASES = [
 
 @pytest.mark.parametrize("robot_name, scenario", IK_CASES)
 def test_ik_scenarios_reach_their_goals(roscore, ros_node, probes, tmp_path, robot_name, scenario):
-    robot = get_robot(robot_name)
+    robot = load_robot(robot_name)
     chain = chain_for(robot)
     probe = probes[robot_name]
     probe.clear()
@@ -234,7 +234,7 @@ def test_unreachable_goal_is_reported_and_nothing_is_commanded(roscore, ros_node
 
 
 def test_nearest_fallback_is_printed_and_commanded(roscore, ros_node, probes, tmp_path):
-    robot = get_robot("igt")
+    robot = load_robot("igt")
     probe = probes["igt"]
     probe.clear()
     done = run_commander(roscore, ros_node, ["--robot", "igt", "--scenario", "ik_joints", "--goal", "1.2", "0.3",
@@ -248,7 +248,7 @@ def test_nearest_fallback_is_printed_and_commanded(roscore, ros_node, probes, tm
 
 
 def test_realtime_is_paced_by_the_wall_clock(roscore, ros_node, probes, tmp_path):
-    robot = get_robot("panda")
+    robot = load_robot("panda")
     probe = probes["panda"]
     probe.clear()
     log = tmp_path / "rt.csv"
@@ -283,7 +283,7 @@ def test_bad_input_names_the_problem(roscore, ros_node):
 
 @pytest.mark.parametrize("robot_name, scenario", [("panda", "one_joint"), ("igt", "trial"), ("panda", "ik_cartesian")])
 def test_export_round_trips_through_the_engines_csv_mode(tmp_path, robot_name, scenario):
-    robot = get_robot(robot_name)
+    robot = load_robot(robot_name)
     exported, replayed = tmp_path / "desired.csv", tmp_path / "achieved.csv"
     done = subprocess.run([PYTHON, "-m", "sim.commander", "--robot", robot_name, "--scenario", scenario,
                            "--duration", "3", "--export-csv", str(exported), "--export-only"],

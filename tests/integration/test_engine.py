@@ -12,12 +12,12 @@ import numpy as np
 import pytest
 
 from sim.physics import Mode
-from sim.robots import get_robot
+from sim.robots import load_robot
 from tests.integration.sim_helpers import DT, Controller, reference_run, sine_motion, start_engine
 from tests.rosenv import EndpointProcess, NodeProcess, free_port, wait_for
 
-PANDA = get_robot("panda")
-IGT = get_robot("igt")
+PANDA = load_robot("panda")
+IGT = load_robot("igt")
 PRIMING = 3
 
 

@@ -15,7 +15,9 @@ import pytest
 import rosbag
 
 from sim.processes import PYTHON, REPO
-from sim.robots import get_robot
+from sim.analysis import scenario_start
+from sim.robots import load_robot
+from tests.integration.sim_helpers import mean_of, report_rows
 
 ROBOTS = ("panda", "igt")
 USE_CASES = ("auto_simulate_off", "no_ros")
@@ -34,23 +36,9 @@ def campaign(tmp_path_factory, roscore) -> tuple[Path, str]:
     return out, result.stdout
 
 
-def report_rows(report: Path) -> dict[tuple[str, str, str], dict[str, str]]:
-    lines = [line for line in report.read_text().splitlines() if line.startswith("| ")]
-    headers = [cell.strip() for cell in lines[0].strip("|").split("|")]
-    rows = {}
-    for line in lines[1:]:
-        cells = dict(zip(headers, (cell.strip() for cell in line.strip("|").split("|"))))
-        rows[(cells["robot"], cells["use case"], cells["joint"])] = cells
-    return rows
-
-
-def mean_of(cell: str) -> float:
-    return float(cell.split("±")[0])
-
-
 def bag_series(path: Path, robot_name: str) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, list[int]]:
     """(command stamps, commanded positions, state stamps, state positions, command seqs) via ROS's rosbag."""
-    robot = get_robot(robot_name)
+    robot = load_robot(robot_name)
     command_t, command_q, seqs, state_t, state_q = [], [], [], [], []
     newest_command = None
     with rosbag.Bag(str(path)) as bag:
@@ -72,7 +60,7 @@ def test_campaign_writes_a_report_with_every_robot_and_use_case(campaign) -> Non
     out, stdout = campaign
     rows = report_rows(out / "report.md")
     for robot in ROBOTS:
-        moving = get_robot(robot).joint_names
+        moving = load_robot(robot).joint_names
         for use_case in USE_CASES:
             for joint in moving:
                 row = rows[(robot, use_case, joint)]
@@ -87,7 +75,7 @@ def test_report_numbers_match_the_bags(campaign) -> None:
     out, _ = campaign
     rows = report_rows(out / "report.md")
     for robot in ROBOTS:
-        spec = get_robot(robot)
+        spec = load_robot(robot)
         mape = {joint: [] for joint in spec.joint_names}
         max_error = {joint: [] for joint in spec.joint_names}
         for trial in range(1, TRIALS + 1):
@@ -95,7 +83,10 @@ def test_report_numbers_match_the_bags(campaign) -> None:
             command_t, command_q, state_t, state_q, seqs = bag_series(bag, robot)
             assert seqs == list(range(seqs[0], seqs[0] + len(seqs))), "commands lost or reordered"
             assert len(command_t) >= 40 / 0.02, "the 40 s trial path at 50 Hz"
-            inside = (state_t >= command_t[0]) & (state_t <= command_t[-1])
+            # The scenario from its first sample (the commander's log says when): the approach to it is no part of it.
+            start = scenario_start(out / "commander" / f"{robot}_auto_simulate_off_{trial}.csv")
+            assert start > command_t[0]  # neither robot starts at home: the commander approaches the start first
+            inside = (state_t >= start - 1e-9) & (state_t <= command_t[-1])
             for j, joint in enumerate(spec.joint_names):
                 desired = np.interp(state_t[inside], command_t, command_q[:, j])
                 achieved = state_q[inside, j]
@@ -114,9 +105,9 @@ def test_no_ros_use_case_compares_the_engines_csv_log_with_its_input(campaign) -
     out, _ = campaign
     desired = np.loadtxt(out / "csv" / "igt_no_ros_1_desired.csv", delimiter=",", skiprows=1)
     achieved = np.loadtxt(out / "csv" / "igt_no_ros_1_achieved.csv", delimiter=",", skiprows=1)
-    assert desired.shape[1] == achieved.shape[1] == 1 + get_robot("igt").dof
+    assert desired.shape[1] == achieved.shape[1] == 1 + load_robot("igt").dof
     rows = report_rows(out / "report.md")
-    for j, joint in enumerate(get_robot("igt").joint_names, start=1):
+    for j, joint in enumerate(load_robot("igt").joint_names, start=1):
         reference = np.interp(achieved[:, 0], desired[:, 0], desired[:, j])
         max_error = np.max(np.abs(achieved[:, j] - reference))
         reported = re.split(r"\s*±\s*", rows[("igt", "no_ros", joint)]["max abs err"])[0]

@@ -25,7 +25,8 @@ def test_pure_bridge_modules_import_neither_sockets_nor_ros(module: str) -> None
     assert not loaded & {"socket", *ROS_MODULES}, loaded & {"socket", *ROS_MODULES}
 
 
-@pytest.mark.parametrize("module", ["bridge.client", "sim.engine", "sim.analysis", "sim.kinematics", "sim.physics"])
+@pytest.mark.parametrize("module", ["bridge.client", "sim.engine", "sim.analysis", "sim.kinematics", "sim.physics",
+                                    "sim.robots", "sim.scenario_defaults", "sim.study.paths"])
 def test_the_client_and_the_engine_stand_in_import_no_ros(module: str) -> None:
     # Like Unity, the engine stand-in knows ROS only through the endpoint; it (de)serializes with rosbags.
     loaded = imported_after(module)

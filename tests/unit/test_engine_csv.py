@@ -10,11 +10,11 @@ import pytest
 
 from sim import engine, frames
 from sim.physics import Mode
-from sim.robots import get_robot
+from sim.robots import load_robot
 from tests.rosenv import PYTHON, REPO
 
-PANDA = get_robot("panda")
-IGT = get_robot("igt")
+PANDA = load_robot("panda")
+IGT = load_robot("igt")
 DT = 0.02
 
 

@@ -1,10 +1,13 @@
 """sim.physics: the three modes, the implicit drive, input checks, determinism. Fast, no ROS."""
 from __future__ import annotations
 
+import logging
+
 import numpy as np
 import pytest
 
 from sim.physics import (
+    DEFAULT_STIFFNESS,
     DriveParams,
     Mode,
     PhysicsError,
@@ -12,7 +15,8 @@ from sim.physics import (
     implicit_drive_step,
     render_gif,
 )
-from sim.robots import get_robot
+from sim.robots import load_robot
+from tests.robot_files import LIFT_ARM, THIRD_PARTY_URDFS
 
 DT = 0.02
 ROBOTS = ["panda", "igt"]
@@ -20,7 +24,7 @@ ROBOTS = ["panda", "igt"]
 
 def offset_target(robot_name: str) -> np.ndarray:
     """A target a little away from home in every joint (within the limits)."""
-    robot = get_robot(robot_name)
+    robot = load_robot(robot_name)
     return robot.home + np.where(np.array(robot.joint_types) == "prismatic", 0.05, 0.3)
 
 
@@ -29,7 +33,7 @@ def offset_target(robot_name: str) -> np.ndarray:
 
 @pytest.mark.parametrize("name", ROBOTS)
 def test_no_physics_sets_the_targets_exactly(name):
-    robot = get_robot(name)
+    robot = load_robot(name)
     with PhysicsWorld(robot, mode=Mode.NO_PHYSICS) as world:
         target, velocity = offset_target(name), np.linspace(0.1, 0.3, robot.dof)
         world.set_targets(target, velocity)
@@ -42,7 +46,7 @@ def test_no_physics_sets_the_targets_exactly(name):
 
 @pytest.mark.parametrize("name", ROBOTS)
 def test_infinite_stiffness_reaches_a_step_target_within_one_step(name):
-    robot = get_robot(name)
+    robot = load_robot(name)
     with PhysicsWorld(robot, mode=Mode.INFINITE_STIFFNESS) as world:
         target = offset_target(name)
         world.set_targets(target)
@@ -56,7 +60,7 @@ def test_infinite_stiffness_reaches_a_step_target_within_one_step(name):
 
 @pytest.mark.parametrize("name", ROBOTS)
 def test_physics_converges_to_a_constant_target(name):
-    robot = get_robot(name)
+    robot = load_robot(name)
     target = offset_target(name)
     with PhysicsWorld(robot, gravity=False) as world:
         world.set_targets(target)
@@ -74,7 +78,7 @@ def test_physics_converges_to_a_constant_target(name):
 
 @pytest.mark.parametrize("name", ROBOTS)
 def test_physics_follows_a_moving_target(name):
-    robot = get_robot(name)
+    robot = load_robot(name)
     amplitude = np.where(np.array(robot.joint_types) == "prismatic", 0.05, 0.4)
     omega = 2.0
     with PhysicsWorld(robot) as world:
@@ -89,7 +93,7 @@ def test_physics_follows_a_moving_target(name):
 
 def test_targets_for_the_start_of_the_step_lag_one_step():
     """The timing convention: the same ramp passed one step early lags by ~ one step of motion."""
-    robot = get_robot("panda")
+    robot = load_robot("panda")
     rate = 0.5  # rad/s on joint 1
     results = {}
     for convention, shift in (("end", 0), ("start", -1)):
@@ -106,10 +110,10 @@ def test_targets_for_the_start_of_the_step_lag_one_step():
 
 @pytest.mark.parametrize("name", ROBOTS)
 def test_efforts_stay_within_the_force_limits(name):
-    robot = get_robot(name)
-    drive = DriveParams.for_robot(robot)
+    robot = load_robot(name)
     far = robot.home + np.where(np.array(robot.joint_types) == "prismatic", 0.2, 2.0)
     with PhysicsWorld(robot) as world:
+        drive = world.drive
         world.set_targets(far)
         efforts = np.array([world.step().efforts for _ in range(50)])
     assert np.all(np.isfinite(efforts))
@@ -118,7 +122,7 @@ def test_efforts_stay_within_the_force_limits(name):
 
 
 def test_a_far_step_target_settles_under_force_limits():
-    robot = get_robot("igt")
+    robot = load_robot("igt")
     target = np.array([0.2, -2.0, 2.0])
     with PhysicsWorld(robot) as world:
         world.set_targets(target)
@@ -157,9 +161,9 @@ def test_implicit_drive_is_stable_where_an_explicit_pd_diverges():
     assert abs(q_exp[0]) > 1e6  # diverged
     assert q_imp[0] == pytest.approx(0.5, abs=1e-9)
     # and the full Panda world with these gains settles too, with no force limit to help it
-    robot = get_robot("panda")
-    unlimited = DriveParams.for_robot(robot).with_overrides(force_limit=float("inf"))
-    with PhysicsWorld(robot, drive=unlimited, gravity=False) as world:
+    robot = load_robot("panda")
+    with PhysicsWorld(robot, gravity=False) as world:
+        world.set_drive(world.drive.with_overrides(force_limit=float("inf")))
         world.set_targets(offset_target("panda"))
         for _ in range(50):
             sample = world.step()
@@ -167,7 +171,7 @@ def test_implicit_drive_is_stable_where_an_explicit_pd_diverges():
 
 
 def test_substeps_follow_the_same_target():
-    robot = get_robot("igt")
+    robot = load_robot("igt")
     with PhysicsWorld(robot, substeps=5, gravity=False) as world:
         world.set_targets(offset_target("igt"))
         for _ in range(100):
@@ -190,14 +194,14 @@ def test_substeps_follow_the_same_target():
     ],
 )
 def test_invalid_targets_are_refused_by_name(positions, velocities, message):
-    with PhysicsWorld(get_robot("panda")) as world:
+    with PhysicsWorld(load_robot("panda")) as world:
         with pytest.raises(PhysicsError, match=message):
             world.set_targets(positions, velocities)
         np.testing.assert_array_equal(world.step().positions.shape, (7,))  # the old targets still hold
 
 
 def test_invalid_construction_is_refused():
-    robot = get_robot("igt")
+    robot = load_robot("igt")
     with pytest.raises(PhysicsError, match="dt"):
         PhysicsWorld(robot, dt=0.0)
     with pytest.raises(PhysicsError, match="substeps"):
@@ -205,14 +209,14 @@ def test_invalid_construction_is_refused():
     with pytest.raises(PhysicsError, match="stiffness has shape"):
         PhysicsWorld(robot, drive=DriveParams(np.ones(2), np.ones(3), np.ones(3)))
     with pytest.raises(PhysicsError, match="damping must be >= 0"):
-        PhysicsWorld(robot, drive=DriveParams.for_robot(robot).with_overrides(damping=-1.0))
+        PhysicsWorld(robot, drive=DriveParams(np.full(3, 1e5), np.full(3, -1.0), np.ones(3)))
     with pytest.raises(PhysicsError, match="q0"):
         PhysicsWorld(robot, q0=[0.0, np.nan, 0.0])
 
 
 @pytest.mark.parametrize("mode", list(Mode))
 def test_two_worlds_with_the_same_inputs_are_identical(mode):
-    robot = get_robot("panda")
+    robot = load_robot("panda")
     with PhysicsWorld(robot, mode=mode) as first, PhysicsWorld(robot, mode=mode) as second:
         for k in range(1, 60):
             target = robot.home + 0.5 * np.sin(0.1 * k)
@@ -225,7 +229,7 @@ def test_two_worlds_with_the_same_inputs_are_identical(mode):
 
 
 def test_reset_teleports_and_holds():
-    robot = get_robot("panda")
+    robot = load_robot("panda")
     with PhysicsWorld(robot) as world:
         world.step()
         world.reset(offset_target("panda"))
@@ -238,7 +242,7 @@ def test_reset_teleports_and_holds():
 
 
 def test_closed_world_refuses_to_step():
-    world = PhysicsWorld(get_robot("igt"))
+    world = PhysicsWorld(load_robot("igt"))
     world.close()
     world.close()  # twice is fine
     with pytest.raises(PhysicsError, match="closed"):
@@ -249,7 +253,7 @@ def test_closed_world_refuses_to_step():
 
 
 def test_ee_pose_is_the_link_frame_not_the_centre_of_mass():
-    robot = get_robot("igt")
+    robot = load_robot("igt")
     with PhysicsWorld(robot, mode=Mode.NO_PHYSICS, q0=np.zeros(3)) as world:
         position, orientation = world.ee_pose()
         np.testing.assert_allclose(position, [0.6, 0.0, 0.28], atol=1e-9)  # rail 0 + 0.35 + 0.25 along x
@@ -262,14 +266,17 @@ def test_ee_pose_is_the_link_frame_not_the_centre_of_mass():
 
 
 def test_panda_flange_is_where_franka_says_at_zero():
-    with PhysicsWorld(get_robot("panda"), mode=Mode.NO_PHYSICS, q0=np.zeros(7)) as world:
+    with PhysicsWorld(load_robot("panda"), mode=Mode.NO_PHYSICS, q0=np.zeros(7)) as world:
         position, _ = world.ee_pose()
     # DH: x = a4 - a5... at q = 0: x = 0.0825 - 0.0825 + 0.088 = 0.088, z = 0.333 + 0.316 + 0.384 - 0.107 = 0.926
     np.testing.assert_allclose(position, [0.088, 0.0, 0.926], atol=1e-6)
 
 
 def test_render_writes_a_png_and_a_gif(tmp_path):
-    with PhysicsWorld(get_robot("igt")) as world:
+    with PhysicsWorld(load_robot("igt")) as bare:
+        with pytest.raises(PhysicsError, match="made without shapes"):
+            bare.capture(32, 24)
+    with PhysicsWorld(load_robot("igt"), shapes=True) as world:
         path = world.render(tmp_path / "igt.png", width=64, height=48)
         frames = [world.capture(32, 24)]
         world.set_targets(offset_target("igt"))
@@ -280,3 +287,42 @@ def test_render_writes_a_png_and_a_gif(tmp_path):
     assert frames[0].std() > 0  # not a blank picture
     gif = render_gif(frames, tmp_path / "igt.gif")
     assert gif.read_bytes()[:6] == b"GIF89a"
+
+
+# ---------------------------------------------------------------------------------------- defaults from the model
+def test_default_damping_is_critical_from_the_mass_matrix_at_home():
+    robot = load_robot("panda")
+    with PhysicsWorld(robot) as world:
+        inertia, drive = world.home_inertia(), world.drive
+    np.testing.assert_allclose(drive.stiffness, DEFAULT_STIFFNESS)
+    np.testing.assert_allclose(drive.damping, 2 * np.sqrt(DEFAULT_STIFFNESS * inertia))
+    # the values the Panda was tuned with by hand before they were computed
+    np.testing.assert_allclose(drive.damping, [790.0, 970.0, 840.0, 810.0, 580.0, 540.0, 490.0], rtol=0.02)
+    np.testing.assert_allclose(drive.force_limit, robot.max_effort)
+
+
+def test_gravity_feedforward_keeps_a_heavy_lift_from_sagging():
+    arm = load_robot(str(LIFT_ARM))
+    settled = {}
+    for feedforward in (True, False):
+        with PhysicsWorld(arm, gravity_feedforward=feedforward) as world:
+            for _ in range(200):
+                sample = world.step()
+            settled[feedforward] = sample.positions - arm.home
+    assert np.abs(settled[True]).max() < 1e-9
+    carried = 12.0 + 0.5 + 3.0 + 1.5 + 1.0 + 0.6 + 0.01 + 2 * 0.05  # every link above the lift; the camera: 1 kg
+    assert settled[False][0] == pytest.approx(-carried * 9.81 / DEFAULT_STIFFNESS, rel=0.01)
+
+
+def test_links_without_inertia_are_warned_about(caplog):
+    with caplog.at_level(logging.WARNING, logger="sim.physics"):
+        PhysicsWorld(load_robot(str(LIFT_ARM))).close()
+    assert "link(s) camera have no <inertial>" in caplog.text
+    caplog.clear()
+    with caplog.at_level(logging.WARNING, logger="sim.physics"):
+        PhysicsWorld(load_robot(str(THIRD_PARTY_URDFS["xarm6"]))).close()
+    assert "link(s) link2, link3 have inertia tensors that are not physical" in caplog.text
+    caplog.clear()
+    with caplog.at_level(logging.WARNING, logger="sim.physics"):
+        PhysicsWorld(load_robot("panda")).close()
+    assert "inertia" not in caplog.text

@@ -10,12 +10,12 @@ import pytest
 
 from sim.frames import rpy_to_matrix
 from sim.kinematics import chain_for
-from sim.robots import get_robot
+from sim.robots import load_robot
 from sim.kinematics import rotation_vector
+from sim.scenario_defaults import trial_table
 from sim.scenarios import (
     IK_SCENARIOS,
     SCENARIOS,
-    TRIAL_TABLES,
     ScenarioConfig,
     ScenarioError,
     UnreachableGoalError,
@@ -34,7 +34,7 @@ ROBOTS = ("panda", "igt")
 
 @pytest.fixture(scope="module", params=ROBOTS)
 def robot(request):
-    return get_robot(request.param)
+    return load_robot(request.param)
 
 
 @pytest.mark.parametrize("scenario", SCENARIOS)
@@ -69,7 +69,7 @@ def test_single_rejects_wrong_count_and_out_of_limit_positions(robot):
 
 
 def test_one_joint_panda_default_is_the_seeds_joint1_test():
-    robot = get_robot("panda")
+    robot = load_robot("panda")
     motion = build_motion(robot, "one_joint")
     at = [round(t / 0.02) for t in (0, 2, 4, 6, 8, 10)]
     np.testing.assert_allclose(motion.positions[at, 0], [0.25, 1.0, 2.75, 1.5, -2.0, -2.45])
@@ -115,7 +115,7 @@ def test_unknown_scenario_is_named(robot):
 def test_trial_is_40s_symmetric_all_joints_moving_and_never_crossing_zero(robot):
     motion = build_motion(robot, "trial")
     assert motion.duration == pytest.approx(40.0)
-    centres, amplitudes = (np.array(v) for v in TRIAL_TABLES[robot.name])
+    centres, amplitudes = trial_table(robot)
     np.testing.assert_allclose(motion.positions.max(axis=0), centres + amplitudes, atol=1e-9)
     np.testing.assert_allclose(motion.positions.min(axis=0), centres - amplitudes, atol=1e-9)
     assert np.all(np.sign(motion.positions) == np.sign(centres))  # MAPE stays meaningful
@@ -149,7 +149,7 @@ def test_ik_scenarios_reach_their_goal_by_fk_of_the_desired_joints(robot, scenar
 
 
 def test_panda_goals_and_weights():
-    panda = get_robot("panda")
+    panda = load_robot("panda")
     position_only = build_motion(panda, "ik_joints")
     np.testing.assert_allclose(position_only.goal[:3, 3], [0.5, 0.375, 0.75])
     assert position_only.ik.weights == (1, 1, 1, 0, 0, 0)
@@ -161,7 +161,7 @@ def test_panda_goals_and_weights():
 
 
 def test_ik_cartesian_is_a_straight_line_and_reports_the_joint_jump():
-    panda = get_robot("panda")
+    panda = load_robot("panda")
     motion = build_motion(panda, "ik_cartesian")
     path = fk_path(chain_for(panda), motion.positions)[:, :3, 3]
     start, goal = path[0], motion.goal[:3, 3]
@@ -189,8 +189,8 @@ def test_nearest_fallback_is_explicit_and_heads_for_a_reachable_pose(robot):
 
 
 def test_igt_rejects_roll_and_pitch():
-    with pytest.raises(ScenarioError, match="igt can only reach x, y and yaw"):
-        build_motion(get_robot("igt"), "ik_joints", ScenarioConfig(goal_rpy=(0.1, 0.0, 0.5)))
+    with pytest.raises(ScenarioError, match="igt can only reach x, y and yaw: goal rpy"):
+        build_motion(load_robot("igt"), "ik_joints", ScenarioConfig(goal_rpy=(0.1, 0.0, 0.5)))
 
 
 def test_rotation_vector_exp_round_trip():
