@@ -1,0 +1,86 @@
+"""The study's design as data (design.yaml beside this file): test 1's paths and stand-offs, test 2's paths and
+speed sets, the two conditions (VR and reality). Pure logic, but for reading the YAML in `load_design`."""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+from sim.study.errors import StudyError
+from sim.study.paths import MAX_STANDOFF, MIN_STANDOFF, PATH_NAMES
+from sim.study.yamlfile import read_yaml
+
+__all__ = ["DEFAULT_DESIGN", "CONDITIONS", "Design", "parse_design", "load_design"]
+
+DEFAULT_DESIGN = Path(__file__).resolve().parent / "design.yaml"
+CONDITIONS = ("vr", "reality")
+
+
+@dataclass(frozen=True)
+class Design:
+    test1_paths: tuple[str, ...]
+    test1_standoffs: tuple[float, ...]
+    test1_peak_speed: float
+    test2_paths: tuple[str, ...]
+    test2_speed_sets: tuple[tuple[str, float], ...]  # (name, peak speed), in the design's order
+
+    @property
+    def trials_per_participant(self) -> int:
+        per_condition = len(self.test1_paths) * len(self.test1_standoffs) + len(self.test2_paths) * len(
+            self.test2_speed_sets)
+        return per_condition * len(CONDITIONS)
+
+
+def _paths(value: object, what: str) -> tuple[str, ...]:
+    if not isinstance(value, list) or not value:
+        raise StudyError(f"{what} must be a list of path names ({', '.join(PATH_NAMES)}), got {value!r}")
+    unknown = [name for name in value if name not in PATH_NAMES]
+    if unknown:
+        raise StudyError(f"{what}: unknown path(s) {unknown}; known paths: {', '.join(PATH_NAMES)}")
+    if len(set(value)) != len(value):
+        raise StudyError(f"{what} names a path twice: {value}")
+    return tuple(value)
+
+
+def _speed(value: object, what: str) -> float:
+    if not (isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+            and 0.0 < value <= 1.0):
+        raise StudyError(f"{what} must be a speed in (0, 1] m/s, got {value!r}")
+    return float(value)
+
+
+def _section(data: dict, key: str, keys: tuple[str, ...], source: str) -> dict:
+    section = data.get(key)
+    if not isinstance(section, dict) or sorted(section) != sorted(keys):
+        raise StudyError(f"{source}: {key} must have exactly {', '.join(keys)}, got {section!r}")
+    return section
+
+
+def parse_design(data: object, source: str = "design") -> Design:
+    if not isinstance(data, dict) or sorted(data) != ["test1", "test2"]:
+        raise StudyError(f"{source} must have exactly test1 and test2")
+    test1 = _section(data, "test1", ("paths", "standoffs", "peak_speed"), source)
+    test2 = _section(data, "test2", ("paths", "speed_sets"), source)
+    standoffs = test1["standoffs"]
+    if not isinstance(standoffs, list) or not standoffs or not all(
+            isinstance(v, (int, float)) and not isinstance(v, bool) and MIN_STANDOFF <= v <= MAX_STANDOFF
+            for v in standoffs) or len(set(standoffs)) != len(standoffs):
+        raise StudyError(f"{source}: test1.standoffs must be distinct stand-offs of {MIN_STANDOFF}..{MAX_STANDOFF} m, "
+                         f"got {standoffs!r}")
+    speed_sets = test2["speed_sets"]
+    if not isinstance(speed_sets, dict) or not speed_sets:
+        raise StudyError(f"{source}: test2.speed_sets must map names to peak speeds, got {speed_sets!r}")
+    return Design(
+        test1_paths=_paths(test1["paths"], f"{source}: test1.paths"),
+        test1_standoffs=tuple(float(v) for v in standoffs),
+        test1_peak_speed=_speed(test1["peak_speed"], f"{source}: test1.peak_speed"),
+        test2_paths=_paths(test2["paths"], f"{source}: test2.paths"),
+        test2_speed_sets=tuple((str(name), _speed(speed, f"{source}: test2.speed_sets.{name}"))
+                               for name, speed in speed_sets.items()),
+    )
+
+
+def load_design(path: Path | None = None) -> Design:
+    """The design in `path` (default: the bundled design.yaml)."""
+    path = DEFAULT_DESIGN if path is None else Path(path)
+    return parse_design(read_yaml(path, "design"), str(path))

@@ -1,0 +1,8 @@
+"""The one error type of sim.study."""
+from __future__ import annotations
+
+__all__ = ["StudyError"]
+
+
+class StudyError(ValueError):
+    """Bad study input: a scene, a path, a plan or a response that cannot be used. The message names the value."""
