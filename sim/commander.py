@@ -41,14 +41,13 @@ import signal
 import sys
 import threading
 import time
-from dataclasses import dataclass
 from datetime import datetime
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
 from sim.cli_values import CliValueError, parse_numbers
+from sim.driver import DriverError, ReceivedJointState, RobotDriver
 from sim.frames import matrix_to_quat, quat_to_euler_xyz
 from sim.robots import RobotError, RobotSpec, add_robot_arguments, robot_from_args
 from sim.run_log import RunResult, write_log
@@ -73,19 +72,13 @@ from sim.scenarios import (
 from sim.trajectory import ORDERS
 
 __all__ = [
-    "REPO", "DEFAULT_LOG_DIR", "STAMP_TOLERANCE_S", "EXIT_OK", "EXIT_USAGE", "EXIT_UNREACHABLE", "EXIT_ROS",
-    "EXIT_INTERRUPTED", "CommanderError", "config_from_args", "ReceivedJointState", "StateListener", "Commander",
-    "main",
+    "REPO", "DEFAULT_LOG_DIR", "EXIT_OK", "EXIT_USAGE", "EXIT_UNREACHABLE", "EXIT_ROS", "EXIT_INTERRUPTED",
+    "config_from_args", "Commander", "main",
 ]
 
 REPO = Path(__file__).resolve().parents[1]
 DEFAULT_LOG_DIR = REPO / "results" / "commander"
-STAMP_TOLERANCE_S = 1e-6
 EXIT_OK, EXIT_USAGE, EXIT_UNREACHABLE, EXIT_ROS, EXIT_INTERRUPTED = 0, 2, 3, 4, 130
-
-
-class CommanderError(RuntimeError):
-    """A ROS-side failure: no partner, a joint state that does not arrive, a malformed joint state."""
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -157,106 +150,26 @@ def config_from_args(args: argparse.Namespace) -> ScenarioConfig:
 
 
 # ------------------------------------------------------------------------------------------------ the node
-@dataclass
-class ReceivedJointState:
-    """A joint state as the commander received it: its stamp and the positions in registry joint order."""
-
-    stamp: float
-    positions: np.ndarray
-
-
-class StateListener:
-    """Latest joint state of the robot (in registry joint order), with a wait for a stamp."""
-
-    def __init__(self, robot: RobotSpec) -> None:
-        self.robot = robot
-        self.latest: ReceivedJointState | None = None
-        self.received = 0
-        self.error: str | None = None
-        self._changed = threading.Condition()
-
-    def callback(self, message: Any) -> None:
-        try:
-            index = [list(message.name).index(name) for name in self.robot.joint_names]
-            positions = np.array([message.position[i] for i in index], dtype=float)
-        except (ValueError, IndexError):
-            with self._changed:
-                self.error = (f"joint state names {list(message.name)} with {len(message.position)} positions do not "
-                              f"cover {list(self.robot.joint_names)}")
-                self._changed.notify_all()
-            return
-        with self._changed:
-            self.latest = ReceivedJointState(message.header.stamp.to_sec(), positions)
-            self.received += 1
-            self._changed.notify_all()
-
-    def wait_for_stamp(self, stamp: float, timeout: float, stop: threading.Event) -> ReceivedJointState | None:
-        """The latest state once its stamp is >= `stamp` (None after `timeout` s or when stopped)."""
-        deadline = time.monotonic() + timeout
-        with self._changed:
-            while True:
-                if self.error is not None:
-                    raise CommanderError(f"{self.robot.joint_states_topic}: {self.error}")
-                if self.latest is not None and self.latest.stamp >= stamp - STAMP_TOLERANCE_S:
-                    return self.latest
-                remaining = deadline - time.monotonic()
-                if remaining <= 0 or stop.is_set():
-                    return None
-                self._changed.wait(min(remaining, 0.2))
-
-    def wake(self) -> None:
-        with self._changed:
-            self._changed.notify_all()
-
-
-class Commander:
-    """Publishers, the joint-state subscriber and the stepping loops."""
+class Commander(RobotDriver):
+    """The driver (sim.driver) with the goal pose publisher and the stepping loops."""
 
     def __init__(self, robot: RobotSpec, motion: Motion, args: argparse.Namespace, stop: threading.Event) -> None:
-        import rospy
+        super().__init__(robot, stop)
         from geometry_msgs.msg import Pose
-        from rosgraph_msgs.msg import Clock
-        from sensor_msgs.msg import JointState
-        from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
-        self.rospy = rospy
-        self._msg = {"Pose": Pose, "Clock": Clock, "JointTrajectory": JointTrajectory, "Point": JointTrajectoryPoint}
-        self.robot = robot
+        self._pose_type = Pose
         self.motion = motion
         self.args = args
-        self.stop = stop
         self.dt = motion.dt
-        self.states = StateListener(robot)
-        self._last_clock = -math.inf
-        self.command_pub = rospy.Publisher(robot.command_topic, JointTrajectory, queue_size=100)
-        self.clock_pub = rospy.Publisher("/clock", Clock, queue_size=100)
-        self.pose_pub = rospy.Publisher(robot.pose_topic, Pose, queue_size=1, latch=True) if motion.goal is not None else None
-        self.state_sub = rospy.Subscriber(robot.joint_states_topic, JointState, self.states.callback, tcp_nodelay=True, queue_size=100)
-
-    # --- publishing ---------------------------------------------------------------------------------------
-    def _time(self, seconds: float) -> Any:
-        return self.rospy.Time.from_sec(round(seconds, 9))
-
-    def publish_command(self, stamp: float, positions: np.ndarray, velocities: np.ndarray) -> None:
-        message = self._msg["JointTrajectory"]()
-        message.header.stamp = self._time(stamp)
-        message.joint_names = list(self.robot.joint_names)
-        point = self._msg["Point"]()
-        point.positions = [float(v) for v in positions]
-        point.velocities = [float(v) for v in velocities]
-        message.points = [point]
-        self.command_pub.publish(message)
-
-    def publish_clock(self, seconds: float) -> None:
-        if seconds <= self._last_clock:
-            raise CommanderError(f"/clock must increase strictly: {seconds} after {self._last_clock}")
-        self._last_clock = seconds
-        self.clock_pub.publish(self._msg["Clock"](clock=self._time(seconds)))
+        self.pose_pub = None
+        if motion.goal is not None:
+            self.pose_pub = self.rospy.Publisher(robot.pose_topic, Pose, queue_size=1, latch=True)
+            self.watched_publishers.append((robot.pose_topic, self.pose_pub))
 
     def publish_goal(self) -> None:
         if self.pose_pub is None or self.motion.goal is None:
             return
-        pose = self._msg["Pose"]()
+        pose = self._pose_type()
         position, quaternion = self.motion.goal[:3, 3], matrix_to_quat(self.motion.goal[:3, :3])
         pose.position.x, pose.position.y, pose.position.z = (float(v) for v in position)
         if self.args.pose_euler:  # the seed's convention: XYZ Euler angles in x, y, z; w = 0
@@ -266,66 +179,8 @@ class Commander:
             pose.orientation.x, pose.orientation.y, pose.orientation.z, pose.orientation.w = (float(v) for v in quaternion)
         self.pose_pub.publish(pose)
 
-    # --- start-up -----------------------------------------------------------------------------------------
-    def wait_for_partner(self, timeout: float) -> str:
-        """Name of a node that publishes joint_states and subscribes our command topic, once every link of ours
-        to it is connected. Polls the master (bounded by `timeout`)."""
-        import rosgraph
-
-        master = rosgraph.Master(self.rospy.get_name())
-        me = self.rospy.get_name()
-        deadline = time.monotonic() + timeout
-        status = "no node publishes it yet"
-        while not self.stop.is_set():
-            publishers, subscribers, _ = master.getSystemState()
-            pubs = {topic: set(nodes) for topic, nodes in publishers}
-            subs = {topic: set(nodes) for topic, nodes in subscribers}
-            partners = sorted((pubs.get(self.robot.joint_states_topic, set()) & subs.get(self.robot.command_topic, set())) - {me})
-            for partner in partners:
-                links = {
-                    self.robot.command_topic: self.command_pub.impl.has_connection(partner),
-                    self.robot.joint_states_topic: self.state_sub.impl.has_connection(master.lookupNode(partner)),
-                }
-                if partner in subs.get("/clock", set()):
-                    links["/clock"] = self.clock_pub.impl.has_connection(partner)
-                if self.pose_pub is not None and partner in subs.get(self.robot.pose_topic, set()):
-                    links[self.robot.pose_topic] = self.pose_pub.impl.has_connection(partner)
-                for node in self.args.wait_for:
-                    node = node if node.startswith("/") else "/" + node
-                    for topic, publisher in self._publishers():
-                        if node in subs.get(topic, set()):
-                            links[f"{topic} -> {node}"] = publisher.impl.has_connection(node)
-                        elif not any(node in nodes for nodes in subs.values()):
-                            links[f"{node} (not registered)"] = False
-                if all(links.values()):
-                    return partner
-                status = f"{partner} found, waiting for {[t for t, ok in links.items() if not ok]}"
-            if time.monotonic() > deadline:
-                raise CommanderError(
-                    f"no engine after {timeout:g} s: needs a node publishing {self.robot.joint_states_topic} and "
-                    f"subscribing {self.robot.command_topic} ({status}); start e.g. "
-                    f"`python -m sim.physics_node --robot {self.robot.name} --no-auto-simulate`"
-                )
-            self.stop.wait(0.05)
-        raise CommanderError("interrupted while waiting for the engine")
-
-    def _publishers(self) -> list[tuple[str, Any]]:
-        publishers = [(self.robot.command_topic, self.command_pub), ("/clock", self.clock_pub)]
-        if self.pose_pub is not None:
-            publishers.append((self.robot.pose_topic, self.pose_pub))
-        return publishers
-
     def _state_or_fail(self, stamp: float, timeout: float) -> ReceivedJointState:
-        state = self.states.wait_for_stamp(stamp, timeout, self.stop)
-        if state is None:
-            if self.stop.is_set():
-                raise CommanderError("interrupted")
-            last = "none received" if self.states.latest is None else f"latest stamped {self.states.latest.stamp:.6f} s"
-            raise CommanderError(
-                f"no {self.robot.joint_states_topic} message stamped >= {stamp:.6f} s within {timeout:g} s "
-                f"({last}); is the engine stepping on /clock (--no-auto-simulate) with dt {self.dt:g} s?"
-            )
-        return state
+        return self.state_or_fail(stamp, timeout, self.dt)
 
     # --- running ------------------------------------------------------------------------------------------
     def run(self) -> tuple[Schedule, RunResult]:
@@ -364,7 +219,7 @@ class Commander:
             self.publish_clock(t_end)
             try:
                 state = self._state_or_fail(t_end, self.args.timeout)
-            except CommanderError as error:
+            except DriverError as error:
                 failure = str(error)
                 break
             achieved[i - 1], stamps[i - 1] = state.positions, state.stamp
@@ -407,12 +262,6 @@ class Commander:
         result = RunResult(times, np.arange(1, steps + 1), schedule.positions[1:], achieved, stamps,
                            time.monotonic() - started, 0, done == steps)
         return schedule, result
-
-    def close(self) -> None:
-        self.states.wake()
-        for endpoint in (self.command_pub, self.clock_pub, self.pose_pub, self.state_sub):
-            if endpoint is not None:
-                endpoint.unregister()
 
 
 # ------------------------------------------------------------------------------------------------------ main
@@ -463,11 +312,11 @@ def _run_node(robot: RobotSpec, motion: Motion, args: argparse.Namespace) -> int
     log_path = args.log or _default_log_path(robot.name, motion.scenario)
     code = EXIT_OK
     try:
-        partner = commander.wait_for_partner(args.connect_timeout)
+        partner = commander.wait_for_partner(args.connect_timeout, args.wait_for)
         rospy.loginfo("engine %s connected; running %s for %s (%d steps of %g s)", partner, motion.scenario,
                       robot.name, motion.steps, motion.dt)
         schedule, result = commander.run()
-    except CommanderError as error:
+    except DriverError as error:
         rospy.logerr("%s", error)
         print(f"sim.commander: error: {error}", file=sys.stderr)
         return EXIT_INTERRUPTED if stop.is_set() else EXIT_ROS

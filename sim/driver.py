@@ -1,0 +1,182 @@
+"""The ROS side of driving a robot, simulated or real, shared by the commander and the study runner (rospy nodes).
+
+Publishes the joint command (`<prefix>/arm_controller/command`, trajectory_msgs/JointTrajectory with ONE point of
+positions and velocities, stamped with the time the target is for) and `/clock`; listens to `<prefix>/joint_states`.
+In lockstep the engine steps once per /clock value and answers with a joint state of that stamp, which
+`state_or_fail` waits for. `wait_for_partner` finds the engine (a node publishing the joint states and subscribing
+the command) and waits until every link to it, and to nodes such as a rosbag recorder, is connected.
+"""
+from __future__ import annotations
+
+import threading
+import time
+from dataclasses import dataclass
+from typing import Any, Sequence
+
+import numpy as np
+
+from sim.robots import RobotSpec
+
+__all__ = ["STAMP_TOLERANCE_S", "DriverError", "ReceivedJointState", "StateListener", "RobotDriver"]
+
+STAMP_TOLERANCE_S = 1e-6
+
+
+class DriverError(RuntimeError):
+    """A ROS-side failure: no partner, a joint state that does not arrive, a malformed joint state."""
+
+
+@dataclass
+class ReceivedJointState:
+    """A joint state as received: its stamp and the positions in the robot's joint order."""
+
+    stamp: float
+    positions: np.ndarray
+
+
+class StateListener:
+    """Latest joint state of the robot (in the robot's joint order), with a wait for a stamp."""
+
+    def __init__(self, robot: RobotSpec) -> None:
+        self.robot = robot
+        self.latest: ReceivedJointState | None = None
+        self.received = 0
+        self.error: str | None = None
+        self._changed = threading.Condition()
+
+    def callback(self, message: Any) -> None:
+        try:
+            index = [list(message.name).index(name) for name in self.robot.joint_names]
+            positions = np.array([message.position[i] for i in index], dtype=float)
+        except (ValueError, IndexError):
+            with self._changed:
+                self.error = (f"joint state names {list(message.name)} with {len(message.position)} positions do not "
+                              f"cover {list(self.robot.joint_names)}")
+                self._changed.notify_all()
+            return
+        with self._changed:
+            self.latest = ReceivedJointState(message.header.stamp.to_sec(), positions)
+            self.received += 1
+            self._changed.notify_all()
+
+    def wait_for_stamp(self, stamp: float, timeout: float, stop: threading.Event) -> ReceivedJointState | None:
+        """The latest state once its stamp is >= `stamp` (None after `timeout` s or when stopped)."""
+        deadline = time.monotonic() + timeout
+        with self._changed:
+            while True:
+                if self.error is not None:
+                    raise DriverError(f"{self.robot.joint_states_topic}: {self.error}")
+                if self.latest is not None and self.latest.stamp >= stamp - STAMP_TOLERANCE_S:
+                    return self.latest
+                remaining = deadline - time.monotonic()
+                if remaining <= 0 or stop.is_set():
+                    return None
+                self._changed.wait(min(remaining, 0.2))
+
+    def wake(self) -> None:
+        with self._changed:
+            self._changed.notify_all()
+
+
+class RobotDriver:
+    """The command and /clock publishers, the joint-state subscriber, and the waits on them. `stop` (set by a
+    signal handler) ends every wait."""
+
+    def __init__(self, robot: RobotSpec, stop: threading.Event) -> None:
+        import rospy
+        from rosgraph_msgs.msg import Clock
+        from sensor_msgs.msg import JointState
+        from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+
+        self.rospy = rospy
+        self._clock_type, self._trajectory_type, self._point_type = Clock, JointTrajectory, JointTrajectoryPoint
+        self.robot = robot
+        self.stop = stop
+        self.states = StateListener(robot)
+        self._last_clock = -float("inf")
+        self.command_pub = rospy.Publisher(robot.command_topic, JointTrajectory, queue_size=100)
+        self.clock_pub = rospy.Publisher("/clock", Clock, queue_size=100)
+        self.state_sub = rospy.Subscriber(robot.joint_states_topic, JointState, self.states.callback,
+                                          tcp_nodelay=True, queue_size=100)
+        # Further publishers whose links to the partner (where it subscribes) and to --wait-for nodes must be up
+        # before the run starts, e.g. the commander's goal pose.
+        self.watched_publishers: list[tuple[str, Any]] = [(robot.command_topic, self.command_pub),
+                                                          ("/clock", self.clock_pub)]
+
+    def ros_time(self, seconds: float) -> Any:
+        return self.rospy.Time.from_sec(round(seconds, 9))
+
+    def publish_command(self, stamp: float, positions: np.ndarray, velocities: np.ndarray) -> None:
+        message = self._trajectory_type()
+        message.header.stamp = self.ros_time(stamp)
+        message.joint_names = list(self.robot.joint_names)
+        point = self._point_type()
+        point.positions = [float(v) for v in positions]
+        point.velocities = [float(v) for v in velocities]
+        message.points = [point]
+        self.command_pub.publish(message)
+
+    def publish_clock(self, seconds: float) -> None:
+        if seconds <= self._last_clock:
+            raise DriverError(f"/clock must increase strictly: {seconds} after {self._last_clock}")
+        self._last_clock = seconds
+        self.clock_pub.publish(self._clock_type(clock=self.ros_time(seconds)))
+
+    def wait_for_partner(self, timeout: float, wait_for: Sequence[str] = ()) -> str:
+        """Name of a node that publishes joint_states and subscribes our command topic, once every link of ours
+        to it is connected, and so is every link to the nodes named in `wait_for`. Polls the master (bounded by
+        `timeout`)."""
+        import rosgraph
+
+        master = rosgraph.Master(self.rospy.get_name())
+        me = self.rospy.get_name()
+        deadline = time.monotonic() + timeout
+        status = "no node publishes it yet"
+        while not self.stop.is_set():
+            publishers, subscribers, _ = master.getSystemState()
+            pubs = {topic: set(nodes) for topic, nodes in publishers}
+            subs = {topic: set(nodes) for topic, nodes in subscribers}
+            partners = sorted((pubs.get(self.robot.joint_states_topic, set())
+                               & subs.get(self.robot.command_topic, set())) - {me})
+            for partner in partners:
+                links = {self.robot.joint_states_topic: self.state_sub.impl.has_connection(master.lookupNode(partner))}
+                for topic, publisher in self.watched_publishers:
+                    if partner in subs.get(topic, set()):
+                        links[topic] = publisher.impl.has_connection(partner)
+                for node in wait_for:
+                    node = node if node.startswith("/") else "/" + node
+                    if not any(node in nodes for nodes in subs.values()):
+                        links[f"{node} (not registered)"] = False
+                    for topic, publisher in self.watched_publishers:
+                        if node in subs.get(topic, set()):
+                            links[f"{topic} -> {node}"] = publisher.impl.has_connection(node)
+                if all(links.values()):
+                    return partner
+                status = f"{partner} found, waiting for {[t for t, ok in links.items() if not ok]}"
+            if time.monotonic() > deadline:
+                raise DriverError(
+                    f"no engine after {timeout:g} s: needs a node publishing {self.robot.joint_states_topic} and "
+                    f"subscribing {self.robot.command_topic} ({status}); start e.g. "
+                    f"`python -m sim.physics_node --robot {self.robot.name} --no-auto-simulate`"
+                )
+            self.stop.wait(0.05)
+        raise DriverError("interrupted while waiting for the engine")
+
+    def state_or_fail(self, stamp: float, timeout: float, dt: float) -> ReceivedJointState:
+        """The joint state stamped >= `stamp`, waited for at most `timeout` s."""
+        state = self.states.wait_for_stamp(stamp, timeout, self.stop)
+        if state is None:
+            if self.stop.is_set():
+                raise DriverError("interrupted")
+            last = "none received" if self.states.latest is None else f"latest stamped {self.states.latest.stamp:.6f} s"
+            raise DriverError(
+                f"no {self.robot.joint_states_topic} message stamped >= {stamp:.6f} s within {timeout:g} s "
+                f"({last}); is the engine stepping on /clock (--no-auto-simulate) with dt {dt:g} s?"
+            )
+        return state
+
+    def close(self) -> None:
+        self.states.wake()
+        for _, publisher in self.watched_publishers:
+            publisher.unregister()
+        self.state_sub.unregister()
