@@ -20,7 +20,7 @@ from typing import Any, TypeVar
 
 __all__ = [
     "REPO", "PYTHON", "ProcessError", "free_port", "wait_for", "kill_process", "ros_environment",
-    "ManagedProcess", "RosCore",
+    "ManagedProcess", "RosCore", "stop_recorder",
 ]
 
 REPO = Path(__file__).resolve().parents[1]
@@ -171,3 +171,12 @@ class RosCore(ManagedProcess):
         state: Any = xmlrpc.client.ServerProxy(self.uri).getSystemState("/probe")
         _, _, (publishers, _, _) = state
         return next((nodes for name, nodes in publishers if name == topic), [])
+
+
+def stop_recorder(recorder: ManagedProcess, bag: Path) -> None:
+    """SIGINT lets rosbag close the bag; its C++ recorder renames .bag.active to .bag as the last thing it does."""
+    recorder.stop(timeout=10)
+    active = bag.with_name(bag.name + ".active")
+    deadline = time.monotonic() + 10
+    while active.exists() and not bag.exists() and time.monotonic() < deadline:
+        time.sleep(0.05)

@@ -31,7 +31,7 @@ from pathlib import Path
 
 from sim import analysis
 from sim.physics import Mode
-from sim.processes import PYTHON, REPO, ManagedProcess, ProcessError, RosCore
+from sim.processes import PYTHON, REPO, ManagedProcess, ProcessError, RosCore, stop_recorder
 from sim.scenarios import ScenarioConfig, ScenarioError, build_motion
 from sim.robots import ROBOT_NAMES, RobotError, RobotSpec, load_robot
 
@@ -248,7 +248,7 @@ class Campaign:
             recorder = ManagedProcess(
                 ["stdbuf", "-oL", "-eL", "rosbag", "record", "-O", str(paths.bag), *topics, "__name:=trial_recorder"],
                 where.ros_env, logs, "rosbag", where.ros_prefix)
-            running.callback(lambda: _stop_recorder(recorder, paths.bag))
+            running.callback(lambda: stop_recorder(recorder, paths.bag))
             engine.wait_for_output("connected to", timeout=60)
             recorder.wait_for_output("Recording to", timeout=30)
             commander_args = [PYTHON, "-m", "sim.commander", *robot.cli_args, "--scenario", *scenario,
@@ -280,15 +280,6 @@ def _expect_success(process: ManagedProcess, timeout_s: float) -> None:
     code = process.wait(timeout_s)
     if code != 0:
         raise TrialError(f"{process.name} exited with {code}:\n{process.output()[-3000:]}")
-
-
-def _stop_recorder(recorder: ManagedProcess, bag: Path) -> None:
-    """SIGINT lets rosbag close the bag; its C++ recorder renames .bag.active to .bag as the last thing it does."""
-    recorder.stop(timeout=10)
-    active = bag.with_name(bag.name + ".active")
-    deadline = time.monotonic() + 10
-    while active.exists() and not bag.exists() and time.monotonic() < deadline:
-        time.sleep(0.05)
 
 
 # --- campaign --------------------------------------------------------------------------------------------------

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 import tempfile
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -21,14 +22,17 @@ from sim.kinematics import chain_for, solve_ik, solve_path_ik
 from sim.robots import RobotSpec, find_ros_package
 from sim.robots.meshes import resolve_shapes
 from sim.scenario_defaults import controllable_weights
-from sim.study.paths import ApproachPath
+from sim.study.paths import ApproachPath, approach_path
 from sim.study.scene import Box, Scene
 
-__all__ = ["CONTACT_MARGIN", "STANDOFF_TOLERANCE", "PlannedApproach", "SceneWorld", "plan_approach"]
+__all__ = ["CONTACT_MARGIN", "STANDOFF_TOLERANCE", "Combination", "PlannedApproach", "SceneWorld", "plan_approach",
+           "plan_combinations"]
 
 CONTACT_MARGIN = 0.005  # m: closer than this to the table, the hand or itself counts as contact
 STANDOFF_TOLERANCE = 0.002  # m: FK of the planned end vs the path's stand-off
 _IK_RESTARTS = 20
+
+Combination = tuple[str, float, float]  # path name, stand-off (m), peak speed (m/s)
 
 
 @dataclass
@@ -167,3 +171,11 @@ def plan_approach(robot: RobotSpec, scene: Scene, path: ApproachPath, world: Sce
     if abs(reached - path.standoff) > STANDOFF_TOLERANCE:
         problems.append(f"the planned end is {reached:.4f} m from the hand, not the stand-off {path.standoff} m")
     return PlannedApproach(path, positions, velocities, reached, lowest, problems)
+
+
+def plan_combinations(robot: RobotSpec, scene: Scene, combinations: Iterable[Combination],
+                      dt: float) -> dict[Combination, PlannedApproach]:
+    """Each distinct combination planned and checked once, in one scene world."""
+    with SceneWorld(robot, scene) as world:
+        return {combination: plan_approach(robot, scene, approach_path(scene, *combination, dt=dt), world)
+                for combination in dict.fromkeys(combinations)}

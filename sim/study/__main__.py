@@ -1,0 +1,193 @@
+"""python -m sim.study: plan, check, run, simulate and analyse the perception study (docs/study.md).
+
+  plan --participant N --seed S [--out PLAN.yaml] [--print]   a participant's session plan (counterbalanced)
+  check                                                       every combination of the design planned and checked
+  run --plan PLAN.yaml --out DIR [--realtime] [--auto-go]     the runner node: executes the plan (ROS)
+  participant --port P --participant N --seed S               a simulated participant (a TCP client, no rospy)
+  analyse DIR [--out DIR]                                     the report over every participant's CSV in DIR
+  simulate --participants 12 --out DIR                        the whole study with simulated participants, end to end
+
+Bad input (an unknown path name, an infeasible combination, a malformed plan or scene) is one line and exit 2.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import yaml
+
+from sim.robots import RobotError
+from sim.study.design import load_design
+from sim.study.errors import StudyError
+from sim.study.plan import make_plan, plan_from_data, plan_to_data, printable
+from sim.study.scene import load_scene, scene_robot
+from sim.study.yamlfile import read_yaml
+
+__all__ = ["main"]
+
+EXIT_USAGE = 2
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="python -m sim.study", description=__doc__.splitlines()[0])
+    commands = parser.add_subparsers(dest="command", required=True)
+
+    def with_scene(command: argparse.ArgumentParser) -> None:
+        command.add_argument("--scene", type=Path, help="scene YAML (default: the bundled scene.yaml)")
+        command.add_argument("--dt", type=float, default=0.02, help="control step in s (default 0.02)")
+
+    plan = commands.add_parser("plan", help="a participant's session plan")
+    plan.add_argument("--participant", type=int, required=True)
+    plan.add_argument("--seed", type=int, required=True)
+    plan.add_argument("--design", type=Path, help="design YAML (default: the bundled design.yaml)")
+    plan.add_argument("--out", type=Path, help="write the plan here (default: print it as YAML)")
+    plan.add_argument("--print", action="store_true", help="print the observer's table instead of YAML")
+
+    check = commands.add_parser("check", help="plan and check every combination of the design")
+    check.add_argument("--design", type=Path, help="design YAML (default: the bundled design.yaml)")
+    with_scene(check)
+
+    run = commands.add_parser("run", help="the runner node: execute a plan")
+    run.add_argument("--plan", type=Path, required=True)
+    run.add_argument("--out", type=Path, required=True, help="the participant's CSV, bag and logs go here")
+    with_scene(run)
+    run.add_argument("--realtime", action="store_true", help="pace by the wall clock (VR headset, real robot)")
+    run.add_argument("--auto-go", action="store_true", help="start each approach at once, without waiting for go")
+    run.add_argument("--no-record", action="store_true", help="no rosbag record")
+    run.add_argument("--settle", type=float, default=0.5, help="s held after each motion before it is at rest")
+    run.add_argument("--deceleration", type=float, default=1.0, help="braking on a press, m/s² along the path")
+    run.add_argument("--response-timeout", type=float, default=300.0,
+                     help="longest wait for go or an answer in s; then the trial goes on without it (default 300)")
+    run.add_argument("--step-timeout", type=float, default=10.0, help="lockstep: longest wait for a joint state")
+    run.add_argument("--connect-timeout", type=float, default=60.0, help="longest wait for the engine at start")
+
+    participant = commands.add_parser("participant", help="a simulated participant (TCP client of the endpoint)")
+    participant.add_argument("--participant", type=int, required=True)
+    participant.add_argument("--seed", type=int, required=True)
+    participant.add_argument("--host", default="127.0.0.1", help="endpoint address")
+    participant.add_argument("--port", type=int, default=10000, help="endpoint port")
+    participant.add_argument("--scene", type=Path, help="scene YAML (default: the bundled scene.yaml)")
+    participant.add_argument("--vr-distance-bias", type=float, default=0.85,
+                             help="perceived / actual distance in VR (default 0.85: a 15 %% underestimate)")
+    participant.add_argument("--timeout", type=float, default=1800.0, help="give up after this many s")
+    return parser
+
+
+def _check_positive(value: float, option: str) -> None:
+    if not value > 0:
+        raise StudyError(f"{option} must be > 0, got {value}")
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = _parser().parse_args(argv)
+    try:
+        if args.command == "plan":
+            return _plan(args)
+        if args.command == "check":
+            return _check(args)
+        if args.command == "run":
+            return _run(args)
+        if args.command == "participant":
+            return _participant(args)
+    except (StudyError, RobotError) as error:
+        print(f"sim.study {args.command}: error: {error}", file=sys.stderr)
+        return EXIT_USAGE
+    raise AssertionError(args.command)
+
+
+def _plan(args: argparse.Namespace) -> int:
+    plan = make_plan(load_design(args.design), args.participant, args.seed)
+    text = printable(plan) if args.print else yaml.safe_dump(plan_to_data(plan), sort_keys=False)
+    if args.out is None:
+        print(text, end="")
+    else:
+        args.out.parent.mkdir(parents=True, exist_ok=True)
+        args.out.write_text(text)
+        print(f"plan of participant {plan.participant}: {len(plan.trials)} trials, {' then '.join(plan.conditions)}"
+              f" -> {args.out}")
+    return 0
+
+
+def _check(args: argparse.Namespace) -> int:
+    from sim.study.feasibility import plan_combinations
+
+    _check_positive(args.dt, "--dt")
+    design, scene = load_design(args.design), load_scene(args.scene)
+    robot = scene_robot(scene)
+    plan = make_plan(design, 1, 0)
+    started = time.monotonic()
+    approaches = plan_combinations(robot, scene, [(t.path, t.standoff, t.peak_speed) for t in plan.trials], args.dt)
+    elapsed = time.monotonic() - started
+    print("| path | stand-off | peak speed | samples | duration | clearance table / hand | verdict |")
+    print("|---|---|---|---|---|---|---|")
+    for (path, standoff, speed), planned in approaches.items():
+        clearance = planned.min_clearance
+        verdict = "feasible" if planned.feasible else "; ".join(planned.problems)
+        print(f"| {path} | {standoff:.3f} m | {speed:.2f} m/s | {len(planned.path.times)} | "
+              f"{planned.path.duration:.2f} s | {clearance['table'] * 1000:.0f} / {clearance['hand'] * 1000:.0f} mm | "
+              f"{verdict} |")
+    print(f"{len(approaches)} combinations planned in {elapsed:.1f} s")
+    infeasible = [key for key, planned in approaches.items() if not planned.feasible]
+    if infeasible:
+        raise StudyError(f"{len(infeasible)} combination(s) of the design are not feasible: "
+                         f"{', '.join(f'{p} to {s} m at {v} m/s' for p, s, v in infeasible)}")
+    return 0
+
+
+def _run(args: argparse.Namespace) -> int:
+    from sim.study.feasibility import plan_combinations
+    from sim.study.runner import RunnerOptions, run_node
+
+    for option in ("dt", "settle", "deceleration", "response_timeout", "step_timeout", "connect_timeout"):
+        _check_positive(getattr(args, option), f"--{option.replace('_', '-')}")
+    plan = plan_from_data(read_yaml(args.plan, "plan"), str(args.plan))
+    scene = load_scene(args.scene)
+    robot = scene_robot(scene)
+    approaches = plan_combinations(robot, scene, [(t.path, t.standoff, t.peak_speed) for t in plan.trials], args.dt)
+    infeasible = {key: planned.problems for key, planned in approaches.items() if not planned.feasible}
+    if infeasible:
+        raise StudyError("the plan has combinations that are not feasible (none was run): " + "; ".join(
+            f"{p} to {s} m at {v} m/s: {', '.join(problems)}" for (p, s, v), problems in infeasible.items()))
+    options = RunnerOptions(args.dt, args.realtime, args.auto_go, args.settle, args.step_timeout,
+                            args.response_timeout, args.deceleration)
+    return run_node(robot, scene, plan, approaches, options, args.out.resolve(), not args.no_record,
+                    args.connect_timeout)
+
+
+def _participant(args: argparse.Namespace) -> int:
+    from bridge.client import ClientError, TcpClient
+    from sim.study.participant import SimulatedParticipant
+    from sim.study.participant_model import Population, draw_traits
+
+    _check_positive(args.vr_distance_bias, "--vr-distance-bias")
+    _check_positive(args.timeout, "--timeout")
+    scene = load_scene(args.scene)
+    robot = scene_robot(scene)
+    traits = draw_traits(Population(distance_bias={"vr": args.vr_distance_bias, "reality": 1.0}), args.participant,
+                         args.seed)
+    client = TcpClient(args.host, args.port)
+    participant = SimulatedParticipant(client, robot, scene, traits, args.seed)
+    participant.attach()
+    try:
+        client.connect(timeout=30)
+    except ClientError as error:
+        print(f"sim.study participant: cannot reach the endpoint at {args.host}:{args.port}: {error}", file=sys.stderr)
+        return 4
+    print(f"participant {args.participant}: connected; {participant.threshold_note}", flush=True)
+    try:
+        finished = participant.done.wait(args.timeout)
+    finally:
+        client.close()
+    for problem in participant.problems:
+        print(f"sim.study participant: {problem}", file=sys.stderr)
+    if not finished:
+        print(f"sim.study participant: the session did not end within {args.timeout:g} s", file=sys.stderr)
+        return 4
+    print(f"participant {args.participant}: session done, {participant.presses} presses")
+    return 0 if not participant.problems else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,121 @@
+"""A simulated participant: a TCP client of the endpoint without rospy, as a Unity scene would be
+(`python -m sim.study participant --port P --participant N --seed S`).
+
+It follows the runner's `/study/trial` and the robot's joint states, and acts by its traits (sim.study.
+participant_model), which stand for both the participant and the observer:
+  ready       says go (`/study/go`), as the observer would;
+  moving      test 2: computes its own end-effector distance to the hand (FK of each joint state) and, once it is
+              within its comfort threshold, presses stop (`/study/stop`) stamped one reaction time after the joint
+              state that crossed it;
+  distance    test 1: reports its perceived distance of the robot at rest (`/study/perceived_distance`);
+  preference  names its preferred path of the group (`/study/preference`);
+  done        (for its participant number) ends.
+"""
+from __future__ import annotations
+
+import threading
+from typing import Any
+
+import numpy as np
+
+from bridge.client import TcpClient
+from sim.kinematics import chain_for
+from sim.robots import RobotSpec
+from sim.rosmsgs import JOINT_STATE, TYPESTORE, deserialize, time_msg, to_seconds
+from sim.rosmsgs import serialize as serialize_message
+from sim.study.errors import StudyError
+from sim.study.interface import (
+    DISTANCE_TOPIC,
+    GO_TOPIC,
+    PREFERENCE_TOPIC,
+    STATUS_TOPIC,
+    STOP_TOPIC,
+    TOPIC_TYPES,
+    TrialStatus,
+    status_from_json,
+)
+from sim.study.participant_model import Traits, comfort_threshold, perceived_distance, preferred_path
+from sim.study.scene import Scene
+
+__all__ = ["SimulatedParticipant"]
+
+_TYPES = TYPESTORE.types
+
+
+def _encode(topic: str, **fields: Any) -> bytes:
+    package, name = TOPIC_TYPES[topic].split("/")
+    return serialize_message(_TYPES[f"{package}/msg/{name}"](**fields), TOPIC_TYPES[topic])
+
+
+class SimulatedParticipant:
+    def __init__(self, client: TcpClient, robot: RobotSpec, scene: Scene, traits: Traits, seed: int) -> None:
+        self.client, self.robot, self.scene, self.traits = client, robot, scene, traits
+        self.rng = np.random.default_rng([seed, traits.participant, 2])  # the judgements' noise
+        self.done = threading.Event()
+        self.presses = 0
+        self.problems: list[str] = []
+        self._chain = chain_for(robot)
+        self._status: TrialStatus | None = None
+        self._pressed = False
+        self._latest: tuple[float, np.ndarray] | None = None
+
+    def attach(self) -> None:
+        for topic in (GO_TOPIC, STOP_TOPIC, DISTANCE_TOPIC, PREFERENCE_TOPIC):
+            self.client.register_publisher(topic, TOPIC_TYPES[topic])
+        self.client.subscribe(self.robot.joint_states_topic, JOINT_STATE, self._on_joint_state)
+        self.client.subscribe(STATUS_TOPIC, TOPIC_TYPES[STATUS_TOPIC], self._on_status)
+
+    def hand_distance(self, positions: np.ndarray) -> float:
+        point = self.scene.to_world(self._chain.fk(positions)[:3, 3][None])[0]
+        return self.scene.hand.distance(point)
+
+    def _on_joint_state(self, payload: bytes) -> None:
+        message: Any = deserialize(payload, JOINT_STATE)
+        names = list(message.name)
+        positions = np.array([message.position[names.index(name)] for name in self.robot.joint_names])
+        stamp = to_seconds(message.header.stamp)
+        self._latest = (stamp, positions)
+        status = self._status
+        if status is None or status.phase != "moving" or status.test != 2 or self._pressed:
+            return
+        if stamp < status.motion_start or self.hand_distance(positions) > comfort_threshold(self.traits,
+                                                                                              status.condition):
+            return
+        self._pressed = True
+        self.presses += 1
+        source = "vr_trigger" if status.condition == "vr" else "button"
+        self.client.publish(STOP_TOPIC, _encode(STOP_TOPIC, seq=0, stamp=time_msg(stamp + self.traits.reaction_time),
+                                                frame_id=source))
+
+    def _on_status(self, payload: bytes) -> None:
+        message: Any = deserialize(payload, TOPIC_TYPES[STATUS_TOPIC])
+        try:
+            status = status_from_json(message.data)
+        except StudyError as error:
+            self.problems.append(str(error))
+            return
+        if status.participant != self.traits.participant:
+            return  # another session's (a latched status from before)
+        self._status = status
+        if status.phase == "ready":
+            self._pressed = False
+            self.client.publish(GO_TOPIC, _encode(GO_TOPIC))
+        elif status.phase == "distance":
+            if self._latest is None:
+                self.problems.append(f"trial {status.index}: asked for a distance before any joint state")
+                return
+            actual = self.hand_distance(self._latest[1])
+            answer = perceived_distance(self.traits, status.condition, actual, self.rng)
+            self.client.publish(DISTANCE_TOPIC, _encode(DISTANCE_TOPIC, data=answer))
+        elif status.phase == "preference":
+            choice = preferred_path(self.traits, status.group_paths)
+            self.client.publish(PREFERENCE_TOPIC, _encode(PREFERENCE_TOPIC, data=choice))
+        elif status.phase == "done":
+            self.done.set()
+
+    @property
+    def threshold_note(self) -> str:
+        vr, reality = (comfort_threshold(self.traits, condition) for condition in ("vr", "reality"))
+        return (f"comfort {reality:.3f} m (VR {vr:.3f} m), reaction {self.traits.reaction_time:.3f} s, "
+                f"VR distance bias {self.traits.distance_bias['vr']:.2f}")
+

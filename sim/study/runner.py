@@ -1,0 +1,380 @@
+"""The study runner: a rospy node that executes a participant's session plan trial by trial
+(`python -m sim.study run --plan PLAN --out DIR`).
+
+Per trial: move to the path's start (a quintic in joint space), wait for go (`/study/go`, the observer's keyboard,
+or at once with --auto-go), run the approach sample by sample (sim.study.trial_run), stopping along the path when a
+press comes (`/study/stop`), rest, then ask for test 1's perceived distance, and after each group of test 2 for the
+preference. The trial's phase goes out on `/study/trial` (sim.study.interface has the whole interface). Every row is
+written to the participant's CSV as soon as its trial ends, and `rosbag record` (started and stopped here) records
+the robot's topics, /clock and every /study topic.
+
+It drives the robot through sim.driver, the commander's topics: the engine stand-in, Unity, or a real robot's
+controller take the same stream. Lockstep (default): the runner owns /clock and the engine steps once per value, so
+a session takes seconds of wall time; while the runner waits for go or an answer, the clock stands still.
+--realtime: /clock and the commands are paced by the wall clock (a VR headset, a real robot), and the robot is
+held at its target while the runner waits.
+
+A press's time is its stamp on ROS time (a zero stamp: when it arrives); a press whose stamp has already passed is
+applied at once, and how late it was is logged. Presses before the approach starts are ignored.
+"""
+from __future__ import annotations
+
+import math
+import os
+import signal
+import sys
+import threading
+import time
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any, Callable
+
+import numpy as np
+
+from sim.driver import DriverError, RobotDriver
+from sim.processes import ManagedProcess, ProcessError, stop_recorder
+from sim.robots import RobotSpec
+from sim.scenarios import approach
+from sim.study.errors import StudyError
+from sim.study.feasibility import Combination, PlannedApproach
+from sim.study.interface import (
+    DISTANCE_TOPIC,
+    GO_TOPIC,
+    PREFERENCE_TOPIC,
+    STATUS_TOPIC,
+    STOP_TOPIC,
+    TrialStatus,
+    checked_distance,
+    chosen_path,
+    status_to_json,
+)
+from sim.study.plan import PlannedTrial, SessionPlan
+from sim.study.records import TrialRecord, write_records
+from sim.study.scene import Scene
+from sim.study.trial_run import TrialRun
+
+__all__ = ["EXIT_OK", "EXIT_ROS", "EXIT_INTERRUPTED", "RunnerOptions", "Press", "Inputs", "StudyRunner",
+           "recorder_topics", "start_recorder", "run_node"]
+
+
+EXIT_OK, EXIT_ROS, EXIT_INTERRUPTED = 0, 4, 130
+
+
+@dataclass(frozen=True)
+class RunnerOptions:
+    dt: float = 0.02
+    realtime: bool = False
+    auto_go: bool = False
+    settle: float = 0.5  # s held after the motion ends, before it counts as at rest
+    step_timeout: float = 10.0  # lockstep: the longest wait for the engine's joint state
+    response_timeout: float = 300.0  # the longest wait for go or an answer; then the trial goes on without it
+    deceleration: float = 1.0  # m/s² along the path on a press
+
+
+@dataclass(frozen=True)
+class Press:
+    stamp: float  # s of ROS time; 0: when it arrived
+    source: str
+
+
+class Inputs:
+    """What comes in from the participant and the observer, kept until the runner takes it; thread-safe."""
+
+    def __init__(self) -> None:
+        self._changed = threading.Condition()
+        self._go = False
+        self._presses: list[Press] = []
+        self._distances: list[float] = []
+        self._preferences: list[str] = []
+        self.rejected: list[str] = []
+
+    def go(self) -> None:
+        with self._changed:
+            self._go = True
+            self._changed.notify_all()
+
+    def press(self, stamp: float, source: str) -> None:
+        with self._changed:
+            self._presses.append(Press(stamp, source))
+            self._changed.notify_all()
+
+    def distance(self, value: float) -> None:
+        with self._changed:
+            try:
+                self._distances.append(checked_distance(value))
+            except StudyError as error:
+                self.rejected.append(str(error))
+            self._changed.notify_all()
+
+    def preference(self, text: str) -> None:
+        with self._changed:
+            self._preferences.append(text)
+            self._changed.notify_all()
+
+    def clear(self) -> None:
+        """Forget whatever came before the phase that asks for it."""
+        with self._changed:
+            self._go = False
+            self._presses.clear()
+            self._distances.clear()
+            self._preferences.clear()
+
+    def take_press(self, until: float) -> Press | None:
+        """The first press stamped at or before `until` (or unstamped), if one came."""
+        with self._changed:
+            for k, press in enumerate(self._presses):
+                if press.stamp <= until:
+                    return self._presses.pop(k)
+        return None
+
+    def wait(self, what: str, timeout: float, stop: threading.Event) -> Any:
+        """Wait for go (True), a distance (float) or a preference (str); None after `timeout` s or when stopped."""
+        taken: dict[str, Callable[[], Any]] = {
+            "go": lambda: True if self._go else None,
+            "distance": lambda: self._distances.pop(0) if self._distances else None,
+            "preference": lambda: self._preferences.pop(0) if self._preferences else None,
+        }
+        deadline = time.monotonic() + timeout
+        with self._changed:
+            while not stop.is_set():
+                value = taken[what]()
+                if value is not None:
+                    return value
+                remaining = deadline - time.monotonic()
+                if remaining <= 0:
+                    return None
+                self._changed.wait(min(remaining, 0.1))
+        return None
+
+
+def recorder_topics(robot: RobotSpec) -> list[str]:
+    return [robot.command_topic, robot.joint_states_topic, "/clock", STATUS_TOPIC, GO_TOPIC, STOP_TOPIC,
+            DISTANCE_TOPIC, PREFERENCE_TOPIC]
+
+
+class StudyRunner(RobotDriver):
+    def __init__(self, robot: RobotSpec, scene: Scene, plan: SessionPlan,
+                 approaches: dict[Combination, PlannedApproach], options: RunnerOptions, stop: threading.Event) -> None:
+        super().__init__(robot, stop)
+        from std_msgs.msg import Empty, Float32, Header, String
+
+        self._string_type = String
+        self.scene, self.plan, self.approaches, self.options = scene, plan, approaches, options
+        self.inputs = Inputs()
+        self.clock = 0.0  # ROS time of the last step
+        self._target = (robot.home.copy(), np.zeros(robot.dof))
+        self._wall_anchor = 0.0
+        self.status_pub = self.rospy.Publisher(STATUS_TOPIC, String, queue_size=10, latch=True)
+        self.watched_publishers.append((STATUS_TOPIC, self.status_pub))
+        self._subscribers = [
+            self.rospy.Subscriber(GO_TOPIC, Empty, lambda _: self.inputs.go()),
+            self.rospy.Subscriber(STOP_TOPIC, Header, self._on_press, tcp_nodelay=True),
+            self.rospy.Subscriber(DISTANCE_TOPIC, Float32, lambda message: self.inputs.distance(message.data)),
+            self.rospy.Subscriber(PREFERENCE_TOPIC, String, lambda message: self.inputs.preference(message.data)),
+        ]
+
+    def _on_press(self, message: Any) -> None:
+        self.inputs.press(message.stamp.to_sec(), message.frame_id or "unnamed")
+
+    def publish_status(self, status: TrialStatus) -> None:
+        self.status_pub.publish(self._string_type(data=status_to_json(status)))
+
+    # --- time -----------------------------------------------------------------------------------------------
+    def start(self) -> np.ndarray:
+        """/clock 0 and the engine's answer (lockstep), or its first joint state (realtime): where the robot is."""
+        dt = self.options.dt
+        if self.options.realtime:
+            self._wall_anchor = time.monotonic()
+            self.publish_clock(0.0)
+            state = self.state_or_fail(-math.inf, self.options.step_timeout, dt)
+        else:
+            self.publish_clock(0.0)
+            state = self.state_or_fail(0.0, self.options.step_timeout, dt)
+        self._target = (state.positions.copy(), np.zeros(self.robot.dof))
+        return state.positions
+
+    def step(self, positions: np.ndarray, velocities: np.ndarray) -> np.ndarray:
+        """Command the target for the end of the next step and let the step happen; the achieved positions."""
+        dt = self.options.dt
+        t = round(self.clock + dt, 9)
+        self._target = (positions, velocities)
+        if self.options.realtime:  # at wall time t - dt: /clock = t - dt and the target for t
+            delay = self._wall_anchor + (t - dt) - time.monotonic()
+            if delay > 0 and self.stop.wait(delay):
+                raise DriverError("interrupted")
+            if t - dt > 0:
+                self.publish_clock(t - dt)
+            self.publish_command(t, positions, velocities)
+            latest = self.states.latest
+            self.clock = t
+            if latest is None:
+                raise DriverError(f"no {self.robot.joint_states_topic} message received")
+            return latest.positions
+        self.publish_command(t, positions, velocities)
+        self.publish_clock(t)
+        state = self.state_or_fail(t, self.options.step_timeout, dt)
+        self.clock = t
+        return state.positions
+
+    def wait_for_input(self, what: str) -> Any:
+        """Go or an answer, waited for at most --response-timeout s. In real time the robot holds its target
+        meanwhile (the controller keeps streaming); in lockstep the clock stands still."""
+        if not self.options.realtime:
+            return self.inputs.wait(what, self.options.response_timeout, self.stop)
+        deadline = time.monotonic() + self.options.response_timeout
+        while time.monotonic() < deadline and not self.stop.is_set():
+            value = self.inputs.wait(what, 0.0, self.stop)
+            if value is not None:
+                return value
+            self.step(self._target[0], np.zeros(self.robot.dof))
+        return None
+
+    # --- trials ---------------------------------------------------------------------------------------------
+    def status(self, trial: PlannedTrial, phase: str, **extra: Any) -> TrialStatus:
+        return TrialStatus(self.plan.participant, trial.index, len(self.plan.trials), phase, trial.condition,
+                           trial.test, trial.path, trial.standoff, trial.peak_speed, trial.speed_set, trial.group,
+                           **extra)
+
+    def run_session(self, records_path: Path, log: Callable[[str], None]) -> list[TrialRecord]:
+        positions = self.start()
+        records: list[TrialRecord] = []
+        for trial in self.plan.trials:
+            record, positions = self.run_trial(trial, positions, log)
+            records.append(record)
+            group = [r for r in records if r.test == 2 and r.condition == trial.condition and r.group == trial.group]
+            if trial.test == 2 and len(group) == len(self._group_of(trial)):
+                preferred = self._ask_preference(trial, tuple(r.path for r in group), log)
+                records = [replace(r, preferred_path=preferred) if r in group else r for r in records]
+            write_records(records_path, records)  # after every trial: a crash loses at most the one running
+        self.publish_status(TrialStatus(self.plan.participant, 0, len(self.plan.trials), "done"))
+        return records
+
+    def _group_of(self, trial: PlannedTrial) -> list[PlannedTrial]:
+        return [t for t in self.plan.trials if t.test == 2 and t.condition == trial.condition and t.group == trial.group]
+
+    def _ask_preference(self, trial: PlannedTrial, paths: tuple[str, ...], log: Callable[[str], None]) -> str:
+        self.inputs.clear()
+        self.publish_status(self.status(trial, "preference", group_paths=paths))
+        while True:
+            answer = self.wait_for_input("preference")
+            if answer is None:
+                log(f"trial {trial.index}: no preference within {self.options.response_timeout:g} s; left empty")
+                return ""
+            try:
+                return chosen_path(answer, paths)
+            except StudyError as error:
+                log(f"trial {trial.index}: {error}; asking again")
+
+    def run_trial(self, trial: PlannedTrial, positions: np.ndarray,
+                  log: Callable[[str], None]) -> tuple[TrialRecord, np.ndarray]:
+        """One trial from wherever the robot is; its record (preference still empty) and where the robot ends."""
+        planned = self.approaches[(trial.path, trial.standoff, trial.peak_speed)]
+        dt = self.options.dt
+        self.publish_status(self.status(trial, "to_start"))
+        to_start, speeds = approach(self.robot, positions, planned.positions[0], dt)
+        for k in range(1, len(to_start)):
+            positions = self.step(to_start[k], speeds[k])
+        self.inputs.clear()
+        self.publish_status(self.status(trial, "ready"))
+        if not self.options.auto_go and self.wait_for_input("go") is None:
+            log(f"trial {trial.index}: no go within {self.options.response_timeout:g} s; starting anyway")
+        run = TrialRun(self.robot, self.scene, planned, self.options.deceleration)
+        start = self.clock
+        self.inputs.clear()
+        self.publish_status(self.status(trial, "moving", motion_start=start))
+        run.record_state(0.0, positions)
+        settle = int(round(self.options.settle / dt))
+        late, source, k = 0.0, "", 0
+        while k < run.steps - 1 + settle:
+            k += 1
+            if run.stopped is None:
+                press = self.inputs.take_press(until=start + k * dt)
+                if press is not None:
+                    when = press.stamp if press.stamp > 0 else self.clock
+                    applied = max(when, start + (k - 1) * dt)  # never before the last sample commanded
+                    late, source = applied - when, press.source
+                    run.press(applied - start)
+            target, velocity = run.target(k)
+            positions = self.step(target, velocity)
+            run.record_state(k * dt, positions)
+        self.publish_status(self.status(trial, "at_rest", motion_start=start))
+        measures = run.measures()
+        perceived = math.nan
+        if trial.test == 1:
+            self.inputs.clear()
+            self.publish_status(self.status(trial, "distance", motion_start=start))
+            answer = self.wait_for_input("distance")
+            if answer is None:
+                log(f"trial {trial.index}: no perceived distance within {self.options.response_timeout:g} s; "
+                    "left empty")
+            else:
+                perceived = float(answer)
+            for problem in self.inputs.rejected:
+                log(f"trial {trial.index}: an answer was refused: {problem}")
+            self.inputs.rejected.clear()
+        position = self.plan.conditions.index(trial.condition) + 1
+        record = TrialRecord(
+            self.plan.participant, trial.index, trial.condition, position, trial.test, trial.path, trial.standoff,
+            trial.peak_speed, trial.speed_set, trial.group, start, measures.pressed, measures.press_time, source,
+            late, measures.distance_at_press, measures.distance_at_rest, measures.distance_extrapolated,
+            measures.braking_distance, perceived, "")
+        return record, positions
+
+    def close(self) -> None:
+        for subscriber in self._subscribers:
+            subscriber.unregister()
+        super().close()
+
+
+def start_recorder(robot: RobotSpec, bag: Path, node: str, logs: Path) -> ManagedProcess:
+    """`rosbag record` of the session's topics into `bag` (in this process's ROS environment), once it records."""
+    bag.parent.mkdir(parents=True, exist_ok=True)
+    recorder = ManagedProcess(["stdbuf", "-oL", "-eL", "rosbag", "record", "-O", str(bag), *recorder_topics(robot),
+                               f"__name:={node}"], dict(os.environ), logs, "rosbag")
+    try:
+        recorder.wait_for_output("Recording to", timeout=30)
+    except (ProcessError, TimeoutError):
+        stop_recorder(recorder, bag)
+        raise
+    return recorder
+
+
+def _log(text: str) -> None:
+    print(f"sim.study run: {text}", file=sys.stderr, flush=True)
+
+
+def run_node(robot: RobotSpec, scene: Scene, plan: SessionPlan, approaches: dict[Combination, PlannedApproach],
+             options: RunnerOptions, out: Path, record: bool = True, connect_timeout: float = 60.0) -> int:
+    """The runner as a ROS node (rospy.init_node: once per process): the session, its CSV and its bag in `out`."""
+    import rospy
+
+    stop = threading.Event()
+    rospy.init_node("study_runner", disable_signals=True)
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(signum, lambda *_: stop.set())
+    stem = f"participant_{plan.participant:02d}"
+    bag, records_path = out / "bags" / f"{stem}.bag", out / f"{stem}.csv"
+    recorder_node = f"study_recorder_{plan.participant}"
+    recorder = start_recorder(robot, bag, recorder_node, out / "logs") if record else None
+    runner = StudyRunner(robot, scene, plan, approaches, options, stop)
+    started = time.monotonic()
+    try:
+        partner = runner.wait_for_partner(connect_timeout, [recorder_node] if recorder else [])
+        _log(f"engine {partner} connected; participant {plan.participant}, {len(plan.trials)} trials, conditions "
+             f"{' then '.join(plan.conditions)}")
+        records = runner.run_session(records_path, _log)
+    except DriverError as error:
+        _log(f"error: {error}")
+        return EXIT_INTERRUPTED if stop.is_set() else EXIT_ROS
+    finally:
+        runner.close()
+        if recorder is not None:
+            stop_recorder(recorder, bag)
+        rospy.signal_shutdown("study session done")
+    presses = sum(record.pressed for record in records)
+    print(f"participant {plan.participant}: {len(records)} trials ({presses} stopped by a press) in "
+          f"{time.monotonic() - started:.1f} s of wall time, {runner.clock:.1f} s of ROS time")
+    print(f"records: {records_path}")
+    if recorder is not None:
+        print(f"bag:     {bag}")
+    return EXIT_OK
