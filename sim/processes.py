@@ -20,7 +20,7 @@ from typing import Any, TypeVar
 
 __all__ = [
     "REPO", "PYTHON", "ProcessError", "free_port", "wait_for", "kill_process", "ros_environment",
-    "ManagedProcess", "RosCore", "stop_recorder",
+    "ManagedProcess", "RosCore", "stop_recorder", "plain_env", "reported_port",
 ]
 
 REPO = Path(__file__).resolve().parents[1]
@@ -180,3 +180,16 @@ def stop_recorder(recorder: ManagedProcess, bag: Path) -> None:
     deadline = time.monotonic() + 10
     while active.exists() and not bag.exists() and time.monotonic() < deadline:
         time.sleep(0.05)
+
+
+def plain_env() -> dict[str, str]:
+    """The no-ROS processes' environment: ours, with the repository importable."""
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(REPO), os.environ.get("PYTHONPATH")]))
+    return env
+
+
+def reported_port(endpoint: ManagedProcess) -> int:
+    text = endpoint.wait_for_output("listening on", timeout=30)
+    line = next(line for line in text.splitlines() if "listening on" in line)
+    return int(line.rsplit(":", 1)[1])

@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import argparse
 import logging
-import os
 import shutil
 import subprocess
 import sys
@@ -31,7 +30,7 @@ from pathlib import Path
 
 from sim import analysis
 from sim.physics import Mode
-from sim.processes import PYTHON, REPO, ManagedProcess, ProcessError, RosCore, stop_recorder
+from sim.processes import PYTHON, ManagedProcess, ProcessError, RosCore, plain_env, reported_port, stop_recorder
 from sim.scenarios import ScenarioConfig, ScenarioError, build_motion
 from sim.robots import ROBOT_NAMES, RobotError, RobotSpec, load_robot
 
@@ -220,11 +219,11 @@ class Campaign:
         logs = paths.process_logs
         commander = ManagedProcess(
             [PYTHON, "-m", "sim.commander", *robot.cli_args, "--scenario", "trial", "--dt", str(DT),
-             "--export-csv", str(paths.desired_csv), "--export-only"], _plain_env(), logs, "commander")
+             "--export-csv", str(paths.desired_csv), "--export-only"], plain_env(), logs, "commander")
         _expect_success(commander, self.timeout_s)
         engine = ManagedProcess(
             [PYTHON, "-m", "sim.engine", *robot.cli_args, "--mode", case.mode.value, "--dt", str(DT),
-             "--csv", str(paths.desired_csv), "--log", str(paths.achieved_csv)], _plain_env(), logs, "engine")
+             "--csv", str(paths.desired_csv), "--log", str(paths.achieved_csv)], plain_env(), logs, "engine")
         _expect_success(engine, self.timeout_s)
         return analysis.read_csv_pair(paths.desired_csv, paths.achieved_csv, robot)
 
@@ -239,11 +238,11 @@ class Campaign:
                 [PYTHON, "-m", "bridge", "--tcp-ip", where.endpoint_host, "--tcp-port", "0", "--node-name", "endpoint"],
                 where.bridge_env, logs, "endpoint", where.bridge_prefix)
             running.callback(endpoint.stop)
-            port = _reported_port(endpoint)
+            port = reported_port(endpoint)
             engine_args = [PYTHON, "-m", "sim.engine", *robot.cli_args, "--host", where.endpoint_host,
                            "--port", str(port), "--mode", case.mode.value, "--dt", str(DT)]
             engine_args += ["--time-scale", str(self.time_scale)] if case.auto_simulate else ["--no-auto-simulate"]
-            engine = ManagedProcess(engine_args, _plain_env(), logs, "engine", where.engine_prefix)
+            engine = ManagedProcess(engine_args, plain_env(), logs, "engine", where.engine_prefix)
             running.callback(engine.stop)
             recorder = ManagedProcess(
                 ["stdbuf", "-oL", "-eL", "rosbag", "record", "-O", str(paths.bag), *topics, "__name:=trial_recorder"],
@@ -261,19 +260,6 @@ class Campaign:
             _expect_success(commander, self.timeout_s)
         if not paths.bag.exists():
             raise TrialError(f"rosbag record left no {paths.bag}; see {recorder.log_path}")
-
-
-def _plain_env() -> dict[str, str]:
-    """The no-ROS processes' environment: ours, with the repository importable."""
-    env = dict(os.environ)
-    env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(REPO), os.environ.get("PYTHONPATH")]))
-    return env
-
-
-def _reported_port(endpoint: ManagedProcess) -> int:
-    text = endpoint.wait_for_output("listening on", timeout=30)
-    line = next(line for line in text.splitlines() if "listening on" in line)
-    return int(line.rsplit(":", 1)[1])
 
 
 def _expect_success(process: ManagedProcess, timeout_s: float) -> None:

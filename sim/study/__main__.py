@@ -72,6 +72,19 @@ def _parser() -> argparse.ArgumentParser:
     participant.add_argument("--vr-distance-bias", type=float, default=0.85,
                              help="perceived / actual distance in VR (default 0.85: a 15 %% underestimate)")
     participant.add_argument("--timeout", type=float, default=1800.0, help="give up after this many s")
+
+    analyse = commands.add_parser("analyse", help="the report over every participant's CSV in a directory")
+    analyse.add_argument("directory", type=Path, help="where the participant_*.csv files are")
+    analyse.add_argument("--out", type=Path, help="where report.md and the plots go (default: the directory)")
+
+    simulate = commands.add_parser("simulate", help="the whole study with simulated participants, end to end")
+    simulate.add_argument("--participants", type=int, default=12)
+    simulate.add_argument("--out", type=Path, required=True, help="plans, CSVs, bags, logs, report.md and plots")
+    simulate.add_argument("--seed", type=int, default=1)
+    simulate.add_argument("--design", type=Path, help="design YAML (default: the bundled design.yaml)")
+    with_scene(simulate)
+    simulate.add_argument("--vr-distance-bias", type=float, default=0.85,
+                          help="the simulated participants' perceived / actual distance in VR (default 0.85)")
     return parser
 
 
@@ -91,6 +104,10 @@ def main(argv: list[str] | None = None) -> int:
             return _run(args)
         if args.command == "participant":
             return _participant(args)
+        if args.command == "analyse":
+            return _analyse(args)
+        if args.command == "simulate":
+            return _simulate(args)
     except (StudyError, RobotError) as error:
         print(f"sim.study {args.command}: error: {error}", file=sys.stderr)
         return EXIT_USAGE
@@ -187,6 +204,35 @@ def _participant(args: argparse.Namespace) -> int:
         return 4
     print(f"participant {args.participant}: session done, {participant.presses} presses")
     return 0 if not participant.problems else 1
+
+
+def _analyse(args: argparse.Namespace) -> int:
+    from sim.study.report import load_study, write_report
+
+    report = write_report(load_study(args.directory), args.out or args.directory)
+    print(report.read_text(), end="")
+    print(f"report: {report}")
+    return 0
+
+
+def _simulate(args: argparse.Namespace) -> int:
+    from sim.study.simulate import Simulation, SimulationError, simulate
+
+    _check_positive(args.dt, "--dt")
+    _check_positive(args.vr_distance_bias, "--vr-distance-bias")
+    if args.seed < 0:
+        raise StudyError(f"--seed must be >= 0, got {args.seed}")
+    started = time.monotonic()
+    settings = Simulation(args.participants, args.seed, args.out, args.design, args.scene, args.dt,
+                          args.vr_distance_bias)
+    try:
+        report = simulate(settings, lambda line: print(f"simulate: {line}", flush=True))
+    except SimulationError as error:
+        print(f"sim.study simulate: failed: {error}", file=sys.stderr)
+        return 1
+    print(report.read_text(), end="")
+    print(f"simulate: {args.participants} participants in {time.monotonic() - started:.0f} s; report: {report}")
+    return 0
 
 
 if __name__ == "__main__":

@@ -19,7 +19,7 @@ from scipy import stats
 
 from sim.study.errors import StudyError
 
-__all__ = ["PairedComparison", "RatioSummary", "paired_comparison", "ratio_summary"]
+__all__ = ["PairedComparison", "Estimate", "paired_comparison", "mean_estimate", "ratio_summary"]
 
 
 @dataclass(frozen=True)
@@ -39,7 +39,9 @@ class PairedComparison:
 
 
 @dataclass(frozen=True)
-class RatioSummary:
+class Estimate:
+    """A mean with its Student-t confidence interval."""
+
     n: int
     mean: float
     ci_low: float
@@ -89,9 +91,18 @@ def paired_comparison(a: Sequence[float], b: Sequence[float], confidence: float 
                             w, w_p, r)
 
 
-def ratio_summary(numerator: Sequence[float], denominator: Sequence[float], confidence: float = 0.95) -> RatioSummary:
+def ratio_summary(numerator: Sequence[float], denominator: Sequence[float], confidence: float = 0.95) -> Estimate:
     top, bottom = _pairs(numerator, denominator)
     if np.any(bottom == 0.0):
         raise StudyError("a ratio needs non-zero denominators")
     mean, low, high = _t_interval(top / bottom, confidence)
-    return RatioSummary(top.size, mean, low, high)
+    return Estimate(top.size, mean, low, high)
+
+
+def mean_estimate(values: Sequence[float], confidence: float = 0.95) -> Estimate:
+    """The mean of `values` (e.g. one per participant) with its t interval."""
+    array = np.asarray(values, dtype=float)
+    if array.ndim != 1 or array.size < 2 or not np.all(np.isfinite(array)):
+        raise StudyError(f"an estimate needs at least 2 finite values, got {array.tolist()}")
+    mean, low, high = _t_interval(array, confidence)
+    return Estimate(array.size, mean, low, high)

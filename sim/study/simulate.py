@@ -1,0 +1,108 @@
+"""The whole study with simulated participants, end to end (`python -m sim.study simulate --participants 12 --out
+DIR`): its own roscore and endpoint; per participant a session plan, the engine stand-in (physics, lockstep), a
+simulated participant (TCP client of the endpoint) and the runner (rospy node, rosbag record); then the report.
+Every process it starts is stopped by PID, whatever happens.
+"""
+from __future__ import annotations
+
+import time
+from contextlib import ExitStack
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable
+
+import yaml
+
+from sim.processes import PYTHON, ManagedProcess, ProcessError, RosCore, plain_env, reported_port
+from sim.study.design import load_design
+from sim.study.errors import StudyError
+from sim.study.feasibility import plan_combinations
+from sim.study.plan import make_plan, plan_to_data
+from sim.study.report import load_study, write_report
+from sim.study.scene import load_scene, scene_robot
+
+__all__ = ["Simulation", "SimulationError", "simulate"]
+
+
+class SimulationError(RuntimeError):
+    """A process of the simulated study failed (its log is named)."""
+
+
+@dataclass(frozen=True)
+class Simulation:
+    participants: int
+    seed: int
+    out: Path
+    design: Path | None = None
+    scene: Path | None = None
+    dt: float = 0.02
+    vr_distance_bias: float = 0.85
+    timeout: float = 600.0  # s per participant's session
+
+
+def _expect(process: ManagedProcess, timeout: float) -> str:
+    try:
+        code = process.wait(timeout)
+    except ProcessError as error:
+        raise SimulationError(str(error)) from None
+    if code != 0:
+        raise SimulationError(f"{process.name} exited with {code}; its log: {process.log_path}\n"
+                              f"{process.output()[-2000:]}")
+    return process.output()
+
+
+def simulate(settings: Simulation, log: Callable[[str], None]) -> Path:
+    """Run the study and write its report; the report's path. StudyError on bad input, before anything starts."""
+    if not (isinstance(settings.participants, int) and 2 <= settings.participants <= 200):
+        raise StudyError(f"--participants must be 2..200 (the analysis pairs them), got {settings.participants}")
+    design, scene = load_design(settings.design), load_scene(settings.scene)
+    robot = scene_robot(scene)
+    plans = [make_plan(design, participant, settings.seed) for participant in range(1, settings.participants + 1)]
+    started = time.monotonic()
+    approaches = plan_combinations(robot, scene, [(t.path, t.standoff, t.peak_speed) for t in plans[0].trials],
+                                   settings.dt)
+    infeasible = [f"{p} to {s} m at {v} m/s: {'; '.join(a.problems)}" for (p, s, v), a in approaches.items()
+                  if not a.feasible]
+    if infeasible:
+        raise StudyError(f"the design has combinations that are not feasible: {' | '.join(infeasible)}")
+    log(f"{len(approaches)} combinations of the design planned and checked in {time.monotonic() - started:.1f} s")
+    out = settings.out.resolve()
+    logs = out / "logs"
+    scene_args = ["--scene", str(Path(settings.scene).resolve())] if settings.scene is not None else []
+    for old in out.glob("participant_*.csv"):  # a report must not mix in an earlier run's participants
+        old.unlink()
+    with ExitStack() as running:
+        core = RosCore()
+        running.callback(core.stop)
+        endpoint = ManagedProcess([PYTHON, "-m", "bridge", "--tcp-ip", "127.0.0.1", "--tcp-port", "0",
+                                   "--node-name", "endpoint"], core.env, logs, "endpoint")
+        running.callback(endpoint.stop)
+        port = reported_port(endpoint)
+        log(f"roscore {core.uri}, endpoint on port {port}")
+        for plan in plans:
+            number = plan.participant
+            plan_path = out / "plans" / f"participant_{number:02d}.yaml"
+            plan_path.parent.mkdir(parents=True, exist_ok=True)
+            plan_path.write_text(yaml.safe_dump(plan_to_data(plan), sort_keys=False))
+            with ExitStack() as session:
+                engine = ManagedProcess([PYTHON, "-m", "sim.engine", *robot.cli_args, "--port", str(port),
+                                         "--no-auto-simulate", "--dt", str(settings.dt)], plain_env(), logs, "engine")
+                session.callback(engine.stop)
+                participant = ManagedProcess(
+                    [PYTHON, "-m", "sim.study", "participant", "--participant", str(number), "--seed",
+                     str(settings.seed), "--port", str(port), "--vr-distance-bias", str(settings.vr_distance_bias),
+                     *scene_args], plain_env(), logs, f"participant_{number:02d}")
+                session.callback(participant.stop)
+                engine.wait_for_output("connected to", timeout=60)
+                participant.wait_for_output("connected", timeout=60)
+                runner = ManagedProcess([PYTHON, "-m", "sim.study", "run", "--plan", str(plan_path), "--out", str(out),
+                                         "--dt", str(settings.dt), *scene_args], core.env, logs,
+                                        f"runner_{number:02d}")
+                session.callback(runner.stop)
+                summary = _expect(runner, settings.timeout)
+                _expect(participant, 60)
+            line = next((line for line in summary.splitlines() if line.startswith(f"participant {number}:")), "")
+            log(line or f"participant {number}: done")
+    records = load_study(out)
+    return write_report(records, out, f"Perception study, {settings.participants} simulated participants "
+                                      f"(seed {settings.seed})")
