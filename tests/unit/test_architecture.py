@@ -26,7 +26,8 @@ def test_pure_bridge_modules_import_neither_sockets_nor_ros(module: str) -> None
 
 
 @pytest.mark.parametrize("module", ["bridge.client", "sim.engine", "sim.analysis", "sim.kinematics", "sim.physics",
-                                    "sim.robots", "sim.scenario_defaults", "sim.study.paths"])
+                                    "sim.robots", "sim.scenario_defaults", "sim.study.paths",
+                                    "sim.study.interface", "sim.study.summary", "sim.study.participant"])
 def test_the_client_and_the_engine_stand_in_import_no_ros(module: str) -> None:
     # Like Unity, the engine stand-in knows ROS only through the endpoint; it (de)serializes with rosbags.
     loaded = imported_after(module)
