@@ -1,0 +1,183 @@
+"""The study end to end with real parts: the runner node (rospy, rosbag record), the endpoint, the engine stand-in
+in lockstep, and clients of the endpoint without rospy (a scripted VR scene; simulated participants)."""
+from __future__ import annotations
+
+import csv
+import math
+import threading
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+import yaml
+from rosbags.rosbag1 import Reader
+
+from bridge.client import TcpClient
+from sim.kinematics import chain_for
+from sim.processes import plain_env
+from sim.rosmsgs import JOINT_STATE, TYPESTORE, deserialize, serialize, time_msg, to_seconds
+from sim.study.interface import (
+    DISTANCE_TOPIC,
+    GO_TOPIC,
+    PREFERENCE_TOPIC,
+    STATUS_TOPIC,
+    STOP_TOPIC,
+    TOPIC_TYPES,
+    status_from_json,
+)
+from sim.study.paths import ON_TOP
+from sim.study.scene import load_scene, scene_robot
+from sim.study.stop import STOP_DECELERATION
+from tests.integration.sim_helpers import start_engine
+from tests.rosenv import PYTHON, NodeProcess
+
+SCENE = load_scene()
+ROBOT = scene_robot(SCENE)
+SMALL_DESIGN = {"test1": {"paths": ["straight"], "standoffs": [0.08, 0.14, 0.2], "peak_speed": 0.15},
+                "test2": {"paths": ["straight", "vertical"], "speed_sets": {"slow": 0.2, "fast": 0.3}}}
+
+
+def message(topic: str, **fields: Any) -> bytes:
+    package, name = TOPIC_TYPES[topic].split("/")
+    return serialize(TYPESTORE.types[f"{package}/msg/{name}"](**fields), TOPIC_TYPES[topic])
+
+
+class ScriptedVrScene:
+    """What a Unity scene would do, scripted: go on ready; in trial 2 a trigger press (unstamped) on the 25th joint
+    state of the approach; wrong answers first, then right ones."""
+
+    def __init__(self, port: int) -> None:
+        self.client = TcpClient("127.0.0.1", port)
+        self.done = threading.Event()
+        self.phases: list[tuple[int, str]] = []
+        self.moving_states = 0
+        self.trial = 0
+        for topic in (GO_TOPIC, STOP_TOPIC, DISTANCE_TOPIC, PREFERENCE_TOPIC):
+            self.client.register_publisher(topic, TOPIC_TYPES[topic])
+        self.client.subscribe(STATUS_TOPIC, TOPIC_TYPES[STATUS_TOPIC], self.on_status)
+        self.client.subscribe(ROBOT.joint_states_topic, JOINT_STATE, self.on_joint_state)
+
+    def on_status(self, payload: bytes) -> None:
+        status = status_from_json(deserialize(payload, TOPIC_TYPES[STATUS_TOPIC]).data)
+        self.phases.append((status.index, status.phase))
+        self.trial = status.index if status.phase == "moving" else 0
+        self.moving_states = 0
+        if status.phase == "ready":
+            self.client.publish(GO_TOPIC, message(GO_TOPIC))
+        elif status.phase == "distance":
+            self.client.publish(DISTANCE_TOPIC, message(DISTANCE_TOPIC, data=-1.0))  # refused
+            self.client.publish(DISTANCE_TOPIC, message(DISTANCE_TOPIC, data=0.123))
+        elif status.phase == "preference":
+            assert status.group_paths == ("straight", "vertical")
+            self.client.publish(PREFERENCE_TOPIC, message(PREFERENCE_TOPIC, data="9"))  # refused, asked again
+            self.client.publish(PREFERENCE_TOPIC, message(PREFERENCE_TOPIC, data="2"))
+        elif status.phase == "done":
+            self.done.set()
+
+    def on_joint_state(self, payload: bytes) -> None:
+        if self.trial == 2:
+            self.moving_states += 1
+            if self.moving_states == 25:
+                self.client.publish(STOP_TOPIC, message(STOP_TOPIC, seq=0, stamp=time_msg(0.0), frame_id="vr_trigger"))
+
+
+def read_csv(path: Path) -> list[dict[str, str]]:
+    with open(path, newline="") as source:
+        return list(csv.DictReader(source))
+
+
+def bag_messages(bag: Path, topic: str) -> list[Any]:
+    with Reader(bag) as reader:
+        connections = [c for c in reader.connections if c.topic == topic]
+        return [TYPESTORE.deserialize_ros1(raw, c.msgtype) for c, _, raw in reader.messages(connections=connections)]
+
+
+def test_a_vr_scene_stops_the_robot_and_answers_through_the_endpoint(roscore, endpoint, tmp_path: Path) -> None:
+    trials = [
+        {"index": 1, "condition": "vr", "test": 1, "path": "straight", "standoff": 0.15, "peak_speed": 0.15,
+         "speed_set": "", "group": 0},
+        {"index": 2, "condition": "vr", "test": 2, "path": "straight", "standoff": ON_TOP, "peak_speed": 0.3,
+         "speed_set": "fast", "group": 1},
+        {"index": 3, "condition": "vr", "test": 2, "path": "vertical", "standoff": ON_TOP, "peak_speed": 0.3,
+         "speed_set": "fast", "group": 1},
+    ]
+    plan = tmp_path / "plan.yaml"
+    plan.write_text(yaml.safe_dump({"participant": 7, "seed": 0, "conditions": ["vr", "reality"], "trials": trials}))
+    engine = start_engine(roscore, tmp_path, "panda", endpoint.port, "--no-auto-simulate")
+    scene = ScriptedVrScene(endpoint.port)
+    scene.client.connect(timeout=30)
+    runner = NodeProcess([PYTHON, "-m", "sim.study", "run", "--plan", str(plan), "--out", str(tmp_path / "out")],
+                         roscore.env, tmp_path, "runner")
+    try:
+        assert runner.wait(120) == 0, runner.output()[-3000:]
+        assert scene.done.wait(10)
+    finally:
+        runner.stop()
+        scene.client.close()
+        engine.stop()
+    log = runner.output()
+    assert "an answer was refused: a perceived distance must be 0..2 m, got -1.0" in log
+    assert "a preference must be one of straight, vertical or 1..2, got '9'; asking again" in log
+    assert [phase for index, phase in scene.phases if index == 1] == ["to_start", "ready", "moving", "at_rest",
+                                                                        "distance"]
+    rows = read_csv(tmp_path / "out" / "participant_07.csv")
+    assert [row["index"] for row in rows] == ["1", "2", "3"]
+    first, pressed, unpressed = rows
+    assert float(first["perceived_distance"]) == pytest.approx(0.123, abs=1e-6)
+    assert float(first["distance_at_rest"]) == pytest.approx(0.15, abs=0.002) and first["pressed"] == "false"
+    # the press: on the runner's clock when it came (unstamped), braking along the path within the stated limit
+    assert pressed["pressed"] == "true" and pressed["press_source"] == "vr_trigger"
+    assert 0.3 < float(pressed["press_time"]) < 1.0
+    braking = float(pressed["braking_distance"])
+    assert 0 < braking <= 0.3 ** 2 / (2 * STOP_DECELERATION) + 1e-6
+    at_press, at_rest = float(pressed["distance_at_press"]), float(pressed["distance_at_rest"])
+    assert at_rest < at_press and at_press - at_rest == pytest.approx(braking, abs=0.01)
+    assert unpressed["pressed"] == "false" and float(unpressed["distance_at_rest"]) == pytest.approx(ON_TOP, abs=0.002)
+    assert pressed["preferred_path"] == unpressed["preferred_path"] == "vertical"
+    # everything is in the bag: the press, the answers, and the robot resting where the CSV says
+    bag = tmp_path / "out" / "bags" / "participant_07.bag"
+    presses = bag_messages(bag, STOP_TOPIC)
+    assert [p.frame_id for p in presses] == ["vr_trigger"]
+    assert [round(m.data, 3) for m in bag_messages(bag, DISTANCE_TOPIC)] == [-1.0, 0.123]
+    assert [m.data for m in bag_messages(bag, PREFERENCE_TOPIC)] == ["9", "2"]
+    states = bag_messages(bag, ROBOT.joint_states_topic)
+    last = states[-1]
+    positions = np.array([last.position[list(last.name).index(name)] for name in ROBOT.joint_names])
+    point = SCENE.to_world(chain_for(ROBOT).fk(positions)[:3, 3][None])[0]
+    assert SCENE.hand.distance(point) == pytest.approx(float(unpressed["distance_at_rest"]), abs=1e-4)
+    assert to_seconds(last.header.stamp) > 0
+
+
+def test_simulated_participants_run_the_study_and_the_analysis_recovers_their_biases(tmp_path: Path) -> None:
+    design = tmp_path / "design.yaml"
+    design.write_text(yaml.safe_dump(SMALL_DESIGN))
+    out = tmp_path / "study"
+    process = NodeProcess([PYTHON, "-m", "sim.study", "simulate", "--participants", "4", "--design", str(design),
+                           "--out", str(out), "--seed", "11"], plain_env(), tmp_path, "simulate")
+    try:
+        assert process.wait(300) == 0, process.output()[-3000:]
+    finally:
+        process.stop()
+    report = (out / "report.md").read_text()
+    for plot in ("test1_distance_perception.png", "test2_comfort_distance.png"):
+        assert f"]({plot})" in report and (out / plot).stat().st_size > 10_000
+    from sim.study.report import load_study
+    from sim.study.summary import summarise
+
+    records = load_study(out)
+    assert len(records) == 4 * 14 and {r.participant for r in records} == {1, 2, 3, 4}
+    assert all(r.pressed and r.press_source == ("vr_trigger" if r.condition == "vr" else "button") and
+               r.press_late == 0.0 for r in records if r.test == 2)
+    assert all(math.isfinite(r.perceived_distance) for r in records if r.test == 1)
+    summary = summarise(records)
+    vr, reality = summary.distance_ratio["vr"], summary.distance_ratio["reality"]
+    assert vr.ci_low <= 0.85 <= vr.ci_high and vr.ci_high < 1.0  # the 15 % underestimate put in
+    assert reality.ci_low <= 1.0 <= reality.ci_high
+    assert summary.stop_distance_vr_vs_reality.ci_high < 0  # closer in VR, as put in
+    for number in range(1, 5):
+        bag = out / "bags" / f"participant_{number:02d}.bag"
+        assert len(bag_messages(bag, STOP_TOPIC)) == 8 and len(bag_messages(bag, DISTANCE_TOPIC)) == 6
+
+
+pytestmark = pytest.mark.timeout(400)
