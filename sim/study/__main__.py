@@ -55,6 +55,8 @@ def _parser() -> argparse.ArgumentParser:
     with_scene(run)
     run.add_argument("--realtime", action="store_true", help="pace by the wall clock (VR headset, real robot)")
     run.add_argument("--auto-go", action="store_true", help="start each approach at once, without waiting for go")
+    run.add_argument("--keyboard", action="store_true",
+                     help="the observer types here: Enter = go, s = stop, distances and preferences when asked")
     run.add_argument("--no-record", action="store_true", help="no rosbag record")
     run.add_argument("--settle", type=float, default=0.5, help="s held after each motion before it is at rest")
     run.add_argument("--deceleration", type=float, default=1.0, help="braking on a press, m/s² along the path")
@@ -167,7 +169,7 @@ def _run(args: argparse.Namespace) -> int:
     if infeasible:
         raise StudyError("the plan has combinations that are not feasible (none was run): " + "; ".join(
             f"{p} to {s} m at {v} m/s: {', '.join(problems)}" for (p, s, v), problems in infeasible.items()))
-    options = RunnerOptions(args.dt, args.realtime, args.auto_go, args.settle, args.step_timeout,
+    options = RunnerOptions(args.dt, args.realtime, args.auto_go, args.keyboard, args.settle, args.step_timeout,
                             args.response_timeout, args.deceleration)
     return run_node(robot, scene, plan, approaches, options, args.out.resolve(), not args.no_record,
                     args.connect_timeout)

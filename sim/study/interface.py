@@ -25,7 +25,7 @@ from sim.study.errors import StudyError
 
 __all__ = ["STATUS_TOPIC", "GO_TOPIC", "STOP_TOPIC", "DISTANCE_TOPIC", "PREFERENCE_TOPIC", "TOPIC_TYPES", "PHASES",
            "MAX_PERCEIVED_DISTANCE", "TrialStatus", "status_to_json", "status_from_json", "checked_distance",
-           "chosen_path"]
+           "chosen_path", "ObserverInput", "observer_input"]
 
 STATUS_TOPIC = "/study/trial"
 GO_TOPIC = "/study/go"
@@ -94,3 +94,37 @@ def chosen_path(answer: str, group_paths: tuple[str, ...]) -> str:
     if text.isdigit() and 1 <= int(text) <= len(group_paths):
         return group_paths[int(text) - 1]
     raise StudyError(f"a preference must be one of {', '.join(group_paths)} or 1..{len(group_paths)}, got {answer!r}")
+
+
+@dataclass(frozen=True)
+class ObserverInput:
+    kind: str  # "go" | "stop" | "distance" | "preference" | "unknown"
+    distance: float = math.nan  # m
+    text: str = ""  # the preference as typed, or why the line means nothing now
+
+
+def _metres(text: str) -> float:
+    """"0.12", "0.12 m" or "12 cm" in metres; ValueError otherwise."""
+    for unit, scale in (("cm", 0.01), ("m", 1.0)):
+        if text.endswith(unit):
+            return float(text[:-len(unit)].strip()) * scale
+    return float(text)
+
+
+def observer_input(line: str, phase: str) -> ObserverInput:
+    """A line the observer typed at the runner's terminal (--keyboard), read in the trial's phase: Enter alone =
+    go, "s" = stop; while a distance is asked, a distance ("0.12" in metres, "0.12 m" or "12 cm"); while a
+    preference is asked, the path's name or its place in the group."""
+    text = line.strip()
+    if not text:
+        return ObserverInput("go")
+    if text.lower() in ("s", "stop"):
+        return ObserverInput("stop")
+    if phase == "distance":
+        try:
+            return ObserverInput("distance", _metres(text.lower()))
+        except ValueError:
+            return ObserverInput("unknown", text=f"{text!r} is not a distance (e.g. 0.12, 0.12 m or 12 cm)")
+    if phase == "preference":
+        return ObserverInput("preference", text=text)
+    return ObserverInput("unknown", text=f"{text!r} means nothing in phase {phase} (Enter = go, s = stop)")

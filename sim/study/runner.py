@@ -27,7 +27,7 @@ import threading
 import time
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any, Callable, Iterable
 
 import numpy as np
 
@@ -46,6 +46,7 @@ from sim.study.interface import (
     TrialStatus,
     checked_distance,
     chosen_path,
+    observer_input,
     status_to_json,
 )
 from sim.study.plan import PlannedTrial, SessionPlan
@@ -65,10 +66,15 @@ class RunnerOptions:
     dt: float = 0.02
     realtime: bool = False
     auto_go: bool = False
+    keyboard: bool = False  # the observer types at this terminal: go, stop, distances, preferences
     settle: float = 0.5  # s held after the motion ends, before it counts as at rest
     step_timeout: float = 10.0  # lockstep: the longest wait for the engine's joint state
     response_timeout: float = 300.0  # the longest wait for go or an answer; then the trial goes on without it
     deceleration: float = 1.0  # m/s² along the path on a press
+
+
+_PROMPTS = {"ready": "Enter to start the approach", "moving": "s + Enter to stop",
+            "distance": "the perceived distance (0.12, 0.12 m or 12 cm)?", "preference": "preferred approach: {paths}?"}
 
 
 @dataclass(frozen=True)
@@ -162,6 +168,7 @@ class StudyRunner(RobotDriver):
         self.scene, self.plan, self.approaches, self.options = scene, plan, approaches, options
         self.inputs = Inputs()
         self.clock = 0.0  # ROS time of the last step
+        self.phase = ""  # of the last status published
         self._target = (robot.home.copy(), np.zeros(robot.dof))
         self._wall_anchor = 0.0
         self.status_pub = self.rospy.Publisher(STATUS_TOPIC, String, queue_size=10, latch=True)
@@ -177,7 +184,28 @@ class StudyRunner(RobotDriver):
         self.inputs.press(message.stamp.to_sec(), message.frame_id or "unnamed")
 
     def publish_status(self, status: TrialStatus) -> None:
+        self.phase = status.phase
         self.status_pub.publish(self._string_type(data=status_to_json(status)))
+        if self.options.keyboard and status.phase in _PROMPTS:
+            print(f"trial {status.index}/{status.total} ({status.condition}, test {status.test}, {status.path}): "
+                  + _PROMPTS[status.phase].format(paths=", ".join(f"{k} {p}" for k, p in
+                                                                  enumerate(status.group_paths, start=1))),
+                  file=sys.stderr, flush=True)
+
+    def read_keyboard(self, lines: Iterable[str]) -> None:
+        """The observer's lines (sim.study.interface.observer_input), read in the phase they come in."""
+        for line in lines:
+            typed = observer_input(line, self.phase)
+            if typed.kind == "go":
+                self.inputs.go()
+            elif typed.kind == "stop":
+                self.inputs.press(0.0, "keyboard")
+            elif typed.kind == "distance":
+                self.inputs.distance(typed.distance)
+            elif typed.kind == "preference":
+                self.inputs.preference(typed.text)
+            else:
+                print(f"sim.study run: {typed.text}", file=sys.stderr, flush=True)
 
     # --- time -----------------------------------------------------------------------------------------------
     def start(self) -> np.ndarray:
@@ -357,6 +385,8 @@ def run_node(robot: RobotSpec, scene: Scene, plan: SessionPlan, approaches: dict
     recorder_node = f"study_recorder_{plan.participant}"
     recorder = start_recorder(robot, bag, recorder_node, out / "logs") if record else None
     runner = StudyRunner(robot, scene, plan, approaches, options, stop)
+    if options.keyboard:
+        threading.Thread(target=runner.read_keyboard, args=(sys.stdin,), name="keyboard", daemon=True).start()
     started = time.monotonic()
     try:
         partner = runner.wait_for_partner(connect_timeout, [recorder_node] if recorder else [])

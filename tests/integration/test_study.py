@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import math
+import subprocess
 import threading
 from pathlib import Path
 from typing import Any
@@ -30,7 +31,7 @@ from sim.study.paths import ON_TOP
 from sim.study.scene import load_scene, scene_robot
 from sim.study.stop import STOP_DECELERATION
 from tests.integration.sim_helpers import start_engine
-from tests.rosenv import PYTHON, NodeProcess
+from tests.rosenv import PYTHON, REPO, NodeProcess, kill_process
 
 SCENE = load_scene()
 ROBOT = scene_robot(SCENE)
@@ -181,3 +182,59 @@ def test_simulated_participants_run_the_study_and_the_analysis_recovers_their_bi
 
 
 pytestmark = pytest.mark.timeout(400)
+
+
+def test_the_observer_drives_a_reality_trial_from_the_runners_keyboard(roscore, endpoint, tmp_path: Path) -> None:
+    # In real time, as a real robot would run: the approach lasts its planned seconds, and the stop typed while it
+    # moves lands in it.
+    trials = [
+        {"index": 1, "condition": "reality", "test": 1, "path": "vertical", "standoff": 0.1, "peak_speed": 0.2,
+         "speed_set": "", "group": 0},
+        {"index": 2, "condition": "reality", "test": 2, "path": "straight", "standoff": ON_TOP, "peak_speed": 0.2,
+         "speed_set": "medium", "group": 1},
+    ]
+    plan = tmp_path / "plan.yaml"
+    plan.write_text(yaml.safe_dump({"participant": 8, "seed": 0, "conditions": ["reality", "vr"], "trials": trials}))
+    engine = start_engine(roscore, tmp_path, "panda", endpoint.port, "--no-auto-simulate")
+    phases: list[tuple[int, str]] = []
+    changed = threading.Condition()
+
+    def on_status(payload: bytes) -> None:
+        status = status_from_json(deserialize(payload, TOPIC_TYPES[STATUS_TOPIC]).data)
+        with changed:
+            phases.append((status.index, status.phase))
+            changed.notify_all()
+
+    watcher = TcpClient("127.0.0.1", endpoint.port)  # only watches the phases, as an observer's screen would
+    watcher.subscribe(STATUS_TOPIC, TOPIC_TYPES[STATUS_TOPIC], on_status)
+    watcher.connect(timeout=30)
+    out = tmp_path / "out"
+    runner = subprocess.Popen([PYTHON, "-m", "sim.study", "run", "--plan", str(plan), "--out", str(out), "--keyboard",
+                               "--no-record", "--realtime"], env=roscore.env, cwd=REPO, stdin=subprocess.PIPE,
+                              stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+
+    def when(phase: tuple[int, str], line: str) -> None:
+        with changed:
+            assert changed.wait_for(lambda: phase in phases, timeout=60), phases
+        assert runner.stdin is not None
+        runner.stdin.write(line)
+        runner.stdin.flush()
+
+    try:
+        when((1, "ready"), "\n")
+        when((1, "distance"), "banana\n")  # not a distance: said, and asked on
+        when((1, "distance"), "9.5 cm\n")
+        when((2, "ready"), "\n")
+        when((2, "moving"), "s\n")
+        when((2, "preference"), "1\n")
+        output, _ = runner.communicate(timeout=60)
+    finally:
+        kill_process(runner)
+        watcher.close()
+        engine.stop()
+    assert runner.returncode == 0, output
+    assert "'banana' is not a distance" in output and "trial 2/2 (reality, test 2, straight): s + Enter to stop" in output
+    first, second = read_csv(out / "participant_08.csv")
+    assert float(first["perceived_distance"]) == pytest.approx(0.095)
+    assert second["pressed"] == "true" and second["press_source"] == "keyboard"
+    assert float(second["distance_at_rest"]) > 0.05 and second["preferred_path"] == "straight"

@@ -7,7 +7,14 @@ import math
 import pytest
 
 from sim.study.errors import StudyError
-from sim.study.interface import TrialStatus, checked_distance, chosen_path, status_from_json, status_to_json
+from sim.study.interface import (
+    TrialStatus,
+    checked_distance,
+    chosen_path,
+    observer_input,
+    status_from_json,
+    status_to_json,
+)
 
 
 def test_a_status_survives_json_and_absent_numbers_are_null() -> None:
@@ -42,3 +49,24 @@ def test_answers_are_checked() -> None:
     for bad in ("0", "4", "vertical", ""):
         with pytest.raises(StudyError, match="preference"):
             chosen_path(bad, group)
+
+
+@pytest.mark.parametrize("line, phase, kind, value", [
+    ("\n", "ready", "go", None),
+    ("s\n", "moving", "stop", None),
+    ("STOP", "moving", "stop", None),
+    ("0.12", "distance", "distance", 0.12),
+    ("0.12 m", "distance", "distance", 0.12),
+    ("12 cm\n", "distance", "distance", 0.12),
+    ("2", "preference", "preference", "2"),
+    ("lateral_arc", "preference", "preference", "lateral_arc"),
+    ("near", "distance", "unknown", "not a distance"),
+    ("2", "moving", "unknown", "means nothing in phase moving"),
+])
+def test_the_observers_keyboard_lines_are_read_in_their_phase(line: str, phase: str, kind: str, value) -> None:
+    typed = observer_input(line, phase)
+    assert typed.kind == kind
+    if kind == "distance":
+        assert typed.distance == pytest.approx(value)
+    elif value is not None:
+        assert value in typed.text
