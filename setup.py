@@ -20,8 +20,11 @@ setup(
         "tqdm>=4.60",
         "PyYAML>=5.4",
         "scipy>=1.10",
+        "viser>=1.0",  # the study's live 3-D view
+        "yourdfpy>=0.0.56",  # viser's URDF loader
     ],
-    extras_require={"dev": ["pytest>=7", "hypothesis>=6", "pytest-timeout>=2", "mypy>=1.5"]},
+    # selenium drives Debian's chromium (and chromedriver) for the web view's test
+    extras_require={"dev": ["pytest>=7", "hypothesis>=6", "pytest-timeout>=2", "mypy>=1.5", "selenium>=4.10"]},
     entry_points={
         "console_scripts": [
             "ros-tcp-endpoint=bridge.__main__:main",

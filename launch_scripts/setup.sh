@@ -10,6 +10,7 @@ apt_packages=(ros-core python3-rospy python3-rosbag python3-sensor-msgs python3-
   python3-diagnostic-msgs
   python3-geometry-msgs python3-std-msgs python3-rosgraph-msgs python3-std-srvs python3-tf2-msgs
   ros-robot-state-publisher python3-yaml
+  chromium chromium-driver
   catkin rosbash iproute2)
 missing=()
 for pkg in "${apt_packages[@]}"; do

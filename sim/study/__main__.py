@@ -75,6 +75,14 @@ def _parser() -> argparse.ArgumentParser:
                              help="perceived / actual distance in VR (default 0.85: a 15 %% underestimate)")
     participant.add_argument("--timeout", type=float, default=1800.0, help="give up after this many s")
 
+    view = commands.add_parser("view", help="the experimenter's live 3-D view, a web page (viser)")
+    view.add_argument("--host", default="127.0.0.1", help="endpoint address")
+    view.add_argument("--port", type=int, default=10000, help="endpoint port")
+    view.add_argument("--http-host", default="127.0.0.1", help="the page's address (0.0.0.0: every interface)")
+    view.add_argument("--http-port", type=int, default=8080, help="the page's port (default 8080)")
+    view.add_argument("--rate", type=float, default=20.0, help="page updates per second at most (default 20)")
+    with_scene(view)
+
     analyse = commands.add_parser("analyse", help="the report over every participant's CSV in a directory")
     analyse.add_argument("directory", type=Path, help="where the participant_*.csv files are")
     analyse.add_argument("--out", type=Path, help="where report.md and the plots go (default: the directory)")
@@ -106,6 +114,8 @@ def main(argv: list[str] | None = None) -> int:
             return _run(args)
         if args.command == "participant":
             return _participant(args)
+        if args.command == "view":
+            return _view(args)
         if args.command == "analyse":
             return _analyse(args)
         if args.command == "simulate":
@@ -206,6 +216,41 @@ def _participant(args: argparse.Namespace) -> int:
         return 4
     print(f"participant {args.participant}: session done, {participant.presses} presses")
     return 0 if not participant.problems else 1
+
+
+def _view(args: argparse.Namespace) -> int:
+    import signal
+    import threading
+
+    import viser
+
+    from bridge.client import ClientError, TcpClient
+    from sim.study.view import LiveView
+
+    _check_positive(args.rate, "--rate")
+    _check_positive(args.dt, "--dt")
+    if not 0 < args.http_port < 65536:
+        raise StudyError(f"--http-port must be 1..65535, got {args.http_port}")
+    scene = load_scene(args.scene)
+    robot = scene_robot(scene)
+    server = viser.ViserServer(host=args.http_host, port=args.http_port, verbose=False)
+    view = LiveView(server, robot, scene, args.dt, args.rate)
+    client = TcpClient(args.host, args.port)
+    view.attach(client)
+    stop = threading.Event()
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(signum, lambda *_: stop.set())
+    try:
+        client.connect(timeout=30)
+    except ClientError as error:
+        print(f"sim.study view: cannot reach the endpoint at {args.host}:{args.port}: {error}", file=sys.stderr)
+        server.stop()
+        return 4
+    print(f"view: http://{args.http_host}:{server.get_port()} (the endpoint at {args.host}:{args.port})", flush=True)
+    stop.wait()
+    client.close()
+    server.stop()
+    return 0
 
 
 def _analyse(args: argparse.Namespace) -> int:

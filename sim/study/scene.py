@@ -39,11 +39,15 @@ class Box:
         """The centre of its top face."""
         return self.position + np.array([0.0, 0.0, self.size[2] / 2.0])
 
+    def nearest_point(self, point: np.ndarray) -> np.ndarray:
+        """The box's point (world) nearest to `point`; `point` itself inside."""
+        rotation = self.rotation
+        local = rotation.T @ (np.asarray(point, dtype=float) - self.position)
+        return self.position + rotation @ np.clip(local, -self.size / 2.0, self.size / 2.0)
+
     def distance(self, point: np.ndarray) -> float:
         """Distance from `point` (world) to the box's nearest point; 0 inside."""
-        local = self.rotation.T @ (np.asarray(point, dtype=float) - self.position)
-        outside = np.maximum(np.abs(local) - self.size / 2.0, 0.0)
-        return float(np.linalg.norm(outside))
+        return float(np.linalg.norm(np.asarray(point, dtype=float) - self.nearest_point(point)))
 
 
 @dataclass(frozen=True)

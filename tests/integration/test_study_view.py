@@ -1,0 +1,104 @@
+"""The experimenter's live 3-D view (sim.study.view) in a real headless browser (Debian's Chromium, WebGL in
+software): the page shows the scene before a trial, and the planned path, the trail and the stop after one, as the
+screenshots' pixels tell."""
+from __future__ import annotations
+
+import time
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+import yaml
+from PIL import Image
+
+from sim.processes import plain_env
+from sim.study.paths import ON_TOP
+from sim.study.view import COLOURS
+from tests.integration.sim_helpers import start_engine
+from tests.rosenv import PYTHON, NodeProcess, free_port
+
+CHROMIUM, CHROMEDRIVER = "/usr/bin/chromium", "/usr/bin/chromedriver"
+
+
+@pytest.fixture
+def browser(tmp_path: Path) -> Iterator[Any]:
+    """Debian's Chromium, headless, WebGL in software, driven by Debian's chromedriver (no download)."""
+    from selenium import webdriver
+    from selenium.webdriver.chrome.service import Service
+
+    options = webdriver.ChromeOptions()
+    options.binary_location = CHROMIUM
+    for argument in ("--headless=new", "--no-sandbox", "--use-angle=swiftshader", "--enable-unsafe-swiftshader",
+                     "--window-size=1200,900", f"--user-data-dir={tmp_path / 'chromium'}"):
+        options.add_argument(argument)
+    driver = webdriver.Chrome(service=Service(CHROMEDRIVER), options=options)
+    try:
+        yield driver
+    finally:
+        driver.quit()
+
+
+def settled_screenshot(driver: Any, path: Path, listed: str, timeout: float = 60.0) -> np.ndarray:
+    """Once the page's scene tree lists `listed` and two screenshots in a row are the same picture (the scene has
+    faded in and stopped changing), the last of them."""
+    deadline = time.monotonic() + timeout
+    previous = None
+    while time.monotonic() < deadline:
+        if listed in driver.find_element("tag name", "body").text:
+            driver.save_screenshot(str(path))
+            image = np.asarray(Image.open(path).convert("RGB")).astype(int)
+            if previous is not None and np.abs(image - previous).max() < 8:
+                return image
+            previous = image
+        time.sleep(0.5)  # a frame of software WebGL takes a while; nothing to wait on but the picture itself
+    raise TimeoutError(f"the page did not settle with {listed} within {timeout} s")
+
+
+def pixels_like(image: np.ndarray, colour: tuple[int, int, int], tolerance: int = 60) -> int:
+    """Pixels of about that colour, lit or shaded, in the 3-D scene (between the notice on the left and viser's
+    panel on the right, whose buttons are blue): the same hue, within `tolerance` per channel once the brightness
+    is matched."""
+    image = image[:, 330:850]
+    reference = np.array(colour, dtype=float)
+    brightness = image.sum(axis=2, keepdims=True) / max(reference.sum(), 1.0)
+    matched = np.abs(image - brightness * reference).max(axis=2) < tolerance
+    saturated = image.max(axis=2) - image.min(axis=2) > 60  # the white page and grey robot are not colours
+    return int((matched & saturated).sum())
+
+
+def test_the_live_view_shows_the_scene_the_plan_the_trail_and_the_stop(roscore, endpoint, browser,
+                                                                       tmp_path: Path) -> None:
+    engine = start_engine(roscore, tmp_path, "panda", endpoint.port, "--no-auto-simulate")
+    http = free_port()
+    view = NodeProcess([PYTHON, "-m", "sim.study", "view", "--port", str(endpoint.port), "--http-port", str(http)],
+                       plain_env(), tmp_path, "view")
+    participant = NodeProcess([PYTHON, "-m", "sim.study", "participant", "--participant", "5", "--seed", "2",
+                               "--port", str(endpoint.port)], plain_env(), tmp_path, "participant")
+    try:
+        view.wait_for_output("view: http", timeout=60)
+        participant.wait_for_output("connected", timeout=60)
+        browser.get(f"http://127.0.0.1:{http}")
+        before = settled_screenshot(browser, tmp_path / "before.png", "/hand")
+        assert pixels_like(before, COLOURS["hand"]) > 300 and pixels_like(before, COLOURS["table"]) > 20_000
+        for part in ("path", "trail", "stop"):
+            assert pixels_like(before, COLOURS[part]) < 20, part
+        plan = tmp_path / "plan.yaml"
+        plan.write_text(yaml.safe_dump({"participant": 5, "seed": 2, "conditions": ["vr", "reality"], "trials": [
+            {"index": 1, "condition": "vr", "test": 2, "path": "straight", "standoff": ON_TOP, "peak_speed": 0.3,
+             "speed_set": "fast", "group": 1}]}))
+        runner = NodeProcess([PYTHON, "-m", "sim.study", "run", "--plan", str(plan), "--out", str(tmp_path / "out"),
+                              "--no-record"], roscore.env, tmp_path, "runner")
+        assert runner.wait(120) == 0, runner.output()[-2000:]
+        after = settled_screenshot(browser, tmp_path / "after.png", "/stop_distance")
+        counts = {part: pixels_like(after, COLOURS[part]) for part in ("hand", "path", "trail", "stop")}
+        assert counts["hand"] > 300 and counts["path"] > 200 and counts["trail"] > 50 and counts["stop"] > 20, counts
+        assert np.abs(after - before).max(axis=2).astype(bool).sum() > 5_000  # the robot moved on the page
+    finally:
+        participant.stop()
+        view.stop()
+        engine.stop()
+
+
+pytestmark = pytest.mark.timeout(300)
