@@ -42,7 +42,7 @@ from sim.robots.meshes import resolve_shapes, without_shapes
 
 __all__ = [
     "GRAVITY", "DEFAULT_STIFFNESS", "PhysicsError", "Mode", "DriveParams", "implicit_drive_step", "SimulatedJointState",
-    "PhysicsWorld", "render_gif",
+    "PhysicsWorld", "load_urdf_text", "render_gif",
 ]
 
 log = logging.getLogger(__name__)
@@ -279,12 +279,8 @@ class PhysicsWorld:
             if missing:
                 log.warning("%s: %d mesh or texture file(s) named in %s are nowhere (e.g. %s); pictures show the "
                             "robot without them", self.robot.name, len(missing), urdf, missing[0])
-        with tempfile.TemporaryDirectory(prefix="sim_urdf_") as folder:
-            resolved = Path(folder) / urdf.name
-            resolved.write_text(text, encoding="utf-8")
-            # URDF_USE_INERTIA_FROM_FILE: the URDF's inertias, not pybullet's estimate from the collision shapes.
-            self._body = p.loadURDF(str(resolved), useFixedBase=True, flags=p.URDF_USE_INERTIA_FROM_FILE,
-                                    physicsClientId=cid)
+        # URDF_USE_INERTIA_FROM_FILE: the URDF's inertias, not pybullet's estimate from the collision shapes.
+        self._body = load_urdf_text(text, urdf.name, cid, flags=p.URDF_USE_INERTIA_FROM_FILE)
         names_to_index: dict[str, int] = {}
         self._link_index = {p.getBodyInfo(self._body, physicsClientId=cid)[0].decode(): -1}
         self._dof_indices: list[int] = []  # pybullet joint index of every movable joint, in DoF order
@@ -494,6 +490,17 @@ class PhysicsWorld:
         path.parent.mkdir(parents=True, exist_ok=True)
         Image.fromarray(self.capture(width, height)).save(path, format="PNG")
         return path
+
+
+def load_urdf_text(text: str, file_name: str, client: int, position: Sequence[float] = (0.0, 0.0, 0.0),
+                   orientation: Sequence[float] = (0.0, 0.0, 0.0, 1.0), flags: int = 0) -> int:
+    """Load URDF text (e.g. with its shapes resolved or removed) as a fixed-base body: pybullet loads only files,
+    so it goes through a temporary one named `file_name`. Returns the body's id."""
+    with tempfile.TemporaryDirectory(prefix="sim_urdf_") as folder:
+        path = Path(folder) / file_name
+        path.write_text(text, encoding="utf-8")
+        return int(p.loadURDF(str(path), list(position), list(orientation), useFixedBase=True, flags=flags,
+                              physicsClientId=client))
 
 
 def render_gif(frames: Sequence[np.ndarray], path: str | Path, frame_duration_s: float = 0.1) -> Path:

@@ -38,6 +38,18 @@ def resolve_filename(filename: str, urdf_dir: Path, find_package: Callable[[str]
     return next((candidate.resolve() for candidate in candidates if candidate.is_file()), None)
 
 
+def _resolve(element: ET.Element, urdf_dir: Path, find_package: Callable[[str], Path | None],
+             missing: list[str]) -> bool:
+    """Make `element`'s filename absolute; False (and the name noted in `missing`) when the file is nowhere."""
+    filename = element.get("filename", "")
+    found = resolve_filename(filename, urdf_dir, find_package)
+    if found is None:
+        missing.append(filename)
+        return False
+    element.set("filename", str(found))
+    return True
+
+
 def resolve_shapes(urdf_text: str, urdf_dir: Path, find_package: Callable[[str], Path | None]
                    ) -> tuple[str, list[str]]:
     """(URDF text with every mesh and texture filename absolute, the filenames found nowhere). The <visual> or
@@ -45,25 +57,14 @@ def resolve_shapes(urdf_text: str, urdf_dir: Path, find_package: Callable[[str],
     root = urdf_root(urdf_text)
     missing: list[str] = []
     for link in root.findall("link"):
-        for kind in ("visual", "collision"):
-            for shape in link.findall(kind):
-                mesh = shape.find("geometry/mesh")
-                if mesh is None or not mesh.get("filename"):
-                    continue
-                found = resolve_filename(mesh.get("filename", ""), urdf_dir, find_package)
-                if found is None:
-                    missing.append(mesh.get("filename", ""))
-                    link.remove(shape)
-                else:
-                    mesh.set("filename", str(found))
+        for shape in link.findall("visual") + link.findall("collision"):
+            mesh = shape.find("geometry/mesh")
+            if mesh is not None and mesh.get("filename") and not _resolve(mesh, urdf_dir, find_package, missing):
+                link.remove(shape)
     for parent in root.iter():
         for texture in parent.findall("texture"):
-            found = resolve_filename(texture.get("filename", ""), urdf_dir, find_package)
-            if found is None:
-                missing.append(texture.get("filename", ""))
+            if not _resolve(texture, urdf_dir, find_package, missing):
                 parent.remove(texture)
-            else:
-                texture.set("filename", str(found))
     return ET.tostring(root, encoding="unicode"), missing
 
 

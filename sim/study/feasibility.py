@@ -9,16 +9,15 @@ its chain controls (sim.scenario_defaults).
 from __future__ import annotations
 
 import math
-import tempfile
 from collections.abc import Iterable
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 import pybullet as p
 
 from sim.frames import matrix_to_quat, rpy_to_matrix
 from sim.kinematics import chain_for, solve_ik, solve_path_ik
+from sim.physics import load_urdf_text
 from sim.robots import RobotSpec, find_ros_package
 from sim.robots.meshes import resolve_shapes
 from sim.scenario_defaults import controllable_weights
@@ -65,13 +64,9 @@ class SceneWorld:
     def _load(self, scene: Scene) -> None:
         cid, urdf = self._client, self.robot.urdf_path
         text, _ = resolve_shapes(urdf.read_text(encoding="utf-8"), urdf.parent, find_ros_package)
-        with tempfile.TemporaryDirectory(prefix="study_urdf_") as folder:
-            resolved = Path(folder) / urdf.name
-            resolved.write_text(text, encoding="utf-8")
-            flags = p.URDF_USE_SELF_COLLISION | p.URDF_USE_SELF_COLLISION_EXCLUDE_ALL_PARENTS
-            self._body = p.loadURDF(str(resolved), scene.base_position.tolist(),
-                                    matrix_to_quat(rpy_to_matrix(*scene.base_rpy)).tolist(), useFixedBase=True,
-                                    flags=flags, physicsClientId=cid)
+        self._body = load_urdf_text(text, urdf.name, cid, scene.base_position.tolist(),
+                                    matrix_to_quat(rpy_to_matrix(*scene.base_rpy)).tolist(),
+                                    flags=p.URDF_USE_SELF_COLLISION | p.URDF_USE_SELF_COLLISION_EXCLUDE_ALL_PARENTS)
         index = {p.getJointInfo(self._body, j, physicsClientId=cid)[1].decode(): j
                  for j in range(p.getNumJoints(self._body, physicsClientId=cid))}
         self._joints = [index[name] for name in self.robot.joint_names]
