@@ -13,8 +13,9 @@ from rosbags.typesys import Stores, get_typestore
 
 __all__ = [
     "TYPESTORE", "Header", "Time", "JointStateMsg", "JOINT_STATE", "JOINT_TRAJECTORY", "CLOCK", "POSE",
-    "MessageError", "serialize", "deserialize", "time_msg", "to_seconds", "encode_joint_state", "encode_clock",
-    "decode_clock", "TrajectoryCommand", "decode_joint_trajectory", "encode_joint_trajectory", "decode_pose",
+    "MessageError", "serialize", "deserialize", "encode_message", "time_msg", "to_seconds", "encode_joint_state",
+    "encode_clock", "decode_clock", "TrajectoryCommand", "decode_joint_trajectory", "encode_joint_trajectory",
+    "decode_pose",
 ]
 
 TYPESTORE = get_typestore(Stores.ROS1_NOETIC)
@@ -41,6 +42,11 @@ def _store_name(ros1_name: str) -> str:
 
 def serialize(message: object, ros1_name: str) -> bytes:
     return bytes(TYPESTORE.serialize_ros1(message, _store_name(ros1_name)))
+
+
+def encode_message(ros1_name: str, **fields: Any) -> bytes:
+    """A message of type `ros1_name` (e.g. "std_msgs/Header") made from its fields, serialized."""
+    return serialize(_T[_store_name(ros1_name)](**fields), ros1_name)
 
 
 def deserialize(data: bytes, ros1_name: str) -> object:

@@ -105,25 +105,13 @@ def _check_positive(value: float, option: str) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
+    commands = {"plan": _plan, "check": _check, "run": _run, "participant": _participant, "view": _view,
+                "analyse": _analyse, "simulate": _simulate}
     try:
-        if args.command == "plan":
-            return _plan(args)
-        if args.command == "check":
-            return _check(args)
-        if args.command == "run":
-            return _run(args)
-        if args.command == "participant":
-            return _participant(args)
-        if args.command == "view":
-            return _view(args)
-        if args.command == "analyse":
-            return _analyse(args)
-        if args.command == "simulate":
-            return _simulate(args)
+        return commands[args.command](args)
     except (StudyError, RobotError) as error:
         print(f"sim.study {args.command}: error: {error}", file=sys.stderr)
         return EXIT_USAGE
-    raise AssertionError(args.command)
 
 
 def _plan(args: argparse.Namespace) -> int:

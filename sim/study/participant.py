@@ -21,8 +21,7 @@ import numpy as np
 from bridge.client import TcpClient
 from sim.kinematics import chain_for
 from sim.robots import RobotSpec
-from sim.rosmsgs import JOINT_STATE, TYPESTORE, deserialize, time_msg, to_seconds
-from sim.rosmsgs import serialize as serialize_message
+from sim.rosmsgs import JOINT_STATE, deserialize, encode_message, time_msg, to_seconds
 from sim.study.errors import StudyError
 from sim.study.interface import (
     DISTANCE_TOPIC,
@@ -39,12 +38,9 @@ from sim.study.scene import Scene
 
 __all__ = ["SimulatedParticipant"]
 
-_TYPES = TYPESTORE.types
-
 
 def _encode(topic: str, **fields: Any) -> bytes:
-    package, name = TOPIC_TYPES[topic].split("/")
-    return serialize_message(_TYPES[f"{package}/msg/{name}"](**fields), TOPIC_TYPES[topic])
+    return encode_message(TOPIC_TYPES[topic], **fields)
 
 
 class SimulatedParticipant:

@@ -17,7 +17,7 @@ from rosbags.rosbag1 import Reader
 from bridge.client import TcpClient
 from sim.kinematics import chain_for
 from sim.processes import plain_env
-from sim.rosmsgs import JOINT_STATE, TYPESTORE, deserialize, serialize, time_msg, to_seconds
+from sim.rosmsgs import JOINT_STATE, TYPESTORE, deserialize, encode_message, time_msg, to_seconds
 from sim.study.interface import (
     DISTANCE_TOPIC,
     GO_TOPIC,
@@ -31,6 +31,7 @@ from sim.study.paths import ON_TOP
 from sim.study.scene import load_scene, scene_robot
 from sim.study.stop import STOP_DECELERATION
 from tests.integration.sim_helpers import start_engine
+from tests.integration.study_helpers import trial, write_plan
 from tests.rosenv import PYTHON, REPO, NodeProcess, kill_process
 
 SCENE = load_scene()
@@ -40,8 +41,7 @@ SMALL_DESIGN = {"test1": {"paths": ["straight"], "standoffs": [0.08, 0.14, 0.2],
 
 
 def message(topic: str, **fields: Any) -> bytes:
-    package, name = TOPIC_TYPES[topic].split("/")
-    return serialize(TYPESTORE.types[f"{package}/msg/{name}"](**fields), TOPIC_TYPES[topic])
+    return encode_message(TOPIC_TYPES[topic], **fields)
 
 
 class ScriptedVrScene:
@@ -95,16 +95,11 @@ def bag_messages(bag: Path, topic: str) -> list[Any]:
 
 
 def test_a_vr_scene_stops_the_robot_and_answers_through_the_endpoint(roscore, endpoint, tmp_path: Path) -> None:
-    trials = [
-        {"index": 1, "condition": "vr", "test": 1, "path": "straight", "standoff": 0.15, "peak_speed": 0.15,
-         "speed_set": "", "group": 0},
-        {"index": 2, "condition": "vr", "test": 2, "path": "straight", "standoff": ON_TOP, "peak_speed": 0.3,
-         "speed_set": "fast", "group": 1},
-        {"index": 3, "condition": "vr", "test": 2, "path": "vertical", "standoff": ON_TOP, "peak_speed": 0.3,
-         "speed_set": "fast", "group": 1},
-    ]
-    plan = tmp_path / "plan.yaml"
-    plan.write_text(yaml.safe_dump({"participant": 7, "seed": 0, "conditions": ["vr", "reality"], "trials": trials}))
+    plan = write_plan(tmp_path / "plan.yaml", 7, "vr", [
+        trial(1, "vr", 1, "straight", 0.15, 0.15),
+        trial(2, "vr", 2, "straight", ON_TOP, 0.3, "fast", 1),
+        trial(3, "vr", 2, "vertical", ON_TOP, 0.3, "fast", 1),
+    ])
     engine = start_engine(roscore, tmp_path, "panda", endpoint.port, "--no-auto-simulate")
     scene = ScriptedVrScene(endpoint.port)
     scene.client.connect(timeout=30)
@@ -187,14 +182,10 @@ pytestmark = pytest.mark.timeout(400)
 def test_the_observer_drives_a_reality_trial_from_the_runners_keyboard(roscore, endpoint, tmp_path: Path) -> None:
     # In real time, as a real robot would run: the approach lasts its planned seconds, and the stop typed while it
     # moves lands in it.
-    trials = [
-        {"index": 1, "condition": "reality", "test": 1, "path": "vertical", "standoff": 0.1, "peak_speed": 0.2,
-         "speed_set": "", "group": 0},
-        {"index": 2, "condition": "reality", "test": 2, "path": "straight", "standoff": ON_TOP, "peak_speed": 0.2,
-         "speed_set": "medium", "group": 1},
-    ]
-    plan = tmp_path / "plan.yaml"
-    plan.write_text(yaml.safe_dump({"participant": 8, "seed": 0, "conditions": ["reality", "vr"], "trials": trials}))
+    plan = write_plan(tmp_path / "plan.yaml", 8, "reality", [
+        trial(1, "reality", 1, "vertical", 0.1, 0.2),
+        trial(2, "reality", 2, "straight", ON_TOP, 0.2, "medium", 1),
+    ])
     engine = start_engine(roscore, tmp_path, "panda", endpoint.port, "--no-auto-simulate")
     phases: list[tuple[int, str]] = []
     changed = threading.Condition()

@@ -10,13 +10,13 @@ from typing import Any
 
 import numpy as np
 import pytest
-import yaml
 from PIL import Image
 
 from sim.processes import plain_env
 from sim.study.paths import ON_TOP
 from sim.study.view import COLOURS
 from tests.integration.sim_helpers import start_engine
+from tests.integration.study_helpers import trial, write_plan
 from tests.rosenv import PYTHON, NodeProcess, free_port
 
 CHROMIUM, CHROMEDRIVER = "/usr/bin/chromium", "/usr/bin/chromedriver"
@@ -84,10 +84,7 @@ def test_the_live_view_shows_the_scene_the_plan_the_trail_and_the_stop(roscore, 
         assert pixels_like(before, COLOURS["hand"]) > 300 and pixels_like(before, COLOURS["table"]) > 20_000
         for part in ("path", "trail", "stop"):
             assert pixels_like(before, COLOURS[part]) < 20, part
-        plan = tmp_path / "plan.yaml"
-        plan.write_text(yaml.safe_dump({"participant": 5, "seed": 2, "conditions": ["vr", "reality"], "trials": [
-            {"index": 1, "condition": "vr", "test": 2, "path": "straight", "standoff": ON_TOP, "peak_speed": 0.3,
-             "speed_set": "fast", "group": 1}]}))
+        plan = write_plan(tmp_path / "plan.yaml", 5, "vr", [trial(1, "vr", 2, "straight", ON_TOP, 0.3, "fast", 1)])
         runner = NodeProcess([PYTHON, "-m", "sim.study", "run", "--plan", str(plan), "--out", str(tmp_path / "out"),
                               "--no-record"], roscore.env, tmp_path, "runner")
         assert runner.wait(120) == 0, runner.output()[-2000:]
