@@ -269,15 +269,19 @@ class StudyRunner(RobotDriver):
         for trial in self.plan.trials:
             record, positions = self.run_trial(trial, positions, log)
             records.append(record)
-            group = [r for r in records if r.test == 2 and r.condition == trial.condition and r.group == trial.group]
-            if trial.test == 2 and len(group) == len(self._group_of(trial)):
-                preferred = self._ask_preference(trial, tuple(r.path for r in group), log)
-                records = [replace(r, preferred_path=preferred) if r in group else r for r in records]
+            group = self._group_of(trial)
+            if group and group[-1] is trial:  # the group's last trial: which approach was preferred?
+                preferred = self._ask_preference(trial, tuple(t.path for t in group), log)
+                indices = {t.index for t in group}
+                records = [replace(r, preferred_path=preferred) if r.index in indices else r for r in records]
             write_records(records_path, records)  # after every trial: a crash loses at most the one running
         self.publish_status(TrialStatus(self.plan.participant, 0, len(self.plan.trials), "done"))
         return records
 
     def _group_of(self, trial: PlannedTrial) -> list[PlannedTrial]:
+        """Test 2's group that `trial` belongs to, in the order run; empty for test 1."""
+        if trial.test != 2:
+            return []
         return [t for t in self.plan.trials if t.test == 2 and t.condition == trial.condition and t.group == trial.group]
 
     def _ask_preference(self, trial: PlannedTrial, paths: tuple[str, ...], log: Callable[[str], None]) -> str:

@@ -124,9 +124,9 @@ def test_a_vr_scene_stops_the_robot_and_answers_through_the_endpoint(roscore, en
     assert float(first["distance_at_rest"]) == pytest.approx(0.15, abs=0.002) and first["pressed"] == "false"
     # the press: on the runner's clock when it came (unstamped), braking along the path within the stated limit
     assert pressed["pressed"] == "true" and pressed["press_source"] == "vr_trigger"
-    assert 0.3 < float(pressed["press_time"]) < 1.0
+    assert float(pressed["press_time"]) >= 0.48 and float(pressed["press_late"]) == 0.0  # after the 25th state
     braking = float(pressed["braking_distance"])
-    assert 0 < braking <= 0.3 ** 2 / (2 * STOP_DECELERATION) + 1e-6
+    assert 0 < braking <= 0.3 ** 2 / (2 * STOP_DECELERATION) + 1e-6  # pressed while moving, braked within a
     at_press, at_rest = float(pressed["distance_at_press"]), float(pressed["distance_at_rest"])
     assert at_rest < at_press and at_press - at_rest == pytest.approx(braking, abs=0.01)
     assert unpressed["pressed"] == "false" and float(unpressed["distance_at_rest"]) == pytest.approx(ON_TOP, abs=0.002)
