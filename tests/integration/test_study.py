@@ -229,3 +229,24 @@ def test_the_observer_drives_a_reality_trial_from_the_runners_keyboard(roscore, 
     assert float(first["perceived_distance"]) == pytest.approx(0.095)
     assert second["pressed"] == "true" and second["press_source"] == "keyboard"
     assert float(second["distance_at_rest"]) > 0.05 and second["preferred_path"] == "straight"
+
+
+def test_roslaunch_runs_a_session_from_the_catkin_package(roscore, endpoint, tmp_path: Path) -> None:
+    # Nobody answers the preference here: after --response-timeout the session goes on, and says so.
+    plan = write_plan(tmp_path / "plan.yaml", 9, "vr", [trial(1, "vr", 2, "vertical", ON_TOP, 0.3, "fast", 1)])
+    engine = start_engine(roscore, tmp_path, "panda", endpoint.port, "--no-auto-simulate")
+    out = tmp_path / "out"
+    command = (f"source {REPO / 'catkin_ws' / 'devel' / 'setup.bash'} && exec roslaunch vr_sim study.launch "
+               f"plan:={plan} out:={out} python:={PYTHON} "
+               "extra_args:='--auto-go --response-timeout 1'")
+    launch = NodeProcess(["bash", "-c", command], roscore.env, tmp_path, "roslaunch")
+    try:
+        assert launch.wait(120) == 0, launch.output()[-3000:]
+    finally:
+        launch.stop(timeout=20)
+        engine.stop()
+    assert "no preference within 1 s; left empty" in launch.output()
+    (row,) = read_csv(out / "participant_09.csv")
+    assert row["pressed"] == "false" and float(row["distance_at_rest"]) == pytest.approx(ON_TOP, abs=0.002)
+    phases = [status_from_json(m.data).phase for m in bag_messages(out / "bags" / "participant_09.bag", STATUS_TOPIC)]
+    assert phases[0] == "to_start" and phases[-2:] == ["preference", "done"]
