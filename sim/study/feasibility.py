@@ -161,7 +161,7 @@ def plan_approach(robot: RobotSpec, scene: Scene, path: ApproachPath, world: Sce
         if distance < CONTACT_MARGIN:
             problems.append(f"the robot comes within {max(distance, 0.0) * 1000:.1f} mm of "
                             f"{'itself' if what == 'self' else 'the ' + what}")
-    end = scene.to_world(chain.fk(positions[-1])[:3, 3][None])[0]
+    end = scene.end_effector(chain, positions[-1])
     reached = scene.hand.distance(end)
     if abs(reached - path.standoff) > STANDOFF_TOLERANCE:
         problems.append(f"the planned end is {reached:.4f} m from the hand, not the stand-off {path.standoff} m")

@@ -62,8 +62,7 @@ class SimulatedParticipant:
         self.client.subscribe(STATUS_TOPIC, TOPIC_TYPES[STATUS_TOPIC], self._on_status)
 
     def hand_distance(self, positions: np.ndarray) -> float:
-        point = self.scene.to_world(self._chain.fk(positions)[:3, 3][None])[0]
-        return self.scene.hand.distance(point)
+        return self.scene.hand.distance(self.scene.end_effector(self._chain, positions))
 
     def _on_joint_state(self, payload: bytes) -> None:
         message: Any = deserialize(payload, JOINT_STATE)

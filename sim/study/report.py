@@ -11,7 +11,7 @@ from sim.study.design import CONDITIONS
 from sim.study.errors import StudyError
 from sim.study.records import TrialRecord, read_records
 from sim.study.statistics import Estimate, PairedComparison
-from sim.study.summary import StudySummary, cell, per_participant, summarise
+from sim.study.summary import StudySummary, cell, per_participant, perceived_ratio, summarise
 
 __all__ = ["load_study", "write_report"]
 
@@ -45,7 +45,8 @@ def _p(value: float) -> str:
 
 def _comparison_row(label: str, c: PairedComparison, scale: float, digits: int) -> str:
     return (f"| {label} | {c.n} | {c.mean_a * scale:.{digits}f} | {c.mean_b * scale:.{digits}f} | "
-            f"{c.mean_difference * scale:+.{digits}f} [{c.ci_low * scale:+.{digits}f}, {c.ci_high * scale:+.{digits}f}] "
+            f"{c.mean_difference * scale:+.{digits}f} "
+            f"[{c.ci_low * scale:+.{digits}f}, {c.ci_high * scale:+.{digits}f}] "
             f"| {c.t:.2f} | {_p(c.t_p)} | {c.cohen_dz:.2f} | {c.wilcoxon_w:g} | {_p(c.wilcoxon_p)} | "
             f"{c.rank_biserial:+.2f} |")
 
@@ -104,8 +105,7 @@ def _plot_test1(records: list[TrialRecord], summary: StudySummary, path: Path) -
     left.plot([0, top * 1.05], [0, top * 1.05], "k--", linewidth=1, label="perceived = actual")
     left.set(xlabel="actual distance (cm)", ylabel="perceived distance (cm)", title="Test 1: every trial")
     left.legend()
-    vr, reality = (per_participant(records, cell(1, condition), lambda r: r.perceived_distance / r.distance_at_rest)
-                   for condition in ("vr", "reality"))
+    vr, reality = (per_participant(records, cell(1, condition), perceived_ratio) for condition in ("vr", "reality"))
     for participant in sorted(set(vr) & set(reality)):
         right.plot([0, 1], [reality[participant], vr[participant]], "-o", color="grey", alpha=0.6)
     right.axhline(1.0, color="k", linestyle="--", linewidth=1)

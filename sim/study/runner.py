@@ -282,7 +282,8 @@ class StudyRunner(RobotDriver):
         """Test 2's group that `trial` belongs to, in the order run; empty for test 1."""
         if trial.test != 2:
             return []
-        return [t for t in self.plan.trials if t.test == 2 and t.condition == trial.condition and t.group == trial.group]
+        return [t for t in self.plan.trials
+                if t.test == 2 and t.condition == trial.condition and t.group == trial.group]
 
     def _ask_preference(self, trial: PlannedTrial, paths: tuple[str, ...], log: Callable[[str], None]) -> str:
         self.inputs.clear()

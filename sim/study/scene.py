@@ -6,7 +6,7 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -14,6 +14,9 @@ from sim.frames import rpy_to_matrix
 from sim.robots import RobotError, RobotSpec, load_robot
 from sim.study.errors import StudyError
 from sim.study.yamlfile import read_yaml
+
+if TYPE_CHECKING:
+    from sim.kinematics import KinematicChain
 
 __all__ = ["DEFAULT_SCENE", "Box", "Scene", "parse_scene", "scene_robot", "load_scene"]
 
@@ -76,6 +79,10 @@ class Scene:
     def to_world(self, base_points: np.ndarray) -> np.ndarray:
         pose = self.base_pose
         return np.asarray(base_points, dtype=float) @ pose[:3, :3].T + pose[:3, 3]
+
+    def end_effector(self, chain: KinematicChain, positions: np.ndarray) -> np.ndarray:
+        """The chain's end effector in the world at joint positions `positions` (FK, then the base pose)."""
+        return self.to_world(chain.fk(positions)[:3, 3][None])[0]
 
 
 def _vector(value: object, size: int, what: str) -> np.ndarray:

@@ -55,6 +55,10 @@ def simulate(settings: Simulation, log: Callable[[str], None]) -> Path:
     """Run the study and write its report; the report's path. StudyError on bad input, before anything starts."""
     if not (isinstance(settings.participants, int) and 2 <= settings.participants <= 200):
         raise StudyError(f"--participants must be 2..200 (the analysis pairs them), got {settings.participants}")
+    earlier = sorted(settings.out.glob("participant_*.csv"))
+    if earlier:  # the report would mix them in, and they may be a real study's: never overwritten
+        raise StudyError(f"{settings.out} already holds participant records ({earlier[0].name}, ...): choose a new "
+                         "directory")
     design, scene = load_design(settings.design), load_scene(settings.scene)
     robot = scene_robot(scene)
     plans = [make_plan(design, participant, settings.seed) for participant in range(1, settings.participants + 1)]
@@ -69,8 +73,6 @@ def simulate(settings: Simulation, log: Callable[[str], None]) -> Path:
     out = settings.out.resolve()
     logs = out / "logs"
     scene_args = ["--scene", str(Path(settings.scene).resolve())] if settings.scene is not None else []
-    for old in out.glob("participant_*.csv"):  # a report must not mix in an earlier run's participants
-        old.unlink()
     with ExitStack() as running:
         core = RosCore()
         running.callback(core.stop)

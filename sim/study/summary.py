@@ -22,7 +22,7 @@ from sim.study.errors import StudyError
 from sim.study.records import TrialRecord
 from sim.study.statistics import Estimate, PairedComparison, mean_estimate, paired_comparison
 
-__all__ = ["StudySummary", "cell", "per_participant", "summarise"]
+__all__ = ["StudySummary", "cell", "per_participant", "perceived_ratio", "summarise"]
 
 
 @dataclass(frozen=True)
@@ -71,7 +71,8 @@ def _estimate(records: Sequence[TrialRecord], keep: Callable[[TrialRecord], bool
     return mean_estimate(list(means.values()))
 
 
-def _ratio(record: TrialRecord) -> float:
+def perceived_ratio(record: TrialRecord) -> float:
+    """Test 1: perceived / actual distance (actual: the robot at rest); NaN where it is undefined."""
     if record.distance_at_rest <= 0.0:
         return math.nan
     return record.perceived_distance / record.distance_at_rest
@@ -116,9 +117,9 @@ def summarise(records: Sequence[TrialRecord]) -> StudySummary:
     return StudySummary(
         participants=tuple(sorted({r.participant for r in records})),
         trials=len(records),
-        distance_ratio={condition: _estimate(records, cell(1, condition), _ratio, f"test 1 in {condition}")
+        distance_ratio={condition: _estimate(records, cell(1, condition), perceived_ratio, f"test 1 in {condition}")
                         for condition in CONDITIONS},
-        distance_ratio_vr_vs_reality=_paired(records, test1, _ratio, "test 1"),
+        distance_ratio_vr_vs_reality=_paired(records, test1, perceived_ratio, "test 1"),
         stop_distance={condition: _estimate(records, cell(2, condition), _at_press, f"test 2 in {condition}")
                        for condition in CONDITIONS},
         stop_distance_vr_vs_reality=_paired(records, test2, _at_press, "test 2"),

@@ -81,8 +81,7 @@ class TrialRun:
 
     def hand_distance(self, positions: np.ndarray) -> float:
         """The end effector's distance to the hand at joint positions `positions` (FK)."""
-        point = self.scene.to_world(self._chain.fk(positions)[:3, 3][None])[0]
-        return self.scene.hand.distance(point)
+        return self.scene.hand.distance(self.scene.end_effector(self._chain, positions))
 
     def measures(self) -> TrialMeasures:
         if not self._states:

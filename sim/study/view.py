@@ -80,7 +80,7 @@ class LiveView:
         client.subscribe(STOP_TOPIC, TOPIC_TYPES[STOP_TOPIC], self._on_press)
 
     def end_effector(self, positions: np.ndarray) -> np.ndarray:
-        return self.scene.to_world(self._chain.fk(positions)[:3, 3][None])[0]
+        return self.scene.end_effector(self._chain, positions)
 
     # --- drawing ------------------------------------------------------------------------------------------
     def _draw_robot(self, positions: np.ndarray) -> None:

@@ -224,7 +224,8 @@ def test_the_observer_drives_a_reality_trial_from_the_runners_keyboard(roscore, 
         watcher.close()
         engine.stop()
     assert runner.returncode == 0, output
-    assert "'banana' is not a distance" in output and "trial 2/2 (reality, test 2, straight): s + Enter to stop" in output
+    assert "'banana' is not a distance" in output
+    assert "trial 2/2 (reality, test 2, straight): s + Enter to stop" in output
     first, second = read_csv(out / "participant_08.csv")
     assert float(first["perceived_distance"]) == pytest.approx(0.095)
     assert second["pressed"] == "true" and second["press_source"] == "keyboard"

@@ -48,7 +48,7 @@ def write(path: Path, data: object) -> Path:
 
 
 @pytest.mark.parametrize("case", ["unknown path", "infeasible stand-off", "malformed plan", "no records",
-                                  "bad participant", "bad option"])
+                                  "bad participant", "bad option", "earlier records"])
 def test_bad_input_is_one_line_and_exit_2(tmp_path: Path, case: str) -> None:
     design = {"test1": {"paths": ["straight"], "standoffs": [0.1], "peak_speed": 0.15},
               "test2": {"paths": ["straight"], "speed_sets": {"slow": 0.1}}}
@@ -75,5 +75,9 @@ def test_bad_input_is_one_line_and_exit_2(tmp_path: Path, case: str) -> None:
         one_error_line(study("analyse", str(tmp_path)), "no participant_*.csv")
     elif case == "bad participant":
         one_error_line(study("plan", "--participant", "0", "--seed", "1"), "participant number")
+    elif case == "earlier records":  # a real study's, perhaps: never overwritten
+        (tmp_path / "participant_01.csv").write_text("kept\n")
+        one_error_line(study("simulate", "--participants", "2", "--out", str(tmp_path)), "already holds participant")
+        assert (tmp_path / "participant_01.csv").read_text() == "kept\n"
     else:
         one_error_line(study("simulate", "--participants", "1", "--out", str(tmp_path / "out")), "--participants")
