@@ -31,6 +31,7 @@ setup(
             "sim-engine=sim.engine:main",
             "sim-commander=sim.commander:main",
             "sim-trials=sim.trials:main",
+            "sim-study=sim.study.__main__:main",
         ]
     },
 )
