@@ -20,7 +20,7 @@ from typing import Any, TypeVar
 
 __all__ = [
     "REPO", "PYTHON", "ProcessError", "free_port", "wait_for", "kill_process", "ros_environment",
-    "ManagedProcess", "RosCore", "stop_recorder", "plain_env", "reported_port",
+    "ManagedProcess", "RosCore", "EndpointProcess", "start_recorder", "stop_recorder", "plain_env",
 ]
 
 REPO = Path(__file__).resolve().parents[1]
@@ -173,6 +173,33 @@ class RosCore(ManagedProcess):
         return next((nodes for name, nodes in publishers if name == topic), [])
 
 
+class EndpointProcess(ManagedProcess):
+    """`python -m bridge --tcp-port 0` (a free port), returned once it listens; `port` is the port it reports.
+    `host`: the address it listens on (default: the endpoint's own default)."""
+
+    def __init__(self, env: dict[str, str], log_dir: Path, name: str = "endpoint", extra: Sequence[str] = (),
+                 host: str | None = None, prefix: Sequence[str] = ()) -> None:
+        address = [] if host is None else ["--tcp-ip", host]
+        super().__init__([PYTHON, "-m", "bridge", *address, "--tcp-port", "0", "--node-name", name, *extra], env,
+                         log_dir, name, prefix)
+        try:
+            text = self.wait_for_output("listening on", timeout=30)
+        except BaseException:
+            self.stop()
+            raise
+        line = next(line for line in text.splitlines() if "listening on" in line)
+        self.port = int(line.rsplit(":", 1)[1])
+
+
+def start_recorder(bag: Path, topics: Sequence[str], node: str, env: dict[str, str], log_dir: Path,
+                   prefix: Sequence[str] = ()) -> ManagedProcess:
+    """`rosbag record` of `topics` into `bag` as node `node`. Its output is line-buffered, so "Recording to" shows
+    as soon as it records: wait for that with `wait_for_output`."""
+    bag.parent.mkdir(parents=True, exist_ok=True)
+    return ManagedProcess(["stdbuf", "-oL", "-eL", "rosbag", "record", "-O", str(bag), *topics, f"__name:={node}"],
+                          env, log_dir, "rosbag", prefix)
+
+
 def stop_recorder(recorder: ManagedProcess, bag: Path) -> None:
     """SIGINT lets rosbag close the bag; its C++ recorder renames .bag.active to .bag as the last thing it does."""
     recorder.stop(timeout=10)
@@ -187,9 +214,3 @@ def plain_env() -> dict[str, str]:
     env = dict(os.environ)
     env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(REPO), os.environ.get("PYTHONPATH")]))
     return env
-
-
-def reported_port(endpoint: ManagedProcess) -> int:
-    text = endpoint.wait_for_output("listening on", timeout=30)
-    line = next(line for line in text.splitlines() if "listening on" in line)
-    return int(line.rsplit(":", 1)[1])

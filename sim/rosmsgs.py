@@ -14,7 +14,7 @@ from rosbags.typesys import Stores, get_typestore
 __all__ = [
     "TYPESTORE", "Header", "Time", "JointStateMsg", "JOINT_STATE", "JOINT_TRAJECTORY", "CLOCK", "POSE",
     "MessageError", "serialize", "deserialize", "encode_message", "time_msg", "to_seconds", "encode_joint_state",
-    "encode_clock", "decode_clock", "TrajectoryCommand", "decode_joint_trajectory", "encode_joint_trajectory",
+    "decode_joint_state", "encode_clock", "decode_clock", "TrajectoryCommand", "decode_joint_trajectory", "encode_joint_trajectory",
     "decode_pose",
 ]
 
@@ -84,6 +84,19 @@ def encode_joint_state(
         effort=np.asarray(efforts, dtype=np.float64),
     )
     return serialize(message, JOINT_STATE)
+
+
+def decode_joint_state(data: bytes, joint_order: Sequence[str]) -> tuple[float, np.ndarray]:
+    """(stamp in s, positions in `joint_order`) of a JointState, which may name more joints, in any order;
+    MessageError when it lacks one of `joint_order` or a position for it."""
+    message: Any = deserialize(data, JOINT_STATE)
+    names = list(message.name)
+    missing = [name for name in joint_order if name not in names]
+    if missing or len(message.position) != len(names):
+        raise MessageError(f"JointState names {names} with {len(message.position)} positions, not covering "
+                           f"{list(joint_order)}")
+    positions = np.array([message.position[names.index(name)] for name in joint_order], dtype=float)
+    return to_seconds(message.header.stamp), positions
 
 
 def encode_clock(seconds: float) -> bytes:

@@ -30,7 +30,7 @@ from pathlib import Path
 
 from sim import analysis
 from sim.physics import Mode
-from sim.processes import PYTHON, ManagedProcess, ProcessError, RosCore, plain_env, reported_port, stop_recorder
+from sim.processes import PYTHON, EndpointProcess, ManagedProcess, ProcessError, RosCore, plain_env, start_recorder, stop_recorder
 from sim.scenarios import ScenarioConfig, ScenarioError, build_motion
 from sim.robots import ROBOT_NAMES, RobotError, RobotSpec, load_robot
 
@@ -231,22 +231,17 @@ class Campaign:
         self, robot: RobotSpec, case: UseCase, paths: TrialPaths, where: Placement, scenario: Sequence[str]
     ) -> None:
         logs = paths.process_logs
-        paths.bag.parent.mkdir(parents=True, exist_ok=True)
         topics = [robot.command_topic, robot.joint_states_topic, "/clock", robot.pose_topic]
         with ExitStack() as running:
-            endpoint = ManagedProcess(
-                [PYTHON, "-m", "bridge", "--tcp-ip", where.endpoint_host, "--tcp-port", "0", "--node-name", "endpoint"],
-                where.bridge_env, logs, "endpoint", where.bridge_prefix)
+            endpoint = EndpointProcess(where.bridge_env, logs, host=where.endpoint_host, prefix=where.bridge_prefix)
             running.callback(endpoint.stop)
-            port = reported_port(endpoint)
+            port = endpoint.port
             engine_args = [PYTHON, "-m", "sim.engine", *robot.cli_args, "--host", where.endpoint_host,
                            "--port", str(port), "--mode", case.mode.value, "--dt", str(DT)]
             engine_args += ["--time-scale", str(self.time_scale)] if case.auto_simulate else ["--no-auto-simulate"]
             engine = ManagedProcess(engine_args, plain_env(), logs, "engine", where.engine_prefix)
             running.callback(engine.stop)
-            recorder = ManagedProcess(
-                ["stdbuf", "-oL", "-eL", "rosbag", "record", "-O", str(paths.bag), *topics, "__name:=trial_recorder"],
-                where.ros_env, logs, "rosbag", where.ros_prefix)
+            recorder = start_recorder(paths.bag, topics, "trial_recorder", where.ros_env, logs, where.ros_prefix)
             running.callback(lambda: stop_recorder(recorder, paths.bag))
             engine.wait_for_output("connected to", timeout=60)
             recorder.wait_for_output("Recording to", timeout=30)

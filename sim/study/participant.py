@@ -21,7 +21,7 @@ import numpy as np
 from bridge.client import TcpClient
 from sim.kinematics import chain_for
 from sim.robots import RobotSpec
-from sim.rosmsgs import JOINT_STATE, deserialize, encode_message, time_msg, to_seconds
+from sim.rosmsgs import JOINT_STATE, decode_joint_state, deserialize, encode_message, time_msg
 from sim.study.errors import StudyError
 from sim.study.interface import (
     DISTANCE_TOPIC,
@@ -65,10 +65,7 @@ class SimulatedParticipant:
         return self.scene.hand.distance(self.scene.end_effector(self._chain, positions))
 
     def _on_joint_state(self, payload: bytes) -> None:
-        message: Any = deserialize(payload, JOINT_STATE)
-        names = list(message.name)
-        positions = np.array([message.position[names.index(name)] for name in self.robot.joint_names])
-        stamp = to_seconds(message.header.stamp)
+        stamp, positions = decode_joint_state(payload, self.robot.joint_names)
         self._latest = (stamp, positions)
         status = self._status
         if status is None or status.phase != "moving" or status.test != 2 or self._pressed:

@@ -32,7 +32,7 @@ from typing import Any, Callable, Iterable
 import numpy as np
 
 from sim.driver import DriverError, RobotDriver
-from sim.processes import ManagedProcess, ProcessError, stop_recorder
+from sim.processes import ManagedProcess, ProcessError, start_recorder, stop_recorder
 from sim.robots import RobotSpec
 from sim.scenarios import approach
 from sim.study.errors import StudyError
@@ -55,7 +55,7 @@ from sim.study.scene import Scene
 from sim.study.trial_run import TrialRun
 
 __all__ = ["EXIT_OK", "EXIT_ROS", "EXIT_INTERRUPTED", "RunnerOptions", "Press", "Inputs", "StudyRunner",
-           "recorder_topics", "start_recorder", "run_node"]
+           "recorder_topics", "record_session", "run_node"]
 
 
 EXIT_OK, EXIT_ROS, EXIT_INTERRUPTED = 0, 4, 130
@@ -359,11 +359,9 @@ class StudyRunner(RobotDriver):
         super().close()
 
 
-def start_recorder(robot: RobotSpec, bag: Path, node: str, logs: Path) -> ManagedProcess:
+def record_session(robot: RobotSpec, bag: Path, node: str, logs: Path) -> ManagedProcess:
     """`rosbag record` of the session's topics into `bag` (in this process's ROS environment), once it records."""
-    bag.parent.mkdir(parents=True, exist_ok=True)
-    recorder = ManagedProcess(["stdbuf", "-oL", "-eL", "rosbag", "record", "-O", str(bag), *recorder_topics(robot),
-                               f"__name:={node}"], dict(os.environ), logs, "rosbag")
+    recorder = start_recorder(bag, recorder_topics(robot), node, dict(os.environ), logs)
     try:
         recorder.wait_for_output("Recording to", timeout=30)
     except (ProcessError, TimeoutError):
@@ -388,7 +386,7 @@ def run_node(robot: RobotSpec, scene: Scene, plan: SessionPlan, approaches: dict
     stem = f"participant_{plan.participant:02d}"
     bag, records_path = out / "bags" / f"{stem}.bag", out / f"{stem}.csv"
     recorder_node = f"study_recorder_{plan.participant}"
-    recorder = start_recorder(robot, bag, recorder_node, out / "logs") if record else None
+    recorder = record_session(robot, bag, recorder_node, out / "logs") if record else None
     runner = StudyRunner(robot, scene, plan, approaches, options, stop)
     if options.keyboard:
         threading.Thread(target=runner.read_keyboard, args=(sys.stdin,), name="keyboard", daemon=True).start()

@@ -13,7 +13,7 @@ from typing import Callable
 
 import yaml
 
-from sim.processes import PYTHON, ManagedProcess, ProcessError, RosCore, plain_env, reported_port
+from sim.processes import PYTHON, EndpointProcess, ManagedProcess, ProcessError, RosCore, plain_env
 from sim.study.design import load_design
 from sim.study.errors import StudyError
 from sim.study.feasibility import plan_combinations
@@ -76,10 +76,9 @@ def simulate(settings: Simulation, log: Callable[[str], None]) -> Path:
     with ExitStack() as running:
         core = RosCore()
         running.callback(core.stop)
-        endpoint = ManagedProcess([PYTHON, "-m", "bridge", "--tcp-ip", "127.0.0.1", "--tcp-port", "0",
-                                   "--node-name", "endpoint"], core.env, logs, "endpoint")
+        endpoint = EndpointProcess(core.env, logs, host="127.0.0.1")
         running.callback(endpoint.stop)
-        port = reported_port(endpoint)
+        port = endpoint.port
         log(f"roscore {core.uri}, endpoint on port {port}")
         for plan in plans:
             number = plan.participant

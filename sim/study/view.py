@@ -19,7 +19,7 @@ from sim.frames import matrix_to_quat
 from sim.kinematics import chain_for
 from sim.robots import RobotSpec, find_ros_package
 from sim.robots.meshes import resolve_filename
-from sim.rosmsgs import JOINT_STATE, deserialize, to_seconds
+from sim.rosmsgs import JOINT_STATE, MessageError, decode_joint_state, deserialize, to_seconds
 from sim.study.errors import StudyError
 from sim.study.interface import STATUS_TOPIC, STOP_TOPIC, TOPIC_TYPES, TrialStatus, status_from_json
 from sim.study.paths import approach_path
@@ -112,13 +112,10 @@ class LiveView:
 
     # --- inputs -------------------------------------------------------------------------------------------
     def _on_joint_state(self, payload: bytes) -> None:
-        message: Any = deserialize(payload, JOINT_STATE)
-        names = list(message.name)
         try:
-            positions = np.array([message.position[names.index(name)] for name in self.robot.joint_names])
-        except (ValueError, IndexError):
+            stamp, positions = decode_joint_state(payload, self.robot.joint_names)
+        except MessageError:
             return  # another robot's, or incomplete
-        stamp = to_seconds(message.header.stamp)
         with self._lock:
             self._latest = (stamp, positions)
             status = self._status

@@ -1,0 +1,22 @@
+"""sim.rosmsgs: joint states as the engine writes them, read back by name in a robot's joint order."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from sim.rosmsgs import MessageError, decode_joint_state, encode_joint_state
+
+
+def test_a_joint_state_is_read_by_name_whatever_its_order_and_extra_joints() -> None:
+    data = encode_joint_state(3, 12.34, ["finger", "j2", "j1"], np.array([0.04, -0.5, 1.25]), np.zeros(3),
+                              np.zeros(3))
+    stamp, positions = decode_joint_state(data, ["j1", "j2"])
+    assert stamp == pytest.approx(12.34, abs=1e-9)
+    assert positions.tolist() == [1.25, -0.5]
+
+
+@pytest.mark.parametrize("names, positions", [(["j1"], [0.1]), (["j1", "j2"], [0.1])])
+def test_a_joint_state_that_does_not_cover_the_joints_is_a_message_error(names, positions) -> None:
+    data = encode_joint_state(0, 0.0, names, np.array(positions), np.zeros(len(positions)), np.zeros(len(positions)))
+    with pytest.raises(MessageError, match="not covering"):
+        decode_joint_state(data, ["j1", "j2"])
