@@ -6,6 +6,7 @@ command, so the PID is still the process's own.
 """
 from __future__ import annotations
 
+import contextlib
 import os
 import signal
 import socket
@@ -204,9 +205,8 @@ def stop_recorder(recorder: ManagedProcess, bag: Path) -> None:
     """SIGINT lets rosbag close the bag; its C++ recorder renames .bag.active to .bag as the last thing it does."""
     recorder.stop(timeout=10)
     active = bag.with_name(bag.name + ".active")
-    deadline = time.monotonic() + 10
-    while active.exists() and not bag.exists() and time.monotonic() < deadline:
-        time.sleep(0.05)
+    with contextlib.suppress(TimeoutError):  # a bag left .active is the caller's to report (it finds no bag)
+        wait_for(lambda: bag.exists() or not active.exists(), 10, f"rosbag to close {bag}", interval=0.05)
 
 
 def plain_env() -> dict[str, str]:
