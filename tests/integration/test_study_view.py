@@ -3,7 +3,6 @@ software): the page shows the scene before a trial, and the planned path, the tr
 screenshots' pixels tell."""
 from __future__ import annotations
 
-import time
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -17,7 +16,7 @@ from sim.study.paths import ON_TOP
 from sim.study.view import COLOURS
 from tests.integration.sim_helpers import start_engine
 from tests.integration.study_helpers import trial, write_plan
-from tests.rosenv import PYTHON, NodeProcess, free_port
+from tests.rosenv import PYTHON, NodeProcess, free_port, wait_for
 
 CHROMIUM, CHROMEDRIVER = "/usr/bin/chromium", "/usr/bin/chromedriver"
 
@@ -42,18 +41,21 @@ def browser(tmp_path: Path) -> Iterator[Any]:
 
 def settled_screenshot(driver: Any, path: Path, listed: str, timeout: float = 60.0) -> np.ndarray:
     """Once the page's scene tree lists `listed` and two screenshots in a row are the same picture (the scene has
-    faded in and stopped changing), the last of them."""
-    deadline = time.monotonic() + timeout
-    previous = None
-    while time.monotonic() < deadline:
-        if listed in driver.find_element("tag name", "body").text:
-            driver.save_screenshot(str(path))
-            image = np.asarray(Image.open(path).convert("RGB")).astype(int)
-            if previous is not None and np.abs(image - previous).max() < 8:
-                return image
-            previous = image
-        time.sleep(0.5)  # a frame of software WebGL takes a while; nothing to wait on but the picture itself
-    raise TimeoutError(f"the page did not settle with {listed} within {timeout} s")
+    faded in and stopped changing), the last of them. Screenshots are half a second apart: a frame of software
+    WebGL takes a while, and there is nothing to wait on but the picture itself."""
+    previous: list[np.ndarray] = []
+
+    def steady() -> bool:
+        if listed not in driver.find_element("tag name", "body").text:
+            return False
+        driver.save_screenshot(str(path))
+        image = np.asarray(Image.open(path).convert("RGB")).astype(int)
+        same = bool(previous) and int(np.abs(image - previous[0]).max()) < 8
+        previous[:] = [image]
+        return same
+
+    wait_for(steady, timeout, f"the page to settle with {listed}", interval=0.5)
+    return previous[0]
 
 
 def pixels_like(image: np.ndarray, colour: tuple[int, int, int], tolerance: int = 60) -> int:
