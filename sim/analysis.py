@@ -25,8 +25,8 @@ from sim.robots import RobotSpec
 
 __all__ = [
     "STATE_LEAD_TOLERANCE_S", "MOVING_JOINT_RANGE", "AnalysisError", "TrialSeries", "TrialResult", "read_bag",
-    "read_csv_pair", "scenario_start", "without_approach", "align", "trial_metrics", "summary_rows", "markdown_table", "write_report", "write_plots",
-    "plot_ee_paths",
+    "read_csv_pair", "scenario_start", "without_approach", "align", "trial_metrics", "summary_rows",
+    "markdown_table", "write_report", "write_plots", "plot_ee_paths",
 ]
 
 log = logging.getLogger(__name__)

@@ -41,8 +41,8 @@ from sim.robots import RobotSpec, find_ros_package
 from sim.robots.meshes import resolve_shapes, without_shapes
 
 __all__ = [
-    "GRAVITY", "DEFAULT_STIFFNESS", "PhysicsError", "Mode", "DriveParams", "implicit_drive_step", "SimulatedJointState",
-    "PhysicsWorld", "load_urdf_text", "render_gif",
+    "GRAVITY", "DEFAULT_STIFFNESS", "PhysicsError", "Mode", "DriveParams", "implicit_drive_step",
+    "SimulatedJointState", "PhysicsWorld", "load_urdf_text", "render_gif",
 ]
 
 log = logging.getLogger(__name__)

@@ -28,10 +28,9 @@ from sim.kinematics import KinematicChain
 from sim.robots import RobotSpec
 
 __all__ = [
-    "MARGIN", "TRIAL_MAX_SWING", "ONE_JOINT_FRACTIONS", "IK_GOAL_SHIFT", "IK_GOAL_MAX_SHIFT", "AXIS_NAMES",
-    "usable_range", "trial_table", "one_joint_default", "controllable_weights", "rotates_about_z_only",
-    "position_weights", "ik_goal",
-    "describe_axes",
+    "MARGIN", "TRIAL_MAX_SWING", "ONE_JOINT_FRACTIONS", "ONE_JOINT_SPEED_FRACTION", "IK_GOAL_SHIFT",
+    "IK_GOAL_MAX_SHIFT", "AXIS_NAMES", "usable_range", "trial_table", "one_joint_default", "controllable_weights",
+    "rotates_about_z_only", "position_weights", "ik_goal", "describe_axes",
 ]
 
 MARGIN = 0.1

@@ -31,12 +31,13 @@ from pathlib import Path
 from sim import analysis
 from sim.physics import Mode
 from sim.processes import PYTHON, EndpointProcess, ManagedProcess, ProcessError, RosCore, plain_env, start_recorder, stop_recorder
-from sim.scenarios import ScenarioConfig, ScenarioError, build_motion
 from sim.robots import ROBOT_NAMES, RobotError, RobotSpec, load_robot
+from sim.scenarios import ScenarioConfig, ScenarioError, build_motion
 
 __all__ = [
     "DT", "TCP", "CSV", "NETNS", "UseCase", "USE_CASES", "USE_CASE_NAMES", "TrialError", "TrialSkipped",
-    "NETNS_HOSTS", "Namespaces", "network_hosts", "Placement", "TrialPaths", "Campaign", "load_robots", "run_campaign", "main",
+    "NETNS_HOSTS", "Namespaces", "network_hosts", "Placement", "TrialPaths", "Campaign", "load_robots",
+    "run_campaign", "main",
 ]
 
 log = logging.getLogger(__name__)
