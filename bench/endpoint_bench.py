@@ -28,13 +28,20 @@ raw (bytes-only) message class, like the endpoint, so the ceiling is rospy's tra
      another TcpClient receives a 1 kHz stream: endpoint RSS increase (VmRSS sampled every 5 ms) and that client's
      longest inter-arrival gap; (b) a client subscribes to a 1 kHz stream and never reads (tiny SO_RCVBUF) for
      60 s: endpoint RSS growth, and what a well-behaved client on the same topic still receives.
+  7. Large messages: a 1280x720 RGB Image (2.7 MB) and a 1 MiB PointCloud2, each TCP->ROS and ROS->TCP (a rospy
+     publisher of queue_size 10 as the source) against the rospy sync ceiling for the same message in the same run,
+     TCP->ROS loss, a 1 MiB round trip at 30 Hz against rospy alone through the same relay, with the endpoint's CPU
+     meanwhile, and its RSS after it all.
 `--quick` shortens every window (2 s), the RTT sample counts and the soak (10 s) for a smoke run.
+`--ab REVISION` runs REVISION's endpoint (a git worktree of it) beside this tree's, phase by phase alternately on
+one roscore, and prints both tables and a comparison with the ratios.
 
 Everything is loopback; every loop is bounded in count and time; every process is stopped by PID.
 """
 from __future__ import annotations
 
 import argparse
+import contextlib
 import gc
 import json
 import os
@@ -43,11 +50,12 @@ import socket
 import struct
 import subprocess
 import sys
+import tempfile
 import threading
 import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -57,7 +65,9 @@ sys.path[:0] = [str(REPO), str(BENCH)]
 
 from bridge import protocol  # noqa: E402
 from bridge.client import TcpClient  # noqa: E402
-from endpoint_common import MESSAGE_NAME, joint_state_payload, paced, percentile, read_stamp, stamped  # noqa: E402
+from endpoint_common import (  # noqa: E402
+    MESSAGE_KINDS, MESSAGE_NAME, joint_state_payload, paced, percentile, read_stamp, stamped,
+)
 from tests.rosenv import PYTHON, EndpointProcess, NodeProcess, RosCore, kill_process  # noqa: E402
 
 ROSNODE = str(BENCH / "endpoint_rosnode.py")
@@ -67,7 +77,11 @@ FLOOD_MAX_MESSAGES = 5_000_000
 PUBLISH_QUEUE = 100  # queue_size of the client's __publish and of the queued rospy flood publisher
 FREEZE_GAP_MS = 50.0  # a 1 kHz stream pausing longer than this counts as frozen
 FAN_CLIENTS = 10
-PHASES = ("throughput", "rtt", "fan_out", "huge_prefix", "never_reader")
+LARGE_KINDS = (("image", "Image 2.7 MB"), ("cloud", "PointCloud2 1 MiB"))
+LARGE_ROS_QUEUE = 10  # queue_size of the rospy publisher feeding large messages to the endpoint
+LARGE_RTT_HZ = 30  # a camera's rate
+LARGE_IDLE_S = 3.0  # the endpoint gives freed memory back after a quiet second (bridge.memory)
+PHASES = ("throughput", "large", "rtt", "fan_out", "huge_prefix", "never_reader")
 
 
 @dataclass(frozen=True)
@@ -77,6 +91,7 @@ class Settings:
     rtt_samples: dict[int, int]  # rate in Hz -> number of pings
     soak_s: float
     quick: bool
+    large_rtt_samples: int = 300
     bridge_dir: Path | None = None  # another checkout's `bridge` package, for A/B runs of a change
     endpoint_args: tuple[str, ...] = ()
 
@@ -194,7 +209,7 @@ class RssSampler:
 
 
 class Bench:
-    def __init__(self, settings: Settings, core: RosCore, log_dir: Path) -> None:
+    def __init__(self, settings: Settings, core: RosCore, log_dir: Path, name: str = "bench_endpoint") -> None:
         self.settings = settings
         self.core = core
         self.log_dir = log_dir
@@ -202,7 +217,8 @@ class Bench:
         self.processes: list[NodeProcess] = []
         self.clients: list[TcpClient] = []
         self.rows: list[Row] = []
-        self.endpoint = self._track(start_endpoint(core.env, log_dir, settings.bridge_dir, settings.endpoint_args))
+        self.endpoint = self._track(
+            start_endpoint(core.env, log_dir, settings.bridge_dir, settings.endpoint_args, name))
         self.pid = self.endpoint.process.pid
 
     # --- process and client plumbing ---------------------------------------------------------------------------
@@ -253,27 +269,29 @@ class Bench:
         return cpu_seconds(self.pid)
 
     # --- 1 + 2 + 5: throughput ------------------------------------------------------------------------------------
-    def rospy_to_rospy(self, queue_size: int) -> Flow:
+    def rospy_to_rospy(self, queue_size: int, kind: str = "joint_state") -> Flow:
         """The ceiling: a rospy flood publisher process -> a rospy counting subscriber process."""
         window = self.settings.window_s
-        counter = self.node("count", "--topic", f"/bench/ceiling_q{queue_size}", "--max-seconds", str(window + 40))
-        flood = self.node("flood", "--topic", f"/bench/ceiling_q{queue_size}", "--seconds", str(window),
-                          "--queue-size", str(queue_size))
+        topic = f"/bench/ceiling_{kind}_q{queue_size}"
+        counter = self.node("count", "--topic", topic, "--max-seconds", str(window + 40), "--kind", kind)
+        flood = self.node("flood", "--topic", topic, "--seconds", str(window), "--queue-size", str(queue_size),
+                          "--kind", kind)
         sent = self.result(flood, window + 40)["sent"]
         counted = self.result(counter, 20)
         return Flow(rate_of(counted["count"], counted["first"], counted["last"]), counted["count"], sent, 0.0)
 
-    def tcp_to_ros(self) -> Flow:
+    def tcp_to_ros(self, kind: str = "joint_state") -> Flow:
         """A TcpClient writing frames as fast as the endpoint takes them -> a rospy counting subscriber process."""
         window = self.settings.window_s
-        topic = "/bench/tcp_in"
-        counter = self.node("count", "--topic", topic, "--max-seconds", str(window + 40))
+        topic = f"/bench/tcp_in_{kind}"
+        counter = self.node("count", "--topic", topic, "--max-seconds", str(window + 40), "--kind", kind)
+        message_name, make_payload = MESSAGE_KINDS[kind]
         with self.clients_closed():
             client = self.client()
-            client.register_publisher(topic, MESSAGE_NAME, queue_size=PUBLISH_QUEUE)
+            client.register_publisher(topic, message_name, queue_size=PUBLISH_QUEUE)
             counter.wait_for_output("CONNECTED", 30)
             time.sleep(0.3)
-            frame = protocol.encode_frame(topic, self.payload)
+            frame = protocol.encode_frame(topic, make_payload())
             cpu_before = self.cpu()
             sent = 0
             deadline = time.monotonic() + window
@@ -284,17 +302,18 @@ class Bench:
             cpu_used = self.cpu() - cpu_before
         return Flow(rate_of(counted["count"], counted["first"], counted["last"]), counted["count"], sent, cpu_used)
 
-    def ros_to_tcp(self, queue_size: int) -> Flow:
+    def ros_to_tcp(self, queue_size: int, kind: str = "joint_state") -> Flow:
         """A rospy flood publisher process -> the endpoint -> a counting TcpClient."""
         window = self.settings.window_s
-        topic = f"/bench/ros_out_q{queue_size}"
+        topic = f"/bench/ros_out_{kind}_q{queue_size}"
         arrivals = Arrivals()
         with self.clients_closed():
             client = self.client()
-            client.subscribe(topic, MESSAGE_NAME, arrivals)
+            client.subscribe(topic, MESSAGE_KINDS[kind][0], arrivals)
             time.sleep(0.3)
             cpu_before = self.cpu()
-            flood = self.node("flood", "--topic", topic, "--seconds", str(window), "--queue-size", str(queue_size))
+            flood = self.node("flood", "--topic", topic, "--seconds", str(window), "--queue-size", str(queue_size),
+                              "--kind", kind)
             sent = self.result(flood, window + 40)["sent"]
             arrivals.wait_idle(1.0, 20.0)
             cpu_used = self.cpu() - cpu_before
@@ -355,6 +374,79 @@ class Bench:
             self.rows.append(Row(f"Endpoint CPU s / 10k msgs, {label}",
                                  f"{flow.cpu_s / max(flow.received, 1) * 1e4:.3f}",
                                  target="(per delivered msg, median round)"))
+
+    # --- 7: large messages ------------------------------------------------------------------------------------------
+    def large(self) -> None:
+        """Camera images and point clouds both ways, each against the rospy sync ceiling for the same message in the
+        same run (interleaved rounds, median judged); then a 1 MiB round trip at a camera's 30 Hz."""
+        rounds = self.settings.throughput_rounds
+        for kind, label in LARGE_KINDS:
+            flows: dict[str, list[Flow]] = {"ceiling": [], "tcp_in": [], "ros_out": []}
+            for _ in range(rounds):
+                flows["ceiling"].append(self.rospy_to_rospy(0, kind))
+                flows["tcp_in"].append(self.tcp_to_ros(kind))
+                flows["ros_out"].append(self.ros_to_tcp(LARGE_ROS_QUEUE, kind))
+            ceiling = median_flow(flows["ceiling"]).rate
+            for name, path in (("tcp_in", "TCP->ROS"), ("ros_out", f"ROS->TCP (q {LARGE_ROS_QUEUE} source)")):
+                flow = median_flow(flows[name])
+                ratio = flow.rate / ceiling if ceiling else 0.0
+                rates = sorted(f.rate for f in flows[name])
+                spread = f" [{rates[0]:.1f}-{rates[-1]:.1f}]" if len(rates) > 1 else ""
+                self.rows.append(Row(f"{label} {path} [msg/s] vs rospy sync", f"{flow.rate:.1f}{spread}",
+                                     f"{ceiling:.1f}", f"{ratio:.2f}", ">= 0.95 x ceiling", ratio >= 0.95))
+                self.rows.append(Row("  endpoint CPU s / 100 msgs", f"{flow.cpu_s / max(flow.received, 1) * 100:.3f}",
+                                     target="(median round)"))
+            received, sent = sum(f.received for f in flows["tcp_in"]), sum(f.sent for f in flows["tcp_in"])
+            self.rows.append(Row(f"  {label} TCP->ROS delivered/sent", f"{received:,}/{sent:,}", target="all",
+                                 ok=received == sent))
+        self.large_round_trip()
+        self.rows.append(Row("Endpoint RSS right after the large messages [MiB]", f"{rss_bytes(self.pid) / MiB:.1f}"))
+        time.sleep(LARGE_IDLE_S)
+        self.rows.append(Row(f"  and after {LARGE_IDLE_S:g} s without traffic [MiB]",
+                             f"{rss_bytes(self.pid) / MiB:.1f}"))
+
+    def large_round_trip(self) -> None:
+        """1 MiB PointCloud2 pings at 30 Hz through a rospy relay: from a TcpClient via the endpoint, and from a rospy
+        node alone (the reference); with the endpoint's CPU over the TcpClient's run."""
+        hz, count = LARGE_RTT_HZ, self.settings.large_rtt_samples
+        relay = self.node("relay", "--pair", "/bench/big_ping:/bench/big_pong",
+                          "--pair", "/bench/big_rping:/bench/big_rpong", "--kind", "cloud")
+        relay.wait_for_output("READY", 30)
+        message_name, make_payload = MESSAGE_KINDS["cloud"]
+        template = make_payload()
+        rtts_us: list[float] = []
+        with self.clients_closed():
+            client = self.client()
+            client.subscribe("/bench/big_pong", message_name,
+                             lambda payload: rtts_us.append((time.monotonic_ns() - read_stamp(payload)[1]) / 1000.0))
+            client.register_publisher("/bench/big_ping", message_name, queue_size=10)
+            for seq in paced(10, 300, 30.0):  # until the whole loop is connected
+                if rtts_us:
+                    break
+                client.publish("/bench/big_ping", stamped(template, seq))
+            time.sleep(0.5)
+            rtts_us.clear()
+            cpu_before, started = self.cpu(), time.monotonic()
+            sent = 0
+            for seq in paced(hz, count, count / hz * 1.5 + 2.0):
+                client.publish("/bench/big_ping", stamped(template, seq))
+                sent += 1
+            elapsed, cpu_used = time.monotonic() - started, self.cpu() - cpu_before
+            time.sleep(0.5)
+            mine = list(rtts_us)
+        ping = self.node("ping", "--out-topic", "/bench/big_rping", "--in-topic", "/bench/big_rpong",
+                         "--rates", f"{hz}:{count}", "--kind", "cloud")
+        theirs = self.result(ping, count / hz * 1.5 + 60)["rates"][str(hz)]["rtts_us"]
+        relay.stop()
+        if not mine or not theirs:
+            self.rows.append(Row(f"1 MiB round trip @ {hz} Hz", "no pongs", ok=False))
+            return
+        for label, q, bound in (("p50", 50.0, 1.3), ("max", 100.0, 2.0)):
+            value, reference = percentile(mine, q) / 1000.0, percentile(theirs, q) / 1000.0
+            self.rows.append(Row(f"1 MiB round trip @ {hz} Hz {label} [ms]", f"{value:.2f}", f"{reference:.2f}",
+                                 f"{value / reference:.2f}", f"<= {bound:g} x rospy", value <= bound * reference))
+        self.rows.append(Row(f"  pongs received @ {hz} Hz", f"{len(mine)}/{sent}", f"{len(theirs)}/{count}"))
+        self.rows.append(Row("  endpoint CPU during the round trips [% of a core]", f"{cpu_used / elapsed * 100:.1f}"))
 
     # --- 3: round-trip time ---------------------------------------------------------------------------------------
     def rtt(self) -> None:
@@ -513,13 +605,16 @@ class Bench:
                                  "/".join(f"{percentile(good.latencies_us, q) / 1000:.2f}" for q in (99, 100))))
 
 
-def start_endpoint(env: dict[str, str], log_dir: Path, bridge_dir: Path | None, extra: tuple[str, ...]) -> Any:
-    """The endpoint under test: this checkout's (tests.rosenv.EndpointProcess) or the `bridge` in `bridge_dir`."""
+def start_endpoint(env: dict[str, str], log_dir: Path, bridge_dir: Path | None, extra: tuple[str, ...],
+                   name: str = "bench_endpoint") -> Any:
+    """The endpoint under test, as ROS node `name`: this checkout's (tests.rosenv.EndpointProcess) or the `bridge`
+    in `bridge_dir`."""
     if bridge_dir is None:
-        return EndpointProcess(env, log_dir, name="bench_endpoint", extra=extra)
-    launcher = f"import sys; sys.path.insert(0, {str(bridge_dir)!r}); from bridge.__main__ import main; sys.exit(main())"
-    process = NodeProcess([PYTHON, "-c", launcher, "--tcp-port", "0", "--node-name", "bench_endpoint", *extra],
-                          env, log_dir, "bench_endpoint")
+        return EndpointProcess(env, log_dir, name=name, extra=extra)
+    launcher = (f"import sys; sys.path.insert(0, {str(bridge_dir)!r}); from bridge.__main__ import main; "
+                "sys.exit(main())")
+    process = NodeProcess([PYTHON, "-c", launcher, "--tcp-port", "0", "--node-name", name, *extra], env, log_dir,
+                          name)
     line = next(line for line in process.wait_for_output("listening on", 30).splitlines() if "listening on" in line)
     process.port = int(line.rsplit(":", 1)[1])  # type: ignore[attr-defined]
     return process
@@ -578,55 +673,141 @@ def print_table(rows: list[Row], header: str) -> None:
     print(f"{sum(verdicts)}/{len(verdicts)} targets met")
 
 
+def compare_tables(ours: list[Row], theirs: list[Row], our_name: str, their_name: str) -> None:
+    """The rows of both endpoints side by side, with the ratio of their leading numbers (ours / theirs)."""
+    their_values = dict(zip(occurrences(theirs), (row.value for row in theirs)))
+    columns = ("measurement", our_name, their_name, "ratio")
+    cells = []
+    for key, row in zip(occurrences(ours), ours):
+        other = their_values.get(key, "")
+        a, b = leading_number(row.value), leading_number(other)
+        ratio = f"{a / b:.2f}" if a is not None and b else ""
+        cells.append((row.name, row.value, other, ratio))
+    widths = [max(len(c[i]) for c in [columns, *cells]) for i in range(len(columns))]
+    line = "  ".join("-" * w for w in widths)
+
+    def show(values: tuple[str, ...]) -> None:
+        print("  ".join(v.ljust(w) for v, w in zip(values, widths)).rstrip())
+
+    print(f"A/B: {our_name} against {their_name}, phase by phase on one roscore (ratio = {our_name} / {their_name})")
+    print(line)
+    show(columns)
+    print(line)
+    for values in cells:
+        show(values)
+    print(line)
+
+
+def occurrences(rows: list[Row]) -> list[tuple[str, int]]:
+    """Each row's name with how many rows of that name came before it (rows such as "  endpoint CPU" repeat)."""
+    seen: dict[str, int] = {}
+    keys = []
+    for row in rows:
+        keys.append((row.name, seen.get(row.name, 0)))
+        seen[row.name] = keys[-1][1] + 1
+    return keys
+
+
+def leading_number(text: str) -> float | None:
+    """The number a cell starts with ("1,234.5 [..]" -> 1234.5); None when it starts with none or is a count of a
+    count ("90/90")."""
+    token = text.split(" ", 1)[0].replace(",", "")
+    try:
+        return float(token)
+    except ValueError:
+        return None
+
+
+@contextmanager
+def worktree_of(revision: str) -> Iterator[Path]:
+    """A detached git worktree of `revision` of this repository, removed afterwards."""
+    path = Path(tempfile.mkdtemp(prefix="endpoint_bench_ab_"))
+    subprocess.run(["git", "-C", str(REPO), "worktree", "add", "--detach", "--quiet", str(path), revision],
+                   check=True)
+    try:
+        yield path
+    finally:
+        subprocess.run(["git", "-C", str(REPO), "worktree", "remove", "--force", str(path)], check=False)
+        shutil.rmtree(path, ignore_errors=True)
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="smoke run: 2 s windows, fewer RTT samples, 10 s soak")
     parser.add_argument("--keep-logs", action="store_true", help="keep roscore/endpoint/node logs (path printed)")
     parser.add_argument("--bridge-dir", type=Path, help="benchmark the `bridge` package in this directory instead")
+    parser.add_argument("--ab", metavar="REVISION",
+                        help="also run REVISION's endpoint (a git worktree), phase by phase alternately on one "
+                             "roscore, and compare")
     parser.add_argument("--endpoint-arg", action="append", default=[], help="extra endpoint argument (repeatable)")
     parser.add_argument("--only", nargs="+", choices=PHASES, help="run only these phases")
     args = parser.parse_args(argv)
-    common = {"bridge_dir": args.bridge_dir, "endpoint_args": tuple(args.endpoint_arg)}
+    if args.ab is not None and args.bridge_dir is not None:
+        parser.error("--ab compares this tree with REVISION; it takes no --bridge-dir")
+    if args.ab is not None:
+        known = subprocess.run(["git", "-C", str(REPO), "rev-parse", "--verify", "--quiet", args.ab + "^{commit}"],
+                               capture_output=True, text=True)
+        if known.returncode != 0:
+            parser.error(f"--ab: {args.ab!r} is not a commit of this repository")
+    endpoint_args = tuple(args.endpoint_arg)
     settings = (
         Settings(window_s=2.0, throughput_rounds=1, rtt_samples={100: 300, 1000: 1000}, soak_s=10.0, quick=True,
-                 **common)
+                 large_rtt_samples=90, endpoint_args=endpoint_args)
         if args.quick
         else Settings(window_s=5.0, throughput_rounds=3, rtt_samples={100: 2000, 1000: 5000}, soak_s=60.0,
-                      quick=False, **common)
+                      quick=False, endpoint_args=endpoint_args)
     )
     # Harness processes (this one stands in for Unity; bench/endpoint_rosnode.py for the rospy nodes) freeze what
     # start-up made, as the endpoint does, so no side is charged for a harness's full GC pass over its modules.
     gc.collect()
     gc.freeze()
+    with contextlib.ExitStack() as stack:
+        sides = [("this tree" if args.ab else str(args.bridge_dir or REPO), args.bridge_dir)]
+        if args.ab is not None:
+            sides.append((args.ab, stack.enter_context(worktree_of(args.ab))))
+        return run(settings, sides, args.only or PHASES, args.keep_logs)
+
+
+def run(settings: Settings, sides: list[tuple[str, Path | None]], phases: tuple[str, ...], keep_logs: bool) -> int:
+    """Run the phases for every endpoint in `sides` ((name, bridge directory or None for this tree)), phase by phase
+    alternately, on one roscore; print each endpoint's table, and the comparison when there are two."""
     started = time.monotonic()
     load_at_start = os.getloadavg()[0]
     core = RosCore()
     log_dir = core.tmp / "bench"
     log_dir.mkdir()
-    bench: Bench | None = None
+    benches: list[Bench] = []
     failed = True
     try:
-        bench = Bench(settings, core, log_dir)
-        for name in args.only or PHASES:
-            print(f"[{time.monotonic() - started:5.0f} s] {name} ...", file=sys.stderr, flush=True)
-            phase: Callable[[], None] = getattr(bench, name)
-            phase()
-        alive = bench.endpoint.process.poll() is None
-        bench.rows.append(Row("Endpoint alive at the end", "yes" if alive else "NO", ok=alive))
-        header = (
-            f"ROS-TCP endpoint benchmark ({'quick' if settings.quick else 'full'} run, {time.monotonic() - started:.0f} s):"
-            f" {MESSAGE_NAME} 7 joints, {len(bench.payload)} B payload; {os.cpu_count()} CPUs; "
-            f"Python {sys.version.split()[0]}; endpoint from {settings.bridge_dir or REPO} "
-            f"{' '.join(settings.endpoint_args)}\nload average (1 min) at start {load_at_start:.2f}, at end "
-            f"{os.getloadavg()[0]:.2f} (other processes on these CPUs skew every figure)"
-        )
-        print_table(bench.rows, header)
+        for index, (_, bridge_dir) in enumerate(sides):
+            side_logs = log_dir / f"side{index}"
+            side_logs.mkdir()
+            benches.append(Bench(replace(settings, bridge_dir=bridge_dir), core, side_logs, f"bench_endpoint_{index}"))
+        for name in phases:
+            for (side, _), bench in zip(sides, benches):
+                print(f"[{time.monotonic() - started:5.0f} s] {name} ({side}) ...", file=sys.stderr, flush=True)
+                phase: Callable[[], None] = getattr(bench, name)
+                phase()
+        for (side, bridge_dir), bench in zip(sides, benches):
+            alive = bench.endpoint.process.poll() is None
+            bench.rows.append(Row("Endpoint alive at the end", "yes" if alive else "NO", ok=alive))
+            header = (
+                f"ROS-TCP endpoint benchmark ({'quick' if settings.quick else 'full'} run, "
+                f"{time.monotonic() - started:.0f} s): {MESSAGE_NAME} 7 joints, {len(bench.payload)} B payload; "
+                f"{os.cpu_count()} CPUs; Python {sys.version.split()[0]}; endpoint: {side} "
+                f"{' '.join(settings.endpoint_args)}\nload average (1 min) at start {load_at_start:.2f}, at end "
+                f"{os.getloadavg()[0]:.2f} (other processes on these CPUs skew every figure)"
+            )
+            print_table(bench.rows, header)
+            print()
+        if len(benches) == 2:
+            compare_tables(benches[0].rows, benches[1].rows, sides[0][0], sides[1][0])
         failed = False
     finally:
-        if bench is not None:
+        for bench in benches:
             bench.close()
         core.stop()
-        if args.keep_logs or failed:
+        if keep_logs or failed:
             print(f"logs kept in {core.tmp}", file=sys.stderr)
         else:
             shutil.rmtree(core.tmp, ignore_errors=True)

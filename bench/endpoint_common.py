@@ -1,9 +1,11 @@
-"""Shared pieces of the endpoint benchmark: the test message, its stamp/sequence fields, pacing and statistics.
+"""Shared pieces of the endpoint benchmark: the test messages, their stamp/sequence fields, pacing and statistics.
 
-Every benchmark message is a serialized sensor_msgs/JointState with 7 joints. The first 12 bytes of a ROS 1
-serialized message with a Header are `u32 seq, u32 secs, u32 nsecs`; the benchmark writes a sequence number and a
-CLOCK_MONOTONIC time stamp there (monotonic time is shared by all processes of one Linux machine), so any process
-can compute one-way latency or a round-trip time from the bytes alone, without deserializing.
+The benchmark's messages are serialized ROS 1 messages of three kinds (MESSAGE_KINDS): a 7-joint
+sensor_msgs/JointState (small control traffic), a 1280x720 RGB sensor_msgs/Image (2.7 MB, a camera) and a 1 MiB
+sensor_msgs/PointCloud2 (a depth sensor). The first 12 bytes of a ROS 1 serialized message with a Header are
+`u32 seq, u32 secs, u32 nsecs`; the benchmark writes a sequence number and a CLOCK_MONOTONIC time stamp there
+(monotonic time is shared by all processes of one Linux machine), so any process can compute one-way latency or a
+round-trip time from the bytes alone, without deserializing.
 """
 from __future__ import annotations
 
@@ -11,10 +13,12 @@ import io
 import math
 import struct
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 
 MESSAGE_NAME = "sensor_msgs/JointState"
 JOINTS = 7
+IMAGE_WIDTH, IMAGE_HEIGHT = 1280, 720  # rgb8: 2,764,800 bytes of pixels
+CLOUD_POINTS = 65536  # x, y, z, intensity as float32: 1 MiB of points
 _SEQ_STAMP = struct.Struct("<III")
 _NS_PER_S = 1_000_000_000
 
@@ -29,9 +33,44 @@ def joint_state_payload() -> bytes:
     message.position = [0.1 * i for i in range(JOINTS)]
     message.velocity = [0.01 * i for i in range(JOINTS)]
     message.effort = [1.0 * i for i in range(JOINTS)]
+    return _serialized(message)
+
+
+def image_payload() -> bytes:
+    """One serialized 1280x720 rgb8 Image (a camera frame)."""
+    from sensor_msgs.msg import Image
+
+    message = Image(height=IMAGE_HEIGHT, width=IMAGE_WIDTH, encoding="rgb8", step=IMAGE_WIDTH * 3)
+    message.header.frame_id = "camera_color_optical_frame"
+    message.data = bytes(range(256)) * (IMAGE_WIDTH * IMAGE_HEIGHT * 3 // 256)
+    return _serialized(message)
+
+
+def cloud_payload() -> bytes:
+    """One serialized PointCloud2 of CLOUD_POINTS points (x, y, z, intensity; 1 MiB of point data)."""
+    from sensor_msgs.msg import PointCloud2, PointField
+
+    fields = [PointField(name=name, offset=4 * index, datatype=PointField.FLOAT32, count=1)
+              for index, name in enumerate(("x", "y", "z", "intensity"))]
+    message = PointCloud2(height=1, width=CLOUD_POINTS, fields=fields, is_bigendian=False, point_step=16,
+                          row_step=16 * CLOUD_POINTS, is_dense=True)
+    message.header.frame_id = "camera_depth_optical_frame"
+    message.data = bytes(range(256)) * (16 * CLOUD_POINTS // 256)
+    return _serialized(message)
+
+
+def _serialized(message: object) -> bytes:
     buffer = io.BytesIO()
-    message.serialize(buffer)
+    message.serialize(buffer)  # type: ignore[attr-defined]
     return buffer.getvalue()
+
+
+# kind -> (ROS message type, maker of one serialized message)
+MESSAGE_KINDS: dict[str, tuple[str, Callable[[], bytes]]] = {
+    "joint_state": (MESSAGE_NAME, joint_state_payload),
+    "image": ("sensor_msgs/Image", image_payload),
+    "cloud": ("sensor_msgs/PointCloud2", cloud_payload),
+}
 
 
 def stamped(template: bytes | bytearray, seq: int, now_ns: int | None = None) -> bytes:

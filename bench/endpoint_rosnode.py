@@ -7,9 +7,10 @@ Roles (first argument):
   relay  - republish the bytes received on IN unchanged on OUT (ping -> pong), until killed.
   ping   - pure rospy round trip through `relay`: publish stamped pings, time the pongs.
 
-Every node uses a raw message class: it carries JointState's name/md5/definition, so rospy negotiates exactly as
-for the generated class, but it serializes stored bytes and deserializes by keeping them (the same bytes-only
-path the endpoint uses), so the rospy figures are a transport ceiling, not a (de)serialization benchmark.
+Every node uses a raw message class: it carries the message type's name/md5/definition (JointState unless `--kind`
+names another of endpoint_common.MESSAGE_KINDS), so rospy negotiates exactly as for the generated class, but it
+serializes stored bytes and deserializes by keeping them (the same bytes-only path the endpoint uses), so the rospy
+figures are a transport ceiling, not a (de)serialization benchmark.
 Results go to stdout as one line `RESULT <json>`.
 """
 from __future__ import annotations
@@ -25,19 +26,17 @@ from typing import Any
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import genpy  # noqa: E402
+import roslib.message  # noqa: E402
 import rospy  # noqa: E402
-from sensor_msgs.msg import JointState  # noqa: E402
 
-from endpoint_common import joint_state_payload, paced, read_stamp, stamped  # noqa: E402
+from endpoint_common import MESSAGE_KINDS, paced, read_stamp, stamped  # noqa: E402
 
 
-class RawJointState(genpy.Message):
-    """JointState on the wire, bytes in Python: serialize writes `_buff`, deserialize keeps the bytes."""
+class RawMessage(genpy.Message):
+    """A message on the wire, bytes in Python: serialize writes `_buff`, deserialize keeps the bytes. Subclassed
+    per type by `raw_class`."""
 
     __slots__ = ("_buff",)
-    _type = JointState._type
-    _md5sum = JointState._md5sum
-    _full_text = JointState._full_text
     _has_header = False  # rospy must not rewrite header.seq
     _slot_types: list[str] = []
 
@@ -47,9 +46,19 @@ class RawJointState(genpy.Message):
     def serialize(self, buff: Any) -> None:
         buff.write(self._buff)
 
-    def deserialize(self, data: bytes) -> RawJointState:
+    def deserialize(self, data: bytes) -> RawMessage:
         self._buff = data
         return self
+
+
+def raw_class(message_name: str) -> type[RawMessage]:
+    """RawMessage carrying `message_name`'s type, md5 and definition, for rospy's connection header."""
+    generated = roslib.message.get_message_class(message_name)
+    if generated is None:
+        raise SystemExit(f"endpoint_rosnode: no generated class for {message_name}")
+    return type(f"Raw{generated.__name__}", (RawMessage,), {
+        "__slots__": (), "_type": generated._type, "_md5sum": generated._md5sum, "_full_text": generated._full_text,
+    })
 
 
 def emit(kind: str, **fields: Any) -> None:
@@ -68,14 +77,14 @@ def wait_for_connections(endpoint: Any, wanted: int, timeout: float) -> bool:
 def run_count(args: argparse.Namespace) -> None:
     state = {"count": 0, "first": 0, "last": 0}
 
-    def on_message(_: RawJointState) -> None:
+    def on_message(_: RawMessage) -> None:
         now = time.monotonic_ns()
         if state["count"] == 0:
             state["first"] = now
         state["count"] += 1
         state["last"] = now
 
-    subscriber = rospy.Subscriber(args.topic, RawJointState, on_message, tcp_nodelay=True)
+    subscriber = rospy.Subscriber(args.topic, args.raw, on_message, tcp_nodelay=True)
     if wait_for_connections(subscriber, 1, args.max_seconds):
         print("CONNECTED", flush=True)
     deadline = time.monotonic() + args.max_seconds
@@ -88,10 +97,10 @@ def run_count(args: argparse.Namespace) -> None:
 
 def run_flood(args: argparse.Namespace) -> None:
     # queue size 0 = rospy's synchronous publish (the caller's thread writes the socket)
-    publisher = rospy.Publisher(args.topic, RawJointState, queue_size=args.queue_size or None)
+    publisher = rospy.Publisher(args.topic, args.raw, queue_size=args.queue_size or None)
     connected = wait_for_connections(publisher, args.subscribers, 30.0)
     time.sleep(args.delay)
-    message = RawJointState(joint_state_payload())
+    message = args.raw(args.payload())
     sent = 0
     start = time.monotonic()
     deadline = start + args.seconds
@@ -104,14 +113,14 @@ def run_flood(args: argparse.Namespace) -> None:
 
 
 def run_rate(args: argparse.Namespace) -> None:
-    publisher = rospy.Publisher(args.topic, RawJointState, queue_size=args.queue_size)
+    publisher = rospy.Publisher(args.topic, args.raw, queue_size=args.queue_size)
     connected = wait_for_connections(publisher, args.subscribers, 30.0)
     time.sleep(args.delay)
-    template = joint_state_payload()
+    template = args.payload()
     print("PUBLISHING", flush=True)
     sent = 0
     for seq in paced(args.hz, args.count, args.seconds):
-        publisher.publish(RawJointState(stamped(template, seq)))
+        publisher.publish(args.raw(stamped(template, seq)))
         sent += 1
     emit("RESULT", sent=sent, connected=connected)
     time.sleep(0.5)
@@ -120,8 +129,8 @@ def run_rate(args: argparse.Namespace) -> None:
 def run_relay(args: argparse.Namespace) -> None:
     for pair in args.pair:
         source, target = pair.split(":")
-        publisher = rospy.Publisher(target, RawJointState, queue_size=100, tcp_nodelay=True)
-        rospy.Subscriber(source, RawJointState, publisher.publish, tcp_nodelay=True)
+        publisher = rospy.Publisher(target, args.raw, queue_size=100, tcp_nodelay=True)
+        rospy.Subscriber(source, args.raw, publisher.publish, tcp_nodelay=True)
     print("READY", flush=True)
     rospy.spin()
 
@@ -129,20 +138,20 @@ def run_relay(args: argparse.Namespace) -> None:
 def run_ping(args: argparse.Namespace) -> None:
     rtts_us: list[float] = []
 
-    def on_pong(message: RawJointState) -> None:
+    def on_pong(message: RawMessage) -> None:
         _, stamp_ns = read_stamp(message._buff)
         rtts_us.append((time.monotonic_ns() - stamp_ns) / 1000.0)
 
-    publisher = rospy.Publisher(args.out_topic, RawJointState, queue_size=100, tcp_nodelay=True)
-    subscriber = rospy.Subscriber(args.in_topic, RawJointState, on_pong, tcp_nodelay=True)
+    publisher = rospy.Publisher(args.out_topic, args.raw, queue_size=100, tcp_nodelay=True)
+    subscriber = rospy.Subscriber(args.in_topic, args.raw, on_pong, tcp_nodelay=True)
     wait_for_connections(publisher, 1, 30.0)
     wait_for_connections(subscriber, 1, 30.0)
-    template = joint_state_payload()
+    template = args.payload()
     # warm up: ping every 10 ms until the first pong is back (the relay's outgoing link is then up)
     for seq in paced(100, 1000, 10.0):
         if rtts_us:
             break
-        publisher.publish(RawJointState(stamped(template, seq)))
+        publisher.publish(args.raw(stamped(template, seq)))
     time.sleep(0.5)
     results: dict[str, dict[str, Any]] = {}
     for spec in args.rates:
@@ -150,7 +159,7 @@ def run_ping(args: argparse.Namespace) -> None:
         rtts_us.clear()
         sent = 0
         for seq in paced(hz, count, count / hz * 1.5 + 2.0):
-            publisher.publish(RawJointState(stamped(template, seq)))
+            publisher.publish(args.raw(stamped(template, seq)))
             sent += 1
         time.sleep(0.5)  # stragglers
         results[str(hz)] = {"sent": sent, "rtts_us": list(rtts_us)}
@@ -185,7 +194,11 @@ def main() -> None:
     ping.add_argument("--out-topic", required=True)
     ping.add_argument("--in-topic", required=True)
     ping.add_argument("--rates", nargs="+", required=True, metavar="HZ:COUNT")
+    for role in (count, flood, rate, relay, ping):
+        role.add_argument("--kind", choices=sorted(MESSAGE_KINDS), default="joint_state", help="message kind")
     args = parser.parse_args(rospy.myargv()[1:])
+    message_name, args.payload = MESSAGE_KINDS[args.kind]
+    args.raw = raw_class(message_name)
 
     rospy.init_node(f"bench_{args.role}", anonymous=True)
     gc.collect()  # as the endpoint does: start-up objects out of the cyclic GC's view (see endpoint_bench.main)

@@ -7,8 +7,6 @@ printed and stored in ~actual_port.
 from __future__ import annotations
 
 import argparse
-import ctypes
-import ctypes.util
 import gc
 import logging
 import signal
@@ -19,6 +17,7 @@ from typing import Any
 
 from bridge.protocol import DEFAULT_MAX_PAYLOAD_BYTES
 from bridge.config import ConfigError, EndpointConfig
+from bridge.memory import keep_large_buffers
 from bridge.server import Endpoint
 
 __all__ = ["build_config", "GIL_SWITCH_INTERVAL_S", "main"]
@@ -190,31 +189,9 @@ def _log_to_screen() -> None:
 GIL_SWITCH_INTERVAL_S = 0.0005
 
 
-# Buffers at least this large get memory of their own from the system, and give it back when freed (glibc's mmap
-# threshold). glibc raises its threshold each time such a buffer is freed (up to 32 MiB), after which large frames
-# are cut from the heap and their memory stays with the process: measured, 20 s of mutated streams from 4 clients
-# left the endpoint 40-55 MiB larger with the threshold moving, 8 MiB with it fixed here. 1 MiB keeps the 256 KiB
-# receive buffers on the heap (no system call per read). Fixing it also fixes the heap's trim threshold, which
-# glibc would otherwise have raised with it: left at 128 KiB, the heap shrank and grew again around every 256 KiB
-# receive buffer (a system call and fresh pages per read: measured, 15 us instead of 4 us per small read).
-MMAP_THRESHOLD_BYTES = 1024 * 1024
-TRIM_THRESHOLD_BYTES = 4 * MMAP_THRESHOLD_BYTES
-_M_TRIM_THRESHOLD, _M_MMAP_THRESHOLD = -1, -3  # mallopt's parameter numbers, from glibc's malloc.h
-
-
-def _give_large_buffers_back() -> None:
-    """Fix glibc's mmap and trim thresholds (see MMAP_THRESHOLD_BYTES); nothing where the C library is not glibc."""
-    try:
-        libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6")
-        libc.mallopt(_M_MMAP_THRESHOLD, MMAP_THRESHOLD_BYTES)
-        libc.mallopt(_M_TRIM_THRESHOLD, TRIM_THRESHOLD_BYTES)
-    except (OSError, AttributeError):
-        pass
-
-
 def main(argv: list[str] | None = None) -> int:
     sys.setswitchinterval(GIL_SWITCH_INTERVAL_S)
-    _give_large_buffers_back()
+    keep_large_buffers()
 
     # bridge.ros (rospy) is imported here, not at module level, so `--help` works without a ROS install.
     from bridge.ros import RosGraph

@@ -12,11 +12,13 @@ from bridge.events import FramingError, LocalProtocolError
 
 __all__ = [
     "MAX_DESTINATION_BYTES", "DEFAULT_MAX_PAYLOAD_BYTES", "Frame", "BadFrame", "RawFrame", "FrameDecoder",
-    "decode_destination", "not_utf8", "encode_frame", "encode_syscommand", "KEEPALIVE_FRAME",
+    "decode_destination", "not_utf8", "encode_frame", "encode_syscommand", "KEEPALIVE_FRAME", "LARGE_PAYLOAD_BYTES",
 ]
 
 MAX_DESTINATION_BYTES = 1024
 DEFAULT_MAX_PAYLOAD_BYTES = 64 * 1024 * 1024
+# Payloads at least this large are collected piece by piece once their frame header is in (see _LargePayload).
+LARGE_PAYLOAD_BYTES = 64 * 1024
 
 _U32 = struct.Struct("<I")
 
@@ -64,11 +66,13 @@ class FrameDecoder:
         self.max_payload_bytes = max_payload_bytes
         self.max_destination_bytes = max_destination_bytes
         self._buffer = bytearray()
+        self._large: Optional[_LargePayload] = None  # a large payload being collected, once its header is in
         self._failed: Optional[FramingError] = None
 
     @property
     def buffered_bytes(self) -> int:
-        return len(self._buffer)
+        """Bytes received of frames not yet complete."""
+        return len(self._buffer) + (self._large.received if self._large is not None else 0)
 
     def feed(self, data: bytes) -> List[Union[Frame, BadFrame]]:
         """The complete frames, destinations decoded; raises FramingError when a length is over its limit."""
@@ -82,9 +86,15 @@ class FrameDecoder:
         the frames before it are still returned. Raises the FramingError again once the stream has failed."""
         if self._failed is not None:
             raise self._failed
-        self._buffer += data
-        buffer = self._buffer
         frames: List[RawFrame] = []
+        rest: Union[bytes, memoryview] = data
+        if self._large is not None:
+            rest = self._large.take(data, frames)
+            if self._large.missing:
+                return frames, None
+            self._large = None
+        self._buffer += rest
+        buffer = self._buffer
         offset = 0
         try:
             while True:
@@ -100,6 +110,7 @@ class FrameDecoder:
             return frames, self._failed
         if offset:
             del buffer[:offset]
+        self._large = _LargePayload.begun(buffer)
         return frames, None
 
     def _parse_one(self, buffer: bytearray, offset: int) -> Tuple[int, Optional[RawFrame]]:
@@ -124,7 +135,61 @@ class FrameDecoder:
         frame_end = payload_at + payload_length
         if len(buffer) < frame_end:
             return offset, None
-        return frame_end, (bytes(buffer[offset + 4 : payload_length_at]), bytes(buffer[payload_at:frame_end]))
+        raw_destination = bytes(buffer[offset + 4 : payload_length_at])
+        if payload_length < LARGE_PAYLOAD_BYTES:
+            return frame_end, (raw_destination, bytes(buffer[payload_at:frame_end]))
+        with memoryview(buffer) as view:  # one copy, not two (a bytearray slice, then bytes of it)
+            return frame_end, (raw_destination, bytes(view[payload_at:frame_end]))
+
+
+class _LargePayload:
+    """A payload of at least LARGE_PAYLOAD_BYTES whose frame header has arrived: the pieces of it the stream brings
+    are kept as they come and joined once, when it is complete (one copy of its bytes, where appending each piece
+    to the decoder's buffer and cutting the payload out of it made three)."""
+
+    __slots__ = ("destination", "parts", "missing", "received")
+
+    def __init__(self, destination: bytes, first_part: bytes, payload_length: int, header_length: int) -> None:
+        self.destination = destination
+        self.parts: List[Union[bytes, memoryview]] = [first_part] if first_part else []
+        self.missing = payload_length - len(first_part)
+        self.received = header_length + len(first_part)  # bytes of the frame received so far
+
+    @classmethod
+    def begun(cls, buffer: bytearray) -> Optional[_LargePayload]:
+        """The large payload whose frame begins `buffer` (which holds no complete frame), taking the buffer's
+        bytes; None (buffer untouched) when the buffer does not begin such a frame's header and payload."""
+        if len(buffer) < 8:
+            return None
+        (destination_length,) = _U32.unpack_from(buffer, 0)
+        payload_at = 4 + destination_length + 4
+        if len(buffer) < payload_at:
+            return None
+        (payload_length,) = _U32.unpack_from(buffer, payload_at - 4)
+        if payload_length < LARGE_PAYLOAD_BYTES:
+            return None
+        large = cls(bytes(buffer[4 : payload_at - 4]), bytes(buffer[payload_at:]), payload_length, payload_at)
+        buffer.clear()
+        return large
+
+    def take(self, data: bytes, frames: List[RawFrame]) -> Union[bytes, memoryview]:
+        """Keep what `data` holds of the payload, appending the frame to `frames` once complete; the rest of
+        `data` (after this frame) is returned."""
+        if len(data) <= self.missing:
+            part: Union[bytes, memoryview] = data
+            rest: Union[bytes, memoryview] = b""
+        else:
+            view = memoryview(data)
+            part, rest = view[: self.missing], view[self.missing :]
+        self.parts.append(part)
+        self.missing -= len(part)
+        self.received += len(part)
+        if not self.missing:
+            parts = self.parts
+            payload = parts[0] if len(parts) == 1 and type(parts[0]) is bytes else b"".join(parts)
+            frames.append((self.destination, payload))  # type: ignore[arg-type]
+            self.parts = []
+        return rest
 
 
 def decode_destination(raw: bytes) -> str:

@@ -193,8 +193,10 @@ class OutgoingQueue:
 
 class ByteBudget:
     """Bytes that many holders share under one limit (e.g. partly received frames across all clients); thread-safe.
-    Each holder says how much it holds now; a holder asking for more than is left is told no and holds what it
-    held."""
+    Each holder says how much it holds now. A holder asking for more than is left is told no and, in the same step,
+    holds nothing any more: it is done (its connection closes), and the others may have its bytes from that moment,
+    not only once it has cleaned up. Otherwise two holders near the limit could each be refused while the other's
+    bytes were still counted, where one of them alone fits."""
 
     def __init__(self, limit: int) -> None:
         self.limit = limit
@@ -206,9 +208,11 @@ class ByteBudget:
         return self._used
 
     def resize(self, held: int, wanted: int) -> bool:
-        """Go from holding `held` bytes to `wanted`; False (and no change) when that would pass the limit."""
+        """Go from holding `held` bytes to `wanted`; when that would pass the limit, False, and the holder now holds
+        nothing (see the class)."""
         with self._lock:
             if wanted > held and self._used - held + wanted > self.limit:
+                self._used -= held
                 return False
             self._used += wanted - held
             return True

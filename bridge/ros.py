@@ -33,6 +33,7 @@ from bridge.definitions import (
     split_type_name,
 )
 from bridge.diagnostics import Status
+from bridge.framing import LARGE_PAYLOAD_BYTES
 from bridge.layout import Layout, LayoutError
 from bridge.master import MASTER_TIMEOUT_S, MasterError, MasterLink, MasterRefused, call_master, timed_proxy
 from bridge.queues import OutgoingQueue
@@ -556,22 +557,25 @@ class RawPublisher:
         impl = self._publisher.impl
         if impl is None or impl.closed:
             return
-        data = b"".join([part for payload in payloads for part in (_U32.pack(len(payload)), payload)])
-        failed = {}
+        pieces = _tcpros_pieces(payloads)
+        size = sum(len(piece) for piece in pieces)
+        failed: Dict[Any, str] = {}
         impl.acquire()
         try:
             if impl.closed or not impl.has_connections() or rospy.is_shutdown():
                 return
             # rospy replaces impl.connections on change, never mutates it
             connections = [c for c in impl.connections if not c.done and c.socket is not None]
-            for index, why in send_to_all([c.socket for c in connections], data, SUBSCRIBER_STALL_S).items():
-                failed[connections[index]] = why
+            for piece in pieces:
+                writing = [c for c in connections if c not in failed]
+                for index, why in send_to_all([c.socket for c in writing], piece, SUBSCRIBER_STALL_S).items():
+                    failed[writing[index]] = why
             for connection in connections:
                 if connection not in failed:
-                    connection.stat_bytes += len(data)
+                    connection.stat_bytes += size
                     connection.stat_num_msg += len(payloads)
             impl.seq += len(payloads)
-            impl.message_data_sent += len(data)
+            impl.message_data_sent += size
         finally:
             impl.release()
         for connection, why in failed.items():
@@ -581,6 +585,24 @@ class RawPublisher:
                 connection.close()  # calls back into impl.remove_connection
             except Exception:
                 pass
+
+
+def _tcpros_pieces(payloads: List[bytes]) -> List[bytes]:
+    """The TCPROS frames (u32 length + bytes) of `payloads`, back to back, as few pieces to write: small messages
+    joined with their length prefixes, a large one (LARGE_PAYLOAD_BYTES or more) written as it is, after its prefix,
+    so its bytes are not copied once more."""
+    pieces: List[bytes] = []
+    joined: List[bytes] = []
+    for payload in payloads:
+        joined.append(_U32.pack(len(payload)))
+        if len(payload) < LARGE_PAYLOAD_BYTES:
+            joined.append(payload)
+        else:
+            pieces += (b"".join(joined), payload)
+            joined = []
+    if joined:
+        pieces.append(b"".join(joined))
+    return pieces
 
 
 class _Abandoned(Exception):

@@ -43,6 +43,7 @@ from bridge.protocol import (
 from bridge.ros import RawPublisher, RawServiceProxy, RosError, RosGraph, end_topic
 from bridge.session import ClientSession, RequestRefused
 from bridge.auth import AuthGuard
+from bridge.memory import QuietTrim, give_back_free_memory
 from bridge.queues import ByteBudget
 from bridge.sockets import send_now, tune_socket
 from bridge.throttle import LogThrottle
@@ -147,6 +148,7 @@ class Endpoint:
         self.frames_in = 0
         self.frames_out = 0
         self.dropped = 0
+        self.bytes_in_out = 0
         # What each client event does; topic messages take publisher_for, the session's fast path.
         self._handlers: Dict[type, Callable[[ClientSession, Any], None]] = {
             Subscribe: self._subscribe,
@@ -211,6 +213,12 @@ class Endpoint:
                 if not self._pending_unity_calls:
                     return
             time.sleep(0.01)
+
+    def bytes_moved(self) -> int:
+        """Bytes received from and sent to clients since the start, all clients together."""
+        with self._lock:
+            sessions = list(self._clients)
+        return self.bytes_in_out + sum(s.bytes_in + s.bytes_out for s in sessions)
 
     def stats(self) -> Dict[str, int]:
         with self._lock:
@@ -327,6 +335,7 @@ class Endpoint:
             self.frames_in += session.frames_in
             self.frames_out += session.frames_out
             self.dropped += session.dropped
+            self.bytes_in_out += session.bytes_in + session.bytes_out
 
     # --- registrations ----------------------------------------------------------------------------------------
     def _checked_name(self, name: str) -> str:
@@ -591,15 +600,19 @@ class Endpoint:
         session.note_ping(ping.round_trip, None if client_time is None else ros_time - client_time)
         session.send(protocol.encode(PingResponse(ping.request_time, ros_time)), droppable=False)
 
-    # --- housekeeping: unused publishers, /diagnostics ------------------------------------------------------------------------------------------
+    # --- housekeeping: unused publishers, /diagnostics, memory ---------------------------------------------------
     def _housekeeping_loop(self) -> None:
-        """Once a second: unused publishers end, and /diagnostics goes out."""
+        """Once a second: unused publishers end, /diagnostics goes out, and free memory is given back when traffic
+        has gone quiet (bridge.memory)."""
         counts: Dict[str, Tuple[int, int]] = {}
+        trim = QuietTrim()
         while not self._stopping.wait(DIAGNOSTICS_PERIOD_S):
             try:
                 self._end_unused_publishers()
             except Exception:
                 log.exception("ending unused publishers failed")
+            if trim.due(self.bytes_moved()):
+                give_back_free_memory()
             try:
                 clients, topics = self._snapshot()
                 statuses, counts = report(self.ros.node_name(), self._address, time.time(), clients, topics,

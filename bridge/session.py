@@ -286,8 +286,9 @@ class ClientSession:
         wanted = buffered if buffered > PARTIAL_FRAME_FREE_BYTES else 0
         if self._partial_frames is None or wanted == self._partial_held:
             return True
-        if self._partial_frames.resize(self._partial_held, wanted):
-            self._partial_held = wanted
+        granted = self._partial_frames.resize(self._partial_held, wanted)
+        self._partial_held = wanted if granted else 0  # refused: nothing held any more (ByteBudget)
+        if granted:
             return True
         why = (f"the endpoint holds {self._partial_frames.used} bytes of frames not yet complete from all clients, "
                f"its limit (--max-partial-frame-bytes): the frame begun here ({buffered} bytes so far) cannot be "

@@ -3,6 +3,7 @@ connections reset by the hundred, and mutated streams from several clients. The 
 endpoint's threads and descriptors come back to their baseline and its memory stays near it."""
 from __future__ import annotations
 
+import contextlib
 import threading
 import time
 from pathlib import Path
@@ -32,12 +33,16 @@ MASTER_CONNECTIONS = 3
 
 
 def back_to(pid: int, baseline, rss_margin_mib: float) -> None:
+    """Threads, descriptors and memory back near the baseline. The endpoint gives freed memory back to the system
+    once traffic has been quiet for a second (bridge.memory), so memory is waited for a few seconds too."""
     def released() -> bool:
         now = figures(pid)
         return now.threads <= baseline.threads + MASTER_CONNECTIONS \
             and now.descriptors <= baseline.descriptors + MASTER_CONNECTIONS
 
     wait_for(released, 20, f"threads and descriptors back to the baseline ({baseline})")
+    with contextlib.suppress(TimeoutError):
+        wait_for(lambda: figures(pid).rss_mib <= baseline.rss_mib + rss_margin_mib, 5, "memory given back")
     after = figures(pid)
     print(f"baseline: {baseline}; after: {after}")
     assert after.rss_mib <= baseline.rss_mib + rss_margin_mib, (baseline, after)

@@ -18,7 +18,7 @@ def imported_after(module: str) -> set[str]:
 
 @pytest.mark.parametrize(
     "module", ["bridge.protocol", "bridge.events", "bridge.framing", "bridge.layout", "bridge.queues",
-               "bridge.diagnostics", "bridge.names", "bridge.registry"],
+               "bridge.memory", "bridge.diagnostics", "bridge.names", "bridge.registry"],
 )
 def test_pure_bridge_modules_import_neither_sockets_nor_ros(module: str) -> None:
     loaded = imported_after(module)

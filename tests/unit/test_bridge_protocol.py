@@ -11,6 +11,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from bridge import protocol
+from bridge.framing import LARGE_PAYLOAD_BYTES
 from bridge.protocol import (
     Auth,
     BadFrame,
@@ -106,6 +107,38 @@ def test_incomplete_tail_stays_buffered_until_completed(frames: list[Frame], dat
     first = decoder.feed(stream[:cut])
     assert first == frames[: len(first)] and len(first) < len(frames)
     assert first + decoder.feed(stream[cut:]) == frames
+
+
+# Payloads of LARGE_PAYLOAD_BYTES and more are collected piece by piece: the same frames, whatever the split.
+large_frames_strategy = st.lists(
+    st.builds(Frame, st.sampled_from(["/camera/image", "/cloud", "/joint_states"]),
+              st.one_of(st.binary(max_size=50), st.integers(LARGE_PAYLOAD_BYTES - 2, LARGE_PAYLOAD_BYTES + 3000).map(
+                  lambda size: bytes(range(256)) * (size // 256) + b"x" * (size % 256)))),
+    min_size=1, max_size=6,
+)
+
+
+@settings(max_examples=60, deadline=None)
+@given(frames=large_frames_strategy, data=st.data())
+def test_large_payloads_decode_the_same_whatever_the_split(frames: list[Frame], data) -> None:
+    stream = b"".join(encode_frame(frame.destination, frame.payload) for frame in frames)
+    cuts = data.draw(st.lists(st.integers(0, len(stream)), max_size=30))
+    decoder = FrameDecoder()
+    items, start = [], 0
+    for cut in sorted(set(cuts)) + [len(stream)]:
+        items += decoder.feed(stream[start:cut])
+        start = cut
+        complete = sum(len(encode_frame(frame.destination, frame.payload)) for frame in items)
+        assert decoder.buffered_bytes == cut - complete  # what the partial-frame budget counts
+    assert items == frames and all(type(frame.payload) is bytes for frame in items)
+    assert decoder.buffered_bytes == 0
+
+
+def test_a_large_payload_over_the_limit_is_refused_before_it_arrives() -> None:
+    decoder = FrameDecoder(max_payload_bytes=LARGE_PAYLOAD_BYTES)
+    header = u32(3) + b"/im" + u32(LARGE_PAYLOAD_BYTES + 1)
+    with pytest.raises(FramingError, match="exceeds the limit"):
+        decoder.feed(header)
 
 
 def test_keepalive_is_eight_zero_bytes_and_recognised() -> None:

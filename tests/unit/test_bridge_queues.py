@@ -286,3 +286,11 @@ def test_a_byte_budget_is_shared_and_refuses_growth_past_its_limit() -> None:
     assert budget.resize(0, 40) and budget.used == 100
     assert budget.resize(60, 10) and budget.used == 50  # shrinking always works
     assert budget.resize(10, 0) and budget.resize(40, 0) and budget.used == 0
+
+
+def test_a_holder_refused_more_holds_nothing_from_that_moment() -> None:
+    # Two holders near the limit: the one refused lets go at once, so the other's next step fits.
+    budget = ByteBudget(100)
+    assert budget.resize(0, 45) and budget.resize(0, 50)
+    assert not budget.resize(45, 55) and budget.used == 50
+    assert budget.resize(50, 100) and budget.used == 100
