@@ -224,6 +224,8 @@ def phase_slow(quick: bool) -> None:
         started = time.monotonic()
         alive = len(sockets)
         position = 0
+        held_figures: ProcessFigures | None = None
+        probes = served = 0
         while alive and time.monotonic() - started < 45 and position < len(frame) - 1:
             alive = 0
             for sock in sockets:  # one byte a second each, never the last one
@@ -234,6 +236,11 @@ def phase_slow(quick: bool) -> None:
                     pass
             position += 1
             time.sleep(1)
+            if position == 2:
+                held_figures = figures(endpoint.pid)
+            elif position > 2:  # a fresh client from another address, once a second
+                probes += 1
+                served += fresh_client_served(endpoint.port, "127.0.0.100")
         held = alive
         cut_after = time.monotonic() - started
         for sock in sockets:
@@ -241,7 +248,32 @@ def phase_slow(quick: bool) -> None:
         after = settle(endpoint.pid, before)
         row("slow", before, worst.stop(), after,
             f"{count} connections dribbling a byte a second from 10 addresses (16 per address served, the rest "
-            f"turned away): {held} still open after {cut_after:.0f} s (--frame-timeout 10)")
+            f"turned away): {held} still open after {cut_after:.0f} s (--frame-timeout 10); a fresh client from "
+            f"another address, once a second: served {served}/{probes}")
+        if held_figures is not None:
+            connections = held_figures.descriptors - before.descriptors  # one descriptor each
+            print(f"{'':12} per slow connection held ({connections} held): "
+                  f"{(held_figures.threads - before.threads) / max(connections, 1):.2f} threads, "
+                  f"{(held_figures.rss_mib - before.rss_mib) * 1024 / max(connections, 1):.0f} KiB RSS")
+
+
+def fresh_client_served(port: int, source: str) -> bool:
+    """A new connection from `source` gets the handshake (it is closed again at once)."""
+    with socket.socket() as sock:
+        sock.bind((source, 0))
+        sock.settimeout(5)
+        try:
+            sock.connect((LOOPBACK, port))
+            decoder = protocol.FrameDecoder()
+            while True:
+                data = sock.recv(65536)
+                if not data:
+                    return False
+                frames = decoder.feed(data)
+                if frames:
+                    return frames[0].destination == "__handshake"
+        except OSError:
+            return False
 
 
 def phase_tokens(quick: bool) -> None:

@@ -18,8 +18,8 @@ import ctypes
 import ctypes.util
 from typing import Optional
 
-__all__ = ["MMAP_THRESHOLD_BYTES", "TRIM_THRESHOLD_BYTES", "QUIET_BYTES", "QuietTrim", "keep_large_buffers",
-           "give_back_free_memory"]
+__all__ = ["MMAP_THRESHOLD_BYTES", "TRIM_THRESHOLD_BYTES", "ARENAS", "QUIET_BYTES", "QuietTrim",
+           "keep_large_buffers", "give_back_free_memory"]
 
 # glibc's largest mmap threshold on 64-bit systems (DEFAULT_MMAP_THRESHOLD_MAX): every buffer below it comes from
 # the heap. Setting it also stops glibc from moving the threshold (and the trim threshold) by itself.
@@ -30,7 +30,11 @@ TRIM_THRESHOLD_BYTES = 256 * 1024 * 1024
 # Traffic counts as quiet over a housekeeping period that moved fewer bytes than this (in and out, all clients):
 # a 1 kHz JointState stream moves ~0.3 MB/s, one 30 Hz camera ~80 MB/s.
 QUIET_BYTES = 2 * 1024 * 1024
-_M_TRIM_THRESHOLD, _M_MMAP_THRESHOLD = -1, -3  # mallopt's parameter numbers, from glibc's malloc.h
+# One heap (arena) for every thread. Freed memory can only be given back from whole free pages and, in the other
+# arenas glibc would make for threads, not from their top, which malloc_trim leaves alone. Nothing is lost by it in
+# a Python process: its threads allocate while holding the GIL, so they would rarely contend for the heap anyway.
+ARENAS = 1
+_M_TRIM_THRESHOLD, _M_MMAP_THRESHOLD, _M_ARENA_MAX = -1, -3, -8  # mallopt's parameter numbers (glibc's malloc.h)
 
 
 def _glibc() -> Optional[ctypes.CDLL]:
@@ -49,6 +53,7 @@ def keep_large_buffers() -> None:
     if _LIBC is not None:
         _LIBC.mallopt(_M_MMAP_THRESHOLD, MMAP_THRESHOLD_BYTES)
         _LIBC.mallopt(_M_TRIM_THRESHOLD, TRIM_THRESHOLD_BYTES)
+        _LIBC.mallopt(_M_ARENA_MAX, ARENAS)
 
 
 def give_back_free_memory() -> bool:

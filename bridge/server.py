@@ -42,6 +42,7 @@ from bridge.protocol import (
 )
 from bridge.ros import RawPublisher, RawServiceProxy, RosError, RosGraph, end_topic
 from bridge.session import ClientSession, RequestRefused
+from bridge.admission import to_evict
 from bridge.auth import AuthGuard
 from bridge.memory import QuietTrim, give_back_free_memory
 from bridge.queues import ByteBudget
@@ -262,15 +263,31 @@ class Endpoint:
                 sock.close()
 
     def _admission_refusal(self, host: str) -> Optional[str]:
-        """Why a new client from `host` cannot be served now (a limit reached); None when it can."""
+        """Why a new client from `host` cannot be served now (a limit reached, and no connection there not using its
+        slot: bridge.admission); None when it can, room having been made if needed."""
+        now = time.monotonic()
         with self._lock:
-            connected = len(self._clients)
-            from_host = sum(1 for session in self._clients if session.host == host)
-        if connected >= self.config.max_clients:
-            return f"the endpoint serves {connected} clients already, its limit (--max-clients)"
-        if from_host >= self.config.max_clients_per_address:
-            return (f"the endpoint serves {from_host} clients from {host} already, its limit per address "
-                    "(--max-clients-per-address)")
+            sessions = [session for session in self._clients if not session.closing]  # those leaving hold no slot
+        from_host = [session for session in sessions if session.host == host]
+        if len(sessions) >= self.config.max_clients:
+            limit, among = f"the endpoint serves {len(sessions)} clients already, its limit (--max-clients)", sessions
+        elif len(from_host) >= self.config.max_clients_per_address:
+            limit = (f"the endpoint serves {len(from_host)} clients from {host} already, its limit per address "
+                     "(--max-clients-per-address)")
+            among = from_host
+        else:
+            return None
+        uses = [session.slot_use(now) for session in among]
+        victim = to_evict(uses)
+        if victim is None:
+            return limit
+        use = uses[victim]
+        doing = (f"{use.frame_bytes} bytes of a frame in {use.frame_for_s:.1f} s" if use.frame_for_s is not None
+                 else f"no {'__auth' if not use.authenticated else 'frame'} in {use.connected_for_s:.1f} s")
+        log.warning("client %s closed to make room for a new client from %s (%s): %s", among[victim].name, host,
+                    limit, doing)
+        among[victim].close(f"closed to make room for a new client: {limit}, and this connection sent {doing}",
+                            tell_client=True)
         return None
 
     # --- the session's owner: every client event lands here ------------------------------------------------------

@@ -17,6 +17,7 @@ from concurrent.futures import Future, ThreadPoolExecutor
 from typing import Callable, List, Optional, Protocol, Set
 
 from bridge import protocol
+from bridge.admission import SlotUse
 from bridge.auth import AuthGuard
 from bridge.config import EndpointConfig
 from bridge.protocol import Auth, Conversation, Event, IgnoredFields, InvalidInput, Role, TopicMessage, Warn
@@ -84,6 +85,7 @@ class ClientSession:
         self.bytes_in = 0
         self.bytes_out = 0
         self.connected_at = time.time()
+        self._connected_monotonic = time.monotonic()
         self.pings = 0
         self.ping_clock_offset_s: Optional[float] = None  # see bridge.diagnostics.ClientSnapshot
         self.ping_round_trip_s: Optional[float] = None
@@ -114,6 +116,17 @@ class ClientSession:
     @property
     def frames_in(self) -> int:
         return self.conversation.frames_received
+
+    @property
+    def closing(self) -> bool:
+        """The connection is ending (its threads may still be finishing)."""
+        return self._closed.is_set()
+
+    def slot_use(self, now: float) -> SlotUse:
+        """What this connection has done with its slot so far (for bridge.admission); `now` is monotonic time."""
+        frame_started = self._frame_started
+        return SlotUse(now - self._connected_monotonic, None if frame_started is None else now - frame_started,
+                       self.conversation.buffered_bytes, self.frames_in, self.authenticated)
 
     @property
     def dropped(self) -> int:

@@ -4,12 +4,15 @@ from __future__ import annotations
 
 import json
 import socket
+import struct
+import threading
 import time
 from pathlib import Path
 
 import pytest
 
 from bridge import protocol
+from bridge.admission import FRAME_GRACE_S
 from bridge.protocol import FrameDecoder
 from tests.chaos import figures
 from tests.integration.bridge_helpers import LOOPBACK, RawConnection, settled, start_endpoint, unique
@@ -72,6 +75,73 @@ def test_a_full_endpoint_says_so_to_everyone(roscore, ros_node, tmp_path: Path) 
             assert "--max-clients)" in refusal(endpoint.port, "127.0.0.3")
             only.sync()
     finally:
+        endpoint.stop()
+
+
+class SlowSender(threading.Thread):
+    """A slow-loris client from `source`: a frame that never ends, one byte every `interval_s`, until stopped or
+    closed by the endpoint; `admitted` once it got the handshake, and the endpoint's reasons when it said any."""
+
+    def __init__(self, port: int, source: str, interval_s: float, stop: threading.Event) -> None:
+        super().__init__(daemon=True)
+        self.port, self.source, self.interval_s, self.stop = port, source, interval_s, stop
+        self.admitted = threading.Event()
+        self.reasons: list[str] = []
+
+    def run(self) -> None:
+        frame = struct.pack("<I", 4) + b"/abc" + struct.pack("<I", 1 << 20) + b"\0" * (1 << 20)
+        sock, first = connect_from(self.port, self.source)
+        with sock:
+            if first is None or first.destination != "__handshake":
+                return
+            self.admitted.set()
+            sock.settimeout(self.interval_s)
+            decoder = FrameDecoder()
+            for index in range(len(frame)):
+                if self.stop.is_set():
+                    return
+                try:
+                    sock.send(frame[index : index + 1])
+                    data = sock.recv(65536)  # waits out the interval unless the endpoint says something
+                except socket.timeout:
+                    continue
+                except OSError:
+                    return
+                if not data:
+                    return
+                self.reasons += [json.loads(f.payload)["text"] for f in decoder.feed(data)
+                                 if f.destination in ("__warn", "__error")]
+
+
+def test_a_fresh_client_is_served_while_slow_senders_hold_every_slot(roscore, ros_node, tmp_path: Path) -> None:
+    endpoint = start_endpoint(roscore, tmp_path, "--max-clients", "8")
+    stop = threading.Event()
+    senders = [SlowSender(endpoint.port, f"127.0.0.{10 + index % 4}", 0.25, stop) for index in range(12)]
+    newcomers: list[socket.socket] = []
+    try:
+        with RawConnection(endpoint.port) as steady:  # a client between whole frames uses its slot
+            for sender in senders:
+                sender.start()
+            wait_for(lambda: sum(sender.admitted.is_set() for sender in senders) == 7, 10, "every slot held")
+            time.sleep(FRAME_GRACE_S + 0.5)  # the senders' frames past the grace
+            for _ in range(5):  # each stays, so the next needs room made again
+                sock, frame = connect_from(endpoint.port, "127.0.0.50")
+                newcomers.append(sock)
+                assert frame is not None and frame.destination == "__handshake", frame
+                steady.sync()
+                time.sleep(0.3)
+            stop.set()
+            for sender in senders:
+                sender.join(10)
+            made_room = [reason for sender in senders for reason in sender.reasons
+                         if "closed to make room for a new client" in reason and "--max-clients" in reason]
+            assert len(made_room) >= 5, [sender.reasons for sender in senders]
+            steady.sync()
+            assert not steady.errors(), steady.summary()
+    finally:
+        stop.set()
+        for sock in newcomers:
+            sock.close()
         endpoint.stop()
 
 
