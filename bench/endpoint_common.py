@@ -59,6 +59,32 @@ def cloud_payload() -> bytes:
     return _serialized(message)
 
 
+def vga_image_payload() -> bytes:
+    """One serialized 640x480 rgb8 Image (921,600 bytes of pixels: a headset's or a webcam's camera stream)."""
+    from sensor_msgs.msg import Image
+
+    message = Image(height=480, width=640, encoding="rgb8", step=640 * 3)
+    message.header.frame_id = "camera_color_optical_frame"
+    message.data = bytes(range(256)) * (640 * 480 * 3 // 256)
+    return _serialized(message)
+
+
+def tf_payload() -> bytes:
+    """One serialized tf2_msgs/TFMessage of a 7-joint arm's link transforms (header stamps inside each)."""
+    from geometry_msgs.msg import TransformStamped
+    from tf2_msgs.msg import TFMessage
+
+    transforms = []
+    for index in range(JOINTS + 1):
+        transform = TransformStamped()
+        transform.header.frame_id = f"panda_link{index}"
+        transform.child_frame_id = f"panda_link{index + 1}"
+        transform.transform.translation.z = 0.1
+        transform.transform.rotation.w = 1.0
+        transforms.append(transform)
+    return _serialized(TFMessage(transforms=transforms))
+
+
 def _serialized(message: object) -> bytes:
     buffer = io.BytesIO()
     message.serialize(buffer)  # type: ignore[attr-defined]
@@ -70,20 +96,24 @@ MESSAGE_KINDS: dict[str, tuple[str, Callable[[], bytes]]] = {
     "joint_state": (MESSAGE_NAME, joint_state_payload),
     "image": ("sensor_msgs/Image", image_payload),
     "cloud": ("sensor_msgs/PointCloud2", cloud_payload),
+    "vga_image": ("sensor_msgs/Image", vga_image_payload),
+    "tf": ("tf2_msgs/TFMessage", tf_payload),
 }
+# Where a kind's (first) header is: after the transforms' array length for TF, at the start for the others.
+HEADER_OFFSETS = {"tf": 4}
 
 
-def stamped(template: bytes | bytearray, seq: int, now_ns: int | None = None) -> bytes:
-    """`template` with header.seq = seq and header.stamp = now (monotonic)."""
+def stamped(template: bytes | bytearray, seq: int, now_ns: int | None = None, offset: int = 0) -> bytes:
+    """`template` with header.seq = seq and header.stamp = now (monotonic), the header being at `offset`."""
     buffer = bytearray(template)
     stamp_ns = time.monotonic_ns() if now_ns is None else now_ns
-    _SEQ_STAMP.pack_into(buffer, 0, seq & 0xFFFFFFFF, stamp_ns // _NS_PER_S, stamp_ns % _NS_PER_S)
+    _SEQ_STAMP.pack_into(buffer, offset, seq & 0xFFFFFFFF, stamp_ns // _NS_PER_S, stamp_ns % _NS_PER_S)
     return bytes(buffer)
 
 
-def read_stamp(payload: bytes) -> tuple[int, int]:
+def read_stamp(payload: bytes, offset: int = 0) -> tuple[int, int]:
     """(seq, monotonic stamp in ns) written by `stamped`."""
-    seq, secs, nsecs = _SEQ_STAMP.unpack_from(payload, 0)
+    seq, secs, nsecs = _SEQ_STAMP.unpack_from(payload, offset)
     return seq, secs * _NS_PER_S + nsecs
 
 

@@ -6,6 +6,9 @@ Roles (first argument):
   rate   - publish stamped messages (header.seq = 0, 1, ...) at a fixed rate, bounded by count and time.
   relay  - republish the bytes received on IN unchanged on OUT (ping -> pong), until killed.
   ping   - pure rospy round trip through `relay`: publish stamped pings, time the pongs.
+  stream - publish several stamped topics at their own rates (KIND:TOPIC:HZ each), bounded in time.
+  ages   - subscribe to several topics (KIND:TOPIC each) and record every message's arrival and age (arrival time
+           minus its header stamp, both CLOCK_MONOTONIC) for a given time.
 
 Every node uses a raw message class: it carries the message type's name/md5/definition (JointState unless `--kind`
 names another of endpoint_common.MESSAGE_KINDS), so rospy negotiates exactly as for the generated class, but it
@@ -29,7 +32,7 @@ import genpy  # noqa: E402
 import roslib.message  # noqa: E402
 import rospy  # noqa: E402
 
-from endpoint_common import MESSAGE_KINDS, paced, read_stamp, stamped  # noqa: E402
+from endpoint_common import HEADER_OFFSETS, MESSAGE_KINDS, paced, read_stamp, stamped  # noqa: E402
 
 
 class RawMessage(genpy.Message):
@@ -166,6 +169,58 @@ def run_ping(args: argparse.Namespace) -> None:
     emit("RESULT", rates=results)
 
 
+def run_stream(args: argparse.Namespace) -> None:
+    streams = []
+    for spec in args.stream:
+        kind, topic, hz = spec.split(":")
+        message_name, make_payload = MESSAGE_KINDS[kind]
+        large = kind in ("image", "vga_image", "cloud")  # a camera driver keeps only the newest frame queued
+        raw = raw_class(message_name)
+        publisher = rospy.Publisher(topic, raw, queue_size=1 if large else 100, tcp_nodelay=True)
+        streams.append((topic, raw, publisher, make_payload(), HEADER_OFFSETS.get(kind, 0), 1.0 / float(hz)))
+    connected = all(wait_for_connections(stream[2], args.subscribers, 30.0) for stream in streams)
+    time.sleep(args.delay)
+    print("PUBLISHING", flush=True)
+    sent = {stream[0]: 0 for stream in streams}
+    start = time.monotonic()
+    due = [start] * len(streams)
+    while not rospy.is_shutdown():
+        index = min(range(len(streams)), key=due.__getitem__)
+        if due[index] - start > args.seconds:
+            break
+        pause = due[index] - time.monotonic()
+        if pause > 0:
+            time.sleep(pause)
+        topic, raw, publisher, template, offset, period = streams[index]
+        publisher.publish(raw(stamped(template, sent[topic], offset=offset)))
+        sent[topic] += 1
+        due[index] += period  # a fixed schedule: a late message does not move the next one
+    emit("RESULT", sent=sent, connected=connected)
+    time.sleep(0.5)
+
+
+def run_ages(args: argparse.Namespace) -> None:
+    records: dict[str, list[tuple[int, int]]] = {}
+    subscribers = []
+    for spec in args.listen:
+        kind, topic = spec.split(":")
+        offset = HEADER_OFFSETS.get(kind, 0)
+        arrivals = records.setdefault(topic, [])
+
+        def on_message(message: RawMessage, arrivals: list = arrivals, offset: int = offset) -> None:
+            now = time.monotonic_ns()
+            arrivals.append((now, now - read_stamp(message._buff, offset)[1]))
+
+        subscribers.append(rospy.Subscriber(topic, raw_class(MESSAGE_KINDS[kind][0]), on_message,
+                                            tcp_nodelay=True, buff_size=1 << 22))
+    if all(wait_for_connections(subscriber, 1, 30.0) for subscriber in subscribers):
+        print("CONNECTED", flush=True)
+    deadline = time.monotonic() + args.seconds
+    while time.monotonic() < deadline and not rospy.is_shutdown():
+        time.sleep(0.05)
+    emit("RESULT", arrivals={topic: [list(pair) for pair in pairs] for topic, pairs in records.items()})
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     roles = parser.add_subparsers(dest="role", required=True)
@@ -194,16 +249,27 @@ def main() -> None:
     ping.add_argument("--out-topic", required=True)
     ping.add_argument("--in-topic", required=True)
     ping.add_argument("--rates", nargs="+", required=True, metavar="HZ:COUNT")
-    for role in (count, flood, rate, relay, ping):
+    stream = roles.add_parser("stream")
+    stream.add_argument("--stream", action="append", required=True, metavar="KIND:TOPIC:HZ")
+    stream.add_argument("--seconds", type=float, default=60.0)
+    stream.add_argument("--subscribers", type=int, default=1)
+    stream.add_argument("--delay", type=float, default=0.5)
+    ages = roles.add_parser("ages")
+    ages.add_argument("--listen", action="append", required=True, metavar="KIND:TOPIC")
+    ages.add_argument("--seconds", type=float, default=60.0)
+    for role in (count, flood, rate, relay, ping, stream, ages):
         role.add_argument("--kind", choices=sorted(MESSAGE_KINDS), default="joint_state", help="message kind")
     args = parser.parse_args(rospy.myargv()[1:])
-    message_name, args.payload = MESSAGE_KINDS[args.kind]
-    args.raw = raw_class(message_name)
+    if "kind" in args:
+        message_name, args.payload = MESSAGE_KINDS[args.kind]
+        args.raw = raw_class(message_name)
 
     rospy.init_node(f"bench_{args.role}", anonymous=True)
     gc.collect()  # as the endpoint does: start-up objects out of the cyclic GC's view (see endpoint_bench.main)
     gc.freeze()
-    {"count": run_count, "flood": run_flood, "rate": run_rate, "relay": run_relay, "ping": run_ping}[args.role](args)
+    roles_run = {"count": run_count, "flood": run_flood, "rate": run_rate, "relay": run_relay, "ping": run_ping,
+                 "stream": run_stream, "ages": run_ages}
+    roles_run[args.role](args)
 
 
 if __name__ == "__main__":

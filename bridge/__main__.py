@@ -40,6 +40,11 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument("--publisher-grace", type=float,
                         help="seconds a publisher stays advertised after its last client left (default 10)")
     parser.add_argument("--no-validate", action="store_true", help="publish client payloads without checking them")
+    parser.add_argument("--latest-only", action="append", metavar="PATTERN",
+                        help="a client behind on matching topics gets only their newest message (repeatable)")
+    parser.add_argument("--latest-only-bytes", type=int, metavar="N",
+                        help="the same for any topic whose messages are N bytes or more "
+                             f"(default {EndpointConfig().latest_only_bytes}; 0 = off)")
     parser.add_argument("--echo-own-publications", action="store_true",
                         help="send a client its own messages back on topics it also subscribes to (default off)")
     parser.add_argument("--wait", action="store_true",
@@ -95,6 +100,8 @@ _SOURCES = {
     "service_timeout_s": _Source("--service-timeout", "~service_timeout"),
     "publisher_grace_s": _Source("--publisher-grace", "~publisher_grace"),
     "validate_payloads": _Source("--no-validate", "~validate_payloads"),
+    "latest_only_topics": _Source("--latest-only", "~latest_only_topics"),
+    "latest_only_bytes": _Source("--latest-only-bytes", "~latest_only_bytes"),
     "echo_own_publications": _Source("--echo-own-publications", "~echo_own_publications"),
     **{setting: _Source(option, "~" + option[2:].replace("-", "_")) for setting, option, _ in _LIMITS},
 }
@@ -170,6 +177,8 @@ def build_config(args: argparse.Namespace, ros: Any) -> EndpointConfig:
         service_timeout_s=read("service_timeout_s", args.service_timeout, float),
         publisher_grace_s=read("publisher_grace_s", args.publisher_grace, float),
         validate_payloads=not args.no_validate and read("validate_payloads", None, bool),
+        latest_only_topics=_patterns("latest_only_topics", _given("latest_only_topics", args.latest_only, ros)),
+        latest_only_bytes=read("latest_only_bytes", args.latest_only_bytes, int),
         echo_own_publications=args.echo_own_publications or read("echo_own_publications", None, bool),
     )
 

@@ -6,6 +6,7 @@ import math
 from dataclasses import dataclass
 from typing import Optional, Tuple
 
+from bridge.framing import LARGE_PAYLOAD_BYTES
 from bridge.protocol import DEFAULT_MAX_PAYLOAD_BYTES, MAX_DESTINATION_BYTES
 
 __all__ = ["ConfigError", "EndpointConfig", "MAX_FRAME_LENGTH"]
@@ -40,6 +41,11 @@ class EndpointConfig:
     # that reconnects within it keeps its ROS subscribers connected.
     publisher_grace_s: float = 10.0
     validate_payloads: bool = True
+    # A client that is behind gets only the newest waiting message of these topics (fnmatch patterns on resolved
+    # names), and of any topic whose messages are latest_only_bytes or larger (camera images, point clouds; 0: no
+    # such rule), instead of a backlog of stale ones. A queue_size the client gave in __subscribe wins over both.
+    latest_only_topics: Tuple[str, ...] = ()
+    latest_only_bytes: int = LARGE_PAYLOAD_BYTES
     # A client that publishes and subscribes on one topic gets the others' messages, not its own back (what Unity's
     # users asked for in ROS-TCP-Endpoint PR #159); True sends them back as the original endpoint does.
     echo_own_publications: bool = False
@@ -77,11 +83,16 @@ class EndpointConfig:
         _check_whole("max_registrations_per_client", self.max_registrations_per_client, 1)
         _check_whole("max_registrations", self.max_registrations, 1)
         _check_whole("max_partial_frame_bytes", self.max_partial_frame_bytes, 1)
+        _check_whole("latest_only_bytes", self.latest_only_bytes, 0)
         _check_seconds("frame_timeout_s", self.frame_timeout_s)
         _check_seconds("auth_timeout_s", self.auth_timeout_s)
         _check_seconds("dead_peer_timeout_s", self.dead_peer_timeout_s)
         _check_seconds("service_timeout_s", self.service_timeout_s)
         _check_seconds("publisher_grace_s", self.publisher_grace_s, zero_allowed=True)
+
+    def latest_only(self, resolved_name: str) -> bool:
+        """Whether a client behind on this topic gets only its newest message, whatever the messages' size."""
+        return any(fnmatch.fnmatchcase(resolved_name, pattern) for pattern in self.latest_only_topics)
 
     def permits(self, resolved_name: str) -> bool:
         if any(fnmatch.fnmatchcase(resolved_name, pattern) for pattern in self.deny_topics):

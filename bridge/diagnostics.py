@@ -46,6 +46,9 @@ class TopicSnapshot:
     from_clients: int  # client messages handed to the ROS publisher so far
     ros_publishers: int  # connections from ROS publishers to the endpoint's subscriber
     ros_subscribers: int  # connections from ROS subscribers to the endpoint's publisher
+    # The longest one of its messages waited in a client's queue before being written, since the last report (None:
+    # none was queued; messages written at once do not wait): the endpoint's share of their age at the client.
+    longest_wait_s: Optional[float] = None
 
 
 @dataclass(frozen=True)
@@ -112,6 +115,7 @@ def report(node: str, address: str, now: float, clients: Sequence[ClientSnapshot
             ("rate from clients [msg/s]", f"{rate_from:.1f}"),
             ("messages to clients", str(topic.to_clients)),
             ("messages from clients", str(topic.from_clients)),
+            ("longest wait in a client queue [s]", _maybe(topic.longest_wait_s, "{:.3f}")),
         )))
     return statuses, counts
 

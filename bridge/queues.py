@@ -8,9 +8,13 @@ from __future__ import annotations
 import threading
 import time
 from collections import deque
-from typing import Dict, Optional, Tuple
+from typing import Deque, Dict, List, Optional, Set, Tuple
 
 __all__ = ["OutgoingQueue", "ByteBudget"]
+
+
+# One queued frame: (bytes, droppable, key, monotonic time it was queued, counted in _key_counts)
+_Item = Tuple[bytes, bool, Optional[str], float, bool]
 
 
 class OutgoingQueue:
@@ -20,18 +24,25 @@ class OutgoingQueue:
     request/response pairs and errors are never dropped, so a slow reader loses stale samples, not answers.
     A frame may also carry a key (its topic) with a limit of its own: at most that many frames of the key wait, the
     oldest of them going first (a client's queue_size for a topic).
+
+    With `large_bytes`, the writer's next batch (take_batch) puts small frames before queued large ones, so control
+    messages do not wait behind camera images on a slow link; frames of one key (and frames without a key) keep
+    their order.
     """
 
-    def __init__(self, max_frames: int, max_bytes: int) -> None:
+    def __init__(self, max_frames: int, max_bytes: int, large_bytes: Optional[int] = None) -> None:
         if max_frames < 1 or max_bytes < 1:
             raise ValueError(f"queue limits must be positive, got max_frames={max_frames}, max_bytes={max_bytes}")
         self.max_frames = max_frames
         self.max_bytes = max_bytes
-        self._items: deque[Tuple[bytes, bool, Optional[str]]] = deque()  # (frame, droppable, key)
+        self.large_bytes = large_bytes
+        self._items: Deque[_Item] = deque()
         self._key_counts: Dict[str, int] = {}  # frames queued per key
+        self._large = 0  # frames of large_bytes or more queued
         self._bytes = 0
         self._kept_bytes = 0  # of frames that are never dropped (answers)
-        self._filled_at = 0.0  # monotonic time the queue last went from empty to not empty
+        self._longest_waits: Dict[str, float] = {}  # per key, the longest a taken frame waited (take_batch)
+        self._continuation = False  # the first frame is the rest of one begun on the wire (put_continuation)
         self._closed = False
         self._dropped = 0
         lock = threading.Lock()
@@ -57,9 +68,17 @@ class OutgoingQueue:
         return self._kept_bytes
 
     def oldest_age(self) -> Optional[float]:
-        """How long the oldest queued frame has waited, at most (s); None when nothing is queued. Frames leave all
-        at once (take_all), so the queue's oldest came when it was last empty."""
-        return time.monotonic() - self._filled_at if self._items else None
+        """How long the oldest queued frame has waited (s); None when nothing is queued."""
+        with self._not_empty:
+            if not self._items:
+                return None
+            return time.monotonic() - min(item[3] for item in self._items)
+
+    def longest_waits(self) -> Dict[str, float]:
+        """Per key, the longest a frame of it waited before take_batch took it, since this was last asked."""
+        with self._not_empty:
+            waits, self._longest_waits = self._longest_waits, {}
+            return waits
 
     def put(self, data: bytes, droppable: bool = True, wait_s: float = 0.0, key: Optional[str] = None,
             key_limit: int = 0) -> int:
@@ -74,15 +93,30 @@ class OutgoingQueue:
                 self._wait_for_room(len(data), wait_s)
             if self._closed:
                 return 0
-            dropped = self._append(data, droppable, key, key_limit)
+            dropped = self._append(data, droppable, key, key_limit, time.monotonic())
             self._not_empty.notify()
             return dropped
+
+    def put_continuation(self, data: bytes) -> None:
+        """Queue the rest of a frame whose first bytes were written directly, ahead of everything: it must follow
+        them on the wire. Never dropped."""
+        with self._not_full:
+            if self._closed:
+                return
+            self._items.appendleft((data, False, None, time.monotonic(), False))
+            self._bytes += len(data)
+            self._kept_bytes += len(data)
+            if self.large_bytes is not None and len(data) >= self.large_bytes:
+                self._large += 1
+            self._continuation = True
+            self._not_empty.notify()
 
     def put_many(self, items: list[bytes], wait_s: float = 0.0) -> int:
         """`put` (droppable) of each item in turn under one lock acquisition: what a client's reader hands over from
         one read. While the queue is full, each item waits up to `wait_s` for room, as with `put`; once one waited
         in vain, the rest drop oldest without waiting. Returns how many frames were dropped."""
         dropped = 0
+        now = time.monotonic()  # one time for what one read brought
         with self._not_full:
             for data in items:
                 if wait_s > 0.0 and not self._has_room(len(data)):
@@ -91,7 +125,7 @@ class OutgoingQueue:
                         wait_s = 0.0
                 if self._closed:
                     break
-                dropped += self._append(data, True)
+                dropped += self._append(data, True, None, 0, now)
             self._not_empty.notify()
         return dropped
 
@@ -105,21 +139,23 @@ class OutgoingQueue:
             self._not_full.wait(remaining)
         return True
 
-    def _append(self, data: bytes, droppable: bool, key: Optional[str] = None, key_limit: int = 0) -> int:
-        """With the lock held: queue `data`, dropping the oldest droppable frames while over a limit; how many."""
+    def _append(self, data: bytes, droppable: bool, key: Optional[str], key_limit: int, now: float) -> int:
+        """With the lock held: queue `data` (queued at `now`), dropping the oldest droppable frames while over a
+        limit; how many. The hot path of every queued frame: counts are kept inline."""
         dropped = 0
+        counted = False
         if key is not None and key_limit > 0:  # only frames with a limit of their own are counted by key
+            counted = True
             while self._key_counts.get(key, 0) >= key_limit and self._drop_oldest_of(key):
                 dropped += 1
             self._key_counts[key] = self._key_counts.get(key, 0) + 1
-        else:
-            key = None
-        if not self._items:
-            self._filled_at = time.monotonic()
-        self._items.append((data, droppable, key))
-        self._bytes += len(data)
+        self._items.append((data, droppable, key, now, counted))
+        size = len(data)
+        self._bytes += size
         if not droppable:
-            self._kept_bytes += len(data)
+            self._kept_bytes += size
+        if self.large_bytes is not None and size >= self.large_bytes:
+            self._large += 1
         while (len(self._items) > self.max_frames or self._bytes > self.max_bytes) and len(self._items) > 1:
             if not self._drop_oldest_droppable():
                 break
@@ -131,7 +167,7 @@ class OutgoingQueue:
 
     def _drop_oldest_droppable(self) -> bool:
         if self._items[0][1]:  # the usual case, and the cheap one
-            self._forget(self._items.popleft())
+            self._forget(self._items.popleft(), dropped=True)
             return True
         index = next((i for i, item in enumerate(self._items) if item[1]), None)
         if index is None:
@@ -140,7 +176,7 @@ class OutgoingQueue:
         return True
 
     def _drop_oldest_of(self, key: str) -> bool:
-        index = next((i for i, item in enumerate(self._items) if item[2] == key), None)
+        index = next((i for i, item in enumerate(self._items) if item[2] == key and item[4]), None)
         if index is None:
             return False
         self._drop_at(index)
@@ -149,28 +185,88 @@ class OutgoingQueue:
     def _drop_at(self, index: int) -> None:
         item = self._items[index]
         del self._items[index]
-        self._forget(item)
+        self._forget(item, dropped=True)
 
-    def _forget(self, item: Tuple[bytes, bool, Optional[str]]) -> None:
-        """Account for a dropped frame."""
-        self._bytes -= len(item[0])
-        self._dropped += 1
-        if item[2] is not None:
-            self._key_counts[item[2]] -= 1
+    def _forget(self, item: _Item, dropped: bool) -> None:
+        """Account for a frame leaving the queue (dropped, or taken by take_batch)."""
+        data, droppable, key, counted = item[0], item[1], item[2], item[4]
+        self._bytes -= len(data)
+        if not droppable:
+            self._kept_bytes -= len(data)
+        if self.large_bytes is not None and len(data) >= self.large_bytes:
+            self._large -= 1
+        if dropped:
+            self._dropped += 1
+        if counted:
+            self._key_counts[key] -= 1  # type: ignore[index]
 
     def take_all(self, timeout: float | None = None) -> list[bytes] | None:
-        """Everything queued (waiting up to `timeout` for something); [] on timeout; None once closed and empty."""
+        """Everything queued, in order (waiting up to `timeout` for something); [] on timeout; None once closed and
+        empty."""
         with self._not_empty:
             if not self._items and not self._closed:
                 self._not_empty.wait(timeout)
             if not self._items:
                 return None if self._closed else []
             items = [item[0] for item in self._items]
-            self._items.clear()
-            self._key_counts.clear()
-            self._bytes = self._kept_bytes = 0
+            self._clear()
             self._not_full.notify_all()
             return items
+
+    def take_batch(self) -> list[bytes]:
+        """What the writer sends next, without waiting: a continuation first, then every small frame in order, then
+        the oldest large frame (the rest of the large ones wait for the next batch, so small frames queued
+        meanwhile go before them). A frame never overtakes an earlier one of its key (frames without a key count
+        as one key). Without `large_bytes`, or with no large frame queued: everything, in order."""
+        with self._not_empty:
+            if not self._items:
+                return []
+            now = time.monotonic()
+            if self._large:
+                taken = self._take_small_first()
+            else:
+                taken = list(self._items)
+                self._clear()
+            # The batch's first frame waited longest of its small ones, its last may be an older large one: their
+            # waits are recorded (the others' would cost a dictionary update per frame, the hot path of a flood).
+            for _, _, key, queued_at, _ in (taken[0], taken[-1]):
+                if key is not None and now - queued_at > self._longest_waits.get(key, -1.0):
+                    self._longest_waits[key] = now - queued_at
+            self._not_full.notify_all()
+            return [item[0] for item in taken]
+
+    def _take_small_first(self) -> List[_Item]:
+        """With the lock held: take_batch's choice when large frames are queued (see there)."""
+        large_bytes = self.large_bytes or 0
+        taken: List[_Item] = []
+        large: Optional[_Item] = None
+        kept: Deque[_Item] = deque()
+        held_keys: Set[Optional[str]] = set()  # keys with an earlier frame staying queued (or taken last)
+        for index, item in enumerate(self._items):
+            data, key = item[0], item[2]
+            if key in held_keys:
+                kept.append(item)
+            elif len(data) < large_bytes or (index == 0 and self._continuation):  # a continuation goes first
+                taken.append(item)
+            elif large is None:
+                large = item
+                held_keys.add(key)
+            else:
+                kept.append(item)
+                held_keys.add(key)
+        if large is not None:
+            taken.append(large)
+        for item in taken:
+            self._forget(item, dropped=False)
+        self._items = kept
+        self._continuation = False
+        return taken
+
+    def _clear(self) -> None:
+        self._continuation = False
+        self._items.clear()
+        self._key_counts.clear()
+        self._bytes = self._kept_bytes = self._large = 0
 
     def wait(self, timeout: float | None = None) -> bool:
         """Until something is queued (True) or `timeout` passed (True, maybe empty); False once closed and empty."""
@@ -184,9 +280,7 @@ class OutgoingQueue:
         with self._not_empty:
             self._closed = True
             if discard:
-                self._items.clear()
-                self._key_counts.clear()
-                self._bytes = self._kept_bytes = 0
+                self._clear()
             self._not_empty.notify_all()
             self._not_full.notify_all()
 

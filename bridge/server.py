@@ -88,6 +88,7 @@ class _SharedSubscriber:
     # replaced whole, never changed in place, so rospy callbacks read it without a lock
     clients: Tuple[_Subscription, ...] = ()
     untyped: Optional[str] = None  # why there is no class of the type, when there is none
+    latest_only: bool = False  # a client behind gets only the newest message (EndpointConfig.latest_only)
     delivered: int = 0  # messages from ROS fanned out (for /diagnostics; rospy's threads count, roughly)
     # Per client that publishes on the topic and subscribes to it: what it published, in its order, so the copy that
     # comes back from ROS (through our own publisher) skips it. Each client's messages reach ROS in the order it sent
@@ -144,6 +145,8 @@ class Endpoint:
         self._turned_away = LogThrottle(log)
         self._auth = AuthGuard(config.auth_token) if config.auth_token is not None else None
         self._partial_frames = ByteBudget(config.max_partial_frame_bytes)
+        # messages at least this large go to a client that is behind only as the newest (0 in the settings: never)
+        self._latest_only_bytes = config.latest_only_bytes or float("inf")
         self._accept_failures = LogThrottle(log)
         # Totals of the clients that have left (those still connected are summed in stats()).
         self.frames_in = 0
@@ -378,7 +381,8 @@ class Endpoint:
                 handle = _made_for_client(
                     lambda: self.ros.make_subscriber(resolved, raw, command.message_name, self._fan_out)
                 )
-                shared = _SharedSubscriber(command.message_name, handle, untyped=untyped)
+                shared = _SharedSubscriber(command.message_name, handle, untyped=untyped,
+                                           latest_only=self.config.latest_only(resolved))
                 self._subscribers[resolved] = shared
             if shared.untyped is not None:
                 session.send(protocol.encode(Warn(
@@ -575,13 +579,17 @@ class Endpoint:
             with shared.echoes_lock:
                 sender = _take_echo(shared.echoes, payload)
         frames: Dict[str, bytes] = {}
+        # A client behind on the topic gets its newest message only, not a backlog of stale ones, where the settings
+        # say so (EndpointConfig.latest_only_*); its own queue_size for the topic, if it gave one, wins.
+        default_limit = 1 if len(payload) >= self._latest_only_bytes or shared.latest_only else 0
         for session, client_topic, queue_size in shared.clients:
             if session is sender:
                 continue
             frame = frames.get(client_topic)
             if frame is None:
                 frame = frames[client_topic] = protocol.encode_frame(client_topic, payload)
-            session.send(frame, True, resolved, queue_size)  # droppable; at most queue_size of the topic wait
+            # droppable; at most queue_size of the topic wait
+            session.send(frame, True, resolved, queue_size or default_limit)
 
     def _call_ros_service(self, session: ClientSession, request: ServiceRequest) -> None:
         srv_id = request.srv_id
@@ -651,6 +659,10 @@ class Endpoint:
             )
             for s in sessions
         ]
+        waits: Dict[str, float] = {}
+        for session in sessions:
+            for topic, wait in session.queue.longest_waits().items():
+                waits[topic] = max(wait, waits.get(topic, 0.0))
         topics = []
         for topic in sorted(set(subscribers) | set(publishers)):
             subscribed, published = subscribers.get(topic), publishers.get(topic)
@@ -662,6 +674,7 @@ class Endpoint:
                 subscribed.delivered if subscribed else 0, published.publisher.published if published else 0,
                 subscribed.handle.get_num_connections() if subscribed else 0,
                 published.publisher.connections() if published else 0,
+                waits.get(topic),
             ))
         return clients, topics
 

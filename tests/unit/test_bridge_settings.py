@@ -46,6 +46,17 @@ def test_rosparams_of_other_yaml_types_are_converted_when_unambiguous() -> None:
     assert (loaded.allow_topics, loaded.deny_topics) == (("/a/*", "/b"), ("/a/secret",))
 
 
+def test_which_topics_a_client_behind_gets_only_the_newest_of() -> None:
+    defaults = config([])
+    assert defaults.latest_only_bytes == 64 * 1024 and not defaults.latest_only("/camera/image")
+    chosen = config(["--latest-only", "/camera/*", "--latest-only-bytes", "0"], latest_only_topics="/other")
+    assert chosen.latest_only_topics == ("/camera/*",) and chosen.latest_only_bytes == 0
+    assert chosen.latest_only("/camera/image") and not chosen.latest_only("/joint_states")
+    assert config([], latest_only_topics="/a, /b/*", latest_only_bytes="1000").latest_only("/b/c")
+    with pytest.raises(ConfigError, match="latest_only_bytes"):
+        EndpointConfig(latest_only_bytes=-1)
+
+
 def test_the_launch_files_empty_token_means_auth_is_off() -> None:
     assert config([], auth_token="").auth_token is None
     assert config(["--no-validate"], validate_payloads=True).validate_payloads is False
