@@ -806,12 +806,17 @@ def run(settings: Settings, sides: list[tuple[str, Path | None]], phases: tuple[
     finally:
         for bench in benches:
             bench.close()
-        core.stop()
-        if keep_logs or failed:
-            print(f"logs kept in {core.tmp}", file=sys.stderr)
-        else:
-            shutil.rmtree(core.tmp, ignore_errors=True)
+        stop_core(core, keep_logs or failed)
     return 0
+
+
+def stop_core(core: RosCore, keep_logs: bool) -> None:
+    """Stop the benchmark's roscore; its logs and the nodes' are kept (their path printed) or removed."""
+    core.stop()
+    if keep_logs:
+        print(f"logs kept in {core.tmp}", file=sys.stderr)
+    else:
+        shutil.rmtree(core.tmp, ignore_errors=True)
 
 
 if __name__ == "__main__":

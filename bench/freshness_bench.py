@@ -28,7 +28,6 @@ import argparse
 import contextlib
 import json
 import os
-import shutil
 import sys
 import threading
 import time
@@ -41,7 +40,7 @@ BENCH = Path(__file__).resolve().parent
 sys.path[:0] = [str(REPO), str(BENCH)]
 
 from bridge.client import TcpClient  # noqa: E402
-from endpoint_bench import start_endpoint, worktree_of  # noqa: E402
+from endpoint_bench import start_endpoint, stop_core, worktree_of  # noqa: E402
 from endpoint_common import HEADER_OFFSETS, MESSAGE_KINDS, paced, percentile, read_stamp, stamped  # noqa: E402
 from tests.rosenv import PYTHON, ManagedProcess, RosCore, free_port, kill_process  # noqa: E402
 from tests.slow_link import SlowLink  # noqa: E402
@@ -312,11 +311,7 @@ def main(argv: list[str] | None = None) -> int:
                     kill_process(endpoint.process)
         failed = False
     finally:
-        core.stop()
-        if args.keep_logs or failed:
-            print(f"logs kept in {core.tmp}", file=sys.stderr)
-        else:
-            shutil.rmtree(core.tmp, ignore_errors=True)
+        stop_core(core, args.keep_logs or failed)
     return 0
 
 
