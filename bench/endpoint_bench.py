@@ -32,6 +32,9 @@ raw (bytes-only) message class, like the endpoint, so the ceiling is rospy's tra
      publisher of queue_size 10 as the source) against the rospy sync ceiling for the same message in the same run,
      TCP->ROS loss, a 1 MiB round trip at 30 Hz against rospy alone through the same relay, with the endpoint's CPU
      meanwhile, and its RSS after it all.
+  8. The Unity-typical mix: down 4 PoseStamped and 4 JointState topics at 60 Hz and TF at 100 Hz, up a PoseStamped
+     and a JointState at 60 Hz, for two windows: what arrived of what was sent, one-way latency each way, and the
+     endpoint's CPU meanwhile.
 `--quick` shortens every window (2 s), the RTT sample counts and the soak (10 s) for a smoke run.
 `--ab REVISION` runs REVISION's endpoint (a git worktree of it) beside this tree's, phase by phase alternately on
 one roscore, and prints both tables and a comparison with the ratios.
@@ -66,7 +69,7 @@ sys.path[:0] = [str(REPO), str(BENCH)]
 from bridge import protocol  # noqa: E402
 from bridge.client import TcpClient  # noqa: E402
 from endpoint_common import (  # noqa: E402
-    MESSAGE_KINDS, MESSAGE_NAME, joint_state_payload, paced, percentile, read_stamp, stamped,
+    HEADER_OFFSETS, MESSAGE_KINDS, MESSAGE_NAME, joint_state_payload, paced, percentile, read_stamp, stamped,
 )
 from tests.rosenv import PYTHON, EndpointProcess, NodeProcess, RosCore, kill_process  # noqa: E402
 
@@ -81,7 +84,7 @@ LARGE_KINDS = (("image", "Image 2.7 MB"), ("cloud", "PointCloud2 1 MiB"))
 LARGE_ROS_QUEUE = 10  # queue_size of the rospy publisher feeding large messages to the endpoint
 LARGE_RTT_HZ = 30  # a camera's rate
 LARGE_IDLE_S = 3.0  # the endpoint gives freed memory back after a quiet second (bridge.memory)
-PHASES = ("throughput", "large", "rtt", "fan_out", "huge_prefix", "never_reader")
+PHASES = ("throughput", "large", "unity_mix", "rtt", "fan_out", "huge_prefix", "never_reader")
 
 
 @dataclass(frozen=True)
@@ -447,6 +450,55 @@ class Bench:
                                  f"{value / reference:.2f}", f"<= {bound:g} x rospy", value <= bound * reference))
         self.rows.append(Row(f"  pongs received @ {hz} Hz", f"{len(mine)}/{sent}", f"{len(theirs)}/{count}"))
         self.rows.append(Row("  endpoint CPU during the round trips [% of a core]", f"{cpu_used / elapsed * 100:.1f}"))
+
+    # --- 8: the Unity-typical mix -------------------------------------------------------------------------------
+    def unity_mix(self) -> None:
+        """What a Unity scene of a robot carries at once: down (ROS -> client) 4 PoseStamped and 4 JointState topics
+        at 60 Hz and TF at 100 Hz, up (client -> ROS) a PoseStamped and a JointState at 60 Hz. Per direction: what
+        arrived of what was sent and the one-way latency (header stamps); the endpoint's CPU meanwhile."""
+        window = 2 * self.settings.window_s
+        down = [("pose", f"/mix/pose{i}", 60) for i in range(4)] + \
+            [("joint_state", f"/mix/joints{i}", 60) for i in range(4)] + [("tf", "/mix/tf", 100)]
+        up = [("pose", "/mix_up/pose", 60), ("joint_state", "/mix_up/joints", 60)]
+        arrived: dict[str, list[float]] = {topic: [] for _, topic, _ in down}
+        with self.clients_closed():
+            client = self.client()
+            for kind, topic, _ in down:
+                def record(payload: bytes, latencies: list = arrived[topic], offset: int = HEADER_OFFSETS.get(kind, 0)
+                           ) -> None:
+                    latencies.append((time.monotonic_ns() - read_stamp(payload, offset)[1]) / 1e6)
+
+                client.subscribe(topic, MESSAGE_KINDS[kind][0], record)
+            for kind, topic, _ in up:
+                client.register_publisher(topic, MESSAGE_KINDS[kind][0], queue_size=10)
+            listener = self.node("ages", "--seconds", str(window + 8),
+                                 *[arg for kind, topic, _ in up for arg in ("--listen", f"{kind}:{topic}")])
+            listener.wait_for_output("CONNECTED", 30)
+            cpu_before, started = self.cpu(), time.monotonic()
+            stream = self.node("stream", "--seconds", str(window),
+                               *[arg for kind, topic, hz in down for arg in ("--stream", f"{kind}:{topic}:{hz}")])
+            templates = [(topic, MESSAGE_KINDS[kind][1](), HEADER_OFFSETS.get(kind, 0)) for kind, topic, _ in up]
+            sent_up = 0
+            for seq in paced(60, int(window * 60), window + 5):
+                for topic, template, offset in templates:
+                    client.publish(topic, stamped(template, seq, offset=offset))
+                sent_up += 1
+            sent_down = self.result(stream, window + 60)["sent"]
+            time.sleep(0.5)
+            cpu_used, elapsed = self.cpu() - cpu_before, time.monotonic() - started
+        received_up = self.result(listener, window + 30)["arrivals"]
+        down_latencies = [latency for latencies in arrived.values() for latency in latencies]
+        up_latencies = [age / 1e6 for pairs in received_up.values() for _, age in pairs]
+        for direction, received, sent, latencies in (
+                ("down: 4 poses + 4 joint states @ 60 Hz, TF @ 100 Hz", len(down_latencies), sum(sent_down.values()),
+                 down_latencies),
+                ("up: a pose + a joint state @ 60 Hz", len(up_latencies), sent_up * len(up), up_latencies)):
+            self.rows.append(Row(f"Unity mix {direction}: delivered", f"{received:,}/{sent:,}", target="all",
+                                 ok=received == sent))
+            if latencies:
+                self.rows.append(Row("  one-way latency p50/p99/max [ms]",
+                                     "/".join(f"{percentile(latencies, q):.2f}" for q in (50, 99, 100))))
+        self.rows.append(Row("  endpoint CPU during the mix [% of a core]", f"{cpu_used / elapsed * 100:.1f}"))
 
     # --- 3: round-trip time ---------------------------------------------------------------------------------------
     def rtt(self) -> None:

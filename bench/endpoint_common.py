@@ -85,6 +85,16 @@ def tf_payload() -> bytes:
     return _serialized(TFMessage(transforms=transforms))
 
 
+def pose_payload() -> bytes:
+    """One serialized geometry_msgs/PoseStamped (a tracked controller or headset)."""
+    from geometry_msgs.msg import PoseStamped
+
+    message = PoseStamped()
+    message.header.frame_id = "world"
+    message.pose.position.x, message.pose.orientation.w = 0.5, 1.0
+    return _serialized(message)
+
+
 def _serialized(message: object) -> bytes:
     buffer = io.BytesIO()
     message.serialize(buffer)  # type: ignore[attr-defined]
@@ -98,6 +108,7 @@ MESSAGE_KINDS: dict[str, tuple[str, Callable[[], bytes]]] = {
     "cloud": ("sensor_msgs/PointCloud2", cloud_payload),
     "vga_image": ("sensor_msgs/Image", vga_image_payload),
     "tf": ("tf2_msgs/TFMessage", tf_payload),
+    "pose": ("geometry_msgs/PoseStamped", pose_payload),
 }
 # Where a kind's (first) header is: after the transforms' array length for TF, at the start for the others.
 HEADER_OFFSETS = {"tf": 4}

@@ -8,7 +8,7 @@ from __future__ import annotations
 import threading
 import time
 from collections import deque
-from typing import Deque, Dict, List, Optional, Set, Tuple
+from typing import Deque, Dict, List, Optional, Sequence, Set, Tuple
 
 __all__ = ["OutgoingQueue", "ByteBudget"]
 
@@ -222,20 +222,19 @@ class OutgoingQueue:
             if not self._items:
                 return []
             now = time.monotonic()
-            if self._large:
-                taken = self._take_small_first()
-            else:
-                taken = list(self._items)
-                self._clear()
+            taken = self._take_small_first() if self._large else self._items
             # The batch's first frame waited longest of its small ones, its last may be an older large one: their
             # waits are recorded (the others' would cost a dictionary update per frame, the hot path of a flood).
             for _, _, key, queued_at, _ in (taken[0], taken[-1]):
                 if key is not None and now - queued_at > self._longest_waits.get(key, -1.0):
                     self._longest_waits[key] = now - queued_at
+            frames = [item[0] for item in taken]
+            if taken is self._items:
+                self._clear()
             self._not_full.notify_all()
-            return [item[0] for item in taken]
+            return frames
 
-    def _take_small_first(self) -> List[_Item]:
+    def _take_small_first(self) -> Sequence[_Item]:
         """With the lock held: take_batch's choice when large frames are queued (see there)."""
         large_bytes = self.large_bytes or 0
         taken: List[_Item] = []
