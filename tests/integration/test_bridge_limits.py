@@ -129,7 +129,6 @@ def test_a_fresh_client_is_served_while_slow_senders_hold_every_slot(roscore, ro
                 newcomers.append(sock)
                 assert frame is not None and frame.destination == "__handshake", frame
                 steady.sync()
-                time.sleep(0.3)
             stop.set()
             for sender in senders:
                 sender.join(10)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import struct
 import tracemalloc
+from typing import Callable
 
 import pytest
 from hypothesis import given, settings
@@ -56,12 +57,16 @@ def raw_frame(destination: bytes, payload: bytes) -> bytes:
     return u32(len(destination)) + destination + u32(len(payload)) + payload
 
 
-def feed_in_pieces(decoder: FrameDecoder, stream: bytes, cuts: list[int]) -> list:
-    items = []
+def feed_in_pieces(decoder: FrameDecoder, stream: bytes, cuts: list[int],
+                   after_each: Callable[[int, list], None] | None = None) -> list:
+    """The frames of `stream` fed cut at `cuts`; `after_each(fed, items)` is called after every feed."""
+    items: list = []
     start = 0
     for cut in sorted(set(cuts)) + [len(stream)]:
         items += decoder.feed(stream[start:cut])
         start = cut
+        if after_each is not None:
+            after_each(cut, items)
     return items
 
 
@@ -124,12 +129,12 @@ def test_large_payloads_decode_the_same_whatever_the_split(frames: list[Frame], 
     stream = b"".join(encode_frame(frame.destination, frame.payload) for frame in frames)
     cuts = data.draw(st.lists(st.integers(0, len(stream)), max_size=30))
     decoder = FrameDecoder()
-    items, start = [], 0
-    for cut in sorted(set(cuts)) + [len(stream)]:
-        items += decoder.feed(stream[start:cut])
-        start = cut
+
+    def counts_what_is_incomplete(fed: int, items: list) -> None:
         complete = sum(len(encode_frame(frame.destination, frame.payload)) for frame in items)
-        assert decoder.buffered_bytes == cut - complete  # what the partial-frame budget counts
+        assert decoder.buffered_bytes == fed - complete  # what the partial-frame budget counts
+
+    items = feed_in_pieces(decoder, stream, cuts, counts_what_is_incomplete)
     assert items == frames and all(type(frame.payload) is bytes for frame in items)
     assert decoder.buffered_bytes == 0
 
