@@ -17,7 +17,7 @@ from datetime import datetime, timezone
 from typing import Any, Callable, Dict, List, Optional, Tuple
 
 from bridge.framing import LARGE_PAYLOAD_BYTES
-from bridge.sockets import limit_unsent
+from bridge.sockets import UnsentLimit, unpaced_on_loopback
 from bridge.protocol import (
     Auth,
     Conversation,
@@ -97,7 +97,7 @@ class TcpClient:
         self.warnings: List[str] = []
         self.connections = 0  # successful connects so far (reconnects included)
         self._sock: Optional[socket.socket] = None
-        self._unsent_limited = False  # limit_unsent done on the current connection
+        self._unsent_limit: Optional[UnsentLimit] = None  # of the current connection
         self._conversation = Conversation(Role.CLIENT)  # a new one for every connection
         self._write_lock = threading.Lock()
         self._state_lock = threading.Lock()
@@ -169,7 +169,8 @@ class TcpClient:
         sock = socket.create_connection((self.host, self.port), timeout=5.0)
         sock.settimeout(None)
         sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
-        self._unsent_limited = False
+        unpaced_on_loopback(sock)
+        self._unsent_limit = UnsentLimit(sock)
         self._conversation = Conversation(Role.CLIENT)
         self._sock = sock
         # Like Unity: a keepalive first, then every registration, before reading anything.
@@ -193,11 +194,10 @@ class TcpClient:
         if sock is None:
             raise ClientError("not connected")
         with self._write_lock:
-            if not self._unsent_limited and len(data) >= LARGE_PAYLOAD_BYTES:
+            if len(data) >= LARGE_PAYLOAD_BYTES and self._unsent_limit is not None:
                 # As the endpoint does: on a slow link a large publish waits until it is nearly on the wire, instead
-                # of piling seconds of messages into the kernel's send buffer (bridge.sockets.limit_unsent).
-                self._unsent_limited = True
-                limit_unsent(sock)
+                # of piling seconds of messages into the kernel's send buffer (bridge.sockets.UnsentLimit).
+                self._unsent_limit.before_large_write()
             sock.sendall(data)
             self._last_send = time.monotonic()
 

@@ -24,7 +24,7 @@ from bridge.framing import LARGE_PAYLOAD_BYTES
 from bridge.protocol import Auth, Conversation, Event, IgnoredFields, InvalidInput, Role, TopicMessage, Warn
 from bridge.queues import ByteBudget, OutgoingQueue
 from bridge.ros import RawPublisher
-from bridge.sockets import limit_unsent, send_now, unsent_bytes
+from bridge.sockets import UnsentLimit, send_now, unsent_bytes
 from bridge.throttle import LogThrottle
 
 __all__ = ["ClientSession", "RequestRefused", "SessionOwner"]
@@ -98,7 +98,7 @@ class ClientSession:
         self.gone = threading.Event()
         self._send_lock = threading.Lock()  # one writer of the socket at a time: direct sends or the writer thread
         self._unsent_bound = 0  # at least the bytes waiting in the kernel's send queue (see _peer_keeps_up)
-        self._unsent_limited = False  # bridge.sockets.limit_unsent done (once the connection carries large frames)
+        self._unsent_limit = UnsentLimit(sock)  # we decide what goes next, not the kernel, once the client is behind
         # Threads are started on demand, so a client that never calls a service costs none. Look-ups at the master
         # (topic lists) have a worker of their own: service calls in flight never hold them up.
         self._calls = ThreadPoolExecutor(config.client_call_workers, thread_name_prefix=f"calls {self.name}")
@@ -158,9 +158,8 @@ class ClientSession:
         answered could have reached the limit. `key` and `key_limit`: at most that many frames of the key (a topic)
         wait in the queue, the oldest going first (the client's queue_size for the topic).
         """
-        if len(frame) >= LARGE_PAYLOAD_BYTES and not self._unsent_limited:
-            self._unsent_limited = True  # from the first large frame on, we decide what goes next, not the kernel
-            limit_unsent(self.sock)
+        if len(frame) >= LARGE_PAYLOAD_BYTES:
+            self._unsent_limit.before_large_write()
         if self._send_lock.acquire(blocking=False):
             try:
                 if not self.queue and not self._closed.is_set() and self._peer_keeps_up(len(frame)):

@@ -11,7 +11,10 @@ from contextlib import contextmanager
 
 import pytest
 
-from bridge.sockets import send_now, send_to_all, tune_socket
+from bridge.sockets import (
+    BEHIND_BYTES, NOTSENT_LOWAT_BYTES, PACING_CONGESTION_CONTROLS, TCP_NOTSENT_LOWAT, UnsentLimit, send_now,
+    send_to_all, tune_socket, unsent_bytes,
+)
 
 DATA = bytes(range(256)) * (32 * 1024)  # 8 MiB: more than loopback's socket buffers hold
 STALL_S = 1.0  # as the endpoint uses (bridge.ros.SUBSCRIBER_STALL_S)
@@ -23,13 +26,15 @@ def sender_timeout(request) -> float | None:
 
 
 @contextmanager
-def tcp_pairs(count: int, sender_timeout: float | None) -> Iterator[list[tuple[socket.socket, socket.socket]]]:
+def tcp_pairs(count: int, sender_timeout: float | None, host: str = "127.0.0.1"
+              ) -> Iterator[list[tuple[socket.socket, socket.socket]]]:
     """`count` connected (sender, receiver) pairs over loopback; the senders have the given Python timeout."""
-    listener = socket.create_server(("127.0.0.1", 0))
+    family = socket.AF_INET6 if ":" in host else socket.AF_INET
+    listener = socket.create_server((host, 0), family=family)
     pairs = []
     try:
         for _ in range(count):
-            receiver_side = socket.create_connection(listener.getsockname())
+            receiver_side = socket.create_connection(listener.getsockname()[:2])
             sender, _ = listener.accept()
             sender.settimeout(sender_timeout)
             pairs.append((sender, receiver_side))
@@ -139,3 +144,48 @@ def test_tune_socket_gives_a_peer_that_takes_nothing_up_after_the_dead_peer_time
                 send_now(accepted, b"x" * 65536)
                 time.sleep(0.01)
         assert time.monotonic() - started < 15
+
+
+def congestion_control(sock: socket.socket) -> bytes:
+    return sock.getsockopt(socket.IPPROTO_TCP, socket.TCP_CONGESTION, 16).rstrip(b"\0")
+
+
+@pytest.mark.parametrize("host", ["127.0.0.1", "::1"])
+def test_tune_socket_does_not_pace_a_client_on_this_machine(host: str) -> None:
+    """BBR's pacing stalled 1 MiB round trips to a local client for 40-115 ms (bridge.sockets.unpaced_on_loopback)."""
+    if not socket.has_ipv6 and ":" in host:
+        pytest.skip("no IPv6")
+    with tcp_pairs(1, None, host) as [(accepted, _)]:
+        try:
+            accepted.setsockopt(socket.IPPROTO_TCP, socket.TCP_CONGESTION, b"bbr")
+        except OSError:
+            pytest.skip("this kernel has no BBR, or does not allow it to this user")
+        tune_socket(accepted, 10.0)
+        assert congestion_control(accepted) not in PACING_CONGESTION_CONTROLS
+
+
+def test_the_unsent_limit_is_left_off_while_the_peer_keeps_up() -> None:
+    with tcp_pairs(1, None) as [(sender, receiver)]:
+        limit = UnsentLimit(sender)
+        for _ in range(20):
+            limit.before_large_write()
+            sender.sendall(DATA[: 1 << 20])
+            received = 0
+            while received < 1 << 20:
+                received += len(receiver.recv(1 << 20))
+        assert not limit.limited
+        assert sender.getsockopt(socket.IPPROTO_TCP, TCP_NOTSENT_LOWAT) == 0
+
+
+def test_the_unsent_limit_is_set_once_a_large_write_finds_the_peer_behind() -> None:
+    with tcp_pairs(1, None) as [(sender, _)]:
+        limit = UnsentLimit(sender)
+        limit.before_large_write()
+        assert not limit.limited
+        deadline = time.monotonic() + 10
+        while unsent_bytes(sender) < BEHIND_BYTES and time.monotonic() < deadline:
+            if not send_now(sender, DATA[: 1 << 20]):
+                time.sleep(0.01)
+        limit.before_large_write()
+        assert limit.limited
+        assert sender.getsockopt(socket.IPPROTO_TCP, TCP_NOTSENT_LOWAT) == NOTSENT_LOWAT_BYTES
