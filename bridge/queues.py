@@ -58,6 +58,11 @@ class OutgoingQueue:
         return len(self._items)
 
     @property
+    def large_queued(self) -> bool:
+        """A frame of `large_bytes` or more is queued."""
+        return self._large > 0
+
+    @property
     def queued_bytes(self) -> int:
         return self._bytes
 

@@ -22,7 +22,9 @@ import genpy
 import rosgraph
 import rosgraph.network
 import rospy
+import rospy.impl.tcpros_pubsub
 import xmlrpc.client
+from rospy.exceptions import TransportTerminated
 
 from bridge.definitions import (
     DefinitionError,
@@ -55,6 +57,12 @@ SUBSCRIBER_STALL_S = 1.0
 # Largest message written on a client's reader thread (RawPublisher's direct path): far below the smallest send
 # buffer (16 KiB), so an empty, acknowledged send queue always takes it whole.
 DIRECT_PUBLISH_MAX_BYTES = 8 * 1024
+# rospy's read size for the endpoint's subscribers (its default): a read brings many small messages, and little of a
+# large one goes through rospy's read buffer (see read_raw_messages).
+SUBSCRIBER_READ_BYTES = 64 * 1024
+# A message from LARGE_PAYLOAD_BYTES up to this size is read straight into the buffer it is delivered in; a larger
+# one (more than a client may be sent by default) takes rospy's way, which grows its buffer only as bytes come.
+DIRECT_RECEIVE_MAX_BYTES = 64 * 1024 * 1024
 # How long a client's new registration may wait for the master to hold it before its next command runs.
 REGISTRATION_WAIT_S = 1.0
 # A ROS service call looks this often whether its client has gone, and whether the service has been advertised.
@@ -279,6 +287,7 @@ class RosGraph:
     def init_node(self, name: str) -> None:
         # disable_signals: the endpoint installs its own SIGINT/SIGTERM handling and shuts rospy down itself.
         rospy.init_node(name, anonymous=False, disable_signals=True)
+        _install_raw_reader()
         self.master.install()  # from now on, registrations never wait for the master (bridge.master)
 
     @staticmethod
@@ -383,7 +392,7 @@ class RosGraph:
         # tcp_nodelay: a 1 kHz stream must not wait for Nagle; buff_size large enough for big messages.
         return rospy.Subscriber(
             topic, raw, lambda msg: callback(topic, msg._buff, msg._connection_header),
-            tcp_nodelay=True, buff_size=1 << 20,
+            tcp_nodelay=True, buff_size=SUBSCRIBER_READ_BYTES,
         )
 
     @staticmethod
@@ -401,7 +410,7 @@ class RosGraph:
                 log.warning("%s carries %s, not the %s a client subscribed to: not forwarded", topic,
                             header.get("type"), message_name)
 
-        return rospy.Subscriber(topic, RawMessage, deliver, tcp_nodelay=True, buff_size=1 << 20)
+        return rospy.Subscriber(topic, RawMessage, deliver, tcp_nodelay=True, buff_size=SUBSCRIBER_READ_BYTES)
 
     @staticmethod
     def definition_from_publishers(topic: str) -> Optional[Tuple[str, str]]:
@@ -450,6 +459,67 @@ class RosGraph:
             return response_class(handler(request._buff))
 
         return rospy.Service(service, raw, handle)
+
+
+def read_raw_messages(buffer: io.BytesIO, messages: List[RawMessage], sock: socket.socket,
+                      raw: type[RawMessage]) -> None:
+    """What rospy's deserialize_messages does with its read buffer (every complete TCPROS message out of `buffer`
+    into `messages`, the rest kept), for raw classes and with less copying: a large message whose first bytes are
+    in the buffer is read from `sock` straight into a buffer of its size, which is what is delivered (a bytearray).
+    rospy's way copies each message three times or more on the way (its read buffer grows by reallocation, the
+    message is cut out of it, the buffer is shrunk again): for a 2.7 MB camera image, that was most of the
+    endpoint's work. Raises TransportTerminated when the publisher goes, as rospy's reads do."""
+    end = buffer.tell()
+    position = 0
+    with buffer.getbuffer() as view:
+        while end - position >= 4:
+            (size,) = _U32.unpack_from(view, position)
+            start, stop = position + 4, position + 4 + size
+            if stop <= end:
+                messages.append(raw(bytes(view[start:stop])))
+                position = stop
+                continue
+            if LARGE_PAYLOAD_BYTES <= size <= DIRECT_RECEIVE_MAX_BYTES:
+                payload = bytearray(size)
+                payload[: end - start] = view[start:end]
+                _receive_into(sock, memoryview(payload)[end - start :])
+                messages.append(raw(payload))  # type: ignore[arg-type]  # bytes-like: framed and compared only
+                position = end
+            break
+        rest = bytes(view[position:end])
+    buffer.seek(0)
+    buffer.truncate()
+    buffer.write(rest)
+
+
+def _receive_into(sock: socket.socket, view: memoryview) -> None:
+    while view:
+        try:
+            received = sock.recv_into(view)
+        except OSError as error:
+            raise TransportTerminated(f"receiving from the publisher failed: {error}") from None
+        if not received:
+            raise TransportTerminated("the publisher closed the connection")
+        view = view[received:]
+
+
+def _install_raw_reader() -> None:
+    """rospy's subscriber connections of raw classes read with read_raw_messages (the endpoint's own process: every
+    other class keeps rospy's way). Messages read straight from the socket are not in rospy's byte statistics."""
+    subscriber_protocol = rospy.impl.tcpros_pubsub.TCPROSSub
+    rospy_read = subscriber_protocol.read_messages
+    if getattr(rospy_read, "reads_raw", False):
+        return
+
+    def read_messages(protocol: Any, buffer: io.BytesIO, messages: list, sock: socket.socket) -> None:
+        raw = protocol.recv_data_class
+        if protocol.queue_size is None and isinstance(raw, type) and issubclass(raw, RawMessage):
+            read_raw_messages(buffer, messages, sock, raw)
+        else:
+            rospy_read(protocol, buffer, messages, sock)
+
+    read_messages.reads_raw = True  # type: ignore[attr-defined]
+    subscriber_protocol.read_messages = read_messages
 
 
 class RawPublisher:

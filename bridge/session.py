@@ -24,7 +24,7 @@ from bridge.framing import LARGE_PAYLOAD_BYTES
 from bridge.protocol import Auth, Conversation, Event, IgnoredFields, InvalidInput, Role, TopicMessage, Warn
 from bridge.queues import ByteBudget, OutgoingQueue
 from bridge.ros import RawPublisher
-from bridge.sockets import UnsentLimit, send_now, unsent_bytes
+from bridge.sockets import UnsentLimit, send_now, unsent_bytes, wait_writable
 from bridge.throttle import LogThrottle
 
 __all__ = ["ClientSession", "RequestRefused", "SessionOwner"]
@@ -158,8 +158,6 @@ class ClientSession:
         answered could have reached the limit. `key` and `key_limit`: at most that many frames of the key (a topic)
         wait in the queue, the oldest going first (the client's queue_size for the topic).
         """
-        if len(frame) >= LARGE_PAYLOAD_BYTES:
-            self._unsent_limit.before_large_write()
         if self._send_lock.acquire(blocking=False):
             try:
                 if not self.queue and not self._closed.is_set() and self._peer_keeps_up(len(frame)):
@@ -423,6 +421,12 @@ class ClientSession:
     def _write_loop(self) -> None:
         try:
             while self.queue.wait(timeout=DROP_WARNING_INTERVAL_S):
+                if self.queue.large_queued:
+                    # A client behind on large frames gets the kernel's limit, and its next batch is chosen when the
+                    # link can take it: what came meanwhile (a joint state, a newer image) may then go first.
+                    self._unsent_limit.before_large_write()
+                    if self._unsent_limit.limited and not wait_writable(self.sock, DROP_WARNING_INTERVAL_S):
+                        continue
                 # Take the batch under the send lock: a direct send (see send) can then never slip between
                 # taking frames off the queue and writing them.
                 with self._send_lock:
