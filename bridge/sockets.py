@@ -12,7 +12,7 @@ import termios
 import time
 from collections.abc import Sequence
 
-__all__ = ["unsent_bytes", "send_now", "wait_writable", "tune_socket", "unpaced_on_loopback", "limit_unsent",
+__all__ = ["unsent_bytes", "takes_whole", "send_now", "wait_writable", "tune_socket", "unpaced_on_loopback", "limit_unsent",
            "UnsentLimit", "send_to_all", "NOTSENT_LOWAT_BYTES", "BEHIND_BYTES"]
 
 # What limit_unsent leaves the kernel: 1.3 ms at 100 Mbit/s.
@@ -36,6 +36,15 @@ def unsent_bytes(sock: socket.socket) -> int:
         return _INT.unpack(fcntl.ioctl(sock.fileno(), termios.TIOCOUTQ, _INT_ZERO))[0]
     except OSError:
         return 0
+
+
+def takes_whole(sock: socket.socket, size: int) -> bool:
+    """A socket with nothing unacknowledged takes `size` bytes in one non-blocking write: they fit in half its send
+    buffer (Linux doubles SO_SNDBUF for its bookkeeping, and autotunes it to a connection's traffic)."""
+    try:
+        return size <= sock.getsockopt(socket.SOL_SOCKET, socket.SO_SNDBUF) // 2
+    except OSError:
+        return False
 
 
 def send_now(sock: socket.socket, data: bytes | memoryview) -> int:

@@ -13,7 +13,7 @@ import pytest
 
 from bridge.sockets import (
     BEHIND_BYTES, NOTSENT_LOWAT_BYTES, PACING_CONGESTION_CONTROLS, TCP_NOTSENT_LOWAT, UnsentLimit, send_now,
-    send_to_all, tune_socket, unsent_bytes,
+    send_to_all, takes_whole, tune_socket, unsent_bytes,
 )
 
 DATA = bytes(range(256)) * (32 * 1024)  # 8 MiB: more than loopback's socket buffers hold
@@ -189,3 +189,10 @@ def test_the_unsent_limit_is_set_once_a_large_write_finds_the_peer_behind() -> N
         limit.before_large_write()
         assert limit.limited
         assert sender.getsockopt(socket.IPPROTO_TCP, TCP_NOTSENT_LOWAT) == NOTSENT_LOWAT_BYTES
+
+
+def test_takes_whole_is_half_the_send_buffer_and_one_write_to_an_idle_socket_takes_that_much() -> None:
+    with tcp_pairs(1, None) as [(sender, _)]:
+        half = sender.getsockopt(socket.SOL_SOCKET, socket.SO_SNDBUF) // 2
+        assert takes_whole(sender, half) and not takes_whole(sender, half + 1)
+        assert send_now(sender, bytes(half)) == half  # the peer reads nothing meanwhile
