@@ -846,7 +846,9 @@ def run(settings: Settings, sides: list[tuple[str, Path | None]], phases: tuple[
             header = (
                 f"ROS-TCP endpoint benchmark ({'quick' if settings.quick else 'full'} run, "
                 f"{time.monotonic() - started:.0f} s): {MESSAGE_NAME} 7 joints, {len(bench.payload)} B payload; "
-                f"{os.cpu_count()} CPUs; Python {sys.version.split()[0]}; endpoint: {side} "
+                f"{os.cpu_count()} CPUs; Python {sys.version.split()[0]}; TCP congestion control "
+                f"{congestion_control()} (rospy's connections; the endpoint's local clients are never paced); "
+                f"endpoint: {side} "
                 f"{' '.join(settings.endpoint_args)}\nload average (1 min) at start {load_at_start:.2f}, at end "
                 f"{os.getloadavg()[0]:.2f} (other processes on these CPUs skew every figure)"
             )
@@ -860,6 +862,14 @@ def run(settings: Settings, sides: list[tuple[str, Path | None]], phases: tuple[
             bench.close()
         stop_core(core, keep_logs or failed)
     return 0
+
+
+def congestion_control() -> str:
+    """The kernel's default TCP congestion control: with BBR, rospy's loopback connections (the ceilings) are paced."""
+    try:
+        return Path("/proc/sys/net/ipv4/tcp_congestion_control").read_text().strip()
+    except OSError:
+        return "unknown"
 
 
 def stop_core(core: RosCore, keep_logs: bool) -> None:
