@@ -54,8 +54,8 @@ PUBLISH_WAIT_S = 0.05
 # frozen or wedged node): it is closed, so the topic's other subscribers, which already have the batch, get the next
 # one too. A subscriber that reads slowly but steadily is waited for instead (flow control, see RawPublisher).
 SUBSCRIBER_STALL_S = 1.0
-# Largest message written on a client's reader thread (RawPublisher's direct path): far below the smallest send
-# buffer (16 KiB), so an empty, acknowledged send queue always takes it whole.
+# Messages up to this size take RawPublisher's direct path without asking for the send buffer's size: far below the
+# smallest send buffer (16 KiB), so an empty, acknowledged send queue always takes them whole.
 DIRECT_PUBLISH_MAX_BYTES = 8 * 1024
 # rospy's read size for the endpoint's subscribers (its default): a read brings many small messages, and little of a
 # large one goes through rospy's read buffer (see read_raw_messages).
@@ -486,6 +486,8 @@ def read_raw_messages(buffer: io.BytesIO, messages: List[RawMessage], sock: sock
                 messages.append(raw(payload))  # type: ignore[arg-type]  # bytes-like: framed and compared only
                 position = end
             break
+        if not position:  # nothing taken (a message still coming): the buffer stays as it is, as rospy leaves it
+            return
         rest = bytes(view[position:end])
     buffer.seek(0)
     buffer.truncate()

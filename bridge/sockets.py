@@ -12,8 +12,8 @@ import termios
 import time
 from collections.abc import Sequence
 
-__all__ = ["unsent_bytes", "takes_whole", "send_now", "wait_writable", "tune_socket", "unpaced_on_loopback", "limit_unsent",
-           "UnsentLimit", "send_to_all", "NOTSENT_LOWAT_BYTES", "BEHIND_BYTES"]
+__all__ = ["unsent_bytes", "takes_whole", "send_now", "wait_writable", "tune_socket", "unpaced_on_loopback",
+           "limit_unsent", "UnsentLimit", "send_to_all", "NOTSENT_LOWAT_BYTES", "BEHIND_BYTES"]
 
 # What limit_unsent leaves the kernel: 1.3 ms at 100 Mbit/s.
 NOTSENT_LOWAT_BYTES = 16 * 1024
@@ -64,8 +64,8 @@ def send_now(sock: socket.socket, data: bytes | memoryview) -> int:
 
 
 def wait_writable(sock: socket.socket, timeout_s: float) -> bool:
-    """Until the socket takes more bytes (with limit_unsent: until less than half of NOTSENT_LOWAT_BYTES waits unsent),
-    or fails, or `timeout_s` passed (False)."""
+    """Until the socket takes more bytes (with limit_unsent: until less than half of NOTSENT_LOWAT_BYTES waits
+    unsent), or fails, or `timeout_s` passed (False)."""
     poller = select.poll()
     poller.register(sock.fileno(), select.POLLOUT)
     return bool(poller.poll(timeout_s * 1000))
