@@ -12,7 +12,10 @@ import pytest
 from rospy.exceptions import TransportTerminated
 
 from bridge.framing import LARGE_PAYLOAD_BYTES
-from bridge.ros import RawMessage, read_raw_messages
+import rospy.impl.tcpros_pubsub
+
+from bridge import ros
+from bridge.ros import FLOOD_READ_BYTES, SUBSCRIBER_READ_BYTES, RawMessage, next_read_size, read_raw_messages
 
 SIZES = [0, 1, 321, LARGE_PAYLOAD_BYTES - 1, LARGE_PAYLOAD_BYTES, 5, 2_764_800, 17, 1 << 20]
 
@@ -86,12 +89,58 @@ def test_a_large_message_begun_in_the_buffer_is_read_whole_from_the_socket_in_on
     buffer.write(stream[:100])
     received: list[RawMessage] = []
     try:
-        read_raw_messages(buffer, received, receiver, RawMessage)
+        assert read_raw_messages(buffer, received, receiver, RawMessage)  # says it read from the socket
         assert [bytes(m._buff) for m in received] == [message]
         assert isinstance(received[0]._buff, bytearray)  # delivered in the buffer it was read into
         assert buffer.tell() == 0  # the next message is still on the socket, untouched
         assert receiver.recv(8) == stream[-8:]
     finally:
         writer.join(timeout=10)
+        sender.close()
+        receiver.close()
+
+
+def test_small_messages_in_the_buffer_are_not_read_from_the_socket() -> None:
+    sender, receiver = socket.socketpair()
+    buffer = io.BytesIO()
+    buffer.write(tcpros([b"a" * 100, b"b" * 200]) + b"\x10\x00")  # two messages and the start of a third
+    received: list[RawMessage] = []
+    try:
+        assert not read_raw_messages(buffer, received, receiver, RawMessage)
+        assert [bytes(m._buff) for m in received] == [b"a" * 100, b"b" * 200]
+        assert buffer.getvalue() == b"\x10\x00"
+    finally:
+        sender.close()
+        receiver.close()
+
+
+def test_the_read_size_grows_for_a_flood_and_shrinks_for_large_messages() -> None:
+    assert next_read_size(SUBSCRIBER_READ_BYTES, 100, read_large=False) == SUBSCRIBER_READ_BYTES  # light traffic
+    assert next_read_size(SUBSCRIBER_READ_BYTES, SUBSCRIBER_READ_BYTES + 7, read_large=False) == FLOOD_READ_BYTES
+    assert next_read_size(FLOOD_READ_BYTES, 100, read_large=False) == FLOOD_READ_BYTES  # a lull changes nothing
+    assert next_read_size(FLOOD_READ_BYTES, FLOOD_READ_BYTES, read_large=True) == SUBSCRIBER_READ_BYTES
+
+
+def test_rospy_subscriber_connections_of_raw_classes_read_with_a_size_that_follows_the_traffic() -> None:
+    ros._install_raw_reader()
+    protocol = rospy.impl.tcpros_pubsub.TCPROSSub("/flood", RawMessage, queue_size=None,
+                                                  buff_size=SUBSCRIBER_READ_BYTES)
+    small = [bytes(200)] * (SUBSCRIBER_READ_BYTES // 200)  # a full read of a flood
+    large = bytes(LARGE_PAYLOAD_BYTES * 2)
+    sender, receiver = socket.socketpair()
+    try:
+        buffer = io.BytesIO()
+        buffer.write(tcpros(small))
+        received: list[RawMessage] = []
+        protocol.read_messages(buffer, received, receiver)
+        assert len(received) == len(small) and protocol.buff_size == FLOOD_READ_BYTES
+        stream = tcpros([large])
+        buffer.write(stream[:1000])
+        writer = threading.Thread(target=sender.sendall, args=(stream[1000:],), daemon=True)
+        writer.start()
+        protocol.read_messages(buffer, received, receiver)
+        assert bytes(received[-1]._buff) == large and protocol.buff_size == SUBSCRIBER_READ_BYTES
+        writer.join(timeout=10)
+    finally:
         sender.close()
         receiver.close()
