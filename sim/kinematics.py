@@ -41,7 +41,7 @@ from sim.robots.urdf_model import parse_urdf
 
 __all__ = [
     "MOVABLE_TYPES", "FULL_POSE_WEIGHTS", "POSITION_WEIGHTS", "PLANAR_WEIGHTS", "DEFAULT_DAMPING_BIAS",
-    "KinematicsError", "ChainJoint", "pose_matrix", "planar_pose", "KinematicChain", "chain_for", "panda_dh_fk",
+    "KinematicsError", "ChainJoint", "pose_matrix", "planar_pose", "KinematicChain", "chain_for",
     "IKResult", "PathIKResult", "rotation_vector", "solve_ik", "solve_path_ik",
 ]
 
@@ -290,40 +290,6 @@ def chain_for(robot: RobotSpec) -> KinematicChain:
         chain = chain.with_limits(robot.lower, robot.upper)
         _CHAINS[key] = chain
     return chain
-
-
-# Franka Emika Panda, modified (Craig) DH parameters as published by Franka: (a_{i-1}, d_i, alpha_{i-1}).
-_PANDA_DH = (
-    (0.0, 0.333, 0.0),
-    (0.0, 0.0, -math.pi / 2),
-    (0.0, 0.316, math.pi / 2),
-    (0.0825, 0.0, math.pi / 2),
-    (-0.0825, 0.384, -math.pi / 2),
-    (0.0, 0.0, math.pi / 2),
-    (0.088, 0.0, math.pi / 2),
-    (0.0, 0.107, 0.0),  # flange (panda_link8), theta = 0
-)
-
-
-def panda_dh_fk(q: ArrayLike) -> np.ndarray:
-    """Panda flange pose (base → panda_link8) from Franka's modified DH table; an independent check of the URDF."""
-    q_arr = np.asarray(q, dtype=float)
-    if q_arr.shape != (7,):
-        raise KinematicsError(f"panda q must have shape (7,), got {q_arr.shape}")
-    pose = np.eye(4)
-    for (a, d, alpha), theta in zip(_PANDA_DH, (*q_arr, 0.0)):
-        ca, sa, ct, st = math.cos(alpha), math.sin(alpha), math.cos(theta), math.sin(theta)
-        # T = RotX(alpha) · TransX(a) · RotZ(theta) · TransZ(d)
-        link = np.array(
-            [
-                [ct, -st, 0.0, a],
-                [st * ca, ct * ca, -sa, -d * sa],
-                [st * sa, ct * sa, ca, d * ca],
-                [0.0, 0.0, 0.0, 1.0],
-            ]
-        )
-        pose = pose @ link
-    return pose
 
 
 # ------------------------------------------------------------------------------------------------------ IK

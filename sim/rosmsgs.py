@@ -14,7 +14,7 @@ from rosbags.typesys import Stores, get_typestore
 __all__ = [
     "TYPESTORE", "Header", "Time", "JointStateMsg", "JOINT_STATE", "JOINT_TRAJECTORY", "CLOCK", "POSE",
     "MessageError", "serialize", "deserialize", "encode_message", "time_msg", "to_seconds", "encode_joint_state",
-    "decode_joint_state", "encode_clock", "decode_clock", "TrajectoryCommand", "decode_joint_trajectory", "encode_joint_trajectory",
+    "decode_joint_state", "decode_clock", "TrajectoryCommand", "decode_joint_trajectory",
     "decode_pose",
 ]
 
@@ -99,10 +99,6 @@ def decode_joint_state(data: bytes, joint_order: Sequence[str]) -> tuple[float, 
     return to_seconds(message.header.stamp), positions
 
 
-def encode_clock(seconds: float) -> bytes:
-    return serialize(_T["rosgraph_msgs/msg/Clock"](clock=time_msg(seconds)), CLOCK)
-
-
 def decode_clock(data: bytes) -> float:
     return to_seconds(deserialize(data, CLOCK).clock)  # type: ignore[attr-defined]
 
@@ -150,22 +146,6 @@ def decode_joint_trajectory(data: bytes, joint_order: Sequence[str]) -> Trajecto
     if not np.all(np.isfinite(positions[order])):
         raise MessageError(f"JointTrajectory positions must be finite, got {list(point.positions)}")
     return TrajectoryCommand(to_seconds(message.header.stamp), positions, velocities)  # type: ignore[attr-defined]
-
-
-def encode_joint_trajectory(
-    seq: int, stamp_s: float, names: Sequence[str], positions: np.ndarray, velocities: np.ndarray | None = None
-) -> bytes:
-    point = _T["trajectory_msgs/msg/JointTrajectoryPoint"](
-        positions=np.asarray(positions, dtype=np.float64),
-        velocities=np.asarray(velocities if velocities is not None else [], dtype=np.float64),
-        accelerations=np.zeros(0),
-        effort=np.zeros(0),
-        time_from_start=_T["builtin_interfaces/msg/Duration"](sec=0, nanosec=0),
-    )
-    message = _T["trajectory_msgs/msg/JointTrajectory"](
-        header=Header(seq=seq, stamp=time_msg(stamp_s), frame_id=""), joint_names=list(names), points=[point]
-    )
-    return serialize(message, JOINT_TRAJECTORY)
 
 
 def decode_pose(data: bytes) -> tuple[np.ndarray, np.ndarray]:

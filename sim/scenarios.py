@@ -52,7 +52,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sim.frames import matrix_to_quat, matrix_to_rpy, rpy_to_matrix
+from sim.frames import matrix_to_rpy, rpy_to_matrix
 from sim.kinematics import (
     IKResult,
     KinematicChain,
@@ -82,7 +82,7 @@ __all__ = [
     "TRIAL_PATTERN", "APPROACH_MIN_S", "APPROACH_SPEED_FRACTION", "ScenarioError",
     "UnreachableGoalError", "ScenarioConfig", "IKReport", "Motion", "sample_times", "joint_index",
     "check_position_limits", "velocity_warnings", "rotation_exp", "pose_errors", "fk_path",
-    "pose_to_position_quat", "approach", "build_motion", "write_engine_csv", "Schedule", "build_schedule",
+    "approach", "build_motion", "write_engine_csv", "Schedule", "build_schedule",
 ]
 
 SCENARIOS: tuple[str, ...] = (
@@ -287,10 +287,6 @@ def pose_errors(actual: np.ndarray, reference: np.ndarray, weights: Sequence[flo
 
 def fk_path(chain: KinematicChain, positions: np.ndarray) -> np.ndarray:
     return np.array([chain.fk(q) for q in positions])
-
-
-def pose_to_position_quat(pose: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    return pose[:3, 3].copy(), matrix_to_quat(pose[:3, :3])
 
 
 # ----------------------------------------------------------------------------------------------- approach

@@ -18,8 +18,7 @@ from sim.robots.loading import (
 from sim.robots.spec import RobotSpec, ScenarioHints
 
 __all__ = [
-    "ROBOTS_DIR", "URDF_DIR", "ROBOT_NAMES", "RobotError", "RobotSpec", "ScenarioHints", "load_robot",
+    "ROBOTS_DIR", "ROBOT_NAMES", "RobotError", "RobotSpec", "ScenarioHints", "load_robot",
     "find_ros_package", "add_robot_arguments", "robot_from_args",
 ]
 
-URDF_DIR = ROBOTS_DIR / "urdf"

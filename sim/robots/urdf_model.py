@@ -83,9 +83,6 @@ class UrdfModel:
     def joint_above(self, link: str) -> UrdfJoint | None:
         return next((joint for joint in self.joints if joint.child == link), None)
 
-    def joints_below(self, link: str) -> list[UrdfJoint]:
-        return [joint for joint in self.joints if joint.parent == link]
-
     def path(self, base: str, tip: str) -> list[UrdfJoint]:
         """The joints from `base` down to `tip`, in order; RobotError if `tip` is not below `base`."""
         for name in (base, tip):

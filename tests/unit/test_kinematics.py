@@ -11,13 +11,46 @@ from sim.kinematics import (
     KinematicChain,
     KinematicsError,
     chain_for,
-    panda_dh_fk,
     planar_pose,
     pose_matrix,
     solve_ik,
     solve_path_ik,
 )
 from sim.robots import load_robot
+
+
+# Franka Emika Panda, modified (Craig) DH parameters as published by Franka: (a_{i-1}, d_i, alpha_{i-1}).
+PANDA_DH = (
+    (0.0, 0.333, 0.0),
+    (0.0, 0.0, -math.pi / 2),
+    (0.0, 0.316, math.pi / 2),
+    (0.0825, 0.0, math.pi / 2),
+    (-0.0825, 0.384, -math.pi / 2),
+    (0.0, 0.0, math.pi / 2),
+    (0.088, 0.0, math.pi / 2),
+    (0.0, 0.107, 0.0),  # flange (panda_link8), theta = 0
+)
+
+
+def panda_dh_fk(q: np.ndarray) -> np.ndarray:
+    """Panda flange pose (base → panda_link8) from Franka's modified DH table; an independent check of the URDF."""
+    q_arr = np.asarray(q, dtype=float)
+    if q_arr.shape != (7,):
+        raise ValueError(f"panda q must have shape (7,), got {q_arr.shape}")
+    pose = np.eye(4)
+    for (a, d, alpha), theta in zip(PANDA_DH, (*q_arr, 0.0)):
+        ca, sa, ct, st = math.cos(alpha), math.sin(alpha), math.cos(theta), math.sin(theta)
+        # T = RotX(alpha) · TransX(a) · RotZ(theta) · TransZ(d)
+        link = np.array(
+            [
+                [ct, -st, 0.0, a],
+                [st * ca, ct * ca, -sa, -d * sa],
+                [st * sa, ct * sa, ca, d * ca],
+                [0.0, 0.0, 0.0, 1.0],
+            ]
+        )
+        pose = pose @ link
+    return pose
 
 POS_TOL, ROT_TOL = 1e-6, 1e-5  # m, rad: the issue's agreement bounds
 N_CONFIGS = 500
