@@ -38,7 +38,7 @@ from bridge import protocol  # noqa: E402
 from bridge.client import TcpClient  # noqa: E402
 from tests.chaos import LOOPBACK, FuzzStats, ProcessFigures, churn, figures, fuzz_client  # noqa: E402
 from tests.integration.bridge_helpers import settled  # noqa: E402
-from tests.rosenv import EndpointProcess, NodeProcess, RosCore, wait_for  # noqa: E402
+from tests.rosenv import EndpointProcess, ManagedProcess, RosCore, wait_for  # noqa: E402
 
 PHASES = ("churn", "flood", "unread", "slow", "tokens", "master", "fuzz")
 STRING = "std_msgs/String"
@@ -341,7 +341,7 @@ def phase_master(quick: bool) -> None:
 def phase_fuzz(quick: bool, duration: float) -> None:
     duration = min(duration, 20) if quick else duration
     with endpoint_on_own_core("--publisher-grace", "0", "--service-timeout", "2") as (core, endpoint):
-        stream = NodeProcess([sys.executable, "-c", _STREAM_NODE], core.env, core.tmp, "stream")
+        stream = ManagedProcess([sys.executable, "-c", _STREAM_NODE], core.env, core.tmp, "stream")
         arrivals: list[float] = []
         good = TcpClient(LOOPBACK, endpoint.port, reconnect=False).connect(10)
         good.subscribe("/good_stream", STRING, lambda payload: arrivals.append(time.monotonic()))

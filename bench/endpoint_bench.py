@@ -71,7 +71,7 @@ from bridge.client import TcpClient  # noqa: E402
 from endpoint_common import (  # noqa: E402
     HEADER_OFFSETS, MESSAGE_KINDS, MESSAGE_NAME, joint_state_payload, paced, percentile, read_stamp, stamped,
 )
-from tests.rosenv import PYTHON, EndpointProcess, NodeProcess, RosCore, kill_process  # noqa: E402
+from tests.rosenv import PYTHON, EndpointProcess, ManagedProcess, RosCore, kill_process  # noqa: E402
 
 ROSNODE = str(BENCH / "endpoint_rosnode.py")
 MiB = 1024 * 1024
@@ -217,7 +217,7 @@ class Bench:
         self.core = core
         self.log_dir = log_dir
         self.payload = joint_state_payload()
-        self.processes: list[NodeProcess] = []
+        self.processes: list[ManagedProcess] = []
         self.clients: list[TcpClient] = []
         self.rows: list[Row] = []
         self.endpoint = self._track(
@@ -229,11 +229,11 @@ class Bench:
         self.processes.append(process)
         return process
 
-    def node(self, role: str, *args: str) -> NodeProcess:
-        return self._track(NodeProcess([PYTHON, ROSNODE, role, *args], self.core.env, self.log_dir, f"{role}"))
+    def node(self, role: str, *args: str) -> ManagedProcess:
+        return self._track(ManagedProcess([PYTHON, ROSNODE, role, *args], self.core.env, self.log_dir, f"{role}"))
 
     @staticmethod
-    def result(process: NodeProcess, timeout: float) -> dict[str, Any]:
+    def result(process: ManagedProcess, timeout: float) -> dict[str, Any]:
         """Wait for a role process to finish by itself and return its RESULT json."""
         try:
             process.process.wait(timeout)
@@ -671,7 +671,7 @@ def start_endpoint(env: dict[str, str], log_dir: Path, bridge_dir: Path | None, 
         return EndpointProcess(env, log_dir, name=name, extra=extra)
     launcher = (f"import sys; sys.path.insert(0, {str(bridge_dir)!r}); from bridge.__main__ import main; "
                 "sys.exit(main())")
-    process = NodeProcess([PYTHON, "-c", launcher, "--tcp-port", "0", "--node-name", name, *extra], env, log_dir,
+    process = ManagedProcess([PYTHON, "-c", launcher, "--tcp-port", "0", "--node-name", name, *extra], env, log_dir,
                           name)
     line = next(line for line in process.wait_for_output("listening on", 30).splitlines() if "listening on" in line)
     process.port = int(line.rsplit(":", 1)[1])  # type: ignore[attr-defined]

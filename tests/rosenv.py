@@ -12,5 +12,3 @@ from sim.processes import (  # noqa: F401  (re-exported for the tests)
     kill_process,
     wait_for,
 )
-
-NodeProcess = ManagedProcess

@@ -17,15 +17,15 @@ import numpy as np
 
 from sim.physics import Mode, PhysicsWorld
 from sim.robots import RobotSpec
-from tests.rosenv import PYTHON, NodeProcess, RosCore, wait_for
+from tests.rosenv import PYTHON, ManagedProcess, RosCore, wait_for
 
 STAMP_TOLERANCE_S = 1e-6
 DT = 0.02
 
 
-def start_engine(roscore: RosCore, log_dir: Path, robot: str, port: int, *extra: str, name: str = "engine") -> NodeProcess:
+def start_engine(roscore: RosCore, log_dir: Path, robot: str, port: int, *extra: str, name: str = "engine") -> ManagedProcess:
     """`python -m sim.engine --robot R --port P ...`, returned once it reports the connection to the endpoint."""
-    process = NodeProcess([PYTHON, "-m", "sim.engine", "--robot", robot, "--port", str(port), *extra],
+    process = ManagedProcess([PYTHON, "-m", "sim.engine", "--robot", robot, "--port", str(port), *extra],
                           roscore.env, log_dir, name)
     try:
         process.wait_for_output("connected to", timeout=30)
@@ -35,8 +35,8 @@ def start_engine(roscore: RosCore, log_dir: Path, robot: str, port: int, *extra:
     return process
 
 
-def start_physics_node(roscore: RosCore, log_dir: Path, robot: str, *extra: str) -> NodeProcess:
-    process = NodeProcess([PYTHON, "-m", "sim.physics_node", "--robot", robot, *extra], roscore.env, log_dir,
+def start_physics_node(roscore: RosCore, log_dir: Path, robot: str, *extra: str) -> ManagedProcess:
+    process = ManagedProcess([PYTHON, "-m", "sim.physics_node", "--robot", robot, *extra], roscore.env, log_dir,
                           f"{robot}_physics")
     try:
         process.wait_for_output("physics node:", timeout=30)

@@ -19,7 +19,7 @@ from std_msgs.msg import String
 from bridge import protocol
 from bridge.client import ClientError, TcpClient
 from tests.integration.bridge_helpers import Inbox, RawConnection, serialize, start_endpoint, tcp_client, unique
-from tests.rosenv import EndpointProcess, NodeProcess, RosCore, wait_for
+from tests.rosenv import EndpointProcess, ManagedProcess, RosCore, wait_for
 
 
 
@@ -67,8 +67,8 @@ def restart(core: RosCore) -> RosCore:
     return RosCore(port=core.port, tmp=core.tmp)
 
 
-def ros_tool(core: RosCore, tmp_path: Path, *args: str) -> NodeProcess:
-    return NodeProcess(list(args), core.env, tmp_path, Path(args[0]).name)
+def ros_tool(core: RosCore, tmp_path: Path, *args: str) -> ManagedProcess:
+    return ManagedProcess(list(args), core.env, tmp_path, Path(args[0]).name)
 
 
 def test_a_restarted_master_gets_every_registration_back_without_the_client_doing_anything(

@@ -18,7 +18,7 @@ from sim.frames import matrix_to_quat
 from sim.kinematics import chain_for
 from sim.robots import load_robot
 from sim.scenarios import ScenarioConfig, build_motion, pose_errors
-from tests.rosenv import PYTHON, REPO, NodeProcess, wait_for
+from tests.rosenv import PYTHON, REPO, ManagedProcess, wait_for
 
 DT = 0.02
 
@@ -66,7 +66,7 @@ def engines(roscore, ros_node, tmp_path_factory):
     """One /clock-driven physics node per robot (commander runs reuse them: /clock restarting at 0 re-anchors)."""
     log_dir = tmp_path_factory.mktemp("engines")
     nodes = {
-        name: NodeProcess([PYTHON, "-m", "sim.physics_node", "--robot", name, "--no-auto-simulate"], roscore.env, log_dir, f"physics_{name}")
+        name: ManagedProcess([PYTHON, "-m", "sim.physics_node", "--robot", name, "--no-auto-simulate"], roscore.env, log_dir, f"physics_{name}")
         for name in ("panda", "igt")
     }
     try:

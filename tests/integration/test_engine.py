@@ -14,7 +14,7 @@ import pytest
 from sim.physics import Mode
 from sim.robots import load_robot
 from tests.integration.sim_helpers import DT, Controller, reference_run, sine_motion, start_engine
-from tests.rosenv import EndpointProcess, NodeProcess, free_port, wait_for
+from tests.rosenv import EndpointProcess, ManagedProcess, free_port, wait_for
 
 PANDA = load_robot("panda")
 IGT = load_robot("igt")
@@ -24,9 +24,9 @@ PRIMING = 3
 @pytest.fixture
 def spawn(roscore, tmp_path: Path) -> Iterator:
     """start(robot, port, *extra) -> a running engine subprocess; every one is stopped (by PID) afterwards."""
-    processes: list[NodeProcess] = []
+    processes: list[ManagedProcess] = []
 
-    def start(robot: str, port: int, *extra: str) -> NodeProcess:
+    def start(robot: str, port: int, *extra: str) -> ManagedProcess:
         process = start_engine(roscore, tmp_path, robot, port, *extra, name=f"engine_{robot}_{len(processes)}")
         processes.append(process)
         return process
@@ -51,7 +51,7 @@ def controllers(ros_node) -> Iterator:
         controller.close()
 
 
-def lockstep_engine(spawn, controllers, endpoint, robot, mode: Mode) -> tuple[NodeProcess, Controller]:
+def lockstep_engine(spawn, controllers, endpoint, robot, mode: Mode) -> tuple[ManagedProcess, Controller]:
     engine = spawn(robot.name, endpoint.port, "--no-auto-simulate", "--mode", mode.value)
     controller = controllers(robot, endpoint.name)
     controller.wait_ready()

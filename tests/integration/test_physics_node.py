@@ -12,7 +12,7 @@ import pytest
 from sim.physics import Mode
 from sim.robots import load_robot
 from tests.integration.sim_helpers import DT, Controller, reference_run, sine_motion, start_physics_node
-from tests.rosenv import NodeProcess, wait_for
+from tests.rosenv import ManagedProcess, wait_for
 
 PANDA = load_robot("panda")
 IGT = load_robot("igt")
@@ -22,9 +22,9 @@ PRIMING = 3
 @pytest.fixture
 def node_and_controller(roscore, ros_node, tmp_path: Path) -> Iterator:
     """start(robot, *extra) -> (physics node process, Controller talking to it); both stopped/closed afterwards."""
-    made: list[tuple[NodeProcess, Controller]] = []
+    made: list[tuple[ManagedProcess, Controller]] = []
 
-    def start(robot, *extra: str) -> tuple[NodeProcess, Controller]:
+    def start(robot, *extra: str) -> tuple[ManagedProcess, Controller]:
         process = start_physics_node(roscore, tmp_path, robot.name, *extra)
         controller = Controller(ros_node, robot, f"/{robot.name}_physics")
         made.append((process, controller))

@@ -32,7 +32,7 @@ from sim.study.scene import load_scene, scene_robot
 from sim.study.stop import STOP_DECELERATION
 from tests.integration.sim_helpers import start_engine
 from tests.integration.study_helpers import trial, write_plan
-from tests.rosenv import PYTHON, REPO, NodeProcess, kill_process
+from tests.rosenv import PYTHON, REPO, ManagedProcess, kill_process
 
 SCENE = load_scene()
 ROBOT = scene_robot(SCENE)
@@ -103,7 +103,7 @@ def test_a_vr_scene_stops_the_robot_and_answers_through_the_endpoint(roscore, en
     engine = start_engine(roscore, tmp_path, "panda", endpoint.port, "--no-auto-simulate")
     scene = ScriptedVrScene(endpoint.port)
     scene.client.connect(timeout=30)
-    runner = NodeProcess([PYTHON, "-m", "sim.study", "run", "--plan", str(plan), "--out", str(tmp_path / "out")],
+    runner = ManagedProcess([PYTHON, "-m", "sim.study", "run", "--plan", str(plan), "--out", str(tmp_path / "out")],
                          roscore.env, tmp_path, "runner")
     try:
         assert runner.wait(120) == 0, runner.output()[-3000:]
@@ -150,7 +150,7 @@ def test_simulated_participants_run_the_study_and_the_analysis_recovers_their_bi
     design = tmp_path / "design.yaml"
     design.write_text(yaml.safe_dump(SMALL_DESIGN))
     out = tmp_path / "study"
-    process = NodeProcess([PYTHON, "-m", "sim.study", "simulate", "--participants", "4", "--design", str(design),
+    process = ManagedProcess([PYTHON, "-m", "sim.study", "simulate", "--participants", "4", "--design", str(design),
                            "--out", str(out), "--seed", "11"], plain_env(), tmp_path, "simulate")
     try:
         assert process.wait(300) == 0, process.output()[-3000:]
@@ -244,7 +244,7 @@ def test_roslaunch_runs_a_session_from_the_catkin_package(roscore, endpoint, tmp
     command = (f"source {REPO / 'catkin_ws' / 'devel' / 'setup.bash'} && exec roslaunch vr_sim study.launch "
                f"plan:={plan} out:={out} python:={PYTHON} "
                "extra_args:='--auto-go --response-timeout 1'")
-    launch = NodeProcess(["bash", "-c", command], roscore.env, tmp_path, "roslaunch")
+    launch = ManagedProcess(["bash", "-c", command], roscore.env, tmp_path, "roslaunch")
     try:
         assert launch.wait(120) == 0, launch.output()[-3000:]
     finally:

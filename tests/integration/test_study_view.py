@@ -16,7 +16,7 @@ from sim.study.paths import ON_TOP
 from sim.study.view import COLOURS
 from tests.integration.sim_helpers import start_engine
 from tests.integration.study_helpers import trial, write_plan
-from tests.rosenv import PYTHON, NodeProcess, free_port, wait_for
+from tests.rosenv import PYTHON, ManagedProcess, free_port, wait_for
 
 CHROMIUM, CHROMEDRIVER = "/usr/bin/chromium", "/usr/bin/chromedriver"
 
@@ -74,9 +74,9 @@ def test_the_live_view_shows_the_scene_the_plan_the_trail_and_the_stop(roscore, 
                                                                        tmp_path: Path) -> None:
     engine = start_engine(roscore, tmp_path, "panda", endpoint.port, "--no-auto-simulate")
     http = free_port()
-    view = NodeProcess([PYTHON, "-m", "sim.study", "view", "--port", str(endpoint.port), "--http-port", str(http)],
+    view = ManagedProcess([PYTHON, "-m", "sim.study", "view", "--port", str(endpoint.port), "--http-port", str(http)],
                        plain_env(), tmp_path, "view")
-    participant = NodeProcess([PYTHON, "-m", "sim.study", "participant", "--participant", "5", "--seed", "2",
+    participant = ManagedProcess([PYTHON, "-m", "sim.study", "participant", "--participant", "5", "--seed", "2",
                                "--port", str(endpoint.port)], plain_env(), tmp_path, "participant")
     try:
         view.wait_for_output("view: http", timeout=60)
@@ -87,7 +87,7 @@ def test_the_live_view_shows_the_scene_the_plan_the_trail_and_the_stop(roscore, 
         for part in ("path", "trail", "stop"):
             assert pixels_like(before, COLOURS[part]) < 20, part
         plan = write_plan(tmp_path / "plan.yaml", 5, "vr", [trial(1, "vr", 2, "straight", ON_TOP, 0.3, "fast", 1)])
-        runner = NodeProcess([PYTHON, "-m", "sim.study", "run", "--plan", str(plan), "--out", str(tmp_path / "out"),
+        runner = ManagedProcess([PYTHON, "-m", "sim.study", "run", "--plan", str(plan), "--out", str(tmp_path / "out"),
                               "--no-record"], roscore.env, tmp_path, "runner")
         assert runner.wait(120) == 0, runner.output()[-2000:]
         after = settled_screenshot(browser, tmp_path / "after.png", "/stop_distance")
