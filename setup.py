@@ -28,9 +28,9 @@ setup(
     entry_points={
         "console_scripts": [
             "ros-tcp-endpoint=bridge.__main__:main",
-            "sim-engine=sim.engine:main",
-            "sim-commander=sim.commander:main",
-            "sim-trials=sim.trials:main",
+            "sim-engine=sim.engine.stand_in:main",
+            "sim-commander=sim.control.commander:main",
+            "sim-trials=sim.campaign.trials:main",
             "sim-study=sim.study.__main__:main",
         ]
     },

@@ -1,8 +1,8 @@
-"""IK benchmark: success rate and solve times of sim.kinematics on the Panda and the igt, against the targets.
+"""IK benchmark: success rate and solve times of sim.geometry.kinematics on the Panda and the igt, against the targets.
 
 Run: .venv/bin/python bench/ik_bench.py [--targets 500] [--seed 0] [--robots path/to/arm.urdf ...]
 Every case solves IK for FK poses of random configurations within the datasheet limits, so all are reachable.
-`--robots` adds a near-seed case per robot, on the axes its chain controls (sim.scenario_defaults).
+`--robots` adds a near-seed case per robot, on the axes its chain controls (sim.control.scenario_defaults).
 """
 from __future__ import annotations
 
@@ -18,9 +18,9 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from sim.kinematics import PLANAR_WEIGHTS, IKResult, chain_for, planar_pose, solve_ik, solve_path_ik  # noqa: E402
+from sim.geometry.kinematics import PLANAR_WEIGHTS, IKResult, chain_for, planar_pose, solve_ik, solve_path_ik  # noqa: E402
 from sim.robots import RobotSpec, load_robot  # noqa: E402
-from sim.scenario_defaults import controllable_weights, describe_axes  # noqa: E402
+from sim.control.scenario_defaults import controllable_weights, describe_axes  # noqa: E402
 
 NEAR_SEED_NOISE = 0.1  # rad (m for the rail): how far the warm start is from a solution
 RESTARTS = 20  # for cold starts

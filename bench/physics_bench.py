@@ -1,4 +1,4 @@
-"""Benchmark of sim.physics: speed (real-time factor) and tracking accuracy on the seed's joint-space test.
+"""Benchmark of sim.engine.physics: speed (real-time factor) and tracking accuracy on the seed's joint-space test.
 
     .venv/bin/python bench/physics_bench.py [--steps 1000]
 
@@ -8,7 +8,7 @@
    (quintic PolynomialTrajectory: zero velocity and acceleration at every waypoint), the other joints commanded 0.
    The world starts at the trajectory's start; before the step ending at t_k = k*dt the target is the reference at
    t_k with its velocity as feed-forward (targets for the END of the step). Compared at t_k, k = 0..500.
-   Metrics (sim.metrics): MAPE over samples with |reference| > 1e-3 rad only (MAPE explodes near zero crossings),
+   Metrics (sim.control.metrics): MAPE over samples with |reference| > 1e-3 rad only (MAPE explodes near zero crossings),
    WAPE = sum|e| / sum|ref|, NRMSE = RMSE / (max - min of ref), max |e|. For joints 2-7 the reference is 0 all
    along, so only max |e| is defined. Targets: joint-1 MAPE <= 0.05 % in physics mode, exactly 0 in no_physics.
    One extra row passes the same targets one step early (targets for the START of the step) to show the lag that
@@ -28,10 +28,10 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from sim.metrics import DEFAULT_MAPE_FLOOR, tracking_metrics  # noqa: E402
-from sim.physics import Mode, PhysicsWorld  # noqa: E402
+from sim.control.metrics import DEFAULT_MAPE_FLOOR, tracking_metrics  # noqa: E402
+from sim.engine.physics import Mode, PhysicsWorld  # noqa: E402
 from sim.robots import ROBOT_NAMES, RobotSpec, load_robot  # noqa: E402
-from sim.trajectory import PolynomialTrajectory  # noqa: E402
+from sim.geometry.trajectory import PolynomialTrajectory  # noqa: E402
 
 DT = 0.02
 RTF_TARGET = 100.0

@@ -12,7 +12,7 @@ __all__ = ["ScenarioHints", "RobotSpec"]
 
 @dataclass(frozen=True)
 class ScenarioHints:
-    """Scenario defaults a robot's YAML may fix (`scenarios:`); None = computed from the robot (sim.scenarios).
+    """Scenario defaults a robot's YAML may fix (`scenarios:`); None = computed from the robot (sim.control.scenarios).
     The Panda and the igt keep the motions the README documents this way."""
 
     one_joint: str | None = None  # a joint name

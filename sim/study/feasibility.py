@@ -1,10 +1,10 @@
-"""An approach path made joint motion and checked before it is ever run: IK of every sample (sim.kinematics), joint
+"""An approach path made joint motion and checked before it is ever run: IK of every sample (sim.geometry.kinematics), joint
 position and velocity limits, no contact with the table, the hand or the robot itself (pybullet's collision
 shapes), and the stand-off actually reached (FK of the planned end). An infeasible combination is reported with
 every reason, never run.
 
 The end effector keeps the orientation it has at home throughout (the Panda's flange points down), on the axes
-its chain controls (sim.scenario_defaults).
+its chain controls (sim.control.scenario_defaults).
 """
 from __future__ import annotations
 
@@ -15,12 +15,12 @@ from dataclasses import dataclass, field
 import numpy as np
 import pybullet as p
 
-from sim.frames import matrix_to_quat, rpy_to_matrix
-from sim.kinematics import chain_for, solve_ik, solve_path_ik
-from sim.physics import load_urdf_text
+from sim.geometry.frames import matrix_to_quat, rpy_to_matrix
+from sim.geometry.kinematics import chain_for, solve_ik, solve_path_ik
+from sim.engine.physics import load_urdf_text
 from sim.robots import RobotSpec, find_ros_package
 from sim.robots.meshes import resolve_shapes
-from sim.scenario_defaults import controllable_weights
+from sim.control.scenario_defaults import controllable_weights
 from sim.study.paths import ApproachPath, approach_path
 from sim.study.scene import Box, Scene
 

@@ -19,9 +19,9 @@ from typing import Any
 import numpy as np
 
 from bridge.client import TcpClient
-from sim.kinematics import chain_for
+from sim.geometry.kinematics import chain_for
 from sim.robots import RobotSpec
-from sim.rosmsgs import JOINT_STATE, decode_joint_state, deserialize, encode_message, time_msg
+from sim.wire.rosmsgs import JOINT_STATE, decode_joint_state, deserialize, encode_message, time_msg
 from sim.study.errors import StudyError
 from sim.study.interface import (
     DISTANCE_TOPIC,

@@ -8,7 +8,7 @@ preference. The trial's phase goes out on `/study/trial` (sim.study.interface ha
 written to the participant's CSV as soon as its trial ends, and `rosbag record` (started and stopped here) records
 the robot's topics, /clock and every /study topic.
 
-It drives the robot through sim.driver, the commander's topics: the engine stand-in, Unity, or a real robot's
+It drives the robot through sim.control.driver, the commander's topics: the engine stand-in, Unity, or a real robot's
 controller take the same stream. Lockstep (default): the runner owns /clock and the engine steps once per value, so
 a session takes seconds of wall time; while the runner waits for go or an answer, the clock stands still.
 --realtime: /clock and the commands are paced by the wall clock (a VR headset, a real robot), and the robot is
@@ -31,10 +31,10 @@ from typing import Any, Callable, Iterable
 
 import numpy as np
 
-from sim.driver import DriverError, RobotDriver
+from sim.control.driver import DriverError, RobotDriver
 from sim.processes import ManagedProcess, ProcessError, start_recorder, stop_recorder
 from sim.robots import RobotSpec
-from sim.scenarios import approach
+from sim.control.scenarios import approach
 from sim.study.errors import StudyError
 from sim.study.feasibility import Combination, PlannedApproach
 from sim.study.interface import (

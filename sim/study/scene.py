@@ -10,13 +10,13 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from sim.frames import rpy_to_matrix
+from sim.geometry.frames import rpy_to_matrix
 from sim.robots import RobotError, RobotSpec, load_robot
 from sim.study.errors import StudyError
 from sim.study.yamlfile import read_yaml
 
 if TYPE_CHECKING:
-    from sim.kinematics import KinematicChain
+    from sim.geometry.kinematics import KinematicChain
 
 __all__ = ["DEFAULT_SCENE", "Box", "Scene", "parse_scene", "scene_robot", "load_scene"]
 

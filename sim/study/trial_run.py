@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from sim.kinematics import chain_for
+from sim.geometry.kinematics import chain_for
 from sim.robots import RobotSpec
 from sim.study.errors import StudyError
 from sim.study.feasibility import PlannedApproach

@@ -15,11 +15,11 @@ from typing import Any
 import numpy as np
 
 from bridge.client import TcpClient
-from sim.frames import matrix_to_quat
-from sim.kinematics import chain_for
+from sim.geometry.frames import matrix_to_quat
+from sim.geometry.kinematics import chain_for
 from sim.robots import RobotSpec, find_ros_package
 from sim.robots.meshes import resolve_filename
-from sim.rosmsgs import JOINT_STATE, MessageError, decode_joint_state, deserialize, to_seconds
+from sim.wire.rosmsgs import JOINT_STATE, MessageError, decode_joint_state, deserialize, to_seconds
 from sim.study.errors import StudyError
 from sim.study.interface import STATUS_TOPIC, STOP_TOPIC, TOPIC_TYPES, TrialStatus, status_from_json
 from sim.study.paths import approach_path

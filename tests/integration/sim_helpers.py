@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sim.physics import Mode, PhysicsWorld
+from sim.engine.physics import Mode, PhysicsWorld
 from sim.robots import RobotSpec
 from tests.rosenv import PYTHON, ManagedProcess, RosCore, wait_for
 

@@ -9,9 +9,9 @@ from pathlib import Path
 
 import pytest
 
-from sim import analysis
-from sim.engine import EngineOptions, replay_csv
-from sim.physics import Mode
+from sim.campaign import analysis
+from sim.engine.stand_in import EngineOptions, replay_csv
+from sim.engine.physics import Mode
 from sim.robots import load_robot
 from tests.robot_files import LIFT_ARM, THIRD_PARTY_URDFS
 from tests.integration.sim_helpers import mean_of, report_rows

@@ -14,10 +14,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sim.frames import matrix_to_quat
-from sim.kinematics import chain_for
+from sim.geometry.frames import matrix_to_quat
+from sim.geometry.kinematics import chain_for
 from sim.robots import load_robot
-from sim.scenarios import ScenarioConfig, build_motion, pose_errors
+from sim.control.scenarios import ScenarioConfig, build_motion, pose_errors
 from tests.rosenv import PYTHON, REPO, ManagedProcess, wait_for
 
 DT = 0.02

@@ -13,8 +13,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sim.frames import quat_to_matrix
-from sim.kinematics import chain_for, pose_matrix
+from sim.geometry.frames import quat_to_matrix
+from sim.geometry.kinematics import chain_for, pose_matrix
 from sim.robots import RobotSpec, load_robot
 from tests.robot_files import THIRD_PARTY_URDFS
 from tests.rosenv import PYTHON, REPO, ManagedProcess, wait_for

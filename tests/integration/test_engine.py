@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sim.physics import Mode
+from sim.engine.physics import Mode
 from sim.robots import load_robot
 from tests.integration.sim_helpers import DT, Controller, reference_run, sine_motion, start_engine
 from tests.rosenv import EndpointProcess, ManagedProcess, free_port, wait_for
@@ -261,8 +261,8 @@ def test_commands_may_name_a_subset_of_joints_in_any_order(spawn, controllers, e
 def test_the_pose_topic_sets_the_target_marker_in_both_conventions(ros_node, controllers, endpoint):
     """In-process EngineStandIn instances on real TCP connections to the endpoint (the marker is engine state)."""
     from bridge.client import TcpClient
-    from sim import frames
-    from sim.engine import POSE_EULER, POSE_QUATERNION, EngineOptions, EngineStandIn
+    from sim.geometry import frames
+    from sim.engine.stand_in import POSE_EULER, POSE_QUATERNION, EngineOptions, EngineStandIn
 
     engines = {}
     try:

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sim.physics import Mode
+from sim.engine.physics import Mode
 from sim.robots import load_robot
 from tests.integration.sim_helpers import DT, Controller, reference_run, sine_motion, start_physics_node
 from tests.rosenv import ManagedProcess, wait_for

@@ -15,9 +15,9 @@ import yaml
 from rosbags.rosbag1 import Reader
 
 from bridge.client import TcpClient
-from sim.kinematics import chain_for
+from sim.geometry.kinematics import chain_for
 from sim.processes import plain_env
-from sim.rosmsgs import JOINT_STATE, TYPESTORE, deserialize, encode_message, time_msg, to_seconds
+from sim.wire.rosmsgs import JOINT_STATE, TYPESTORE, deserialize, encode_message, time_msg, to_seconds
 from sim.study.interface import (
     DISTANCE_TOPIC,
     GO_TOPIC,

@@ -1,7 +1,7 @@
 """End to end: a short campaign through `python -m sim.trials` (real roscore, endpoint, engine, commander,
 rosbag record), its report checked against the bags.
 
-The check is independent of sim.analysis: the bags are read with ROS's own `rosbag` module (not rosbags), and
+The check is independent of sim.campaign.analysis: the bags are read with ROS's own `rosbag` module (not rosbags), and
 the metrics are recomputed here with plain numpy.
 """
 from __future__ import annotations
@@ -15,7 +15,7 @@ import pytest
 import rosbag
 
 from sim.processes import PYTHON, REPO
-from sim.analysis import scenario_start
+from sim.campaign.analysis import scenario_start
 from sim.robots import load_robot
 from tests.integration.sim_helpers import mean_of, report_rows
 

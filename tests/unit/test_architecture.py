@@ -25,13 +25,54 @@ def test_pure_bridge_modules_import_neither_sockets_nor_ros(module: str) -> None
     assert not loaded & {"socket", *ROS_MODULES}, loaded & {"socket", *ROS_MODULES}
 
 
-@pytest.mark.parametrize("module", ["bridge.client", "sim.engine", "sim.analysis", "sim.kinematics", "sim.physics",
-                                    "sim.robots", "sim.scenario_defaults", "sim.study.paths",
+@pytest.mark.parametrize("module", ["bridge.client", "sim.engine.stand_in", "sim.campaign.analysis", "sim.geometry.kinematics", "sim.engine.physics",
+                                    "sim.robots", "sim.control.scenario_defaults", "sim.study.paths",
                                     "sim.study.interface", "sim.study.summary", "sim.study.participant"])
 def test_the_client_and_the_engine_stand_in_import_no_ros(module: str) -> None:
     # Like Unity, the engine stand-in knows ROS only through the endpoint; it (de)serializes with rosbags.
     loaded = imported_after(module)
     assert not loaded & set(ROS_MODULES), loaded & set(ROS_MODULES)
+
+
+# sim/'s parts from the bottom up: each may import from the layers below it and from itself, never from a layer above
+# or a neighbour in its own layer (docs/architecture.md). The top layer is the commands kept under their names.
+SIM_LAYERS = (
+    ("cli_values", "processes"),
+    ("robots",),
+    ("geometry", "wire"),
+    ("engine", "control"),
+    ("campaign", "study"),
+    ("commander", "trials", "demo", "physics_node", "description_node"),
+)
+
+
+def sim_part(module: str) -> str:
+    """The part of sim/ a module belongs to: its folder, or its own name for a module at the top."""
+    return module.split(".")[1] if module.count(".") else module
+
+
+def test_sim_parts_import_only_from_the_layers_below() -> None:
+    rank = {part: level for level, parts in enumerate(SIM_LAYERS) for part in parts}
+    on_disk = {path.stem if path.parent.name == "sim" else path.parent.name
+               for path in (REPO / "sim").glob("*/__init__.py")} | {
+        path.stem for path in (REPO / "sim").glob("*.py") if path.stem != "__init__"}
+    assert on_disk == set(rank), "every part of sim/ has its layer"
+    wrong = []
+    for path in (REPO / "sim").rglob("*.py"):
+        module = ".".join(path.relative_to(REPO).with_suffix("").parts)
+        here = sim_part(module)
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.ImportFrom) and node.module and node.module.split(".")[0] == "sim":
+                targets = [node.module] if node.module != "sim" else [f"sim.{alias.name}" for alias in node.names]
+            elif isinstance(node, ast.Import):
+                targets = [alias.name for alias in node.names if alias.name.split(".")[0] == "sim"]
+            else:
+                continue
+            for target in targets:
+                there = sim_part(target)
+                if there != here and rank[there] >= rank[here]:
+                    wrong.append(f"{module} imports {target}")
+    assert wrong == []
 
 
 def test_sim_uses_no_bridge_internals_but_the_client() -> None:

@@ -1,10 +1,10 @@
-"""sim.clock: the engine's one clock, both policies (auto-simulate and /clock-driven), stamps and the failsafe."""
+"""sim.engine.clock: the engine's one clock, both policies (auto-simulate and /clock-driven), stamps and the failsafe."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from sim.clock import ClockError, StepClock
+from sim.engine.clock import ClockError, StepClock
 
 DT = 0.02
 

@@ -1,4 +1,4 @@
-"""sim.commands: the engine's target for the end of each step (CommandBuffer)."""
+"""sim.engine.commands: the engine's target for the end of each step (CommandBuffer)."""
 from __future__ import annotations
 
 import threading
@@ -6,8 +6,8 @@ import threading
 import numpy as np
 import pytest
 
-from sim.commands import CommandBuffer
-from sim.rosmsgs import TrajectoryCommand
+from sim.engine.commands import CommandBuffer
+from sim.wire.rosmsgs import TrajectoryCommand
 
 NAN = np.nan
 START = np.array([0.1, 0.2, 0.3])

@@ -8,8 +8,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sim import engine, frames
-from sim.physics import Mode
+from sim.engine import stand_in as engine
+from sim.geometry import frames
+from sim.engine.physics import Mode
 from sim.robots import load_robot
 from tests.rosenv import PYTHON, REPO
 
@@ -229,7 +230,7 @@ def test_identity_orientation_stays_identity_in_unity():
 
 
 def test_path_velocity_is_the_slope_inside_segments_and_the_mean_at_samples():
-    from sim.engine import path_velocity
+    from sim.engine.stand_in import path_velocity
 
     times = np.array([0.0, 1.0, 2.0, 4.0])
     positions = np.array([[0.0, 5.0], [1.0, 5.0], [1.0, 3.0], [3.0, 3.0]])

@@ -4,7 +4,7 @@ import math
 import numpy as np
 import pytest
 
-from sim.frames import (
+from sim.geometry.frames import (
     FrameError,
     euler_xyz_to_quat,
     matrix_to_quat,

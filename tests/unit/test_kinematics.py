@@ -5,8 +5,8 @@ import numpy as np
 import pybullet as p
 import pytest
 
-from sim.frames import quat_to_matrix
-from sim.kinematics import (
+from sim.geometry.frames import quat_to_matrix
+from sim.geometry.kinematics import (
     PLANAR_WEIGHTS,
     KinematicChain,
     KinematicsError,

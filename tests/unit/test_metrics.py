@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from sim.metrics import (
+from sim.control.metrics import (
     MetricsError,
     lag_seconds,
     mape_percent,

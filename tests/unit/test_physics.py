@@ -1,4 +1,4 @@
-"""sim.physics: the three modes, the implicit drive, input checks, determinism. Fast, no ROS."""
+"""sim.engine.physics: the three modes, the implicit drive, input checks, determinism. Fast, no ROS."""
 from __future__ import annotations
 
 import logging
@@ -6,7 +6,7 @@ import logging
 import numpy as np
 import pytest
 
-from sim.physics import (
+from sim.engine.physics import (
     DEFAULT_STIFFNESS,
     DriveParams,
     Mode,
@@ -315,14 +315,14 @@ def test_gravity_feedforward_keeps_a_heavy_lift_from_sagging():
 
 
 def test_links_without_inertia_are_warned_about(caplog):
-    with caplog.at_level(logging.WARNING, logger="sim.physics"):
+    with caplog.at_level(logging.WARNING, logger="sim.engine.physics"):
         PhysicsWorld(load_robot(str(LIFT_ARM))).close()
     assert "link(s) camera have no <inertial>" in caplog.text
     caplog.clear()
-    with caplog.at_level(logging.WARNING, logger="sim.physics"):
+    with caplog.at_level(logging.WARNING, logger="sim.engine.physics"):
         PhysicsWorld(load_robot(str(THIRD_PARTY_URDFS["xarm6"]))).close()
     assert "link(s) link2, link3 have inertia tensors that are not physical" in caplog.text
     caplog.clear()
-    with caplog.at_level(logging.WARNING, logger="sim.physics"):
+    with caplog.at_level(logging.WARNING, logger="sim.engine.physics"):
         PhysicsWorld(load_robot("panda")).close()
     assert "inertia" not in caplog.text

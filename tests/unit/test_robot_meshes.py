@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sim.physics import PhysicsWorld
+from sim.engine.physics import PhysicsWorld
 from sim.robots import load_robot
 from sim.robots.meshes import resolve_shapes
 from tests.robot_files import THIRD_PARTY_URDFS

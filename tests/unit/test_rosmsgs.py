@@ -1,10 +1,10 @@
-"""sim.rosmsgs: joint states as the engine writes them, read back by name in a robot's joint order."""
+"""sim.wire.rosmsgs: joint states as the engine writes them, read back by name in a robot's joint order."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from sim.rosmsgs import MessageError, decode_joint_state, encode_joint_state
+from sim.wire.rosmsgs import MessageError, decode_joint_state, encode_joint_state
 
 
 def test_a_joint_state_is_read_by_name_whatever_its_order_and_extra_joints() -> None:

@@ -1,4 +1,4 @@
-"""sim.scenarios without ROS: shapes and grids, defaults, limits, IK goals reached (FK of the desired joints),
+"""sim.control.scenarios without ROS: shapes and grids, defaults, limits, IK goals reached (FK of the desired joints),
 unreachable goals reported, CSV export format."""
 from __future__ import annotations
 
@@ -8,12 +8,12 @@ import math
 import numpy as np
 import pytest
 
-from sim.frames import rpy_to_matrix
-from sim.kinematics import chain_for
+from sim.geometry.frames import rpy_to_matrix
+from sim.geometry.kinematics import chain_for
 from sim.robots import load_robot
-from sim.kinematics import rotation_vector
-from sim.scenario_defaults import trial_table
-from sim.scenarios import (
+from sim.geometry.kinematics import rotation_vector
+from sim.control.scenario_defaults import trial_table
+from sim.control.scenarios import (
     IK_SCENARIOS,
     SCENARIOS,
     ScenarioConfig,
@@ -230,7 +230,7 @@ def test_engine_csv_export_round_trips_exactly(robot, tmp_path):
 
 
 def test_schedule_prepends_an_approach_only_when_needed(robot):
-    from sim.scenarios import build_schedule
+    from sim.control.scenarios import build_schedule
 
     motion = build_motion(robot, "trial", ScenarioConfig(duration=1.0))
     direct = build_schedule(motion, motion.positions[0])

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import yaml
 
-from sim.kinematics import chain_for
+from sim.geometry.kinematics import chain_for
 from sim.study.feasibility import CONTACT_MARGIN, SceneWorld, plan_approach
 from sim.study.paths import ON_TOP, PATH_NAMES, approach_path
 from sim.study.scene import DEFAULT_SCENE, load_scene, parse_scene, scene_robot

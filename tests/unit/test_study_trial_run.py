@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from sim.physics import Mode, PhysicsWorld
+from sim.engine.physics import Mode, PhysicsWorld
 from sim.study.errors import StudyError
 from sim.study.feasibility import SceneWorld, plan_approach
 from sim.study.paths import ON_TOP, approach_path

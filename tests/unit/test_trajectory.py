@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from sim.trajectory import PolynomialTrajectory, TrajectoryError, TrajectorySample
+from sim.geometry.trajectory import PolynomialTrajectory, TrajectoryError, TrajectorySample
 
 TIMES = np.array([0.0, 0.7, 1.5, 3.0, 3.2])
 

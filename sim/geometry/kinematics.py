@@ -35,7 +35,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from sim.frames import quat_to_matrix, rpy_to_matrix
+from sim.geometry.frames import quat_to_matrix, rpy_to_matrix
 from sim.robots import RobotError, RobotSpec
 from sim.robots.urdf_model import parse_urdf
 

@@ -23,8 +23,8 @@ import math
 
 import numpy as np
 
-from sim.frames import matrix_to_rpy
-from sim.kinematics import KinematicChain
+from sim.geometry.frames import matrix_to_rpy
+from sim.geometry.kinematics import KinematicChain
 from sim.robots import RobotSpec
 
 __all__ = [
@@ -73,7 +73,7 @@ def trial_table(robot: RobotSpec) -> tuple[np.ndarray, np.ndarray]:
 
 def one_joint_default(robot: RobotSpec) -> tuple[int, np.ndarray]:
     """(joint index, waypoints) of one_joint, from the robot's YAML or computed (module docstring; the computed
-    waypoints are slowed down by sim.scenarios where they would be too fast)."""
+    waypoints are slowed down by sim.control.scenarios where they would be too fast)."""
     hints = robot.hints
     if hints.one_joint is not None and hints.one_joint_waypoints is not None:
         return robot.joint_names.index(hints.one_joint), np.array(hints.one_joint_waypoints)

@@ -8,11 +8,11 @@ from pathlib import Path
 
 import numpy as np
 
-from sim.frames import matrix_to_quat
-from sim.kinematics import chain_for
-from sim.metrics import TrackingMetrics, per_joint_metrics, resample
+from sim.geometry.frames import matrix_to_quat
+from sim.geometry.kinematics import chain_for
+from sim.control.metrics import TrackingMetrics, per_joint_metrics, resample
 from sim.robots import RobotSpec
-from sim.scenarios import Motion, Schedule, fk_path, pose_errors
+from sim.control.scenarios import Motion, Schedule, fk_path, pose_errors
 
 __all__ = ["RunReport", "RunResult", "write_log"]
 

@@ -6,7 +6,7 @@ IK scenarios also the end-effector goal (4x4, base frame, ROS RH z-up), the Cart
 sample), the IK weights and a goal report.
 
 Scenarios (defaults in brackets; "home" = the robot's home configuration). Defaults not stated for a robot are
-computed from its limits and its chain (sim.scenario_defaults); the Panda's and the igt's below are kept in their
+computed from its limits and its chain (sim.control.scenario_defaults); the Panda's and the igt's below are kept in their
 robot YAML (sim/robots/*.yaml) so that they stay the motions the README documents:
 
   single          constant joint positions [home]; runs `duration` [5 s]. Like the seed's a_SingleInput.
@@ -52,8 +52,8 @@ from pathlib import Path
 
 import numpy as np
 
-from sim.frames import matrix_to_rpy, rpy_to_matrix
-from sim.kinematics import (
+from sim.geometry.frames import matrix_to_rpy, rpy_to_matrix
+from sim.geometry.kinematics import (
     IKResult,
     KinematicChain,
     chain_for,
@@ -61,9 +61,9 @@ from sim.kinematics import (
     solve_ik,
     solve_path_ik,
 )
-from sim.jointcsv import write_joint_csv
+from sim.wire.joint_csv import write_joint_csv
 from sim.robots import RobotSpec
-from sim.scenario_defaults import (
+from sim.control.scenario_defaults import (
     ONE_JOINT_SPEED_FRACTION,
     controllable_weights,
     describe_axes,
@@ -73,7 +73,7 @@ from sim.scenario_defaults import (
     position_weights,
     trial_table,
 )
-from sim.trajectory import ORDERS, PolynomialTrajectory
+from sim.geometry.trajectory import ORDERS, PolynomialTrajectory
 
 __all__ = [
     "SCENARIOS", "IK_SCENARIOS", "SPACES", "DEFAULT_DT", "SINGLE_DURATION_S",
@@ -269,7 +269,7 @@ def rotation_exp(rotvec: np.ndarray) -> np.ndarray:
 def pose_errors(actual: np.ndarray, reference: np.ndarray, weights: Sequence[float]) -> tuple[np.ndarray, np.ndarray]:
     """Per-sample (position error [m], orientation error [rad]) of actual vs reference poses (N, 4, 4).
 
-    Only the axes with a non-zero weight count, as in sim.kinematics: position = norm of the selected
+    Only the axes with a non-zero weight count, as in sim.geometry.kinematics: position = norm of the selected
     components of p_ref - p; orientation = angle of R_ref·Rᵀ if all rotation axes are selected, else the norm of
     the selected components of its rotation vector (for the igt's yaw-only weights: |yaw error|).
     """
@@ -411,7 +411,7 @@ class _GoalSpec:
 
 
 def _default_goal(robot: RobotSpec, scenario: str, chain: KinematicChain) -> tuple[np.ndarray, np.ndarray | None]:
-    """(position, rpy or None for position only): the robot YAML's, or computed (sim.scenario_defaults)."""
+    """(position, rpy or None for position only): the robot YAML's, or computed (sim.control.scenario_defaults)."""
     hints = robot.hints
     if scenario == "ik_orientation":
         if hints.orientation_goal_position is not None:
@@ -602,7 +602,7 @@ def _cartesian_path(start: np.ndarray, goal: np.ndarray, weights: Sequence[float
 
 # ------------------------------------------------------------------------------------------------- CSV I/O
 def write_engine_csv(path: Path, motion: Motion) -> None:
-    """The desired joint positions as the engine's CSV (sim.jointcsv), exact doubles."""
+    """The desired joint positions as the engine's CSV (sim.wire.joint_csv), exact doubles."""
     write_joint_csv(path, motion.robot.joint_names, motion.times, motion.positions, exact=True)
 
 

@@ -23,11 +23,12 @@ from pathlib import Path
 import numpy as np
 
 from bridge.client import TcpClient
-from sim import frames, rosmsgs
-from sim.clock import ClockAdvance, StepClock
-from sim.commands import CommandBuffer
-from sim.jointcsv import read_joint_csv, write_joint_csv
-from sim.physics import Mode, PhysicsError, PhysicsWorld, SimulatedJointState, render_gif
+from sim.geometry import frames
+from sim.wire import rosmsgs
+from sim.engine.clock import ClockAdvance, StepClock
+from sim.engine.commands import CommandBuffer
+from sim.wire.joint_csv import read_joint_csv, write_joint_csv
+from sim.engine.physics import Mode, PhysicsError, PhysicsWorld, SimulatedJointState, render_gif
 from sim.robots import RobotSpec, add_robot_arguments, robot_from_args
 
 __all__ = [

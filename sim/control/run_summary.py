@@ -6,8 +6,8 @@ from pathlib import Path
 import numpy as np
 
 from sim.robots import RobotSpec
-from sim.run_log import RunReport, RunResult
-from sim.scenarios import Motion
+from sim.control.run_log import RunReport, RunResult
+from sim.control.scenarios import Motion
 
 __all__ = ["format_fk_confirm", "format_summary"]
 

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from sim.rosmsgs import TrajectoryCommand
+from sim.wire.rosmsgs import TrajectoryCommand
 
 __all__ = ["Target", "CommandBuffer"]
 

@@ -18,9 +18,9 @@ from typing import Any
 
 import numpy as np
 
-from sim import rosmsgs
-from sim.jointcsv import read_joint_csv
-from sim.metrics import TrackingMetrics, mean_and_std, per_joint_metrics, resample
+from sim.wire import rosmsgs
+from sim.wire.joint_csv import read_joint_csv
+from sim.control.metrics import TrackingMetrics, mean_and_std, per_joint_metrics, resample
 from sim.robots import RobotSpec
 
 __all__ = [
@@ -321,7 +321,7 @@ def plot_ee_paths(
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from sim.kinematics import chain_for
+    from sim.geometry.kinematics import chain_for
 
     chain = chain_for(robot)
     desired_xyz = np.array([chain.fk(q)[:3, 3] for q in desired_q])

@@ -1,0 +1,346 @@
+"""The accuracy campaign: robots × use cases × trials of the commander's 40 s trial path, each recorded by a real
+`rosbag record` into its own bag (CSV logs for the no-ROS cases), then analysed into a report with plots.
+
+    python -m sim.trials --robots panda igt --trials 5 --out results/
+
+Use cases (names as in the seed):
+  base                          endpoint + TCP engine, physics, auto-simulate (wall clock × time scale)
+  no_ros                        engine CSV mode (no ROS, no TCP), physics
+  ros_other_host                roscore + commander + rosbag, endpoint, engine in three network namespaces
+                                joined by veth links (made and removed by the run; skipped where not permitted)
+  no_joint_physics              as base, joints set kinematically (no_physics)
+  infinite_stiffness            as base, infinite drive stiffness
+  no_ros_no_physics             engine CSV mode, no_physics
+  auto_simulate_off             endpoint + TCP engine stepping only as /clock advances (lockstep), physics
+  auto_simulate_off_no_physics  as auto_simulate_off, no_physics
+Wall-clock use cases run at `--time-scale` (default 5: the 40 s path in 8 s), commander and engine alike.
+"""
+from __future__ import annotations
+
+import argparse
+import logging
+import shutil
+import subprocess
+import sys
+import time
+from collections.abc import Iterator, Sequence
+from contextlib import ExitStack, contextmanager
+from dataclasses import dataclass
+from pathlib import Path
+
+from sim.campaign import analysis
+from sim.engine.physics import Mode
+from sim.processes import PYTHON, EndpointProcess, ManagedProcess, ProcessError, RosCore, plain_env, start_recorder, stop_recorder
+from sim.robots import ROBOT_NAMES, RobotError, RobotSpec, load_robot
+from sim.control.scenarios import ScenarioConfig, ScenarioError, build_motion
+
+__all__ = [
+    "DT", "TCP", "CSV", "NETNS", "UseCase", "USE_CASES", "USE_CASE_NAMES", "TrialError", "TrialSkipped",
+    "NETNS_HOSTS", "Namespaces", "network_hosts", "Placement", "TrialPaths", "Campaign", "load_robots",
+    "run_campaign", "main",
+]
+
+log = logging.getLogger(__name__)
+
+DT = 0.02
+TCP = "tcp"
+CSV = "csv"
+NETNS = "netns"
+
+
+@dataclass(frozen=True)
+class UseCase:
+    name: str
+    transport: str  # TCP | CSV | NETNS
+    mode: Mode
+    auto_simulate: bool
+    description: str
+
+
+USE_CASES: tuple[UseCase, ...] = (
+    UseCase("base", TCP, Mode.PHYSICS, True, "endpoint + TCP engine, physics, auto-simulate"),
+    UseCase("no_ros", CSV, Mode.PHYSICS, True, "engine CSV mode, no ROS/TCP, physics"),
+    UseCase("ros_other_host", NETNS, Mode.PHYSICS, True, "ROS, endpoint and engine on three network hosts"),
+    UseCase("no_joint_physics", TCP, Mode.NO_PHYSICS, True, "as base, kinematic joints"),
+    UseCase("infinite_stiffness", TCP, Mode.INFINITE_STIFFNESS, True, "as base, infinite drive stiffness"),
+    UseCase("no_ros_no_physics", CSV, Mode.NO_PHYSICS, True, "engine CSV mode, kinematic joints"),
+    UseCase("auto_simulate_off", TCP, Mode.PHYSICS, False, "engine steps as /clock advances, physics"),
+    UseCase("auto_simulate_off_no_physics", TCP, Mode.NO_PHYSICS, False, "as auto_simulate_off, kinematic"),
+)
+USE_CASE_NAMES = tuple(case.name for case in USE_CASES)
+
+
+class TrialError(RuntimeError):
+    """A trial that could not run (a process failed, a bag is missing); the message says which and why."""
+
+
+class TrialSkipped(Exception):
+    """A use case this machine cannot run (e.g. network namespaces not permitted)."""
+
+
+# --- network hosts ---------------------------------------------------------------------------------------------
+# 198.18.0.0/15 is reserved for network test beds (RFC 2544): nothing outside these namespaces uses it.
+NETNS_HOSTS = {"ros": "198.18.71.1", "bridge": "198.18.71.2", "bridge_engine_side": "198.18.72.1",
+               "engine": "198.18.72.2"}
+
+
+@dataclass(frozen=True)
+class Namespaces:
+    ros: str
+    bridge: str
+    engine: str
+
+    def prefix(self, namespace: str) -> list[str]:
+        return ["ip", "netns", "exec", namespace]
+
+
+def _ip(*args: str) -> None:
+    result = subprocess.run(["ip", *args], capture_output=True, text=True)
+    if result.returncode != 0:
+        raise TrialSkipped(f"'ip {' '.join(args)}' failed: {result.stderr.strip()}")
+
+
+@contextmanager
+def network_hosts(tag: str) -> Iterator[Namespaces]:
+    """Three namespaces (ros — bridge — engine) linked by two veth pairs; removed on exit, whatever happens."""
+    if shutil.which("ip") is None:
+        raise TrialSkipped("the 'ip' command (iproute2) is not installed")
+    spaces = Namespaces(f"vrt_{tag}_ros", f"vrt_{tag}_bridge", f"vrt_{tag}_engine")
+    made: list[str] = []
+    try:
+        for namespace in (spaces.ros, spaces.bridge, spaces.engine):
+            _ip("netns", "add", namespace)
+            made.append(namespace)
+            _ip("-n", namespace, "link", "set", "lo", "up")
+        links = (
+            (spaces.ros, f"vr{tag}r0", NETNS_HOSTS["ros"], spaces.bridge, f"vr{tag}b0", NETNS_HOSTS["bridge"]),
+            (spaces.bridge, f"vr{tag}b1", NETNS_HOSTS["bridge_engine_side"], spaces.engine, f"vr{tag}e0",
+             NETNS_HOSTS["engine"]),
+        )
+        for ns_a, dev_a, addr_a, ns_b, dev_b, addr_b in links:
+            _ip("link", "add", dev_a, "netns", ns_a, "type", "veth", "peer", "name", dev_b, "netns", ns_b)
+            _ip("-n", ns_a, "addr", "add", f"{addr_a}/24", "dev", dev_a)
+            _ip("-n", ns_b, "addr", "add", f"{addr_b}/24", "dev", dev_b)
+            _ip("-n", ns_a, "link", "set", dev_a, "up")
+            _ip("-n", ns_b, "link", "set", dev_b, "up")
+        yield spaces
+    finally:
+        for namespace in reversed(made):  # deleting a namespace deletes its veth ends too
+            subprocess.run(["ip", "netns", "delete", namespace], capture_output=True)
+
+
+# --- one trial -------------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Placement:
+    """Where a trial's ROS processes run: roscore's host (commander, rosbag), the endpoint's, the engine's.
+    On one machine the prefixes are empty; across network namespaces they are `ip netns exec NAME`."""
+
+    ros_env: dict[str, str]
+    bridge_env: dict[str, str]
+    endpoint_host: str  # the endpoint's address as the engine reaches it
+    ros_prefix: Sequence[str] = ()
+    bridge_prefix: Sequence[str] = ()
+    engine_prefix: Sequence[str] = ()
+
+
+@dataclass
+class TrialPaths:
+    bag: Path
+    commander_log: Path
+    desired_csv: Path
+    achieved_csv: Path
+    process_logs: Path
+
+
+class Campaign:
+    def __init__(self, out_dir: Path, time_scale: float = 5.0, timeout_s: float = 180.0) -> None:
+        self.out_dir = out_dir
+        self.time_scale = time_scale
+        self.timeout_s = timeout_s
+        self._roscore: RosCore | None = None
+
+    def paths(self, robot: RobotSpec, case: UseCase, trial: int, scenario: str = "trial") -> TrialPaths:
+        stem = f"{robot.name}_{case.name}_{trial}" if scenario == "trial" else f"{robot.name}_{case.name}_{scenario}_{trial}"
+        return TrialPaths(
+            bag=self.out_dir / "bags" / f"{stem}.bag",
+            commander_log=self.out_dir / "commander" / f"{stem}.csv",
+            desired_csv=self.out_dir / "csv" / f"{stem}_desired.csv",
+            achieved_csv=self.out_dir / "csv" / f"{stem}_achieved.csv",
+            process_logs=self.out_dir / "logs",
+        )
+
+    def close(self) -> None:
+        if self._roscore is not None:
+            self._roscore.stop()
+            self._roscore = None
+
+    def roscore(self) -> RosCore:
+        if self._roscore is None:
+            self._roscore = RosCore()
+        return self._roscore
+
+    def run_trial(
+        self, robot: RobotSpec, case: UseCase, trial: int, scenario: Sequence[str] = ("trial",)
+    ) -> analysis.TrialResult:
+        """One run of the commander's `scenario` (name and options) under `case`, recorded and analysed."""
+        paths = self.paths(robot, case, trial, scenario[0])
+        if case.transport == CSV:
+            series = self._run_csv(robot, case, paths)
+        elif case.transport == TCP:
+            env = self.roscore().env
+            self._run_ros(robot, case, paths, Placement(env, env, "127.0.0.1"), scenario)
+            series = self._scenario_part(paths, robot)
+        else:
+            with network_hosts(f"{trial}{robot.name[0]}") as spaces, ExitStack() as stack:
+                core = RosCore(host=NETNS_HOSTS["ros"], prefix=spaces.prefix(spaces.ros))
+                stack.callback(core.stop)
+                placement = Placement(
+                    ros_env=core.env,
+                    bridge_env=dict(core.env, ROS_HOSTNAME=NETNS_HOSTS["bridge"]),
+                    endpoint_host=NETNS_HOSTS["bridge_engine_side"],
+                    ros_prefix=spaces.prefix(spaces.ros),
+                    bridge_prefix=spaces.prefix(spaces.bridge),
+                    engine_prefix=spaces.prefix(spaces.engine),
+                )
+                self._run_ros(robot, case, paths, placement, scenario)
+            series = self._scenario_part(paths, robot)
+        return analysis.TrialResult(robot.name, case.name, trial, analysis.trial_metrics(series, DT),
+                                    series.lost_messages, series)
+
+    @staticmethod
+    def _scenario_part(paths: TrialPaths, robot: RobotSpec) -> analysis.TrialSeries:
+        """The bag's series from the scenario's start on: the commander's approach to it is left out, as in the
+        commander's own metrics (CSV use cases export the scenario alone)."""
+        series = analysis.read_bag(paths.bag, robot)
+        return analysis.without_approach(series, analysis.scenario_start(paths.commander_log))
+
+    def _run_csv(self, robot: RobotSpec, case: UseCase, paths: TrialPaths) -> analysis.TrialSeries:
+        logs = paths.process_logs
+        commander = ManagedProcess(
+            [PYTHON, "-m", "sim.commander", *robot.cli_args, "--scenario", "trial", "--dt", str(DT),
+             "--export-csv", str(paths.desired_csv), "--export-only"], plain_env(), logs, "commander")
+        _expect_success(commander, self.timeout_s)
+        engine = ManagedProcess(
+            [PYTHON, "-m", "sim.engine", *robot.cli_args, "--mode", case.mode.value, "--dt", str(DT),
+             "--csv", str(paths.desired_csv), "--log", str(paths.achieved_csv)], plain_env(), logs, "engine")
+        _expect_success(engine, self.timeout_s)
+        return analysis.read_csv_pair(paths.desired_csv, paths.achieved_csv, robot)
+
+    def _run_ros(
+        self, robot: RobotSpec, case: UseCase, paths: TrialPaths, where: Placement, scenario: Sequence[str]
+    ) -> None:
+        logs = paths.process_logs
+        topics = [robot.command_topic, robot.joint_states_topic, "/clock", robot.pose_topic]
+        with ExitStack() as running:
+            endpoint = EndpointProcess(where.bridge_env, logs, host=where.endpoint_host, prefix=where.bridge_prefix)
+            running.callback(endpoint.stop)
+            port = endpoint.port
+            engine_args = [PYTHON, "-m", "sim.engine", *robot.cli_args, "--host", where.endpoint_host,
+                           "--port", str(port), "--mode", case.mode.value, "--dt", str(DT)]
+            engine_args += ["--time-scale", str(self.time_scale)] if case.auto_simulate else ["--no-auto-simulate"]
+            engine = ManagedProcess(engine_args, plain_env(), logs, "engine", where.engine_prefix)
+            running.callback(engine.stop)
+            recorder = start_recorder(paths.bag, topics, "trial_recorder", where.ros_env, logs, where.ros_prefix)
+            running.callback(lambda: stop_recorder(recorder, paths.bag))
+            engine.wait_for_output("connected to", timeout=60)
+            recorder.wait_for_output("Recording to", timeout=30)
+            commander_args = [PYTHON, "-m", "sim.commander", *robot.cli_args, "--scenario", *scenario,
+                              "--dt", str(DT), "--log", str(paths.commander_log), "--wait-for", "trial_recorder",
+                              "--timeout", "30"]
+            if case.auto_simulate:
+                commander_args += ["--realtime", "--time-scale", str(self.time_scale)]
+            commander = ManagedProcess(commander_args, where.ros_env, logs, "commander", where.ros_prefix)
+            running.callback(commander.stop)
+            _expect_success(commander, self.timeout_s)
+        if not paths.bag.exists():
+            raise TrialError(f"rosbag record left no {paths.bag}; see {recorder.log_path}")
+
+
+def _expect_success(process: ManagedProcess, timeout_s: float) -> None:
+    code = process.wait(timeout_s)
+    if code != 0:
+        raise TrialError(f"{process.name} exited with {code}:\n{process.output()[-3000:]}")
+
+
+# --- campaign --------------------------------------------------------------------------------------------------
+
+
+def load_robots(references: Sequence[str]) -> list[RobotSpec]:
+    """The campaign's robots (names or URDF/YAML paths); their names key bags and reports, so they must differ."""
+    specs = [load_robot(reference) for reference in references]
+    names = [spec.name for spec in specs]
+    twice = sorted({name for name in names if names.count(name) > 1})
+    if twice:
+        raise RobotError(f"two robots are named {', '.join(twice)}; give one another name in a robot YAML beside its URDF")
+    return specs
+
+
+def run_campaign(
+    robots: Sequence[RobotSpec], use_cases: Sequence[str], trials: int, out_dir: Path, time_scale: float, progress: bool
+) -> tuple[list[analysis.TrialResult], list[str]]:
+    from tqdm import tqdm
+
+    cases = [next(case for case in USE_CASES if case.name == name) for name in use_cases]
+    plan = [(robot, case, trial) for robot in robots for case in cases for trial in range(1, trials + 1)]
+    campaign = Campaign(out_dir, time_scale)
+    results: list[analysis.TrialResult] = []
+    skipped: dict[tuple[str, str], str] = {}  # (robot, use case) -> why
+    try:
+        for robot, case, trial in tqdm(plan, desc="trials", unit="trial", disable=not progress):
+            if (robot.name, case.name) in skipped:
+                continue
+            try:
+                results.append(campaign.run_trial(robot, case, trial))
+            except TrialSkipped as why:
+                skipped[(robot.name, case.name)] = str(why)
+    finally:
+        campaign.close()
+    return results, [f"{robot}/{case}: skipped, {why}" for (robot, case), why in skipped.items()]
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="python -m sim.trials", description=__doc__.splitlines()[0])
+    parser.add_argument("--robots", nargs="+", default=list(ROBOT_NAMES), metavar="ROBOT",
+                        help=f"names ({', '.join(ROBOT_NAMES)}) or URDF / robot YAML paths (default: all names)")
+    parser.add_argument("--use-cases", nargs="+", default=list(USE_CASE_NAMES), choices=USE_CASE_NAMES)
+    parser.add_argument("--trials", type=int, default=5)
+    parser.add_argument("--out", type=Path, default=Path("results"))
+    parser.add_argument("--time-scale", type=float, default=5.0, help="speed-up of the wall-clock use cases")
+    parser.add_argument("--no-progress", action="store_true")
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = _parser().parse_args(argv)
+    logging.basicConfig(level=logging.WARNING, format="[%(levelname)s] [%(name)s] %(message)s")
+    if args.trials < 1 or args.time_scale <= 0:
+        print("sim.trials: error: --trials must be >= 1 and --time-scale > 0", file=sys.stderr)
+        return 2
+    try:
+        robots = load_robots(args.robots)
+        for robot in robots:  # a robot whose trial path cannot be built is bad input, found before anything runs
+            build_motion(robot, "trial", ScenarioConfig(dt=DT))
+    except (RobotError, ScenarioError) as error:
+        print(f"sim.trials: error: {error}", file=sys.stderr)
+        return 2
+    started = time.monotonic()
+    try:
+        results, skipped = run_campaign(robots, args.use_cases, args.trials, args.out, args.time_scale,
+                                        progress=not args.no_progress)
+    except (TrialError, ProcessError, TimeoutError, analysis.AnalysisError) as error:
+        print(f"sim.trials: error: {error}", file=sys.stderr)
+        return 1
+    report = analysis.write_report(results, args.out, title="Tracking accuracy per use case")
+    print(analysis.markdown_table(analysis.summary_rows(results)))
+    for line in skipped:
+        print(line)
+    lost = sum(result.lost_messages for result in results)
+    print(f"{len(results)} trials in {time.monotonic() - started:.0f} s; messages lost: {lost}")
+    print(f"report: {report.resolve()}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

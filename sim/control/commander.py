@@ -1,0 +1,343 @@
+"""The commander: the stand-in for the Simulink models that drove the robot. A rospy node.
+
+    python -m sim.commander --robot panda --scenario NAME [options]     (--help lists them all)
+
+Streams a scenario of sim.control.scenarios as `<prefix>/arm_controller/command` (trajectory_msgs/JointTrajectory: the
+registry's joint names, ONE point with positions and velocities, header.stamp = the time the target is for), drives
+`/clock` (rosgraph_msgs/Clock), publishes the end-effector goal on `<prefix>/pose` (geometry_msgs/Pose, latched,
+IK scenarios only; a real quaternion, or with --pose-euler the seed's convention: XYZ Euler angles in the
+quaternion's x, y, z fields and w = 0) and logs desired vs achieved (`<prefix>/joint_states`) for every step.
+
+Timing (the contract with the engine): fixed steps of dt; the target of step k (t_k -> t_k+1) is for its END.
+  lockstep (default): publish the command stamped t_k+1, then /clock = t_k+1, then wait for a joint state stamped
+      >= t_k+1 (at most --timeout s). The engine steps once when /clock reaches t_k+1, so a 40 s trial takes seconds.
+  --realtime: every dt / --time-scale of wall time publish /clock = t_k and the command stamped t_k+1 (the engine
+      extrapolates along the velocity); no waiting.
+Start-up: wait (at most --connect-timeout s) until a partner node (one that publishes joint_states and
+subscribes the command topic) is connected to our command, /clock and pose publishers and our joint_states
+subscriber, and so is every node named with --wait-for (e.g. a rosbag recorder); publish /clock = 0. In lockstep,
+wait for the engine's answer to it: the joint state it publishes, stamped 0, when it anchors its step grid.
+Approach (default, --approach MIN_S, 0 = off): the robot may not be at the scenario's first sample (the engine
+starts at home, or where a previous run left it). In lockstep, step 0 -> dt is a priming step with no new command
+(the engine holds its target) whose joint state tells where the robot is; in realtime the first joint state does.
+A quintic approach then brings it to the scenario's start; approach rows are logged (phase "approach") but left out
+of the metrics. Without the approach the scenario starts at t = 0 at once, as in the seed.
+
+Output: a CSV log (time, scenario_time, phase, desired_<j>, achieved_<j>, achieved_stamp and, for IK scenarios,
+the reference pose ref_* at the achieved state's stamp, FK of the achieved joints ee_* and their errors
+ee_pos_err, ee_rot_err), its path, and a
+summary (per-joint MAPE/WAPE/NRMSE/max |error|/lag via sim.control.metrics; for IK scenarios the goal errors; for fk_confirm
+the end-effector error over time). `--export-csv PATH` writes the desired joints as the engine's CSV (`python -m
+sim.engine --csv PATH`); with `--export-only` nothing touches ROS.
+
+Exit codes: 0 done, 2 bad input, 3 unreachable IK goal (the residual is printed), 4 ROS failure (no partner,
+a joint state that does not come), 130 interrupted.
+"""
+from __future__ import annotations
+
+import argparse
+import math
+import signal
+import sys
+import threading
+import time
+from datetime import datetime
+from pathlib import Path
+
+import numpy as np
+
+from sim.cli_values import CliValueError, parse_numbers
+from sim.control.driver import DriverError, ReceivedJointState, RobotDriver
+from sim.geometry.frames import matrix_to_quat, quat_to_euler_xyz
+from sim.robots import RobotError, RobotSpec, add_robot_arguments, robot_from_args
+from sim.control.run_log import RunResult, write_log
+from sim.control.run_summary import format_fk_confirm, format_summary
+from sim.control.scenarios import (
+    APPROACH_MIN_S,
+    DEFAULT_DT,
+    IK_HOLD_S,
+    IK_MOVE_TIME_S,
+    IK_RESTARTS,
+    SCENARIOS,
+    SPACES,
+    Motion,
+    Schedule,
+    ScenarioConfig,
+    ScenarioError,
+    UnreachableGoalError,
+    build_motion,
+    build_schedule,
+    write_engine_csv,
+)
+from sim.geometry.trajectory import ORDERS
+
+__all__ = [
+    "REPO", "DEFAULT_LOG_DIR", "EXIT_OK", "EXIT_USAGE", "EXIT_UNREACHABLE", "EXIT_ROS", "EXIT_INTERRUPTED",
+    "config_from_args", "Commander", "main",
+]
+
+REPO = Path(__file__).resolve().parents[2]
+DEFAULT_LOG_DIR = REPO / "results" / "commander"
+EXIT_OK, EXIT_USAGE, EXIT_UNREACHABLE, EXIT_ROS, EXIT_INTERRUPTED = 0, 2, 3, 4, 130
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="python -m sim.commander",
+        description="The commander (Simulink stand-in): streams a scenario to a robot and logs desired vs achieved.",
+        epilog="Lists: space- or comma-separated numbers; pi expressions allowed (pi/4). A list starting with a "
+        "negative number: use spaces (--waypoints -2 1) or '=' (--waypoints=-2,1). Defaults of every scenario: "
+        "see `python -c 'import sim.control.scenarios; help(sim.control.scenarios)'`.",
+    )
+    add_robot_arguments(parser)
+    parser.add_argument("--scenario", required=True, help=f"one of {', '.join(SCENARIOS)}")
+    group = parser.add_argument_group("scenario options")
+    group.add_argument("--positions", nargs="+", metavar="Q", help="single: joint positions (default: home)")
+    group.add_argument("--joint", help="one_joint: joint name or 1-based number (default: the first)")
+    group.add_argument("--waypoints", nargs="+", metavar="Q", help="one_joint: waypoints of that joint (rad or m)")
+    group.add_argument("--times", nargs="+", metavar="T", help="one_joint: waypoint times in s (default: every 2 s from 0)")
+    group.add_argument("--order", default="quintic", help=f"polynomial order: {' | '.join(ORDERS)} (default quintic)")
+    group.add_argument("--start", nargs="+", metavar="X", help="IK: start position in m (default: the home end-effector position)")
+    group.add_argument("--goal", nargs="+", metavar="X", help="IK: goal position in m (x y where z is not controlled, e.g. igt)")
+    group.add_argument("--goal-rpy", nargs="+", metavar="A", help="IK: goal XYZ Euler angles in rad (IK on every axis the robot controls)")
+    group.add_argument("--weights", nargs="+", metavar="W",
+                       help="IK: weights of x, y, z, roll, pitch, yaw (default: the axes the robot controls)")
+    group.add_argument("--move-time", type=float, default=IK_MOVE_TIME_S, help=f"IK: motion time in s (default {IK_MOVE_TIME_S:g})")
+    group.add_argument("--hold", type=float, default=IK_HOLD_S, help=f"IK: hold at the goal in s (default {IK_HOLD_S:g})")
+    group.add_argument("--space", help=f"ik_orientation / fk_confirm: {' | '.join(SPACES)}")
+    group.add_argument("--nearest", action="store_true", help="IK: command the nearest pose found if the goal is unreachable")
+    group.add_argument("--ik-restarts", type=int, default=IK_RESTARTS, help=f"IK random restarts (default {IK_RESTARTS})")
+    group.add_argument("--duration", type=float, help="scenario length in s (cuts the motion or holds its end)")
+    run = parser.add_argument_group("run options")
+    run.add_argument("--dt", type=float, default=DEFAULT_DT, help=f"controller step in s (default {DEFAULT_DT})")
+    run.add_argument("--realtime", action="store_true", help="pace by the wall clock instead of lockstep")
+    run.add_argument("--time-scale", type=float, default=1.0,
+                     help="realtime: sim seconds per wall second (default 1; the engine needs the same)")
+    run.add_argument("--timeout", type=float, default=5.0, help="lockstep: max wait for each joint state in s (default 5)")
+    run.add_argument("--connect-timeout", type=float, default=30.0, help="max wait for the engine at start in s (default 30)")
+    run.add_argument("--approach", type=float, default=APPROACH_MIN_S,
+                     help=f"min approach time in s from the robot's state to the scenario start; 0 = off (default {APPROACH_MIN_S:g})")
+    run.add_argument("--pose-euler", action="store_true", help="pose topic in the seed's convention (XYZ Euler in x, y, z; w = 0)")
+    run.add_argument("--log", type=Path, help=f"CSV log path (default {DEFAULT_LOG_DIR}/<robot>_<scenario>_<time>.csv)")
+    run.add_argument("--export-csv", type=Path, help="write the desired joint trajectory as the engine's CSV")
+    run.add_argument("--export-only", action="store_true", help="with --export-csv: only export, no ROS")
+    run.add_argument("--node-name", help="ROS node name (default <robot>_commander)")
+    run.add_argument("--wait-for", action="append", default=[], metavar="NODE",
+                     help="also wait until NODE (e.g. a rosbag recorder) is connected to every topic of ours it "
+                     "subscribes, so it misses nothing (repeatable)")
+    return parser
+
+
+def config_from_args(args: argparse.Namespace) -> ScenarioConfig:
+    return ScenarioConfig(
+        dt=args.dt,
+        duration=args.duration,
+        positions=parse_numbers(args.positions, "--positions"),
+        joint=args.joint,
+        waypoints=parse_numbers(args.waypoints, "--waypoints"),
+        times=parse_numbers(args.times, "--times"),
+        order=args.order,
+        start=parse_numbers(args.start, "--start"),
+        goal=parse_numbers(args.goal, "--goal"),
+        goal_rpy=parse_numbers(args.goal_rpy, "--goal-rpy"),
+        weights=parse_numbers(args.weights, "--weights"),
+        move_time=args.move_time,
+        hold=args.hold,
+        space=args.space,
+        nearest=args.nearest,
+        ik_restarts=args.ik_restarts,
+    )
+
+
+# ------------------------------------------------------------------------------------------------ the node
+class Commander(RobotDriver):
+    """The driver (sim.control.driver) with the goal pose publisher and the stepping loops."""
+
+    def __init__(self, robot: RobotSpec, motion: Motion, args: argparse.Namespace, stop: threading.Event) -> None:
+        super().__init__(robot, stop)
+        from geometry_msgs.msg import Pose
+
+        self._pose_type = Pose
+        self.motion = motion
+        self.args = args
+        self.dt = motion.dt
+        self.pose_pub = None
+        if motion.goal is not None:
+            self.pose_pub = self.rospy.Publisher(robot.pose_topic, Pose, queue_size=1, latch=True)
+            self.watched_publishers.append((robot.pose_topic, self.pose_pub))
+
+    def publish_goal(self) -> None:
+        if self.pose_pub is None or self.motion.goal is None:
+            return
+        pose = self._pose_type()
+        position, quaternion = self.motion.goal[:3, 3], matrix_to_quat(self.motion.goal[:3, :3])
+        pose.position.x, pose.position.y, pose.position.z = (float(v) for v in position)
+        if self.args.pose_euler:  # the seed's convention: XYZ Euler angles in x, y, z; w = 0
+            roll, pitch, yaw = quat_to_euler_xyz(quaternion)
+            pose.orientation.x, pose.orientation.y, pose.orientation.z, pose.orientation.w = roll, pitch, yaw, 0.0
+        else:
+            pose.orientation.x, pose.orientation.y, pose.orientation.z, pose.orientation.w = (float(v) for v in quaternion)
+        self.pose_pub.publish(pose)
+
+    def _state_or_fail(self, stamp: float, timeout: float) -> ReceivedJointState:
+        return self.state_or_fail(stamp, timeout, self.dt)
+
+    # --- running ------------------------------------------------------------------------------------------
+    def run(self) -> tuple[Schedule, RunResult]:
+        self.publish_goal()
+        if self.args.realtime:
+            return self._run_realtime()
+        self.publish_clock(0.0)
+        # The engine anchors its step grid on /clock 0 and answers with its joint state stamped 0: only then may
+        # /clock move on (a later value seen first would become the anchor and the lockstep would stall).
+        self._state_or_fail(0.0, self.args.connect_timeout)
+        return self._run_lockstep()
+
+    def _run_lockstep(self) -> tuple[Schedule, RunResult]:
+        dt = self.dt
+        priming = 0
+        q_start = None
+        if self.args.approach > 0:
+            # Priming step: no new command; the engine's joint state tells where the robot is.
+            priming = 1
+            self.publish_clock(dt)
+            q_start = self._state_or_fail(dt, self.args.timeout).positions
+            self.rospy.loginfo("robot at %s; approaching the scenario start", np.round(q_start, 4).tolist())
+        schedule = build_schedule(self.motion, q_start, self.args.approach)
+        steps = len(schedule.positions) - 1
+        times = (np.arange(1, steps + 1) + priming) * dt
+        achieved = np.full((steps, self.robot.dof), np.nan)
+        stamps = np.full(steps, np.nan)
+        started = time.monotonic()
+        done = 0
+        failure: str | None = None
+        for i in range(1, steps + 1):
+            if self.stop.is_set():
+                break
+            t_end = (priming + i) * dt
+            self.publish_command(t_end, schedule.positions[i], schedule.velocities[i])
+            self.publish_clock(t_end)
+            try:
+                state = self._state_or_fail(t_end, self.args.timeout)
+            except DriverError as error:
+                failure = str(error)
+                break
+            achieved[i - 1], stamps[i - 1] = state.positions, state.stamp
+            done = i
+        result = RunResult(times, np.arange(1, steps + 1), schedule.positions[1:], achieved, stamps,
+                           time.monotonic() - started, priming, done == steps, failure)
+        return schedule, result
+
+    def _run_realtime(self) -> tuple[Schedule, RunResult]:
+        dt = self.dt
+        wall_dt = dt / self.args.time_scale  # --time-scale 5: the controller's clock runs 5x faster than the wall
+        q_start = None
+        if self.args.approach > 0:
+            q_start = self._state_or_fail(-math.inf, self.args.connect_timeout).positions
+        schedule = build_schedule(self.motion, q_start, self.args.approach)
+        steps = len(schedule.positions) - 1
+        times = np.arange(1, steps + 1) * dt
+        achieved = np.full((steps, self.robot.dof), np.nan)
+        stamps = np.full(steps, np.nan)
+        # /clock 0 goes out as the paced loop starts, so the controller's clock runs without a gap from 0 on.
+        started = time.monotonic()
+        self.publish_clock(0.0)
+        done = 0
+        for k in range(steps):  # at wall time k·dt: /clock = t_k, command for t_k+1
+            delay = started + k * wall_dt - time.monotonic()
+            if delay > 0 and self.stop.wait(delay):
+                break
+            if self.stop.is_set():
+                break
+            if k > 0:
+                self.publish_clock(k * dt)
+            self.publish_command((k + 1) * dt, schedule.positions[k + 1], schedule.velocities[k + 1])
+            latest = self.states.latest
+            if latest is not None:
+                achieved[k], stamps[k] = latest.positions, latest.stamp
+            done = k + 1
+        if done == steps and not self.stop.is_set():
+            self.stop.wait(max(0.0, started + steps * wall_dt - time.monotonic()))
+            self.publish_clock(steps * dt)
+        result = RunResult(times, np.arange(1, steps + 1), schedule.positions[1:], achieved, stamps,
+                           time.monotonic() - started, 0, done == steps)
+        return schedule, result
+
+
+# ------------------------------------------------------------------------------------------------------ main
+def _default_log_path(robot: str, scenario: str) -> Path:
+    return DEFAULT_LOG_DIR / f"{robot}_{scenario}_{datetime.now().strftime('%Y%m%d-%H%M%S-%f')}.csv"
+
+
+def main(argv: list[str] | None = None) -> int:
+    raw = list(sys.argv[1:] if argv is None else argv)
+    raw = [a for a in raw if not a.startswith("__name:=") and not a.startswith("__log:=")]
+    args = _parser().parse_args(raw)
+    try:
+        robot = robot_from_args(args)
+        if args.scenario not in SCENARIOS:
+            raise ScenarioError(f"unknown scenario {args.scenario!r}; known: {', '.join(SCENARIOS)}")
+        if args.export_only and args.export_csv is None:
+            raise ScenarioError("--export-only needs --export-csv PATH")
+        for option in ("timeout", "connect_timeout"):
+            if not getattr(args, option) > 0:
+                raise ScenarioError(f"--{option.replace('_', '-')} must be > 0 s, got {getattr(args, option)}")
+        if not (math.isfinite(args.approach) and args.approach >= 0):
+            raise ScenarioError(f"--approach must be >= 0 s, got {args.approach}")
+        motion = build_motion(robot, args.scenario, config_from_args(args))
+    except UnreachableGoalError as error:
+        print(f"sim.commander: UNREACHABLE: {error}", file=sys.stderr)
+        return EXIT_UNREACHABLE
+    except (ScenarioError, RobotError, CliValueError) as error:
+        print(f"sim.commander: error: {error}", file=sys.stderr)
+        return EXIT_USAGE
+    for note in motion.warnings:
+        print(f"sim.commander: warning: {note}", file=sys.stderr)
+    if args.export_csv is not None:
+        write_engine_csv(args.export_csv, motion)
+        print(f"desired trajectory ({len(motion.times)} samples, dt {motion.dt:g} s) exported to {args.export_csv}")
+        if args.export_only:
+            return EXIT_OK
+    return _run_node(robot, motion, args)
+
+
+def _run_node(robot: RobotSpec, motion: Motion, args: argparse.Namespace) -> int:
+    import rospy
+
+    stop = threading.Event()
+    rospy.init_node(args.node_name or f"{robot.name}_commander", disable_signals=True)
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(signum, lambda *_: stop.set())
+    commander = Commander(robot, motion, args, stop)
+    log_path = args.log or _default_log_path(robot.name, motion.scenario)
+    code = EXIT_OK
+    try:
+        partner = commander.wait_for_partner(args.connect_timeout, args.wait_for)
+        rospy.loginfo("engine %s connected; running %s for %s (%d steps of %g s)", partner, motion.scenario,
+                      robot.name, motion.steps, motion.dt)
+        schedule, result = commander.run()
+    except DriverError as error:
+        rospy.logerr("%s", error)
+        print(f"sim.commander: error: {error}", file=sys.stderr)
+        return EXIT_INTERRUPTED if stop.is_set() else EXIT_ROS
+    finally:
+        commander.close()
+        rospy.signal_shutdown("commander done")
+    report = write_log(log_path, robot, motion, schedule, result)
+    print(format_summary(robot, motion, result, report, log_path, args.realtime))
+    if motion.scenario == "fk_confirm":
+        print(format_fk_confirm(report))
+    if result.error is not None:
+        rospy.logerr("%s", result.error)
+        print(f"sim.commander: error: {result.error}", file=sys.stderr)
+        return EXIT_INTERRUPTED if stop.is_set() else EXIT_ROS
+    if not result.complete:
+        code = EXIT_INTERRUPTED
+    if motion.ik is not None and motion.ik.fallback:
+        print("sim.commander: the goal was unreachable; the nearest pose found was commanded (see FALLBACK above)")
+        code = code or EXIT_UNREACHABLE
+    return code
+
+
+if __name__ == "__main__":
+    sys.exit(main())
