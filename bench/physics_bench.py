@@ -1,10 +1,10 @@
-"""Benchmark of sim.engine.physics: speed (real-time factor) and tracking accuracy on the seed's joint-space test.
+"""Benchmark of sim.engine.physics: speed (real-time factor) and tracking accuracy on the thesis's joint-space test.
 
     .venv/bin/python bench/physics_bench.py [--steps 1000]
 
 1. Real-time factor = sim seconds per wall second, per robot and mode, at dt = 0.02 s, stepping towards a moving
    target (so the drive works every step). Target: >= 100 for the implicit drive (physics mode).
-2. Tracking of the seed's test: Panda joint 1 through 0.25, 1, 2.75, 1.5, -2, -2.45 rad at t = 0, 2, ..., 10 s
+2. Tracking of the thesis's test: Panda joint 1 through 0.25, 1, 2.75, 1.5, -2, -2.45 rad at t = 0, 2, ..., 10 s
    (quintic PolynomialTrajectory: zero velocity and acceleration at every waypoint), the other joints commanded 0.
    The world starts at the trajectory's start; before the step ending at t_k = k*dt the target is the reference at
    t_k with its velocity as feed-forward (targets for the END of the step). Compared at t_k, k = 0..500.
@@ -36,7 +36,7 @@ from sim.geometry.trajectory import PolynomialTrajectory  # noqa: E402
 DT = 0.02
 RTF_TARGET = 100.0
 MAPE_TARGET_PERCENT = 0.05
-SEED_WAYPOINTS_J1 = [0.25, 1.0, 2.75, 1.5, -2.0, -2.45]  # rad, one every 2 s
+THESIS_WAYPOINTS_J1 = [0.25, 1.0, 2.75, 1.5, -2.0, -2.45]  # rad, one every 2 s
 
 
 def real_time_factor(robot: RobotSpec, mode: Mode, steps: int) -> tuple[float, float]:
@@ -53,10 +53,10 @@ def real_time_factor(robot: RobotSpec, mode: Mode, steps: int) -> tuple[float, f
 
 
 def seed_reference() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(times, positions, velocities) of the seed's test sampled at every step end, t = 0 .. 10 s."""
-    waypoints = np.zeros((len(SEED_WAYPOINTS_J1), 7))
-    waypoints[:, 0] = SEED_WAYPOINTS_J1
-    trajectory = PolynomialTrajectory(2.0 * np.arange(len(SEED_WAYPOINTS_J1)), waypoints, order="quintic")
+    """(times, positions, velocities) of the thesis's test sampled at every step end, t = 0 .. 10 s."""
+    waypoints = np.zeros((len(THESIS_WAYPOINTS_J1), 7))
+    waypoints[:, 0] = THESIS_WAYPOINTS_J1
+    trajectory = PolynomialTrajectory(2.0 * np.arange(len(THESIS_WAYPOINTS_J1)), waypoints, order="quintic")
     steps = int(round((trajectory.end_time - trajectory.start_time) / DT))
     times = trajectory.start_time + DT * np.arange(steps + 1)
     sample = trajectory.sample(times)
@@ -96,7 +96,7 @@ def main(argv: list[str] | None = None) -> int:
             print(f"{robot.name:<10}{mode.value:<20}{rtf:>10.0f}{micros:>10.1f}   {target}")
 
     times, reference, velocities = seed_reference()
-    print(f"\nTracking, seed's test (Panda joint 1 through {SEED_WAYPOINTS_J1} rad every 2 s, quintic; other joints 0)")
+    print(f"\nTracking, the thesis's test (Panda joint 1 through {THESIS_WAYPOINTS_J1} rad every 2 s, quintic; other joints 0)")
     print(f"{len(times)} samples at the step ends t = 0..{times[-1]:g} s; MAPE over |ref| > {DEFAULT_MAPE_FLOOR:g} rad")
     header = f"{'mode':<30}{'joint':>6}{'MAPE %':>12}{'(n)':>6}{'WAPE %':>12}{'NRMSE %':>12}{'max|e| rad':>12}   target"
     print(header)

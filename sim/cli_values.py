@@ -6,10 +6,12 @@ import ast
 import math
 import operator
 
+from sim.errors import SimError
+
 __all__ = ["CliValueError", "parse_number", "parse_numbers"]
 
 
-class CliValueError(ValueError):
+class CliValueError(SimError, ValueError):
     """A value that is not a number; the message quotes it."""
 
 

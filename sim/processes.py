@@ -19,6 +19,8 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any, TypeVar
 
+from sim.errors import SimError
+
 __all__ = [
     "REPO", "PYTHON", "ProcessError", "free_port", "wait_for", "kill_process", "ros_environment",
     "ManagedProcess", "RosCore", "EndpointProcess", "start_recorder", "stop_recorder", "plain_env",
@@ -30,7 +32,7 @@ PYTHON = sys.executable
 T = TypeVar("T")
 
 
-class ProcessError(RuntimeError):
+class ProcessError(SimError, RuntimeError):
     """A managed process that did not start, or exited before it was ready."""
 
 

@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from sim.errors import SimError
 from sim.wire import rosmsgs
 from sim.wire.joint_csv import read_joint_csv
 from sim.control.metrics import TrackingMetrics, mean_and_std, per_joint_metrics, resample
@@ -35,7 +36,7 @@ STATE_LEAD_TOLERANCE_S = 0.5  # how far (sim time) a joint state may lead the ne
 MOVING_JOINT_RANGE = 1e-3  # a joint whose desired range is below this (rad or m) does not move in the trial
 
 
-class AnalysisError(ValueError):
+class AnalysisError(SimError, ValueError):
     """A bag or log that cannot be analysed (missing topics, no overlap), named in the message."""
 
 
@@ -98,16 +99,17 @@ def read_bag(path: Path, robot: RobotSpec) -> TrialSeries:
                 command_q.append(hold.copy())
                 command_seq.append(_header_seq(raw))
             else:
-                state = rosmsgs.deserialize(raw, rosmsgs.JOINT_STATE)
+                try:
+                    state = rosmsgs.decode_joint_state(raw, robot.joint_names)
+                except rosmsgs.MessageError as error:
+                    raise AnalysisError(f"{path}: {robot.joint_states_topic}: {error}") from None
                 # Until it hears /clock, an auto-simulating engine stamps with its own clock: a state stamped far
                 # ahead of every command recorded so far is not on the controller's time base yet.
-                stamp = rosmsgs.to_seconds(state.header.stamp)  # type: ignore[attr-defined]
-                if newest_command_stamp is None or stamp > newest_command_stamp + STATE_LEAD_TOLERANCE_S:
+                if newest_command_stamp is None or state.stamp_s > newest_command_stamp + STATE_LEAD_TOLERANCE_S:
                     continue
-                index = {name: i for i, name in enumerate(state.name)}  # type: ignore[attr-defined]
-                state_t.append(stamp)
-                state_q.append([state.position[index[name]] for name in robot.joint_names])  # type: ignore[attr-defined]
-                state_seq.append(state.header.seq)  # type: ignore[attr-defined]
+                state_t.append(state.stamp_s)
+                state_q.append(state.positions)
+                state_seq.append(state.seq)
     if len(command_t) < 2:
         raise AnalysisError(f"{path}: fewer than 2 commands on {robot.command_topic}")
     return TrialSeries(

@@ -3,7 +3,7 @@
 
     python -m sim.trials --robots panda igt --trials 5 --out results/
 
-Use cases (names as in the seed):
+Use cases (names as in the thesis):
   base                          endpoint + TCP engine, physics, auto-simulate (wall clock × time scale)
   no_ros                        engine CSV mode (no ROS, no TCP), physics
   ros_other_host                roscore + commander + rosbag, endpoint, engine in three network namespaces
@@ -28,21 +28,22 @@ from contextlib import ExitStack, contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
+from sim.errors import SimError
 from sim.campaign import analysis
 from sim.engine.physics import Mode
 from sim.processes import PYTHON, EndpointProcess, ManagedProcess, ProcessError, RosCore, plain_env, start_recorder, stop_recorder
 from sim.robots import ROBOT_NAMES, RobotError, RobotSpec, load_robot
 from sim.control.scenarios import ScenarioConfig, ScenarioError, build_motion
+from sim.wire.contract import STEP_S
 
 __all__ = [
-    "DT", "TCP", "CSV", "NETNS", "UseCase", "USE_CASES", "USE_CASE_NAMES", "TrialError", "TrialSkipped",
+    "TCP", "CSV", "NETNS", "UseCase", "USE_CASES", "USE_CASE_NAMES", "TrialError", "TrialSkipped",
     "NETNS_HOSTS", "Namespaces", "network_hosts", "Placement", "TrialPaths", "Campaign", "load_robots",
     "run_campaign", "main",
 ]
 
 log = logging.getLogger(__name__)
 
-DT = 0.02
 TCP = "tcp"
 CSV = "csv"
 NETNS = "netns"
@@ -70,11 +71,11 @@ USE_CASES: tuple[UseCase, ...] = (
 USE_CASE_NAMES = tuple(case.name for case in USE_CASES)
 
 
-class TrialError(RuntimeError):
+class TrialError(SimError, RuntimeError):
     """A trial that could not run (a process failed, a bag is missing); the message says which and why."""
 
 
-class TrialSkipped(Exception):
+class TrialSkipped(SimError):
     """A use case this machine cannot run (e.g. network namespaces not permitted)."""
 
 
@@ -206,7 +207,7 @@ class Campaign:
                 )
                 self._run_ros(robot, case, paths, placement, scenario)
             series = self._scenario_part(paths, robot)
-        return analysis.TrialResult(robot.name, case.name, trial, analysis.trial_metrics(series, DT),
+        return analysis.TrialResult(robot.name, case.name, trial, analysis.trial_metrics(series, STEP_S),
                                     series.lost_messages, series)
 
     @staticmethod
@@ -219,11 +220,11 @@ class Campaign:
     def _run_csv(self, robot: RobotSpec, case: UseCase, paths: TrialPaths) -> analysis.TrialSeries:
         logs = paths.process_logs
         commander = ManagedProcess(
-            [PYTHON, "-m", "sim.commander", *robot.cli_args, "--scenario", "trial", "--dt", str(DT),
+            [PYTHON, "-m", "sim.commander", *robot.cli_args, "--scenario", "trial", "--dt", str(STEP_S),
              "--export-csv", str(paths.desired_csv), "--export-only"], plain_env(), logs, "commander")
         _expect_success(commander, self.timeout_s)
         engine = ManagedProcess(
-            [PYTHON, "-m", "sim.engine", *robot.cli_args, "--mode", case.mode.value, "--dt", str(DT),
+            [PYTHON, "-m", "sim.engine", *robot.cli_args, "--mode", case.mode.value, "--dt", str(STEP_S),
              "--csv", str(paths.desired_csv), "--log", str(paths.achieved_csv)], plain_env(), logs, "engine")
         _expect_success(engine, self.timeout_s)
         return analysis.read_csv_pair(paths.desired_csv, paths.achieved_csv, robot)
@@ -238,7 +239,7 @@ class Campaign:
             running.callback(endpoint.stop)
             port = endpoint.port
             engine_args = [PYTHON, "-m", "sim.engine", *robot.cli_args, "--host", where.endpoint_host,
-                           "--port", str(port), "--mode", case.mode.value, "--dt", str(DT)]
+                           "--port", str(port), "--mode", case.mode.value, "--dt", str(STEP_S)]
             engine_args += ["--time-scale", str(self.time_scale)] if case.auto_simulate else ["--no-auto-simulate"]
             engine = ManagedProcess(engine_args, plain_env(), logs, "engine", where.engine_prefix)
             running.callback(engine.stop)
@@ -247,7 +248,7 @@ class Campaign:
             engine.wait_for_output("connected to", timeout=60)
             recorder.wait_for_output("Recording to", timeout=30)
             commander_args = [PYTHON, "-m", "sim.commander", *robot.cli_args, "--scenario", *scenario,
-                              "--dt", str(DT), "--log", str(paths.commander_log), "--wait-for", "trial_recorder",
+                              "--dt", str(STEP_S), "--log", str(paths.commander_log), "--wait-for", "trial_recorder",
                               "--timeout", "30"]
             if case.auto_simulate:
                 commander_args += ["--realtime", "--time-scale", str(self.time_scale)]
@@ -321,7 +322,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         robots = load_robots(args.robots)
         for robot in robots:  # a robot whose trial path cannot be built is bad input, found before anything runs
-            build_motion(robot, "trial", ScenarioConfig(dt=DT))
+            build_motion(robot, "trial", ScenarioConfig(dt=STEP_S))
     except (RobotError, ScenarioError) as error:
         print(f"sim.trials: error: {error}", file=sys.stderr)
         return 2

@@ -5,7 +5,7 @@
 Streams a scenario of sim.control.scenarios as `<prefix>/arm_controller/command` (trajectory_msgs/JointTrajectory: the
 registry's joint names, ONE point with positions and velocities, header.stamp = the time the target is for), drives
 `/clock` (rosgraph_msgs/Clock), publishes the end-effector goal on `<prefix>/pose` (geometry_msgs/Pose, latched,
-IK scenarios only; a real quaternion, or with --pose-euler the seed's convention: XYZ Euler angles in the
+IK scenarios only; a real quaternion, or with --pose-convention euler the thesis's: XYZ Euler angles in the
 quaternion's x, y, z fields and w = 0) and logs desired vs achieved (`<prefix>/joint_states`) for every step.
 
 Timing (the contract with the engine): fixed steps of dt; the target of step k (t_k -> t_k+1) is for its END.
@@ -21,7 +21,7 @@ Approach (default, --approach MIN_S, 0 = off): the robot may not be at the scena
 starts at home, or where a previous run left it). In lockstep, step 0 -> dt is a priming step with no new command
 (the engine holds its target) whose joint state tells where the robot is; in realtime the first joint state does.
 A quintic approach then brings it to the scenario's start; approach rows are logged (phase "approach") but left out
-of the metrics. Without the approach the scenario starts at t = 0 at once, as in the seed.
+of the metrics. Without the approach the scenario starts at t = 0 at once, as in the thesis's set-up.
 
 Output: a CSV log (time, scenario_time, phase, desired_<j>, achieved_<j>, achieved_stamp and, for IK scenarios,
 the reference pose ref_* at the achieved state's stamp, FK of the achieved joints ee_* and their errors
@@ -48,13 +48,12 @@ import numpy as np
 
 from sim.cli_values import CliValueError, parse_numbers
 from sim.control.driver import DriverError, ReceivedJointState, RobotDriver
-from sim.geometry.frames import matrix_to_quat, quat_to_euler_xyz
+from sim.geometry.frames import matrix_to_quat
 from sim.robots import RobotError, RobotSpec, add_robot_arguments, robot_from_args
 from sim.control.run_log import RunResult, write_log
 from sim.control.run_summary import format_fk_confirm, format_summary
 from sim.control.scenarios import (
     APPROACH_MIN_S,
-    DEFAULT_DT,
     IK_HOLD_S,
     IK_MOVE_TIME_S,
     IK_RESTARTS,
@@ -70,6 +69,7 @@ from sim.control.scenarios import (
     write_engine_csv,
 )
 from sim.geometry.trajectory import ORDERS
+from sim.wire.contract import STEP_S, PoseConvention, add_pose_convention_argument
 
 __all__ = [
     "REPO", "DEFAULT_LOG_DIR", "EXIT_OK", "EXIT_USAGE", "EXIT_UNREACHABLE", "EXIT_ROS", "EXIT_INTERRUPTED",
@@ -109,7 +109,7 @@ def _parser() -> argparse.ArgumentParser:
     group.add_argument("--ik-restarts", type=int, default=IK_RESTARTS, help=f"IK random restarts (default {IK_RESTARTS})")
     group.add_argument("--duration", type=float, help="scenario length in s (cuts the motion or holds its end)")
     run = parser.add_argument_group("run options")
-    run.add_argument("--dt", type=float, default=DEFAULT_DT, help=f"controller step in s (default {DEFAULT_DT})")
+    run.add_argument("--dt", type=float, default=STEP_S, help=f"controller step in s (default {STEP_S})")
     run.add_argument("--realtime", action="store_true", help="pace by the wall clock instead of lockstep")
     run.add_argument("--time-scale", type=float, default=1.0,
                      help="realtime: sim seconds per wall second (default 1; the engine needs the same)")
@@ -117,7 +117,7 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--connect-timeout", type=float, default=30.0, help="max wait for the engine at start in s (default 30)")
     run.add_argument("--approach", type=float, default=APPROACH_MIN_S,
                      help=f"min approach time in s from the robot's state to the scenario start; 0 = off (default {APPROACH_MIN_S:g})")
-    run.add_argument("--pose-euler", action="store_true", help="pose topic in the seed's convention (XYZ Euler in x, y, z; w = 0)")
+    add_pose_convention_argument(parser, accept_old_flag=True)
     run.add_argument("--log", type=Path, help=f"CSV log path (default {DEFAULT_LOG_DIR}/<robot>_<scenario>_<time>.csv)")
     run.add_argument("--export-csv", type=Path, help="write the desired joint trajectory as the engine's CSV")
     run.add_argument("--export-only", action="store_true", help="with --export-csv: only export, no ROS")
@@ -172,11 +172,8 @@ class Commander(RobotDriver):
         pose = self._pose_type()
         position, quaternion = self.motion.goal[:3, 3], matrix_to_quat(self.motion.goal[:3, :3])
         pose.position.x, pose.position.y, pose.position.z = (float(v) for v in position)
-        if self.args.pose_euler:  # the seed's convention: XYZ Euler angles in x, y, z; w = 0
-            roll, pitch, yaw = quat_to_euler_xyz(quaternion)
-            pose.orientation.x, pose.orientation.y, pose.orientation.z, pose.orientation.w = roll, pitch, yaw, 0.0
-        else:
-            pose.orientation.x, pose.orientation.y, pose.orientation.z, pose.orientation.w = (float(v) for v in quaternion)
+        fields = PoseConvention(self.args.pose_convention).encode(quaternion)
+        pose.orientation.x, pose.orientation.y, pose.orientation.z, pose.orientation.w = fields
         self.pose_pub.publish(pose)
 
     def _state_or_fail(self, stamp: float, timeout: float) -> ReceivedJointState:

@@ -15,14 +15,13 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from sim.errors import SimError
 from sim.robots import RobotSpec
+from sim.wire.contract import STAMP_TOLERANCE_S, MessageError, positions_by_name
 
-__all__ = ["STAMP_TOLERANCE_S", "DriverError", "ReceivedJointState", "StateListener", "RobotDriver"]
+__all__ = ["DriverError", "ReceivedJointState", "StateListener", "RobotDriver"]
 
-STAMP_TOLERANCE_S = 1e-6
-
-
-class DriverError(RuntimeError):
+class DriverError(SimError, RuntimeError):
     """A ROS-side failure: no partner, a joint state that does not arrive, a malformed joint state."""
 
 
@@ -46,12 +45,10 @@ class StateListener:
 
     def callback(self, message: Any) -> None:
         try:
-            index = [list(message.name).index(name) for name in self.robot.joint_names]
-            positions = np.array([message.position[i] for i in index], dtype=float)
-        except (ValueError, IndexError):
+            positions = positions_by_name(message.name, message.position, self.robot.joint_names)
+        except MessageError as error:
             with self._changed:
-                self.error = (f"joint state names {list(message.name)} with {len(message.position)} positions do not "
-                              f"cover {list(self.robot.joint_names)}")
+                self.error = str(error)
                 self._changed.notify_all()
             return
         with self._changed:

@@ -1,6 +1,6 @@
 """Tracking metrics of an achieved signal against its reference. Pure numpy, no I/O.
 
-MAPE (the seed's metric) explodes where the reference crosses zero, so it is computed only over samples where
+MAPE (the thesis's metric) explodes where the reference crosses zero, so it is computed only over samples where
 |reference| exceeds a floor, and always reported beside WAPE, NRMSE and the max |error|, which have no such flaw.
 """
 from __future__ import annotations
@@ -9,6 +9,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+
+from sim.errors import SimError
 
 __all__ = [
     "DEFAULT_MAPE_FLOOR", "HELD_STILL_SPREAD", "MetricsError", "TrackingMetrics", "mape_percent", "wape_percent",
@@ -21,7 +23,7 @@ DEFAULT_MAPE_FLOOR = 1e-3  # rad or m: samples with |reference| below this are l
 HELD_STILL_SPREAD = 1e-9
 
 
-class MetricsError(ValueError):
+class MetricsError(SimError, ValueError):
     """Signals that cannot be compared (shapes, too few samples, no overlap in time)."""
 
 

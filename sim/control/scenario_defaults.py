@@ -9,7 +9,7 @@ motions the README documents); everything else is computed here from the limits 
                    reference): on the range's larger side of 0, c in its middle and A = 0.3 of its width, so the
                    swing keeps 0.2 of the width from 0; A at most TRIAL_MAX_SWING and slow enough that the 5 s
                    quintic segments peak at half the velocity limit.
-  one_joint        the first joint through ONE_JOINT_FRACTIONS of its usable range (the seed's shape: up, far up,
+  one_joint        the first joint through ONE_JOINT_FRACTIONS of its usable range (the thesis's shape: up, far up,
                    back, far down), scaled towards the centre if needed so it peaks at 0.8 of its velocity limit.
   IK weights       the task-space axes the chain controls: greedily x, y, z, yaw, roll, pitch, each kept when it
                    raises the rank of the Jacobian's selected rows (at the best of a few seeded configurations).

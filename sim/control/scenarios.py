@@ -9,15 +9,15 @@ Scenarios (defaults in brackets; "home" = the robot's home configuration). Defau
 computed from its limits and its chain (sim.control.scenario_defaults); the Panda's and the igt's below are kept in their
 robot YAML (sim/robots/*.yaml) so that they stay the motions the README documents:
 
-  single          constant joint positions [home]; runs `duration` [5 s]. Like the seed's a_SingleInput.
+  single          constant joint positions [home]; runs `duration` [5 s]. Like the thesis's a_SingleInput.
   one_joint       one joint through waypoints at times, polynomial (`order` [quintic]), others hold home.
                   [computed: the first joint through fractions of its range, slowed to 0.8 of its velocity limit];
                   panda [joint 1 through 0.25, 1, 2.75, 1.5, -2, -2.45 rad at t = 0, 2, ..., 10 s];
                   igt [the rail through 0.05, 0.2, 0, -0.2, 0.05, -0.15 m at t = 0, 2, ..., 10 s];
                   `duration` [last waypoint time + 1 s]. (The seed held the other Panda joints at 0, but 0 is
                   outside Franka's limits for panda_joint4 (-3.0718 .. -0.0698 rad), hence home.)
-                  Note: the seed's 1.5 -> -2 rad in 2 s peaks at 3.28 rad/s, above the Panda's 2.175 rad/s joint-1
-                  limit; this is kept as the seed had it and reported as a warning.
+                  Note: the thesis's 1.5 -> -2 rad in 2 s peaks at 3.28 rad/s, above the Panda's 2.175 rad/s joint-1
+                  limit; this is kept as the thesis had it and reported as a warning.
   ik_joints       IK of start and goal, then a polynomial in joint space over `move_time` [4 s] and a `hold` [1 s].
                   IK weights [the axes the chain controls; position only where it controls x, y and z and no goal
                   orientation is given] (`weights`). [computed: FK of a reachable offset from home];
@@ -52,6 +52,7 @@ from pathlib import Path
 
 import numpy as np
 
+from sim.errors import SimError
 from sim.geometry.frames import matrix_to_rpy, rpy_to_matrix
 from sim.geometry.kinematics import (
     IKResult,
@@ -74,9 +75,10 @@ from sim.control.scenario_defaults import (
     trial_table,
 )
 from sim.geometry.trajectory import ORDERS, PolynomialTrajectory
+from sim.wire.contract import STEP_S
 
 __all__ = [
-    "SCENARIOS", "IK_SCENARIOS", "SPACES", "DEFAULT_DT", "SINGLE_DURATION_S",
+    "SCENARIOS", "IK_SCENARIOS", "SPACES", "SINGLE_DURATION_S",
     "ONE_JOINT_SPACING_S", "ONE_JOINT_HOLD_S", "IK_MOVE_TIME_S", "IK_HOLD_S", "IK_RESTARTS", "IK_SEED",
     "IK_TOL_POS", "IK_TOL_ROT", "TRIAL_DURATION_S", "TRIAL_SEGMENT_S",
     "TRIAL_PATTERN", "APPROACH_MIN_S", "APPROACH_SPEED_FRACTION", "ScenarioError",
@@ -91,7 +93,6 @@ SCENARIOS: tuple[str, ...] = (
 IK_SCENARIOS: tuple[str, ...] = ("ik_joints", "ik_cartesian", "ik_orientation", "fk_confirm")
 SPACES = ("joint", "cartesian")
 
-DEFAULT_DT = 0.02
 SINGLE_DURATION_S = 5.0
 ONE_JOINT_SPACING_S = 2.0
 ONE_JOINT_HOLD_S = 1.0
@@ -108,7 +109,7 @@ APPROACH_MIN_S = 2.0
 APPROACH_SPEED_FRACTION = 0.5  # approach segments peak at no more than this fraction of the velocity limits
 
 
-class ScenarioError(ValueError):
+class ScenarioError(SimError, ValueError):
     """A scenario that cannot be built from the given options (the message names the offending value)."""
 
 
@@ -125,7 +126,7 @@ class UnreachableGoalError(ScenarioError):
 class ScenarioConfig:
     """Options of `build_motion`; None means the scenario's default (see the module docstring)."""
 
-    dt: float = DEFAULT_DT
+    dt: float = STEP_S
     duration: float | None = None  # total length in s: the motion is cut, or its end held
     positions: Sequence[float] | None = None  # single
     joint: str | None = None  # one_joint: a joint name or a 1-based index

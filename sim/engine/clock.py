@@ -21,14 +21,13 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-__all__ = ["CLOCK_TOLERANCE_S", "ClockAdvance", "ClockError", "StepClock"]
+from sim.errors import SimError
+from sim.wire.contract import STAMP_TOLERANCE_S
 
-# A clock value on the grid counts as reached even when it arrives a little early: ROS stamps are whole nanoseconds
-# and rospy's Time.from_sec truncates (1.16 s arrives as 1.159999999 s).
-CLOCK_TOLERANCE_S = 1e-6
+__all__ = ["ClockAdvance", "ClockError", "StepClock"]
 
 
-class ClockError(ValueError):
+class ClockError(SimError, ValueError):
     """A clock setting or value that cannot drive the steps."""
 
 
@@ -88,7 +87,7 @@ class _Grid:
 
     def _due(self, t: float) -> int:
         assert self.anchor is not None
-        return max(int(math.floor((t - self.anchor + CLOCK_TOLERANCE_S) / self.period)) - self.done_since_anchor, 0)
+        return max(int(math.floor((t - self.anchor + STAMP_TOLERANCE_S) / self.period)) - self.done_since_anchor, 0)
 
 
 class StepClock:

@@ -12,6 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from sim.wire.contract import STAMP_TOLERANCE_S
 from sim.wire.rosmsgs import TrajectoryCommand
 
 __all__ = ["Target", "CommandBuffer"]
@@ -27,7 +28,7 @@ class CommandBuffer:
     """Thread-safe: the TCP reader stores commands, the stepping loop reads targets."""
 
     def __init__(self, initial_positions: np.ndarray, max_extrapolation_s: float = 0.1,
-                 stamp_tolerance_s: float = 1e-6) -> None:
+                 stamp_tolerance_s: float = STAMP_TOLERANCE_S) -> None:
         self._positions = np.array(initial_positions, dtype=float)
         self._velocities = np.zeros_like(self._positions)
         self._stamp: float | None = None
@@ -55,7 +56,7 @@ class CommandBuffer:
         with self._lock:
             return self._stamp
 
-    def wait_for_stamp(self, stamp: float, timeout: float, tolerance: float = 1e-6) -> bool:
+    def wait_for_stamp(self, stamp: float, timeout: float, tolerance: float = STAMP_TOLERANCE_S) -> bool:
         """Block until a command stamped >= `stamp` is stored (or `timeout` passes)."""
         with self._changed:
             return self._changed.wait_for(

@@ -26,9 +26,9 @@ from geometry_msgs.msg import Pose, TransformStamped
 from sensor_msgs.msg import JointState
 from tf2_msgs.msg import TFMessage
 
-from sim.geometry import frames
 from sim.robots import RobotError, RobotSpec, add_robot_arguments, robot_from_args
 from sim.robots.urdf_model import parse_urdf
+from sim.wire.contract import MessageError, PoseConvention, add_pose_convention_argument
 
 __all__ = ["WORLD_FRAME", "target_frame", "locked_joints", "DescriptionNode", "main"]
 
@@ -46,7 +46,7 @@ def locked_joints(robot: RobotSpec, urdf_text: str) -> list[str]:
 
 
 class DescriptionNode:
-    def __init__(self, robot: RobotSpec, pose_convention: str) -> None:
+    def __init__(self, robot: RobotSpec, pose_convention: PoseConvention) -> None:
         self.robot = robot
         self.pose_convention = pose_convention
         urdf_text = robot.urdf_path.read_text(encoding="utf-8")
@@ -91,15 +91,12 @@ class DescriptionNode:
         self._joint_states.publish(full)
 
     def _on_pose(self, message: Pose) -> None:
-        fields = np.array([message.orientation.x, message.orientation.y, message.orientation.z, message.orientation.w])
-        if self.pose_convention == "euler":  # the seed's XYZ Euler angles in x, y, z
-            quaternion = frames.euler_xyz_to_quat(*fields[:3])
-        else:
-            norm = float(np.linalg.norm(fields))
-            if not np.isfinite(norm) or norm < 1e-9:
-                rospy.logerr_throttle(1.0, f"pose on {self.robot.pose_topic} has no valid quaternion: {fields}")
-                return
-            quaternion = fields / norm
+        fields = [message.orientation.x, message.orientation.y, message.orientation.z, message.orientation.w]
+        try:
+            quaternion = self.pose_convention.decode(fields)
+        except MessageError as error:
+            rospy.logerr_throttle(1.0, f"pose on {self.robot.pose_topic}: {error}")
+            return
         position = np.array([message.position.x, message.position.y, message.position.z])
         self._tf.publish(TFMessage([self._transform(self.robot.base_link, target_frame(self.robot), rospy.Time.now(),
                                                     position, quaternion)]))
@@ -112,8 +109,7 @@ class DescriptionNode:
 def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="python -m sim.description_node", description=__doc__.splitlines()[0])
     add_robot_arguments(parser)
-    parser.add_argument("--pose-convention", choices=["quaternion", "euler"], default="quaternion",
-                        help="how /<robot>/pose carries its orientation (as the engine's option)")
+    add_pose_convention_argument(parser)
     return parser
 
 
@@ -128,7 +124,7 @@ def main(argv: list[str] | None = None) -> int:
     stop = threading.Event()
     for signum in (signal.SIGINT, signal.SIGTERM):
         signal.signal(signum, lambda *_: stop.set())
-    node = DescriptionNode(robot, args.pose_convention)
+    node = DescriptionNode(robot, PoseConvention(args.pose_convention))
     locked = f"; locked at 0: {', '.join(node.locked)}" if node.locked else ""
     print(f"description node: {robot.name} on {rospy.resolve_name('robot_description')}, joint states on "
           f"{rospy.resolve_name('joint_states')}{locked}", flush=True)

@@ -12,13 +12,13 @@ Three modes (`Mode`):
 Timing convention (it matters for accuracy): a target set before step k is the target for the END of step k,
 with its velocity feed-forward for that same instant. The drive evaluates its force at the end of the step
 (backward Euler), so a smooth trajectory is tracked to ~0.01 %. Passing targets for the START of the step instead
-adds a one-step lag (~3 % MAPE on the seed's test).
+adds a one-step lag (~3 % MAPE on the thesis's test).
 
 Integration: pybullet supplies the mass matrix M(q), the bias torques c(q, q̇) (gravity + Coriolis) and the
 kinematics; the integration itself is ours (semi-implicit Euler: v⁺ from the implicit drive, with the Coriolis
 torques linearised at the step's end too, q⁺ = q + dt·v⁺), and pybullet's joint states are set from it (lazily,
 for ee_pose and pictures). Why not torque control + stepSimulation: pybullet enforces the URDF's joint
-limits as constraints (Panda joint 4 stops at 0, the seed's test commands 0) and adds its own default link damping,
+limits as constraints (Panda joint 4 stops at 0, the thesis's test commands 0) and adds its own default link damping,
 so its v⁺ would not be the one the implicit drive solved for, and a stiff drive would fight those constraints.
 Consequences: joint limits are NOT enforced (by design: the physics does not clamp), there are no contacts
 (the scene has nothing to touch), and joints outside `robot.joint_names` (the Panda's fingers) are locked rigidly at
@@ -37,8 +37,10 @@ from pathlib import Path
 import numpy as np
 import pybullet as p
 
+from sim.errors import SimError
 from sim.robots import RobotSpec, find_ros_package
 from sim.robots.meshes import resolve_shapes, without_shapes
+from sim.wire.contract import STEP_S
 
 __all__ = [
     "GRAVITY", "DEFAULT_STIFFNESS", "PhysicsError", "Mode", "DriveParams", "implicit_drive_step",
@@ -50,7 +52,7 @@ log = logging.getLogger(__name__)
 GRAVITY = -9.81  # m/s², along world z
 
 
-class PhysicsError(ValueError):
+class PhysicsError(SimError, ValueError):
     """Invalid physics input: targets of the wrong shape or not finite, bad drive parameters, bad step size."""
 
 
@@ -70,11 +72,11 @@ class Mode(str, Enum):
 # Damping: 2·sqrt(stiffness · M_ii) with M_ii the joint's inertia at the robot's home pose (pybullet's mass
 # matrix), i.e. critically damped in continuous time, so the response does not depend on dt (backward Euler adds
 # numerical damping of its own, which shrinks with dt). For the Panda, M_ii(home) ≈ [1.56, 2.35, 1.78, 1.65, 0.83,
-# 0.74, 0.60] kg·m² gives ≈ [790, 970, 840, 810, 580, 540, 490]. With these values joint 1 of the seed's test tracks
+# 0.74, 0.60] kg·m² gives ≈ [790, 970, 840, 810, 580, 540, 490]. With these values joint 1 of the thesis's test tracks
 # to ~0.01 % MAPE. Less damping tracks closer still (damping weighs the end-of-step velocity feed-forward, which
 # differs from the step's mean velocity by ~dt·acceleration/2, against the position target: D = 100 gives
 # ~0.0004 %), but the drive is then under-damped and rings after disturbances once dt is small.
-# Force limit: the robot's rated max_effort (unlimited where its URDF states none). The seed's test needs at most
+# Force limit: the robot's rated max_effort (unlimited where its URDF states none). The thesis's test needs at most
 # ~6.3 N·m on Panda joint 1 (87 N·m allowed), so the limit never binds there; a step target saturates the drive,
 # as it would on the real robot.
 # Gravity feed-forward (physics mode, on by default): the drive adds the gravity torque g(q) of the measured state,
@@ -219,7 +221,7 @@ class PhysicsWorld:
         self,
         robot: RobotSpec,
         mode: Mode = Mode.PHYSICS,
-        dt: float = 0.02,
+        dt: float = STEP_S,
         substeps: int = 1,
         drive: DriveParams | None = None,
         gravity: bool = True,

@@ -1,4 +1,4 @@
-"""The game-engine stand-in: what Unity does in the seed, as a TCP client of the endpoint. Imports no rospy.
+"""The game-engine stand-in: what Unity does in the thesis's set-up, as a TCP client of the endpoint. Imports no rospy.
 
 Online: subscribes `<robot>/arm_controller/command` (JointTrajectory), `/clock` and `<robot>/pose` through the
 endpoint, steps the pybullet physics, and publishes `<robot>/joint_states` after every step.
@@ -23,8 +23,10 @@ from pathlib import Path
 import numpy as np
 
 from bridge.client import TcpClient
+from sim.errors import SimError
 from sim.geometry import frames
 from sim.wire import rosmsgs
+from sim.wire.contract import STAMP_TOLERANCE_S, STEP_S, PoseConvention, add_pose_convention_argument
 from sim.engine.clock import ClockAdvance, StepClock
 from sim.engine.commands import CommandBuffer
 from sim.wire.joint_csv import read_joint_csv, write_joint_csv
@@ -32,31 +34,27 @@ from sim.engine.physics import Mode, PhysicsError, PhysicsWorld, SimulatedJointS
 from sim.robots import RobotSpec, add_robot_arguments, robot_from_args
 
 __all__ = [
-    "POSE_QUATERNION", "POSE_EULER", "EngineError", "EngineOptions", "make_world", "TargetMarker",
+    "EngineError", "EngineOptions", "make_world", "TargetMarker",
     "pose_to_marker", "FrameRecorder", "EngineStandIn", "path_velocity", "replay_csv", "argument_parser",
     "options_from_args", "main",
 ]
 
 log = logging.getLogger(__name__)
 
-# Pose topic conventions: a real quaternion (default), or the seed's XYZ Euler angles in the quaternion's x, y, z.
-POSE_QUATERNION = "quaternion"
-POSE_EULER = "euler"
 
-
-class EngineError(ValueError):
+class EngineError(SimError, ValueError):
     """Bad engine input: a CSV that cannot be replayed, an impossible option."""
 
 
 @dataclass
 class EngineOptions:
     mode: Mode = Mode.PHYSICS
-    dt: float = 0.02
+    dt: float = STEP_S
     auto_simulate: bool = True
     time_scale: float = 1.0
     max_clock_jump_s: float = 1.0
     command_grace_s: float = 0.25
-    pose_convention: str = POSE_QUATERNION
+    pose_convention: PoseConvention = PoseConvention.QUATERNION
     stiffness: float | None = None
     damping: float | None = None
     force_limit: float | None = None
@@ -84,16 +82,9 @@ class TargetMarker:
     orientation_unity: np.ndarray  # x, y, z, w
 
 
-def pose_to_marker(position: np.ndarray, orientation_fields: np.ndarray, convention: str) -> TargetMarker:
-    if convention == POSE_EULER:
-        quaternion = frames.euler_xyz_to_quat(*orientation_fields[:3])
-    elif convention == POSE_QUATERNION:
-        norm = float(np.linalg.norm(orientation_fields))
-        if not np.isfinite(norm) or norm < 1e-9:
-            raise EngineError(f"pose orientation {orientation_fields.tolist()} is not a quaternion")
-        quaternion = orientation_fields / norm
-    else:
-        raise EngineError(f"unknown pose convention {convention!r}; use {POSE_QUATERNION!r} or {POSE_EULER!r}")
+def pose_to_marker(position: np.ndarray, orientation_fields: np.ndarray, convention: PoseConvention) -> TargetMarker:
+    """Where Unity shows the goal pose; MessageError when the fields carry no orientation in `convention`."""
+    quaternion = convention.decode(orientation_fields)
     return TargetMarker(frames.ros_to_unity_point(position), frames.ros_to_unity_quat(quaternion))
 
 
@@ -178,7 +169,7 @@ class EngineStandIn:
         try:
             position, orientation = rosmsgs.decode_pose(payload)
             self.marker = pose_to_marker(position, orientation, self.options.pose_convention)
-        except (rosmsgs.MessageError, EngineError) as error:
+        except rosmsgs.MessageError as error:
             log.error("pose rejected on %s: %s", self.robot.pose_topic, error)
 
     # --- stepping ---------------------------------------------------------------------------------------------
@@ -254,10 +245,10 @@ class EngineStandIn:
     def _await_lockstep_command(self, step_end: float, dt: float) -> None:
         """In lockstep, wait briefly for this step's command: it may arrive just after the /clock tick."""
         newest = self.commands.newest_stamp
-        if newest is not None and abs(newest - step_end) < 1e-6:
+        if newest is not None and abs(newest - step_end) < STAMP_TOLERANCE_S:
             self._lockstep = True
             return
-        if self._lockstep and newest is not None and abs(newest - (step_end - dt)) < 1e-6:
+        if self._lockstep and newest is not None and abs(newest - (step_end - dt)) < STAMP_TOLERANCE_S:
             if not self.commands.wait_for_stamp(step_end, self.options.command_grace_s):
                 self._lockstep = False  # the controller stopped streaming per step
                 log.info("no command for t=%.3f s; holding the last target", step_end)
@@ -268,7 +259,7 @@ class EngineStandIn:
 
 
 # ---------------------------------------------------------------------------------------------------------------
-# Offline CSV mode (the seed's Manual_Test): no ROS, no TCP.
+# Offline CSV mode (the thesis's Manual_Test): no ROS, no TCP.
 
 
 def path_velocity(times: np.ndarray, positions: np.ndarray, t: float) -> np.ndarray:
@@ -319,11 +310,11 @@ def argument_parser() -> argparse.ArgumentParser:
     parser.add_argument("--host", default="127.0.0.1", help="endpoint address")
     parser.add_argument("--port", type=int, default=10000, help="endpoint port")
     parser.add_argument("--mode", choices=[m.value for m in Mode], default=Mode.PHYSICS.value)
-    parser.add_argument("--dt", type=float, default=0.02, help="fixed physics step in s (Unity's FixedUpdate)")
+    parser.add_argument("--dt", type=float, default=STEP_S, help=f"fixed physics step in s (Unity's FixedUpdate; default {STEP_S})")
     parser.add_argument("--no-auto-simulate", action="store_true", help="step only as /clock advances")
     parser.add_argument("--time-scale", type=float, default=1.0, help="sim seconds per wall second (auto-simulate)")
     parser.add_argument("--max-clock-jump", type=float, default=1.0, help="larger /clock jumps pause and resume")
-    parser.add_argument("--pose-convention", choices=[POSE_QUATERNION, POSE_EULER], default=POSE_QUATERNION)
+    add_pose_convention_argument(parser)
     parser.add_argument("--stiffness", type=float, help="drive stiffness for every joint (N·m/rad or N/m)")
     parser.add_argument("--damping", type=float, help="drive damping for every joint (N·m·s/rad or N·s/m)")
     parser.add_argument("--force-limit", type=float, help="drive force limit for every joint")
@@ -344,7 +335,7 @@ def options_from_args(args: argparse.Namespace) -> EngineOptions:
                           f"and {args.max_clock_jump}")
     return EngineOptions(
         mode=Mode(args.mode), dt=args.dt, auto_simulate=not args.no_auto_simulate, time_scale=args.time_scale,
-        max_clock_jump_s=args.max_clock_jump, pose_convention=args.pose_convention,
+        max_clock_jump_s=args.max_clock_jump, pose_convention=PoseConvention(args.pose_convention),
         stiffness=args.stiffness, damping=args.damping, force_limit=args.force_limit,
         gravity_feedforward=not args.no_gravity_feedforward,
     )

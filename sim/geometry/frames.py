@@ -23,6 +23,8 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike
 
+from sim.errors import SimError
+
 __all__ = [
     "FrameError", "ros_to_unity_point", "unity_to_ros_point", "ros_to_unity_quat", "unity_to_ros_quat",
     "ros_to_unity_matrix", "quat_to_matrix", "matrix_to_quat", "rpy_to_matrix", "matrix_to_rpy",
@@ -32,7 +34,7 @@ __all__ = [
 _ROS_TO_UNITY = np.array([[0.0, -1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]])
 
 
-class FrameError(ValueError):
+class FrameError(SimError, ValueError):
     """A point, quaternion or matrix of the wrong shape, or a zero quaternion."""
 
 

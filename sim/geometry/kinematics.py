@@ -35,6 +35,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
+from sim.errors import SimError
 from sim.geometry.frames import quat_to_matrix, rpy_to_matrix
 from sim.robots import RobotError, RobotSpec
 from sim.robots.urdf_model import parse_urdf
@@ -54,7 +55,7 @@ _STALL_STEP = 1e-13  # a (clipped) step shorter than this means the attempt cann
 _STALL_ITERATIONS, _STALL_GAIN = 10, 1e-3  # ... as do this many iterations without E falling by this fraction
 
 
-class KinematicsError(ValueError):
+class KinematicsError(SimError, ValueError):
     """A URDF chain that cannot be built, or IK inputs of the wrong shape or value."""
 
 

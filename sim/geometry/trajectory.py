@@ -12,12 +12,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from sim.errors import SimError
+
 __all__ = ["ORDERS", "TrajectoryError", "TrajectorySample", "PolynomialTrajectory"]
 
 ORDERS = ("cubic", "quintic")
 
 
-class TrajectoryError(ValueError):
+class TrajectoryError(SimError, ValueError):
     """Invalid times, waypoints, velocities or order."""
 
 

@@ -24,6 +24,7 @@ from sim.study.errors import StudyError
 from sim.study.plan import make_plan, plan_from_data, plan_to_data, printable
 from sim.study.scene import load_scene, scene_robot
 from sim.study.yamlfile import read_yaml
+from sim.wire.contract import STEP_S
 
 __all__ = ["main"]
 
@@ -36,7 +37,7 @@ def _parser() -> argparse.ArgumentParser:
 
     def with_scene(command: argparse.ArgumentParser) -> None:
         command.add_argument("--scene", type=Path, help="scene YAML (default: the bundled scene.yaml)")
-        command.add_argument("--dt", type=float, default=0.02, help="control step in s (default 0.02)")
+        command.add_argument("--dt", type=float, default=STEP_S, help=f"control step in s (default {STEP_S})")
 
     plan = commands.add_parser("plan", help="a participant's session plan")
     plan.add_argument("--participant", type=int, required=True)

@@ -65,7 +65,8 @@ class SimulatedParticipant:
         return self.scene.hand.distance(self.scene.end_effector(self._chain, positions))
 
     def _on_joint_state(self, payload: bytes) -> None:
-        stamp, positions = decode_joint_state(payload, self.robot.joint_names)
+        sample = decode_joint_state(payload, self.robot.joint_names)
+        stamp, positions = sample.stamp_s, sample.positions
         self._latest = (stamp, positions)
         status = self._status
         if status is None or status.phase != "moving" or status.test != 2 or self._pressed:

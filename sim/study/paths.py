@@ -26,6 +26,7 @@ import numpy as np
 
 from sim.study.errors import StudyError
 from sim.study.scene import Box, Scene
+from sim.wire.contract import STEP_S
 
 __all__ = [
     "PATH_NAMES", "ON_TOP", "MIN_STANDOFF", "MAX_STANDOFF", "PathShape", "SHAPES", "ApproachPath", "hand_frame",
@@ -119,7 +120,7 @@ def _curve(start: np.ndarray, via: np.ndarray | None, end: np.ndarray, u: np.nda
     return (1.0 - u) ** 2 * start + 2.0 * u * (1.0 - u) * control + u ** 2 * end
 
 
-def approach_path(scene: Scene, name: str, standoff: float, peak_speed: float, dt: float = 0.02) -> ApproachPath:
+def approach_path(scene: Scene, name: str, standoff: float, peak_speed: float, dt: float = STEP_S) -> ApproachPath:
     """Path `name` of SHAPES to `standoff` (m) from the hand, timed to peak at most at `peak_speed` (m/s)."""
     shape = SHAPES.get(name)
     if shape is None:

@@ -53,6 +53,7 @@ from sim.study.plan import PlannedTrial, SessionPlan
 from sim.study.records import TrialRecord, write_records
 from sim.study.scene import Scene
 from sim.study.trial_run import TrialRun
+from sim.wire.contract import STEP_S
 
 __all__ = ["EXIT_OK", "EXIT_ROS", "EXIT_INTERRUPTED", "RunnerOptions", "Press", "Inputs", "StudyRunner",
            "recorder_topics", "record_session", "run_node"]
@@ -63,7 +64,7 @@ EXIT_OK, EXIT_ROS, EXIT_INTERRUPTED = 0, 4, 130
 
 @dataclass(frozen=True)
 class RunnerOptions:
-    dt: float = 0.02
+    dt: float = STEP_S
     realtime: bool = False
     auto_go: bool = False
     keyboard: bool = False  # the observer types at this terminal: go, stop, distances, preferences

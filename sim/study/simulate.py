@@ -13,6 +13,7 @@ from typing import Callable
 
 import yaml
 
+from sim.errors import SimError
 from sim.processes import PYTHON, EndpointProcess, ManagedProcess, ProcessError, RosCore, plain_env
 from sim.study.design import load_design
 from sim.study.errors import StudyError
@@ -20,11 +21,12 @@ from sim.study.feasibility import plan_combinations
 from sim.study.plan import make_plan, plan_to_data
 from sim.study.report import load_study, write_report
 from sim.study.scene import load_scene, scene_robot
+from sim.wire.contract import STEP_S
 
 __all__ = ["Simulation", "SimulationError", "simulate"]
 
 
-class SimulationError(RuntimeError):
+class SimulationError(SimError, RuntimeError):
     """A process of the simulated study failed (its log is named)."""
 
 
@@ -35,7 +37,7 @@ class Simulation:
     out: Path
     design: Path | None = None
     scene: Path | None = None
-    dt: float = 0.02
+    dt: float = STEP_S
     vr_distance_bias: float = 0.85
     timeout: float = 600.0  # s per participant's session
 

@@ -24,6 +24,7 @@ from sim.study.errors import StudyError
 from sim.study.interface import STATUS_TOPIC, STOP_TOPIC, TOPIC_TYPES, TrialStatus, status_from_json
 from sim.study.paths import approach_path
 from sim.study.scene import Box, Scene
+from sim.wire.contract import STAMP_TOLERANCE_S, STEP_S
 
 __all__ = ["COLOURS", "LiveView"]
 
@@ -38,7 +39,7 @@ def _wxyz(rotation: np.ndarray) -> tuple[float, float, float, float]:
 
 
 class LiveView:
-    def __init__(self, server: Any, robot: RobotSpec, scene: Scene, dt: float = 0.02, rate: float = 20.0) -> None:
+    def __init__(self, server: Any, robot: RobotSpec, scene: Scene, dt: float = STEP_S, rate: float = 20.0) -> None:
         import yourdfpy
         from viser.extras import ViserUrdf
 
@@ -113,15 +114,16 @@ class LiveView:
     # --- inputs -------------------------------------------------------------------------------------------
     def _on_joint_state(self, payload: bytes) -> None:
         try:
-            stamp, positions = decode_joint_state(payload, self.robot.joint_names)
+            sample = decode_joint_state(payload, self.robot.joint_names)
         except MessageError:
             return  # another robot's, or incomplete
+        stamp, positions = sample.stamp_s, sample.positions
         with self._lock:
             self._latest = (stamp, positions)
             status = self._status
             if status is not None and status.phase in ("moving", "at_rest") and stamp >= status.motion_start:
                 self._trail.append((stamp, self.end_effector(positions)))
-                if self._press_stamp is not None and stamp >= self._press_stamp - 1e-6:
+                if self._press_stamp is not None and stamp >= self._press_stamp - STAMP_TOLERANCE_S:
                     self._mark_stop(self._trail[-1][1])
             self._draw()
 

@@ -1,4 +1,4 @@
-"""The joint CSV format of the engine's offline mode (the seed's Manual_Test), its log, and the commander's export.
+"""The joint CSV format of the engine's offline mode (the thesis's Manual_Test), its log, and the commander's export.
 
 A header row `time,<joint name>,...`, then one row per sample: time in s, positions in rad or m. A file may name a
 subset of a robot's joints. Logs are written rounded (1 µs, 1e-9); files meant to be read back as the same
@@ -12,12 +12,13 @@ from pathlib import Path
 
 import numpy as np
 
+from sim.errors import SimError
 from sim.robots import RobotSpec
 
 __all__ = ["JointCsvError", "read_joint_csv", "write_joint_csv"]
 
 
-class JointCsvError(ValueError):
+class JointCsvError(SimError, ValueError):
     """A joint CSV that cannot be used; the message names the file, line, column or value."""
 
 

@@ -11,10 +11,12 @@ from typing import Any
 import numpy as np
 from rosbags.typesys import Stores, get_typestore
 
+from sim.wire.contract import MessageError, positions_by_name
+
 __all__ = [
     "TYPESTORE", "Header", "Time", "JointStateMsg", "JOINT_STATE", "JOINT_TRAJECTORY", "CLOCK", "POSE",
     "MessageError", "serialize", "deserialize", "encode_message", "time_msg", "to_seconds", "encode_joint_state",
-    "decode_joint_state", "decode_clock", "TrajectoryCommand", "decode_joint_trajectory",
+    "JointStateSample", "decode_joint_state", "decode_clock", "TrajectoryCommand", "decode_joint_trajectory",
     "decode_pose",
 ]
 
@@ -29,10 +31,6 @@ JOINT_STATE = "sensor_msgs/JointState"
 JOINT_TRAJECTORY = "trajectory_msgs/JointTrajectory"
 CLOCK = "rosgraph_msgs/Clock"
 POSE = "geometry_msgs/Pose"
-
-
-class MessageError(ValueError):
-    """Bytes that are not the expected ROS 1 message, or a message the sim cannot use."""
 
 
 def _store_name(ros1_name: str) -> str:
@@ -86,17 +84,21 @@ def encode_joint_state(
     return serialize(message, JOINT_STATE)
 
 
-def decode_joint_state(data: bytes, joint_order: Sequence[str]) -> tuple[float, np.ndarray]:
-    """(stamp in s, positions in `joint_order`) of a JointState, which may name more joints, in any order;
-    MessageError when it lacks one of `joint_order` or a position for it."""
+@dataclass(frozen=True)
+class JointStateSample:
+    """What the controller side reads of a JointState: its stamp, positions in a robot's joint order, and seq."""
+
+    stamp_s: float
+    positions: np.ndarray
+    seq: int
+
+
+def decode_joint_state(data: bytes, joint_order: Sequence[str]) -> JointStateSample:
+    """A JointState, which may name more joints in any order, read by joint name (contract.positions_by_name);
+    MessageError when it is no JointState or lacks one of `joint_order`."""
     message: Any = deserialize(data, JOINT_STATE)
-    names = list(message.name)
-    missing = [name for name in joint_order if name not in names]
-    if missing or len(message.position) != len(names):
-        raise MessageError(f"JointState names {names} with {len(message.position)} positions, not covering "
-                           f"{list(joint_order)}")
-    positions = np.array([message.position[names.index(name)] for name in joint_order], dtype=float)
-    return to_seconds(message.header.stamp), positions
+    positions = positions_by_name(message.name, message.position, joint_order)
+    return JointStateSample(to_seconds(message.header.stamp), positions, int(message.header.seq))
 
 
 def decode_clock(data: bytes) -> float:

@@ -17,10 +17,10 @@ import numpy as np
 
 from sim.engine.physics import Mode, PhysicsWorld
 from sim.robots import RobotSpec
+from sim.wire.contract import STAMP_TOLERANCE_S, STEP_S
 from tests.rosenv import PYTHON, ManagedProcess, RosCore, wait_for
 
-STAMP_TOLERANCE_S = 1e-6
-DT = 0.02
+DT = STEP_S
 
 
 def start_engine(roscore: RosCore, log_dir: Path, robot: str, port: int, *extra: str, name: str = "engine") -> ManagedProcess:

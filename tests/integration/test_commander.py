@@ -212,10 +212,11 @@ def test_ik_scenarios_reach_their_goals(roscore, ros_node, probes, tmp_path, rob
         assert "max joint jump" in done.stdout
 
 
-def test_pose_euler_sends_the_seeds_convention(roscore, ros_node, probes, tmp_path):
+def test_the_euler_pose_convention_sends_the_thesis_convention(roscore, ros_node, probes, tmp_path):
     probe = probes["panda"]
     probe.clear()
-    done = run_commander(roscore, ros_node, ["--robot", "panda", "--scenario", "ik_orientation", "--pose-euler",
+    done = run_commander(roscore, ros_node, ["--robot", "panda", "--scenario", "ik_orientation",
+                                             "--pose-convention", "euler",
                                              "--move-time", "0.2", "--hold", "0", "--approach", "0"], tmp_path / "e.csv")
     assert done.returncode == 0, done.stderr
     wait_for(lambda: probe.poses, 5, "the goal pose")

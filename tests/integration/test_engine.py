@@ -262,7 +262,10 @@ def test_the_pose_topic_sets_the_target_marker_in_both_conventions(ros_node, con
     """In-process EngineStandIn instances on real TCP connections to the endpoint (the marker is engine state)."""
     from bridge.client import TcpClient
     from sim.geometry import frames
-    from sim.engine.stand_in import POSE_EULER, POSE_QUATERNION, EngineOptions, EngineStandIn
+    from sim.engine.stand_in import EngineOptions, EngineStandIn
+    from sim.wire.contract import PoseConvention
+
+    POSE_QUATERNION, POSE_EULER = PoseConvention.QUATERNION, PoseConvention.EULER
 
     engines = {}
     try:
@@ -293,10 +296,10 @@ def test_the_pose_topic_sets_the_target_marker_in_both_conventions(ros_node, con
         publish_until(quaternion, lambda: shows(POSE_QUATERNION, frames.ros_to_unity_quat(quaternion))
                       and shows(POSE_EULER, as_euler))
 
-        # the seed's convention: XYZ Euler angles in x, y, z (w = 0); the quaternion engine normalises the fields
-        seed_fields = np.array([*angles, 0.0])
-        publish_until(seed_fields, lambda: shows(POSE_EULER, frames.ros_to_unity_quat(quaternion))
-                      and shows(POSE_QUATERNION, frames.ros_to_unity_quat(seed_fields / np.linalg.norm(seed_fields))))
+        # the thesis's convention: XYZ Euler angles in x, y, z (w = 0); the quaternion engine normalises the fields
+        thesis_fields = np.array([*angles, 0.0])
+        publish_until(thesis_fields, lambda: shows(POSE_EULER, frames.ros_to_unity_quat(quaternion))
+                      and shows(POSE_QUATERNION, frames.ros_to_unity_quat(thesis_fields / np.linalg.norm(thesis_fields))))
 
         # a zero quaternion is refused (the marker stays); the Euler engine reads it as angles 0, 0, 0
         kept = engines[POSE_QUATERNION].marker

@@ -75,7 +75,7 @@ def test_one_joint_panda_default_is_the_seeds_joint1_test():
     np.testing.assert_allclose(motion.positions[at, 0], [0.25, 1.0, 2.75, 1.5, -2.0, -2.45])
     np.testing.assert_array_equal(motion.positions[:, 1:], np.tile(robot.home[1:], (len(motion.times), 1)))
     assert motion.duration == pytest.approx(11.0)
-    # The seed's 3.5 rad in 2 s exceeds Franka's joint-1 velocity limit: reported, not hidden.
+    # The thesis's 3.5 rad in 2 s exceeds Franka's joint-1 velocity limit: reported, not hidden.
     assert any("panda_joint1 peaks at 3.281 rad/s" in w for w in motion.warnings)
 
 
