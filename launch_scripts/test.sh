@@ -13,4 +13,4 @@ cd "$repo"
 .venv/bin/python -m pytest -q -p no:cacheprovider --ignore-glob="tests/integration/test_bridge_*.py" "$@" tests
 echo "test.sh: the endpoint's tests on $(.venv38/bin/python --version)"
 PYTHONPATH=/usr/lib/python3/dist-packages exec .venv38/bin/python -m pytest -q -p no:cacheprovider "$@" \
-  tests/unit/test_bridge_*.py tests/integration/test_bridge_*.py
+  tests/unit/bridge tests/integration/test_bridge_*.py

@@ -11,7 +11,7 @@ Derivation of the quaternion rule: points map by the matrix M (rows (0,-1,0), (0
 determinant is -1 (a handedness flip). A rotation R maps to M R Mᵀ; its axis is a pseudo-vector, so it maps
 to det(M)·M·axis = -M·axis while the angle is unchanged, which gives (ros.y, -ros.z, -ros.x) for the vector part.
 The numeric quaternion-to-matrix formula is the same in both frames, so "rotate in ROS, then convert" equals
-"convert, then rotate in Unity" (see tests/unit/test_frames.py).
+"convert, then rotate in Unity" (see tests/unit/sim/geometry/test_frames.py).
 
 Quaternions are (x, y, z, w) arrays everywhere. Euler angles are URDF-style fixed-axis roll-pitch-yaw:
 R = Rz(yaw) · Ry(pitch) · Rx(roll), i.e. rotate about the fixed x, then fixed y, then fixed z axis.
