@@ -314,8 +314,8 @@ def phase_master(quick: bool) -> None:
         client.topic_list()
         recoveries = []
         for _ in range(rounds):
-            core.stop()
-            core = RosCore(port=core.port, tmp=core.tmp)
+            core.stop(keep_logs=True)
+            core = RosCore(port=core.port, tmp=core.tmp, remove_tmp=True)
             started = time.monotonic()
 
             def registered() -> bool:

@@ -880,11 +880,9 @@ def congestion_control() -> str:
 
 def stop_core(core: RosCore, keep_logs: bool) -> None:
     """Stop the benchmark's roscore; its logs and the nodes' are kept (their path printed) or removed."""
-    core.stop()
+    core.stop(keep_logs=keep_logs)
     if keep_logs:
         print(f"logs kept in {core.tmp}", file=sys.stderr)
-    else:
-        shutil.rmtree(core.tmp, ignore_errors=True)
 
 
 if __name__ == "__main__":

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import shutil
 import signal
 import socket
 import subprocess
@@ -141,7 +142,10 @@ class ManagedProcess:
 
 
 class RosCore(ManagedProcess):
-    """`roscore -p <port>` with its own ROS_HOME/ROS_LOG_DIR in a temp dir; `env` is for every process of it."""
+    """`roscore -p <port>` with its own ROS_HOME/ROS_LOG_DIR in a temp dir; `env` is for every process of it.
+
+    The dir (the logs of roscore and of every node of the session) is removed on `stop` unless it was given
+    (`tmp`) or `keep_logs` is asked; `remove_tmp` overrides that, e.g. for a master restarted in the same dir."""
 
     def __init__(
         self,
@@ -149,7 +153,9 @@ class RosCore(ManagedProcess):
         port: int | None = None,
         prefix: Sequence[str] = (),
         tmp: Path | None = None,
+        remove_tmp: bool | None = None,
     ) -> None:
+        self.remove_tmp = tmp is None if remove_tmp is None else remove_tmp
         self.tmp = tmp or Path(tempfile.mkdtemp(prefix="roscore-"))
         self.host = host
         self.port = port or free_port()
@@ -162,6 +168,12 @@ class RosCore(ManagedProcess):
         except BaseException:
             self.stop()
             raise
+
+    def stop(self, timeout: float = 5.0, keep_logs: bool = False) -> int | None:
+        returncode = super().stop(timeout)
+        if self.remove_tmp and not keep_logs:
+            shutil.rmtree(self.tmp, ignore_errors=True)
+        return returncode
 
     def subscribers(self, topic: str) -> list[str]:
         """Node names subscribed to `topic`, as the master sees them."""

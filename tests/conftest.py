@@ -11,7 +11,7 @@ from tests.rosenv import EndpointProcess, RosCore
 
 
 @pytest.fixture(scope="session")
-def roscore() -> Iterator[RosCore]:
+def roscore(request: pytest.FixtureRequest) -> Iterator[RosCore]:
     core = RosCore()
     # The test process itself talks to this master (as the single rospy node of the process).
     for key in ("ROS_MASTER_URI", "ROS_HOME", "ROS_LOG_DIR", "ROS_HOSTNAME"):
@@ -19,7 +19,10 @@ def roscore() -> Iterator[RosCore]:
     try:
         yield core
     finally:
-        core.stop()
+        failed = request.session.testsfailed > 0
+        core.stop(keep_logs=failed)  # a failed session's roscore and node logs stay for reading
+        if failed:
+            print(f"\nroscore and node logs kept in {core.tmp}")
 
 
 @pytest.fixture(scope="session")
