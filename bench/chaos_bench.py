@@ -36,6 +36,7 @@ sys.path[:0] = [str(REPO)]
 
 from bridge import protocol  # noqa: E402
 from bridge.client import TcpClient  # noqa: E402
+from tests.frames import feed  # noqa: E402
 from tests.chaos import LOOPBACK, FuzzStats, ProcessFigures, churn, figures, fuzz_client  # noqa: E402
 from tests.integration.bridge_helpers import settled  # noqa: E402
 from tests.rosenv import EndpointProcess, ManagedProcess, RosCore, wait_for  # noqa: E402
@@ -269,7 +270,7 @@ def fresh_client_served(port: int, source: str) -> bool:
                 data = sock.recv(65536)
                 if not data:
                     return False
-                frames = decoder.feed(data)
+                frames = feed(decoder, data)
                 if frames:
                     return frames[0].destination == "__handshake"
         except OSError:

@@ -236,15 +236,15 @@ class TcpClient:
     def publish(self, topic: str, payload: bytes) -> None:
         self._say(TopicMessage(topic, payload))
 
-    def register_ros_service(self, service: str, service_name: str) -> None:
-        registration = RosService(service, service_name)
+    def register_ros_service(self, service: str, service_type: str) -> None:
+        registration = RosService(service, service_type)
         with self._state_lock:
             self._ros_services[service] = registration
         self._say(registration)
 
-    def implement_service(self, service: str, service_name: str, handler: ServiceHandler) -> None:
+    def implement_service(self, service: str, service_type: str, handler: ServiceHandler) -> None:
         """Offer `service` to ROS; `handler` turns request bytes into response bytes."""
-        offer = UnityService(service, service_name)
+        offer = UnityService(service, service_type)
         with self._state_lock:
             self._unity_services[service] = (offer, handler)
         self._say(offer)

@@ -128,12 +128,12 @@ def message_class_from_files(message_name: str) -> Any:
     return message_class_from_text(message_name, genmsg.compute_full_text(context, spec))
 
 
-def service_class_from_files(service_name: str) -> Any:
-    """A service class of `service_name` (its type, md5sum, request and response classes) from its .srv file and
+def service_class_from_files(service_type: str) -> Any:
+    """A service class of `service_type` (its type, md5sum, request and response classes) from its .srv file and
     the .msg files it depends on, on ROS_PACKAGE_PATH."""
-    context, spec = _load(service_name, "srv")
-    request = message_class_from_text(f"{service_name}Request", genmsg.compute_full_text(context, spec.request))
-    response = message_class_from_text(f"{service_name}Response", genmsg.compute_full_text(context, spec.response))
-    type_name = split_type_name(service_name)[1]
-    return type(type_name, (), {"_type": service_name, "_md5sum": genmsg.compute_md5(context, spec),
+    context, spec = _load(service_type, "srv")
+    request = message_class_from_text(f"{service_type}Request", genmsg.compute_full_text(context, spec.request))
+    response = message_class_from_text(f"{service_type}Response", genmsg.compute_full_text(context, spec.response))
+    type_name = split_type_name(service_type)[1]
+    return type(type_name, (), {"_type": service_type, "_md5sum": genmsg.compute_md5(context, spec),
                                 "_request_class": request, "_response_class": response})

@@ -5,13 +5,12 @@ from __future__ import annotations
 
 import json
 import struct
-from dataclasses import dataclass
 from typing import Any, Dict, List, Optional, Tuple, Union
 
 from bridge.events import FramingError, LocalProtocolError
 
 __all__ = [
-    "MAX_DESTINATION_BYTES", "DEFAULT_MAX_PAYLOAD_BYTES", "Frame", "BadFrame", "RawFrame", "FrameDecoder",
+    "MAX_DESTINATION_BYTES", "DEFAULT_MAX_PAYLOAD_BYTES", "RawFrame", "FrameDecoder",
     "decode_destination", "not_utf8", "encode_frame", "encode_syscommand", "KEEPALIVE_FRAME", "LARGE_PAYLOAD_BYTES",
 ]
 
@@ -21,31 +20,6 @@ DEFAULT_MAX_PAYLOAD_BYTES = 64 * 1024 * 1024
 LARGE_PAYLOAD_BYTES = 64 * 1024
 
 _U32 = struct.Struct("<I")
-
-
-@dataclass(frozen=True)
-class Frame:
-    """One frame as it is on the wire."""
-
-    __slots__ = ("destination", "payload")
-    destination: str
-    payload: bytes
-
-    @property
-    def is_keepalive(self) -> bool:
-        return self.destination == "" and not self.payload
-
-    @property
-    def is_syscommand(self) -> bool:
-        return self.destination.startswith("__")
-
-
-@dataclass(frozen=True)
-class BadFrame:
-    """A frame whose framing was intact but whose destination is not UTF-8; the stream stays usable."""
-
-    __slots__ = ("reason",)
-    reason: str
 
 
 RawFrame = Tuple[bytes, bytes]  # (destination bytes, payload) as framed, before the destination is decoded
@@ -73,13 +47,6 @@ class FrameDecoder:
     def buffered_bytes(self) -> int:
         """Bytes received of frames not yet complete."""
         return len(self._buffer) + (self._large.received if self._large is not None else 0)
-
-    def feed(self, data: bytes) -> List[Union[Frame, BadFrame]]:
-        """The complete frames, destinations decoded; raises FramingError when a length is over its limit."""
-        frames, failure = self.feed_raw(data)
-        if failure is not None:
-            raise failure
-        return [_decoded(destination, payload) for destination, payload in frames]
 
     def feed_raw(self, data: bytes) -> Tuple[List[RawFrame], Optional[FramingError]]:
         """The complete frames with undecoded destinations, and the FramingError that ended the stream if one did:
@@ -195,13 +162,6 @@ class _LargePayload:
 def decode_destination(raw: bytes) -> str:
     """The destination as text; trailing NULs (some clients pad) are not part of it. UnicodeDecodeError if bad."""
     return raw.rstrip(b"\0").decode("utf-8")
-
-
-def _decoded(raw_destination: bytes, payload: bytes) -> Union[Frame, BadFrame]:
-    try:
-        return Frame(decode_destination(raw_destination), payload)
-    except UnicodeDecodeError:
-        return BadFrame(not_utf8(raw_destination))
 
 
 def not_utf8(raw_destination: bytes) -> str:

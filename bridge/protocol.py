@@ -51,8 +51,6 @@ from bridge.framing import (
     DEFAULT_MAX_PAYLOAD_BYTES,
     KEEPALIVE_FRAME,
     MAX_DESTINATION_BYTES,
-    BadFrame,
-    Frame,
     FrameDecoder,
     decode_destination,
     encode_frame,
@@ -65,11 +63,11 @@ from bridge.names import graph_name_problem, type_name_problem
 __all__ = [
     "PROTOCOL_VERSION", "ROS_DISTRO_PROTOCOL", "MAX_DESTINATION_BYTES", "DEFAULT_MAX_PAYLOAD_BYTES",
     "ProtocolError", "LocalProtocolError", "RemoteProtocolError", "FramingError",
-    "Frame", "BadFrame", "FrameDecoder", "encode_frame", "encode_syscommand", "KEEPALIVE_FRAME",
+    "FrameDecoder", "encode_frame", "encode_syscommand", "KEEPALIVE_FRAME",
     "Event", "Keepalive", "Handshake", "TopicMessage", "ServiceRequest", "ServiceResponse",
     "Subscribe", "Publish", "RosService", "UnityService", "Remove", "TopicListQuery", "TopicList", "Auth",
     "Ping", "PingResponse", "Log", "Warn", "Error", "IgnoredFields", "InvalidInput",
-    "Role", "Conversation", "encode", "handshake", "CLIENT_COMMANDS", "ENDPOINT_COMMANDS",
+    "Role", "Conversation", "encode", "handshake", "CLIENT_COMMANDS",
 ]
 
 
@@ -201,7 +199,6 @@ _ServiceEvent = Union[Type[ServiceRequest], Type[ServiceResponse]]
 _SERVICE_HEADERS: Dict[str, _ServiceEvent] = {"__request": ServiceRequest, "__response": ServiceResponse}
 _SERVICE_HEADER = _Command(_SRV_ID, {}, lambda command, params: Event())  # the event comes with the body
 CLIENT_COMMANDS = frozenset((*_SENT_BY_CLIENT, *_SERVICE_HEADERS))
-ENDPOINT_COMMANDS = frozenset((*_SENT_BY_ENDPOINT, *_SERVICE_HEADERS))
 
 
 def _command_params(event: Event) -> Tuple[str, _Params]:

@@ -167,8 +167,8 @@ class TypeRegistry:
                 self._raw_messages[message_name] = raw
             return raw
 
-    def _generated_service(self, service_name: str) -> Any:
-        return self._imported(self._generated_services, service_name, "srv")
+    def _generated_service(self, service_type: str) -> Any:
+        return self._imported(self._generated_services, service_type, "srv")
 
     def _imported(self, cache: dict[str, Any], name: str, kind: str) -> Any:
         cls = cache.get(name)  # entries are only ever added
@@ -180,10 +180,10 @@ class TypeRegistry:
         with self._lock:
             return cache.setdefault(name, cls)
 
-    def raw_service_class(self, service_name: str) -> Any:
-        generated = self._generated_service(service_name)
+    def raw_service_class(self, service_type: str) -> Any:
+        generated = self._generated_service(service_type)
         with self._lock:
-            raw = self._raw_services.get(service_name)
+            raw = self._raw_services.get(service_type)
             if raw is not None:
                 return raw
             raw = type(
@@ -196,7 +196,7 @@ class TypeRegistry:
                     "_response_class": _raw_class_like(generated._response_class),
                 },
             )
-            self._raw_services[service_name] = raw
+            self._raw_services[service_type] = raw
             return raw
 
     def validate(self, message_name: str, payload: bytes) -> None:
@@ -208,12 +208,12 @@ class TypeRegistry:
             layout = self._layout(message_name, lambda: self.message_class(message_name))
         self._check(layout, message_name, payload)
 
-    def validate_service(self, service_name: str, part: str, payload: bytes) -> None:
-        """`validate` for one part ("request" or "response") of a `service_name` call."""
-        key = f"{service_name} {part}"
+    def validate_service(self, service_type: str, part: str, payload: bytes) -> None:
+        """`validate` for one part ("request" or "response") of a `service_type` call."""
+        key = f"{service_type} {part}"
         layout = self._layouts.get(key)
         if layout is None:
-            generated = self._generated_service(service_name)
+            generated = self._generated_service(service_type)
             layout = self._layout(key, lambda: getattr(generated, f"_{part}_class"))
         self._check(layout, key, payload)
 
@@ -373,8 +373,8 @@ class RosGraph:
         except RosError as unknown:
             return None, str(unknown)
 
-    def service_type(self, service_name: str) -> Any:
-        return self.types.raw_service_class(service_name)
+    def service_type(self, service_type: str) -> Any:
+        return self.types.raw_service_class(service_type)
 
     @staticmethod
     def make_publisher(topic: str, raw: type[RawMessage], queue_size: int, latch: bool,
@@ -714,7 +714,7 @@ class RawServiceProxy:
 
     def __init__(self, raw_class: Any, service: str, max_response_bytes: int) -> None:
         self.service = service
-        self.service_name: str = raw_class._type
+        self.service_type: str = raw_class._type
         self._md5sum: str = raw_class._md5sum
         self._max_response_bytes = max_response_bytes
 
@@ -727,7 +727,7 @@ class RawServiceProxy:
             with socket.create_connection((host, port), timeout=_remaining(deadline)) as sock:
                 sock.sendall(rosgraph.network.encode_ros_handshake_header({
                     "callerid": rospy.get_caller_id(), "service": self.service, "md5sum": self._md5sum,
-                    "type": self.service_name, "persistent": "0",
+                    "type": self.service_type, "persistent": "0",
                 }))
                 size = _U32.unpack(_receive(sock, 4, deadline, abandoned))[0]
                 if size > 65536:

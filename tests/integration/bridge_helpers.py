@@ -18,7 +18,8 @@ import pytest
 
 from bridge import protocol
 from bridge.client import TcpClient
-from bridge.protocol import BadFrame, Frame, FrameDecoder
+from bridge.protocol import FrameDecoder
+from tests.frames import BadFrame, Frame, feed
 from tests.rosenv import EndpointProcess, RosCore, wait_for
 
 LOOPBACK = "127.0.0.1"
@@ -134,7 +135,7 @@ class RawConnection:
             if not data:
                 self.closed = True
                 raise ConnectionClosed("the endpoint closed the connection")
-            for item in self.decoder.feed(data):
+            for item in feed(self.decoder, data):
                 assert not isinstance(item, BadFrame), item
                 self.received.append(item)
                 self._unread.append(item)

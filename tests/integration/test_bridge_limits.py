@@ -15,11 +15,12 @@ from bridge import protocol
 from bridge.admission import FRAME_GRACE_S
 from bridge.protocol import FrameDecoder
 from tests.chaos import figures
+from tests.frames import Frame, feed
 from tests.integration.bridge_helpers import LOOPBACK, RawConnection, settled, start_endpoint, unique
 from tests.rosenv import wait_for
 
 
-def connect_from(port: int, source: str) -> tuple[socket.socket, protocol.Frame | None]:
+def connect_from(port: int, source: str) -> tuple[socket.socket, Frame | None]:
     """A connection from `source` (a loopback address) and the first frame the endpoint sends on it (None if it
     closes the connection without one)."""
     sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
@@ -31,7 +32,7 @@ def connect_from(port: int, source: str) -> tuple[socket.socket, protocol.Frame 
         data = sock.recv(65536)
         if not data:
             return sock, None
-        frames = decoder.feed(data)
+        frames = feed(decoder, data)
         if frames:
             return sock, frames[0]
 
@@ -109,7 +110,7 @@ class SlowSender(threading.Thread):
                     return
                 if not data:
                     return
-                self.reasons += [json.loads(f.payload)["text"] for f in decoder.feed(data)
+                self.reasons += [json.loads(f.payload)["text"] for f in feed(decoder, data)
                                  if f.destination in ("__warn", "__error")]
 
 

@@ -15,11 +15,9 @@ from bridge import protocol
 from bridge.framing import LARGE_PAYLOAD_BYTES
 from bridge.protocol import (
     Auth,
-    BadFrame,
     Conversation,
     Error,
     Event,
-    Frame,
     FrameDecoder,
     FramingError,
     Handshake,
@@ -47,6 +45,7 @@ from bridge.protocol import (
     encode,
     encode_frame,
 )
+from tests.frames import BadFrame, Frame, feed
 
 
 def u32(value: int) -> bytes:
@@ -63,7 +62,7 @@ def feed_in_pieces(decoder: FrameDecoder, stream: bytes, cuts: list[int],
     items: list = []
     start = 0
     for cut in sorted(set(cuts)) + [len(stream)]:
-        items += decoder.feed(stream[start:cut])
+        items += feed(decoder, stream[start:cut])
         start = cut
         if after_each is not None:
             after_each(cut, items)
@@ -98,9 +97,9 @@ def test_one_byte_at_a_time_and_all_at_once_agree(frames: list[Frame]) -> None:
     one_by_one = FrameDecoder()
     items = []
     for index in range(len(stream)):
-        items += one_by_one.feed(stream[index : index + 1])
+        items += feed(one_by_one, stream[index : index + 1])
     assert items == frames
-    assert FrameDecoder().feed(stream) == frames
+    assert feed(FrameDecoder(), stream) == frames
 
 
 @settings(max_examples=100, deadline=None)
@@ -109,9 +108,9 @@ def test_incomplete_tail_stays_buffered_until_completed(frames: list[Frame], dat
     stream = b"".join(encode_frame(frame.destination, frame.payload) for frame in frames)
     cut = data.draw(st.integers(0, len(stream) - 1))
     decoder = FrameDecoder()
-    first = decoder.feed(stream[:cut])
+    first = feed(decoder, stream[:cut])
     assert first == frames[: len(first)] and len(first) < len(frames)
-    assert first + decoder.feed(stream[cut:]) == frames
+    assert first + feed(decoder, stream[cut:]) == frames
 
 
 # Payloads of LARGE_PAYLOAD_BYTES and more are collected piece by piece: the same frames, whatever the split.
@@ -143,12 +142,12 @@ def test_a_large_payload_over_the_limit_is_refused_before_it_arrives() -> None:
     decoder = FrameDecoder(max_payload_bytes=LARGE_PAYLOAD_BYTES)
     header = u32(3) + b"/im" + u32(LARGE_PAYLOAD_BYTES + 1)
     with pytest.raises(FramingError, match="exceeds the limit"):
-        decoder.feed(header)
+        feed(decoder, header)
 
 
 def test_keepalive_is_eight_zero_bytes_and_recognised() -> None:
     assert protocol.KEEPALIVE_FRAME == b"\0" * 8
-    (frame,) = FrameDecoder().feed(b"\0" * 8)
+    (frame,) = feed(FrameDecoder(), b"\0" * 8)
     assert frame == Frame("", b"") and frame.is_keepalive and not frame.is_syscommand
     assert not Frame("", b"x").is_keepalive
     assert Frame("__subscribe", b"{}").is_syscommand and not Frame("/t", b"").is_syscommand
@@ -156,16 +155,16 @@ def test_keepalive_is_eight_zero_bytes_and_recognised() -> None:
 
 def test_trailing_nuls_in_destinations_are_stripped() -> None:
     stream = raw_frame(b"/joint_states\0\0", b"abc") + raw_frame(b"__topic_list\0", b"{}")
-    assert FrameDecoder().feed(stream) == [Frame("/joint_states", b"abc"), Frame("__topic_list", b"{}")]
+    assert feed(FrameDecoder(), stream) == [Frame("/joint_states", b"abc"), Frame("__topic_list", b"{}")]
 
 
 def test_non_utf8_destination_is_a_bad_frame_and_the_stream_continues() -> None:
     decoder = FrameDecoder()
     stream = raw_frame(b"/bad\xff\xfe", b"payload") + encode_frame("/good", b"ok")
-    bad, good = decoder.feed(stream)
+    bad, good = feed(decoder, stream)
     assert isinstance(bad, BadFrame) and "UTF-8" in bad.reason and "bad" in bad.reason
     assert good == Frame("/good", b"ok")
-    assert decoder.feed(encode_frame("/next", b"")) == [Frame("/next", b"")]
+    assert feed(decoder, encode_frame("/next", b"")) == [Frame("/next", b"")]
 
 
 # --- framing: limits before allocation ------------------------------------------------------------------------
@@ -177,9 +176,9 @@ def test_huge_payload_length_fails_as_soon_as_the_header_is_complete_without_all
     tracemalloc.start()
     try:
         for byte in header[:-1]:
-            assert decoder.feed(bytes([byte])) == []
+            assert feed(decoder, bytes([byte])) == []
         with pytest.raises(FramingError) as raised:
-            decoder.feed(header[-1:])
+            feed(decoder, header[-1:])
         _, peak = tracemalloc.get_traced_memory()
     finally:
         tracemalloc.stop()
@@ -190,33 +189,33 @@ def test_huge_payload_length_fails_as_soon_as_the_header_is_complete_without_all
 
 def test_payload_limit_is_configurable_and_exact() -> None:
     decoder = FrameDecoder(max_payload_bytes=10)
-    assert decoder.feed(encode_frame("/t", b"x" * 10)) == [Frame("/t", b"x" * 10)]
+    assert feed(decoder, encode_frame("/t", b"x" * 10)) == [Frame("/t", b"x" * 10)]
     with pytest.raises(FramingError, match="11"):
-        decoder.feed(u32(2) + b"/t" + u32(11))
+        feed(decoder, u32(2) + b"/t" + u32(11))
 
 
 def test_oversized_destination_fails_on_its_length_prefix_alone() -> None:
     decoder = FrameDecoder()
     prefix = u32(protocol.MAX_DESTINATION_BYTES + 1)
-    assert decoder.feed(prefix[:3]) == []
+    assert feed(decoder, prefix[:3]) == []
     with pytest.raises(FramingError, match="destination length 1025"):
-        decoder.feed(prefix[3:])  # only the 4-byte prefix has arrived
+        feed(decoder, prefix[3:])  # only the 4-byte prefix has arrived
 
 
 def test_destination_exactly_at_the_limit_is_accepted() -> None:
     destination = "/" + "d" * (protocol.MAX_DESTINATION_BYTES - 1)
-    assert FrameDecoder().feed(encode_frame(destination, b"")) == [Frame(destination, b"")]
+    assert feed(FrameDecoder(), encode_frame(destination, b"")) == [Frame(destination, b"")]
 
 
 def test_decoder_refuses_input_after_a_framing_error() -> None:
     decoder = FrameDecoder(max_payload_bytes=4)
     with pytest.raises(FramingError):
-        decoder.feed(encode_frame("/t", b"12345"))
+        feed(decoder, encode_frame("/t", b"12345"))
     assert decoder.buffered_bytes == 0
     with pytest.raises(FramingError):
-        decoder.feed(encode_frame("/t", b"ok"))
+        feed(decoder, encode_frame("/t", b"ok"))
     with pytest.raises(FramingError):
-        decoder.feed(b"")
+        feed(decoder, b"")
 
 
 def test_a_lost_stream_keeps_nothing_it_had_received() -> None:

@@ -1,0 +1,66 @@
+"""What clients have bridged, as the endpoint keeps it: each client's registrations, and what the topic and service
+tables share (the lock, the names a client may use, the check for room).
+
+The tables themselves live in bridge.topics and bridge.services; bridge.server owns one of each and hands them this.
+"""
+from __future__ import annotations
+
+import threading
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any, Callable, Dict, Set, Tuple, TypeVar
+
+from bridge.config import EndpointConfig
+from bridge.ros import RawPublisher, RawServiceProxy, RosError
+from bridge.session import RequestRefused
+
+if TYPE_CHECKING:
+    from bridge.session import ClientSession
+
+__all__ = ["ClientRegistrations", "RoomCheck", "Bridged", "made_for_client"]
+
+_Made = TypeVar("_Made")
+
+
+@dataclass
+class ClientRegistrations:
+    """What one client registered, as the endpoint keeps it (the session knows none of it)."""
+
+    subscriptions: Dict[str, str] = field(default_factory=dict)  # resolved topic -> topic as the client spells it
+    publishers: Dict[str, Tuple[str, RawPublisher]] = field(default_factory=dict)  # client topic -> (resolved, ...)
+    ros_services: Dict[str, RawServiceProxy] = field(default_factory=dict)  # client's service name -> proxy
+    unity_services: Set[str] = field(default_factory=set)  # resolved names
+
+    def count(self) -> int:
+        return len(self.subscriptions) + len(self.publishers) + len(self.ros_services) + len(self.unity_services)
+
+
+# (session, command, resolved name, already registered by the client, would make a new ROS object): refuses with
+# RequestRefused when there is no room. Called with the lock held.
+RoomCheck = Callable[["ClientSession", str, str, bool, bool], None]
+
+
+@dataclass
+class Bridged:
+    """The state the endpoint's tables share: its lock (guards every table and registration), each client's
+    registrations, the ROS graph, the settings and the room check."""
+
+    ros: Any  # bridge.ros.RosGraph
+    config: EndpointConfig
+    room: RoomCheck
+    lock: threading.RLock = field(default_factory=threading.RLock)
+    clients: Dict["ClientSession", ClientRegistrations] = field(default_factory=dict)
+
+    def permitted(self, name: str) -> str:
+        """The resolved name, when the settings' allow/deny lists permit it; RequestRefused otherwise."""
+        resolved: str = self.ros.resolve(name)
+        if not self.config.permits(resolved):
+            raise RequestRefused(f"topic {resolved} is not permitted by the endpoint's allow/deny lists")
+        return resolved
+
+
+def made_for_client(make: Callable[[], _Made]) -> _Made:
+    """A ROS object made for a client's request; a ROS-side failure is that request's refusal."""
+    try:
+        return make()
+    except RosError as error:
+        raise RequestRefused(str(error)) from None
