@@ -202,8 +202,8 @@ def main(argv: list[str] | None = None) -> int:
     sys.setswitchinterval(GIL_SWITCH_INTERVAL_S)
     keep_large_buffers()
 
-    # bridge.ros (rospy) is imported here, not at module level, so `--help` works without a ROS install.
-    from bridge.ros import RosGraph
+    # bridge.ros_graph (rospy) is imported here, not at module level, so `--help` works without a ROS install.
+    from bridge.ros_graph import RosGraph
 
     # Arguments we do not know are ignored with a warning, never an exit: launch files written for other endpoints
     # pass their own. A known option with a bad value is still an error (exit 2).

@@ -10,7 +10,9 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Callable, Dict, Set, Tuple, TypeVar
 
 from bridge.config import EndpointConfig
-from bridge.ros import RawPublisher, RawServiceProxy, RosError
+from bridge.ros_publisher import RawPublisher
+from bridge.ros_service_proxy import RawServiceProxy
+from bridge.ros_types import RosError
 from bridge.session import RequestRefused
 
 if TYPE_CHECKING:
@@ -44,7 +46,7 @@ class Bridged:
     """The state the endpoint's tables share: its lock (guards every table and registration), each client's
     registrations, the ROS graph, the settings and the room check."""
 
-    ros: Any  # bridge.ros.RosGraph
+    ros: Any  # bridge.ros_graph.RosGraph
     config: EndpointConfig
     room: RoomCheck
     lock: threading.RLock = field(default_factory=threading.RLock)

@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from typing import Any, Callable, Dict, List, Optional, Tuple
 
+from bridge.errors import BridgeError
 from bridge.framing import LARGE_PAYLOAD_BYTES
 from bridge.sockets import UnsentLimit, unpaced_on_loopback
 from bridge.protocol import (
@@ -52,7 +53,7 @@ MessageCallback = Callable[[bytes], None]
 ServiceHandler = Callable[[bytes], bytes]
 
 
-class ClientError(RuntimeError):
+class ClientError(BridgeError, RuntimeError):
     """Connection, handshake or service-call failure of the TCP client."""
 
 

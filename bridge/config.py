@@ -6,13 +6,14 @@ import math
 from dataclasses import dataclass
 from typing import Optional, Tuple
 
+from bridge.errors import BridgeError
 from bridge.framing import LARGE_PAYLOAD_BYTES
 from bridge.protocol import DEFAULT_MAX_PAYLOAD_BYTES, MAX_DESTINATION_BYTES
 
 __all__ = ["ConfigError", "EndpointConfig", "MAX_FRAME_LENGTH"]
 
 
-class ConfigError(ValueError):
+class ConfigError(BridgeError, ValueError):
     """A setting the endpoint cannot serve clients with; `setting` is the EndpointConfig field concerned."""
 
     def __init__(self, setting: str, problem: str) -> None:

@@ -18,13 +18,15 @@ import genpy
 import genpy.dynamic
 import rospkg
 
+from bridge.errors import BridgeError
+
 __all__ = [
     "DefinitionError", "split_type_name", "RosPackages", "message_class_from_files", "message_class_from_text",
     "service_class_from_files",
 ]
 
 
-class DefinitionError(LookupError):
+class DefinitionError(BridgeError, LookupError):
     """No definition of the type could be found or read; the text says where it was looked for."""
 
 

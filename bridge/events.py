@@ -6,6 +6,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any, Dict, Optional, Tuple
 
+from bridge.errors import BridgeError
+
 __all__ = [
     "ProtocolError", "LocalProtocolError", "RemoteProtocolError", "FramingError",
     "Event", "Keepalive", "Handshake", "TopicMessage", "ServiceRequest", "ServiceResponse",
@@ -18,7 +20,7 @@ PROTOCOL_VERSION = "v0.7.0"
 ROS_DISTRO_PROTOCOL = "ROS1"
 
 
-class ProtocolError(ValueError):
+class ProtocolError(BridgeError, ValueError):
     """Something that breaks the protocol; the message names the offending command, field or value."""
 
 

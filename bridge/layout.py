@@ -14,6 +14,8 @@ from __future__ import annotations
 import struct
 from typing import Any, Callable
 
+from bridge.errors import BridgeError
+
 __all__ = ["Step", "ClassResolver", "LayoutError", "Layout"]
 
 _U32 = struct.Struct("<I")
@@ -29,7 +31,7 @@ Step = Callable[[bytes, int], int]
 ClassResolver = Callable[[str], Any]  # 'pkg/Type' -> generated class with `_slot_types`
 
 
-class LayoutError(ValueError):
+class LayoutError(BridgeError, ValueError):
     """The payload is not one well-formed message of the type; the text says where it breaks."""
 
 

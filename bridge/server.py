@@ -4,7 +4,7 @@ tables (bridge.topics, bridge.services), which it owns; housekeeping once a seco
 Threads: one accept thread; per client a reader (frames in), a writer (drains the client's bounded queue when a
 direct send could not write everything, see ClientSession.send) and a few workers for its ROS service calls and
 topic-list look-ups (so a slow service never stalls a reader, nor another client's calls); per published topic a
-pump thread (bridge.ros.RawPublisher); rospy's own threads deliver ROS messages, which are fanned out to the
+pump thread (bridge.ros_publisher.RawPublisher); rospy's own threads deliver ROS messages, which are fanned out to the
 subscribed clients (bridge.topics.Topics.fan_out); one housekeeping thread.
 """
 from __future__ import annotations
@@ -39,7 +39,7 @@ from bridge.protocol import (
     UnityService,
 )
 from bridge.queues import ByteBudget
-from bridge.ros import RosGraph
+from bridge.ros_graph import RosGraph
 from bridge.services import Services
 from bridge.session import ClientSession, RequestRefused
 from bridge.sockets import send_now, tune_socket

@@ -13,7 +13,7 @@ from typing import Any, Dict, Optional
 from bridge import protocol
 from bridge.bridged import Bridged, ClientRegistrations, made_for_client
 from bridge.protocol import RosService, ServiceRequest, ServiceResponse, UnityService
-from bridge.ros import RosError
+from bridge.ros_types import RosError
 from bridge.session import ClientSession, RequestRefused
 
 __all__ = ["Services"]

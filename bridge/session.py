@@ -16,6 +16,7 @@ import time
 from concurrent.futures import Future, ThreadPoolExecutor
 from typing import Callable, List, Optional, Protocol, Set
 
+from bridge.errors import BridgeError
 from bridge import protocol
 from bridge.admission import SlotUse
 from bridge.auth import AuthGuard
@@ -23,7 +24,7 @@ from bridge.config import EndpointConfig
 from bridge.framing import LARGE_PAYLOAD_BYTES
 from bridge.protocol import Auth, Conversation, Event, IgnoredFields, InvalidInput, Role, TopicMessage, Warn
 from bridge.queues import ByteBudget, OutgoingQueue
-from bridge.ros import RawPublisher
+from bridge.ros_publisher import RawPublisher
 from bridge.sockets import UnsentLimit, send_now, takes_whole, unsent_bytes, wait_writable
 from bridge.throttle import LogThrottle
 
@@ -40,7 +41,7 @@ ERROR_LOG_INTERVAL_S = 1.0
 PARTIAL_FRAME_FREE_BYTES = 1024 * 1024
 _AUTH_FAILURES_LOG = LogThrottle(log)  # wrong tokens may come thousands a second: logged once a second
 
-class RequestRefused(Exception):
+class RequestRefused(BridgeError):
     """A request of one client that the endpoint refuses. The text goes back to that client as __error, with the
     srv_id of the service call it concerns, if any."""
 

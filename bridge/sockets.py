@@ -1,4 +1,4 @@
-"""Socket helpers shared by the endpoint's client side (bridge.session) and ROS side (bridge.ros)."""
+"""Socket helpers shared by the endpoint's client side (bridge.session) and ROS side (bridge.ros_publisher)."""
 from __future__ import annotations
 
 import fcntl

@@ -13,7 +13,8 @@ from typing import Any, Deque, Dict, Iterable, Optional, Set, Tuple
 from bridge import protocol
 from bridge.bridged import Bridged, ClientRegistrations, made_for_client
 from bridge.protocol import Publish, Subscribe, TopicMessage, Warn
-from bridge.ros import RawPublisher, RosError, end_topic
+from bridge.ros_publisher import RawPublisher, end_topic
+from bridge.ros_types import RosError
 from bridge.session import ClientSession, RequestRefused
 
 __all__ = ["ECHO_RECORD_MAX", "EchoFilter", "SharedSubscriber", "SharedPublisher", "Topics"]

@@ -1,4 +1,4 @@
-"""bridge.ros.read_raw_messages, the endpoint's read of TCPROS messages from ROS publishers, on real sockets: every
+"""bridge.ros_reader.read_raw_messages, the endpoint's read of TCPROS messages from ROS publishers, on real sockets: every
 message comes out whole and in order however the stream was split between rospy's read buffer and the socket, and a
 publisher that goes mid-message ends the connection as rospy's own reads do."""
 from __future__ import annotations
@@ -14,8 +14,9 @@ from rospy.exceptions import TransportTerminated
 from bridge.framing import LARGE_PAYLOAD_BYTES
 import rospy.impl.tcpros_pubsub
 
-from bridge import ros
-from bridge.ros import FLOOD_READ_BYTES, SUBSCRIBER_READ_BYTES, RawMessage, next_read_size, read_raw_messages
+from bridge import ros_reader
+from bridge.ros_reader import FLOOD_READ_BYTES, SUBSCRIBER_READ_BYTES, next_read_size, read_raw_messages
+from bridge.ros_types import RawMessage
 
 SIZES = [0, 1, 321, LARGE_PAYLOAD_BYTES - 1, LARGE_PAYLOAD_BYTES, 5, 2_764_800, 17, 1 << 20]
 
@@ -122,7 +123,7 @@ def test_the_read_size_grows_for_a_flood_and_shrinks_for_large_messages() -> Non
 
 
 def test_rospy_subscriber_connections_of_raw_classes_read_with_a_size_that_follows_the_traffic() -> None:
-    ros._install_raw_reader()
+    ros_reader.install_raw_reader()
     protocol = rospy.impl.tcpros_pubsub.TCPROSSub("/flood", RawMessage, queue_size=None,
                                                   buff_size=SUBSCRIBER_READ_BYTES)
     small = [bytes(200)] * (SUBSCRIBER_READ_BYTES // 200)  # a full read of a flood

@@ -17,7 +17,7 @@ from bridge.sockets import (
 )
 
 DATA = bytes(range(256)) * (32 * 1024)  # 8 MiB: more than loopback's socket buffers hold
-STALL_S = 1.0  # as the endpoint uses (bridge.ros.SUBSCRIBER_STALL_S)
+STALL_S = 1.0  # as the endpoint uses (bridge.ros_publisher.SUBSCRIBER_STALL_S)
 
 
 @pytest.fixture(params=[None, 60.0], ids=["blocking", "timeout-mode"])

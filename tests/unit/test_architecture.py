@@ -77,6 +77,18 @@ def test_sim_parts_import_only_from_the_layers_below() -> None:
     assert wrong == []
 
 
+def test_only_the_bridges_ros_modules_touch_rospy() -> None:
+    """The endpoint's rospy code is in the modules named ros_*, and only there."""
+    touching = set()
+    for path in (REPO / "bridge").glob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text())):
+            names = [alias.name for alias in node.names] if isinstance(node, ast.Import) else \
+                [node.module] if isinstance(node, ast.ImportFrom) and node.module else []
+            if any(name.split(".")[0] in ("rospy", "rosgraph") for name in names):
+                touching.add(path.stem)
+    assert touching == {"ros_graph", "ros_master", "ros_publisher", "ros_reader", "ros_service_proxy"}
+
+
 def test_sim_uses_no_bridge_internals_but_the_client() -> None:
     imported = set()
     for path in (REPO / "sim").rglob("*.py"):
@@ -98,6 +110,29 @@ def test_every_package_type_checks(package: str) -> None:
         cwd=REPO, capture_output=True, text=True, timeout=240,
     )
     assert result.returncode == 0, result.stdout + result.stderr
+
+
+@pytest.mark.parametrize("package, root", [("bridge", "bridge.errors.BridgeError"), ("sim", "sim.errors.SimError")])
+def test_every_error_a_package_defines_is_under_its_root(package: str, root: str) -> None:
+    """One error root per package: `except BridgeError` / `except SimError` catches every error raised on purpose
+    (private control-flow signals, named with a leading underscore, aside)."""
+    code = f"""
+import importlib, inspect, pkgutil
+import {package}
+root_module, root_name = "{root}".rsplit(".", 1)
+root = getattr(importlib.import_module(root_module), root_name)
+outside = []
+for info in pkgutil.walk_packages({package}.__path__, "{package}."):
+    module = importlib.import_module(info.name)
+    for name, value in vars(module).items():
+        if inspect.isclass(value) and issubclass(value, BaseException) and value.__module__ == info.name \\
+                and not name.startswith("_") and not issubclass(value, root):
+            outside.append(f"{{info.name}}.{{name}}")
+print(" ".join(outside))
+"""
+    result = subprocess.run([PYTHON, "-c", code], cwd=REPO, capture_output=True, text=True, timeout=120)
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.split() == []
 
 
 def test_the_repository_stands_on_its_own() -> None:

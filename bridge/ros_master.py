@@ -25,6 +25,7 @@ import rospy.impl.registration as rospy_registration
 import rospy.impl.statistics as rospy_statistics
 from rospy.impl.registration import Registration as RospyRegistration
 
+from bridge.errors import BridgeError
 from bridge.registry import Registration, RegistrationBook
 
 __all__ = ["MASTER_TIMEOUT_S", "MASTER_POLL_S", "MasterError", "MasterRefused", "timed_proxy", "call_master", "MasterLink"]
@@ -37,7 +38,7 @@ MASTER_POLL_S = 1.0  # how often the master's identity is checked
 _KIND_OF = {RospyRegistration.PUB: "publisher", RospyRegistration.SUB: "subscriber", RospyRegistration.SRV: "service"}
 
 
-class MasterError(OSError):
+class MasterError(BridgeError, OSError):
     """The master did not answer in time, could not be reached, or refused the call (the text says which)."""
 
 

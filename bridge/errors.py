@@ -1,0 +1,12 @@
+"""The root of every error the endpoint raises on purpose: `except BridgeError` catches them all.
+
+Each module's error class sits under it and keeps the built-in base it always had (ValueError for bad input,
+OSError for the master's link, RuntimeError for a ROS-side failure), so existing handlers still catch it.
+"""
+from __future__ import annotations
+
+__all__ = ["BridgeError"]
+
+
+class BridgeError(Exception):
+    """A failure the endpoint names: bad input from a client or the settings, or a part of the world that failed."""

@@ -1,0 +1,120 @@
+"""Calls of a ROS service with request bytes, answered with response bytes, every step under the call's deadline:
+TCPROS spoken here, since rospy's ServiceProxy can wait for an answer forever.
+"""
+from __future__ import annotations
+
+import socket
+import struct
+import threading
+import time
+from typing import Any
+
+import rosgraph
+import rosgraph.network
+import rospy
+import rospy.impl.tcpros_pubsub
+from bridge.ros_master import MASTER_TIMEOUT_S, MasterError, MasterRefused, call_master
+from bridge.ros_types import RosError
+
+_U32 = struct.Struct("<I")
+
+__all__ = ["SERVICE_POLL_S", "RawServiceProxy"]
+
+# A ROS service call looks this often whether its client has gone, and whether the service has been advertised.
+SERVICE_POLL_S = 0.2
+
+
+class _Abandoned(Exception):
+    """The call's client has gone: nobody waits for the answer any more."""
+
+
+class RawServiceProxy:
+    """Calls of one ROS service with request bytes, answered with response bytes; every call ends by its deadline.
+
+    rospy's ServiceProxy waits for an answer with no limit (its timeout bounds only the wait for the service to
+    appear), on a socket the caller cannot close: a service that never answers holds the calling thread forever.
+    This speaks TCPROS itself (one connection per call, as rospy's non-persistent proxy does), with the deadline on
+    every step, and gives up early when `abandoned` is set (the client left).
+    """
+
+    def __init__(self, raw_class: Any, service: str, max_response_bytes: int) -> None:
+        self.service = service
+        self.service_type: str = raw_class._type
+        self._md5sum: str = raw_class._md5sum
+        self._max_response_bytes = max_response_bytes
+
+    def call(self, request: bytes, timeout: float, abandoned: threading.Event) -> bytes:
+        """The response's bytes; RosError when the service is missing, fails, or does not answer within `timeout`
+        seconds (the look-up included)."""
+        deadline = time.monotonic() + timeout
+        try:
+            host, port = rospy.core.parse_rosrpc_uri(self._look_up(deadline, timeout, abandoned))
+            with socket.create_connection((host, port), timeout=_remaining(deadline)) as sock:
+                sock.sendall(rosgraph.network.encode_ros_handshake_header({
+                    "callerid": rospy.get_caller_id(), "service": self.service, "md5sum": self._md5sum,
+                    "type": self.service_type, "persistent": "0",
+                }))
+                size = _U32.unpack(_receive(sock, 4, deadline, abandoned))[0]
+                if size > 65536:
+                    raise RosError(f"service {self.service} sent a connection header of {size} bytes")
+                header = rosgraph.network.decode_ros_handshake_header(
+                    _U32.pack(size) + _receive(sock, size, deadline, abandoned))
+                if "error" in header:
+                    raise RosError(f"service {self.service} refused the call: {header['error']}")
+                sock.sendall(_U32.pack(len(request)) + request)
+                ok = _receive(sock, 1, deadline, abandoned)[0]
+                size = _U32.unpack(_receive(sock, 4, deadline, abandoned))[0]
+                if size > self._max_response_bytes:
+                    raise RosError(f"service {self.service} answered with {size} bytes, more than the "
+                                   f"{self._max_response_bytes} a frame may carry")
+                body = _receive(sock, size, deadline, abandoned)
+        except socket.timeout:
+            raise RosError(f"service {self.service} did not answer within {timeout:g} s") from None
+        except _Abandoned:
+            raise RosError(f"service {self.service}: the call's client has gone") from None
+        except (OSError, ValueError, rosgraph.network.ROSHandshakeException) as error:
+            raise RosError(f"service {self.service} could not be called: {error}") from None
+        if not ok:
+            raise RosError(f"service {self.service} failed: {body.decode('utf-8', 'replace')}")
+        return body
+
+    def _look_up(self, deadline: float, timeout: float, abandoned: threading.Event) -> str:
+        """The service's rosrpc URI, waiting for it to be advertised until the deadline."""
+        while True:
+            try:
+                uri: str = call_master("lookupService", rospy.get_caller_id(), self.service,
+                                       timeout_s=max(0.01, min(MASTER_TIMEOUT_S, _remaining(deadline))))
+                return uri
+            except MasterRefused:
+                why = "is not available"  # not advertised (yet)
+            except MasterError as error:
+                why = f"could not be looked up: {error}"
+            if abandoned.wait(min(SERVICE_POLL_S, _remaining(deadline))):
+                raise _Abandoned()
+            if time.monotonic() >= deadline:
+                raise RosError(f"service {self.service} {why} (waited {timeout:g} s)")
+
+
+def _remaining(deadline: float) -> float:
+    remaining = deadline - time.monotonic()
+    if remaining <= 0:
+        raise socket.timeout()
+    return remaining
+
+
+def _receive(sock: socket.socket, size: int, deadline: float, abandoned: threading.Event) -> bytes:
+    """Exactly `size` bytes; socket.timeout at the deadline, _Abandoned as soon as the client has gone (looked at
+    every SERVICE_POLL_S)."""
+    data = bytearray()
+    while len(data) < size:
+        if abandoned.is_set():
+            raise _Abandoned()
+        sock.settimeout(min(_remaining(deadline), SERVICE_POLL_S))
+        try:
+            chunk = sock.recv(min(size - len(data), 1 << 20))
+        except socket.timeout:
+            continue
+        if not chunk:
+            raise ConnectionResetError("the service closed the connection")
+        data += chunk
+    return bytes(data)
