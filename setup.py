@@ -1,4 +1,5 @@
 """Python ROS 1 toolkit for robots in VR: the ROS-TCP endpoint (bridge) and the simulated robots (sim)."""
+
 from setuptools import find_packages, setup
 
 setup(
@@ -10,7 +11,10 @@ setup(
     python_requires=">=3.11",
     packages=find_packages(include=["bridge", "bridge.*", "sim", "sim.*"]),
     package_data={
-        "bridge": ["py.typed"], "sim": ["py.typed"], "sim.robots": ["*.yaml", "urdf/*.urdf"], "sim.study": ["*.yaml"],
+        "bridge": ["py.typed"],
+        "sim": ["py.typed"],
+        "sim.robots": ["*.yaml", "urdf/*.urdf"],
+        "sim.study": ["*.yaml"],
     },
     install_requires=[
         "numpy>=1.24",
@@ -24,7 +28,9 @@ setup(
         "yourdfpy>=0.0.56",  # viser's URDF loader
     ],
     # selenium drives Debian's chromium (and chromedriver) for the web view's test
-    extras_require={"dev": ["pytest>=7", "hypothesis>=6", "pytest-timeout>=2", "mypy>=1.5", "selenium>=4.10"]},
+    extras_require={
+        "dev": ["pytest>=7", "hypothesis>=6", "pytest-timeout>=2", "mypy>=1.5", "selenium>=4.10", "ruff>=0.6"]
+    },
     entry_points={
         "console_scripts": [
             "ros-tcp-endpoint=bridge.__main__:main",

@@ -17,6 +17,7 @@ this script measures; it judges nothing.
              RSS over time, the good client's longest gap between messages and its ping p99
 Every loop is bounded in count and time; every process is stopped by PID.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -36,8 +37,8 @@ sys.path[:0] = [str(REPO)]
 
 from bridge import protocol  # noqa: E402
 from bridge.client import TcpClient  # noqa: E402
-from tests.frames import feed  # noqa: E402
 from tests.chaos import LOOPBACK, FuzzStats, ProcessFigures, churn, figures, fuzz_client  # noqa: E402
+from tests.frames import feed  # noqa: E402
 from tests.integration.bridge_helpers import settled  # noqa: E402
 from tests.rosenv import EndpointProcess, ManagedProcess, RosCore, wait_for  # noqa: E402
 
@@ -98,9 +99,11 @@ class Worst:
                 now = figures(self.pid)
             except (OSError, StopIteration):  # the process has gone
                 return
-            self.figures = ProcessFigures(max(now.threads, self.figures.threads),
-                                          max(now.descriptors, self.figures.descriptors),
-                                          max(now.rss_mib, self.figures.rss_mib))
+            self.figures = ProcessFigures(
+                max(now.threads, self.figures.threads),
+                max(now.descriptors, self.figures.descriptors),
+                max(now.rss_mib, self.figures.rss_mib),
+            )
 
     def stop(self) -> ProcessFigures:
         self._stop.set()
@@ -133,9 +136,14 @@ def phase_churn(quick: bool) -> None:
         took = time.monotonic() - started
         steady.close()
         after = settle(endpoint.pid, before)
-        row("churn", before, worst.stop(), after,
+        row(
+            "churn",
+            before,
+            worst.stop(),
+            after,
             f"{count} resets in {took:.1f} s ({count / took:.0f}/s); steady client: {sent} published, "
-            f"{steady.connections} connection(s), {len(steady.errors)} errors")
+            f"{steady.connections} connection(s), {len(steady.errors)} errors",
+        )
 
 
 def phase_flood(quick: bool) -> None:
@@ -156,8 +164,12 @@ def phase_flood(quick: bool) -> None:
 
         def registered() -> int:  # the master link registers in the background: count once it is done
             state = xmlrpc.client.ServerProxy(core.uri).getSystemState("/bench")[2]
-            return sum(1 for part in state[:2] for name, nodes in part
-                       if name.startswith("/flood/") and "/chaos_endpoint" in nodes)
+            return sum(
+                1
+                for part in state[:2]
+                for name, nodes in part
+                if name.startswith("/flood/") and "/chaos_endpoint" in nodes
+            )
 
         limit = 2 * 256
         wait_for(lambda: registered() >= limit, 60, f"{limit} registrations on the master")
@@ -165,9 +177,14 @@ def phase_flood(quick: bool) -> None:
         publisher.close()
         subscriber.close()
         after = settle(endpoint.pid, before)
-        row("flood", before, worst.stop(), after,
+        row(
+            "flood",
+            before,
+            worst.stop(),
+            after,
             f"{publish_count} publishers + {subscribe_count} subscriptions asked for in {took:.1f} s; "
-            f"{on_master} registered with the master, the rest refused past the per-client limit")
+            f"{on_master} registered with the master, the rest refused past the per-client limit",
+        )
 
 
 def phase_unread(quick: bool) -> None:
@@ -199,11 +216,19 @@ def phase_unread(quick: bool) -> None:
         silent.close()
         helper.close()
         after = settle(endpoint.pid, before)
-        row("unread", before, during, after,
+        row(
+            "unread",
+            before,
+            during,
+            after,
             f"{sent} __topic_list, never read: RSS grew {during.rss_mib - before.rss_mib:.1f} MiB at most (the "
-            "original grew about 6 MiB/s); " + (f"the endpoint dropped the client after {dropped_after:.0f} s "
-                                               "(its window shut for --dead-peer-timeout)" if dropped_after else
-                                               f"connected for all {duration} s"))
+            "original grew about 6 MiB/s); "
+            + (
+                f"the endpoint dropped the client after {dropped_after:.0f} s (its window shut for --dead-peer-timeout)"
+                if dropped_after
+                else f"connected for all {duration} s"
+            ),
+        )
 
 
 def phase_slow(quick: bool) -> None:
@@ -247,15 +272,22 @@ def phase_slow(quick: bool) -> None:
         for sock in sockets:
             sock.close()
         after = settle(endpoint.pid, before)
-        row("slow", before, worst.stop(), after,
+        row(
+            "slow",
+            before,
+            worst.stop(),
+            after,
             f"{count} connections dribbling a byte a second from 10 addresses (16 per address served, the rest "
             f"turned away): {held} still open after {cut_after:.0f} s (--frame-timeout 10); a fresh client from "
-            f"another address, once a second: served {served}/{probes}")
+            f"another address, once a second: served {served}/{probes}",
+        )
         if held_figures is not None:
             connections = held_figures.descriptors - before.descriptors  # one descriptor each
-            print(f"{'':12} per slow connection held ({connections} held): "
-                  f"{(held_figures.threads - before.threads) / max(connections, 1):.2f} threads, "
-                  f"{(held_figures.rss_mib - before.rss_mib) * 1024 / max(connections, 1):.0f} KiB RSS")
+            print(
+                f"{'':12} per slow connection held ({connections} held): "
+                f"{(held_figures.threads - before.threads) / max(connections, 1):.2f} threads, "
+                f"{(held_figures.rss_mib - before.rss_mib) * 1024 / max(connections, 1):.0f} KiB RSS"
+            )
 
 
 def fresh_client_served(port: int, source: str) -> bool:
@@ -295,11 +327,19 @@ def phase_tokens(quick: bool) -> None:
         client.topic_list()
         right_took = time.monotonic() - right_started
         client.close()
-        logged = sum(1 for line in endpoint.output().splitlines()
-                     if "authentication failed" in line and "disconnected" not in line)
-        row("tokens", before, figures(endpoint.pid), figures(endpoint.pid),
+        logged = sum(
+            1
+            for line in endpoint.output().splitlines()
+            if "authentication failed" in line and "disconnected" not in line
+        )
+        row(
+            "tokens",
+            before,
+            figures(endpoint.pid),
+            figures(endpoint.pid),
             f"{verdicts} wrong-token verdicts in {took:.1f} s (the original answered ~900/s); {logged} log lines; "
-            f"the right token from the same address answered in {right_took * 1000:.0f} ms")
+            f"the right token from the same address answered in {right_took * 1000:.0f} ms",
+        )
 
 
 def phase_master(quick: bool) -> None:
@@ -319,20 +359,26 @@ def phase_master(quick: bool) -> None:
             core = RosCore(port=core.port, tmp=core.tmp, remove_tmp=True)
             started = time.monotonic()
 
-            def registered() -> bool:
+            def registered(core: RosCore = core) -> bool:
                 state = xmlrpc.client.ServerProxy(core.uri).getSystemState("/bench")[2]
                 publishers = {name for name, nodes in state[0] if "/master_endpoint" in nodes}
                 subscribers = {name for name, nodes in state[1] if "/master_endpoint" in nodes}
                 services = {name for name, nodes in state[2] if "/master_endpoint" in nodes}
-                return (all(f"/restart/p{i}" in publishers for i in range(20))
-                        and all(f"/restart/s{i}" in subscribers for i in range(20)) and "/restart/srv" in services)
+                return (
+                    all(f"/restart/p{i}" in publishers for i in range(20))
+                    and all(f"/restart/s{i}" in subscribers for i in range(20))
+                    and "/restart/srv" in services
+                )
 
             wait_for(registered, 30, "every registration on the new master")
             recoveries.append(time.monotonic() - started)
-        print(f"master   20 publishers (latched), 20 subscriptions, 1 service; roscore restarted {rounds} times: "
-              f"registered again {min(recoveries):.2f}-{max(recoveries):.2f} s after the new roscore was up "
-              f"(the master's identity is checked once a second); client connected throughout: "
-              f"{client.is_connected and client.connections == 1}", flush=True)
+        print(
+            f"master   20 publishers (latched), 20 subscriptions, 1 service; roscore restarted {rounds} times: "
+            f"registered again {min(recoveries):.2f}-{max(recoveries):.2f} s after the new roscore was up "
+            f"(the master's identity is checked once a second); client connected throughout: "
+            f"{client.is_connected and client.connections == 1}",
+            flush=True,
+        )
     finally:
         client.close()
         endpoint.stop()
@@ -352,8 +398,10 @@ def phase_fuzz(quick: bool, duration: float) -> None:
         worst = Worst(endpoint.pid)
         stop = threading.Event()
         stats = [FuzzStats() for _ in range(4)]
-        fuzzers = [threading.Thread(target=fuzz_client, args=(endpoint.port, 7 + i, stop, stats[i]), daemon=True)
-                   for i in range(4)]
+        fuzzers = [
+            threading.Thread(target=fuzz_client, args=(endpoint.port, 7 + i, stop, stats[i]), daemon=True)
+            for i in range(4)
+        ]
         for fuzzer in fuzzers:
             fuzzer.start()
         first = len(arrivals)
@@ -377,11 +425,16 @@ def phase_fuzz(quick: bool, duration: float) -> None:
         stream.stop()
         after = settle(endpoint.pid, before)
         curve = ", ".join(f"{at:.0f} s {rss:.0f}" for at, rss in rss_samples)
-        row("fuzz", before, during, after,
+        row(
+            "fuzz",
+            before,
+            during,
+            after,
             f"4 fuzzers, {duration:.0f} s: {sum(s.connections for s in stats)} connections, "
             f"{sum(s.bytes_sent for s in stats) / 2**20:.0f} MiB of mutated streams; RSS MiB over time: {curve}; "
             f"good client: longest gap {gap * 1000:.0f} ms between 100 Hz messages, ping p99 {p99 * 1000:.1f} ms, "
-            f"{good.connections} connection(s), {len(good.errors)} errors")
+            f"{good.connections} connection(s), {len(good.errors)} errors",
+        )
 
 
 _STREAM_NODE = """
@@ -405,9 +458,12 @@ def main(argv: list[str] | None = None) -> int:
     if args.fuzz_s <= 0:
         parser.error(f"--fuzz-s must be positive, got {args.fuzz_s}")
     runs: dict[str, Callable[[], None]] = {
-        "churn": lambda: phase_churn(args.quick), "flood": lambda: phase_flood(args.quick),
-        "unread": lambda: phase_unread(args.quick), "slow": lambda: phase_slow(args.quick),
-        "tokens": lambda: phase_tokens(args.quick), "master": lambda: phase_master(args.quick),
+        "churn": lambda: phase_churn(args.quick),
+        "flood": lambda: phase_flood(args.quick),
+        "unread": lambda: phase_unread(args.quick),
+        "slow": lambda: phase_slow(args.quick),
+        "tokens": lambda: phase_tokens(args.quick),
+        "master": lambda: phase_master(args.quick),
         "fuzz": lambda: phase_fuzz(args.quick, args.fuzz_s),
     }
     logging.getLogger("bridge.client").setLevel(logging.ERROR)  # the refusals are counted, not printed one by one

@@ -41,6 +41,7 @@ one roscore, and prints both tables and a comparison with the ratios.
 
 Everything is loopback; every loop is bounded in count and time; every process is stopped by PID.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -66,11 +67,19 @@ REPO = Path(__file__).resolve().parents[1]
 BENCH = Path(__file__).resolve().parent
 sys.path[:0] = [str(REPO), str(BENCH)]
 
+from endpoint_common import (  # noqa: E402
+    HEADER_OFFSETS,
+    MESSAGE_KINDS,
+    MESSAGE_NAME,
+    joint_state_payload,
+    paced,
+    percentile,
+    read_stamp,
+    stamped,
+)
+
 from bridge import protocol  # noqa: E402
 from bridge.client import TcpClient  # noqa: E402
-from endpoint_common import (  # noqa: E402
-    HEADER_OFFSETS, MESSAGE_KINDS, MESSAGE_NAME, joint_state_payload, paced, percentile, read_stamp, stamped,
-)
 from tests.rosenv import PYTHON, EndpointProcess, ManagedProcess, RosCore, kill_process  # noqa: E402
 
 ROSNODE = str(BENCH / "endpoint_rosnode.py")
@@ -221,7 +230,8 @@ class Bench:
         self.clients: list[TcpClient] = []
         self.rows: list[Row] = []
         self.endpoint = self._track(
-            start_endpoint(core.env, log_dir, settings.bridge_dir, settings.endpoint_args, name))
+            start_endpoint(core.env, log_dir, settings.bridge_dir, settings.endpoint_args, name)
+        )
         self.pid = self.endpoint.process.pid
 
     # --- process and client plumbing ---------------------------------------------------------------------------
@@ -277,8 +287,9 @@ class Bench:
         window = self.settings.window_s
         topic = f"/bench/ceiling_{kind}_q{queue_size}"
         counter = self.node("count", "--topic", topic, "--max-seconds", str(window + 40), "--kind", kind)
-        flood = self.node("flood", "--topic", topic, "--seconds", str(window), "--queue-size", str(queue_size),
-                          "--kind", kind)
+        flood = self.node(
+            "flood", "--topic", topic, "--seconds", str(window), "--queue-size", str(queue_size), "--kind", kind
+        )
         sent = self.result(flood, window + 40)["sent"]
         counted = self.result(counter, 20)
         return Flow(rate_of(counted["count"], counted["first"], counted["last"]), counted["count"], sent, 0.0)
@@ -315,8 +326,9 @@ class Bench:
             client.subscribe(topic, MESSAGE_KINDS[kind][0], arrivals)
             time.sleep(0.3)
             cpu_before = self.cpu()
-            flood = self.node("flood", "--topic", topic, "--seconds", str(window), "--queue-size", str(queue_size),
-                              "--kind", kind)
+            flood = self.node(
+                "flood", "--topic", topic, "--seconds", str(window), "--queue-size", str(queue_size), "--kind", kind
+            )
             sent = self.result(flood, window + 40)["sent"]
             arrivals.wait_idle(1.0, 20.0)
             cpu_used = self.cpu() - cpu_before
@@ -347,8 +359,13 @@ class Bench:
         rounds = self.settings.throughput_rounds
         if rounds > 1:
             window = self.settings.window_s
-            self.rows.append(Row(f"Throughput: median of {rounds} interleaved rounds of {window:g} s per flow", "",
-                                 target="(range of rounds in [ ])"))
+            self.rows.append(
+                Row(
+                    f"Throughput: median of {rounds} interleaved rounds of {window:g} s per flow",
+                    "",
+                    target="(range of rounds in [ ])",
+                )
+            )
 
         def spread(name: str) -> str:
             rates = sorted(flow.rate for flow in flows[name])
@@ -356,27 +373,59 @@ class Bench:
 
         def add(label: str, name: str, flow: Flow, reference: float, reference_name: str, judged: bool) -> None:
             ratio = flow.rate / reference if reference else 0.0
-            self.rows.append(Row(label, f"{flow.rate:,.0f}{spread(name)}",
-                                 f"{reference:,.0f}{spread(reference_name)}", f"{ratio:.2f}",
-                                 ">= 0.95 x ceiling" if judged else "", ratio >= 0.95 if judged else None))
+            self.rows.append(
+                Row(
+                    label,
+                    f"{flow.rate:,.0f}{spread(name)}",
+                    f"{reference:,.0f}{spread(reference_name)}",
+                    f"{ratio:.2f}",
+                    ">= 0.95 x ceiling" if judged else "",
+                    ratio >= 0.95 if judged else None,
+                )
+            )
 
         best_name = "sync" if best_is_sync else "queued"
         add(f"TCP->ROS [msg/s] vs rospy {best} publisher", "tcp_in", tcp_in, ceiling, best_name, True)
-        add(f"  same, vs rospy queued publisher (q {PUBLISH_QUEUE})", "tcp_in", tcp_in, queued_ceiling.rate, "queued",
-            False)
+        add(
+            f"  same, vs rospy queued publisher (q {PUBLISH_QUEUE})",
+            "tcp_in",
+            tcp_in,
+            queued_ceiling.rate,
+            "queued",
+            False,
+        )
         add(f"ROS->TCP [msg/s], sync source, vs rospy {best}", "out_sync", ros_out_sync, ceiling, best_name, True)
-        add(f"  queued source (q {PUBLISH_QUEUE}) vs rospy queued", "out_queued", ros_out_queued, queued_ceiling.rate,
-            "queued", False)
-        for label, name in (("rospy->rospy sync", "sync"), ("rospy->rospy queued", "queued"), ("TCP->ROS", "tcp_in"),
-                            ("ROS->TCP sync source", "out_sync"), ("ROS->TCP queued source", "out_queued")):
+        add(
+            f"  queued source (q {PUBLISH_QUEUE}) vs rospy queued",
+            "out_queued",
+            ros_out_queued,
+            queued_ceiling.rate,
+            "queued",
+            False,
+        )
+        for label, name in (
+            ("rospy->rospy sync", "sync"),
+            ("rospy->rospy queued", "queued"),
+            ("TCP->ROS", "tcp_in"),
+            ("ROS->TCP sync source", "out_sync"),
+            ("ROS->TCP queued source", "out_queued"),
+        ):
             received, sent = sum(f.received for f in flows[name]), sum(f.sent for f in flows[name])
-            self.rows.append(Row(f"  delivered/sent, {label}", f"{received:,}/{sent:,}",
-                                 target=f"({received / max(sent, 1):.1%})"))
-        for label, flow in (("TCP->ROS", tcp_in), ("ROS->TCP (sync source)", ros_out_sync),
-                            ("ROS->TCP (queued source)", ros_out_queued)):
-            self.rows.append(Row(f"Endpoint CPU s / 10k msgs, {label}",
-                                 f"{flow.cpu_s / max(flow.received, 1) * 1e4:.3f}",
-                                 target="(per delivered msg, median round)"))
+            self.rows.append(
+                Row(f"  delivered/sent, {label}", f"{received:,}/{sent:,}", target=f"({received / max(sent, 1):.1%})")
+            )
+        for label, flow in (
+            ("TCP->ROS", tcp_in),
+            ("ROS->TCP (sync source)", ros_out_sync),
+            ("ROS->TCP (queued source)", ros_out_queued),
+        ):
+            self.rows.append(
+                Row(
+                    f"Endpoint CPU s / 10k msgs, {label}",
+                    f"{flow.cpu_s / max(flow.received, 1) * 1e4:.3f}",
+                    target="(per delivered msg, median round)",
+                )
+            )
 
     # --- 7: large messages ------------------------------------------------------------------------------------------
     def large(self) -> None:
@@ -395,18 +444,33 @@ class Bench:
                 ratio = flow.rate / ceiling if ceiling else 0.0
                 rates = sorted(f.rate for f in flows[name])
                 spread = f" [{rates[0]:.1f}-{rates[-1]:.1f}]" if len(rates) > 1 else ""
-                self.rows.append(Row(f"{label} {path} [msg/s] vs rospy sync", f"{flow.rate:.1f}{spread}",
-                                     f"{ceiling:.1f}", f"{ratio:.2f}", ">= 0.95 x ceiling", ratio >= 0.95))
-                self.rows.append(Row("  endpoint CPU s / 100 msgs", f"{flow.cpu_s / max(flow.received, 1) * 100:.3f}",
-                                     target="(median round)"))
+                self.rows.append(
+                    Row(
+                        f"{label} {path} [msg/s] vs rospy sync",
+                        f"{flow.rate:.1f}{spread}",
+                        f"{ceiling:.1f}",
+                        f"{ratio:.2f}",
+                        ">= 0.95 x ceiling",
+                        ratio >= 0.95,
+                    )
+                )
+                self.rows.append(
+                    Row(
+                        "  endpoint CPU s / 100 msgs",
+                        f"{flow.cpu_s / max(flow.received, 1) * 100:.3f}",
+                        target="(median round)",
+                    )
+                )
             received, sent = sum(f.received for f in flows["tcp_in"]), sum(f.sent for f in flows["tcp_in"])
-            self.rows.append(Row(f"  {label} TCP->ROS delivered/sent", f"{received:,}/{sent:,}", target="all",
-                                 ok=received == sent))
+            self.rows.append(
+                Row(f"  {label} TCP->ROS delivered/sent", f"{received:,}/{sent:,}", target="all", ok=received == sent)
+            )
         self.large_round_trip()
         self.rows.append(Row("Endpoint RSS right after the large messages [MiB]", f"{rss_bytes(self.pid) / MiB:.1f}"))
         time.sleep(LARGE_IDLE_S)
-        self.rows.append(Row(f"  and after {LARGE_IDLE_S:g} s without traffic [MiB]",
-                             f"{rss_bytes(self.pid) / MiB:.1f}"))
+        self.rows.append(
+            Row(f"  and after {LARGE_IDLE_S:g} s without traffic [MiB]", f"{rss_bytes(self.pid) / MiB:.1f}")
+        )
 
     def large_round_trip(self) -> None:
         """1 MiB PointCloud2 pings at 30 Hz through a rospy relay: from a TcpClient via the endpoint, and from a rospy
@@ -415,8 +479,15 @@ class Bench:
         the next (1.6-2.1 ms p50 within one run), which one run of each would charge to the endpoint."""
         hz, rounds = LARGE_RTT_HZ, self.settings.throughput_rounds
         count = max(1, self.settings.large_rtt_samples // rounds)
-        relay = self.node("relay", "--pair", "/bench/big_ping:/bench/big_pong",
-                          "--pair", "/bench/big_rping:/bench/big_rpong", "--kind", "cloud")
+        relay = self.node(
+            "relay",
+            "--pair",
+            "/bench/big_ping:/bench/big_pong",
+            "--pair",
+            "/bench/big_rping:/bench/big_rpong",
+            "--kind",
+            "cloud",
+        )
         relay.wait_for_output("READY", 30)
         message_name, make_payload = MESSAGE_KINDS["cloud"]
         template = make_payload()
@@ -426,8 +497,11 @@ class Bench:
         sent, elapsed, cpu_used = 0, 0.0, 0.0
         with self.clients_closed():
             client = self.client()
-            client.subscribe("/bench/big_pong", message_name,
-                             lambda payload: rtts_us.append((time.monotonic_ns() - read_stamp(payload)[1]) / 1000.0))
+            client.subscribe(
+                "/bench/big_pong",
+                message_name,
+                lambda payload: rtts_us.append((time.monotonic_ns() - read_stamp(payload)[1]) / 1000.0),
+            )
             client.register_publisher("/bench/big_ping", message_name, queue_size=10)
             for seq in paced(10, 300, 30.0):  # until the whole loop is connected
                 if rtts_us:
@@ -443,8 +517,17 @@ class Bench:
                 elapsed, cpu_used = elapsed + time.monotonic() - started, cpu_used + self.cpu() - cpu_before
                 time.sleep(0.5)
                 mine += rtts_us
-                ping = self.node("ping", "--out-topic", "/bench/big_rping", "--in-topic", "/bench/big_rpong",
-                                 "--rates", f"{hz}:{count}", "--kind", "cloud")
+                ping = self.node(
+                    "ping",
+                    "--out-topic",
+                    "/bench/big_rping",
+                    "--in-topic",
+                    "/bench/big_rpong",
+                    "--rates",
+                    f"{hz}:{count}",
+                    "--kind",
+                    "cloud",
+                )
                 theirs += self.result(ping, count / hz * 1.5 + 60)["rates"][str(hz)]["rtts_us"]
         relay.stop()
         if not mine or not theirs:
@@ -452,8 +535,16 @@ class Bench:
             return
         for label, q, bound in (("p50", 50.0, 1.3), ("max", 100.0, 2.0)):
             value, reference = percentile(mine, q) / 1000.0, percentile(theirs, q) / 1000.0
-            self.rows.append(Row(f"1 MiB round trip @ {hz} Hz {label} [ms]", f"{value:.2f}", f"{reference:.2f}",
-                                 f"{value / reference:.2f}", f"<= {bound:g} x rospy", value <= bound * reference))
+            self.rows.append(
+                Row(
+                    f"1 MiB round trip @ {hz} Hz {label} [ms]",
+                    f"{value:.2f}",
+                    f"{reference:.2f}",
+                    f"{value / reference:.2f}",
+                    f"<= {bound:g} x rospy",
+                    value <= bound * reference,
+                )
+            )
         self.rows.append(Row(f"  pongs received @ {hz} Hz", f"{len(mine)}/{sent}", f"{len(theirs)}/{count * rounds}"))
         self.rows.append(Row("  endpoint CPU during the round trips [% of a core]", f"{cpu_used / elapsed * 100:.1f}"))
 
@@ -463,26 +554,39 @@ class Bench:
         at 60 Hz and TF at 100 Hz, up (client -> ROS) a PoseStamped and a JointState at 60 Hz. Per direction: what
         arrived of what was sent and the one-way latency (header stamps); the endpoint's CPU meanwhile."""
         window = 2 * self.settings.window_s
-        down = [("pose", f"/mix/pose{i}", 60) for i in range(4)] + \
-            [("joint_state", f"/mix/joints{i}", 60) for i in range(4)] + [("tf", "/mix/tf", 100)]
+        down = (
+            [("pose", f"/mix/pose{i}", 60) for i in range(4)]
+            + [("joint_state", f"/mix/joints{i}", 60) for i in range(4)]
+            + [("tf", "/mix/tf", 100)]
+        )
         up = [("pose", "/mix_up/pose", 60), ("joint_state", "/mix_up/joints", 60)]
         arrived: dict[str, list[float]] = {topic: [] for _, topic, _ in down}
         with self.clients_closed():
             client = self.client()
             for kind, topic, _ in down:
-                def record(payload: bytes, latencies: list = arrived[topic], offset: int = HEADER_OFFSETS.get(kind, 0)
-                           ) -> None:
+
+                def record(
+                    payload: bytes, latencies: list = arrived[topic], offset: int = HEADER_OFFSETS.get(kind, 0)
+                ) -> None:
                     latencies.append((time.monotonic_ns() - read_stamp(payload, offset)[1]) / 1e6)
 
                 client.subscribe(topic, MESSAGE_KINDS[kind][0], record)
             for kind, topic, _ in up:
                 client.register_publisher(topic, MESSAGE_KINDS[kind][0], queue_size=10)
-            listener = self.node("ages", "--seconds", str(window + 8),
-                                 *[arg for kind, topic, _ in up for arg in ("--listen", f"{kind}:{topic}")])
+            listener = self.node(
+                "ages",
+                "--seconds",
+                str(window + 8),
+                *[arg for kind, topic, _ in up for arg in ("--listen", f"{kind}:{topic}")],
+            )
             listener.wait_for_output("CONNECTED", 30)
             cpu_before, started = self.cpu(), time.monotonic()
-            stream = self.node("stream", "--seconds", str(window),
-                               *[arg for kind, topic, hz in down for arg in ("--stream", f"{kind}:{topic}:{hz}")])
+            stream = self.node(
+                "stream",
+                "--seconds",
+                str(window),
+                *[arg for kind, topic, hz in down for arg in ("--stream", f"{kind}:{topic}:{hz}")],
+            )
             templates = [(topic, MESSAGE_KINDS[kind][1](), HEADER_OFFSETS.get(kind, 0)) for kind, topic, _ in up]
             sent_up = 0
             for seq in paced(60, int(window * 60), window + 5):
@@ -496,14 +600,24 @@ class Bench:
         down_latencies = [latency for latencies in arrived.values() for latency in latencies]
         up_latencies = [age / 1e6 for pairs in received_up.values() for _, age in pairs]
         for direction, received, sent, latencies in (
-                ("down: 4 poses + 4 joint states @ 60 Hz, TF @ 100 Hz", len(down_latencies), sum(sent_down.values()),
-                 down_latencies),
-                ("up: a pose + a joint state @ 60 Hz", len(up_latencies), sent_up * len(up), up_latencies)):
-            self.rows.append(Row(f"Unity mix {direction}: delivered", f"{received:,}/{sent:,}", target="all",
-                                 ok=received == sent))
+            (
+                "down: 4 poses + 4 joint states @ 60 Hz, TF @ 100 Hz",
+                len(down_latencies),
+                sum(sent_down.values()),
+                down_latencies,
+            ),
+            ("up: a pose + a joint state @ 60 Hz", len(up_latencies), sent_up * len(up), up_latencies),
+        ):
+            self.rows.append(
+                Row(f"Unity mix {direction}: delivered", f"{received:,}/{sent:,}", target="all", ok=received == sent)
+            )
             if latencies:
-                self.rows.append(Row("  one-way latency p50/p99/max [ms]",
-                                     "/".join(f"{percentile(latencies, q):.2f}" for q in (50, 99, 100))))
+                self.rows.append(
+                    Row(
+                        "  one-way latency p50/p99/max [ms]",
+                        "/".join(f"{percentile(latencies, q):.2f}" for q in (50, 99, 100)),
+                    )
+                )
         self.rows.append(Row("  endpoint CPU during the mix [% of a core]", f"{cpu_used / elapsed * 100:.1f}"))
 
     # --- 3: round-trip time ---------------------------------------------------------------------------------------
@@ -538,8 +652,9 @@ class Bench:
         ros: dict[int, tuple[list[float], int, float]] = {}
         for hz, count in self.settings.rtt_samples.items():
             relay_before = cpu_seconds(relay_pid)
-            ping = self.node("ping", "--out-topic", "/bench/rping", "--in-topic", "/bench/rpong",
-                             "--rates", f"{hz}:{count}")
+            ping = self.node(
+                "ping", "--out-topic", "/bench/rping", "--in-topic", "/bench/rpong", "--rates", f"{hz}:{count}"
+            )
             result = self.result(ping, count / hz * 1.5 + 60)["rates"][str(hz)]
             ros[hz] = (result["rtts_us"], result["sent"], cpu_seconds(relay_pid) - relay_before)
         relay.stop()
@@ -557,12 +672,26 @@ class Bench:
                     target, ok = "<= 1.0 ms", value <= 1.0
                 if hz == 1000 and label == "max":
                     target, ok = "< 10 ms", value < 10.0
-                self.rows.append(Row(f"RTT @ {hz} Hz {label} [ms]", f"{value:.3f}", f"{reference:.3f}",
-                                     f"{value / reference:.2f}", target, ok))
+                self.rows.append(
+                    Row(
+                        f"RTT @ {hz} Hz {label} [ms]",
+                        f"{value:.3f}",
+                        f"{reference:.3f}",
+                        f"{value / reference:.2f}",
+                        target,
+                        ok,
+                    )
+                )
             self.rows.append(Row(f"  pongs received @ {hz} Hz", f"{len(mine)}/{sent}", f"{len(theirs)}/{their_sent}"))
-            self.rows.append(Row(f"  CPU s / 10k round trips @ {hz} Hz", f"{cpu_used / sent * 1e4:.3f}",
-                                 f"{relay_cpu / their_sent * 1e4:.3f}", f"{cpu_used / sent / (relay_cpu / their_sent):.2f}",
-                                 "(ceiling: relay node)"))
+            self.rows.append(
+                Row(
+                    f"  CPU s / 10k round trips @ {hz} Hz",
+                    f"{cpu_used / sent * 1e4:.3f}",
+                    f"{relay_cpu / their_sent * 1e4:.3f}",
+                    f"{cpu_used / sent / (relay_cpu / their_sent):.2f}",
+                    "(ceiling: relay node)",
+                )
+            )
 
     # --- 4: fan-out -------------------------------------------------------------------------------------------------
     def fan_out(self) -> None:
@@ -581,13 +710,24 @@ class Bench:
             cpu_used = self.cpu() - cpu_before
         fractions = [len({seq for seq in r.seqs if seq < sent}) / sent for r in recorders]
         latencies = [latency for r in recorders for latency in r.latencies_us]
-        self.rows.append(Row(f"Fan-out {FAN_CLIENTS} clients x 1 kHz: min delivered", f"{min(fractions):.4f}",
-                             target="1.0000 (all)", ok=min(fractions) >= 1.0))
-        self.rows.append(Row("  delivered per client", " ".join(f"{f:.3f}" for f in fractions),
-                             target=f"({sent:,} published)"))
+        self.rows.append(
+            Row(
+                f"Fan-out {FAN_CLIENTS} clients x 1 kHz: min delivered",
+                f"{min(fractions):.4f}",
+                target="1.0000 (all)",
+                ok=min(fractions) >= 1.0,
+            )
+        )
+        self.rows.append(
+            Row("  delivered per client", " ".join(f"{f:.3f}" for f in fractions), target=f"({sent:,} published)")
+        )
         if latencies:
-            self.rows.append(Row("  one-way latency p50/p99/max [ms]",
-                                 "/".join(f"{percentile(latencies, q) / 1000:.2f}" for q in (50, 99, 100))))
+            self.rows.append(
+                Row(
+                    "  one-way latency p50/p99/max [ms]",
+                    "/".join(f"{percentile(latencies, q) / 1000:.2f}" for q in (50, 99, 100)),
+                )
+            )
         delivered = sum(r.count for r in recorders)
         self.rows.append(Row("  endpoint CPU s / 10k delivered frames", f"{cpu_used / max(delivered, 1) * 1e4:.3f}"))
 
@@ -605,8 +745,12 @@ class Bench:
             time.sleep(1.5)
             event_start = time.monotonic()
             destination = b"/bench/evil"
-            outcomes.append(huge_length_attack(self.endpoint.port, struct.pack("<I", len(destination)) + destination
-                                               + struct.pack("<I", 0xFFFFFFF0)))
+            outcomes.append(
+                huge_length_attack(
+                    self.endpoint.port,
+                    struct.pack("<I", len(destination)) + destination + struct.pack("<I", 0xFFFFFFF0),
+                )
+            )
             outcomes.append(huge_length_attack(self.endpoint.port, struct.pack("<I", 0xFFFFFFF0)))
             event_end = time.monotonic()
             time.sleep(1.0)
@@ -617,11 +761,23 @@ class Bench:
         increase = (max(during) - min(baseline)) / MiB if baseline and during else float("nan")
         gap_during = max_gap_ms(victim.times_ns, event_start, event_end + 1.0)
         gap_before = max_gap_ms(victim.times_ns, event_start - 1.0, event_start)
-        self.rows.append(Row("4 GiB length prefix: endpoint RSS increase [MiB]", f"{increase:.2f}", target="< 10 MiB",
-                             ok=increase < 10.0))
-        self.rows.append(Row("4 GiB prefix: other client's max gap [ms]", f"{gap_during:.1f}",
-                             f"{gap_before:.1f} before", target=f"< {FREEZE_GAP_MS:.0f} ms (no freeze)",
-                             ok=gap_during < FREEZE_GAP_MS))
+        self.rows.append(
+            Row(
+                "4 GiB length prefix: endpoint RSS increase [MiB]",
+                f"{increase:.2f}",
+                target="< 10 MiB",
+                ok=increase < 10.0,
+            )
+        )
+        self.rows.append(
+            Row(
+                "4 GiB prefix: other client's max gap [ms]",
+                f"{gap_during:.1f}",
+                f"{gap_before:.1f} before",
+                target=f"< {FREEZE_GAP_MS:.0f} ms (no freeze)",
+                ok=gap_during < FREEZE_GAP_MS,
+            )
+        )
         self.rows.append(Row("  attacker connection (payload len, dest len)", "; ".join(outcomes)))
 
     # --- 6b: never-reading client -------------------------------------------------------------------------------------
@@ -635,8 +791,10 @@ class Bench:
             stalled.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
             try:
                 stalled.connect(("127.0.0.1", self.endpoint.port))
-                stalled.sendall(protocol.KEEPALIVE_FRAME + protocol.encode_syscommand(
-                    "__subscribe", {"topic": topic, "message_name": MESSAGE_NAME}))
+                stalled.sendall(
+                    protocol.KEEPALIVE_FRAME
+                    + protocol.encode_syscommand("__subscribe", {"topic": topic, "message_name": MESSAGE_NAME})
+                )
                 time.sleep(0.5)
                 baseline = rss_bytes(self.pid)
                 rate = self.node("rate", "--topic", topic, "--hz", "1000", "--seconds", str(soak), "--delay", "0.5")
@@ -653,26 +811,42 @@ class Bench:
                 stalled.close()
         growth = (max(samples) - baseline) / MiB
         delivered = len({seq for seq in good.seqs if seq < sent}) / max(sent, 1)
-        self.rows.append(Row(f"Never-reading client, {soak:.0f} s @ 1 kHz: RSS growth [MiB]", f"{growth:.2f}",
-                             target="< 10 MiB", ok=growth < 10.0))
+        self.rows.append(
+            Row(
+                f"Never-reading client, {soak:.0f} s @ 1 kHz: RSS growth [MiB]",
+                f"{growth:.2f}",
+                target="< 10 MiB",
+                ok=growth < 10.0,
+            )
+        )
         self.rows.append(Row("  RSS at end - at start [MiB]", f"{(samples[-1] - baseline) / MiB:.2f}"))
-        self.rows.append(Row("  well-behaved client on the same topic: delivered", f"{delivered:.4f}",
-                             target=f"({sent:,} published)"))
+        self.rows.append(
+            Row(
+                "  well-behaved client on the same topic: delivered", f"{delivered:.4f}", target=f"({sent:,} published)"
+            )
+        )
         if good.latencies_us:
-            self.rows.append(Row("  its one-way latency p99/max [ms]",
-                                 "/".join(f"{percentile(good.latencies_us, q) / 1000:.2f}" for q in (99, 100))))
+            self.rows.append(
+                Row(
+                    "  its one-way latency p99/max [ms]",
+                    "/".join(f"{percentile(good.latencies_us, q) / 1000:.2f}" for q in (99, 100)),
+                )
+            )
 
 
-def start_endpoint(env: dict[str, str], log_dir: Path, bridge_dir: Path | None, extra: tuple[str, ...],
-                   name: str = "bench_endpoint") -> Any:
+def start_endpoint(
+    env: dict[str, str], log_dir: Path, bridge_dir: Path | None, extra: tuple[str, ...], name: str = "bench_endpoint"
+) -> Any:
     """The endpoint under test, as ROS node `name`: this checkout's (tests.rosenv.EndpointProcess) or the `bridge`
     in `bridge_dir`."""
     if bridge_dir is None:
         return EndpointProcess(env, log_dir, name=name, extra=extra)
-    launcher = (f"import sys; sys.path.insert(0, {str(bridge_dir)!r}); from bridge.__main__ import main; "
-                "sys.exit(main())")
-    process = ManagedProcess([PYTHON, "-c", launcher, "--tcp-port", "0", "--node-name", name, *extra], env, log_dir,
-                          name)
+    launcher = (
+        f"import sys; sys.path.insert(0, {str(bridge_dir)!r}); from bridge.__main__ import main; sys.exit(main())"
+    )
+    process = ManagedProcess(
+        [PYTHON, "-c", launcher, "--tcp-port", "0", "--node-name", name, *extra], env, log_dir, name
+    )
     line = next(line for line in process.wait_for_output("listening on", 30).splitlines() if "listening on" in line)
     process.port = int(line.rsplit(":", 1)[1])  # type: ignore[attr-defined]
     return process
@@ -716,8 +890,10 @@ def max_gap_ms(times_ns: list[int], start: float, end: float) -> float:
 
 def print_table(rows: list[Row], header: str) -> None:
     columns = ("measurement", "endpoint", "rospy reference (named in the row)", "ratio", "target", "result")
-    cells = [(r.name, r.value, r.ceiling, r.ratio, r.target, "" if r.ok is None else "PASS" if r.ok else "MISS")
-             for r in rows]
+    cells = [
+        (r.name, r.value, r.ceiling, r.ratio, r.target, "" if r.ok is None else "PASS" if r.ok else "MISS")
+        for r in rows
+    ]
     widths = [max(len(c[i]) for c in [columns, *cells]) for i in range(len(columns))]
     line = "  ".join("-" * w for w in widths)
     print(header)
@@ -780,8 +956,7 @@ def leading_number(text: str) -> float | None:
 def worktree_of(revision: str) -> Iterator[Path]:
     """A detached git worktree of `revision` of this repository, removed afterwards."""
     path = Path(tempfile.mkdtemp(prefix="endpoint_bench_ab_"))
-    subprocess.run(["git", "-C", str(REPO), "worktree", "add", "--detach", "--quiet", str(path), revision],
-                   check=True)
+    subprocess.run(["git", "-C", str(REPO), "worktree", "add", "--detach", "--quiet", str(path), revision], check=True)
     try:
         yield path
     finally:
@@ -794,26 +969,44 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--quick", action="store_true", help="smoke run: 2 s windows, fewer RTT samples, 10 s soak")
     parser.add_argument("--keep-logs", action="store_true", help="keep roscore/endpoint/node logs (path printed)")
     parser.add_argument("--bridge-dir", type=Path, help="benchmark the `bridge` package in this directory instead")
-    parser.add_argument("--ab", metavar="REVISION",
-                        help="also run REVISION's endpoint (a git worktree), phase by phase alternately on one "
-                             "roscore, and compare")
+    parser.add_argument(
+        "--ab",
+        metavar="REVISION",
+        help="also run REVISION's endpoint (a git worktree), phase by phase alternately on one roscore, and compare",
+    )
     parser.add_argument("--endpoint-arg", action="append", default=[], help="extra endpoint argument (repeatable)")
     parser.add_argument("--only", nargs="+", choices=PHASES, help="run only these phases")
     args = parser.parse_args(argv)
     if args.ab is not None and args.bridge_dir is not None:
         parser.error("--ab compares this tree with REVISION; it takes no --bridge-dir")
     if args.ab is not None:
-        known = subprocess.run(["git", "-C", str(REPO), "rev-parse", "--verify", "--quiet", args.ab + "^{commit}"],
-                               capture_output=True, text=True)
+        known = subprocess.run(
+            ["git", "-C", str(REPO), "rev-parse", "--verify", "--quiet", args.ab + "^{commit}"],
+            capture_output=True,
+            text=True,
+        )
         if known.returncode != 0:
             parser.error(f"--ab: {args.ab!r} is not a commit of this repository")
     endpoint_args = tuple(args.endpoint_arg)
     settings = (
-        Settings(window_s=2.0, throughput_rounds=1, rtt_samples={100: 300, 1000: 1000}, soak_s=10.0, quick=True,
-                 large_rtt_samples=90, endpoint_args=endpoint_args)
+        Settings(
+            window_s=2.0,
+            throughput_rounds=1,
+            rtt_samples={100: 300, 1000: 1000},
+            soak_s=10.0,
+            quick=True,
+            large_rtt_samples=90,
+            endpoint_args=endpoint_args,
+        )
         if args.quick
-        else Settings(window_s=5.0, throughput_rounds=3, rtt_samples={100: 2000, 1000: 5000}, soak_s=60.0,
-                      quick=False, endpoint_args=endpoint_args)
+        else Settings(
+            window_s=5.0,
+            throughput_rounds=3,
+            rtt_samples={100: 2000, 1000: 5000},
+            soak_s=60.0,
+            quick=False,
+            endpoint_args=endpoint_args,
+        )
     )
     # Harness processes (this one stands in for Unity; bench/endpoint_rosnode.py for the rospy nodes) freeze what
     # start-up made, as the endpoint does, so no side is charged for a harness's full GC pass over its modules.
@@ -846,7 +1039,7 @@ def run(settings: Settings, sides: list[tuple[str, Path | None]], phases: tuple[
                 print(f"[{time.monotonic() - started:5.0f} s] {name} ({side}) ...", file=sys.stderr, flush=True)
                 phase: Callable[[], None] = getattr(bench, name)
                 phase()
-        for (side, bridge_dir), bench in zip(sides, benches):
+        for (side, _), bench in zip(sides, benches):
             alive = bench.endpoint.process.poll() is None
             bench.rows.append(Row("Endpoint alive at the end", "yes" if alive else "NO", ok=alive))
             header = (

@@ -7,6 +7,7 @@ sensor_msgs/PointCloud2 (a depth sensor). The first 12 bytes of a ROS 1 serializ
 (monotonic time is shared by all processes of one Linux machine), so any process can compute one-way latency or a
 round-trip time from the bytes alone, without deserializing.
 """
+
 from __future__ import annotations
 
 import io
@@ -50,10 +51,19 @@ def cloud_payload() -> bytes:
     """One serialized PointCloud2 of CLOUD_POINTS points (x, y, z, intensity; 1 MiB of point data)."""
     from sensor_msgs.msg import PointCloud2, PointField
 
-    fields = [PointField(name=name, offset=4 * index, datatype=PointField.FLOAT32, count=1)
-              for index, name in enumerate(("x", "y", "z", "intensity"))]
-    message = PointCloud2(height=1, width=CLOUD_POINTS, fields=fields, is_bigendian=False, point_step=16,
-                          row_step=16 * CLOUD_POINTS, is_dense=True)
+    fields = [
+        PointField(name=name, offset=4 * index, datatype=PointField.FLOAT32, count=1)
+        for index, name in enumerate(("x", "y", "z", "intensity"))
+    ]
+    message = PointCloud2(
+        height=1,
+        width=CLOUD_POINTS,
+        fields=fields,
+        is_bigendian=False,
+        point_step=16,
+        row_step=16 * CLOUD_POINTS,
+        is_dense=True,
+    )
     message.header.frame_id = "camera_depth_optical_frame"
     message.data = bytes(range(256)) * (16 * CLOUD_POINTS // 256)
     return _serialized(message)

@@ -16,6 +16,7 @@ serializes stored bytes and deserializes by keeping them (the same bytes-only pa
 figures are a transport ceiling, not a (de)serialization benchmark.
 Results go to stdout as one line `RESULT <json>`.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -31,7 +32,6 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import genpy  # noqa: E402
 import roslib.message  # noqa: E402
 import rospy  # noqa: E402
-
 from endpoint_common import HEADER_OFFSETS, MESSAGE_KINDS, paced, read_stamp, stamped  # noqa: E402
 
 
@@ -59,9 +59,16 @@ def raw_class(message_name: str) -> type[RawMessage]:
     generated = roslib.message.get_message_class(message_name)
     if generated is None:
         raise SystemExit(f"endpoint_rosnode: no generated class for {message_name}")
-    return type(f"Raw{generated.__name__}", (RawMessage,), {
-        "__slots__": (), "_type": generated._type, "_md5sum": generated._md5sum, "_full_text": generated._full_text,
-    })
+    return type(
+        f"Raw{generated.__name__}",
+        (RawMessage,),
+        {
+            "__slots__": (),
+            "_type": generated._type,
+            "_md5sum": generated._md5sum,
+            "_full_text": generated._full_text,
+        },
+    )
 
 
 def emit(kind: str, **fields: Any) -> None:
@@ -211,8 +218,9 @@ def run_ages(args: argparse.Namespace) -> None:
             now = time.monotonic_ns()
             arrivals.append((now, now - read_stamp(message._buff, offset)[1]))
 
-        subscribers.append(rospy.Subscriber(topic, raw_class(MESSAGE_KINDS[kind][0]), on_message,
-                                            tcp_nodelay=True, buff_size=1 << 22))
+        subscribers.append(
+            rospy.Subscriber(topic, raw_class(MESSAGE_KINDS[kind][0]), on_message, tcp_nodelay=True, buff_size=1 << 22)
+        )
     if all(wait_for_connections(subscriber, 1, 30.0) for subscriber in subscribers):
         print("CONNECTED", flush=True)
     deadline = time.monotonic() + args.seconds
@@ -267,8 +275,15 @@ def main() -> None:
     rospy.init_node(f"bench_{args.role}", anonymous=True)
     gc.collect()  # as the endpoint does: start-up objects out of the cyclic GC's view (see endpoint_bench.main)
     gc.freeze()
-    roles_run = {"count": run_count, "flood": run_flood, "rate": run_rate, "relay": run_relay, "ping": run_ping,
-                 "stream": run_stream, "ages": run_ages}
+    roles_run = {
+        "count": run_count,
+        "flood": run_flood,
+        "rate": run_rate,
+        "relay": run_relay,
+        "ping": run_ping,
+        "stream": run_stream,
+        "ages": run_ages,
+    }
     roles_run[args.role](args)
 
 

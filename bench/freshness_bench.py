@@ -22,6 +22,7 @@ images p99 <= 2 T_img + T_buf + D + one frame period, at no less than 85 % of th
 original endpoint from DIR (a directory holding its `ros_tcp_endpoint` Python package), each on the same roscore.
 Every loop is bounded in count and time; every process is stopped by PID.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -39,9 +40,10 @@ REPO = Path(__file__).resolve().parents[1]
 BENCH = Path(__file__).resolve().parent
 sys.path[:0] = [str(REPO), str(BENCH)]
 
-from bridge.client import TcpClient  # noqa: E402
 from endpoint_bench import start_endpoint, stop_core, worktree_of  # noqa: E402
 from endpoint_common import HEADER_OFFSETS, MESSAGE_KINDS, paced, percentile, read_stamp, stamped  # noqa: E402
+
+from bridge.client import TcpClient  # noqa: E402
 from tests.rosenv import PYTHON, ManagedProcess, RosCore, free_port, kill_process  # noqa: E402
 from tests.slow_link import SlowLink  # noqa: E402
 
@@ -51,8 +53,11 @@ LINK_DELAY_S = 0.008
 LINK_BUFFER_BYTES = 64 * 1024
 IMAGE_HZ, SMALL_HZ = 30, 100
 WINDOW_S = 10.0  # the first and last windows compared for creep
-DOWN = (("vga_image", "/fresh/image", IMAGE_HZ), ("joint_state", "/fresh/joint_states", SMALL_HZ),
-        ("tf", "/fresh/tf", SMALL_HZ))
+DOWN = (
+    ("vga_image", "/fresh/image", IMAGE_HZ),
+    ("joint_state", "/fresh/joint_states", SMALL_HZ),
+    ("tf", "/fresh/tf", SMALL_HZ),
+)
 UP = (("vga_image", "/fresh_up/image", IMAGE_HZ), ("joint_state", "/fresh_up/joint_states", SMALL_HZ))
 
 
@@ -100,13 +105,24 @@ def summary(topic: str, received: Received, bars: Bars, duration_s: float) -> li
     p99 = percentile(ages_ms, 99)
     first_p50, last_p50 = percentile(first, 50), percentile(last, 50)
     rows: list[tuple[str, str, str, bool | None]] = [
-        (f"{topic}: received, rate [Hz]", f"{len(arrivals)}/{received.sent}, {rate:.1f}",
-         "" if small else f">= {0.85 * bars.images_per_s:.1f} (85 % of the link's)",
-         None if small else rate >= 0.85 * bars.images_per_s),
-        ("  age p50 / p99 / max [ms]",
-         f"{percentile(ages_ms, 50):.1f} / {p99:.1f} / {max(ages_ms):.1f}", f"p99 <= {bar_ms:.0f}", p99 <= bar_ms),
-        (f"  age p50, first / last {WINDOW_S:g} s [ms]", f"{first_p50:.1f} / {last_p50:.1f}",
-         "last <= first + 10 %", last_p50 <= 1.1 * first_p50),
+        (
+            f"{topic}: received, rate [Hz]",
+            f"{len(arrivals)}/{received.sent}, {rate:.1f}",
+            "" if small else f">= {0.85 * bars.images_per_s:.1f} (85 % of the link's)",
+            None if small else rate >= 0.85 * bars.images_per_s,
+        ),
+        (
+            "  age p50 / p99 / max [ms]",
+            f"{percentile(ages_ms, 50):.1f} / {p99:.1f} / {max(ages_ms):.1f}",
+            f"p99 <= {bar_ms:.0f}",
+            p99 <= bar_ms,
+        ),
+        (
+            f"  age p50, first / last {WINDOW_S:g} s [ms]",
+            f"{first_p50:.1f} / {last_p50:.1f}",
+            "last <= first + 10 %",
+            last_p50 <= 1.1 * first_p50,
+        ),
     ]
     if duration_s < 3 * WINDOW_S:
         rows[-1] = (*rows[-1][:3], None)  # windows overlap: shown, not judged
@@ -124,8 +140,13 @@ class Run:
 
     def down(self) -> dict[str, Received]:
         received = {topic: Received(kind) for kind, topic, _ in DOWN}
-        with SlowLink(("127.0.0.1", self.endpoint.port), LINK_RATE_BPS, LINK_DELAY_S, LINK_BUFFER_BYTES,
-                      max_seconds=self.duration_s + 120) as link:
+        with SlowLink(
+            ("127.0.0.1", self.endpoint.port),
+            LINK_RATE_BPS,
+            LINK_DELAY_S,
+            LINK_BUFFER_BYTES,
+            max_seconds=self.duration_s + 120,
+        ) as link:
             client = TcpClient("127.0.0.1", link.port, reconnect=False).connect(timeout=10.0)
             try:
                 for kind, topic, _ in DOWN:
@@ -137,8 +158,13 @@ class Run:
                         arrivals.append((now, now - read_stamp(payload, offset)[1]))
 
                     client.subscribe(topic, MESSAGE_KINDS[kind][0], record)
-                stream = self.node("stream", "stream", "--seconds", str(self.duration_s),
-                                   *[arg for kind, topic, hz in DOWN for arg in ("--stream", f"{kind}:{topic}:{hz}")])
+                stream = self.node(
+                    "stream",
+                    "stream",
+                    "--seconds",
+                    str(self.duration_s),
+                    *[arg for kind, topic, hz in DOWN for arg in ("--stream", f"{kind}:{topic}:{hz}")],
+                )
                 result = wait_result(stream, self.duration_s + 60)
                 time.sleep(1.0)  # what is still on the link
             finally:
@@ -148,11 +174,21 @@ class Run:
         return received
 
     def up(self) -> dict[str, Received]:
-        listener = self.node("ages", "ages", "--seconds", str(self.duration_s + 8),
-                             *[arg for kind, topic, _ in UP for arg in ("--listen", f"{kind}:{topic}")])
+        listener = self.node(
+            "ages",
+            "ages",
+            "--seconds",
+            str(self.duration_s + 8),
+            *[arg for kind, topic, _ in UP for arg in ("--listen", f"{kind}:{topic}")],
+        )
         received = {topic: Received(kind) for kind, topic, _ in UP}
-        with SlowLink(("127.0.0.1", self.endpoint.port), LINK_RATE_BPS, LINK_DELAY_S, LINK_BUFFER_BYTES,
-                      max_seconds=self.duration_s + 120) as link:
+        with SlowLink(
+            ("127.0.0.1", self.endpoint.port),
+            LINK_RATE_BPS,
+            LINK_DELAY_S,
+            LINK_BUFFER_BYTES,
+            max_seconds=self.duration_s + 120,
+        ) as link:
             client = TcpClient("127.0.0.1", link.port, reconnect=False).connect(timeout=10.0)
             sender = EngineSender(client)
             try:
@@ -160,8 +196,10 @@ class Run:
                     client.register_publisher(topic, MESSAGE_KINDS[kind][0], queue_size=10)
                 listener.wait_for_output("CONNECTED", 30)
                 sender.start()
-                producers = [threading.Thread(target=self._produce, args=(sender, kind, topic, hz, received[topic]))
-                             for kind, topic, hz in UP]
+                producers = [
+                    threading.Thread(target=self._produce, args=(sender, kind, topic, hz, received[topic]))
+                    for kind, topic, hz in UP
+                ]
                 for producer in producers:
                     producer.start()
                 for producer in producers:
@@ -237,7 +275,7 @@ def wait_result(process: ManagedProcess, timeout: float) -> dict[str, Any]:
         raise RuntimeError(f"{process.log_path.name} did not finish within {timeout:.0f} s")
     for line in process.output().splitlines():
         if line.startswith("RESULT "):
-            return json.loads(line[len("RESULT "):])
+            return json.loads(line[len("RESULT ") :])
     raise RuntimeError(f"{process.log_path.name} printed no RESULT:\n{process.output()[-2000:]}")
 
 
@@ -245,18 +283,24 @@ def start_original(core: RosCore, log_dir: Path, source: Path) -> ManagedProcess
     """Unity's original endpoint from `source` (its Python package directory's parent), on a free port."""
     port = free_port()
     env = dict(core.env, PYTHONPATH=os.pathsep.join([str(source), core.env.get("PYTHONPATH", "")]))
-    launcher = ("import rospy; from ros_tcp_endpoint import TcpServer; rospy.init_node('unity_endpoint'); "
-                "server = TcpServer(rospy.get_name()); server.start(); rospy.spin()")
-    process = ManagedProcess(["/usr/bin/python3", "-c", launcher, f"_tcp_ip:=127.0.0.1", f"_tcp_port:={port}"],
-                             env, log_dir, "unity_endpoint")
+    launcher = (
+        "import rospy; from ros_tcp_endpoint import TcpServer; rospy.init_node('unity_endpoint'); "
+        "server = TcpServer(rospy.get_name()); server.start(); rospy.spin()"
+    )
+    process = ManagedProcess(
+        ["/usr/bin/python3", "-c", launcher, "_tcp_ip:=127.0.0.1", f"_tcp_port:={port}"], env, log_dir, "unity_endpoint"
+    )
     time.sleep(3.0)  # it prints nothing when it listens
     process.port = port  # type: ignore[attr-defined]
     return process
 
 
 def print_rows(title: str, rows: list[tuple[str, str, str, bool | None]]) -> None:
-    widths = [max(len(name) for name, _, _, _ in rows), max(len(value) for _, value, _, _ in rows),
-              max(len(bar) for _, _, bar, _ in rows)]
+    widths = [
+        max(len(name) for name, _, _, _ in rows),
+        max(len(value) for _, value, _, _ in rows),
+        max(len(bar) for _, _, bar, _ in rows),
+    ]
     print(title)
     for name, value, bar, met in rows:
         verdict = "" if met is None else "PASS" if met else "MISS"
@@ -270,8 +314,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--quick", action="store_true", help="15 s each way instead of 60 s")
     parser.add_argument("--seconds", type=float, help="seconds each way (default 60, --quick 15)")
     parser.add_argument("--ab", metavar="REVISION", help="also run REVISION's endpoint (a git worktree)")
-    parser.add_argument("--original", type=Path, metavar="DIR",
-                        help="also run Unity's original endpoint, its ros_tcp_endpoint package in DIR")
+    parser.add_argument(
+        "--original",
+        type=Path,
+        metavar="DIR",
+        help="also run Unity's original endpoint, its ros_tcp_endpoint package in DIR",
+    )
     parser.add_argument("--only", choices=("down", "up"), help="one direction only")
     parser.add_argument("--keep-logs", action="store_true")
     args = parser.parse_args(argv)
@@ -282,10 +330,13 @@ def main(argv: list[str] | None = None) -> int:
         parser.error(f"--original: no ros_tcp_endpoint package in {args.original}")
     image_bytes = len(MESSAGE_KINDS["vga_image"][1]())
     bars = Bars(image_bytes * 8 / LINK_RATE_BPS, LINK_BUFFER_BYTES * 8 / LINK_RATE_BPS, LINK_DELAY_S)
-    print(f"Freshness over a slow link: {LINK_RATE_BPS / 1e6:g} Mbit/s, {LINK_DELAY_S * 1000:g} ms each way, "
-          f"{LINK_BUFFER_BYTES // 1024} KiB queue; T_img {bars.image_s * 1000:.1f} ms ({image_bytes:,} B), "
-          f"T_buf {bars.buffer_s * 1000:.1f} ms, D {bars.delay_s * 1000:g} ms; {duration:g} s each way; "
-          f"{os.cpu_count()} CPUs", flush=True)
+    print(
+        f"Freshness over a slow link: {LINK_RATE_BPS / 1e6:g} Mbit/s, {LINK_DELAY_S * 1000:g} ms each way, "
+        f"{LINK_BUFFER_BYTES // 1024} KiB queue; T_img {bars.image_s * 1000:.1f} ms ({image_bytes:,} B), "
+        f"T_buf {bars.buffer_s * 1000:.1f} ms, D {bars.delay_s * 1000:g} ms; {duration:g} s each way; "
+        f"{os.cpu_count()} CPUs",
+        flush=True,
+    )
     core = RosCore()
     failed = True
     try:
@@ -298,8 +349,11 @@ def main(argv: list[str] | None = None) -> int:
             for index, (name, where) in enumerate(sides):
                 log_dir = core.tmp / f"side{index}"
                 log_dir.mkdir()
-                endpoint = (start_original(core, log_dir, where) if name == "Unity's original"
-                            else start_endpoint(core.env, log_dir, where, (), f"fresh_endpoint_{index}"))
+                endpoint = (
+                    start_original(core, log_dir, where)
+                    if name == "Unity's original"
+                    else start_endpoint(core.env, log_dir, where, (), f"fresh_endpoint_{index}")
+                )
                 try:
                     run = Run(core, log_dir, endpoint, duration)
                     for direction in (args.only,) if args.only else ("down", "up"):

@@ -4,6 +4,7 @@ Run: .venv/bin/python bench/ik_bench.py [--targets 500] [--seed 0] [--robots pat
 Every case solves IK for FK poses of random configurations within the datasheet limits, so all are reachable.
 `--robots` adds a near-seed case per robot, on the axes its chain controls (sim.control.scenario_defaults).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -18,9 +19,9 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from sim.control.scenario_defaults import controllable_weights, describe_axes  # noqa: E402
 from sim.geometry.kinematics import PLANAR_WEIGHTS, IKResult, chain_for, planar_pose, solve_ik, solve_path_ik  # noqa: E402
 from sim.robots import RobotSpec, load_robot  # noqa: E402
-from sim.control.scenario_defaults import controllable_weights, describe_axes  # noqa: E402
 
 NEAR_SEED_NOISE = 0.1  # rad (m for the rail): how far the warm start is from a solution
 RESTARTS = 20  # for cold starts
@@ -64,7 +65,12 @@ def _run_case(
         successes += result.success
     times_ms = np.array(times) * 1e3
     return CaseResult(
-        name, successes / n, float(np.median(times_ms)), float(np.percentile(times_ms, 95)), success_target, median_target_ms
+        name,
+        successes / n,
+        float(np.median(times_ms)),
+        float(np.percentile(times_ms, 95)),
+        success_target,
+        median_target_ms,
     )
 
 
@@ -73,20 +79,41 @@ def _panda_cases(n: int, seed: int) -> list[CaseResult]:
     chain = chain_for(panda)
     return [
         _run_case(
-            "panda full pose, near seed", panda, n, seed,
-            lambda pose, q0, rng: solve_ik(chain, pose, q0), True, 0.995, 0.3,
+            "panda full pose, near seed",
+            panda,
+            n,
+            seed,
+            lambda pose, q0, rng: solve_ik(chain, pose, q0),
+            True,
+            0.995,
+            0.3,
         ),
         _run_case(
-            f"panda full pose, random seed, ≤{RESTARTS} restarts", panda, n, seed + 1,
-            lambda pose, q0, rng: solve_ik(chain, pose, q0, restarts=RESTARTS, rng=rng), False, 0.995,
+            f"panda full pose, random seed, ≤{RESTARTS} restarts",
+            panda,
+            n,
+            seed + 1,
+            lambda pose, q0, rng: solve_ik(chain, pose, q0, restarts=RESTARTS, rng=rng),
+            False,
+            0.995,
         ),
         _run_case(
-            "panda position only, near seed", panda, n, seed + 2,
-            lambda pose, q0, rng: solve_ik(chain, pose, q0, position_only=True), True, 1.0,
+            "panda position only, near seed",
+            panda,
+            n,
+            seed + 2,
+            lambda pose, q0, rng: solve_ik(chain, pose, q0, position_only=True),
+            True,
+            1.0,
         ),
         _run_case(
-            f"panda position only, random seed, ≤{RESTARTS} restarts", panda, n, seed + 3,
-            lambda pose, q0, rng: solve_ik(chain, pose, q0, position_only=True, restarts=RESTARTS, rng=rng), False, 1.0,
+            f"panda position only, random seed, ≤{RESTARTS} restarts",
+            panda,
+            n,
+            seed + 3,
+            lambda pose, q0, rng: solve_ik(chain, pose, q0, position_only=True, restarts=RESTARTS, rng=rng),
+            False,
+            1.0,
         ),
     ]
 
@@ -154,7 +181,8 @@ def main(argv: list[str] | None = None) -> int:
         all_met = all_met and met
         median_target = f"≤{case.median_target_ms:.2f}" if case.median_target_ms is not None else "-"
         print(
-            f"{case.name:<52} {100 * case.success_rate:>7.1f}% {'≥' + format(100 * case.success_target, '.1f') + '%':>8} "
+            f"{case.name:<52} {100 * case.success_rate:>7.1f}% "
+            f"{'≥' + format(100 * case.success_target, '.1f') + '%':>8} "
             f"{case.median_ms:>10.3f} {median_target:>8} {case.p95_ms:>8.3f}{'' if met else '  MISSED'}"
         )
 

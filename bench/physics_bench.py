@@ -8,7 +8,8 @@
    (quintic PolynomialTrajectory: zero velocity and acceleration at every waypoint), the other joints commanded 0.
    The world starts at the trajectory's start; before the step ending at t_k = k*dt the target is the reference at
    t_k with its velocity as feed-forward (targets for the END of the step). Compared at t_k, k = 0..500.
-   Metrics (sim.control.metrics): MAPE over samples with |reference| > 1e-3 rad only (MAPE explodes near zero crossings),
+   Metrics (sim.control.metrics): MAPE over samples with |reference| > 1e-3 rad only (MAPE explodes near zero
+   crossings),
    WAPE = sum|e| / sum|ref|, NRMSE = RMSE / (max - min of ref), max |e|. For joints 2-7 the reference is 0 all
    along, so only max |e| is defined. Targets: joint-1 MAPE <= 0.05 % in physics mode, exactly 0 in no_physics.
    One extra row passes the same targets one step early (targets for the START of the step) to show the lag that
@@ -17,6 +18,7 @@
    to the limits, so that is fine here. The quintic's peak joint-1 speed (3.3 rad/s) also exceeds the datasheet's
    2.175 rad/s; the physics does not limit velocities either.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -30,8 +32,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from sim.control.metrics import DEFAULT_MAPE_FLOOR, tracking_metrics  # noqa: E402
 from sim.engine.physics import Mode, PhysicsWorld  # noqa: E402
-from sim.robots import ROBOT_NAMES, RobotSpec, load_robot  # noqa: E402
 from sim.geometry.trajectory import PolynomialTrajectory  # noqa: E402
+from sim.robots import ROBOT_NAMES, RobotSpec, load_robot  # noqa: E402
 
 DT = 0.02
 RTF_TARGET = 100.0
@@ -82,8 +84,13 @@ def _fmt(value: float, spec: str) -> str:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--steps", type=int, default=1000, help="steps per real-time-factor measurement")
-    parser.add_argument("--robots", nargs="+", default=list(ROBOT_NAMES), metavar="ROBOT",
-                        help="names or URDF / robot YAML paths (default: the bundled robots)")
+    parser.add_argument(
+        "--robots",
+        nargs="+",
+        default=list(ROBOT_NAMES),
+        metavar="ROBOT",
+        help="names or URDF / robot YAML paths (default: the bundled robots)",
+    )
     args = parser.parse_args(argv)
     robots = [load_robot(reference) for reference in args.robots]
 
@@ -96,7 +103,10 @@ def main(argv: list[str] | None = None) -> int:
             print(f"{robot.name:<10}{mode.value:<20}{rtf:>10.0f}{micros:>10.1f}   {target}")
 
     times, reference, velocities = seed_reference()
-    print(f"\nTracking, the thesis's test (Panda joint 1 through {THESIS_WAYPOINTS_J1} rad every 2 s, quintic; other joints 0)")
+    print(
+        f"\nTracking, the thesis's test (Panda joint 1 through {THESIS_WAYPOINTS_J1} rad every 2 s, quintic; "
+        "other joints 0)"
+    )
     print(f"{len(times)} samples at the step ends t = 0..{times[-1]:g} s; MAPE over |ref| > {DEFAULT_MAPE_FLOOR:g} rad")
     header = f"{'mode':<30}{'joint':>6}{'MAPE %':>12}{'(n)':>6}{'WAPE %':>12}{'NRMSE %':>12}{'max|e| rad':>12}   target"
     print(header)
@@ -112,10 +122,12 @@ def main(argv: list[str] | None = None) -> int:
                 target = f"MAPE <= {MAPE_TARGET_PERCENT:g} %  {'met' if met else 'MISSED'}"
             elif joint == 0 and mode is Mode.NO_PHYSICS:
                 target = f"exact  {'met' if metrics.max_abs_error == 0 else 'MISSED'}"
-            print(f"{label if joint == 0 else '':<30}{joint + 1:>6}"
-                  f"{_fmt(metrics.mape_percent, '.5f'):>12}{metrics.mape_samples:>6}"
-                  f"{_fmt(metrics.wape_percent, '.5f'):>12}{_fmt(metrics.nrmse_percent, '.5f'):>12}"
-                  f"{metrics.max_abs_error:>12.2e}   {target}")
+            print(
+                f"{label if joint == 0 else '':<30}{joint + 1:>6}"
+                f"{_fmt(metrics.mape_percent, '.5f'):>12}{metrics.mape_samples:>6}"
+                f"{_fmt(metrics.wape_percent, '.5f'):>12}{_fmt(metrics.nrmse_percent, '.5f'):>12}"
+                f"{metrics.max_abs_error:>12.2e}   {target}"
+            )
     return 0
 
 

@@ -15,6 +15,7 @@ connection is TCP_NODELAY with an unpaced congestion control (cubic), as the end
 The two paths take turns sample by sample at 30 Hz; p50 and p99 of each, what the relay adds and the ratio are
 printed per round. Every loop is bounded in count; every process is stopped at the end.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -147,13 +148,17 @@ def main() -> None:
     if not 10 <= args.samples <= 10_000 or not 1 <= args.rounds <= 20:
         parser.error("--samples must be 10..10000 and --rounds 1..20")
     print(f"1 MiB round trips at 30 Hz over loopback, {args.samples} per path per round, paths taking turns")
-    print(f"{'round':>5}  {'direct p50':>10}  {'relayed p50':>11}  {'relay adds':>10}  {'ratio':>5}  "
-          f"{'direct p99':>10}  {'relayed p99':>11}")
+    print(
+        f"{'round':>5}  {'direct p50':>10}  {'relayed p50':>11}  {'relay adds':>10}  {'ratio':>5}  "
+        f"{'direct p99':>10}  {'relayed p99':>11}"
+    )
     for number in range(1, args.rounds + 1):
         direct, relayed = one_round(args.samples)
         d50, r50 = statistics.median(direct), statistics.median(relayed)
-        print(f"{number:>5}  {d50:>8.2f}ms  {r50:>9.2f}ms  {r50 - d50:>8.2f}ms  {r50 / d50:>5.2f}  "
-              f"{percentile(direct, 99):>8.2f}ms  {percentile(relayed, 99):>9.2f}ms")
+        print(
+            f"{number:>5}  {d50:>8.2f}ms  {r50:>9.2f}ms  {r50 - d50:>8.2f}ms  {r50 / d50:>5.2f}  "
+            f"{percentile(direct, 99):>8.2f}ms  {percentile(relayed, 99):>9.2f}ms"
+        )
 
 
 if __name__ == "__main__":

@@ -10,6 +10,7 @@
    participant and the runner with rosbag record) for `--participants` participants of the bundled design; the
    runner's wall time per 38-test session. Target: under a minute per session.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -52,8 +53,10 @@ def bench_planning(repeats: int) -> None:
             median = statistics.median(times)
             samples = len(planned.path.times)
             per_path.setdefault(name, []).append(median)
-            print(f"{name:<14}{standoff:>12.3f}{speed:>11.2f}{samples:>9}{median:>9.1f}{median / samples:>11.3f}  "
-                  f"{'feasible' if planned.feasible else 'NOT feasible'}")
+            print(
+                f"{name:<14}{standoff:>12.3f}{speed:>11.2f}{samples:>9}{median:>9.1f}{median / samples:>11.3f}  "
+                f"{'feasible' if planned.feasible else 'NOT feasible'}"
+            )
     print("median per path: " + ", ".join(f"{name} {statistics.median(ms):.0f} ms" for name, ms in per_path.items()))
 
 
@@ -70,12 +73,16 @@ def bench_sessions(participants: int) -> None:
         if found:
             number, trials, wall, ros = found.groups()
             walls.append(float(wall))
-            print(f"participant {number}: {trials} trials, {float(wall):6.1f} s wall, {float(ros):6.1f} s ROS time "
-                  f"({float(ros) / float(wall):.1f}x real time)")
+            print(
+                f"participant {number}: {trials} trials, {float(wall):6.1f} s wall, {float(ros):6.1f} s ROS time "
+                f"({float(ros) / float(wall):.1f}x real time)"
+            )
     worst = max(walls)
     verdict = "met" if worst < SESSION_TARGET_S else "MISSED"
-    print(f"slowest session {worst:.1f} s (target < {SESSION_TARGET_S:g} s: {verdict}); whole run with start-up, "
-          f"planning and the report: {total:.0f} s")
+    print(
+        f"slowest session {worst:.1f} s (target < {SESSION_TARGET_S:g} s: {verdict}); whole run with start-up, "
+        f"planning and the report: {total:.0f} s"
+    )
 
 
 def main() -> int:

@@ -4,6 +4,7 @@ Settings come from private rosparams (~tcp_ip, ~tcp_port, ...; the original endp
 are honoured as fallbacks) and are overridden by the command line. `--tcp-port 0` picks a free port, which is
 printed and stored in ~actual_port.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -15,9 +16,9 @@ import threading
 from dataclasses import dataclass
 from typing import Any
 
-from bridge.protocol import DEFAULT_MAX_PAYLOAD_BYTES
 from bridge.config import ConfigError, EndpointConfig
 from bridge.memory import keep_large_buffers
+from bridge.protocol import DEFAULT_MAX_PAYLOAD_BYTES
 from bridge.server import Endpoint
 
 __all__ = ["build_config", "GIL_SWITCH_INTERVAL_S", "main"]
@@ -30,25 +31,43 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument("--tcp-ip", help="address to bind (default 127.0.0.1; 0.0.0.0 only when asked)")
     parser.add_argument("--tcp-port", type=int, help="port to listen on (default 10000; 0 = any free port)")
     parser.add_argument("--node-name", default="ros_tcp_endpoint")
-    parser.add_argument("--max-payload-bytes", type=int,
-                        help=f"largest accepted payload (default {DEFAULT_MAX_PAYLOAD_BYTES})")
+    parser.add_argument(
+        "--max-payload-bytes", type=int, help=f"largest accepted payload (default {DEFAULT_MAX_PAYLOAD_BYTES})"
+    )
     parser.add_argument("--queue-frames", type=int, help="per-client outgoing queue length (default 1024)")
     parser.add_argument("--auth-token", help="shared secret; clients must send __auth first (default off)")
     parser.add_argument("--allow", action="append", metavar="PATTERN", help="only bridge topics matching (repeatable)")
     parser.add_argument("--deny", action="append", metavar="PATTERN", help="never bridge topics matching (repeatable)")
     parser.add_argument("--service-timeout", type=float, help="seconds to wait for a service answer (default 10)")
-    parser.add_argument("--publisher-grace", type=float,
-                        help="seconds a publisher stays advertised after its last client left (default 10)")
+    parser.add_argument(
+        "--publisher-grace",
+        type=float,
+        help="seconds a publisher stays advertised after its last client left (default 10)",
+    )
     parser.add_argument("--no-validate", action="store_true", help="publish client payloads without checking them")
-    parser.add_argument("--latest-only", action="append", metavar="PATTERN",
-                        help="a client behind on matching topics gets only their newest message (repeatable)")
-    parser.add_argument("--latest-only-bytes", type=int, metavar="N",
-                        help="the same for any topic whose messages are N bytes or more "
-                             f"(default {EndpointConfig().latest_only_bytes}; 0 = off)")
-    parser.add_argument("--echo-own-publications", action="store_true",
-                        help="send a client its own messages back on topics it also subscribes to (default off)")
-    parser.add_argument("--wait", action="store_true",
-                        help="wait for the ROS master before starting (what Unity's tutorial launch files pass)")
+    parser.add_argument(
+        "--latest-only",
+        action="append",
+        metavar="PATTERN",
+        help="a client behind on matching topics gets only their newest message (repeatable)",
+    )
+    parser.add_argument(
+        "--latest-only-bytes",
+        type=int,
+        metavar="N",
+        help="the same for any topic whose messages are N bytes or more "
+        f"(default {EndpointConfig().latest_only_bytes}; 0 = off)",
+    )
+    parser.add_argument(
+        "--echo-own-publications",
+        action="store_true",
+        help="send a client its own messages back on topics it also subscribes to (default off)",
+    )
+    parser.add_argument(
+        "--wait",
+        action="store_true",
+        help="wait for the ROS master before starting (what Unity's tutorial launch files pass)",
+    )
     limits = parser.add_argument_group("limits", "what no client, nor all of them together, may exceed")
     defaults = EndpointConfig()
     for setting, option, text in _LIMITS:
@@ -62,15 +81,24 @@ def _parser() -> argparse.ArgumentParser:
 _LIMITS = (
     ("max_clients", "--max-clients", "clients connected at once"),
     ("max_clients_per_address", "--max-clients-per-address", "clients connected at once from one address"),
-    ("max_registrations_per_client", "--max-registrations-per-client",
-     "topics published and subscribed and services, per client"),
+    (
+        "max_registrations_per_client",
+        "--max-registrations-per-client",
+        "topics published and subscribed and services, per client",
+    ),
     ("max_registrations", "--max-registrations", "topics and services bridged for all clients together"),
-    ("max_partial_frame_bytes", "--max-partial-frame-bytes",
-     "bytes of frames not yet complete, all clients together (up to 1 MiB per client is not counted)"),
+    (
+        "max_partial_frame_bytes",
+        "--max-partial-frame-bytes",
+        "bytes of frames not yet complete, all clients together (up to 1 MiB per client is not counted)",
+    ),
     ("frame_timeout_s", "--frame-timeout", "seconds a frame may take to arrive once begun"),
     ("auth_timeout_s", "--auth-timeout", "seconds a client has to send __auth (with --auth-token)"),
-    ("dead_peer_timeout_s", "--dead-peer-timeout",
-     "seconds without ACKs or keepalive answers after which a client counts as gone"),
+    (
+        "dead_peer_timeout_s",
+        "--dead-peer-timeout",
+        "seconds without ACKs or keepalive answers after which a client counts as gone",
+    ),
 )
 
 
@@ -163,8 +191,10 @@ def build_config(args: argparse.Namespace, ros: Any) -> EndpointConfig:
     token = _given("auth_token", args.auth_token, ros)
     if token is not None:
         token = _typed("auth_token", token, str) or None  # an empty token (the launch file's default) = off
-    limits = {setting: read(setting, getattr(args, option[2:].replace("-", "_")), type(getattr(defaults, setting)))
-              for setting, option, _ in _LIMITS}
+    limits = {
+        setting: read(setting, getattr(args, option[2:].replace("-", "_")), type(getattr(defaults, setting)))
+        for setting, option, _ in _LIMITS
+    }
     return EndpointConfig(
         **limits,
         tcp_ip=read("tcp_ip", args.tcp_ip, str),
@@ -218,8 +248,10 @@ def main(argv: list[str] | None = None) -> int:
     try:
         config = build_config(args, ros)
     except ConfigError as error:
-        print(f"python -m bridge: bad setting {_SOURCES.get(error.setting, error.setting)}: {error.problem}",
-              file=sys.stderr)
+        print(
+            f"python -m bridge: bad setting {_SOURCES.get(error.setting, error.setting)}: {error.problem}",
+            file=sys.stderr,
+        )
         ros.shutdown("bad setting")
         return 2
     endpoint = Endpoint(ros, config)

@@ -10,10 +10,11 @@ the least, for the longest, goes first. What counts as not using a slot:
   a client that never speaks the protocol holds its slot for nothing).
 Connections that only wait, between whole frames, are using their slot and are never cut.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Optional, Sequence
+from typing import Sequence
 
 __all__ = ["FRAME_GRACE_S", "SILENT_GRACE_S", "SLOW_PACE", "SlotUse", "pace", "to_evict"]
 
@@ -27,13 +28,13 @@ class SlotUse:
     """What one connection has done with its slot, as admission sees it."""
 
     connected_for_s: float
-    frame_for_s: Optional[float]  # how long the frame now partly received has been arriving; None: no such frame
+    frame_for_s: float | None  # how long the frame now partly received has been arriving; None: no such frame
     frame_bytes: int  # bytes of that frame received so far
     frames_completed: int
     authenticated: bool
 
 
-def pace(use: SlotUse) -> Optional[float]:
+def pace(use: SlotUse) -> float | None:
     """Bytes per second at which the connection uses its slot, when it is not using it (see the module); None when
     it is using it, or is too young to tell."""
     if not use.authenticated and use.connected_for_s > FRAME_GRACE_S:
@@ -46,9 +47,13 @@ def pace(use: SlotUse) -> Optional[float]:
     return None
 
 
-def to_evict(uses: Sequence[SlotUse]) -> Optional[int]:
+def to_evict(uses: Sequence[SlotUse]) -> int | None:
     """The index of the connection to close to make room: the lowest pace, and of those the longest connected;
     None when every connection uses its slot."""
-    candidates = [(rate, -use.connected_for_s, index) for index, use in enumerate(uses)
-                  for rate in (pace(use),) if rate is not None]
+    candidates = [
+        (rate, -use.connected_for_s, index)
+        for index, use in enumerate(uses)
+        for rate in (pace(use),)
+        if rate is not None
+    ]
     return min(candidates)[2] if candidates else None

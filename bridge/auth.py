@@ -5,13 +5,14 @@ BACKOFF_FIRST_S up to BACKOFF_MAX_S); a right one is let in at once, and clears 
 a handful of verdicts a minute per connection it may hold (the endpoint limits those per address) instead of
 thousands a second, while a client with the right token on the same address is not held up at all.
 """
+
 from __future__ import annotations
 
 import hmac
 import threading
 import time
 from dataclasses import dataclass
-from typing import Callable, Dict
+from typing import Callable
 
 __all__ = ["BACKOFF_FIRST_S", "BACKOFF_MAX_S", "AuthGuard"]
 
@@ -31,7 +32,7 @@ class AuthGuard:
         self._token = token.encode("utf-8")
         self._clock = clock
         self._lock = threading.Lock()
-        self._failures: Dict[str, _Failures] = {}
+        self._failures: dict[str, _Failures] = {}
 
     def check(self, host: str, token: str) -> float:
         """Whether `token` is the endpoint's (compared in constant time): 0.0 when it is, else the seconds to hold

@@ -3,11 +3,12 @@ tables share (the lock, the names a client may use, the check for room).
 
 The tables themselves live in bridge.topics and bridge.services; bridge.server owns one of each and hands them this.
 """
+
 from __future__ import annotations
 
 import threading
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, Callable, Dict, Set, Tuple, TypeVar
+from typing import TYPE_CHECKING, Any, Callable, TypeVar
 
 from bridge.config import EndpointConfig
 from bridge.ros_publisher import RawPublisher
@@ -27,10 +28,10 @@ _Made = TypeVar("_Made")
 class ClientRegistrations:
     """What one client registered, as the endpoint keeps it (the session knows none of it)."""
 
-    subscriptions: Dict[str, str] = field(default_factory=dict)  # resolved topic -> topic as the client spells it
-    publishers: Dict[str, Tuple[str, RawPublisher]] = field(default_factory=dict)  # client topic -> (resolved, ...)
-    ros_services: Dict[str, RawServiceProxy] = field(default_factory=dict)  # client's service name -> proxy
-    unity_services: Set[str] = field(default_factory=set)  # resolved names
+    subscriptions: dict[str, str] = field(default_factory=dict)  # resolved topic -> topic as the client spells it
+    publishers: dict[str, tuple[str, RawPublisher]] = field(default_factory=dict)  # client topic -> (resolved, ...)
+    ros_services: dict[str, RawServiceProxy] = field(default_factory=dict)  # client's service name -> proxy
+    unity_services: set[str] = field(default_factory=set)  # resolved names
 
     def count(self) -> int:
         return len(self.subscriptions) + len(self.publishers) + len(self.ros_services) + len(self.unity_services)
@@ -50,7 +51,7 @@ class Bridged:
     config: EndpointConfig
     room: RoomCheck
     lock: threading.RLock = field(default_factory=threading.RLock)
-    clients: Dict["ClientSession", ClientRegistrations] = field(default_factory=dict)
+    clients: dict[ClientSession, ClientRegistrations] = field(default_factory=dict)
 
     def permitted(self, name: str) -> str:
         """The resolved name, when the settings' allow/deny lists permit it; RequestRefused otherwise."""

@@ -5,6 +5,7 @@ services, and on a lost connection reconnects (fixed delay) and re-sends every r
 ROS 1 serialized bytes; (de)serialize them with rosbags or any ROS 1 serializer.
 Callbacks run on the client's reader thread: keep them short.
 """
+
 from __future__ import annotations
 
 import itertools
@@ -14,11 +15,10 @@ import threading
 import time
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
-from typing import Any, Callable, Dict, List, Optional, Tuple
+from typing import Any, Callable
 
 from bridge.errors import BridgeError
 from bridge.framing import LARGE_PAYLOAD_BYTES
-from bridge.sockets import UnsentLimit, unpaced_on_loopback
 from bridge.protocol import (
     Auth,
     Conversation,
@@ -44,6 +44,7 @@ from bridge.protocol import (
     UnityService,
     Warn,
 )
+from bridge.sockets import UnsentLimit, unpaced_on_loopback
 
 __all__ = ["ClientError", "PingResult", "TcpClient"]
 
@@ -63,15 +64,15 @@ class PingResult:
     endpoint's answer as given half-way through the round trip (None from an endpoint that does not say)."""
 
     round_trip_s: float
-    ros_clock_offset_s: Optional[float]
+    ros_clock_offset_s: float | None
 
 
 @dataclass
 class _PendingCall:
     service: str
     done: threading.Event = field(default_factory=threading.Event)
-    response: Optional[bytes] = None
-    failure: Optional[str] = None
+    response: bytes | None = None
+    failure: str | None = None
 
 
 class TcpClient:
@@ -83,8 +84,8 @@ class TcpClient:
         reconnect: bool = True,
         reconnect_delay_s: float = 1.0,
         keepalive_interval_s: float = 1.0,
-        auth_token: Optional[str] = None,
-        on_error: Optional[Callable[[str], None]] = None,
+        auth_token: str | None = None,
+        on_error: Callable[[str], None] | None = None,
     ) -> None:
         self.host = host
         self.port = port
@@ -93,12 +94,12 @@ class TcpClient:
         self.keepalive_interval_s = keepalive_interval_s
         self.auth_token = auth_token
         self.on_error = on_error
-        self.handshake: Optional[Handshake] = None
-        self.errors: List[str] = []  # __error texts received (newest last, at most 100 kept)
-        self.warnings: List[str] = []
+        self.handshake: Handshake | None = None
+        self.errors: list[str] = []  # __error texts received (newest last, at most 100 kept)
+        self.warnings: list[str] = []
         self.connections = 0  # successful connects so far (reconnects included)
-        self._sock: Optional[socket.socket] = None
-        self._unsent_limit: Optional[UnsentLimit] = None  # of the current connection
+        self._sock: socket.socket | None = None
+        self._unsent_limit: UnsentLimit | None = None  # of the current connection
         self._conversation = Conversation(Role.CLIENT)  # a new one for every connection
         self._write_lock = threading.Lock()
         self._state_lock = threading.Lock()
@@ -106,17 +107,17 @@ class TcpClient:
         self._closing = threading.Event()
         self._last_send = 0.0
         # Registrations, re-sent on every (re)connect, in the order Unity sends them.
-        self._subscriptions: Dict[str, Tuple[Subscribe, List[MessageCallback]]] = {}
-        self._unity_services: Dict[str, Tuple[UnityService, ServiceHandler]] = {}
-        self._publishers: Dict[str, Publish] = {}
-        self._ros_services: Dict[str, RosService] = {}
+        self._subscriptions: dict[str, tuple[Subscribe, list[MessageCallback]]] = {}
+        self._unity_services: dict[str, tuple[UnityService, ServiceHandler]] = {}
+        self._publishers: dict[str, Publish] = {}
+        self._ros_services: dict[str, RosService] = {}
         self._srv_ids = itertools.count(101)
-        self._pending: Dict[int, _PendingCall] = {}
-        self._topic_list_waiters: List[Tuple[threading.Event, Dict[str, str]]] = []
-        self._ping_waiters: Dict[str, Tuple[threading.Event, List[PingResponse]]] = {}
-        self._last_round_trip: Optional[float] = None  # told to the endpoint with the next ping, for its diagnostics
-        self._reader: Optional[threading.Thread] = None
-        self._keepalive: Optional[threading.Thread] = None
+        self._pending: dict[int, _PendingCall] = {}
+        self._topic_list_waiters: list[tuple[threading.Event, dict[str, str]]] = []
+        self._ping_waiters: dict[str, tuple[threading.Event, list[PingResponse]]] = {}
+        self._last_round_trip: float | None = None  # told to the endpoint with the next ping, for its diagnostics
+        self._reader: threading.Thread | None = None
+        self._keepalive: threading.Thread | None = None
 
     # --- connection ---------------------------------------------------------------------------------------
     def connect(self, timeout: float = 10.0) -> TcpClient:
@@ -175,13 +176,13 @@ class TcpClient:
         self._conversation = Conversation(Role.CLIENT)
         self._sock = sock
         # Like Unity: a keepalive first, then every registration, before reading anything.
-        events: List[Event] = [Keepalive()]
+        events: list[Event] = [Keepalive()]
         if self.auth_token is not None:
             events.append(Auth(self.auth_token))
         events.extend(self._registrations())
         self._send_raw(b"".join(self._conversation.send(event) for event in events))
 
-    def _registrations(self) -> List[Event]:
+    def _registrations(self) -> list[Event]:
         with self._state_lock:
             return [
                 *(subscribe for subscribe, _ in self._subscriptions.values()),
@@ -219,8 +220,9 @@ class TcpClient:
                 self._say(Keepalive())
 
     # --- registrations and data ----------------------------------------------------------------------------
-    def subscribe(self, topic: str, message_name: str, callback: MessageCallback,
-                  queue_size: Optional[int] = None) -> None:
+    def subscribe(
+        self, topic: str, message_name: str, callback: MessageCallback, queue_size: int | None = None
+    ) -> None:
         subscribe = Subscribe(topic, message_name, queue_size)
         with self._state_lock:
             callbacks = self._subscriptions[topic][1] if topic in self._subscriptions else []
@@ -252,7 +254,7 @@ class TcpClient:
 
     def remove(self, kind: str, topic: str) -> None:
         """Undo a registration; kind is subscriber | publisher | ros_service | unity_service."""
-        registries: Dict[str, Dict[str, Any]] = {
+        registries: dict[str, dict[str, Any]] = {
             "subscriber": self._subscriptions,
             "publisher": self._publishers,
             "ros_service": self._ros_services,
@@ -283,10 +285,10 @@ class TcpClient:
             with self._state_lock:
                 self._pending.pop(srv_id, None)
 
-    def topic_list(self, timeout: float = 5.0) -> Dict[str, str]:
+    def topic_list(self, timeout: float = 5.0) -> dict[str, str]:
         """The ROS graph's topics and their types, as the endpoint reports them."""
         done = threading.Event()
-        result: Dict[str, str] = {}
+        result: dict[str, str] = {}
         with self._state_lock:
             self._topic_list_waiters.append((done, result))
         self._say(TopicListQuery(), or_raise=True)
@@ -298,7 +300,7 @@ class TcpClient:
         """A __ping (newer connectors' ROSConnection.Ping) and its answer: round trip and ROS clock offset."""
         request_time = datetime.now(timezone.utc).isoformat()
         done = threading.Event()
-        answer: List[PingResponse] = []
+        answer: list[PingResponse] = []
         with self._state_lock:
             self._ping_waiters[request_time] = (done, answer)
         try:
@@ -374,8 +376,7 @@ class TcpClient:
     def _handle(self, event: Event) -> None:
         if isinstance(event, Handshake):
             if not event.is_compatible:
-                log.warning("endpoint speaks %s / %s; this client expects v0.7.x / ROS1", event.version,
-                            event.metadata)
+                log.warning("endpoint speaks %s / %s; this client expects v0.7.x / ROS1", event.version, event.metadata)
             self.handshake = event
             self.connections += 1
             self._connected.set()

@@ -1,10 +1,10 @@
 """The endpoint's settings, checked before it listens: EndpointConfig and the ConfigError a bad one raises."""
+
 from __future__ import annotations
 
 import fnmatch
 import math
 from dataclasses import dataclass
-from typing import Optional, Tuple
 
 from bridge.errors import BridgeError
 from bridge.framing import LARGE_PAYLOAD_BYTES
@@ -34,9 +34,9 @@ class EndpointConfig:
     max_destination_bytes: int = MAX_DESTINATION_BYTES
     client_queue_frames: int = 1024
     client_queue_bytes: int = 4 * 1024 * 1024
-    auth_token: Optional[str] = None  # off by default: Unity's client cannot send __auth
-    allow_topics: Tuple[str, ...] = ()  # fnmatch patterns on resolved names; empty = everything
-    deny_topics: Tuple[str, ...] = ()
+    auth_token: str | None = None  # off by default: Unity's client cannot send __auth
+    allow_topics: tuple[str, ...] = ()  # fnmatch patterns on resolved names; empty = everything
+    deny_topics: tuple[str, ...] = ()
     service_timeout_s: float = 10.0
     # How long a publisher stays advertised after its last client left (rosbridge's unregister_timeout): a client
     # that reconnects within it keeps its ROS subscribers connected.
@@ -45,7 +45,7 @@ class EndpointConfig:
     # A client that is behind gets only the newest waiting message of these topics (fnmatch patterns on resolved
     # names), and of any topic whose messages are latest_only_bytes or larger (camera images, point clouds; 0: no
     # such rule), instead of a backlog of stale ones. A queue_size the client gave in __subscribe wins over both.
-    latest_only_topics: Tuple[str, ...] = ()
+    latest_only_topics: tuple[str, ...] = ()
     latest_only_bytes: int = LARGE_PAYLOAD_BYTES
     # A client that publishes and subscribes on one topic gets the others' messages, not its own back (what Unity's
     # users asked for in ROS-TCP-Endpoint PR #159); True sends them back as the original endpoint does.
@@ -110,7 +110,7 @@ def _check_seconds(setting: str, value: object, zero_allowed: bool = False) -> N
         raise ConfigError(setting, f"must be {kind}, got {value!r}")
 
 
-def _check_whole(setting: str, value: object, lowest: int, highest: Optional[int] = None) -> None:
+def _check_whole(setting: str, value: object, lowest: int, highest: int | None = None) -> None:
     in_range = value >= lowest and (highest is None or value <= highest) if isinstance(value, int) else False
     if isinstance(value, bool) or not in_range:
         allowed = f"from {lowest} to {highest}" if highest is not None else f"of at least {lowest}"

@@ -5,12 +5,13 @@ rospkg; genmsg loads them with everything they depend on and computes the md5sum
 definition a publisher sends in its connection header. genpy.dynamic then generates the classes in memory, as
 rostopic does. Imports neither socket nor rospy.
 """
+
 from __future__ import annotations
 
 import importlib.util
 import os
 import threading
-from typing import Any, Dict, List, Tuple
+from typing import Any, Dict, List
 
 import genmsg
 import genmsg.msg_loader
@@ -21,7 +22,11 @@ import rospkg
 from bridge.errors import BridgeError
 
 __all__ = [
-    "DefinitionError", "split_type_name", "RosPackages", "message_class_from_files", "message_class_from_text",
+    "DefinitionError",
+    "split_type_name",
+    "RosPackages",
+    "message_class_from_files",
+    "message_class_from_text",
     "service_class_from_files",
 ]
 
@@ -78,11 +83,13 @@ class RosPackages:
             return False
         if spec is None or not spec.submodule_search_locations:
             return False
-        return any(os.path.isfile(os.path.join(directory, kind, f"_{type_name}.py"))
-                   for directory in spec.submodule_search_locations)
+        return any(
+            os.path.isfile(os.path.join(directory, kind, f"_{type_name}.py"))
+            for directory in spec.submodule_search_locations
+        )
 
 
-def split_type_name(name: str) -> Tuple[str, str]:
+def split_type_name(name: str) -> tuple[str, str]:
     """('package', 'Type') of 'package/Type'; DefinitionError for anything else."""
     package, _, type_name = name.partition("/")
     if not package or not type_name or "/" in type_name:
@@ -91,8 +98,10 @@ def split_type_name(name: str) -> Tuple[str, str]:
 
 
 def _where(package: str, kind: str, type_name: str) -> str:
-    return (f"no {package}/{kind}/{type_name}.{kind} in the packages on ROS_PACKAGE_PATH "
-            f"({os.environ.get('ROS_PACKAGE_PATH') or 'not set'})")
+    return (
+        f"no {package}/{kind}/{type_name}.{kind} in the packages on ROS_PACKAGE_PATH "
+        f"({os.environ.get('ROS_PACKAGE_PATH') or 'not set'})"
+    )
 
 
 def message_class_from_text(message_name: str, full_text: str) -> Any:
@@ -107,7 +116,7 @@ def message_class_from_text(message_name: str, full_text: str) -> Any:
     return classes[message_name]
 
 
-def _load(name: str, kind: str) -> Tuple[Any, Any]:
+def _load(name: str, kind: str) -> tuple[Any, Any]:
     """(genmsg context, spec) of the message (kind "msg") or service ("srv") `name`, with everything it uses
     loaded, from the files on ROS_PACKAGE_PATH."""
     package, type_name = split_type_name(name)
@@ -137,5 +146,13 @@ def service_class_from_files(service_type: str) -> Any:
     request = message_class_from_text(f"{service_type}Request", genmsg.compute_full_text(context, spec.request))
     response = message_class_from_text(f"{service_type}Response", genmsg.compute_full_text(context, spec.response))
     type_name = split_type_name(service_type)[1]
-    return type(type_name, (), {"_type": service_type, "_md5sum": genmsg.compute_md5(context, spec),
-                                "_request_class": request, "_response_class": response})
+    return type(
+        type_name,
+        (),
+        {
+            "_type": service_type,
+            "_md5sum": genmsg.compute_md5(context, spec),
+            "_request_class": request,
+            "_response_class": response,
+        },
+    )

@@ -3,6 +3,7 @@
 Each module's error class sits under it and keeps the built-in base it always had (ValueError for bad input,
 OSError for the master's link, RuntimeError for a ROS-side failure), so existing handlers still catch it.
 """
+
 from __future__ import annotations
 
 __all__ = ["BridgeError"]

@@ -1,19 +1,43 @@
 """The protocol's vocabulary: what one end of a ROS-TCP connection can say to the other, as frozen dataclasses under
 one base (`Event`), and the errors of either side. bridge.protocol turns them into bytes and back.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Dict, Optional, Tuple
+from typing import Any
 
 from bridge.errors import BridgeError
 
 __all__ = [
-    "ProtocolError", "LocalProtocolError", "RemoteProtocolError", "FramingError",
-    "Event", "Keepalive", "Handshake", "TopicMessage", "ServiceRequest", "ServiceResponse",
-    "Subscribe", "Publish", "RosService", "UnityService", "REMOVE_KINDS", "Remove", "TopicListQuery", "TopicList",
-    "Auth", "Ping", "PingResponse", "Log", "Warn", "Error", "IgnoredFields", "InvalidInput",
-    "PROTOCOL_VERSION", "ROS_DISTRO_PROTOCOL",
+    "ProtocolError",
+    "LocalProtocolError",
+    "RemoteProtocolError",
+    "FramingError",
+    "Event",
+    "Keepalive",
+    "Handshake",
+    "TopicMessage",
+    "ServiceRequest",
+    "ServiceResponse",
+    "Subscribe",
+    "Publish",
+    "RosService",
+    "UnityService",
+    "REMOVE_KINDS",
+    "Remove",
+    "TopicListQuery",
+    "TopicList",
+    "Auth",
+    "Ping",
+    "PingResponse",
+    "Log",
+    "Warn",
+    "Error",
+    "IgnoredFields",
+    "InvalidInput",
+    "PROTOCOL_VERSION",
+    "ROS_DISTRO_PROTOCOL",
 ]
 
 PROTOCOL_VERSION = "v0.7.0"
@@ -32,7 +56,7 @@ class RemoteProtocolError(ProtocolError):
     """The peer sent something the protocol does not allow. `srv_id` names the service call it concerns, if any;
     `fatal` means the byte stream cannot be framed any more and the connection must close."""
 
-    def __init__(self, reason: str, srv_id: Optional[int] = None, fatal: bool = False) -> None:
+    def __init__(self, reason: str, srv_id: int | None = None, fatal: bool = False) -> None:
         super().__init__(reason)
         self.srv_id = srv_id
         self.fatal = fatal
@@ -62,7 +86,7 @@ class Handshake(Event):
     """The endpoint's first frame. `metadata` is sent as a JSON *string* holding an object (Unity parses it twice)."""
 
     version: str
-    metadata: Dict[str, Any]
+    metadata: dict[str, Any]
 
     @property
     def is_compatible(self) -> bool:
@@ -104,7 +128,7 @@ class Subscribe(Event):
 
     topic: str
     message_name: str
-    queue_size: Optional[int] = None
+    queue_size: int | None = None
 
 
 @dataclass(frozen=True)
@@ -153,8 +177,8 @@ class TopicListQuery(Event):
 class TopicList(Event):
     """The answer to TopicListQuery: parallel tuples of topic names and type names."""
 
-    topics: Tuple[str, ...]
-    types: Tuple[str, ...]
+    topics: tuple[str, ...]
+    types: tuple[str, ...]
 
 
 @dataclass(frozen=True)
@@ -170,7 +194,7 @@ class Ping(Event):
     `round_trip` (ours, optional): the client's measure of its previous ping, for the endpoint's diagnostics."""
 
     request_time: str
-    round_trip: Optional[float] = None
+    round_trip: float | None = None
 
 
 @dataclass(frozen=True)
@@ -179,7 +203,7 @@ class PingResponse(Event):
     which a client estimates the offset of its clock to ROS time."""
 
     request_time: str
-    ros_time: Optional[float] = None
+    ros_time: float | None = None
 
 
 @dataclass(frozen=True)
@@ -198,7 +222,7 @@ class Error(Event):
     complete, so a client can fail it at once; Unity's connector reads only the text."""
 
     text: str
-    srv_id: Optional[int] = None
+    srv_id: int | None = None
 
 
 @dataclass(frozen=True)
@@ -207,7 +231,7 @@ class IgnoredFields(Event):
     Reported once per command and field on a connection, before the command's own event."""
 
     command: str
-    fields: Tuple[str, ...]
+    fields: tuple[str, ...]
 
 
 @dataclass(frozen=True)

@@ -1,17 +1,26 @@
 """ROS-TCP framing, sans I/O: `u32 LE length + destination (UTF-8) + u32 LE length + payload`, split out of any
 fragments of a stream, with every length checked against its limit before anything is allocated for it.
 """
+
 from __future__ import annotations
 
 import json
 import struct
-from typing import Any, Dict, List, Optional, Tuple, Union
+from typing import Any, Tuple
 
 from bridge.events import FramingError, LocalProtocolError
 
 __all__ = [
-    "MAX_DESTINATION_BYTES", "DEFAULT_MAX_PAYLOAD_BYTES", "RawFrame", "FrameDecoder",
-    "decode_destination", "not_utf8", "encode_frame", "encode_syscommand", "KEEPALIVE_FRAME", "LARGE_PAYLOAD_BYTES",
+    "MAX_DESTINATION_BYTES",
+    "DEFAULT_MAX_PAYLOAD_BYTES",
+    "RawFrame",
+    "FrameDecoder",
+    "decode_destination",
+    "not_utf8",
+    "encode_frame",
+    "encode_syscommand",
+    "KEEPALIVE_FRAME",
+    "LARGE_PAYLOAD_BYTES",
 ]
 
 MAX_DESTINATION_BYTES = 1024
@@ -40,21 +49,21 @@ class FrameDecoder:
         self.max_payload_bytes = max_payload_bytes
         self.max_destination_bytes = max_destination_bytes
         self._buffer = bytearray()
-        self._large: Optional[_LargePayload] = None  # a large payload being collected, once its header is in
-        self._failed: Optional[FramingError] = None
+        self._large: _LargePayload | None = None  # a large payload being collected, once its header is in
+        self._failed: FramingError | None = None
 
     @property
     def buffered_bytes(self) -> int:
         """Bytes received of frames not yet complete."""
         return len(self._buffer) + (self._large.received if self._large is not None else 0)
 
-    def feed_raw(self, data: bytes) -> Tuple[List[RawFrame], Optional[FramingError]]:
+    def feed_raw(self, data: bytes) -> tuple[list[RawFrame], FramingError | None]:
         """The complete frames with undecoded destinations, and the FramingError that ended the stream if one did:
         the frames before it are still returned. Raises the FramingError again once the stream has failed."""
         if self._failed is not None:
             raise self._failed
-        frames: List[RawFrame] = []
-        rest: Union[bytes, memoryview] = data
+        frames: list[RawFrame] = []
+        rest: bytes | memoryview = data
         if self._large is not None:
             rest = self._large.take(data, frames)
             if self._large.missing:
@@ -80,7 +89,7 @@ class FrameDecoder:
         self._large = _LargePayload.begun(buffer)
         return frames, None
 
-    def _parse_one(self, buffer: bytearray, offset: int) -> Tuple[int, Optional[RawFrame]]:
+    def _parse_one(self, buffer: bytearray, offset: int) -> tuple[int, RawFrame | None]:
         if len(buffer) - offset < 4:
             return offset, None
         (destination_length,) = _U32.unpack_from(buffer, offset)
@@ -118,12 +127,12 @@ class _LargePayload:
 
     def __init__(self, destination: bytes, first_part: bytes, payload_length: int, header_length: int) -> None:
         self.destination = destination
-        self.parts: List[Union[bytes, memoryview]] = [first_part] if first_part else []
+        self.parts: list[bytes | memoryview] = [first_part] if first_part else []
         self.missing = payload_length - len(first_part)
         self.received = header_length + len(first_part)  # bytes of the frame received so far
 
     @classmethod
-    def begun(cls, buffer: bytearray) -> Optional[_LargePayload]:
+    def begun(cls, buffer: bytearray) -> _LargePayload | None:
         """The large payload whose frame begins `buffer` (which holds no complete frame), taking the buffer's
         bytes; None (buffer untouched) when the buffer does not begin such a frame's header and payload."""
         if len(buffer) < 8:
@@ -139,12 +148,12 @@ class _LargePayload:
         buffer.clear()
         return large
 
-    def take(self, data: bytes, frames: List[RawFrame]) -> Union[bytes, memoryview]:
+    def take(self, data: bytes, frames: list[RawFrame]) -> bytes | memoryview:
         """Keep what `data` holds of the payload, appending the frame to `frames` once complete; the rest of
         `data` (after this frame) is returned."""
         if len(data) <= self.missing:
-            part: Union[bytes, memoryview] = data
-            rest: Union[bytes, memoryview] = b""
+            part: bytes | memoryview = data
+            rest: bytes | memoryview = b""
         else:
             view = memoryview(data)
             part, rest = view[: self.missing], view[self.missing :]
@@ -171,12 +180,10 @@ def not_utf8(raw_destination: bytes) -> str:
 
 def encode_frame(destination: str, payload: bytes) -> bytes:
     encoded_destination = destination.encode("utf-8")
-    return b"".join(
-        (_U32.pack(len(encoded_destination)), encoded_destination, _U32.pack(len(payload)), payload)
-    )
+    return b"".join((_U32.pack(len(encoded_destination)), encoded_destination, _U32.pack(len(payload)), payload))
 
 
-def encode_syscommand(command: str, params: Dict[str, Any]) -> bytes:
+def encode_syscommand(command: str, params: dict[str, Any]) -> bytes:
     """A system command frame with any JSON object (compact, fields in the given order, as Unity writes them)."""
     if not command.startswith("__"):
         raise LocalProtocolError(f"system command {command!r} must start with '__'")

@@ -9,6 +9,7 @@ runs of fixed-size fields collapse into one skip, and arrays of fixed-size eleme
 What genpy would check beyond this, it does not: it replaces invalid UTF-8 and accepts any bool byte. So a
 payload passes here exactly when it is a well-formed message of the type. Imports neither socket nor rospy.
 """
+
 from __future__ import annotations
 
 import struct
@@ -21,8 +22,21 @@ __all__ = ["Step", "ClassResolver", "LayoutError", "Layout"]
 _U32 = struct.Struct("<I")
 _read_u32 = _U32.unpack_from
 _FIXED_SIZES = {
-    "bool": 1, "int8": 1, "uint8": 1, "byte": 1, "char": 1, "int16": 2, "uint16": 2, "int32": 4, "uint32": 4,
-    "int64": 8, "uint64": 8, "float32": 4, "float64": 8, "time": 8, "duration": 8,
+    "bool": 1,
+    "int8": 1,
+    "uint8": 1,
+    "byte": 1,
+    "char": 1,
+    "int16": 2,
+    "uint16": 2,
+    "int32": 4,
+    "uint32": 4,
+    "int64": 8,
+    "uint64": 8,
+    "float32": 4,
+    "float64": 8,
+    "time": 8,
+    "duration": 8,
 }
 
 # One step of a walk: (payload, offset) -> offset after the field(s). Reading a length prefix past the end raises

@@ -12,14 +12,21 @@ So: buffers up to the largest threshold glibc allows come from the heap and are 
 heap is not shrunk while traffic flows, and freed memory is handed back when traffic has gone quiet
 (give_back_free_memory, when QuietTrim says).
 """
+
 from __future__ import annotations
 
 import ctypes
 import ctypes.util
-from typing import Optional
 
-__all__ = ["MMAP_THRESHOLD_BYTES", "TRIM_THRESHOLD_BYTES", "ARENAS", "QUIET_BYTES", "QuietTrim",
-           "keep_large_buffers", "give_back_free_memory"]
+__all__ = [
+    "MMAP_THRESHOLD_BYTES",
+    "TRIM_THRESHOLD_BYTES",
+    "ARENAS",
+    "QUIET_BYTES",
+    "QuietTrim",
+    "keep_large_buffers",
+    "give_back_free_memory",
+]
 
 # glibc's largest mmap threshold on 64-bit systems (DEFAULT_MMAP_THRESHOLD_MAX): every buffer below it comes from
 # the heap. Setting it also stops glibc from moving the threshold (and the trim threshold) by itself.
@@ -37,7 +44,7 @@ ARENAS = 1
 _M_TRIM_THRESHOLD, _M_MMAP_THRESHOLD, _M_ARENA_MAX = -1, -3, -8  # mallopt's parameter numbers (glibc's malloc.h)
 
 
-def _glibc() -> Optional[ctypes.CDLL]:
+def _glibc() -> ctypes.CDLL | None:
     try:
         libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6")
     except OSError:

@@ -6,9 +6,8 @@ never '//' (rosgraph.names.is_legal_name, restricted to ASCII as roscpp's check 
 names). The master's XML-RPC and rospy retry forever on names they cannot carry, so nothing unchecked goes there.
 Pure: no I/O.
 """
-from __future__ import annotations
 
-from typing import Optional
+from __future__ import annotations
 
 __all__ = ["graph_name_problem", "type_name_problem"]
 
@@ -22,7 +21,7 @@ def _shown(character: str) -> str:
     return f"{character!r} (U+{ord(character):04X})"
 
 
-def graph_name_problem(name: str, max_bytes: Optional[int] = None) -> Optional[str]:
+def graph_name_problem(name: str, max_bytes: int | None = None) -> str | None:
     """Why `name` is not a legal ROS graph name (of at most `max_bytes` UTF-8 bytes, if given); None when it is."""
     if not name:
         return "is empty"
@@ -30,8 +29,10 @@ def graph_name_problem(name: str, max_bytes: Optional[int] = None) -> Optional[s
         return f"starts with {_shown(name[0])}; a ROS name starts with a letter, '/' or '~'"
     for position, character in enumerate(name[1:], start=1):
         if character not in _GRAPH_REST:
-            return (f"has {_shown(character)} at position {position}; a ROS name holds only ASCII letters, digits, "
-                    "'_' and '/'")
+            return (
+                f"has {_shown(character)} at position {position}; a ROS name holds only ASCII letters, digits, "
+                "'_' and '/'"
+            )
     if "//" in name:
         return f"has '//' at position {name.index('//')}"
     if max_bytes is not None and len(name) > max_bytes:  # ASCII from here: one byte per character
@@ -39,7 +40,7 @@ def graph_name_problem(name: str, max_bytes: Optional[int] = None) -> Optional[s
     return None
 
 
-def type_name_problem(name: str) -> Optional[str]:
+def type_name_problem(name: str) -> str | None:
     """Why `name` is not of the form 'package/Type' by ROS's naming rules; None when it is."""
     package, slash, type_name = name.partition("/")
     if not slash or not package or not type_name:

@@ -10,12 +10,13 @@ been seen, is a service body due) and nothing else: `receive_data(bytes)` gives 
 bytes. It never reads a socket or touches ROS (this module imports neither socket nor rospy), so every rule of the
 protocol is tested here without I/O. Lengths are checked against their limits *before* anything is allocated.
 """
+
 from __future__ import annotations
 
 import enum
 import json
 from dataclasses import dataclass
-from typing import Any, Callable, Dict, List, Optional, Set, Tuple, Type, Union
+from typing import Any, Callable, Dict, Type, Union
 
 from bridge.events import (
     PROTOCOL_VERSION,
@@ -61,13 +62,44 @@ from bridge.names import graph_name_problem, type_name_problem
 
 # The protocol's whole public surface, in one place (the events and framing modules hold the parts).
 __all__ = [
-    "PROTOCOL_VERSION", "ROS_DISTRO_PROTOCOL", "MAX_DESTINATION_BYTES", "DEFAULT_MAX_PAYLOAD_BYTES",
-    "ProtocolError", "LocalProtocolError", "RemoteProtocolError", "FramingError",
-    "FrameDecoder", "encode_frame", "encode_syscommand", "KEEPALIVE_FRAME",
-    "Event", "Keepalive", "Handshake", "TopicMessage", "ServiceRequest", "ServiceResponse",
-    "Subscribe", "Publish", "RosService", "UnityService", "Remove", "TopicListQuery", "TopicList", "Auth",
-    "Ping", "PingResponse", "Log", "Warn", "Error", "IgnoredFields", "InvalidInput",
-    "Role", "Conversation", "encode", "handshake", "CLIENT_COMMANDS",
+    "PROTOCOL_VERSION",
+    "ROS_DISTRO_PROTOCOL",
+    "MAX_DESTINATION_BYTES",
+    "DEFAULT_MAX_PAYLOAD_BYTES",
+    "ProtocolError",
+    "LocalProtocolError",
+    "RemoteProtocolError",
+    "FramingError",
+    "FrameDecoder",
+    "encode_frame",
+    "encode_syscommand",
+    "KEEPALIVE_FRAME",
+    "Event",
+    "Keepalive",
+    "Handshake",
+    "TopicMessage",
+    "ServiceRequest",
+    "ServiceResponse",
+    "Subscribe",
+    "Publish",
+    "RosService",
+    "UnityService",
+    "Remove",
+    "TopicListQuery",
+    "TopicList",
+    "Auth",
+    "Ping",
+    "PingResponse",
+    "Log",
+    "Warn",
+    "Error",
+    "IgnoredFields",
+    "InvalidInput",
+    "Role",
+    "Conversation",
+    "encode",
+    "handshake",
+    "CLIENT_COMMANDS",
 ]
 
 
@@ -95,7 +127,7 @@ class _Command:
                 _check_type(command, name, params[name], expected)
         return self.build(command, params)
 
-    def unknown_fields(self, params: _Params) -> Tuple[str, ...]:
+    def unknown_fields(self, params: _Params) -> tuple[str, ...]:
         return tuple(sorted(name for name in params if name not in self.required and name not in self.optional))
 
 
@@ -129,19 +161,24 @@ def _not_negative(command: str, field: str, value: int) -> int:
     return value
 
 
-def _topic_and_type(command: str, params: _Params) -> Tuple[str, str]:
+def _topic_and_type(command: str, params: _Params) -> tuple[str, str]:
     return _check_name(command, "topic", params["topic"]), _check_message_name(command, params["message_name"])
 
 
 def _subscribe(command: str, params: _Params) -> Event:
     queue_size = params.get("queue_size")
-    return Subscribe(*_topic_and_type(command, params),
-                     None if queue_size is None else _not_negative(command, "queue_size", queue_size))
+    return Subscribe(
+        *_topic_and_type(command, params),
+        None if queue_size is None else _not_negative(command, "queue_size", queue_size),
+    )
 
 
 def _publish(command: str, params: _Params) -> Event:
-    return Publish(*_topic_and_type(command, params), _not_negative(command, "queue_size", params.get("queue_size", 10)),
-                   params.get("latch", False))
+    return Publish(
+        *_topic_and_type(command, params),
+        _not_negative(command, "queue_size", params.get("queue_size", 10)),
+        params.get("latch", False),
+    )
 
 
 def _topic_list(command: str, params: _Params) -> Event:
@@ -168,47 +205,60 @@ _REQUEST_TIME: _Fields = {"request_time": str}
 _SRV_ID: _Fields = {"srv_id": int}
 
 # What each role may say: command -> its JSON. A service header (`_SERVICE_HEADERS`) is paired with its body.
-_SENT_BY_CLIENT: Dict[str, _Command] = {
+_SENT_BY_CLIENT: dict[str, _Command] = {
     "__subscribe": _Command(_REGISTRATION, {"queue_size": int}, _subscribe),
     "__publish": _Command(_REGISTRATION, {"queue_size": int, "latch": bool}, _publish),
     "__ros_service": _Command(_REGISTRATION, {}, lambda command, params: RosService(*_topic_and_type(command, params))),
-    "__unity_service": _Command(_REGISTRATION, {},
-                                lambda command, params: UnityService(*_topic_and_type(command, params))),
+    "__unity_service": _Command(
+        _REGISTRATION, {}, lambda command, params: UnityService(*_topic_and_type(command, params))
+    ),
     "__topic_list": _Command({}, {}, lambda command, params: TopicListQuery()),
     "__auth": _Command({"token": str}, {}, lambda command, params: Auth(params["token"])),
-    "__ping": _Command(_REQUEST_TIME, {"round_trip": float},
-                       lambda command, params: Ping(params["request_time"], params.get("round_trip"))),
+    "__ping": _Command(
+        _REQUEST_TIME,
+        {"round_trip": float},
+        lambda command, params: Ping(params["request_time"], params.get("round_trip")),
+    ),
     **{
         f"__remove_{kind}": _Command(
-            _TOPIC, {}, lambda command, params: Remove(command[len("__remove_"):], _check_name(command, "topic",
-                                                                                               params["topic"]))
+            _TOPIC,
+            {},
+            lambda command, params: Remove(command[len("__remove_") :], _check_name(command, "topic", params["topic"])),
         )
         for kind in REMOVE_KINDS
     },
 }
-_SENT_BY_ENDPOINT: Dict[str, _Command] = {
+_SENT_BY_ENDPOINT: dict[str, _Command] = {
     "__handshake": _Command({"version": str}, {"metadata": str}, _handshake),
     "__topic_list": _Command({"topics": list, "types": list}, {}, _topic_list),
-    "__ping_response": _Command(_REQUEST_TIME, {"ros_time": float},
-                                lambda command, params: PingResponse(params["request_time"], params.get("ros_time"))),
+    "__ping_response": _Command(
+        _REQUEST_TIME,
+        {"ros_time": float},
+        lambda command, params: PingResponse(params["request_time"], params.get("ros_time")),
+    ),
     "__log": _Command(_TEXT, {}, lambda command, params: Log(params["text"])),
     "__warn": _Command(_TEXT, {}, lambda command, params: Warn(params["text"])),
     "__error": _Command(_TEXT, {"srv_id": int}, lambda command, params: Error(params["text"], params.get("srv_id"))),
 }
 _ServiceEvent = Union[Type[ServiceRequest], Type[ServiceResponse]]
-_SERVICE_HEADERS: Dict[str, _ServiceEvent] = {"__request": ServiceRequest, "__response": ServiceResponse}
+_SERVICE_HEADERS: dict[str, _ServiceEvent] = {"__request": ServiceRequest, "__response": ServiceResponse}
 _SERVICE_HEADER = _Command(_SRV_ID, {}, lambda command, params: Event())  # the event comes with the body
 CLIENT_COMMANDS = frozenset((*_SENT_BY_CLIENT, *_SERVICE_HEADERS))
 
 
-def _command_params(event: Event) -> Tuple[str, _Params]:
+def _command_params(event: Event) -> tuple[str, _Params]:
     """The system command that carries `event`, and its JSON fields in the order Unity writes them."""
     if isinstance(event, Subscribe):
-        return "__subscribe", _given({"topic": event.topic, "message_name": event.message_name},
-                                     queue_size=event.queue_size)
+        return "__subscribe", _given(
+            {"topic": event.topic, "message_name": event.message_name}, queue_size=event.queue_size
+        )
     if isinstance(event, Publish):
-        return "__publish", {"topic": event.topic, "message_name": event.message_name,
-                             "queue_size": event.queue_size, "latch": event.latch}
+        return "__publish", {
+            "topic": event.topic,
+            "message_name": event.message_name,
+            "queue_size": event.queue_size,
+            "latch": event.latch,
+        }
     if isinstance(event, RosService):
         return "__ros_service", {"topic": event.topic, "message_name": event.message_name}
     if isinstance(event, UnityService):
@@ -274,11 +324,32 @@ class Role(enum.Enum):
 # Events that name a topic or service (checked ASCII by then, so a character is a byte)
 _NAMED = (Subscribe, Publish, RosService, UnityService, Remove)
 _PARSERS = {Role.CLIENT: _SENT_BY_CLIENT, Role.ENDPOINT: _SENT_BY_ENDPOINT}
-_EVENTS_SENT_BY: Dict[Role, Tuple[Type[Event], ...]] = {
-    Role.CLIENT: (Keepalive, TopicMessage, ServiceRequest, ServiceResponse, Subscribe, Publish, RosService,
-                  UnityService, Remove, TopicListQuery, Auth, Ping),
-    Role.ENDPOINT: (Handshake, TopicMessage, ServiceRequest, ServiceResponse, TopicList, PingResponse, Log, Warn,
-                    Error),
+_EVENTS_SENT_BY: dict[Role, tuple[type[Event], ...]] = {
+    Role.CLIENT: (
+        Keepalive,
+        TopicMessage,
+        ServiceRequest,
+        ServiceResponse,
+        Subscribe,
+        Publish,
+        RosService,
+        UnityService,
+        Remove,
+        TopicListQuery,
+        Auth,
+        Ping,
+    ),
+    Role.ENDPOINT: (
+        Handshake,
+        TopicMessage,
+        ServiceRequest,
+        ServiceResponse,
+        TopicList,
+        PingResponse,
+        Log,
+        Warn,
+        Error,
+    ),
 }
 
 
@@ -305,9 +376,9 @@ class Conversation:
         self._may_send = _EVENTS_SENT_BY[our_role]
         # The receiving side's whole state:
         self.awaiting_handshake = our_role is Role.CLIENT  # a client's first frame must be the handshake
-        self.pending_service: Optional[Tuple[_ServiceEvent, int]] = None
+        self.pending_service: tuple[_ServiceEvent, int] | None = None
         self.frames_received = 0
-        self._reported_fields: Set[Tuple[str, str]] = set()  # (command, field) already reported as IgnoredFields
+        self._reported_fields: set[tuple[str, str]] = set()  # (command, field) already reported as IgnoredFields
 
     @property
     def buffered_bytes(self) -> int:
@@ -315,16 +386,20 @@ class Conversation:
         return self._decoder.buffered_bytes
 
     # --- receiving ---------------------------------------------------------------------------------------------
-    def receive_data(self, data: bytes) -> List[Event]:
+    def receive_data(self, data: bytes) -> list[Event]:
         """The events in `data` (any fragment of the stream), in order. After an InvalidInput that is fatal (a
         length over its limit), the stream position is lost: a further call raises that error."""
         frames, failure = self._decoder.feed_raw(data)
         self.frames_received += len(frames)
-        events: List[Event] = []
+        events: list[Event] = []
         for raw_destination, payload in frames:
             # The hot path first: a topic message, outside a service exchange.
-            if self.pending_service is None and not self.awaiting_handshake and raw_destination[:2] != b"__" \
-                    and raw_destination:
+            if (
+                self.pending_service is None
+                and not self.awaiting_handshake
+                and raw_destination[:2] != b"__"
+                and raw_destination
+            ):
                 try:
                     events.append(TopicMessage(decode_destination(raw_destination), payload))
                 except UnicodeDecodeError:
@@ -336,7 +411,7 @@ class Conversation:
             events.append(InvalidInput(failure))
         return events
 
-    def _receive_frame(self, raw_destination: bytes, payload: bytes) -> Tuple[Event, ...]:
+    def _receive_frame(self, raw_destination: bytes, payload: bytes) -> tuple[Event, ...]:
         """The events of one frame other than a plain topic message: none (a keepalive, a service header), one, or
         IgnoredFields and then the command's own."""
         if not raw_destination and not payload:
@@ -351,8 +426,13 @@ class Conversation:
             self.pending_service = None
             return (kind(srv_id, destination, payload),)
         if self.awaiting_handshake and destination != "__handshake":
-            return (InvalidInput(RemoteProtocolError(
-                f"the endpoint's first frame must be __handshake, got {destination!r}; frame dropped")),)
+            return (
+                InvalidInput(
+                    RemoteProtocolError(
+                        f"the endpoint's first frame must be __handshake, got {destination!r}; frame dropped"
+                    )
+                ),
+            )
         if not destination.startswith("__"):
             return (TopicMessage(destination, payload),)
         service_kind = _SERVICE_HEADERS.get(destination)
@@ -364,8 +444,10 @@ class Conversation:
             event = spec.parse(destination, params)
             if isinstance(event, _NAMED) and len(event.topic) > self._max_destination_bytes:
                 # One limit for a name everywhere: a topic a client registers is one it can send frames to.
-                raise ProtocolError(f"{destination}: field 'topic' is not a valid ROS name: {event.topic[:64]!r}... "
-                                    f"{graph_name_problem(event.topic, self._max_destination_bytes)}")
+                raise ProtocolError(
+                    f"{destination}: field 'topic' is not a valid ROS name: {event.topic[:64]!r}... "
+                    f"{graph_name_problem(event.topic, self._max_destination_bytes)}"
+                )
         except ProtocolError as error:
             return (InvalidInput(RemoteProtocolError(str(error))),)
         ignored = self._newly_ignored(destination, spec.unknown_fields(params))
@@ -376,7 +458,7 @@ class Conversation:
             self.awaiting_handshake = False
         return (*ignored, event)
 
-    def _newly_ignored(self, command: str, fields: Tuple[str, ...]) -> Tuple[Event, ...]:
+    def _newly_ignored(self, command: str, fields: tuple[str, ...]) -> tuple[Event, ...]:
         """IgnoredFields for the fields not reported before on this connection, if any."""
         new = tuple(name for name in fields if (command, name) not in self._reported_fields)
         if not new:
@@ -384,7 +466,7 @@ class Conversation:
         self._reported_fields.update((command, name) for name in new)
         return (IgnoredFields(command, new),)
 
-    def _drop_pending_service(self) -> Optional[int]:
+    def _drop_pending_service(self) -> int | None:
         if self.pending_service is None:
             return None
         srv_id = self.pending_service[1]

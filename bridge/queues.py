@@ -3,12 +3,13 @@
 Used per client for frames going out to it, and per bridged topic for client payloads waiting for the ROS
 publisher's pump thread (bridge.ros_publisher.RawPublisher).
 """
+
 from __future__ import annotations
 
 import threading
 import time
 from collections import deque
-from typing import Deque, Dict, List, Optional, Sequence, Set, Tuple
+from typing import Optional, Sequence, Tuple
 
 __all__ = ["OutgoingQueue", "ByteBudget"]
 
@@ -30,18 +31,18 @@ class OutgoingQueue:
     their order.
     """
 
-    def __init__(self, max_frames: int, max_bytes: int, large_bytes: Optional[int] = None) -> None:
+    def __init__(self, max_frames: int, max_bytes: int, large_bytes: int | None = None) -> None:
         if max_frames < 1 or max_bytes < 1:
             raise ValueError(f"queue limits must be positive, got max_frames={max_frames}, max_bytes={max_bytes}")
         self.max_frames = max_frames
         self.max_bytes = max_bytes
         self.large_bytes = large_bytes
-        self._items: Deque[_Item] = deque()
-        self._key_counts: Dict[str, int] = {}  # frames queued per key
+        self._items: deque[_Item] = deque()
+        self._key_counts: dict[str, int] = {}  # frames queued per key
         self._large = 0  # frames of large_bytes or more queued
         self._bytes = 0
         self._kept_bytes = 0  # of frames that are never dropped (answers)
-        self._longest_waits: Dict[str, float] = {}  # per key, the longest a taken frame waited (take_batch)
+        self._longest_waits: dict[str, float] = {}  # per key, the longest a taken frame waited (take_batch)
         self._continuation = False  # the first frame is the rest of one begun on the wire (put_continuation)
         self._closed = False
         self._dropped = 0
@@ -72,21 +73,22 @@ class OutgoingQueue:
         producer must stop making them (the queue cannot drop them)."""
         return self._kept_bytes
 
-    def oldest_age(self) -> Optional[float]:
+    def oldest_age(self) -> float | None:
         """How long the oldest queued frame has waited (s); None when nothing is queued."""
         with self._not_empty:
             if not self._items:
                 return None
             return time.monotonic() - min(item[3] for item in self._items)
 
-    def longest_waits(self) -> Dict[str, float]:
+    def longest_waits(self) -> dict[str, float]:
         """Per key, the longest a frame of it waited before take_batch took it, since this was last asked."""
         with self._not_empty:
             waits, self._longest_waits = self._longest_waits, {}
             return waits
 
-    def put(self, data: bytes, droppable: bool = True, wait_s: float = 0.0, key: Optional[str] = None,
-            key_limit: int = 0) -> int:
+    def put(
+        self, data: bytes, droppable: bool = True, wait_s: float = 0.0, key: str | None = None, key_limit: int = 0
+    ) -> int:
         """Queue `data`; returns how many older frames were dropped to make room for it (and, with a `key` and a
         positive `key_limit`, to keep at most that many frames of the key).
 
@@ -144,7 +146,7 @@ class OutgoingQueue:
             self._not_full.wait(remaining)
         return True
 
-    def _append(self, data: bytes, droppable: bool, key: Optional[str], key_limit: int, now: float) -> int:
+    def _append(self, data: bytes, droppable: bool, key: str | None, key_limit: int, now: float) -> int:
         """With the lock held: queue `data` (queued at `now`), dropping the oldest droppable frames while over a
         limit; how many. The hot path of every queued frame: counts are kept inline."""
         dropped = 0
@@ -242,10 +244,10 @@ class OutgoingQueue:
     def _take_small_first(self) -> Sequence[_Item]:
         """With the lock held: take_batch's choice when large frames are queued (see there)."""
         large_bytes = self.large_bytes or 0
-        taken: List[_Item] = []
-        large: Optional[_Item] = None
-        kept: Deque[_Item] = deque()
-        held_keys: Set[Optional[str]] = set()  # keys with an earlier frame staying queued (or taken last)
+        taken: list[_Item] = []
+        large: _Item | None = None
+        kept: deque[_Item] = deque()
+        held_keys: set[str | None] = set()  # keys with an earlier frame staying queued (or taken last)
         for index, item in enumerate(self._items):
             data, key = item[0], item[2]
             if key in held_keys:

@@ -6,10 +6,11 @@ in a lab) knows none of them, and a frozen one blocks whoever creates the next o
 wants registered and what the master in front of it has accepted; bridge.ros_master runs the calls it asks for, on a
 thread of its own, and tells it what the master said. A different master (another identity) owes everything again.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Dict, Hashable, List, Optional, Tuple
+from typing import Hashable
 
 __all__ = ["Registration", "RegistrationBook", "KINDS"]
 
@@ -28,18 +29,18 @@ class Registration:
 class RegistrationBook:
     """The node's registrations and the master's view of them; one master identity at a time."""
 
-    def __init__(self, registered: Tuple[Registration, ...] = (), identity: Optional[Hashable] = None) -> None:
+    def __init__(self, registered: tuple[Registration, ...] = (), identity: Hashable | None = None) -> None:
         # (kind, name) -> registration, as the node has it now
-        self._wanted: Dict[Tuple[str, str], Registration] = {(r.kind, r.name): r for r in registered}
+        self._wanted: dict[tuple[str, str], Registration] = {(r.kind, r.name): r for r in registered}
         # what the master of `identity` holds (or refused: it will not take them, asking again is pointless)
-        self._accepted: Dict[Tuple[str, str], Registration] = dict(self._wanted)
-        self._withdrawn: List[Registration] = []  # accepted by the master, no longer wanted: to unregister
+        self._accepted: dict[tuple[str, str], Registration] = dict(self._wanted)
+        self._withdrawn: list[Registration] = []  # accepted by the master, no longer wanted: to unregister
         self.identity = identity
 
     def __len__(self) -> int:
         return len(self._wanted)
 
-    def counts(self) -> Dict[str, int]:
+    def counts(self) -> dict[str, int]:
         """Registrations wanted, per kind."""
         return {kind: sum(1 for wanted_kind, _ in self._wanted if wanted_kind == kind) for kind in KINDS}
 
@@ -65,7 +66,7 @@ class RegistrationBook:
         self._withdrawn.clear()  # a new master holds nothing of ours to take back
         return changed
 
-    def to_register(self) -> List[Registration]:
+    def to_register(self) -> list[Registration]:
         """What the master does not hold yet, in a stable order (publishers, subscribers, services; by name)."""
         owed = [r for key, r in self._wanted.items() if self._accepted.get(key) != r]
         return sorted(owed, key=lambda r: (KINDS.index(r.kind), r.name))
@@ -75,11 +76,11 @@ class RegistrationBook:
         wanted = self._wanted.get((kind, name))
         return wanted is not None and self._accepted.get((kind, name)) == wanted
 
-    def wanted(self) -> List[Registration]:
+    def wanted(self) -> list[Registration]:
         """Every registration the node has now."""
         return list(self._wanted.values())
 
-    def to_unregister(self) -> List[Registration]:
+    def to_unregister(self) -> list[Registration]:
         """What the master holds that the node withdrew: to be taken back before anything is registered (a name
         withdrawn and registered again must end registered)."""
         return list(self._withdrawn)

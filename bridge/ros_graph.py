@@ -2,6 +2,7 @@
 service and proxy the endpoint makes, raw throughout (bridge.ros_types). With the other bridge.ros_* modules, the
 only code of the endpoint that touches rospy.
 """
+
 from __future__ import annotations
 
 import io
@@ -11,19 +12,19 @@ import sys
 import time
 import warnings
 import xmlrpc.client
-from typing import Any, Callable, Dict, List, Optional, Tuple
+from typing import Any, Callable, Dict
 
 import rosgraph
 import rosgraph.network
 import rospy
 import rospy.impl.tcpros_pubsub
+
+from bridge.diagnostics import Status
 from bridge.ros_master import MasterError, MasterLink, call_master, timed_proxy
 from bridge.ros_publisher import RawPublisher
 from bridge.ros_reader import SUBSCRIBER_READ_BYTES, install_raw_reader
 from bridge.ros_service_proxy import RawServiceProxy
 from bridge.ros_types import RawMessage, RosError, TypeRegistry
-
-from bridge.diagnostics import Status
 
 log = logging.getLogger(__name__)
 
@@ -86,7 +87,7 @@ class RosGraph:
     def node_name() -> str:
         return rospy.get_name()
 
-    def publish_diagnostics(self, statuses: List[Status]) -> None:
+    def publish_diagnostics(self, statuses: list[Status]) -> None:
         """The statuses as one diagnostic_msgs/DiagnosticArray on /diagnostics (skipped, with one warning, where
         diagnostic_msgs is not installed)."""
         if self._diagnostics is None:
@@ -105,11 +106,18 @@ class RosGraph:
         if self._diagnostics is False:
             return
         publisher, array, status, key_value = self._diagnostics
-        message = array(status=[
-            status(level=entry.level, name=entry.name, message=entry.message, hardware_id=entry.hardware_id,
-                   values=[key_value(key=key, value=value) for key, value in entry.values])
-            for entry in statuses
-        ])
+        message = array(
+            status=[
+                status(
+                    level=entry.level,
+                    name=entry.name,
+                    message=entry.message,
+                    hardware_id=entry.hardware_id,
+                    values=[key_value(key=key, value=value) for key, value in entry.values],
+                )
+                for entry in statuses
+            ]
+        )
         message.header.stamp = rospy.Time.now()
         publisher.publish(message)
 
@@ -142,7 +150,7 @@ class RosGraph:
             self.types.learn(message_name, stated[1])
             return self.types.raw_message_class(message_name)
 
-    def subscriber_type(self, message_name: str) -> Tuple[Optional[type[RawMessage]], Optional[str]]:
+    def subscriber_type(self, message_name: str) -> tuple[type[RawMessage] | None, str | None]:
         """The raw class to subscribe with, or None and why there is none (then only messages whose publisher says
         they are `message_name` are passed on, see make_subscriber)."""
         try:
@@ -154,8 +162,9 @@ class RosGraph:
         return self.types.raw_service_class(service_type)
 
     @staticmethod
-    def make_publisher(topic: str, raw: type[RawMessage], queue_size: int, latch: bool,
-                       max_queue_bytes: int) -> RawPublisher:
+    def make_publisher(
+        topic: str, raw: type[RawMessage], queue_size: int, latch: bool, max_queue_bytes: int
+    ) -> RawPublisher:
         # queue_size=None: rospy's synchronous publisher; RawPublisher's own pump thread and queue (of the
         # client's queue_size, at least 1) keep client threads from ever waiting on ROS subscribers.
         with warnings.catch_warnings():
@@ -163,16 +172,20 @@ class RosGraph:
             publisher = rospy.Publisher(topic, raw, queue_size=None, latch=latch, tcp_nodelay=True)
         return RawPublisher(publisher, raw, raw._type, queue_size, max_queue_bytes)
 
-    def make_subscriber(self, topic: str, raw: Optional[type[RawMessage]], message_name: str,
-                        callback: MessageCallback) -> Any:
+    def make_subscriber(
+        self, topic: str, raw: type[RawMessage] | None, message_name: str, callback: MessageCallback
+    ) -> Any:
         """A subscriber of `raw` (from subscriber_type); without one, of whatever publishers say is
         `message_name`."""
         if raw is None:
             return self._subscribe_untyped(topic, message_name, callback)
         # tcp_nodelay: a 1 kHz stream must not wait for Nagle; buff_size large enough for big messages.
         return rospy.Subscriber(
-            topic, raw, lambda msg: callback(topic, msg._buff, msg._connection_header),
-            tcp_nodelay=True, buff_size=SUBSCRIBER_READ_BYTES,
+            topic,
+            raw,
+            lambda msg: callback(topic, msg._buff, msg._connection_header),
+            tcp_nodelay=True,
+            buff_size=SUBSCRIBER_READ_BYTES,
         )
 
     @staticmethod
@@ -187,19 +200,23 @@ class RosGraph:
                 callback(topic, msg._buff, header)
             elif not mismatches:
                 mismatches.append(header.get("type"))
-                log.warning("%s carries %s, not the %s a client subscribed to: not forwarded", topic,
-                            header.get("type"), message_name)
+                log.warning(
+                    "%s carries %s, not the %s a client subscribed to: not forwarded",
+                    topic,
+                    header.get("type"),
+                    message_name,
+                )
 
         return rospy.Subscriber(topic, RawMessage, deliver, tcp_nodelay=True, buff_size=SUBSCRIBER_READ_BYTES)
 
     @staticmethod
-    def definition_from_publishers(topic: str) -> Optional[Tuple[str, str]]:
+    def definition_from_publishers(topic: str) -> tuple[str, str] | None:
         """(type, full definition) as a publisher of `topic` on the graph states them in its TCPROS connection
         header (rostopic's way to know a type); None when no publisher answers."""
         me = rospy.get_name()
         try:
             publishers, _, _ = call_master("getSystemState", me)
-            nodes: List[str] = next((nodes for name, nodes in publishers if name == topic), [])
+            nodes: list[str] = next((nodes for name, nodes in publishers if name == topic), [])
             apis = [call_master("lookupNode", me, node) for node in nodes if node != me]
         except MasterError:
             return None
@@ -210,9 +227,11 @@ class RosGraph:
                 if code != 1 or not protocol or protocol[0] != "TCPROS":
                     continue
                 with socket.create_connection((str(protocol[1]), int(protocol[2])), timeout=2.0) as sock:
-                    sock.sendall(rosgraph.network.encode_ros_handshake_header(
-                        {"callerid": me, "topic": topic, "md5sum": "*", "type": "*", "message_definition": ""}
-                    ))
+                    sock.sendall(
+                        rosgraph.network.encode_ros_handshake_header(
+                            {"callerid": me, "topic": topic, "md5sum": "*", "type": "*", "message_definition": ""}
+                        )
+                    )
                     header = rosgraph.network.read_ros_handshake_header(sock, io.BytesIO(), 65536)
             except (OSError, xmlrpc.client.Error, rosgraph.network.ROSHandshakeException):
                 continue

@@ -10,13 +10,14 @@ RegManager keeps its other job, connecting subscribers to the publishers the mas
 Every master call of the endpoint goes through `call_master`, with a timeout: a frozen master costs the caller
 at most that, never a thread forever.
 """
+
 from __future__ import annotations
 
 import logging
 import threading
 import time
 import xmlrpc.client
-from typing import Any, Callable, Hashable, List, Optional, Tuple
+from typing import Any, Callable, Hashable
 
 import rosgraph
 import rospy
@@ -28,7 +29,15 @@ from rospy.impl.registration import Registration as RospyRegistration
 from bridge.errors import BridgeError
 from bridge.registry import Registration, RegistrationBook
 
-__all__ = ["MASTER_TIMEOUT_S", "MASTER_POLL_S", "MasterError", "MasterRefused", "timed_proxy", "call_master", "MasterLink"]
+__all__ = [
+    "MASTER_TIMEOUT_S",
+    "MASTER_POLL_S",
+    "MasterError",
+    "MasterRefused",
+    "timed_proxy",
+    "call_master",
+    "MasterLink",
+]
 
 log = logging.getLogger(__name__)
 
@@ -106,12 +115,12 @@ class MasterLink(rospy_registration.RegistrationListener):
         self._book = RegistrationBook()
         self._changed = threading.Condition()
         self._stopping = False
-        self._thread: Optional[threading.Thread] = None
+        self._thread: threading.Thread | None = None
         self._rospy_registrar: Any = None  # rospy's RegManager: still connects our subscribers to publishers
-        self._proxy: Optional[xmlrpc.client.ServerProxy] = None  # the identity checks' connection
+        self._proxy: xmlrpc.client.ServerProxy | None = None  # the identity checks' connection
         self.master_up = True
         self.restarts = 0  # other masters seen since start
-        self._on_new_master: List[Callable[[], None]] = []
+        self._on_new_master: list[Callable[[], None]] = []
 
     def on_new_master(self, callback: Callable[[], None]) -> None:
         """Call `callback` (on the link's thread) once everything is registered with a master that replaced another
@@ -126,15 +135,16 @@ class MasterLink(rospy_registration.RegistrationListener):
         deadline = time.monotonic() + wait_s
         while True:
             with listeners.lock:
-                registrar = next((l for l in listeners.listeners if isinstance(l, rospy_registration.RegManager)),
-                                 None)
+                registrar = next(
+                    (each for each in listeners.listeners if isinstance(each, rospy_registration.RegManager)), None
+                )
             if registrar is not None:
                 break
             if time.monotonic() > deadline:
                 raise MasterError(f"rospy did not register the node with the ROS master within {wait_s:g} s")
             time.sleep(0.01)
         try:
-            identity: Optional[Hashable] = self._identity()  # the master rospy registered with
+            identity: Hashable | None = self._identity()  # the master rospy registered with
         except MasterError as error:
             self._master_lost(error)
             identity = None
@@ -259,8 +269,9 @@ class MasterLink(rospy_registration.RegistrationListener):
             except (OSError, xmlrpc.client.Error) as error:
                 self._proxy = None
                 if fresh:
-                    raise MasterError(f"the ROS master at {rosgraph.get_master_uri()} did not answer ({error})") \
-                        from None
+                    raise MasterError(
+                        f"the ROS master at {rosgraph.get_master_uri()} did not answer ({error})"
+                    ) from None
         (pid_code, _, pid), (run_id_code, _, run_id) = answers[0], answers[1]
         if pid_code != 1:
             raise MasterError(f"the ROS master did not give its pid (code {pid_code})")
@@ -277,16 +288,22 @@ class MasterLink(rospy_registration.RegistrationListener):
                 log.warning("the ROS master at %s answers again", rosgraph.get_master_uri())
         if another:
             self.restarts += 1
-            log.warning("a new ROS master at %s: registering %d publishers, %d subscribers and %d services again",
-                        rosgraph.get_master_uri(), counts["publisher"], counts["subscriber"], counts["service"])
+            log.warning(
+                "a new ROS master at %s: registering %d publishers, %d subscribers and %d services again",
+                rosgraph.get_master_uri(),
+                counts["publisher"],
+                counts["subscriber"],
+                counts["service"],
+            )
             self._settle()
             for callback in self._on_new_master:
                 callback()
 
     def _master_lost(self, error: MasterError) -> None:
         if self.master_up:
-            log.warning("%s; the endpoint keeps serving its clients, and registers with the master when it answers",
-                        error)
+            log.warning(
+                "%s; the endpoint keeps serving its clients, and registers with the master when it answers", error
+            )
         with self._changed:
             self.master_up = False
             self._changed.notify_all()  # nobody waits for a registration while the master does not answer
@@ -312,7 +329,7 @@ class MasterLink(rospy_registration.RegistrationListener):
         caller, node_uri = rospy.get_caller_id(), rospy.core.get_node_uri()
         if action == "register":
             method = f"register{registration.kind.capitalize()}"
-            args: Tuple[str, ...] = (caller, registration.name, registration.detail, node_uri)
+            args: tuple[str, ...] = (caller, registration.name, registration.detail, node_uri)
         else:
             method, args = _unregistration(registration, caller, node_uri)
         try:
@@ -322,7 +339,7 @@ class MasterLink(rospy_registration.RegistrationListener):
             return None
 
 
-def _unregistration(registration: Registration, caller: str, node_uri: str) -> Tuple[str, Tuple[str, ...]]:
+def _unregistration(registration: Registration, caller: str, node_uri: str) -> tuple[str, tuple[str, ...]]:
     """The master API call that takes `registration` back: a service by its URI, a topic by the node's."""
     method = f"unregister{registration.kind.capitalize()}"
     if registration.kind == "service":

@@ -2,19 +2,20 @@
 queue and a pump thread otherwise, flow control back to the client, and no ROS subscriber that stops reading able
 to hold up the others.
 """
+
 from __future__ import annotations
 
 import logging
 import struct
 import threading
-from typing import Any, Dict, List
+from typing import Any
 
 import rospy
 import rospy.impl.tcpros_pubsub
-from bridge.ros_types import RawMessage
 
 from bridge.framing import LARGE_PAYLOAD_BYTES
 from bridge.queues import OutgoingQueue
+from bridge.ros_types import RawMessage
 from bridge.sockets import send_to_all, takes_whole, unsent_bytes
 
 log = logging.getLogger(__name__)
@@ -70,8 +71,9 @@ class RawPublisher:
     subscribers with it); the others get every batch at once meanwhile.
     """
 
-    def __init__(self, publisher: Any, raw_class: type[RawMessage], message_name: str, queue_size: int,
-                 max_queue_bytes: int) -> None:
+    def __init__(
+        self, publisher: Any, raw_class: type[RawMessage], message_name: str, queue_size: int, max_queue_bytes: int
+    ) -> None:
         self._publisher = publisher
         self._raw_class = raw_class
         self._latch = bool(publisher.impl.is_latch)
@@ -153,7 +155,7 @@ class RawPublisher:
             return
         pieces = _tcpros_pieces(payloads)
         size = sum(len(piece) for piece in pieces)
-        failed: Dict[Any, str] = {}
+        failed: dict[Any, str] = {}
         impl.acquire()
         try:
             if impl.closed or not impl.has_connections() or rospy.is_shutdown():
@@ -173,20 +175,24 @@ class RawPublisher:
         finally:
             impl.release()
         for connection, why in failed.items():
-            log.warning("ROS subscriber %s of %s: %s; connection closed (a rospy subscriber connects again)",
-                        connection.endpoint_id, impl.resolved_name, why)
+            log.warning(
+                "ROS subscriber %s of %s: %s; connection closed (a rospy subscriber connects again)",
+                connection.endpoint_id,
+                impl.resolved_name,
+                why,
+            )
             try:
                 connection.close()  # calls back into impl.remove_connection
             except Exception:
                 pass
 
 
-def _tcpros_pieces(payloads: List[bytes]) -> List[bytes]:
+def _tcpros_pieces(payloads: list[bytes]) -> list[bytes]:
     """The TCPROS frames (u32 length + bytes) of `payloads`, back to back, as few pieces to write: small messages
     joined with their length prefixes, a large one (LARGE_PAYLOAD_BYTES or more) written as it is, after its prefix,
     so its bytes are not copied once more."""
-    pieces: List[bytes] = []
-    joined: List[bytes] = []
+    pieces: list[bytes] = []
+    joined: list[bytes] = []
     for payload in payloads:
         joined.append(_U32.pack(len(payload)))
         if len(payload) < LARGE_PAYLOAD_BYTES:

@@ -2,24 +2,31 @@
 large one straight from the socket into the buffer it is delivered in, with a read size that follows the traffic.
 Installed once in rospy's subscriber protocol (install_raw_reader); every class but the raw ones keeps rospy's way.
 """
+
 from __future__ import annotations
 
 import io
 import socket
 import struct
-from typing import Any, List
+from typing import Any
 
 import rospy
 import rospy.impl.tcpros_pubsub
-from bridge.ros_types import RawMessage
 from rospy.exceptions import TransportTerminated
 
 from bridge.framing import LARGE_PAYLOAD_BYTES
+from bridge.ros_types import RawMessage
 
 _U32 = struct.Struct("<I")
 
-__all__ = ["SUBSCRIBER_READ_BYTES", "FLOOD_READ_BYTES", "DIRECT_RECEIVE_MAX_BYTES", "read_raw_messages", "next_read_size",
-           "install_raw_reader"]
+__all__ = [
+    "SUBSCRIBER_READ_BYTES",
+    "FLOOD_READ_BYTES",
+    "DIRECT_RECEIVE_MAX_BYTES",
+    "read_raw_messages",
+    "next_read_size",
+    "install_raw_reader",
+]
 
 # rospy's read size for the endpoint's subscribers follows the traffic (next_read_size): its default to begin with and
 # while large messages come, so little of one goes through rospy's read buffer (see read_raw_messages); larger once a
@@ -32,8 +39,9 @@ FLOOD_READ_BYTES = 1024 * 1024
 DIRECT_RECEIVE_MAX_BYTES = 64 * 1024 * 1024
 
 
-def read_raw_messages(buffer: io.BytesIO, messages: List[RawMessage], sock: socket.socket,
-                      raw: type[RawMessage]) -> bool:
+def read_raw_messages(
+    buffer: io.BytesIO, messages: list[RawMessage], sock: socket.socket, raw: type[RawMessage]
+) -> bool:
     """What rospy's deserialize_messages does with its read buffer (every complete TCPROS message out of `buffer`
     into `messages`, the rest kept), for raw classes and with less copying: a large message whose first bytes are
     in the buffer is read from `sock` straight into a buffer of its size, which is what is delivered (a bytearray).

@@ -1,6 +1,7 @@
 """Calls of a ROS service with request bytes, answered with response bytes, every step under the call's deadline:
 TCPROS spoken here, since rospy's ServiceProxy can wait for an answer forever.
 """
+
 from __future__ import annotations
 
 import socket
@@ -13,6 +14,7 @@ import rosgraph
 import rosgraph.network
 import rospy
 import rospy.impl.tcpros_pubsub
+
 from bridge.ros_master import MASTER_TIMEOUT_S, MasterError, MasterRefused, call_master
 from bridge.ros_types import RosError
 
@@ -50,23 +52,33 @@ class RawServiceProxy:
         try:
             host, port = rospy.core.parse_rosrpc_uri(self._look_up(deadline, timeout, abandoned))
             with socket.create_connection((host, port), timeout=_remaining(deadline)) as sock:
-                sock.sendall(rosgraph.network.encode_ros_handshake_header({
-                    "callerid": rospy.get_caller_id(), "service": self.service, "md5sum": self._md5sum,
-                    "type": self.service_type, "persistent": "0",
-                }))
+                sock.sendall(
+                    rosgraph.network.encode_ros_handshake_header(
+                        {
+                            "callerid": rospy.get_caller_id(),
+                            "service": self.service,
+                            "md5sum": self._md5sum,
+                            "type": self.service_type,
+                            "persistent": "0",
+                        }
+                    )
+                )
                 size = _U32.unpack(_receive(sock, 4, deadline, abandoned))[0]
                 if size > 65536:
                     raise RosError(f"service {self.service} sent a connection header of {size} bytes")
                 header = rosgraph.network.decode_ros_handshake_header(
-                    _U32.pack(size) + _receive(sock, size, deadline, abandoned))
+                    _U32.pack(size) + _receive(sock, size, deadline, abandoned)
+                )
                 if "error" in header:
                     raise RosError(f"service {self.service} refused the call: {header['error']}")
                 sock.sendall(_U32.pack(len(request)) + request)
                 ok = _receive(sock, 1, deadline, abandoned)[0]
                 size = _U32.unpack(_receive(sock, 4, deadline, abandoned))[0]
                 if size > self._max_response_bytes:
-                    raise RosError(f"service {self.service} answered with {size} bytes, more than the "
-                                   f"{self._max_response_bytes} a frame may carry")
+                    raise RosError(
+                        f"service {self.service} answered with {size} bytes, more than the "
+                        f"{self._max_response_bytes} a frame may carry"
+                    )
                 body = _receive(sock, size, deadline, abandoned)
         except socket.timeout:
             raise RosError(f"service {self.service} did not answer within {timeout:g} s") from None
@@ -82,8 +94,12 @@ class RawServiceProxy:
         """The service's rosrpc URI, waiting for it to be advertised until the deadline."""
         while True:
             try:
-                uri: str = call_master("lookupService", rospy.get_caller_id(), self.service,
-                                       timeout_s=max(0.01, min(MASTER_TIMEOUT_S, _remaining(deadline))))
+                uri: str = call_master(
+                    "lookupService",
+                    rospy.get_caller_id(),
+                    self.service,
+                    timeout_s=max(0.01, min(MASTER_TIMEOUT_S, _remaining(deadline))),
+                )
                 return uri
             except MasterRefused:
                 why = "is not available"  # not advertised (yet)

@@ -3,6 +3,7 @@ and definition (so rospy negotiates connections exactly as for the generated cla
 hold and deserialize by keeping them (`_has_header = False` keeps rospy from rewriting `header.seq`); the registry
 that finds or builds them, and checks that a payload is one message of its type. No rospy: genpy only.
 """
+
 from __future__ import annotations
 
 import importlib
@@ -12,7 +13,6 @@ from typing import Any, Callable
 
 import genpy
 
-from bridge.errors import BridgeError
 from bridge.definitions import (
     DefinitionError,
     RosPackages,
@@ -21,9 +21,11 @@ from bridge.definitions import (
     service_class_from_files,
     split_type_name,
 )
+from bridge.errors import BridgeError
 from bridge.layout import Layout, LayoutError
 
 __all__ = ["RosError", "RawMessage", "TypeRegistry"]
+
 
 class RosError(BridgeError, RuntimeError):
     """A ROS-side failure the client should hear about (unknown type, service call failed, ...)."""

@@ -7,6 +7,7 @@ topic-list look-ups (so a slow service never stalls a reader, nor another client
 pump thread (bridge.ros_publisher.RawPublisher); rospy's own threads deliver ROS messages, which are fanned out to the
 subscribed clients (bridge.topics.Topics.fan_out); one housekeeping thread.
 """
+
 from __future__ import annotations
 
 import itertools
@@ -14,7 +15,7 @@ import logging
 import socket
 import threading
 import time
-from typing import Any, Callable, Dict, List, Optional, Tuple
+from typing import Any, Callable
 
 from bridge import protocol
 from bridge.admission import to_evict
@@ -53,7 +54,7 @@ DIAGNOSTICS_PERIOD_S = 1.0  # /diagnostics at 1 Hz, as ROS's diagnostic tools ex
 
 
 # Requests whose answer the client must read (it is never dropped), and how they are named in a refusal
-_ANSWERED: Dict[type, str] = {TopicListQuery: "__topic_list", Ping: "__ping", ServiceRequest: "__request"}
+_ANSWERED: dict[type, str] = {TopicListQuery: "__topic_list", Ping: "__ping", ServiceRequest: "__request"}
 
 
 class Endpoint:
@@ -70,9 +71,9 @@ class Endpoint:
         # The session's fast path for topic messages goes straight to the topics.
         self.publisher_for = self.topics.publisher_for
         self._client_ids = itertools.count(1)
-        self._listener: Optional[socket.socket] = None
-        self._accept_thread: Optional[threading.Thread] = None
-        self._housekeeping_thread: Optional[threading.Thread] = None
+        self._listener: socket.socket | None = None
+        self._accept_thread: threading.Thread | None = None
+        self._housekeeping_thread: threading.Thread | None = None
         self._address = ""
         self._stopping = threading.Event()
         self._turned_away = LogThrottle(log)
@@ -85,7 +86,7 @@ class Endpoint:
         self.dropped = 0
         self.bytes_in_out = 0
         # What each client event does; topic messages take publisher_for, the session's fast path.
-        self._handlers: Dict[type, Callable[[ClientSession, Any], None]] = {
+        self._handlers: dict[type, Callable[[ClientSession, Any], None]] = {
             Subscribe: self.topics.subscribe,
             Publish: self.topics.register_publisher,
             RosService: self.services.register_ros_service,
@@ -110,8 +111,7 @@ class Endpoint:
         self._accept_thread.start()
         port: int = listener.getsockname()[1]
         self._address = f"{self.config.tcp_ip}:{port}"
-        self._housekeeping_thread = threading.Thread(target=self._housekeeping_loop, name="housekeeping",
-                                                     daemon=True)
+        self._housekeeping_thread = threading.Thread(target=self._housekeeping_loop, name="housekeeping", daemon=True)
         self._housekeeping_thread.start()
         log.info("ROS-TCP endpoint listening on %s:%d", self.config.tcp_ip, port)
         return port
@@ -142,7 +142,7 @@ class Endpoint:
             sessions = list(self._clients)
         return self.bytes_in_out + sum(s.bytes_in + s.bytes_out for s in sessions)
 
-    def stats(self) -> Dict[str, int]:
+    def stats(self) -> dict[str, int]:
         with self._lock:
             sessions = list(self._clients)
         return {
@@ -168,11 +168,12 @@ class Endpoint:
                 _turn_away(sock, refusal)
                 self._turned_away.warning("turned away a client at %s:%d: %s", address[0], address[1], refusal)
                 continue
-            session: Optional[ClientSession] = None
+            session: ClientSession | None = None
             try:
                 tune_socket(sock, self.config.dead_peer_timeout_s)
-                session = ClientSession(self, self.config, sock, address, next(self._client_ids), self._auth,
-                                        self._partial_frames)
+                session = ClientSession(
+                    self, self.config, sock, address, next(self._client_ids), self._auth, self._partial_frames
+                )
                 with self._lock:
                     self._clients[session] = ClientRegistrations()
                 session.start()
@@ -183,7 +184,7 @@ class Endpoint:
                     session.close()
                 sock.close()
 
-    def _admission_refusal(self, host: str) -> Optional[str]:
+    def _admission_refusal(self, host: str) -> str | None:
         """Why a new client from `host` cannot be served now (a limit reached, and no connection there not using its
         slot: bridge.admission); None when it can, room having been made if needed."""
         now = time.monotonic()
@@ -193,8 +194,10 @@ class Endpoint:
         if len(sessions) >= self.config.max_clients:
             limit, among = f"the endpoint serves {len(sessions)} clients already, its limit (--max-clients)", sessions
         elif len(from_host) >= self.config.max_clients_per_address:
-            limit = (f"the endpoint serves {len(from_host)} clients from {host} already, its limit per address "
-                     "(--max-clients-per-address)")
+            limit = (
+                f"the endpoint serves {len(from_host)} clients from {host} already, its limit per address "
+                "(--max-clients-per-address)"
+            )
             among = from_host
         else:
             return None
@@ -203,12 +206,17 @@ class Endpoint:
         if victim is None:
             return limit
         use = uses[victim]
-        doing = (f"{use.frame_bytes} bytes of a frame in {use.frame_for_s:.1f} s" if use.frame_for_s is not None
-                 else f"no {'__auth' if not use.authenticated else 'frame'} in {use.connected_for_s:.1f} s")
-        log.warning("client %s closed to make room for a new client from %s (%s): %s", among[victim].name, host,
-                    limit, doing)
-        among[victim].close(f"closed to make room for a new client: {limit}, and this connection sent {doing}",
-                            tell_client=True)
+        doing = (
+            f"{use.frame_bytes} bytes of a frame in {use.frame_for_s:.1f} s"
+            if use.frame_for_s is not None
+            else f"no {'__auth' if not use.authenticated else 'frame'} in {use.connected_for_s:.1f} s"
+        )
+        log.warning(
+            "client %s closed to make room for a new client from %s (%s): %s", among[victim].name, host, limit, doing
+        )
+        among[victim].close(
+            f"closed to make room for a new client: {limit}, and this connection sent {doing}", tell_client=True
+        )
         return None
 
     # --- the session's owner: every client event lands here ------------------------------------------------------
@@ -222,8 +230,8 @@ class Endpoint:
             if unread > self.config.client_queue_bytes:  # answers are never dropped: stop making them
                 srv_id = event.srv_id if isinstance(event, ServiceRequest) else None
                 raise RequestRefused(
-                    f"{_ANSWERED[type(event)]}: refused, {unread} bytes of earlier answers wait unread by this "
-                    "client", srv_id,
+                    f"{_ANSWERED[type(event)]}: refused, {unread} bytes of earlier answers wait unread by this client",
+                    srv_id,
                 )
         handler(session, event)
 
@@ -241,8 +249,9 @@ class Endpoint:
             self.bytes_in_out += session.bytes_in + session.bytes_out
 
     # --- registrations: the room check the tables share, and removal ----------------------------------------
-    def _check_room(self, session: ClientSession, command: str, resolved: str, registered: bool,
-                    new_on_ros: bool) -> None:
+    def _check_room(
+        self, session: ClientSession, command: str, resolved: str, registered: bool, new_on_ros: bool
+    ) -> None:
         """Refuse a registration past the client's limit (unless it has this one already) or past the endpoint's
         (when it would make a new ROS object). Called with the lock held."""
         if not registered and self._clients[session].count() >= self.config.max_registrations_per_client:
@@ -280,7 +289,7 @@ class Endpoint:
     def _housekeeping_loop(self) -> None:
         """Once a second: unused publishers end, /diagnostics goes out, and free memory is given back when traffic
         has gone quiet (bridge.memory)."""
-        counts: Dict[str, Tuple[int, int]] = {}
+        counts: dict[str, tuple[int, int]] = {}
         trim = QuietTrim()
         while not self._stopping.wait(DIAGNOSTICS_PERIOD_S):
             try:
@@ -291,42 +300,65 @@ class Endpoint:
                 give_back_free_memory()
             try:
                 clients, topics = self._snapshot()
-                statuses, counts = report(self.ros.node_name(), self._address, time.time(), clients, topics,
-                                          counts, DIAGNOSTICS_PERIOD_S)
+                statuses, counts = report(
+                    self.ros.node_name(), self._address, time.time(), clients, topics, counts, DIAGNOSTICS_PERIOD_S
+                )
                 self.ros.publish_diagnostics(statuses)
             except Exception:  # diagnostics must never take the endpoint down
                 log.exception("publishing /diagnostics failed")
 
-    def _snapshot(self) -> Tuple[List[ClientSnapshot], List[TopicSnapshot]]:
+    def _snapshot(self) -> tuple[list[ClientSnapshot], list[TopicSnapshot]]:
         with self._lock:
             sessions = list(self._clients)
             subscribers = dict(self.topics.subscribers)
             publishers = dict(self.topics.publishers)
         clients = [
             ClientSnapshot(
-                s.name, s.connected_at, s.authenticated, s.frames_in, s.frames_out, s.bytes_in, s.bytes_out,
-                len(s.queue), s.queue.max_frames, s.queue.oldest_age(), s.dropped, s.publish_drops, s.pings,
-                s.ping_clock_offset_s, s.ping_round_trip_s,
+                s.name,
+                s.connected_at,
+                s.authenticated,
+                s.frames_in,
+                s.frames_out,
+                s.bytes_in,
+                s.bytes_out,
+                len(s.queue),
+                s.queue.max_frames,
+                s.queue.oldest_age(),
+                s.dropped,
+                s.publish_drops,
+                s.pings,
+                s.ping_clock_offset_s,
+                s.ping_round_trip_s,
             )
             for s in sessions
         ]
-        waits: Dict[str, float] = {}
+        waits: dict[str, float] = {}
         for session in sessions:
             for topic, wait in session.queue.longest_waits().items():
                 waits[topic] = max(wait, waits.get(topic, 0.0))
         topics = []
         for topic in sorted(set(subscribers) | set(publishers)):
             subscribed, published = subscribers.get(topic), publishers.get(topic)
-            message_name = subscribed.message_name if subscribed is not None else published.message_name \
-                if published is not None else ""
-            topics.append(TopicSnapshot(
-                topic, message_name,
-                len(subscribed.clients) if subscribed else 0, len(published.clients) if published else 0,
-                subscribed.delivered if subscribed else 0, published.publisher.published if published else 0,
-                subscribed.handle.get_num_connections() if subscribed else 0,
-                published.publisher.connections() if published else 0,
-                waits.get(topic),
-            ))
+            message_name = (
+                subscribed.message_name
+                if subscribed is not None
+                else published.message_name
+                if published is not None
+                else ""
+            )
+            topics.append(
+                TopicSnapshot(
+                    topic,
+                    message_name,
+                    len(subscribed.clients) if subscribed else 0,
+                    len(published.clients) if published else 0,
+                    subscribed.delivered if subscribed else 0,
+                    published.publisher.published if published else 0,
+                    subscribed.handle.get_num_connections() if subscribed else 0,
+                    published.publisher.connections() if published else 0,
+                    waits.get(topic),
+                )
+            )
         return clients, topics
 
     def _send_topic_list(self, session: ClientSession, query: TopicListQuery) -> None:
@@ -339,6 +371,7 @@ class Endpoint:
             session.send(protocol.encode(TopicList(tuple(topics), tuple(types))), droppable=False)
 
         session.run_lookup("__topic_list", look_up)
+
 
 def _turn_away(sock: socket.socket, reason: str) -> None:
     """Tell a client that cannot be served why (an __error, in place of the handshake), and close."""

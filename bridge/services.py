@@ -1,6 +1,7 @@
 """The endpoint's services, both ways: ROS services a client calls (__ros_service, __request), and services a
 client implements for ROS (__unity_service: ROS calls become __request frames, the client's __response the answer).
 """
+
 from __future__ import annotations
 
 import itertools
@@ -8,7 +9,7 @@ import logging
 import threading
 import time
 from dataclasses import dataclass, field
-from typing import Any, Dict, Optional
+from typing import Any
 
 from bridge import protocol
 from bridge.bridged import Bridged, ClientRegistrations, made_for_client
@@ -38,8 +39,8 @@ class _PendingCall:
     owner: ClientSession
     service_type: str  # 'pkg/Service', to check the client's response
     done: threading.Event = field(default_factory=threading.Event)
-    response: Optional[bytes] = None
-    failure: Optional[str] = None
+    response: bytes | None = None
+    failure: str | None = None
 
 
 class Services:
@@ -52,8 +53,8 @@ class Services:
         self._config = bridged.config
         self._lock = bridged.lock
         self._clients = bridged.clients
-        self._client_services: Dict[str, _ClientService] = {}
-        self._pending: Dict[int, _PendingCall] = {}
+        self._client_services: dict[str, _ClientService] = {}
+        self._pending: dict[int, _PendingCall] = {}
         self._srv_ids = itertools.count(1001)
 
     def count(self) -> int:
@@ -77,7 +78,8 @@ class Services:
         if proxy is None:
             raise RequestRefused(
                 f"__request {srv_id}: service {request.service!r} was not registered with __ros_service; "
-                "this call will not complete", srv_id,
+                "this call will not complete",
+                srv_id,
             )
         if self._config.validate_payloads:
             try:
@@ -85,7 +87,8 @@ class Services:
             except RosError as error:
                 raise RequestRefused(
                     f"__request {srv_id}: service {request.service}: {error}; not sent to ROS, this call will not "
-                    "complete", srv_id,
+                    "complete",
+                    srv_id,
                 ) from None
         timeout = self._config.service_timeout_s
 
@@ -107,8 +110,9 @@ class Services:
             existing = self._client_services.get(resolved)
             if existing is not None and existing.service_type == command.message_name:
                 # Re-registration (typically a reconnect): the newest client answers from now on.
-                self._bridged.room(session, "__unity_service", resolved,
-                                   resolved in self._clients[session].unity_services, False)
+                self._bridged.room(
+                    session, "__unity_service", resolved, resolved in self._clients[session].unity_services, False
+                )
                 previous = self._clients.get(existing.owner)
                 if previous is not None:
                     previous.unity_services.discard(resolved)
@@ -123,15 +127,17 @@ class Services:
                 )
             self._bridged.room(session, "__unity_service", resolved, False, True)
             handle = made_for_client(
-                lambda: self._ros.make_service(resolved, raw, lambda request: self.call_client_service(resolved,
-                                                                                                        request))
+                lambda: self._ros.make_service(
+                    resolved, raw, lambda request: self.call_client_service(resolved, request)
+                )
             )
             self._client_services[resolved] = _ClientService(command.message_name, handle, session, command.topic)
             self._clients[session].unity_services.add(resolved)
         self._ros.wait_registered("service", resolved)
 
-    def unregister_client_service(self, session: ClientSession, registrations: ClientRegistrations,
-                                  resolved: str) -> None:
+    def unregister_client_service(
+        self, session: ClientSession, registrations: ClientRegistrations, resolved: str
+    ) -> None:
         with self._lock:
             registrations.unity_services.discard(resolved)
             service = self._client_services.get(resolved)
@@ -171,7 +177,8 @@ class Services:
         if call is None or call.owner is not session:
             raise RequestRefused(
                 f"__response: unknown srv_id {srv_id} (never requested from this client, or timed out); "
-                "response discarded", srv_id,
+                "response discarded",
+                srv_id,
             )
         if self._config.validate_payloads:
             try:

@@ -6,6 +6,7 @@ a read's worth at a time; commands and service bodies to `owner.handle`. Frames 
 when its socket keeps up, otherwise through a bounded queue drained by a writer thread, so a slow reader loses its
 oldest topic frames, never the endpoint's memory.
 """
+
 from __future__ import annotations
 
 import logging
@@ -14,13 +15,13 @@ import socket
 import threading
 import time
 from concurrent.futures import Future, ThreadPoolExecutor
-from typing import Callable, List, Optional, Protocol, Set
+from typing import Callable, Protocol
 
-from bridge.errors import BridgeError
 from bridge import protocol
 from bridge.admission import SlotUse
 from bridge.auth import AuthGuard
 from bridge.config import EndpointConfig
+from bridge.errors import BridgeError
 from bridge.framing import LARGE_PAYLOAD_BYTES
 from bridge.protocol import Auth, Conversation, Event, IgnoredFields, InvalidInput, Role, TopicMessage, Warn
 from bridge.queues import ByteBudget, OutgoingQueue
@@ -41,11 +42,12 @@ ERROR_LOG_INTERVAL_S = 1.0
 PARTIAL_FRAME_FREE_BYTES = 1024 * 1024
 _AUTH_FAILURES_LOG = LogThrottle(log)  # wrong tokens may come thousands a second: logged once a second
 
+
 class RequestRefused(BridgeError):
     """A request of one client that the endpoint refuses. The text goes back to that client as __error, with the
     srv_id of the service call it concerns, if any."""
 
-    def __init__(self, text: str, srv_id: Optional[int] = None) -> None:
+    def __init__(self, text: str, srv_id: int | None = None) -> None:
         super().__init__(text)
         self.srv_id = srv_id
 
@@ -66,9 +68,16 @@ class SessionOwner(Protocol):
 class ClientSession:
     """One connected client: its conversation, its outgoing queue and writer, and the workers of its ROS calls."""
 
-    def __init__(self, owner: SessionOwner, config: EndpointConfig, sock: socket.socket, address: tuple,
-                 client_id: int, auth: Optional[AuthGuard] = None, partial_frames: Optional[ByteBudget] = None
-                 ) -> None:
+    def __init__(
+        self,
+        owner: SessionOwner,
+        config: EndpointConfig,
+        sock: socket.socket,
+        address: tuple,
+        client_id: int,
+        auth: AuthGuard | None = None,
+        partial_frames: ByteBudget | None = None,
+    ) -> None:
         self.owner = owner
         self.sock = sock
         self.name = f"#{client_id} {address[0]}:{address[1]}"
@@ -80,7 +89,7 @@ class ClientSession:
         self.authenticated = auth is None
         self._auth_deadline = time.monotonic() + config.auth_timeout_s
         self._frame_timeout_s = config.frame_timeout_s
-        self._frame_started: Optional[float] = None  # monotonic time the frame now partly received began
+        self._frame_started: float | None = None  # monotonic time the frame now partly received began
         # Partly received frames above PARTIAL_FRAME_FREE_BYTES count against the endpoint's budget for all clients
         self._partial_frames = partial_frames
         self._partial_held = 0
@@ -90,9 +99,9 @@ class ClientSession:
         self.connected_at = time.time()
         self._connected_monotonic = time.monotonic()
         self.pings = 0
-        self.ping_clock_offset_s: Optional[float] = None  # see bridge.diagnostics.ClientSnapshot
-        self.ping_round_trip_s: Optional[float] = None
-        self._end_reason: Optional[str] = None  # why the connection ended, first cause only
+        self.ping_clock_offset_s: float | None = None  # see bridge.diagnostics.ClientSnapshot
+        self.ping_round_trip_s: float | None = None
+        self._end_reason: str | None = None  # why the connection ended, first cause only
         self.publish_drops = 0  # this client's messages dropped before reaching ROS (publisher queue full)
         self._closed = threading.Event()
         # Set once the reader has ended: the client will read no more answers, so its ROS calls may give up.
@@ -106,10 +115,10 @@ class ClientSession:
         self._lookups = ThreadPoolExecutor(1, thread_name_prefix=f"look-ups {self.name}")
         self._max_pending_calls = config.client_max_pending_calls
         self._calls_lock = threading.Lock()
-        self._pending_calls: Set[Future] = set()
+        self._pending_calls: set[Future] = set()
         # Topic messages of the current read that go to one publisher, handed over together (_publish_pending)
-        self._pending_publisher: Optional[RawPublisher] = None
-        self._pending_payloads: List[bytes] = []
+        self._pending_publisher: RawPublisher | None = None
+        self._pending_payloads: list[bytes] = []
         self._reported_drops = 0
         self._reported_publish_drops = 0
         self._last_drop_warning_at = 0.0
@@ -129,8 +138,13 @@ class ClientSession:
     def slot_use(self, now: float) -> SlotUse:
         """What this connection has done with its slot so far (for bridge.admission); `now` is monotonic time."""
         frame_started = self._frame_started
-        return SlotUse(now - self._connected_monotonic, None if frame_started is None else now - frame_started,
-                       self.conversation.buffered_bytes, self.frames_in, self.authenticated)
+        return SlotUse(
+            now - self._connected_monotonic,
+            None if frame_started is None else now - frame_started,
+            self.conversation.buffered_bytes,
+            self.frames_in,
+            self.authenticated,
+        )
 
     @property
     def dropped(self) -> int:
@@ -138,14 +152,15 @@ class ClientSession:
         return self.queue.dropped
 
     def start(self) -> None:
-        log.info("client %s connected; handshake sent%s", self.name,
-                 "" if self.authenticated else ", waiting for __auth")
+        log.info(
+            "client %s connected; handshake sent%s", self.name, "" if self.authenticated else ", waiting for __auth"
+        )
         # The handshake goes out at once, before the client says anything.
         self.queue.put(protocol.handshake(), droppable=False)
         self._writer.start()
         self._reader.start()
 
-    def send(self, frame: bytes, droppable: bool = True, key: Optional[str] = None, key_limit: int = 0) -> None:
+    def send(self, frame: bytes, droppable: bool = True, key: str | None = None, key_limit: int = 0) -> None:
         """Send one frame (or a service header + body, as one item) without ever blocking the caller.
 
         Direct path: when nothing is queued, nobody is writing and the peer keeps up, write it at once with a
@@ -192,14 +207,14 @@ class ClientSession:
             return True
         return size >= LARGE_PAYLOAD_BYTES and not self._unsent_bound and takes_whole(self.sock, size)
 
-    def send_error(self, text: str, srv_id: Optional[int] = None) -> None:
+    def send_error(self, text: str, srv_id: int | None = None) -> None:
         # Errors are diagnostics (Unity only logs them): droppable, so a client that floods bad input and never
         # reads cannot grow the endpoint's memory; and logged at most once a second per client, so it cannot
         # flood the log either.
         self._error_log.warning("client %s: %s", self.name, text)
         self.send(protocol.encode(protocol.Error(text, srv_id)), droppable=True)
 
-    def run_call(self, what: str, call: Callable[[], None], srv_id: Optional[int] = None) -> None:
+    def run_call(self, what: str, call: Callable[[], None], srv_id: int | None = None) -> None:
         """Run a ROS service call on this client's own workers, so a slow ROS side holds up only this client's
         calls; RequestRefused when too many are waiting already."""
         self._submit(self._calls, what, call, srv_id)
@@ -208,12 +223,13 @@ class ClientSession:
         """Run a look-up at the ROS master (a topic list) on this client's look-up worker."""
         self._submit(self._lookups, what, look_up, None)
 
-    def _submit(self, workers: ThreadPoolExecutor, what: str, call: Callable[[], None], srv_id: Optional[int]) -> None:
+    def _submit(self, workers: ThreadPoolExecutor, what: str, call: Callable[[], None], srv_id: int | None) -> None:
         with self._calls_lock:
             if len(self._pending_calls) >= self._max_pending_calls:
                 raise RequestRefused(
                     f"{what}: refused, this client already has {len(self._pending_calls)} ROS calls in progress; "
-                    "this call will not complete", srv_id,
+                    "this call will not complete",
+                    srv_id,
                 )
             try:
                 future = workers.submit(call)
@@ -228,7 +244,7 @@ class ClientSession:
         if not future.cancelled() and future.exception() is not None:
             log.error("client %s: a ROS call failed", self.name, exc_info=future.exception())
 
-    def close(self, reason: Optional[str] = None, tell_client: bool = False) -> None:
+    def close(self, reason: str | None = None, tell_client: bool = False) -> None:
         """End the connection; with `tell_client`, the reason goes to the client first as a __warn, if its socket
         takes it at once (nothing waits for a client that does not read)."""
         if self._closed.is_set():
@@ -285,8 +301,12 @@ class ClientSession:
         if not self.authenticated:
             deadlines.append((self._auth_deadline, "no __auth within the endpoint's --auth-timeout"))
         if self._frame_started is not None:
-            deadlines.append((self._frame_started + self._frame_timeout_s,
-                              f"a frame begun was not completed within {self._frame_timeout_s:g} s (--frame-timeout)"))
+            deadlines.append(
+                (
+                    self._frame_started + self._frame_timeout_s,
+                    f"a frame begun was not completed within {self._frame_timeout_s:g} s (--frame-timeout)",
+                )
+            )
         if not deadlines:
             return True
         deadline, why = min(deadlines)
@@ -312,9 +332,11 @@ class ClientSession:
         self._partial_held = wanted if granted else 0  # refused: nothing held any more (ByteBudget)
         if granted:
             return True
-        why = (f"the endpoint holds {self._partial_frames.used} bytes of frames not yet complete from all clients, "
-               f"its limit (--max-partial-frame-bytes): the frame begun here ({buffered} bytes so far) cannot be "
-               "taken")
+        why = (
+            f"the endpoint holds {self._partial_frames.used} bytes of frames not yet complete from all clients, "
+            f"its limit (--max-partial-frame-bytes): the frame begun here ({buffered} bytes so far) cannot be "
+            "taken"
+        )
         self.send_error(f"closing the connection: {why}")
         self._ended(why)
         return False
@@ -340,14 +362,18 @@ class ClientSession:
         self.sock.close()
         log.info(
             "client %s disconnected: %s (frames in %d, out %d, dropped %d)",
-            self.name, self._end_reason or "closed by the endpoint", self.frames_in, self.frames_out, self.dropped,
+            self.name,
+            self._end_reason or "closed by the endpoint",
+            self.frames_in,
+            self.frames_out,
+            self.dropped,
         )
 
     def _ended(self, reason: str) -> None:
         if self._end_reason is None and not self._closed.is_set():
             self._end_reason = reason
 
-    def note_ping(self, round_trip: Optional[float], clock_offset: Optional[float]) -> None:
+    def note_ping(self, round_trip: float | None, clock_offset: float | None) -> None:
         """A __ping came: what it tells of the client's clock and (if it says) of its last round trip."""
         self.pings += 1
         if clock_offset is not None:
@@ -384,8 +410,9 @@ class ClientSession:
         self._publish_pending()  # messages that came before a command go to ROS before it takes effect
         if isinstance(event, InvalidInput):
             error = event.error
-            self.send_error(f"framing lost, closing the connection: {error}" if error.fatal else str(error),
-                            error.srv_id)
+            self.send_error(
+                f"framing lost, closing the connection: {error}" if error.fatal else str(error), error.srv_id
+            )
             if error.fatal:
                 self._ended(f"framing lost: {error}")
                 return False
@@ -450,7 +477,7 @@ class ClientSession:
             self._ended(f"write failed: {error}")
             self.close()
 
-    def _drop_warning(self) -> Optional[bytes]:
+    def _drop_warning(self) -> bytes | None:
         """At most once per wake-up (>= 1 s apart when idle): how many frames were lost each way."""
         dropped, publish_dropped = self.queue.dropped, self.publish_drops
         if dropped == self._reported_drops and publish_dropped == self._reported_publish_drops:

@@ -1,4 +1,5 @@
 """Socket helpers shared by the endpoint's client side (bridge.session) and ROS side (bridge.ros_publisher)."""
+
 from __future__ import annotations
 
 import fcntl
@@ -12,8 +13,19 @@ import termios
 import time
 from collections.abc import Sequence
 
-__all__ = ["unsent_bytes", "takes_whole", "send_now", "wait_writable", "tune_socket", "unpaced_on_loopback",
-           "limit_unsent", "UnsentLimit", "send_to_all", "NOTSENT_LOWAT_BYTES", "BEHIND_BYTES"]
+__all__ = [
+    "unsent_bytes",
+    "takes_whole",
+    "send_now",
+    "wait_writable",
+    "tune_socket",
+    "unpaced_on_loopback",
+    "limit_unsent",
+    "UnsentLimit",
+    "send_to_all",
+    "NOTSENT_LOWAT_BYTES",
+    "BEHIND_BYTES",
+]
 
 # What limit_unsent leaves the kernel: 1.3 ms at 100 Mbit/s.
 NOTSENT_LOWAT_BYTES = 16 * 1024
@@ -87,8 +99,12 @@ def tune_socket(sock: socket.socket, dead_peer_timeout_s: float) -> None:
     interval = max(1, int(dead_peer_timeout_s / 6))
     count = max(1, int((dead_peer_timeout_s - idle) / interval))
     sock.setsockopt(socket.SOL_SOCKET, socket.SO_KEEPALIVE, 1)
-    for option, value in (("TCP_KEEPIDLE", idle), ("TCP_KEEPINTVL", interval), ("TCP_KEEPCNT", count),
-                          ("TCP_USER_TIMEOUT", int(dead_peer_timeout_s * 1000))):
+    for option, value in (
+        ("TCP_KEEPIDLE", idle),
+        ("TCP_KEEPINTVL", interval),
+        ("TCP_KEEPCNT", count),
+        ("TCP_USER_TIMEOUT", int(dead_peer_timeout_s * 1000)),
+    ):
         if hasattr(socket, option):
             sock.setsockopt(socket.IPPROTO_TCP, getattr(socket, option), value)
 

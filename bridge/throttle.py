@@ -1,5 +1,6 @@
 """A log line for something that may recur very often (a flood of bad input, connections turned away): at most one
 per interval, saying how many were not logged in between."""
+
 from __future__ import annotations
 
 import logging

@@ -1,6 +1,7 @@
 """The endpoint's topics: one rospy subscriber per topic fanned out to every subscribed client, one publisher per
 topic fed by every publishing client, and the EchoFilter that keeps a client's own messages from coming back to it.
 """
+
 from __future__ import annotations
 
 import logging
@@ -8,7 +9,7 @@ import threading
 import time
 from collections import deque
 from dataclasses import dataclass, field
-from typing import Any, Deque, Dict, Iterable, Optional, Set, Tuple
+from typing import Any, Iterable, Tuple
 
 from bridge import protocol
 from bridge.bridged import Bridged, ClientRegistrations, made_for_client
@@ -41,7 +42,7 @@ class EchoFilter:
     __slots__ = ("records", "_lock")
 
     def __init__(self) -> None:
-        self.records: Dict[Any, Deque[bytes]] = {}
+        self.records: dict[Any, deque[bytes]] = {}
         self._lock = threading.Lock()
 
     def keep_for(self, clients: Iterable[Any]) -> None:
@@ -56,7 +57,7 @@ class EchoFilter:
             with self._lock:
                 own.append(payload)
 
-    def take(self, payload: bytes) -> Optional[Any]:
+    def take(self, payload: bytes) -> Any | None:
         """The client that published `payload`, now come back from ROS, and its record up to that message taken.
         A client's messages come back in its order, so its next one is at the front of its record; one found further
         in means those before it never came back (dropped before ROS): they go too. None when no client recorded it
@@ -80,8 +81,8 @@ class SharedSubscriber:
     message_name: str
     handle: Any
     # replaced whole, never changed in place, so rospy callbacks read it without a lock
-    clients: Tuple[_Subscription, ...] = ()
-    untyped: Optional[str] = None  # why there is no class of the type, when there is none
+    clients: tuple[_Subscription, ...] = ()
+    untyped: str | None = None  # why there is no class of the type, when there is none
     latest_only: bool = False  # a client behind gets only the newest message (EndpointConfig.latest_only)
     delivered: int = 0  # messages from ROS fanned out (for /diagnostics; rospy's threads count, roughly)
     echoes: EchoFilter = field(default_factory=EchoFilter)
@@ -91,8 +92,8 @@ class SharedSubscriber:
 class SharedPublisher:
     message_name: str
     publisher: RawPublisher
-    clients: Set[ClientSession] = field(default_factory=set)
-    unused_since: Optional[float] = None  # monotonic time its last client left (see Topics.release)
+    clients: set[ClientSession] = field(default_factory=set)
+    unused_since: float | None = None  # monotonic time its last client left (see Topics.release)
 
 
 class Topics:
@@ -108,8 +109,8 @@ class Topics:
         self._node_name = bridged.ros.node_name()
         # messages at least this large go to a client that is behind only as the newest (0 in the settings: never)
         self._latest_only_bytes = bridged.config.latest_only_bytes or float("inf")
-        self.subscribers: Dict[str, SharedSubscriber] = {}
-        self.publishers: Dict[str, SharedPublisher] = {}
+        self.subscribers: dict[str, SharedSubscriber] = {}
+        self.publishers: dict[str, SharedPublisher] = {}
 
     def count(self) -> int:
         """ROS objects the topics hold: subscribers and publishers."""
@@ -126,21 +127,28 @@ class Topics:
                     f"__subscribe: topic {resolved} is already bridged as {shared.message_name}, "
                     f"not {command.message_name}"
                 )
-            self._bridged.room(session, "__subscribe", resolved, resolved in self._clients[session].subscriptions,
-                               shared is None)
+            self._bridged.room(
+                session, "__subscribe", resolved, resolved in self._clients[session].subscriptions, shared is None
+            )
             created = shared is None
             if shared is None:
                 handle = made_for_client(
                     lambda: self._ros.make_subscriber(resolved, raw, command.message_name, self.fan_out)
                 )
-                shared = SharedSubscriber(command.message_name, handle, untyped=untyped,
-                                          latest_only=self._config.latest_only(resolved))
+                shared = SharedSubscriber(
+                    command.message_name, handle, untyped=untyped, latest_only=self._config.latest_only(resolved)
+                )
                 self.subscribers[resolved] = shared
             if shared.untyped is not None:
-                session.send(protocol.encode(Warn(
-                    f"__subscribe {resolved}: {shared.untyped}. Subscribed without it: messages are passed on when "
-                    f"their publisher says they are {command.message_name}"
-                )))
+                session.send(
+                    protocol.encode(
+                        Warn(
+                            f"__subscribe {resolved}: {shared.untyped}. Subscribed without it: messages are passed on "
+                            "when "
+                            f"their publisher says they are {command.message_name}"
+                        )
+                    )
+                )
             others = tuple(entry for entry in shared.clients if entry[0] is not session)
             shared.clients = others + ((session, command.topic, command.queue_size or 0),)
             self._clients[session].subscriptions[resolved] = command.topic
@@ -177,13 +185,18 @@ class Topics:
                 # Kept advertised after its clients left (see release), but nobody uses it: retype it.
                 self._end_publisher(resolved)
                 shared = None
-            self._bridged.room(session, "__publish", resolved, command.topic in self._clients[session].publishers,
-                               shared is None)
+            self._bridged.room(
+                session, "__publish", resolved, command.topic in self._clients[session].publishers, shared is None
+            )
             created = shared is None
             if shared is None:
                 publisher = made_for_client(
                     lambda: self._ros.make_publisher(
-                        resolved, raw, command.queue_size, command.latch, self._config.client_queue_bytes,
+                        resolved,
+                        raw,
+                        command.queue_size,
+                        command.latch,
+                        self._config.client_queue_bytes,
                     )
                 )
                 shared = SharedPublisher(command.message_name, publisher)
@@ -195,8 +208,13 @@ class Topics:
         if created:
             self._ros.wait_registered("publisher", resolved)
 
-    def unregister_publisher(self, session: ClientSession, registrations: ClientRegistrations, client_topic: str,
-                             keep_advertised: bool = False) -> None:
+    def unregister_publisher(
+        self,
+        session: ClientSession,
+        registrations: ClientRegistrations,
+        client_topic: str,
+        keep_advertised: bool = False,
+    ) -> None:
         with self._lock:
             entry = registrations.publishers.pop(client_topic, None)
             if entry is None:
@@ -217,8 +235,11 @@ class Topics:
         now = time.monotonic()
         with self._lock:
             for resolved, shared in list(self.publishers.items()):
-                if not shared.clients and shared.unused_since is not None \
-                        and now - shared.unused_since >= self._config.publisher_grace_s:
+                if (
+                    not shared.clients
+                    and shared.unused_since is not None
+                    and now - shared.unused_since >= self._config.publisher_grace_s
+                ):
                     self._end_publisher(resolved)
 
     def _end_publisher(self, resolved: str) -> None:
@@ -268,7 +289,7 @@ class Topics:
             subscribed.echoes.record(session, message.payload)
         return publisher
 
-    def fan_out(self, resolved: str, payload: bytes, header: Dict[str, str]) -> None:
+    def fan_out(self, resolved: str, payload: bytes, header: dict[str, str]) -> None:
         """rospy callback: one received message to every client subscribed to the topic, bytes untouched; a client's
         own message, come back through our publisher, skips that client (EchoFilter)."""
         shared = self.subscribers.get(resolved)
@@ -278,7 +299,7 @@ class Topics:
         sender = None
         if shared.echoes.records and header.get("callerid") == self._node_name:
             sender = shared.echoes.take(payload)
-        frames: Dict[str, bytes] = {}
+        frames: dict[str, bytes] = {}
         # A client behind on the topic gets its newest message only, not a backlog of stale ones, where the settings
         # say so (EndpointConfig.latest_only_*); its own queue_size for the topic, if it gave one, wins.
         default_limit = 1 if len(payload) >= self._latest_only_bytes or shared.latest_only else 0

@@ -6,6 +6,9 @@ repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 "$repo/launch_scripts/setup.sh"
 "$repo/launch_scripts/setup_python38.sh"
 cd "$repo"
+# Lint and format first (pyproject.toml): a finding fails the run before any test starts.
+.venv/bin/ruff check .
+.venv/bin/ruff format --check .
 # The endpoint's integration tests take minutes (the hostile-world ones most): they run once, on the oldest Python
 # the endpoint supports, below. On this interpreter the endpoint still runs under every sim integration test (engine,
 # commander, campaigns, description) and the catkin workspace tests (Debian's /usr/bin/python3).

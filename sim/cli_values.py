@@ -1,5 +1,6 @@
 """Numbers as a user types them on a command line: a float or a small arithmetic expression with pi, one or many.
 Pure logic."""
+
 from __future__ import annotations
 
 import ast

@@ -1,4 +1,5 @@
 """The commander (Simulink stand-in), by its command name: `python -m sim.commander` runs sim.control.commander."""
+
 from sim.control.commander import main
 
 __all__ = ["main"]

@@ -1,4 +1,6 @@
-"""The robot's description for RViz, by its command name: `python -m sim.description_node` runs sim.engine.description_node."""
+"""The robot's description for RViz, by its command name: `python -m sim.description_node` runs
+sim.engine.description_node."""
+
 from sim.engine.description_node import main
 
 __all__ = ["main"]

@@ -1,4 +1,5 @@
 """The physics as a rospy node, by its command name: `python -m sim.physics_node` runs sim.engine.node."""
+
 from sim.engine.node import main
 
 __all__ = ["main"]

@@ -4,6 +4,7 @@ and node subprocesses in their own process groups, always stopped by PID (SIGINT
 A `prefix` (e.g. `ip netns exec NAME`) runs a process inside a network namespace; `ip netns exec` execs the
 command, so the PID is still the process's own.
 """
+
 from __future__ import annotations
 
 import contextlib
@@ -23,8 +24,19 @@ from typing import Any, TypeVar
 from sim.errors import SimError
 
 __all__ = [
-    "REPO", "PYTHON", "ProcessError", "free_port", "wait_for", "kill_process", "ros_environment",
-    "ManagedProcess", "RosCore", "EndpointProcess", "start_recorder", "stop_recorder", "plain_env",
+    "REPO",
+    "PYTHON",
+    "ProcessError",
+    "free_port",
+    "wait_for",
+    "kill_process",
+    "ros_environment",
+    "ManagedProcess",
+    "RosCore",
+    "EndpointProcess",
+    "start_recorder",
+    "stop_recorder",
+    "plain_env",
 ]
 
 REPO = Path(__file__).resolve().parents[1]
@@ -192,11 +204,23 @@ class EndpointProcess(ManagedProcess):
     """`python -m bridge --tcp-port 0` (a free port), returned once it listens; `port` is the port it reports.
     `host`: the address it listens on (default: the endpoint's own default)."""
 
-    def __init__(self, env: dict[str, str], log_dir: Path, name: str = "endpoint", extra: Sequence[str] = (),
-                 host: str | None = None, prefix: Sequence[str] = ()) -> None:
+    def __init__(
+        self,
+        env: dict[str, str],
+        log_dir: Path,
+        name: str = "endpoint",
+        extra: Sequence[str] = (),
+        host: str | None = None,
+        prefix: Sequence[str] = (),
+    ) -> None:
         address = [] if host is None else ["--tcp-ip", host]
-        super().__init__([PYTHON, "-m", "bridge", *address, "--tcp-port", "0", "--node-name", name, *extra], env,
-                         log_dir, name, prefix)
+        super().__init__(
+            [PYTHON, "-m", "bridge", *address, "--tcp-port", "0", "--node-name", name, *extra],
+            env,
+            log_dir,
+            name,
+            prefix,
+        )
         try:
             text = self.wait_for_output("listening on", timeout=30)
         except BaseException:
@@ -206,13 +230,19 @@ class EndpointProcess(ManagedProcess):
         self.port = int(line.rsplit(":", 1)[1])
 
 
-def start_recorder(bag: Path, topics: Sequence[str], node: str, env: dict[str, str], log_dir: Path,
-                   prefix: Sequence[str] = ()) -> ManagedProcess:
+def start_recorder(
+    bag: Path, topics: Sequence[str], node: str, env: dict[str, str], log_dir: Path, prefix: Sequence[str] = ()
+) -> ManagedProcess:
     """`rosbag record` of `topics` into `bag` as node `node`. Its output is line-buffered, so "Recording to" shows
     as soon as it records: wait for that with `wait_for_output`."""
     bag.parent.mkdir(parents=True, exist_ok=True)
-    return ManagedProcess(["stdbuf", "-oL", "-eL", "rosbag", "record", "-O", str(bag), *topics, f"__name:={node}"],
-                          env, log_dir, "rosbag", prefix)
+    return ManagedProcess(
+        ["stdbuf", "-oL", "-eL", "rosbag", "record", "-O", str(bag), *topics, f"__name:={node}"],
+        env,
+        log_dir,
+        "rosbag",
+        prefix,
+    )
 
 
 def stop_recorder(recorder: ManagedProcess, bag: Path) -> None:

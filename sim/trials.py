@@ -1,4 +1,5 @@
 """The accuracy campaign, by its command name: `python -m sim.trials` runs sim.campaign.trials."""
+
 from sim.campaign.trials import main
 
 __all__ = ["main"]

@@ -1,6 +1,7 @@
 """Abuse for the endpoint, shared by the chaos tests (short, bounded) and bench/chaos_bench.py (minutes long):
 connections reset mid-way, mutated streams of valid frames, and the figures of a process (threads, descriptors,
 memory) to hold the endpoint to. Every loop here is bounded by a count or a deadline."""
+
 from __future__ import annotations
 
 import json
@@ -39,13 +40,15 @@ def figures(pid: int) -> ProcessFigures:
 
 def _valid_command(rng: random.Random) -> bytes:
     topic = f"/chaos_{rng.randrange(50)}"
-    return rng.choice((
-        protocol.encode_syscommand("__subscribe", {"topic": topic, "message_name": "std_msgs/String"}),
-        protocol.encode_syscommand("__publish", {"topic": topic, "message_name": "std_msgs/String"}),
-        protocol.encode_syscommand("__topic_list", {}),
-        protocol.encode_syscommand("__ping", {"request_time": "2026-11-23T00:00:00+00:00"}),
-        protocol.KEEPALIVE_FRAME,
-    ))
+    return rng.choice(
+        (
+            protocol.encode_syscommand("__subscribe", {"topic": topic, "message_name": "std_msgs/String"}),
+            protocol.encode_syscommand("__publish", {"topic": topic, "message_name": "std_msgs/String"}),
+            protocol.encode_syscommand("__topic_list", {}),
+            protocol.encode_syscommand("__ping", {"request_time": "2026-11-23T00:00:00+00:00"}),
+            protocol.KEEPALIVE_FRAME,
+        )
+    )
 
 
 def reset_connection(port: int, rng: random.Random) -> None:
@@ -93,8 +96,8 @@ def _valid_stream(rng: random.Random) -> bytes:
         *[protocol.encode_frame(topic, message) for _ in range(rng.randrange(1, 20))],
         protocol.encode_syscommand("__topic_list", {}),
         protocol.encode_syscommand("__ros_service", {"topic": "/chaos_srv", "message_name": "std_srvs/Trigger"}),
-        protocol.encode_syscommand("__request", {"srv_id": rng.randrange(1 << 16)}) + protocol.encode_frame(
-            "/chaos_srv", b""),
+        protocol.encode_syscommand("__request", {"srv_id": rng.randrange(1 << 16)})
+        + protocol.encode_frame("/chaos_srv", b""),
         protocol.encode_syscommand("__ping", {"request_time": "t"}),
         protocol.KEEPALIVE_FRAME,
         protocol.encode_syscommand("__remove_publisher", {"topic": topic}),

@@ -1,4 +1,5 @@
 """Session fixtures: one real roscore per test session and the pytest process as one rospy test node."""
+
 from __future__ import annotations
 
 import os

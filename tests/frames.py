@@ -1,9 +1,9 @@
 """Frames as tests read them: the decoder's raw frames with their destinations decoded (the endpoint itself never
 needs more than bridge.framing.FrameDecoder.feed_raw)."""
+
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import List, Union
 
 from bridge.framing import FrameDecoder, decode_destination, not_utf8
 
@@ -31,12 +31,12 @@ class BadFrame:
     reason: str
 
 
-def feed(decoder: FrameDecoder, data: bytes) -> List[Union[Frame, BadFrame]]:
+def feed(decoder: FrameDecoder, data: bytes) -> list[Frame | BadFrame]:
     """The complete frames `data` finishes, destinations decoded; raises the FramingError that ended the stream."""
     frames, failure = decoder.feed_raw(data)
     if failure is not None:
         raise failure
-    decoded: List[Union[Frame, BadFrame]] = []
+    decoded: list[Frame | BadFrame] = []
     for raw_destination, payload in frames:
         try:
             decoded.append(Frame(decode_destination(raw_destination), payload))

@@ -1,5 +1,6 @@
 """The robots that are not ours, which the tests run everything on: two third-party arms from pybullet_data and
 one URDF written for the tests (a prismatic lift, fixed joints, a two-finger gripper and an inertia-less link)."""
+
 from __future__ import annotations
 
 from pathlib import Path

@@ -10,13 +10,13 @@ sender's own send buffer, as behind a real bottleneck), stamps them, and a write
 `delay_s` later. The link itself holds at most `buffer_bytes` not yet sent on (its queue: T_buf = buffer_bytes /
 rate) plus what is in flight (rate x delay). Every thread ends when either side closes, or when the link is stopped.
 """
+
 from __future__ import annotations
 
 import socket
 import threading
 import time
 from collections import deque
-from typing import Deque, List, Optional, Tuple
 
 __all__ = ["SlowLink"]
 
@@ -48,17 +48,20 @@ class TokenBucket:
 class _Pipe:
     """One direction of one relayed connection."""
 
-    def __init__(self, source: socket.socket, target: socket.socket, rate_Bps: float, delay_s: float,
-                 stopped: threading.Event) -> None:
+    def __init__(
+        self, source: socket.socket, target: socket.socket, rate_Bps: float, delay_s: float, stopped: threading.Event
+    ) -> None:
         self.source, self.target = source, target
         self.delay_s = delay_s
         self.bucket = TokenBucket(rate_Bps, CHUNK_BYTES, time.monotonic())
         self.stopped = stopped
-        self.in_flight: Deque[Tuple[float, bytes]] = deque()
+        self.in_flight: deque[tuple[float, bytes]] = deque()
         self.ready = threading.Condition()
         self.ended = False
-        self.threads = [threading.Thread(target=self._read, daemon=True),
-                        threading.Thread(target=self._write, daemon=True)]
+        self.threads = [
+            threading.Thread(target=self._read, daemon=True),
+            threading.Thread(target=self._write, daemon=True),
+        ]
 
     def start(self) -> None:
         for thread in self.threads:
@@ -112,8 +115,14 @@ class _Pipe:
 class SlowLink:
     """Listens on a free loopback port; every connection made to it is relayed to `server` through the link."""
 
-    def __init__(self, server: Tuple[str, int], rate_bps: float = 100e6, delay_s: float = 0.008,
-                 buffer_bytes: int = 64 * 1024, max_seconds: float = 600.0) -> None:
+    def __init__(
+        self,
+        server: tuple[str, int],
+        rate_bps: float = 100e6,
+        delay_s: float = 0.008,
+        buffer_bytes: int = 64 * 1024,
+        max_seconds: float = 600.0,
+    ) -> None:
         self.server = server
         self.rate_Bps = rate_bps / 8.0
         self.delay_s = delay_s
@@ -124,8 +133,8 @@ class SlowLink:
         self._listener.bind(("127.0.0.1", 0))
         self._listener.listen(64)
         self.port: int = self._listener.getsockname()[1]
-        self._sockets: List[socket.socket] = []
-        self._accepting: Optional[threading.Thread] = None
+        self._sockets: list[socket.socket] = []
+        self._accepting: threading.Thread | None = None
 
     @property
     def buffer_time_s(self) -> float:

@@ -6,6 +6,7 @@ end of the physics step). Both are in the controller's time base, so achieved sa
 desired trajectory interpolated at their stamps. Lost messages are counted from gaps in header.seq, which rospy
 numbers per publisher and the endpoint passes through unchanged.
 """
+
 from __future__ import annotations
 
 import csv
@@ -18,16 +19,29 @@ from typing import Any
 
 import numpy as np
 
+from sim.control.metrics import TrackingMetrics, mean_and_std, per_joint_metrics, resample
 from sim.errors import SimError
+from sim.robots import RobotSpec
 from sim.wire import rosmsgs
 from sim.wire.joint_csv import read_joint_csv
-from sim.control.metrics import TrackingMetrics, mean_and_std, per_joint_metrics, resample
-from sim.robots import RobotSpec
 
 __all__ = [
-    "STATE_LEAD_TOLERANCE_S", "MOVING_JOINT_RANGE", "AnalysisError", "TrialSeries", "TrialResult", "read_bag",
-    "read_csv_pair", "scenario_start", "without_approach", "align", "trial_metrics", "summary_rows",
-    "markdown_table", "write_report", "write_plots", "plot_ee_paths",
+    "STATE_LEAD_TOLERANCE_S",
+    "MOVING_JOINT_RANGE",
+    "AnalysisError",
+    "TrialSeries",
+    "TrialResult",
+    "read_bag",
+    "read_csv_pair",
+    "scenario_start",
+    "without_approach",
+    "align",
+    "trial_metrics",
+    "summary_rows",
+    "markdown_table",
+    "write_report",
+    "write_plots",
+    "plot_ee_paths",
 ]
 
 log = logging.getLogger(__name__)
@@ -139,8 +153,13 @@ def scenario_start(commander_log: Path) -> float:
 def without_approach(series: TrialSeries, start_s: float) -> TrialSeries:
     """`series` from the scenario's first sample on (see `scenario_start`); message counts are kept."""
     desired, achieved = series.desired_t >= start_s - 1e-9, series.achieved_t >= start_s - 1e-9
-    return replace(series, desired_t=series.desired_t[desired], desired_q=series.desired_q[desired],
-                   achieved_t=series.achieved_t[achieved], achieved_q=series.achieved_q[achieved])
+    return replace(
+        series,
+        desired_t=series.desired_t[desired],
+        desired_q=series.desired_q[desired],
+        achieved_t=series.achieved_t[achieved],
+        achieved_q=series.achieved_q[achieved],
+    )
 
 
 def _header_seq(raw: bytes) -> int:
@@ -156,9 +175,18 @@ def read_csv_pair(desired_csv: Path, achieved_csv: Path, robot: RobotSpec) -> Tr
     desired[:, [robot.joint_names.index(n) for n in d_names]] = d_q
     achieved = np.tile(robot.home, (a_t.size, 1))
     achieved[:, [robot.joint_names.index(n) for n in a_names]] = a_q
-    return TrialSeries(robot.name, robot.joint_names, d_t, desired, a_t, achieved,
-                       commanded=d_t.size, recorded_commands=d_t.size,
-                       states_published=a_t.size, recorded_states=a_t.size)
+    return TrialSeries(
+        robot.name,
+        robot.joint_names,
+        d_t,
+        desired,
+        a_t,
+        achieved,
+        commanded=d_t.size,
+        recorded_commands=d_t.size,
+        states_published=a_t.size,
+        recorded_states=a_t.size,
+    )
 
 
 # --- metrics ---------------------------------------------------------------------------------------------------
@@ -237,9 +265,15 @@ def write_report(results: Sequence[TrialResult], out_dir: Path, title: str = "Tr
     """report.md with the summary table and links to the plots (written beside it)."""
     out_dir.mkdir(parents=True, exist_ok=True)
     plots = write_plots(results, out_dir)
-    lines = [f"# {title}", "", "Mean ± std over trials, per moving joint. MAPE leaves out samples with "
-             "|desired| ≤ 1e-3 (rad or m); lag is the cross-correlation delay of achieved behind desired.", "",
-             markdown_table(summary_rows(results)), ""]
+    lines = [
+        f"# {title}",
+        "",
+        "Mean ± std over trials, per moving joint. MAPE leaves out samples with "
+        "|desired| ≤ 1e-3 (rad or m); lag is the cross-correlation delay of achieved behind desired.",
+        "",
+        markdown_table(summary_rows(results)),
+        "",
+    ]
     for plot in plots:
         lines.append(f"![{plot.stem}]({plot.name})")
     report = out_dir / "report.md"

@@ -8,6 +8,7 @@ Starts its own roscore (free port, own ROS_HOME/ROS_LOG_DIR), then for the Panda
 then analyses both bags (rosbags), prints the metrics table, writes the report and plots, and stops everything
 it started (by PID), whatever happens.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -17,10 +18,10 @@ import time
 from pathlib import Path
 
 from sim.campaign import analysis
+from sim.campaign.trials import USE_CASES, Campaign, TrialError, UseCase
+from sim.control.scenarios import ScenarioError, build_motion
 from sim.processes import ProcessError
 from sim.robots import RobotError, add_robot_arguments, robot_from_args
-from sim.control.scenarios import ScenarioError, build_motion
-from sim.campaign.trials import USE_CASES, Campaign, TrialError, UseCase
 
 __all__ = ["main"]
 

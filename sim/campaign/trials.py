@@ -15,6 +15,7 @@ Use cases (names as in the thesis):
   auto_simulate_off_no_physics  as auto_simulate_off, no_physics
 Wall-clock use cases run at `--time-scale` (default 5: the 40 s path in 8 s), commander and engine alike.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -28,18 +29,41 @@ from contextlib import ExitStack, contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
-from sim.errors import SimError
 from sim.campaign import analysis
-from sim.engine.physics import Mode
-from sim.processes import PYTHON, EndpointProcess, ManagedProcess, ProcessError, RosCore, plain_env, start_recorder, stop_recorder
-from sim.robots import ROBOT_NAMES, RobotError, RobotSpec, load_robot
 from sim.control.scenarios import ScenarioConfig, ScenarioError, build_motion
+from sim.engine.physics import Mode
+from sim.errors import SimError
+from sim.processes import (
+    PYTHON,
+    EndpointProcess,
+    ManagedProcess,
+    ProcessError,
+    RosCore,
+    plain_env,
+    start_recorder,
+    stop_recorder,
+)
+from sim.robots import ROBOT_NAMES, RobotError, RobotSpec, load_robot
 from sim.wire.contract import STEP_S
 
 __all__ = [
-    "TCP", "CSV", "NETNS", "UseCase", "USE_CASES", "USE_CASE_NAMES", "TrialError", "TrialSkipped",
-    "NETNS_HOSTS", "Namespaces", "network_hosts", "Placement", "TrialPaths", "Campaign", "load_robots",
-    "run_campaign", "main",
+    "TCP",
+    "CSV",
+    "NETNS",
+    "UseCase",
+    "USE_CASES",
+    "USE_CASE_NAMES",
+    "TrialError",
+    "TrialSkipped",
+    "NETNS_HOSTS",
+    "Namespaces",
+    "network_hosts",
+    "Placement",
+    "TrialPaths",
+    "Campaign",
+    "load_robots",
+    "run_campaign",
+    "main",
 ]
 
 log = logging.getLogger(__name__)
@@ -81,8 +105,12 @@ class TrialSkipped(SimError):
 
 # --- network hosts ---------------------------------------------------------------------------------------------
 # 198.18.0.0/15 is reserved for network test beds (RFC 2544): nothing outside these namespaces uses it.
-NETNS_HOSTS = {"ros": "198.18.71.1", "bridge": "198.18.71.2", "bridge_engine_side": "198.18.72.1",
-               "engine": "198.18.72.2"}
+NETNS_HOSTS = {
+    "ros": "198.18.71.1",
+    "bridge": "198.18.71.2",
+    "bridge_engine_side": "198.18.72.1",
+    "engine": "198.18.72.2",
+}
 
 
 @dataclass(frozen=True)
@@ -115,8 +143,14 @@ def network_hosts(tag: str) -> Iterator[Namespaces]:
             _ip("-n", namespace, "link", "set", "lo", "up")
         links = (
             (spaces.ros, f"vr{tag}r0", NETNS_HOSTS["ros"], spaces.bridge, f"vr{tag}b0", NETNS_HOSTS["bridge"]),
-            (spaces.bridge, f"vr{tag}b1", NETNS_HOSTS["bridge_engine_side"], spaces.engine, f"vr{tag}e0",
-             NETNS_HOSTS["engine"]),
+            (
+                spaces.bridge,
+                f"vr{tag}b1",
+                NETNS_HOSTS["bridge_engine_side"],
+                spaces.engine,
+                f"vr{tag}e0",
+                NETNS_HOSTS["engine"],
+            ),
         )
         for ns_a, dev_a, addr_a, ns_b, dev_b, addr_b in links:
             _ip("link", "add", dev_a, "netns", ns_a, "type", "veth", "peer", "name", dev_b, "netns", ns_b)
@@ -163,7 +197,11 @@ class Campaign:
         self._roscore: RosCore | None = None
 
     def paths(self, robot: RobotSpec, case: UseCase, trial: int, scenario: str = "trial") -> TrialPaths:
-        stem = f"{robot.name}_{case.name}_{trial}" if scenario == "trial" else f"{robot.name}_{case.name}_{scenario}_{trial}"
+        stem = (
+            f"{robot.name}_{case.name}_{trial}"
+            if scenario == "trial"
+            else f"{robot.name}_{case.name}_{scenario}_{trial}"
+        )
         return TrialPaths(
             bag=self.out_dir / "bags" / f"{stem}.bag",
             commander_log=self.out_dir / "commander" / f"{stem}.csv",
@@ -207,8 +245,9 @@ class Campaign:
                 )
                 self._run_ros(robot, case, paths, placement, scenario)
             series = self._scenario_part(paths, robot)
-        return analysis.TrialResult(robot.name, case.name, trial, analysis.trial_metrics(series, STEP_S),
-                                    series.lost_messages, series)
+        return analysis.TrialResult(
+            robot.name, case.name, trial, analysis.trial_metrics(series, STEP_S), series.lost_messages, series
+        )
 
     @staticmethod
     def _scenario_part(paths: TrialPaths, robot: RobotSpec) -> analysis.TrialSeries:
@@ -220,12 +259,43 @@ class Campaign:
     def _run_csv(self, robot: RobotSpec, case: UseCase, paths: TrialPaths) -> analysis.TrialSeries:
         logs = paths.process_logs
         commander = ManagedProcess(
-            [PYTHON, "-m", "sim.commander", *robot.cli_args, "--scenario", "trial", "--dt", str(STEP_S),
-             "--export-csv", str(paths.desired_csv), "--export-only"], plain_env(), logs, "commander")
+            [
+                PYTHON,
+                "-m",
+                "sim.commander",
+                *robot.cli_args,
+                "--scenario",
+                "trial",
+                "--dt",
+                str(STEP_S),
+                "--export-csv",
+                str(paths.desired_csv),
+                "--export-only",
+            ],
+            plain_env(),
+            logs,
+            "commander",
+        )
         _expect_success(commander, self.timeout_s)
         engine = ManagedProcess(
-            [PYTHON, "-m", "sim.engine", *robot.cli_args, "--mode", case.mode.value, "--dt", str(STEP_S),
-             "--csv", str(paths.desired_csv), "--log", str(paths.achieved_csv)], plain_env(), logs, "engine")
+            [
+                PYTHON,
+                "-m",
+                "sim.engine",
+                *robot.cli_args,
+                "--mode",
+                case.mode.value,
+                "--dt",
+                str(STEP_S),
+                "--csv",
+                str(paths.desired_csv),
+                "--log",
+                str(paths.achieved_csv),
+            ],
+            plain_env(),
+            logs,
+            "engine",
+        )
         _expect_success(engine, self.timeout_s)
         return analysis.read_csv_pair(paths.desired_csv, paths.achieved_csv, robot)
 
@@ -238,8 +308,20 @@ class Campaign:
             endpoint = EndpointProcess(where.bridge_env, logs, host=where.endpoint_host, prefix=where.bridge_prefix)
             running.callback(endpoint.stop)
             port = endpoint.port
-            engine_args = [PYTHON, "-m", "sim.engine", *robot.cli_args, "--host", where.endpoint_host,
-                           "--port", str(port), "--mode", case.mode.value, "--dt", str(STEP_S)]
+            engine_args = [
+                PYTHON,
+                "-m",
+                "sim.engine",
+                *robot.cli_args,
+                "--host",
+                where.endpoint_host,
+                "--port",
+                str(port),
+                "--mode",
+                case.mode.value,
+                "--dt",
+                str(STEP_S),
+            ]
             engine_args += ["--time-scale", str(self.time_scale)] if case.auto_simulate else ["--no-auto-simulate"]
             engine = ManagedProcess(engine_args, plain_env(), logs, "engine", where.engine_prefix)
             running.callback(engine.stop)
@@ -247,9 +329,22 @@ class Campaign:
             running.callback(lambda: stop_recorder(recorder, paths.bag))
             engine.wait_for_output("connected to", timeout=60)
             recorder.wait_for_output("Recording to", timeout=30)
-            commander_args = [PYTHON, "-m", "sim.commander", *robot.cli_args, "--scenario", *scenario,
-                              "--dt", str(STEP_S), "--log", str(paths.commander_log), "--wait-for", "trial_recorder",
-                              "--timeout", "30"]
+            commander_args = [
+                PYTHON,
+                "-m",
+                "sim.commander",
+                *robot.cli_args,
+                "--scenario",
+                *scenario,
+                "--dt",
+                str(STEP_S),
+                "--log",
+                str(paths.commander_log),
+                "--wait-for",
+                "trial_recorder",
+                "--timeout",
+                "30",
+            ]
             if case.auto_simulate:
                 commander_args += ["--realtime", "--time-scale", str(self.time_scale)]
             commander = ManagedProcess(commander_args, where.ros_env, logs, "commander", where.ros_prefix)
@@ -274,7 +369,9 @@ def load_robots(references: Sequence[str]) -> list[RobotSpec]:
     names = [spec.name for spec in specs]
     twice = sorted({name for name in names if names.count(name) > 1})
     if twice:
-        raise RobotError(f"two robots are named {', '.join(twice)}; give one another name in a robot YAML beside its URDF")
+        raise RobotError(
+            f"two robots are named {', '.join(twice)}; give one another name in a robot YAML beside its URDF"
+        )
     return specs
 
 
@@ -303,8 +400,13 @@ def run_campaign(
 
 def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="python -m sim.trials", description=__doc__.splitlines()[0])
-    parser.add_argument("--robots", nargs="+", default=list(ROBOT_NAMES), metavar="ROBOT",
-                        help=f"names ({', '.join(ROBOT_NAMES)}) or URDF / robot YAML paths (default: all names)")
+    parser.add_argument(
+        "--robots",
+        nargs="+",
+        default=list(ROBOT_NAMES),
+        metavar="ROBOT",
+        help=f"names ({', '.join(ROBOT_NAMES)}) or URDF / robot YAML paths (default: all names)",
+    )
     parser.add_argument("--use-cases", nargs="+", default=list(USE_CASE_NAMES), choices=USE_CASE_NAMES)
     parser.add_argument("--trials", type=int, default=5)
     parser.add_argument("--out", type=Path, default=Path("results"))
@@ -328,8 +430,9 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     started = time.monotonic()
     try:
-        results, skipped = run_campaign(robots, args.use_cases, args.trials, args.out, args.time_scale,
-                                        progress=not args.no_progress)
+        results, skipped = run_campaign(
+            robots, args.use_cases, args.trials, args.out, args.time_scale, progress=not args.no_progress
+        )
     except (TrialError, ProcessError, TimeoutError, analysis.AnalysisError) as error:
         print(f"sim.trials: error: {error}", file=sys.stderr)
         return 1

@@ -26,13 +26,15 @@ of the metrics. Without the approach the scenario starts at t = 0 at once, as in
 Output: a CSV log (time, scenario_time, phase, desired_<j>, achieved_<j>, achieved_stamp and, for IK scenarios,
 the reference pose ref_* at the achieved state's stamp, FK of the achieved joints ee_* and their errors
 ee_pos_err, ee_rot_err), its path, and a
-summary (per-joint MAPE/WAPE/NRMSE/max |error|/lag via sim.control.metrics; for IK scenarios the goal errors; for fk_confirm
+summary (per-joint MAPE/WAPE/NRMSE/max |error|/lag via sim.control.metrics; for IK scenarios the goal errors; for
+fk_confirm
 the end-effector error over time). `--export-csv PATH` writes the desired joints as the engine's CSV (`python -m
 sim.engine --csv PATH`); with `--export-only` nothing touches ROS.
 
 Exit codes: 0 done, 2 bad input, 3 unreachable IK goal (the residual is printed), 4 ROS failure (no partner,
 a joint state that does not come), 130 interrupted.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -48,8 +50,6 @@ import numpy as np
 
 from sim.cli_values import CliValueError, parse_numbers
 from sim.control.driver import DriverError, ReceivedJointState, RobotDriver
-from sim.geometry.frames import matrix_to_quat
-from sim.robots import RobotError, RobotSpec, add_robot_arguments, robot_from_args
 from sim.control.run_log import RunResult, write_log
 from sim.control.run_summary import format_fk_confirm, format_summary
 from sim.control.scenarios import (
@@ -60,20 +60,30 @@ from sim.control.scenarios import (
     SCENARIOS,
     SPACES,
     Motion,
-    Schedule,
     ScenarioConfig,
     ScenarioError,
+    Schedule,
     UnreachableGoalError,
     build_motion,
     build_schedule,
     write_engine_csv,
 )
+from sim.geometry.frames import matrix_to_quat
 from sim.geometry.trajectory import ORDERS
+from sim.robots import RobotError, RobotSpec, add_robot_arguments, robot_from_args
 from sim.wire.contract import STEP_S, PoseConvention, add_pose_convention_argument
 
 __all__ = [
-    "REPO", "DEFAULT_LOG_DIR", "EXIT_OK", "EXIT_USAGE", "EXIT_UNREACHABLE", "EXIT_ROS", "EXIT_INTERRUPTED",
-    "config_from_args", "Commander", "main",
+    "REPO",
+    "DEFAULT_LOG_DIR",
+    "EXIT_OK",
+    "EXIT_USAGE",
+    "EXIT_UNREACHABLE",
+    "EXIT_ROS",
+    "EXIT_INTERRUPTED",
+    "config_from_args",
+    "Commander",
+    "main",
 ]
 
 REPO = Path(__file__).resolve().parents[2]
@@ -95,36 +105,77 @@ def _parser() -> argparse.ArgumentParser:
     group.add_argument("--positions", nargs="+", metavar="Q", help="single: joint positions (default: home)")
     group.add_argument("--joint", help="one_joint: joint name or 1-based number (default: the first)")
     group.add_argument("--waypoints", nargs="+", metavar="Q", help="one_joint: waypoints of that joint (rad or m)")
-    group.add_argument("--times", nargs="+", metavar="T", help="one_joint: waypoint times in s (default: every 2 s from 0)")
+    group.add_argument(
+        "--times", nargs="+", metavar="T", help="one_joint: waypoint times in s (default: every 2 s from 0)"
+    )
     group.add_argument("--order", default="quintic", help=f"polynomial order: {' | '.join(ORDERS)} (default quintic)")
-    group.add_argument("--start", nargs="+", metavar="X", help="IK: start position in m (default: the home end-effector position)")
-    group.add_argument("--goal", nargs="+", metavar="X", help="IK: goal position in m (x y where z is not controlled, e.g. igt)")
-    group.add_argument("--goal-rpy", nargs="+", metavar="A", help="IK: goal XYZ Euler angles in rad (IK on every axis the robot controls)")
-    group.add_argument("--weights", nargs="+", metavar="W",
-                       help="IK: weights of x, y, z, roll, pitch, yaw (default: the axes the robot controls)")
-    group.add_argument("--move-time", type=float, default=IK_MOVE_TIME_S, help=f"IK: motion time in s (default {IK_MOVE_TIME_S:g})")
-    group.add_argument("--hold", type=float, default=IK_HOLD_S, help=f"IK: hold at the goal in s (default {IK_HOLD_S:g})")
+    group.add_argument(
+        "--start", nargs="+", metavar="X", help="IK: start position in m (default: the home end-effector position)"
+    )
+    group.add_argument(
+        "--goal", nargs="+", metavar="X", help="IK: goal position in m (x y where z is not controlled, e.g. igt)"
+    )
+    group.add_argument(
+        "--goal-rpy",
+        nargs="+",
+        metavar="A",
+        help="IK: goal XYZ Euler angles in rad (IK on every axis the robot controls)",
+    )
+    group.add_argument(
+        "--weights",
+        nargs="+",
+        metavar="W",
+        help="IK: weights of x, y, z, roll, pitch, yaw (default: the axes the robot controls)",
+    )
+    group.add_argument(
+        "--move-time", type=float, default=IK_MOVE_TIME_S, help=f"IK: motion time in s (default {IK_MOVE_TIME_S:g})"
+    )
+    group.add_argument(
+        "--hold", type=float, default=IK_HOLD_S, help=f"IK: hold at the goal in s (default {IK_HOLD_S:g})"
+    )
     group.add_argument("--space", help=f"ik_orientation / fk_confirm: {' | '.join(SPACES)}")
-    group.add_argument("--nearest", action="store_true", help="IK: command the nearest pose found if the goal is unreachable")
-    group.add_argument("--ik-restarts", type=int, default=IK_RESTARTS, help=f"IK random restarts (default {IK_RESTARTS})")
+    group.add_argument(
+        "--nearest", action="store_true", help="IK: command the nearest pose found if the goal is unreachable"
+    )
+    group.add_argument(
+        "--ik-restarts", type=int, default=IK_RESTARTS, help=f"IK random restarts (default {IK_RESTARTS})"
+    )
     group.add_argument("--duration", type=float, help="scenario length in s (cuts the motion or holds its end)")
     run = parser.add_argument_group("run options")
     run.add_argument("--dt", type=float, default=STEP_S, help=f"controller step in s (default {STEP_S})")
     run.add_argument("--realtime", action="store_true", help="pace by the wall clock instead of lockstep")
-    run.add_argument("--time-scale", type=float, default=1.0,
-                     help="realtime: sim seconds per wall second (default 1; the engine needs the same)")
-    run.add_argument("--timeout", type=float, default=5.0, help="lockstep: max wait for each joint state in s (default 5)")
-    run.add_argument("--connect-timeout", type=float, default=30.0, help="max wait for the engine at start in s (default 30)")
-    run.add_argument("--approach", type=float, default=APPROACH_MIN_S,
-                     help=f"min approach time in s from the robot's state to the scenario start; 0 = off (default {APPROACH_MIN_S:g})")
+    run.add_argument(
+        "--time-scale",
+        type=float,
+        default=1.0,
+        help="realtime: sim seconds per wall second (default 1; the engine needs the same)",
+    )
+    run.add_argument(
+        "--timeout", type=float, default=5.0, help="lockstep: max wait for each joint state in s (default 5)"
+    )
+    run.add_argument(
+        "--connect-timeout", type=float, default=30.0, help="max wait for the engine at start in s (default 30)"
+    )
+    run.add_argument(
+        "--approach",
+        type=float,
+        default=APPROACH_MIN_S,
+        help=f"min approach time in s from the robot's state to the scenario start; 0 = off "
+        f"(default {APPROACH_MIN_S:g})",
+    )
     add_pose_convention_argument(parser, accept_old_flag=True)
     run.add_argument("--log", type=Path, help=f"CSV log path (default {DEFAULT_LOG_DIR}/<robot>_<scenario>_<time>.csv)")
     run.add_argument("--export-csv", type=Path, help="write the desired joint trajectory as the engine's CSV")
     run.add_argument("--export-only", action="store_true", help="with --export-csv: only export, no ROS")
     run.add_argument("--node-name", help="ROS node name (default <robot>_commander)")
-    run.add_argument("--wait-for", action="append", default=[], metavar="NODE",
-                     help="also wait until NODE (e.g. a rosbag recorder) is connected to every topic of ours it "
-                     "subscribes, so it misses nothing (repeatable)")
+    run.add_argument(
+        "--wait-for",
+        action="append",
+        default=[],
+        metavar="NODE",
+        help="also wait until NODE (e.g. a rosbag recorder) is connected to every topic of ours it "
+        "subscribes, so it misses nothing (repeatable)",
+    )
     return parser
 
 
@@ -221,8 +272,17 @@ class Commander(RobotDriver):
                 break
             achieved[i - 1], stamps[i - 1] = state.positions, state.stamp
             done = i
-        result = RunResult(times, np.arange(1, steps + 1), schedule.positions[1:], achieved, stamps,
-                           time.monotonic() - started, priming, done == steps, failure)
+        result = RunResult(
+            times,
+            np.arange(1, steps + 1),
+            schedule.positions[1:],
+            achieved,
+            stamps,
+            time.monotonic() - started,
+            priming,
+            done == steps,
+            failure,
+        )
         return schedule, result
 
     def _run_realtime(self) -> tuple[Schedule, RunResult]:
@@ -256,8 +316,16 @@ class Commander(RobotDriver):
         if done == steps and not self.stop.is_set():
             self.stop.wait(max(0.0, started + steps * wall_dt - time.monotonic()))
             self.publish_clock(steps * dt)
-        result = RunResult(times, np.arange(1, steps + 1), schedule.positions[1:], achieved, stamps,
-                           time.monotonic() - started, 0, done == steps)
+        result = RunResult(
+            times,
+            np.arange(1, steps + 1),
+            schedule.positions[1:],
+            achieved,
+            stamps,
+            time.monotonic() - started,
+            0,
+            done == steps,
+        )
         return schedule, result
 
 
@@ -310,8 +378,14 @@ def _run_node(robot: RobotSpec, motion: Motion, args: argparse.Namespace) -> int
     code = EXIT_OK
     try:
         partner = commander.wait_for_partner(args.connect_timeout, args.wait_for)
-        rospy.loginfo("engine %s connected; running %s for %s (%d steps of %g s)", partner, motion.scenario,
-                      robot.name, motion.steps, motion.dt)
+        rospy.loginfo(
+            "engine %s connected; running %s for %s (%d steps of %g s)",
+            partner,
+            motion.scenario,
+            robot.name,
+            motion.steps,
+            motion.dt,
+        )
         schedule, result = commander.run()
     except DriverError as error:
         rospy.logerr("%s", error)

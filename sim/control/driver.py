@@ -6,6 +6,7 @@ In lockstep the engine steps once per /clock value and answers with a joint stat
 `state_or_fail` waits for. `wait_for_partner` finds the engine (a node publishing the joint states and subscribing
 the command) and waits until every link to it, and to nodes such as a rosbag recorder, is connected.
 """
+
 from __future__ import annotations
 
 import threading
@@ -20,6 +21,7 @@ from sim.robots import RobotSpec
 from sim.wire.contract import STAMP_TOLERANCE_S, MessageError, positions_by_name
 
 __all__ = ["DriverError", "ReceivedJointState", "StateListener", "RobotDriver"]
+
 
 class DriverError(SimError, RuntimeError):
     """A ROS-side failure: no partner, a joint state that does not arrive, a malformed joint state."""
@@ -93,12 +95,15 @@ class RobotDriver:
         self._last_clock = -float("inf")
         self.command_pub = rospy.Publisher(robot.command_topic, JointTrajectory, queue_size=100)
         self.clock_pub = rospy.Publisher("/clock", Clock, queue_size=100)
-        self.state_sub = rospy.Subscriber(robot.joint_states_topic, JointState, self.states.callback,
-                                          tcp_nodelay=True, queue_size=100)
+        self.state_sub = rospy.Subscriber(
+            robot.joint_states_topic, JointState, self.states.callback, tcp_nodelay=True, queue_size=100
+        )
         # Further publishers whose links to the partner (where it subscribes) and to --wait-for nodes must be up
         # before the run starts, e.g. the commander's goal pose.
-        self.watched_publishers: list[tuple[str, Any]] = [(robot.command_topic, self.command_pub),
-                                                          ("/clock", self.clock_pub)]
+        self.watched_publishers: list[tuple[str, Any]] = [
+            (robot.command_topic, self.command_pub),
+            ("/clock", self.clock_pub),
+        ]
 
     def ros_time(self, seconds: float) -> Any:
         return self.rospy.Time.from_sec(round(seconds, 9))
@@ -133,8 +138,9 @@ class RobotDriver:
             publishers, subscribers, _ = master.getSystemState()
             pubs = {topic: set(nodes) for topic, nodes in publishers}
             subs = {topic: set(nodes) for topic, nodes in subscribers}
-            partners = sorted((pubs.get(self.robot.joint_states_topic, set())
-                               & subs.get(self.robot.command_topic, set())) - {me})
+            partners = sorted(
+                (pubs.get(self.robot.joint_states_topic, set()) & subs.get(self.robot.command_topic, set())) - {me}
+            )
             for partner in partners:
                 links = {self.robot.joint_states_topic: self.state_sub.impl.has_connection(master.lookupNode(partner))}
                 for topic, publisher in self.watched_publishers:

@@ -3,6 +3,7 @@
 MAPE (the thesis's metric) explodes where the reference crosses zero, so it is computed only over samples where
 |reference| exceeds a floor, and always reported beside WAPE, NRMSE and the max |error|, which have no such flaw.
 """
+
 from __future__ import annotations
 
 from collections.abc import Sequence
@@ -13,8 +14,18 @@ import numpy as np
 from sim.errors import SimError
 
 __all__ = [
-    "DEFAULT_MAPE_FLOOR", "HELD_STILL_SPREAD", "MetricsError", "TrackingMetrics", "mape_percent", "wape_percent",
-    "nrmse_percent", "lag_seconds", "tracking_metrics", "per_joint_metrics", "resample", "mean_and_std",
+    "DEFAULT_MAPE_FLOOR",
+    "HELD_STILL_SPREAD",
+    "MetricsError",
+    "TrackingMetrics",
+    "mape_percent",
+    "wape_percent",
+    "nrmse_percent",
+    "lag_seconds",
+    "tracking_metrics",
+    "per_joint_metrics",
+    "resample",
+    "mean_and_std",
 ]
 
 DEFAULT_MAPE_FLOOR = 1e-3  # rad or m: samples with |reference| below this are left out of MAPE

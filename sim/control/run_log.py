@@ -1,5 +1,6 @@
 """A commander run's log: desired vs achieved per step as CSV, with the end-effector pose by FK for IK scenarios, and
 the tracking metrics of the scenario rows (approach rows left out)."""
+
 from __future__ import annotations
 
 import csv
@@ -8,11 +9,11 @@ from pathlib import Path
 
 import numpy as np
 
+from sim.control.metrics import TrackingMetrics, per_joint_metrics, resample
+from sim.control.scenarios import Motion, Schedule, fk_path, pose_errors
 from sim.geometry.frames import matrix_to_quat
 from sim.geometry.kinematics import chain_for
-from sim.control.metrics import TrackingMetrics, per_joint_metrics, resample
 from sim.robots import RobotSpec
-from sim.control.scenarios import Motion, Schedule, fk_path, pose_errors
 
 __all__ = ["RunReport", "RunResult", "write_log"]
 
@@ -58,12 +59,19 @@ def write_log(path: Path, robot: RobotSpec, motion: Motion, schedule: Schedule, 
         at = np.where(np.isfinite(result.achieved_stamps), result.achieved_stamps, result.times)
         ref_index = np.clip(np.round(at / motion.dt).astype(int) - result.priming_steps, 0, len(schedule.positions) - 1)
         ref_motion = schedule.motion_index[ref_index]
-        reference = np.where((ref_motion >= 0)[:, None, None], motion.reference_path[np.maximum(ref_motion, 0)],
-                             fk_path(chain, schedule.positions[ref_index]))
-        achieved_fk = np.array([chain.fk(q) if np.all(np.isfinite(q)) else np.full((4, 4), np.nan) for q in result.achieved])
+        reference = np.where(
+            (ref_motion >= 0)[:, None, None],
+            motion.reference_path[np.maximum(ref_motion, 0)],
+            fk_path(chain, schedule.positions[ref_index]),
+        )
+        achieved_fk = np.array(
+            [chain.fk(q) if np.all(np.isfinite(q)) else np.full((4, 4), np.nan) for q in result.achieved]
+        )
         pos_err, rot_err = pose_errors(achieved_fk, reference, motion.ik.weights)
         ref_q = np.array([matrix_to_quat(r[:3, :3]) for r in reference])
-        ach_q = np.array([matrix_to_quat(a[:3, :3]) if np.all(np.isfinite(a)) else np.full(4, np.nan) for a in achieved_fk])
+        ach_q = np.array(
+            [matrix_to_quat(a[:3, :3]) if np.all(np.isfinite(a)) else np.full(4, np.nan) for a in achieved_fk]
+        )
         axes = ("x", "y", "z", "qx", "qy", "qz", "qw")
         ee_columns = [f"ref_{a}" for a in axes] + [f"ee_{a}" for a in axes] + ["ee_pos_err", "ee_rot_err"]
         ee_data = np.column_stack([reference[:, :3, 3], ref_q, achieved_fk[:, :3, 3], ach_q, pos_err, rot_err])
@@ -76,12 +84,29 @@ def write_log(path: Path, robot: RobotSpec, motion: Motion, schedule: Schedule, 
     names = robot.joint_names
     with open(path, "w", newline="") as handle:
         writer = csv.writer(handle)
-        writer.writerow(["time", "scenario_time", "phase", *(f"desired_{n}" for n in names),
-                         *(f"achieved_{n}" for n in names), "achieved_stamp", *ee_columns])
+        writer.writerow(
+            [
+                "time",
+                "scenario_time",
+                "phase",
+                *(f"desired_{n}" for n in names),
+                *(f"achieved_{n}" for n in names),
+                "achieved_stamp",
+                *ee_columns,
+            ]
+        )
         for k, t in enumerate(result.times):
-            writer.writerow([f"{t:.6f}", f"{t - t_motion_start:.6f}", "scenario" if scenario[k] else "approach",
-                             *(f"{v:.9f}" for v in result.desired[k]), *(f"{v:.9f}" for v in result.achieved[k]),
-                             f"{result.achieved_stamps[k]:.6f}", *(f"{v:.9f}" for v in ee_data[k])])
+            writer.writerow(
+                [
+                    f"{t:.6f}",
+                    f"{t - t_motion_start:.6f}",
+                    "scenario" if scenario[k] else "approach",
+                    *(f"{v:.9f}" for v in result.desired[k]),
+                    *(f"{v:.9f}" for v in result.achieved[k]),
+                    f"{result.achieved_stamps[k]:.6f}",
+                    *(f"{v:.9f}" for v in ee_data[k]),
+                ]
+            )
 
     metrics: dict[str, TrackingMetrics] = {}
     if np.count_nonzero(valid) >= 2:

@@ -17,6 +17,7 @@ motions the README documents); everything else is computed here from the limits 
   IK goals         the FK of reachable offsets from home (every joint IK_GOAL_SHIFT of its usable range towards the
                    side with more room, at most IK_GOAL_MAX_SHIFT); ik_orientation shifts the other way.
 """
+
 from __future__ import annotations
 
 import math
@@ -28,9 +29,21 @@ from sim.geometry.kinematics import KinematicChain
 from sim.robots import RobotSpec
 
 __all__ = [
-    "MARGIN", "TRIAL_MAX_SWING", "ONE_JOINT_FRACTIONS", "ONE_JOINT_SPEED_FRACTION", "IK_GOAL_SHIFT",
-    "IK_GOAL_MAX_SHIFT", "AXIS_NAMES", "usable_range", "trial_table", "one_joint_default", "controllable_weights",
-    "rotates_about_z_only", "position_weights", "ik_goal", "describe_axes",
+    "MARGIN",
+    "TRIAL_MAX_SWING",
+    "ONE_JOINT_FRACTIONS",
+    "ONE_JOINT_SPEED_FRACTION",
+    "IK_GOAL_SHIFT",
+    "IK_GOAL_MAX_SHIFT",
+    "AXIS_NAMES",
+    "usable_range",
+    "trial_table",
+    "one_joint_default",
+    "controllable_weights",
+    "rotates_about_z_only",
+    "position_weights",
+    "ik_goal",
+    "describe_axes",
 ]
 
 MARGIN = 0.1
@@ -66,8 +79,7 @@ def trial_table(robot: RobotSpec) -> tuple[np.ndarray, np.ndarray]:
         if low < 0.0 < high:  # keep to the larger side of 0
             low, high = (0.0, high) if high >= -low else (low, 0.0)
         centres[j] = (low + high) / 2.0
-        amplitudes[j] = min(0.3 * (high - low), TRIAL_MAX_SWING[kind],
-                            0.5 * robot.max_velocity[j] / TRIAL_SEGMENT_PEAK)
+        amplitudes[j] = min(0.3 * (high - low), TRIAL_MAX_SWING[kind], 0.5 * robot.max_velocity[j] / TRIAL_SEGMENT_PEAK)
     return centres, amplitudes
 
 

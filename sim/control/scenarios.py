@@ -6,7 +6,8 @@ IK scenarios also the end-effector goal (4x4, base frame, ROS RH z-up), the Cart
 sample), the IK weights and a goal report.
 
 Scenarios (defaults in brackets; "home" = the robot's home configuration). Defaults not stated for a robot are
-computed from its limits and its chain (sim.control.scenario_defaults); the Panda's and the igt's below are kept in their
+computed from its limits and its chain (sim.control.scenario_defaults); the Panda's and the igt's below are kept in
+their
 robot YAML (sim/robots/*.yaml) so that they stay the motions the README documents:
 
   single          constant joint positions [home]; runs `duration` [5 s]. Like the thesis's a_SingleInput.
@@ -43,6 +44,7 @@ robot YAML (sim/robots/*.yaml) so that they stay the motions the README document
 Unreachable IK goals raise `UnreachableGoalError` with the best residual, unless `nearest=True`: then the best
 configuration found is used and the motion says so (`Motion.ik.fallback`).
 """
+
 from __future__ import annotations
 
 import math
@@ -52,6 +54,16 @@ from pathlib import Path
 
 import numpy as np
 
+from sim.control.scenario_defaults import (
+    ONE_JOINT_SPEED_FRACTION,
+    controllable_weights,
+    describe_axes,
+    ik_goal,
+    one_joint_default,
+    position_weights,
+    rotates_about_z_only,
+    trial_table,
+)
 from sim.errors import SimError
 from sim.geometry.frames import matrix_to_rpy, rpy_to_matrix
 from sim.geometry.kinematics import (
@@ -62,33 +74,56 @@ from sim.geometry.kinematics import (
     solve_ik,
     solve_path_ik,
 )
-from sim.wire.joint_csv import write_joint_csv
-from sim.robots import RobotSpec
-from sim.control.scenario_defaults import (
-    ONE_JOINT_SPEED_FRACTION,
-    controllable_weights,
-    describe_axes,
-    rotates_about_z_only,
-    ik_goal,
-    one_joint_default,
-    position_weights,
-    trial_table,
-)
 from sim.geometry.trajectory import ORDERS, PolynomialTrajectory
+from sim.robots import RobotSpec
 from sim.wire.contract import STEP_S
+from sim.wire.joint_csv import write_joint_csv
 
 __all__ = [
-    "SCENARIOS", "IK_SCENARIOS", "SPACES", "SINGLE_DURATION_S",
-    "ONE_JOINT_SPACING_S", "ONE_JOINT_HOLD_S", "IK_MOVE_TIME_S", "IK_HOLD_S", "IK_RESTARTS", "IK_SEED",
-    "IK_TOL_POS", "IK_TOL_ROT", "TRIAL_DURATION_S", "TRIAL_SEGMENT_S",
-    "TRIAL_PATTERN", "APPROACH_MIN_S", "APPROACH_SPEED_FRACTION", "ScenarioError",
-    "UnreachableGoalError", "ScenarioConfig", "IKReport", "Motion", "sample_times", "joint_index",
-    "check_position_limits", "velocity_warnings", "rotation_exp", "pose_errors", "fk_path",
-    "approach", "build_motion", "write_engine_csv", "Schedule", "build_schedule",
+    "SCENARIOS",
+    "IK_SCENARIOS",
+    "SPACES",
+    "SINGLE_DURATION_S",
+    "ONE_JOINT_SPACING_S",
+    "ONE_JOINT_HOLD_S",
+    "IK_MOVE_TIME_S",
+    "IK_HOLD_S",
+    "IK_RESTARTS",
+    "IK_SEED",
+    "IK_TOL_POS",
+    "IK_TOL_ROT",
+    "TRIAL_DURATION_S",
+    "TRIAL_SEGMENT_S",
+    "TRIAL_PATTERN",
+    "APPROACH_MIN_S",
+    "APPROACH_SPEED_FRACTION",
+    "ScenarioError",
+    "UnreachableGoalError",
+    "ScenarioConfig",
+    "IKReport",
+    "Motion",
+    "sample_times",
+    "joint_index",
+    "check_position_limits",
+    "velocity_warnings",
+    "rotation_exp",
+    "pose_errors",
+    "fk_path",
+    "approach",
+    "build_motion",
+    "write_engine_csv",
+    "Schedule",
+    "build_schedule",
 ]
 
 SCENARIOS: tuple[str, ...] = (
-    "single", "one_joint", "ik_joints", "ik_cartesian", "ik_orientation", "fk_confirm", "trial",
+    "single",
+    "one_joint",
+    "ik_joints",
+    "ik_cartesian",
+    "ik_orientation",
+    "fk_confirm",
+    "trial",
 )
 IK_SCENARIOS: tuple[str, ...] = ("ik_joints", "ik_cartesian", "ik_orientation", "fk_confirm")
 SPACES = ("joint", "cartesian")
@@ -213,7 +248,9 @@ def joint_index(robot: RobotSpec, joint: str) -> int:
         number = 0
     if 1 <= number <= robot.dof:
         return number - 1
-    raise ScenarioError(f"unknown joint {joint!r} for {robot.name}: give 1..{robot.dof} or one of {list(robot.joint_names)}")
+    raise ScenarioError(
+        f"unknown joint {joint!r} for {robot.name}: give 1..{robot.dof} or one of {list(robot.joint_names)}"
+    )
 
 
 def _sample_trajectory(traj: PolynomialTrajectory, times: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -291,7 +328,9 @@ def fk_path(chain: KinematicChain, positions: np.ndarray) -> np.ndarray:
 
 
 # ----------------------------------------------------------------------------------------------- approach
-def approach(robot: RobotSpec, q_from: np.ndarray, q_to: np.ndarray, dt: float, min_time: float = APPROACH_MIN_S) -> tuple[np.ndarray, np.ndarray]:
+def approach(
+    robot: RobotSpec, q_from: np.ndarray, q_to: np.ndarray, dt: float, min_time: float = APPROACH_MIN_S
+) -> tuple[np.ndarray, np.ndarray]:
     """A quintic from rest at q_from to rest at q_to, sampled at dt (first sample q_from, last q_to).
 
     Its length is at least `min_time` and long enough that no joint exceeds APPROACH_SPEED_FRACTION of its
@@ -332,11 +371,22 @@ def build_motion(robot: RobotSpec, scenario: str, config: ScenarioConfig | None 
 
 
 def _single(robot: RobotSpec, scenario: str, config: ScenarioConfig) -> Motion:
-    q = robot.home.copy() if config.positions is None else _vector(config.positions, robot.dof, f"{robot.name} positions ({', '.join(robot.joint_names)})")
+    q = (
+        robot.home.copy()
+        if config.positions is None
+        else _vector(config.positions, robot.dof, f"{robot.name} positions ({', '.join(robot.joint_names)})")
+    )
     times = sample_times(SINGLE_DURATION_S if config.duration is None else config.duration, config.dt)
     positions = np.tile(q, (len(times), 1))
-    return Motion(scenario, robot, config.dt, times, positions, np.zeros_like(positions),
-                  f"hold {np.round(q, 4).tolist()} for {times[-1]:.2f} s")
+    return Motion(
+        scenario,
+        robot,
+        config.dt,
+        times,
+        positions,
+        np.zeros_like(positions),
+        f"hold {np.round(q, 4).tolist()} for {times[-1]:.2f} s",
+    )
 
 
 def _one_joint(robot: RobotSpec, scenario: str, config: ScenarioConfig) -> Motion:
@@ -344,7 +394,9 @@ def _one_joint(robot: RobotSpec, scenario: str, config: ScenarioConfig) -> Motio
     j = default_joint if config.joint is None else joint_index(robot, config.joint)
     if config.waypoints is None:
         if config.joint is not None and j != default_joint:
-            raise ScenarioError(f"--joint {config.joint} needs --waypoints (the defaults are for {robot.joint_names[default_joint]})")
+            raise ScenarioError(
+                f"--joint {config.joint} needs --waypoints (the defaults are for {robot.joint_names[default_joint]})"
+            )
         points = default_points
         if robot.hints.one_joint_waypoints is None:  # computed: slowed down to stay within the velocity limit
             points = _slowed(points, j, robot, config)
@@ -372,8 +424,9 @@ def _one_joint(robot: RobotSpec, scenario: str, config: ScenarioConfig) -> Motio
     velocities = np.zeros_like(positions)
     positions[:, j] = joint_pos[:, 0]
     velocities[:, j] = joint_vel[:, 0]
-    description = (f"{name} through {points.tolist()} at t = {wp_times.tolist()} s ({config.order}), "
-                   f"other joints at home")
+    description = (
+        f"{name} through {points.tolist()} at t = {wp_times.tolist()} s ({config.order}), other joints at home"
+    )
     return Motion(scenario, robot, config.dt, times, positions, velocities, description)
 
 
@@ -398,8 +451,10 @@ def _trial(robot: RobotSpec, scenario: str, config: ScenarioConfig) -> Motion:
     traj = PolynomialTrajectory(wp_times, points, order="quintic")
     times = _fit_duration(TRIAL_DURATION_S, config.duration, config.dt)
     positions, velocities = _sample_trajectory(traj, times)
-    description = (f"trial: every joint c -> c+A -> c -> c-A -> c -> c-A -> c -> c+A -> c, {TRIAL_SEGMENT_S:g} s quintic "
-                   f"segments; c = {centres.tolist()}, A = {amplitudes.tolist()}")
+    description = (
+        f"trial: every joint c -> c+A -> c -> c-A -> c -> c-A -> c -> c+A -> c, {TRIAL_SEGMENT_S:g} s quintic "
+        f"segments; c = {centres.tolist()}, A = {amplitudes.tolist()}"
+    )
     return Motion(scenario, robot, config.dt, times, positions, velocities, description)
 
 
@@ -446,8 +501,11 @@ def _goal_spec(robot: RobotSpec, scenario: str, config: ScenarioConfig, chain: K
     if config.goal is None:
         position = np.array(default_position, dtype=float)
     else:
-        position = _vector(config.goal, (2, 3) if free_z else 3,
-                           f"{robot.name} goal (x, y [, z ignored] in m)" if free_z else "goal position (x, y, z in m)")
+        position = _vector(
+            config.goal,
+            (2, 3) if free_z else 3,
+            f"{robot.name} goal (x, y [, z ignored] in m)" if free_z else "goal position (x, y, z in m)",
+        )
     if position.size == 2 or free_z:  # the end effector's height is not controlled: it stays where home has it
         position = np.append(position[:2], home_pose[2, 3])
     target = np.eye(4)
@@ -461,16 +519,20 @@ def _goal_spec(robot: RobotSpec, scenario: str, config: ScenarioConfig, chain: K
     home_rpy = matrix_to_rpy(home_pose[:3, :3])
     if rotates_about_z_only(chain, robot.home) and abs(home_rpy[0]) < 1e-9 and abs(home_rpy[1]) < 1e-9:
         if abs(rpy[0]) > 1e-12 or abs(rpy[1]) > 1e-12:  # e.g. the igt: rotations about z only, by construction
-            raise ScenarioError(f"the {robot.name} can only reach {describe_axes(weights)}: goal rpy {list(rpy)} must "
-                                f"have roll = pitch = 0")
+            raise ScenarioError(
+                f"the {robot.name} can only reach {describe_axes(weights)}: goal rpy {list(rpy)} must "
+                f"have roll = pitch = 0"
+            )
     target[:3, :3] = rpy_to_matrix(*rpy)
     axes = "" if all(weights) else f" ({describe_axes(weights)})"
-    return _GoalSpec(target, weights, f"position {np.round(position, 6).tolist()} m, XYZ Euler "
-                                      f"{np.round(rpy, 6).tolist()} rad{axes}")
+    return _GoalSpec(
+        target, weights, f"position {np.round(position, 6).tolist()} m, XYZ Euler {np.round(rpy, 6).tolist()} rad{axes}"
+    )
 
 
-def _start_target(robot: RobotSpec, config: ScenarioConfig, chain: KinematicChain, weights: Sequence[float]
-                  ) -> np.ndarray:
+def _start_target(
+    robot: RobotSpec, config: ScenarioConfig, chain: KinematicChain, weights: Sequence[float]
+) -> np.ndarray:
     start = chain.fk(robot.home)
     if config.start is not None:
         position = _vector(config.start, (2, 3) if weights[2] == 0 else 3, "start position")
@@ -481,16 +543,27 @@ def _start_target(robot: RobotSpec, config: ScenarioConfig, chain: KinematicChai
 def _solve(
     chain: KinematicChain, target: np.ndarray, q0: np.ndarray, weights: Sequence[float], config: ScenarioConfig
 ) -> IKResult:
-    return solve_ik(chain, target, q0, weights=weights, tol_pos=IK_TOL_POS, tol_rot=IK_TOL_ROT,
-                    restarts=config.ik_restarts, rng=config.seed)
+    return solve_ik(
+        chain,
+        target,
+        q0,
+        weights=weights,
+        tol_pos=IK_TOL_POS,
+        tol_rot=IK_TOL_ROT,
+        restarts=config.ik_restarts,
+        rng=config.seed,
+    )
 
 
-def _unreachable(what: str, result: IKResult, weights: Sequence[float], nearest_hint: bool = True) -> UnreachableGoalError:
+def _unreachable(
+    what: str, result: IKResult, weights: Sequence[float], nearest_hint: bool = True
+) -> UnreachableGoalError:
     hint = "; pass --nearest to command the nearest configuration found instead" if nearest_hint else ""
     return UnreachableGoalError(
         f"{what} is unreachable: best residual {result.position_error:.4g} m, {result.orientation_error:.4g} rad "
         f"(weights {tuple(weights)}){hint}",
-        result.position_error, result.orientation_error,
+        result.position_error,
+        result.orientation_error,
     )
 
 
@@ -504,7 +577,9 @@ def _ik_motion(robot: RobotSpec, scenario: str, config: ScenarioConfig) -> Motio
         space = config.space or ("joint" if scenario == "ik_orientation" else "cartesian")
     if space not in SPACES:
         raise ScenarioError(f"space must be one of {list(SPACES)}, got {space!r}")
-    if not (math.isfinite(config.move_time) and config.move_time > 0) or not (math.isfinite(config.hold) and config.hold >= 0):
+    if not (math.isfinite(config.move_time) and config.move_time > 0) or not (
+        math.isfinite(config.hold) and config.hold >= 0
+    ):
         raise ScenarioError(f"move time must be > 0 s and hold >= 0 s, got {config.move_time} and {config.hold}")
     goal = _goal_spec(robot, scenario, config, chain)
     weights = goal.weights
@@ -516,7 +591,10 @@ def _ik_motion(robot: RobotSpec, scenario: str, config: ScenarioConfig) -> Motio
         if not config.nearest:
             raise _unreachable("start pose", start_result, weights)
         fallback = True
-        notes.append(f"FALLBACK: start unreachable, starting at the nearest configuration (residual {start_result.position_error:.4g} m, {start_result.orientation_error:.4g} rad)")
+        notes.append(
+            "FALLBACK: start unreachable, starting at the nearest configuration "
+            f"(residual {start_result.position_error:.4g} m, {start_result.orientation_error:.4g} rad)"
+        )
     q_start = start_result.q
     goal_result = _solve(chain, goal.target, q_start, weights, config)
     if not goal_result.success:
@@ -526,7 +604,8 @@ def _ik_motion(robot: RobotSpec, scenario: str, config: ScenarioConfig) -> Motio
         nearest = chain.fk(goal_result.q)
         notes.append(
             f"FALLBACK: goal unreachable, commanding the nearest pose found instead: position "
-            f"{np.round(nearest[:3, 3], 4).tolist()} m, XYZ Euler {np.round(matrix_to_rpy(nearest[:3, :3]), 4).tolist()} rad "
+            f"{np.round(nearest[:3, 3], 4).tolist()} m, "
+            f"XYZ Euler {np.round(matrix_to_rpy(nearest[:3, :3]), 4).tolist()} rad "
             f"(residual {goal_result.position_error:.4g} m, {goal_result.orientation_error:.4g} rad)"
         )
     # The Cartesian path heads for the goal, or for the nearest reachable pose when falling back.
@@ -553,7 +632,8 @@ def _ik_motion(robot: RobotSpec, scenario: str, config: ScenarioConfig) -> Motio
                     f"Cartesian path to {goal.text}: IK failed at {failed} of {len(path.success)} samples, first at "
                     f"t = {times[moving][first]:.2f} s; worst residual {worst.position_error:.4g} m, "
                     f"{worst.orientation_error:.4g} rad; pass --nearest to command the nearest configurations found",
-                    worst.position_error, worst.orientation_error,
+                    worst.position_error,
+                    worst.orientation_error,
                 )
             fallback = True
             notes.append(f"FALLBACK: IK failed at {failed} path samples; commanding the nearest configurations found")
@@ -580,11 +660,24 @@ def _ik_motion(robot: RobotSpec, scenario: str, config: ScenarioConfig) -> Motio
         message=goal_result.message,
     )
     description = f"{scenario}: to {goal.text} in {space} space over {config.move_time:g} s, hold {config.hold:g} s"
-    return Motion(scenario, robot, config.dt, times, positions, velocities, description,
-                  goal=goal.target, reference_path=reference, ik=report, warnings=notes)
+    return Motion(
+        scenario,
+        robot,
+        config.dt,
+        times,
+        positions,
+        velocities,
+        description,
+        goal=goal.target,
+        reference_path=reference,
+        ik=report,
+        warnings=notes,
+    )
 
 
-def _cartesian_path(start: np.ndarray, goal: np.ndarray, weights: Sequence[float], move_time: float, order: str, times: np.ndarray) -> np.ndarray:
+def _cartesian_path(
+    start: np.ndarray, goal: np.ndarray, weights: Sequence[float], move_time: float, order: str, times: np.ndarray
+) -> np.ndarray:
     """Poses along a straight line (position) and the geodesic (orientation), both timed by one polynomial
     s(t) from 0 to 1 with zero velocity (and acceleration for quintic) at both ends."""
     scaling = PolynomialTrajectory([0.0, move_time], [[0.0], [1.0]], order=order).sample(times).positions[:, 0]
@@ -626,7 +719,9 @@ class Schedule:
         return int(np.argmax(self.motion_index >= 0))
 
 
-def build_schedule(motion: Motion, q_start: np.ndarray | None = None, approach_min_s: float = APPROACH_MIN_S) -> Schedule:
+def build_schedule(
+    motion: Motion, q_start: np.ndarray | None = None, approach_min_s: float = APPROACH_MIN_S
+) -> Schedule:
     """The motion, preceded by a quintic approach from `q_start` to its first sample if they differ by more than
     1e-4 (rad or m) and the approach is enabled (`approach_min_s` > 0, `q_start` given)."""
     index = np.arange(len(motion.times))

@@ -16,6 +16,7 @@ log.
 
 Nothing here sleeps, reads a clock or steps anything: the caller passes the times in.
 """
+
 from __future__ import annotations
 
 import math

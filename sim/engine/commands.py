@@ -5,6 +5,7 @@ stamp to t (at most `max_extrapolation_s`, so a controller that stops does not s
 Joints a command does not name keep their previous target. With the commander's lockstep stream the command for
 a step is stamped exactly at the step's end, and the extrapolation term is zero.
 """
+
 from __future__ import annotations
 
 import threading
@@ -27,8 +28,12 @@ class Target:
 class CommandBuffer:
     """Thread-safe: the TCP reader stores commands, the stepping loop reads targets."""
 
-    def __init__(self, initial_positions: np.ndarray, max_extrapolation_s: float = 0.1,
-                 stamp_tolerance_s: float = STAMP_TOLERANCE_S) -> None:
+    def __init__(
+        self,
+        initial_positions: np.ndarray,
+        max_extrapolation_s: float = 0.1,
+        stamp_tolerance_s: float = STAMP_TOLERANCE_S,
+    ) -> None:
         self._positions = np.array(initial_positions, dtype=float)
         self._velocities = np.zeros_like(self._positions)
         self._stamp: float | None = None
@@ -59,9 +64,7 @@ class CommandBuffer:
     def wait_for_stamp(self, stamp: float, timeout: float, tolerance: float = STAMP_TOLERANCE_S) -> bool:
         """Block until a command stamped >= `stamp` is stored (or `timeout` passes)."""
         with self._changed:
-            return self._changed.wait_for(
-                lambda: self._stamp is not None and self._stamp >= stamp - tolerance, timeout
-            )
+            return self._changed.wait_for(lambda: self._stamp is not None and self._stamp >= stamp - tolerance, timeout)
 
     def target_at(self, t: float) -> Target:
         with self._lock:

@@ -13,6 +13,7 @@ robot_state_publisher and, with rviz:=true, RViz):
   /tf                 <base link> → <robot>_ee_target: the end-effector goal from /<robot>/pose (the commander's
                       marker), so the goal shows next to the end-effector link's own frame
 """
+
 from __future__ import annotations
 
 import argparse
@@ -57,22 +58,31 @@ class DescriptionNode:
         self._tf = rospy.Publisher("/tf", TFMessage, queue_size=100)
         self._tf_static = rospy.Publisher("/tf_static", TFMessage, queue_size=1, latch=True)
         if self.root_link != WORLD_FRAME:
-            self._tf_static.publish(TFMessage([self._transform(WORLD_FRAME, self.root_link, rospy.Time(0),
-                                                               np.zeros(3), np.array([0.0, 0.0, 0.0, 1.0]))]))
+            self._tf_static.publish(
+                TFMessage(
+                    [
+                        self._transform(
+                            WORLD_FRAME, self.root_link, rospy.Time(0), np.zeros(3), np.array([0.0, 0.0, 0.0, 1.0])
+                        )
+                    ]
+                )
+            )
         self._subscribers = [
             rospy.Subscriber(robot.joint_states_topic, JointState, self._on_joint_state, tcp_nodelay=True),
             rospy.Subscriber(robot.pose_topic, Pose, self._on_pose),
         ]
 
     @staticmethod
-    def _transform(parent: str, child: str, stamp: rospy.Time, position: np.ndarray, quat_xyzw: np.ndarray
-                   ) -> TransformStamped:
+    def _transform(
+        parent: str, child: str, stamp: rospy.Time, position: np.ndarray, quat_xyzw: np.ndarray
+    ) -> TransformStamped:
         transform = TransformStamped()
         transform.header.stamp = stamp
         transform.header.frame_id = parent
         transform.child_frame_id = child
         transform.transform.translation.x, transform.transform.translation.y, transform.transform.translation.z = (
-            float(v) for v in position)
+            float(v) for v in position
+        )
         rotation = transform.transform.rotation
         rotation.x, rotation.y, rotation.z, rotation.w = (float(v) for v in quat_xyzw)
         return transform
@@ -82,8 +92,11 @@ class DescriptionNode:
         if not self.locked:
             self._joint_states.publish(message)
             return
-        full = JointState(header=message.header, name=list(message.name) + self.locked,
-                          position=list(message.position) + [0.0] * len(self.locked))
+        full = JointState(
+            header=message.header,
+            name=list(message.name) + self.locked,
+            position=list(message.position) + [0.0] * len(self.locked),
+        )
         if len(message.velocity) == len(message.name):
             full.velocity = list(message.velocity) + [0.0] * len(self.locked)
         if len(message.effort) == len(message.name):
@@ -98,8 +111,15 @@ class DescriptionNode:
             rospy.logerr_throttle(1.0, f"pose on {self.robot.pose_topic}: {error}")
             return
         position = np.array([message.position.x, message.position.y, message.position.z])
-        self._tf.publish(TFMessage([self._transform(self.robot.base_link, target_frame(self.robot), rospy.Time.now(),
-                                                    position, quaternion)]))
+        self._tf.publish(
+            TFMessage(
+                [
+                    self._transform(
+                        self.robot.base_link, target_frame(self.robot), rospy.Time.now(), position, quaternion
+                    )
+                ]
+            )
+        )
 
     def close(self) -> None:
         for subscriber in self._subscribers:
@@ -126,8 +146,11 @@ def main(argv: list[str] | None = None) -> int:
         signal.signal(signum, lambda *_: stop.set())
     node = DescriptionNode(robot, PoseConvention(args.pose_convention))
     locked = f"; locked at 0: {', '.join(node.locked)}" if node.locked else ""
-    print(f"description node: {robot.name} on {rospy.resolve_name('robot_description')}, joint states on "
-          f"{rospy.resolve_name('joint_states')}{locked}", flush=True)
+    print(
+        f"description node: {robot.name} on {rospy.resolve_name('robot_description')}, joint states on "
+        f"{rospy.resolve_name('joint_states')}{locked}",
+        flush=True,
+    )
     while not stop.is_set() and not rospy.is_shutdown():
         stop.wait(0.2)
     node.close()

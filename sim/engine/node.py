@@ -4,6 +4,7 @@
 `python -m sim.engine` (except host/port/csv). The stepping logic is `sim.engine.EngineStandIn`; only the
 transport differs: rospy topics instead of the endpoint's TCP connection.
 """
+
 from __future__ import annotations
 
 import logging

@@ -24,6 +24,7 @@ Consequences: joint limits are NOT enforced (by design: the physics does not cla
 (the scene has nothing to touch), and joints outside `robot.joint_names` (the Panda's fingers) are locked rigidly at
 their start positions, which is exact: the reduced M and c over the controlled joints describe the locked system.
 """
+
 from __future__ import annotations
 
 import logging
@@ -43,8 +44,16 @@ from sim.robots.meshes import resolve_shapes, without_shapes
 from sim.wire.contract import STEP_S
 
 __all__ = [
-    "GRAVITY", "DEFAULT_STIFFNESS", "PhysicsError", "Mode", "DriveParams", "implicit_drive_step",
-    "SimulatedJointState", "PhysicsWorld", "load_urdf_text", "render_gif",
+    "GRAVITY",
+    "DEFAULT_STIFFNESS",
+    "PhysicsError",
+    "Mode",
+    "DriveParams",
+    "implicit_drive_step",
+    "SimulatedJointState",
+    "PhysicsWorld",
+    "load_urdf_text",
+    "render_gif",
 ]
 
 log = logging.getLogger(__name__)
@@ -94,7 +103,7 @@ class DriveParams:
     force_limit: np.ndarray  # N·m or N, the largest |drive force|; inf = unlimited
 
     @classmethod
-    def for_robot(cls, robot: RobotSpec, home_inertia: np.ndarray) -> "DriveParams":
+    def for_robot(cls, robot: RobotSpec, home_inertia: np.ndarray) -> DriveParams:
         """The defaults for `robot` (see DEFAULT_STIFFNESS above), `home_inertia` being the diagonal of its mass
         matrix at home (`PhysicsWorld.home_inertia()`)."""
         stiffness = np.full(robot.dof, DEFAULT_STIFFNESS)
@@ -103,7 +112,7 @@ class DriveParams:
 
     def with_overrides(
         self, stiffness: float | None = None, damping: float | None = None, force_limit: float | None = None
-    ) -> "DriveParams":
+    ) -> DriveParams:
         """A copy with the given values for every joint; None keeps the current per-joint values."""
         changes = {}
         for name, value in (("stiffness", stiffness), ("damping", damping), ("force_limit", force_limit)):
@@ -111,7 +120,7 @@ class DriveParams:
                 changes[name] = np.full_like(getattr(self, name), float(value), dtype=float)
         return replace(self, **changes)
 
-    def validated(self, dof: int) -> "DriveParams":
+    def validated(self, dof: int) -> DriveParams:
         """Self as float arrays of length `dof`, or PhysicsError naming the bad field."""
         arrays = {}
         for name in ("stiffness", "damping", "force_limit"):
@@ -194,8 +203,15 @@ def implicit_drive_step(
     return np.linalg.solve(inertia, momentum + dt * force), force
 
 
-def _drive_residual(velocity: np.ndarray, inertia: np.ndarray, momentum: np.ndarray, spring: np.ndarray,
-                    slope: np.ndarray, limit: np.ndarray, dt: float) -> np.ndarray:
+def _drive_residual(
+    velocity: np.ndarray,
+    inertia: np.ndarray,
+    momentum: np.ndarray,
+    spring: np.ndarray,
+    slope: np.ndarray,
+    limit: np.ndarray,
+    dt: float,
+) -> np.ndarray:
     """Newton's law of the step, zero at the solution: inertia·v⁺ − momentum − dt·clip(drive law, ±limit)."""
     return inertia @ velocity - momentum - dt * np.clip(spring - slope * velocity, -limit, limit)
 
@@ -243,19 +259,28 @@ class PhysicsWorld:
         self._client = p.connect(p.DIRECT)
         try:
             self._load(gravity)
-            self.drive = (drive if drive is not None else DriveParams.for_robot(robot, self.home_inertia())
-                          ).validated(robot.dof)
+            self.drive = (drive if drive is not None else DriveParams.for_robot(robot, self.home_inertia())).validated(
+                robot.dof
+            )
         except Exception:
             p.disconnect(physicsClientId=self._client)
             raise
         if robot.default_inertia_links and self.mode is not Mode.NO_PHYSICS:
-            log.warning("%s: link(s) %s have no <inertial> in %s; pybullet gives each 1 kg and a default inertia, "
-                        "which the dynamics then include", robot.name, ", ".join(robot.default_inertia_links),
-                        robot.urdf_path)
+            log.warning(
+                "%s: link(s) %s have no <inertial> in %s; pybullet gives each 1 kg and a default inertia, "
+                "which the dynamics then include",
+                robot.name,
+                ", ".join(robot.default_inertia_links),
+                robot.urdf_path,
+            )
         if robot.zeroed_inertia_links and self.mode is not Mode.NO_PHYSICS:
-            log.warning("%s: link(s) %s have inertia tensors that are not physical in %s (principal moments that "
-                        "break the triangle inequality); pybullet sets their inertia to zero and keeps the mass",
-                        robot.name, ", ".join(robot.zeroed_inertia_links), robot.urdf_path)
+            log.warning(
+                "%s: link(s) %s have inertia tensors that are not physical in %s (principal moments that "
+                "break the triangle inequality); pybullet sets their inertia to zero and keeps the mass",
+                robot.name,
+                ", ".join(robot.zeroed_inertia_links),
+                robot.urdf_path,
+            )
         start = robot.home if q0 is None else q0
         self._q = self._checked("q0", start)
         self._v = np.zeros(robot.dof)
@@ -279,8 +304,14 @@ class PhysicsWorld:
         else:
             text, missing = resolve_shapes(text, urdf.parent, find_ros_package)
             if missing:
-                log.warning("%s: %d mesh or texture file(s) named in %s are nowhere (e.g. %s); pictures show the "
-                            "robot without them", self.robot.name, len(missing), urdf, missing[0])
+                log.warning(
+                    "%s: %d mesh or texture file(s) named in %s are nowhere (e.g. %s); pictures show the "
+                    "robot without them",
+                    self.robot.name,
+                    len(missing),
+                    urdf,
+                    missing[0],
+                )
         # URDF_USE_INERTIA_FROM_FILE: the URDF's inertias, not pybullet's estimate from the collision shapes.
         self._body = load_urdf_text(text, urdf.name, cid, flags=p.URDF_USE_INERTIA_FROM_FILE)
         names_to_index: dict[str, int] = {}
@@ -304,8 +335,13 @@ class PhysicsWorld:
         self._controlled = np.array([self._dof_indices.index(i) for i in self._joint_indices])
         self._full_q = np.array([p.getJointState(self._body, i, physicsClientId=cid)[0] for i in self._dof_indices])
         # Only our forces act: pybullet's default velocity motors would otherwise brake every joint.
-        p.setJointMotorControlArray(self._body, self._dof_indices, p.VELOCITY_CONTROL,
-                                    forces=[0.0] * len(self._dof_indices), physicsClientId=cid)
+        p.setJointMotorControlArray(
+            self._body,
+            self._dof_indices,
+            p.VELOCITY_CONTROL,
+            forces=[0.0] * len(self._dof_indices),
+            physicsClientId=cid,
+        )
 
     def home_inertia(self) -> np.ndarray:
         """The diagonal of the mass matrix over the controlled joints at home: each joint's inertia (kg·m² or kg)."""
@@ -322,7 +358,7 @@ class PhysicsWorld:
             p.disconnect(physicsClientId=self._client)
             self._client = None
 
-    def __enter__(self) -> "PhysicsWorld":
+    def __enter__(self) -> PhysicsWorld:
         return self
 
     def __exit__(self, *_exc: object) -> None:
@@ -340,19 +376,22 @@ class PhysicsWorld:
         except (TypeError, ValueError):
             raise PhysicsError(f"{what} must be {self.robot.dof} numbers, got {values!r}") from None
         if array.shape != (self.robot.dof,):
-            raise PhysicsError(f"{what} has shape {array.shape}, expected ({self.robot.dof},) for "
-                               f"{list(self.robot.joint_names)}")
+            raise PhysicsError(
+                f"{what} has shape {array.shape}, expected ({self.robot.dof},) for {list(self.robot.joint_names)}"
+            )
         if not np.all(np.isfinite(array)):
             bad = [name for name, ok in zip(self.robot.joint_names, np.isfinite(array)) if not ok]
             raise PhysicsError(f"{what} must be finite; not finite for {bad}: {array.tolist()}")
         return array
 
-    def set_targets(self, positions: Sequence[float] | np.ndarray,
-                    velocities: Sequence[float] | np.ndarray | None = None) -> None:
+    def set_targets(
+        self, positions: Sequence[float] | np.ndarray, velocities: Sequence[float] | np.ndarray | None = None
+    ) -> None:
         """Targets for the END of the next step (robot.joint_names order); velocities default to 0."""
         target = self._checked("target positions", positions)
-        target_velocity = np.zeros(self.robot.dof) if velocities is None else self._checked("target velocities",
-                                                                                              velocities)
+        target_velocity = (
+            np.zeros(self.robot.dof) if velocities is None else self._checked("target velocities", velocities)
+        )
         self._target, self._target_velocity = target, target_velocity
 
     def reset(self, q: Sequence[float] | np.ndarray) -> None:
@@ -392,9 +431,18 @@ class PhysicsWorld:
             target_velocity = self._start_velocity + share * (self._target_velocity - self._start_velocity)
             mass, bias = self._dynamics(self._q, self._v)
             feedforward = self._gravity(self._q) if self.gravity_feedforward else None
-            v_next, force = implicit_drive_step(mass, bias, self._q, self._v, target, target_velocity, self.drive, h,
-                                                bias_jacobian=self._bias_jacobian(self._q, self._v),
-                                                feedforward=feedforward)
+            v_next, force = implicit_drive_step(
+                mass,
+                bias,
+                self._q,
+                self._v,
+                target,
+                target_velocity,
+                self.drive,
+                h,
+                bias_jacobian=self._bias_jacobian(self._q, self._v),
+                feedforward=feedforward,
+            )
             self._q = self._q + h * v_next
             self._v = v_next
             self._effort = force
@@ -415,8 +463,7 @@ class PhysicsWorld:
 
     def _bias(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
         full_q, full_v = self._full_vectors(q, v)
-        bias = p.calculateInverseDynamics(self._body, full_q, full_v, [0.0] * len(full_q),
-                                          physicsClientId=self._client)
+        bias = p.calculateInverseDynamics(self._body, full_q, full_v, [0.0] * len(full_q), physicsClientId=self._client)
         return np.array(bias)[self._controlled]
 
     def _gravity(self, q: np.ndarray) -> np.ndarray:
@@ -450,8 +497,9 @@ class PhysicsWorld:
         cid = self._require_open()
         if not self._engine_synced:
             for index, position, velocity in zip(self._joint_indices, self._q, self._v):
-                p.resetJointState(self._body, index, float(position), targetVelocity=float(velocity),
-                                  physicsClientId=cid)
+                p.resetJointState(
+                    self._body, index, float(position), targetVelocity=float(velocity), physicsClientId=cid
+                )
             self._engine_synced = True
         return cid
 
@@ -463,8 +511,9 @@ class PhysicsWorld:
             position, orientation = p.getBasePositionAndOrientation(self._body, physicsClientId=cid)
         else:
             # [4:6] is the link frame; [0:2] would be the link's centre of mass.
-            position, orientation = p.getLinkState(self._body, index, computeForwardKinematics=True,
-                                                   physicsClientId=cid)[4:6]
+            position, orientation = p.getLinkState(
+                self._body, index, computeForwardKinematics=True, physicsClientId=cid
+            )[4:6]
         return np.array(position), np.array(orientation)
 
     def capture(self, width: int = 640, height: int = 480) -> np.ndarray:
@@ -476,12 +525,17 @@ class PhysicsWorld:
         ee, _ = self.ee_pose()
         reach = max(float(np.linalg.norm(ee - base)), 0.3)
         view = p.computeViewMatrixFromYawPitchRoll(
-            cameraTargetPosition=((base + ee) / 2).tolist(), distance=2.2 * reach, yaw=50.0, pitch=-25.0, roll=0.0,
+            cameraTargetPosition=((base + ee) / 2).tolist(),
+            distance=2.2 * reach,
+            yaw=50.0,
+            pitch=-25.0,
+            roll=0.0,
             upAxisIndex=2,
         )
         projection = p.computeProjectionMatrixFOV(fov=50.0, aspect=width / height, nearVal=0.05, farVal=20.0)
-        _, _, rgba, _, _ = p.getCameraImage(width, height, view, projection, renderer=p.ER_TINY_RENDERER,
-                                            physicsClientId=cid)
+        _, _, rgba, _, _ = p.getCameraImage(
+            width, height, view, projection, renderer=p.ER_TINY_RENDERER, physicsClientId=cid
+        )
         return np.reshape(np.asarray(rgba, dtype=np.uint8), (height, width, 4))[:, :, :3]
 
     def render(self, path: str | Path, width: int = 640, height: int = 480) -> Path:
@@ -494,15 +548,24 @@ class PhysicsWorld:
         return path
 
 
-def load_urdf_text(text: str, file_name: str, client: int, position: Sequence[float] = (0.0, 0.0, 0.0),
-                   orientation: Sequence[float] = (0.0, 0.0, 0.0, 1.0), flags: int = 0) -> int:
+def load_urdf_text(
+    text: str,
+    file_name: str,
+    client: int,
+    position: Sequence[float] = (0.0, 0.0, 0.0),
+    orientation: Sequence[float] = (0.0, 0.0, 0.0, 1.0),
+    flags: int = 0,
+) -> int:
     """Load URDF text (e.g. with its shapes resolved or removed) as a fixed-base body: pybullet loads only files,
     so it goes through a temporary one named `file_name`. Returns the body's id."""
     with tempfile.TemporaryDirectory(prefix="sim_urdf_") as folder:
         path = Path(folder) / file_name
         path.write_text(text, encoding="utf-8")
-        return int(p.loadURDF(str(path), list(position), list(orientation), useFixedBase=True, flags=flags,
-                              physicsClientId=client))
+        return int(
+            p.loadURDF(
+                str(path), list(position), list(orientation), useFixedBase=True, flags=flags, physicsClientId=client
+            )
+        )
 
 
 def render_gif(frames: Sequence[np.ndarray], path: str | Path, frame_duration_s: float = 0.1) -> Path:
@@ -514,6 +577,12 @@ def render_gif(frames: Sequence[np.ndarray], path: str | Path, frame_duration_s:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     images = [Image.fromarray(np.asarray(frame, dtype=np.uint8)) for frame in frames]
-    images[0].save(path, format="GIF", save_all=True, append_images=images[1:],
-                   duration=max(int(round(frame_duration_s * 1000)), 10), loop=0)
+    images[0].save(
+        path,
+        format="GIF",
+        save_all=True,
+        append_images=images[1:],
+        duration=max(int(round(frame_duration_s * 1000)), 10),
+        loop=0,
+    )
     return path

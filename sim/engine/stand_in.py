@@ -10,6 +10,7 @@ Offline (`--csv`): replays desired joint positions from a CSV without ROS or TCP
 CSV formats (both): a header row `time,<joint name>,...` then one row per sample, time in s, positions in rad/m.
 The input may name a subset of the joints (the others hold their start position); rows must be in time order.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -23,20 +24,29 @@ from pathlib import Path
 import numpy as np
 
 from bridge.client import TcpClient
-from sim.errors import SimError
-from sim.geometry import frames
-from sim.wire import rosmsgs
-from sim.wire.contract import STAMP_TOLERANCE_S, STEP_S, PoseConvention, add_pose_convention_argument
 from sim.engine.clock import ClockAdvance, StepClock
 from sim.engine.commands import CommandBuffer
-from sim.wire.joint_csv import read_joint_csv, write_joint_csv
 from sim.engine.physics import Mode, PhysicsError, PhysicsWorld, SimulatedJointState, render_gif
+from sim.errors import SimError
+from sim.geometry import frames
 from sim.robots import RobotSpec, add_robot_arguments, robot_from_args
+from sim.wire import rosmsgs
+from sim.wire.contract import STAMP_TOLERANCE_S, STEP_S, PoseConvention, add_pose_convention_argument
+from sim.wire.joint_csv import read_joint_csv, write_joint_csv
 
 __all__ = [
-    "EngineError", "EngineOptions", "make_world", "TargetMarker",
-    "pose_to_marker", "FrameRecorder", "EngineStandIn", "path_velocity", "replay_csv", "argument_parser",
-    "options_from_args", "main",
+    "EngineError",
+    "EngineOptions",
+    "make_world",
+    "TargetMarker",
+    "pose_to_marker",
+    "FrameRecorder",
+    "EngineStandIn",
+    "path_velocity",
+    "replay_csv",
+    "argument_parser",
+    "options_from_args",
+    "main",
 ]
 
 log = logging.getLogger(__name__)
@@ -63,11 +73,15 @@ class EngineOptions:
 
 def make_world(robot: RobotSpec, options: EngineOptions, shapes: bool = False) -> PhysicsWorld:
     """The engine's physics world; `shapes` for pictures (--render)."""
-    world = PhysicsWorld(robot, mode=options.mode, dt=options.dt, gravity_feedforward=options.gravity_feedforward,
-                         shapes=shapes)
+    world = PhysicsWorld(
+        robot, mode=options.mode, dt=options.dt, gravity_feedforward=options.gravity_feedforward, shapes=shapes
+    )
     try:
-        world.set_drive(world.drive.with_overrides(stiffness=options.stiffness, damping=options.damping,
-                                                   force_limit=options.force_limit))
+        world.set_drive(
+            world.drive.with_overrides(
+                stiffness=options.stiffness, damping=options.damping, force_limit=options.force_limit
+            )
+        )
     except PhysicsError:
         world.close()
         raise
@@ -93,8 +107,9 @@ class FrameRecorder:
     every `interval_s` of sim time as an animated GIF (at most `max_frames`; a frame costs ~10-30 ms, so GIFs slow
     the run down and are opt-in)."""
 
-    def __init__(self, path: Path, dt: float, interval_s: float = 0.2, max_frames: int = 300,
-                 size: tuple[int, int] = (320, 240)) -> None:
+    def __init__(
+        self, path: Path, dt: float, interval_s: float = 0.2, max_frames: int = 300, size: tuple[int, int] = (320, 240)
+    ) -> None:
         suffix = path.suffix.lower()
         if suffix not in (".png", ".gif"):
             raise EngineError(f"--render {path}: the file name must end in .png (final pose) or .gif (animation)")
@@ -239,8 +254,11 @@ class EngineStandIn:
     @staticmethod
     def _log_resync(advance: ClockAdvance) -> None:
         if advance.resynced:
-            log.warning("the clock jumped by %.3f s: paused and resumed at %.3f without catching up",
-                        advance.jump, advance.anchored_at)
+            log.warning(
+                "the clock jumped by %.3f s: paused and resumed at %.3f without catching up",
+                advance.jump,
+                advance.anchored_at,
+            )
 
     def _await_lockstep_command(self, step_end: float, dt: float) -> None:
         """In lockstep, wait briefly for this step's command: it may arrive just after the /clock tick."""
@@ -310,7 +328,9 @@ def argument_parser() -> argparse.ArgumentParser:
     parser.add_argument("--host", default="127.0.0.1", help="endpoint address")
     parser.add_argument("--port", type=int, default=10000, help="endpoint port")
     parser.add_argument("--mode", choices=[m.value for m in Mode], default=Mode.PHYSICS.value)
-    parser.add_argument("--dt", type=float, default=STEP_S, help=f"fixed physics step in s (Unity's FixedUpdate; default {STEP_S})")
+    parser.add_argument(
+        "--dt", type=float, default=STEP_S, help=f"fixed physics step in s (Unity's FixedUpdate; default {STEP_S})"
+    )
     parser.add_argument("--no-auto-simulate", action="store_true", help="step only as /clock advances")
     parser.add_argument("--time-scale", type=float, default=1.0, help="sim seconds per wall second (auto-simulate)")
     parser.add_argument("--max-clock-jump", type=float, default=1.0, help="larger /clock jumps pause and resume")
@@ -318,25 +338,37 @@ def argument_parser() -> argparse.ArgumentParser:
     parser.add_argument("--stiffness", type=float, help="drive stiffness for every joint (N·m/rad or N/m)")
     parser.add_argument("--damping", type=float, help="drive damping for every joint (N·m·s/rad or N·s/m)")
     parser.add_argument("--force-limit", type=float, help="drive force limit for every joint")
-    parser.add_argument("--no-gravity-feedforward", action="store_true",
-                        help="physics mode: the drives do not add the gravity torque (Unity's drives do not)")
+    parser.add_argument(
+        "--no-gravity-feedforward",
+        action="store_true",
+        help="physics mode: the drives do not add the gravity torque (Unity's drives do not)",
+    )
     parser.add_argument("--duration", type=float, help="stop after this much sim time (s)")
     parser.add_argument("--csv", type=Path, help="offline: replay desired positions from this CSV (no ROS, no TCP)")
     parser.add_argument("--log", type=Path, default=Path("logged_test_data.csv"), help="offline: achieved positions")
-    parser.add_argument("--render", type=Path,
-                        help="out.png: a picture of the final pose; out.gif: an animation (a frame every 0.2 s)")
+    parser.add_argument(
+        "--render", type=Path, help="out.png: a picture of the final pose; out.gif: an animation (a frame every 0.2 s)"
+    )
     return parser
 
 
 def options_from_args(args: argparse.Namespace) -> EngineOptions:
     """The engine's options from `argument_parser()`'s arguments (shared with the rospy physics node)."""
     if not (args.dt > 0 and args.time_scale > 0 and args.max_clock_jump > 0):
-        raise EngineError(f"--dt, --time-scale and --max-clock-jump must be > 0, got {args.dt}, {args.time_scale} "
-                          f"and {args.max_clock_jump}")
+        raise EngineError(
+            f"--dt, --time-scale and --max-clock-jump must be > 0, got {args.dt}, {args.time_scale} "
+            f"and {args.max_clock_jump}"
+        )
     return EngineOptions(
-        mode=Mode(args.mode), dt=args.dt, auto_simulate=not args.no_auto_simulate, time_scale=args.time_scale,
-        max_clock_jump_s=args.max_clock_jump, pose_convention=PoseConvention(args.pose_convention),
-        stiffness=args.stiffness, damping=args.damping, force_limit=args.force_limit,
+        mode=Mode(args.mode),
+        dt=args.dt,
+        auto_simulate=not args.no_auto_simulate,
+        time_scale=args.time_scale,
+        max_clock_jump_s=args.max_clock_jump,
+        pose_convention=PoseConvention(args.pose_convention),
+        stiffness=args.stiffness,
+        damping=args.damping,
+        force_limit=args.force_limit,
         gravity_feedforward=not args.no_gravity_feedforward,
     )
 
@@ -375,8 +407,11 @@ def _run_online(
         engine.close()
         return 1
     mode = "auto-simulate" if options.auto_simulate else "/clock-driven"
-    print(f"engine: {robot.name} in {options.mode.value} mode, {mode}, dt {options.dt} s, "
-          f"connected to {args.host}:{args.port}", flush=True)
+    print(
+        f"engine: {robot.name} in {options.mode.value} mode, {mode}, dt {options.dt} s, "
+        f"connected to {args.host}:{args.port}",
+        flush=True,
+    )
     try:
         engine.run(args.duration)
     finally:
@@ -384,8 +419,11 @@ def _run_online(
             print(f"engine: picture in {recorder.finish(engine.world)}", flush=True)
         client.close()
         engine.close()
-        print(f"engine: stopped after {engine.steps} steps; {engine.commands.received} commands, "
-              f"{engine.rejected_commands} rejected", flush=True)
+        print(
+            f"engine: stopped after {engine.steps} steps; {engine.commands.received} commands, "
+            f"{engine.rejected_commands} rejected",
+            flush=True,
+        )
     return 0
 
 

@@ -16,6 +16,7 @@ The numeric quaternion-to-matrix formula is the same in both frames, so "rotate 
 Quaternions are (x, y, z, w) arrays everywhere. Euler angles are URDF-style fixed-axis roll-pitch-yaw:
 R = Rz(yaw) · Ry(pitch) · Rx(roll), i.e. rotate about the fixed x, then fixed y, then fixed z axis.
 """
+
 from __future__ import annotations
 
 import math
@@ -26,9 +27,19 @@ from numpy.typing import ArrayLike
 from sim.errors import SimError
 
 __all__ = [
-    "FrameError", "ros_to_unity_point", "unity_to_ros_point", "ros_to_unity_quat", "unity_to_ros_quat",
-    "ros_to_unity_matrix", "quat_to_matrix", "matrix_to_quat", "rpy_to_matrix", "matrix_to_rpy",
-    "euler_xyz_to_quat", "quat_to_euler_xyz", "quat_multiply",
+    "FrameError",
+    "ros_to_unity_point",
+    "unity_to_ros_point",
+    "ros_to_unity_quat",
+    "unity_to_ros_quat",
+    "ros_to_unity_matrix",
+    "quat_to_matrix",
+    "matrix_to_quat",
+    "rpy_to_matrix",
+    "matrix_to_rpy",
+    "euler_xyz_to_quat",
+    "quat_to_euler_xyz",
+    "quat_multiply",
 ]
 
 _ROS_TO_UNITY = np.array([[0.0, -1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]])

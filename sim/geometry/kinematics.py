@@ -24,6 +24,7 @@ Reported errors honour the weights: `position_error` is the norm of the selected
 the norm of the selected components of its rotation vector. For `planar_pose` targets and the igt
 (rotations about z only) that is exactly |wrapped yaw error|.
 """
+
 from __future__ import annotations
 
 import math
@@ -41,16 +42,31 @@ from sim.robots import RobotError, RobotSpec
 from sim.robots.urdf_model import parse_urdf
 
 __all__ = [
-    "MOVABLE_TYPES", "FULL_POSE_WEIGHTS", "POSITION_WEIGHTS", "PLANAR_WEIGHTS", "DEFAULT_DAMPING_BIAS",
-    "KinematicsError", "ChainJoint", "pose_matrix", "planar_pose", "KinematicChain", "chain_for",
-    "IKResult", "PathIKResult", "rotation_vector", "solve_ik", "solve_path_ik",
+    "MOVABLE_TYPES",
+    "FULL_POSE_WEIGHTS",
+    "POSITION_WEIGHTS",
+    "PLANAR_WEIGHTS",
+    "DEFAULT_DAMPING_BIAS",
+    "KinematicsError",
+    "ChainJoint",
+    "pose_matrix",
+    "planar_pose",
+    "KinematicChain",
+    "chain_for",
+    "IKResult",
+    "PathIKResult",
+    "rotation_vector",
+    "solve_ik",
+    "solve_path_ik",
 ]
 
 MOVABLE_TYPES = ("revolute", "continuous", "prismatic")
 FULL_POSE_WEIGHTS = (1.0, 1.0, 1.0, 1.0, 1.0, 1.0)
 POSITION_WEIGHTS = (1.0, 1.0, 1.0, 0.0, 0.0, 0.0)
 PLANAR_WEIGHTS = (1.0, 1.0, 0.0, 0.0, 0.0, 1.0)  # x, y, yaw
-DEFAULT_DAMPING_BIAS = 1e-6  # Sugihara's w̄: larger values converge slowly near singular poses (measured: 1e-4 → 99.2 % in 100 iterations)
+DEFAULT_DAMPING_BIAS = (
+    1e-6  # Sugihara's w̄: larger values converge slowly near singular poses (measured: 1e-4 → 99.2 % in 100 iterations)
+)
 _STALL_STEP = 1e-13  # a (clipped) step shorter than this means the attempt cannot make progress
 _STALL_ITERATIONS, _STALL_GAIN = 10, 1e-3  # ... as do this many iterations without E falling by this fraction
 
@@ -72,7 +88,8 @@ class ChainJoint:
     upper: float
 
 
-def pose_matrix(position: Sequence[float] = (0.0, 0.0, 0.0), quat_xyzw: ArrayLike | None = None, rpy: ArrayLike | None = None
+def pose_matrix(
+    position: Sequence[float] = (0.0, 0.0, 0.0), quat_xyzw: ArrayLike | None = None, rpy: ArrayLike | None = None
 ) -> np.ndarray:
     """4x4 transform from a position and at most one of a quaternion (x, y, z, w) or URDF rpy."""
     if quat_xyzw is not None and rpy is not None:
@@ -160,8 +177,10 @@ class KinematicChain:
             if joint.joint_type == "fixed":
                 continue
             if joint.joint_type not in MOVABLE_TYPES:
-                raise KinematicsError(f"joint {joint.name!r} has unsupported type {joint.joint_type!r} "
-                                      f"(supported: fixed, {MOVABLE_TYPES})")
+                raise KinematicsError(
+                    f"joint {joint.name!r} has unsupported type {joint.joint_type!r} "
+                    f"(supported: fixed, {MOVABLE_TYPES})"
+                )
             lower, upper = -math.inf, math.inf
             if joint.joint_type != "continuous" and joint.limit is not None:
                 lower = -math.inf if joint.limit.lower is None else joint.limit.lower
@@ -273,8 +292,16 @@ def _chain_key(robot: RobotSpec) -> _ChainKey:
     and the limits. Never the robot's name: two URDFs may carry one name."""
     urdf = Path(robot.urdf_path).resolve()
     stat = urdf.stat()
-    return (str(urdf), stat.st_mtime_ns, stat.st_size, robot.base_link, robot.ee_link, tuple(robot.joint_names),
-            tuple(float(v) for v in robot.lower), tuple(float(v) for v in robot.upper))
+    return (
+        str(urdf),
+        stat.st_mtime_ns,
+        stat.st_size,
+        robot.base_link,
+        robot.ee_link,
+        tuple(robot.joint_names),
+        tuple(float(v) for v in robot.lower),
+        tuple(float(v) for v in robot.upper),
+    )
 
 
 def chain_for(robot: RobotSpec) -> KinematicChain:
@@ -409,7 +436,13 @@ def _step_at_limits(
 
 
 def _attempt(
-    problem: _Problem, q: np.ndarray, lower: np.ndarray, upper: np.ndarray, tol_pos: float, tol_rot: float, max_iter: int
+    problem: _Problem,
+    q: np.ndarray,
+    lower: np.ndarray,
+    upper: np.ndarray,
+    tol_pos: float,
+    tol_rot: float,
+    max_iter: int,
 ) -> tuple[np.ndarray, bool, float, float, float, int]:
     """LM iterations from q. Returns (q, converged, E, position_error, orientation_error, iterations)."""
     chain = problem.chain

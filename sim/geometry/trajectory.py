@@ -5,6 +5,7 @@ also matches accelerations (always zero at the waypoints here). Velocities at th
 given. Works for any dimension: joint space (n joints) or Cartesian (x, y, z). Outside [t0, tN] the trajectory
 holds its first / last waypoint with zero velocity and acceleration.
 """
+
 from __future__ import annotations
 
 from collections.abc import Sequence
@@ -71,7 +72,8 @@ class PolynomialTrajectory:
         if np.any(steps <= 0.0):
             bad = int(np.argmax(steps <= 0.0))
             raise TrajectoryError(
-                f"times must be strictly increasing: times[{bad}]={times_arr[bad]} >= times[{bad + 1}]={times_arr[bad + 1]}"
+                f"times must be strictly increasing: times[{bad}]={times_arr[bad]} >= "
+                f"times[{bad + 1}]={times_arr[bad + 1]}"
             )
         if points.ndim == 1:  # a 1-D trajectory given as a flat list
             points = points[:, None]

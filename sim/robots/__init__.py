@@ -4,6 +4,7 @@
 same through `add_robot_arguments` / `robot_from_args`. Everything not overridden is derived from the URDF
 (sim.robots.derive): base and end-effector links, controlled joints, limits, home and topic prefix.
 """
+
 from __future__ import annotations
 
 from sim.robots.errors import RobotError
@@ -18,7 +19,13 @@ from sim.robots.loading import (
 from sim.robots.spec import RobotSpec, ScenarioHints
 
 __all__ = [
-    "ROBOTS_DIR", "ROBOT_NAMES", "RobotError", "RobotSpec", "ScenarioHints", "load_robot",
-    "find_ros_package", "add_robot_arguments", "robot_from_args",
+    "ROBOTS_DIR",
+    "ROBOT_NAMES",
+    "RobotError",
+    "RobotSpec",
+    "ScenarioHints",
+    "load_robot",
+    "find_ros_package",
+    "add_robot_arguments",
+    "robot_from_args",
 ]
-

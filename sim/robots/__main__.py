@@ -1,6 +1,7 @@
 """`python -m sim.robots --robot ROBOT`: what the toolkit derives from a robot (links, joints, limits, home,
 topics, the notes on what it assumed), or with --urdf the robot's URDF text (for roslaunch's
 `<param name="robot_description" command="...">`). A robot that cannot be loaded: one line, exit 2."""
+
 from __future__ import annotations
 
 import argparse
@@ -12,13 +13,17 @@ __all__ = ["summary", "main"]
 
 
 def summary(robot: RobotSpec) -> str:
-    lines = [f"robot {robot.name}: {robot.urdf_path}",
-             f"  base link {robot.base_link}, end effector {robot.ee_link}",
-             f"  topics {robot.command_topic}, {robot.joint_states_topic}, {robot.pose_topic}",
-             "  joint                       type         lower      upper   velocity     effort       home"]
+    lines = [
+        f"robot {robot.name}: {robot.urdf_path}",
+        f"  base link {robot.base_link}, end effector {robot.ee_link}",
+        f"  topics {robot.command_topic}, {robot.joint_states_topic}, {robot.pose_topic}",
+        "  joint                       type         lower      upper   velocity     effort       home",
+    ]
     for j, name in enumerate(robot.joint_names):
-        lines.append(f"  {name:<27} {robot.joint_types[j]:<10} {robot.lower[j]:>8.4f} {robot.upper[j]:>10.4f} "
-                     f"{robot.max_velocity[j]:>10.4f} {robot.max_effort[j]:>10.4g} {robot.home[j]:>10.4f}")
+        lines.append(
+            f"  {name:<27} {robot.joint_types[j]:<10} {robot.lower[j]:>8.4f} {robot.upper[j]:>10.4f} "
+            f"{robot.max_velocity[j]:>10.4f} {robot.max_effort[j]:>10.4g} {robot.home[j]:>10.4f}"
+        )
     lines += [f"  note: {note}" for note in robot.notes]
     if robot.default_inertia_links:
         lines.append(f"  note: no <inertial> (pybullet gives 1 kg): {', '.join(robot.default_inertia_links)}")

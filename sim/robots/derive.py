@@ -12,6 +12,7 @@ The rules (README, "Bring your own robot"):
   name          the URDF's robot name, made a valid ROS name; topics are /<name>/...
 Floating and planar joints cannot be driven by a position drive: such a URDF is refused.
 """
+
 from __future__ import annotations
 
 import math
@@ -27,8 +28,15 @@ from sim.robots.spec import RobotSpec, ScenarioHints
 from sim.robots.urdf_model import MOVING_TYPES, UrdfJoint, UrdfModel
 
 __all__ = [
-    "LIMIT_KEYS", "MISSING_REVOLUTE_RANGE", "MISSING_PRISMATIC_RANGE", "MISSING_REVOLUTE_VELOCITY",
-    "MISSING_PRISMATIC_VELOCITY", "RobotOverrides", "ros_name", "end_effector", "derive_robot",
+    "LIMIT_KEYS",
+    "MISSING_REVOLUTE_RANGE",
+    "MISSING_PRISMATIC_RANGE",
+    "MISSING_REVOLUTE_VELOCITY",
+    "MISSING_PRISMATIC_VELOCITY",
+    "RobotOverrides",
+    "ros_name",
+    "end_effector",
+    "derive_robot",
 ]
 
 LIMIT_KEYS = ("lower", "upper", "velocity", "effort")
@@ -69,13 +77,17 @@ def end_effector(model: UrdfModel, base: str, source: str = "URDF") -> str:
     counts = {leaf: _moving_count(model, base, leaf) for leaf in below}
     longest = max(counts.values(), default=0)
     if longest == 0:
-        raise RobotError(f"{source}: robot {model.name!r} has no moving joint below link {base!r} "
-                         f"(moving joints are {', '.join(MOVING_TYPES)})")
+        raise RobotError(
+            f"{source}: robot {model.name!r} has no moving joint below link {base!r} "
+            f"(moving joints are {', '.join(MOVING_TYPES)})"
+        )
     candidates = [leaf for leaf, count in counts.items() if count == longest]
     if len(candidates) > 1:
-        raise RobotError(f"{source}: the end effector of robot {model.name!r} is ambiguous, {len(candidates)} leaves end a "
-                         f"chain of {longest} moving joints: {', '.join(candidates)}; choose one with --ee-link "
-                         f"(or ee_link in the robot's YAML)")
+        raise RobotError(
+            f"{source}: the end effector of robot {model.name!r} is ambiguous, {len(candidates)} leaves end a "
+            f"chain of {longest} moving joints: {', '.join(candidates)}; choose one with --ee-link "
+            f"(or ee_link in the robot's YAML)"
+        )
     return candidates[0]
 
 
@@ -109,7 +121,9 @@ def _limits(joint: UrdfJoint, notes: list[str], source: str) -> tuple[float, flo
         lower = 0.0 if limit is None or limit.lower is None else limit.lower
         upper = 0.0 if limit is None or limit.upper is None else limit.upper
         if lower > upper:
-            raise RobotError(f"{source}: joint {joint.name!r} has <limit lower={lower:g} upper={upper:g}>: lower above upper")
+            raise RobotError(
+                f"{source}: joint {joint.name!r} has <limit lower={lower:g} upper={upper:g}>: lower above upper"
+            )
         if upper == lower:  # URDF's defaults are 0 and 0: no range was given
             span = MISSING_PRISMATIC_RANGE if prismatic else MISSING_REVOLUTE_RANGE
             notes.append(f"joint {joint.name!r} has no position range in its <limit>; using ±{span:g} {unit}")
@@ -125,12 +139,14 @@ def _limits(joint: UrdfJoint, notes: list[str], source: str) -> tuple[float, flo
     return lower, upper, velocity, effort
 
 
-def _apply_limit_overrides(names: Sequence[str], table: np.ndarray, overrides: Mapping[str, Mapping[str, float]],
-                           source: str) -> None:
+def _apply_limit_overrides(
+    names: Sequence[str], table: np.ndarray, overrides: Mapping[str, Mapping[str, float]], source: str
+) -> None:
     for joint, values in overrides.items():
         if joint not in names:
-            raise RobotError(f"{source}: limits for joint {joint!r}, which is not a controlled joint "
-                             f"({', '.join(names)})")
+            raise RobotError(
+                f"{source}: limits for joint {joint!r}, which is not a controlled joint ({', '.join(names)})"
+            )
         for key, value in values.items():
             if key not in LIMIT_KEYS:
                 raise RobotError(f"{source}: joint {joint!r} limit {key!r} is not one of {', '.join(LIMIT_KEYS)}")
@@ -141,29 +157,44 @@ def _apply_limit_overrides(names: Sequence[str], table: np.ndarray, overrides: M
 
 def _check_hints(hints: ScenarioHints, names: Sequence[str], source: str) -> None:
     if hints.one_joint is not None and hints.one_joint not in names:
-        raise RobotError(f"{source}: scenarios.one_joint names joint {hints.one_joint!r}, which is not a controlled "
-                         f"joint ({', '.join(names)})")
+        raise RobotError(
+            f"{source}: scenarios.one_joint names joint {hints.one_joint!r}, which is not a controlled "
+            f"joint ({', '.join(names)})"
+        )
     for what, values in (("trial.centres", hints.trial_centres), ("trial.amplitudes", hints.trial_amplitudes)):
         if values is not None and len(values) != len(names):
-            raise RobotError(f"{source}: scenarios.{what} needs {len(names)} numbers (for {', '.join(names)}), "
-                             f"got {len(values)}")
-    for what, values in (("ik_goal", hints.ik_goal_position), ("orientation_goal", hints.orientation_goal_position),
-                         ("ik_goal.rpy", hints.ik_goal_rpy), ("orientation_goal.rpy", hints.orientation_goal_rpy)):
+            raise RobotError(
+                f"{source}: scenarios.{what} needs {len(names)} numbers (for {', '.join(names)}), got {len(values)}"
+            )
+    for what, values in (
+        ("ik_goal", hints.ik_goal_position),
+        ("orientation_goal", hints.orientation_goal_position),
+        ("ik_goal.rpy", hints.ik_goal_rpy),
+        ("orientation_goal.rpy", hints.orientation_goal_rpy),
+    ):
         if values is not None and len(values) != 3:
             raise RobotError(f"{source}: scenarios.{what} needs 3 numbers, got {len(values)}")
 
 
-def derive_robot(model: UrdfModel, urdf_path: Path, overrides: RobotOverrides = RobotOverrides(),
-                 source: str = "", cli_args: tuple[str, ...] = ()) -> RobotSpec:
+def derive_robot(
+    model: UrdfModel,
+    urdf_path: Path,
+    overrides: RobotOverrides = RobotOverrides(),
+    source: str = "",
+    cli_args: tuple[str, ...] = (),
+) -> RobotSpec:
     """The robot of `model` (read from `urdf_path`) with `overrides` applied; `source` names it in errors."""
     source = source or str(urdf_path)
     for joint in model.joints:
         if joint.joint_type in ("floating", "planar"):
-            raise RobotError(f"{source}: joint {joint.name!r} is {joint.joint_type}, which a position drive cannot "
-                             f"move; supported joint types: {', '.join(MOVING_TYPES)}, fixed")
+            raise RobotError(
+                f"{source}: joint {joint.name!r} is {joint.joint_type}, which a position drive cannot "
+                f"move; supported joint types: {', '.join(MOVING_TYPES)}, fixed"
+            )
     if not any(joint.moving for joint in model.joints):
-        raise RobotError(f"{source}: URDF robot {model.name!r} has no moving joint "
-                         f"(moving joints are {', '.join(MOVING_TYPES)})")
+        raise RobotError(
+            f"{source}: URDF robot {model.name!r} has no moving joint (moving joints are {', '.join(MOVING_TYPES)})"
+        )
     base = overrides.base_link or model.root
     if base not in model.links:
         raise RobotError(f"{source}: no link {base!r} for the base; links: {', '.join(model.links)}")
@@ -183,17 +214,20 @@ def derive_robot(model: UrdfModel, urdf_path: Path, overrides: RobotOverrides = 
     lower, upper, velocity, effort = table.T
     for j, name in enumerate(names):
         if not lower[j] < upper[j] or not (velocity[j] > 0 and effort[j] > 0):
-            raise RobotError(f"{source}: joint {name!r} limits must have lower < upper and velocity, effort > 0; "
-                             f"got lower {lower[j]:g}, upper {upper[j]:g}, velocity {velocity[j]:g}, "
-                             f"effort {effort[j]:g}")
+            raise RobotError(
+                f"{source}: joint {name!r} limits must have lower < upper and velocity, effort > 0; "
+                f"got lower {lower[j]:g}, upper {upper[j]:g}, velocity {velocity[j]:g}, "
+                f"effort {effort[j]:g}"
+            )
     types = tuple(joint.joint_type for joint in chain)
     if overrides.home is None:
         home = np.where(np.array(types) == "continuous", 0.0, (lower + upper) / 2.0)
     else:
         home = np.array(overrides.home, dtype=float)
         if home.shape != (len(names),) or not np.all(np.isfinite(home)):
-            raise RobotError(f"{source}: home needs {len(names)} finite numbers (for {', '.join(names)}), "
-                             f"got {list(overrides.home)}")
+            raise RobotError(
+                f"{source}: home needs {len(names)} finite numbers (for {', '.join(names)}), got {list(overrides.home)}"
+            )
         outside = [name for name, q, lo, hi in zip(names, home, lower, upper) if not lo - 1e-9 <= q <= hi + 1e-9]
         if outside:
             raise RobotError(f"{source}: home {home.tolist()} is outside the limits of {', '.join(outside)}")
@@ -206,8 +240,21 @@ def derive_robot(model: UrdfModel, urdf_path: Path, overrides: RobotOverrides = 
     inertia_less = tuple(link for link in moving_links if model.links[link].mass is None)
     zeroed = tuple(link for link in moving_links if not model.links[link].inertia_is_physical())
     return RobotSpec(
-        name=name, urdf_path=urdf_path, joint_names=tuple(names), joint_types=types, lower=lower.copy(),
-        upper=upper.copy(), max_velocity=velocity.copy(), max_effort=effort.copy(), base_link=base, ee_link=ee,
-        topic_prefix=f"/{name}", home=home, hints=overrides.hints, default_inertia_links=inertia_less, zeroed_inertia_links=zeroed,
-        notes=tuple(notes), cli_args=cli_args,
+        name=name,
+        urdf_path=urdf_path,
+        joint_names=tuple(names),
+        joint_types=types,
+        lower=lower.copy(),
+        upper=upper.copy(),
+        max_velocity=velocity.copy(),
+        max_effort=effort.copy(),
+        base_link=base,
+        ee_link=ee,
+        topic_prefix=f"/{name}",
+        home=home,
+        hints=overrides.hints,
+        default_inertia_links=inertia_less,
+        zeroed_inertia_links=zeroed,
+        notes=tuple(notes),
+        cli_args=cli_args,
     )

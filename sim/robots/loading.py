@@ -17,6 +17,7 @@ A robot YAML holds overrides as data (every key optional except `urdf` in a YAML
 
 `--robot path/to/arm.urdf` also reads `path/to/arm.yaml` when it exists. Command-line overrides win over the YAML.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -41,8 +42,12 @@ log = logging.getLogger(__name__)
 ROBOTS_DIR = Path(__file__).resolve().parent
 ROBOT_NAMES: tuple[str, ...] = ("panda", "igt")  # the robots shipped as ROBOTS_DIR/<name>.yaml
 _YAML_KEYS = ("urdf", "name", "base_link", "ee_link", "home", "limits", "scenarios")
-_SCENARIO_KEYS = {"one_joint": ("joint", "waypoints"), "ik_goal": ("position", "rpy"),
-                  "orientation_goal": ("position", "rpy"), "trial": ("centres", "amplitudes")}
+_SCENARIO_KEYS = {
+    "one_joint": ("joint", "waypoints"),
+    "ik_goal": ("position", "rpy"),
+    "orientation_goal": ("position", "rpy"),
+    "trial": ("centres", "amplitudes"),
+}
 _PYBULLET_DATA = "pybullet_data:"
 
 
@@ -66,8 +71,11 @@ def _read_yaml(path: Path) -> dict[str, Any]:
 
 
 def _numbers(value: object, what: str) -> tuple[float, ...]:
-    if not isinstance(value, list) or not value or not all(
-            isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in value):
+    if (
+        not isinstance(value, list)
+        or not value
+        or not all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in value)
+    ):
         raise RobotError(f"{what} must be a list of finite numbers, got {value!r}")
     return tuple(float(v) for v in value)
 
@@ -125,7 +133,7 @@ def _urdf_of(yaml_path: Path, value: object) -> Path:
     if text.startswith(_PYBULLET_DATA):
         import pybullet_data
 
-        return Path(pybullet_data.getDataPath()) / text[len(_PYBULLET_DATA):]
+        return Path(pybullet_data.getDataPath()) / text[len(_PYBULLET_DATA) :]
     path = Path(text).expanduser()
     return path if path.is_absolute() else yaml_path.parent / path
 
@@ -143,16 +151,23 @@ def _files(reference: str) -> tuple[Path | None, Path | None]:
     if path.suffix == ".xacro" or path.name.endswith(".urdf.xacro"):
         raise RobotError(f"{path} is a xacro file; expand it first: xacro {path} > {path.stem}.urdf")
     if path.suffix != ".urdf" and not path.is_file():
-        raise RobotError(f"unknown robot {reference!r}: give a URDF path (…/arm.urdf), a robot YAML or one of "
-                         f"{', '.join(ROBOT_NAMES)}")
+        raise RobotError(
+            f"unknown robot {reference!r}: give a URDF path (…/arm.urdf), a robot YAML or one of "
+            f"{', '.join(ROBOT_NAMES)}"
+        )
     if not path.is_file():
         raise RobotError(f"URDF not found: {path}")
     sibling = path.with_suffix(".yaml")
     return path.resolve(), sibling.resolve() if sibling.is_file() else None
 
 
-def load_robot(reference: str, name: str | None = None, base_link: str | None = None, ee_link: str | None = None,
-               home: tuple[float, ...] | None = None) -> RobotSpec:
+def load_robot(
+    reference: str,
+    name: str | None = None,
+    base_link: str | None = None,
+    ee_link: str | None = None,
+    home: tuple[float, ...] | None = None,
+) -> RobotSpec:
     """The robot `reference` names (a bundled name, a URDF path or a robot YAML path), with the given overrides
     winning over its YAML's. RobotError names the file and the value when it cannot be loaded."""
     given_urdf, yaml_path = _files(reference)
@@ -173,8 +188,13 @@ def load_robot(reference: str, name: str | None = None, base_link: str | None = 
         raise RobotError(f"cannot read URDF {urdf}: {error}") from None
     model = parse_urdf(text, str(urdf))
     overrides = _overrides(data, yaml_path) if yaml_path is not None else RobotOverrides()
-    overrides = replace(overrides, name=name or overrides.name, base_link=base_link or overrides.base_link,
-                        ee_link=ee_link or overrides.ee_link, home=overrides.home if home is None else home)
+    overrides = replace(
+        overrides,
+        name=name or overrides.name,
+        base_link=base_link or overrides.base_link,
+        ee_link=ee_link or overrides.ee_link,
+        home=overrides.home if home is None else home,
+    )
     # Child processes get the same robot: the bundled name, or the absolute path of the file that was given.
     given_yaml = reference not in ROBOT_NAMES and Path(reference).suffix in (".yaml", ".yml")
     cli_args = ["--robot", reference if reference in ROBOT_NAMES else str(yaml_path if given_yaml else urdf)]
@@ -206,8 +226,11 @@ def find_ros_package(name: str) -> Path | None:
 def add_robot_arguments(parser: argparse.ArgumentParser, default: str = "panda") -> None:
     """--robot and its overrides, the same for every entry point."""
     group = parser.add_argument_group("robot")
-    group.add_argument("--robot", default=default,
-                       help=f"a URDF path, a robot YAML path or one of {', '.join(ROBOT_NAMES)} (default {default})")
+    group.add_argument(
+        "--robot",
+        default=default,
+        help=f"a URDF path, a robot YAML path or one of {', '.join(ROBOT_NAMES)} (default {default})",
+    )
     group.add_argument("--name", help="the robot's name (topics /<name>/...); default: the URDF's robot name")
     group.add_argument("--base-link", help="default: the URDF's root link")
     group.add_argument("--ee-link", help="default: the leaf ending the longest chain of moving joints")
@@ -220,5 +243,10 @@ def robot_from_args(args: argparse.Namespace) -> RobotSpec:
         home = parse_numbers(args.home, "--home")
     except CliValueError as error:
         raise RobotError(str(error)) from None
-    return load_robot(args.robot, name=args.name, base_link=args.base_link, ee_link=args.ee_link,
-                      home=None if home is None else tuple(home))
+    return load_robot(
+        args.robot,
+        name=args.name,
+        base_link=args.base_link,
+        ee_link=args.ee_link,
+        home=None if home is None else tuple(home),
+    )

@@ -6,6 +6,7 @@ when a collision mesh is missing. ROS resolves it through the package path (rosp
 every filename to an absolute path found either way, and drops the <visual> or <collision> whose mesh is nowhere:
 the physics takes masses and inertias from <inertial> and has no contacts, so only pictures lose that shape.
 """
+
 from __future__ import annotations
 
 import xml.etree.ElementTree as ET
@@ -24,22 +25,23 @@ def resolve_filename(filename: str, urdf_dir: Path, find_package: Callable[[str]
     """The existing file `filename` names (package://, file:// or a path relative to the URDF), or None."""
     candidates: list[Path] = []
     if filename.startswith(PACKAGE_SCHEME):
-        package, _, rest = filename[len(PACKAGE_SCHEME):].partition("/")
+        package, _, rest = filename[len(PACKAGE_SCHEME) :].partition("/")
         found = find_package(package)
         if found is not None:
             candidates.append(found / rest)
         candidates += [urdf_dir / package / rest, urdf_dir / rest]  # pybullet's guesses, beside the URDF
         candidates += [parent / package / rest for parent in urdf_dir.parents]  # a description package above it
     elif filename.startswith(FILE_SCHEME):
-        candidates.append(Path(filename[len(FILE_SCHEME):]))
+        candidates.append(Path(filename[len(FILE_SCHEME) :]))
     else:
         path = Path(filename)
         candidates.append(path if path.is_absolute() else urdf_dir / path)
     return next((candidate.resolve() for candidate in candidates if candidate.is_file()), None)
 
 
-def _resolve(element: ET.Element, urdf_dir: Path, find_package: Callable[[str], Path | None],
-             missing: list[str]) -> bool:
+def _resolve(
+    element: ET.Element, urdf_dir: Path, find_package: Callable[[str], Path | None], missing: list[str]
+) -> bool:
     """Make `element`'s filename absolute; False (and the name noted in `missing`) when the file is nowhere."""
     filename = element.get("filename", "")
     found = resolve_filename(filename, urdf_dir, find_package)
@@ -50,8 +52,7 @@ def _resolve(element: ET.Element, urdf_dir: Path, find_package: Callable[[str], 
     return True
 
 
-def resolve_shapes(urdf_text: str, urdf_dir: Path, find_package: Callable[[str], Path | None]
-                   ) -> tuple[str, list[str]]:
+def resolve_shapes(urdf_text: str, urdf_dir: Path, find_package: Callable[[str], Path | None]) -> tuple[str, list[str]]:
     """(URDF text with every mesh and texture filename absolute, the filenames found nowhere). The <visual> or
     <collision> holding a missing mesh is dropped, and so is a missing <texture>."""
     root = urdf_root(urdf_text)

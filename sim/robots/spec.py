@@ -1,5 +1,6 @@
 """What the toolkit knows of a robot once it is loaded: `RobotSpec`, plus the scenario hints a robot's YAML may
 carry. Pure data."""
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field

@@ -5,6 +5,7 @@ links carry an `<inertial>`. Visuals, collisions, transmissions and gazebo tags 
 Only the `<joint>` and `<link>` elements directly under `<robot>` count: `<transmission>` elements hold `<joint>`
 elements of their own (without a type), which are not joints of the tree.
 """
+
 from __future__ import annotations
 
 import math
@@ -15,8 +16,7 @@ import numpy as np
 
 from sim.robots.errors import RobotError
 
-__all__ = ["MOVING_TYPES", "KNOWN_TYPES", "UrdfLimit", "UrdfJoint", "UrdfLink", "UrdfModel", "urdf_root",
-           "parse_urdf"]
+__all__ = ["MOVING_TYPES", "KNOWN_TYPES", "UrdfLimit", "UrdfJoint", "UrdfLink", "UrdfModel", "urdf_root", "parse_urdf"]
 
 MOVING_TYPES = ("revolute", "continuous", "prismatic")
 KNOWN_TYPES = (*MOVING_TYPES, "fixed", "floating", "planar")
@@ -103,8 +103,9 @@ class UrdfModel:
         return [name for name in self.links if name not in parents]
 
 
-def _floats(element: ET.Element | None, attribute: str, default: tuple[float, float, float], what: str
-            ) -> tuple[float, float, float]:
+def _floats(
+    element: ET.Element | None, attribute: str, default: tuple[float, float, float], what: str
+) -> tuple[float, float, float]:
     text = None if element is None else element.get(attribute)
     if text is None:
         return default
@@ -154,11 +155,22 @@ def _joint(element: ET.Element, source: str) -> UrdfJoint:
     limit_element = element.find("limit")
     limit = None
     if limit_element is not None:
-        limit = UrdfLimit(*(_optional_float(limit_element, key, f"{what} <limit>")
-                            for key in ("lower", "upper", "velocity", "effort")))
-    return UrdfJoint(name, joint_type, ends["parent"], ends["child"],
-                     _floats(origin, "xyz", (0.0, 0.0, 0.0), f"{what} origin"),
-                     _floats(origin, "rpy", (0.0, 0.0, 0.0), f"{what} origin"), axis, limit)
+        limit = UrdfLimit(
+            *(
+                _optional_float(limit_element, key, f"{what} <limit>")
+                for key in ("lower", "upper", "velocity", "effort")
+            )
+        )
+    return UrdfJoint(
+        name,
+        joint_type,
+        ends["parent"],
+        ends["child"],
+        _floats(origin, "xyz", (0.0, 0.0, 0.0), f"{what} origin"),
+        _floats(origin, "rpy", (0.0, 0.0, 0.0), f"{what} origin"),
+        axis,
+        limit,
+    )
 
 
 def _link(element: ET.Element, source: str) -> UrdfLink:
@@ -173,10 +185,18 @@ def _link(element: ET.Element, source: str) -> UrdfLink:
     inertia_element = inertial.find("inertia")
     inertia = None
     if inertia_element is not None:
-        values = [_optional_float(inertia_element, key, f"{source}: link {name!r} inertia")
-                  for key in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")]
-        inertia = (values[0] or 0.0, values[1] or 0.0, values[2] or 0.0, values[3] or 0.0, values[4] or 0.0,
-                   values[5] or 0.0)
+        values = [
+            _optional_float(inertia_element, key, f"{source}: link {name!r} inertia")
+            for key in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")
+        ]
+        inertia = (
+            values[0] or 0.0,
+            values[1] or 0.0,
+            values[2] or 0.0,
+            values[3] or 0.0,
+            values[4] or 0.0,
+            values[5] or 0.0,
+        )
     return UrdfLink(name, 0.0 if mass is None else mass, inertia)
 
 

@@ -9,6 +9,7 @@
 
 Bad input (an unknown path name, an infeasible combination, a malformed plan or scene) is one line and exit 2.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -56,13 +57,20 @@ def _parser() -> argparse.ArgumentParser:
     with_scene(run)
     run.add_argument("--realtime", action="store_true", help="pace by the wall clock (VR headset, real robot)")
     run.add_argument("--auto-go", action="store_true", help="start each approach at once, without waiting for go")
-    run.add_argument("--keyboard", action="store_true",
-                     help="the observer types here: Enter = go, s = stop, distances and preferences when asked")
+    run.add_argument(
+        "--keyboard",
+        action="store_true",
+        help="the observer types here: Enter = go, s = stop, distances and preferences when asked",
+    )
     run.add_argument("--no-record", action="store_true", help="no rosbag record")
     run.add_argument("--settle", type=float, default=0.5, help="s held after each motion before it is at rest")
     run.add_argument("--deceleration", type=float, default=1.0, help="braking on a press, m/s² along the path")
-    run.add_argument("--response-timeout", type=float, default=300.0,
-                     help="longest wait for go or an answer in s; then the trial goes on without it (default 300)")
+    run.add_argument(
+        "--response-timeout",
+        type=float,
+        default=300.0,
+        help="longest wait for go or an answer in s; then the trial goes on without it (default 300)",
+    )
     run.add_argument("--step-timeout", type=float, default=10.0, help="lockstep: longest wait for a joint state")
     run.add_argument("--connect-timeout", type=float, default=60.0, help="longest wait for the engine at start")
 
@@ -72,8 +80,12 @@ def _parser() -> argparse.ArgumentParser:
     participant.add_argument("--host", default="127.0.0.1", help="endpoint address")
     participant.add_argument("--port", type=int, default=10000, help="endpoint port")
     participant.add_argument("--scene", type=Path, help="scene YAML (default: the bundled scene.yaml)")
-    participant.add_argument("--vr-distance-bias", type=float, default=0.85,
-                             help="perceived / actual distance in VR (default 0.85: a 15 %% underestimate)")
+    participant.add_argument(
+        "--vr-distance-bias",
+        type=float,
+        default=0.85,
+        help="perceived / actual distance in VR (default 0.85: a 15 %% underestimate)",
+    )
     participant.add_argument("--timeout", type=float, default=1800.0, help="give up after this many s")
 
     view = commands.add_parser("view", help="the experimenter's live 3-D view, a web page (viser)")
@@ -94,8 +106,12 @@ def _parser() -> argparse.ArgumentParser:
     simulate.add_argument("--seed", type=int, default=1)
     simulate.add_argument("--design", type=Path, help="design YAML (default: the bundled design.yaml)")
     with_scene(simulate)
-    simulate.add_argument("--vr-distance-bias", type=float, default=0.85,
-                          help="the simulated participants' perceived / actual distance in VR (default 0.85)")
+    simulate.add_argument(
+        "--vr-distance-bias",
+        type=float,
+        default=0.85,
+        help="the simulated participants' perceived / actual distance in VR (default 0.85)",
+    )
     return parser
 
 
@@ -106,8 +122,15 @@ def _check_positive(value: float, option: str) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
-    commands = {"plan": _plan, "check": _check, "run": _run, "participant": _participant, "view": _view,
-                "analyse": _analyse, "simulate": _simulate}
+    commands = {
+        "plan": _plan,
+        "check": _check,
+        "run": _run,
+        "participant": _participant,
+        "view": _view,
+        "analyse": _analyse,
+        "simulate": _simulate,
+    }
     try:
         return commands[args.command](args)
     except (StudyError, RobotError) as error:
@@ -123,8 +146,10 @@ def _plan(args: argparse.Namespace) -> int:
     else:
         args.out.parent.mkdir(parents=True, exist_ok=True)
         args.out.write_text(text)
-        print(f"plan of participant {plan.participant}: {len(plan.trials)} trials, {' then '.join(plan.conditions)}"
-              f" -> {args.out}")
+        print(
+            f"plan of participant {plan.participant}: {len(plan.trials)} trials, {' then '.join(plan.conditions)}"
+            f" -> {args.out}"
+        )
     return 0
 
 
@@ -143,14 +168,18 @@ def _check(args: argparse.Namespace) -> int:
     for (path, standoff, speed), planned in approaches.items():
         clearance = planned.min_clearance
         verdict = "feasible" if planned.feasible else "; ".join(planned.problems)
-        print(f"| {path} | {standoff:.3f} m | {speed:.2f} m/s | {len(planned.path.times)} | "
-              f"{planned.path.duration:.2f} s | {clearance['table'] * 1000:.0f} / {clearance['hand'] * 1000:.0f} mm | "
-              f"{verdict} |")
+        print(
+            f"| {path} | {standoff:.3f} m | {speed:.2f} m/s | {len(planned.path.times)} | "
+            f"{planned.path.duration:.2f} s | {clearance['table'] * 1000:.0f} / {clearance['hand'] * 1000:.0f} mm | "
+            f"{verdict} |"
+        )
     print(f"{len(approaches)} combinations planned in {elapsed:.1f} s")
     infeasible = [key for key, planned in approaches.items() if not planned.feasible]
     if infeasible:
-        raise StudyError(f"{len(infeasible)} combination(s) of the design are not feasible: "
-                         f"{', '.join(f'{p} to {s} m at {v} m/s' for p, s, v in infeasible)}")
+        raise StudyError(
+            f"{len(infeasible)} combination(s) of the design are not feasible: "
+            f"{', '.join(f'{p} to {s} m at {v} m/s' for p, s, v in infeasible)}"
+        )
     return 0
 
 
@@ -166,12 +195,23 @@ def _run(args: argparse.Namespace) -> int:
     approaches = plan_combinations(robot, scene, [(t.path, t.standoff, t.peak_speed) for t in plan.trials], args.dt)
     infeasible = {key: planned.problems for key, planned in approaches.items() if not planned.feasible}
     if infeasible:
-        raise StudyError("the plan has combinations that are not feasible (none was run): " + "; ".join(
-            f"{p} to {s} m at {v} m/s: {', '.join(problems)}" for (p, s, v), problems in infeasible.items()))
-    options = RunnerOptions(args.dt, args.realtime, args.auto_go, args.keyboard, args.settle, args.step_timeout,
-                            args.response_timeout, args.deceleration)
-    return run_node(robot, scene, plan, approaches, options, args.out.resolve(), not args.no_record,
-                    args.connect_timeout)
+        raise StudyError(
+            "the plan has combinations that are not feasible (none was run): "
+            + "; ".join(f"{p} to {s} m at {v} m/s: {', '.join(problems)}" for (p, s, v), problems in infeasible.items())
+        )
+    options = RunnerOptions(
+        args.dt,
+        args.realtime,
+        args.auto_go,
+        args.keyboard,
+        args.settle,
+        args.step_timeout,
+        args.response_timeout,
+        args.deceleration,
+    )
+    return run_node(
+        robot, scene, plan, approaches, options, args.out.resolve(), not args.no_record, args.connect_timeout
+    )
 
 
 def _participant(args: argparse.Namespace) -> int:
@@ -183,8 +223,9 @@ def _participant(args: argparse.Namespace) -> int:
     _check_positive(args.timeout, "--timeout")
     scene = load_scene(args.scene)
     robot = scene_robot(scene)
-    traits = draw_traits(Population(distance_bias={"vr": args.vr_distance_bias, "reality": 1.0}), args.participant,
-                         args.seed)
+    traits = draw_traits(
+        Population(distance_bias={"vr": args.vr_distance_bias, "reality": 1.0}), args.participant, args.seed
+    )
     client = TcpClient(args.host, args.port)
     participant = SimulatedParticipant(client, robot, scene, traits, args.seed)
     participant.attach()
@@ -259,8 +300,9 @@ def _simulate(args: argparse.Namespace) -> int:
     if args.seed < 0:
         raise StudyError(f"--seed must be >= 0, got {args.seed}")
     started = time.monotonic()
-    settings = Simulation(args.participants, args.seed, args.out, args.design, args.scene, args.dt,
-                          args.vr_distance_bias)
+    settings = Simulation(
+        args.participants, args.seed, args.out, args.design, args.scene, args.dt, args.vr_distance_bias
+    )
     try:
         report = simulate(settings, lambda line: print(f"simulate: {line}", flush=True))
     except SimulationError as error:

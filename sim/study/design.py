@@ -1,5 +1,6 @@
 """The study's design as data (design.yaml beside this file): test 1's paths and stand-offs, test 2's paths and
 speed sets, the two conditions (VR and reality). Pure logic, but for reading the YAML in `load_design`."""
+
 from __future__ import annotations
 
 import math
@@ -27,7 +28,8 @@ class Design:
     @property
     def trials_per_participant(self) -> int:
         per_condition = len(self.test1_paths) * len(self.test1_standoffs) + len(self.test2_paths) * len(
-            self.test2_speed_sets)
+            self.test2_speed_sets
+        )
         return per_condition * len(CONDITIONS)
 
 
@@ -43,8 +45,9 @@ def _paths(value: object, what: str) -> tuple[str, ...]:
 
 
 def _speed(value: object, what: str) -> float:
-    if not (isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
-            and 0.0 < value <= 1.0):
+    if not (
+        isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value) and 0.0 < value <= 1.0
+    ):
         raise StudyError(f"{what} must be a speed in (0, 1] m/s, got {value!r}")
     return float(value)
 
@@ -62,11 +65,19 @@ def parse_design(data: object, source: str = "design") -> Design:
     test1 = _section(data, "test1", ("paths", "standoffs", "peak_speed"), source)
     test2 = _section(data, "test2", ("paths", "speed_sets"), source)
     standoffs = test1["standoffs"]
-    if not isinstance(standoffs, list) or not standoffs or not all(
+    if (
+        not isinstance(standoffs, list)
+        or not standoffs
+        or not all(
             isinstance(v, (int, float)) and not isinstance(v, bool) and MIN_STANDOFF <= v <= MAX_STANDOFF
-            for v in standoffs) or len(set(standoffs)) != len(standoffs):
-        raise StudyError(f"{source}: test1.standoffs must be distinct stand-offs of {MIN_STANDOFF}..{MAX_STANDOFF} m, "
-                         f"got {standoffs!r}")
+            for v in standoffs
+        )
+        or len(set(standoffs)) != len(standoffs)
+    ):
+        raise StudyError(
+            f"{source}: test1.standoffs must be distinct stand-offs of {MIN_STANDOFF}..{MAX_STANDOFF} m, "
+            f"got {standoffs!r}"
+        )
     speed_sets = test2["speed_sets"]
     if not isinstance(speed_sets, dict) or not speed_sets:
         raise StudyError(f"{source}: test2.speed_sets must map names to peak speeds, got {speed_sets!r}")
@@ -75,8 +86,9 @@ def parse_design(data: object, source: str = "design") -> Design:
         test1_standoffs=tuple(float(v) for v in standoffs),
         test1_peak_speed=_speed(test1["peak_speed"], f"{source}: test1.peak_speed"),
         test2_paths=_paths(test2["paths"], f"{source}: test2.paths"),
-        test2_speed_sets=tuple((str(name), _speed(speed, f"{source}: test2.speed_sets.{name}"))
-                               for name, speed in speed_sets.items()),
+        test2_speed_sets=tuple(
+            (str(name), _speed(speed, f"{source}: test2.speed_sets.{name}")) for name, speed in speed_sets.items()
+        ),
     )
 
 

@@ -1,4 +1,5 @@
 """The one error type of sim.study."""
+
 from __future__ import annotations
 
 from sim.errors import SimError

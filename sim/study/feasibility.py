@@ -1,11 +1,12 @@
-"""An approach path made joint motion and checked before it is ever run: IK of every sample (sim.geometry.kinematics), joint
-position and velocity limits, no contact with the table, the hand or the robot itself (pybullet's collision
-shapes), and the stand-off actually reached (FK of the planned end). An infeasible combination is reported with
-every reason, never run.
+"""An approach path made joint motion and checked before it is ever run: IK of every sample
+(sim.geometry.kinematics), joint position and velocity limits, no contact with the table, the hand or the robot
+itself (pybullet's collision shapes), and the stand-off actually reached (FK of the planned end). An infeasible
+combination is reported with every reason, never run.
 
 The end effector keeps the orientation it has at home throughout (the Panda's flange points down), on the axes
 its chain controls (sim.control.scenario_defaults).
 """
+
 from __future__ import annotations
 
 import math
@@ -15,17 +16,24 @@ from dataclasses import dataclass, field
 import numpy as np
 import pybullet as p
 
+from sim.control.scenario_defaults import controllable_weights
+from sim.engine.physics import load_urdf_text
 from sim.geometry.frames import matrix_to_quat, rpy_to_matrix
 from sim.geometry.kinematics import chain_for, solve_ik, solve_path_ik
-from sim.engine.physics import load_urdf_text
 from sim.robots import RobotSpec, find_ros_package
 from sim.robots.meshes import resolve_shapes
-from sim.control.scenario_defaults import controllable_weights
 from sim.study.paths import ApproachPath, approach_path
 from sim.study.scene import Box, Scene
 
-__all__ = ["CONTACT_MARGIN", "STANDOFF_TOLERANCE", "Combination", "PlannedApproach", "SceneWorld", "plan_approach",
-           "plan_combinations"]
+__all__ = [
+    "CONTACT_MARGIN",
+    "STANDOFF_TOLERANCE",
+    "Combination",
+    "PlannedApproach",
+    "SceneWorld",
+    "plan_approach",
+    "plan_combinations",
+]
 
 CONTACT_MARGIN = 0.005  # m: closer than this to the table, the hand or itself counts as contact
 STANDOFF_TOLERANCE = 0.002  # m: FK of the planned end vs the path's stand-off
@@ -64,15 +72,23 @@ class SceneWorld:
     def _load(self, scene: Scene) -> None:
         cid, urdf = self._client, self.robot.urdf_path
         text, _ = resolve_shapes(urdf.read_text(encoding="utf-8"), urdf.parent, find_ros_package)
-        self._body = load_urdf_text(text, urdf.name, cid, scene.base_position.tolist(),
-                                    matrix_to_quat(rpy_to_matrix(*scene.base_rpy)).tolist(),
-                                    flags=p.URDF_USE_SELF_COLLISION | p.URDF_USE_SELF_COLLISION_EXCLUDE_ALL_PARENTS)
-        index = {p.getJointInfo(self._body, j, physicsClientId=cid)[1].decode(): j
-                 for j in range(p.getNumJoints(self._body, physicsClientId=cid))}
+        self._body = load_urdf_text(
+            text,
+            urdf.name,
+            cid,
+            scene.base_position.tolist(),
+            matrix_to_quat(rpy_to_matrix(*scene.base_rpy)).tolist(),
+            flags=p.URDF_USE_SELF_COLLISION | p.URDF_USE_SELF_COLLISION_EXCLUDE_ALL_PARENTS,
+        )
+        index = {
+            p.getJointInfo(self._body, j, physicsClientId=cid)[1].decode(): j
+            for j in range(p.getNumJoints(self._body, physicsClientId=cid))
+        }
         self._joints = [index[name] for name in self.robot.joint_names]
         # Links that move: below the first controlled joint. The others (the base, bolted to the table) may touch it.
-        self._moving = {j for j in range(p.getNumJoints(self._body, physicsClientId=cid))
-                        if self._below(j, self._joints[0])}
+        self._moving = {
+            j for j in range(p.getNumJoints(self._body, physicsClientId=cid)) if self._below(j, self._joints[0])
+        }
         self._obstacles = {"table": self._box(scene.table), "hand": self._box(scene.hand)}
         # Link pairs that touch at every configuration (neighbours through fixed joints, e.g. the Panda's hand and
         # link 7) are no collision: measured once at home and left out.
@@ -89,8 +105,16 @@ class SceneWorld:
     def _box(self, box: Box) -> int:
         cid = self._client
         shape = p.createCollisionShape(p.GEOM_BOX, halfExtents=(box.size / 2).tolist(), physicsClientId=cid)
-        return int(p.createMultiBody(0.0, shape, -1, box.position.tolist(),
-                                     matrix_to_quat(rpy_to_matrix(0.0, 0.0, box.yaw)).tolist(), physicsClientId=cid))
+        return int(
+            p.createMultiBody(
+                0.0,
+                shape,
+                -1,
+                box.position.tolist(),
+                matrix_to_quat(rpy_to_matrix(0.0, 0.0, box.yaw)).tolist(),
+                physicsClientId=cid,
+            )
+        )
 
     def _set(self, q: np.ndarray) -> None:
         for joint, value in zip(self._joints, q):
@@ -118,7 +142,7 @@ class SceneWorld:
             p.disconnect(physicsClientId=self._client)
             self._client = None
 
-    def __enter__(self) -> "SceneWorld":
+    def __enter__(self) -> SceneWorld:
         return self
 
     def __exit__(self, *_exc: object) -> None:
@@ -137,21 +161,25 @@ def plan_approach(robot: RobotSpec, scene: Scene, path: ApproachPath, world: Sce
     solved = solve_path_ik(chain, targets, first.q, weights=weights)
     if not solved.all_succeeded:
         failed = np.flatnonzero(~solved.success)
-        problems.append(f"IK failed at {failed.size} of {len(path.times)} samples, first at "
-                        f"t = {path.times[failed[0]]:.2f} s")
+        problems.append(
+            f"IK failed at {failed.size} of {len(path.times)} samples, first at t = {path.times[failed[0]]:.2f} s"
+        )
     positions = solved.q
     velocities = np.gradient(positions, path.dt, axis=0)
     velocities[0] = velocities[-1] = 0.0
     outside = ~((positions >= robot.lower - 1e-9) & (positions <= robot.upper + 1e-9))
     if outside.any():
         k, j = np.argwhere(outside)[0]
-        problems.append(f"{robot.joint_names[j]} leaves its limits ({positions[k, j]:.3f} at "
-                        f"t = {path.times[k]:.2f} s)")
+        problems.append(
+            f"{robot.joint_names[j]} leaves its limits ({positions[k, j]:.3f} at t = {path.times[k]:.2f} s)"
+        )
     too_fast = np.abs(velocities) > robot.max_velocity
     if too_fast.any():
         k, j = np.argwhere(too_fast)[0]
-        problems.append(f"{robot.joint_names[j]} exceeds its velocity limit ({abs(velocities[k, j]):.3f} > "
-                        f"{robot.max_velocity[j]:.3f} at t = {path.times[k]:.2f} s)")
+        problems.append(
+            f"{robot.joint_names[j]} exceeds its velocity limit ({abs(velocities[k, j]):.3f} > "
+            f"{robot.max_velocity[j]:.3f} at t = {path.times[k]:.2f} s)"
+        )
     lowest = {"table": math.inf, "hand": math.inf, "self": math.inf}
     for k in range(len(path.times)):
         for what, distance in world.clearance(positions[k]).items():
@@ -159,8 +187,10 @@ def plan_approach(robot: RobotSpec, scene: Scene, path: ApproachPath, world: Sce
                 lowest[what] = distance
     for what, distance in lowest.items():
         if distance < CONTACT_MARGIN:
-            problems.append(f"the robot comes within {max(distance, 0.0) * 1000:.1f} mm of "
-                            f"{'itself' if what == 'self' else 'the ' + what}")
+            problems.append(
+                f"the robot comes within {max(distance, 0.0) * 1000:.1f} mm of "
+                f"{'itself' if what == 'self' else 'the ' + what}"
+            )
     end = scene.end_effector(chain, positions[-1])
     reached = scene.hand.distance(end)
     if abs(reached - path.standoff) > STANDOFF_TOLERANCE:
@@ -168,9 +198,12 @@ def plan_approach(robot: RobotSpec, scene: Scene, path: ApproachPath, world: Sce
     return PlannedApproach(path, positions, velocities, reached, lowest, problems)
 
 
-def plan_combinations(robot: RobotSpec, scene: Scene, combinations: Iterable[Combination],
-                      dt: float) -> dict[Combination, PlannedApproach]:
+def plan_combinations(
+    robot: RobotSpec, scene: Scene, combinations: Iterable[Combination], dt: float
+) -> dict[Combination, PlannedApproach]:
     """Each distinct combination planned and checked once, in one scene world."""
     with SceneWorld(robot, scene) as world:
-        return {combination: plan_approach(robot, scene, approach_path(scene, *combination, dt=dt), world)
-                for combination in dict.fromkeys(combinations)}
+        return {
+            combination: plan_approach(robot, scene, approach_path(scene, *combination, dt=dt), world)
+            for combination in dict.fromkeys(combinations)
+        }

@@ -15,6 +15,7 @@ Phases of a trial, in order: to_start (moving to the path's start), ready (waiti
 at_rest (the motion has ended or stopped), distance (test 1: waiting for the perceived distance), preference (after
 a group of test 2: waiting for the preference); then the next trial, and finally done.
 """
+
 from __future__ import annotations
 
 import json
@@ -23,17 +24,36 @@ from dataclasses import asdict, dataclass, fields
 
 from sim.study.errors import StudyError
 
-__all__ = ["STATUS_TOPIC", "GO_TOPIC", "STOP_TOPIC", "DISTANCE_TOPIC", "PREFERENCE_TOPIC", "TOPIC_TYPES", "PHASES",
-           "MAX_PERCEIVED_DISTANCE", "TrialStatus", "status_to_json", "status_from_json", "checked_distance",
-           "chosen_path", "ObserverInput", "observer_input"]
+__all__ = [
+    "STATUS_TOPIC",
+    "GO_TOPIC",
+    "STOP_TOPIC",
+    "DISTANCE_TOPIC",
+    "PREFERENCE_TOPIC",
+    "TOPIC_TYPES",
+    "PHASES",
+    "MAX_PERCEIVED_DISTANCE",
+    "TrialStatus",
+    "status_to_json",
+    "status_from_json",
+    "checked_distance",
+    "chosen_path",
+    "ObserverInput",
+    "observer_input",
+]
 
 STATUS_TOPIC = "/study/trial"
 GO_TOPIC = "/study/go"
 STOP_TOPIC = "/study/stop"
 DISTANCE_TOPIC = "/study/perceived_distance"
 PREFERENCE_TOPIC = "/study/preference"
-TOPIC_TYPES = {STATUS_TOPIC: "std_msgs/String", GO_TOPIC: "std_msgs/Empty", STOP_TOPIC: "std_msgs/Header",
-               DISTANCE_TOPIC: "std_msgs/Float32", PREFERENCE_TOPIC: "std_msgs/String"}
+TOPIC_TYPES = {
+    STATUS_TOPIC: "std_msgs/String",
+    GO_TOPIC: "std_msgs/Empty",
+    STOP_TOPIC: "std_msgs/Header",
+    DISTANCE_TOPIC: "std_msgs/Float32",
+    PREFERENCE_TOPIC: "std_msgs/String",
+}
 PHASES = ("to_start", "ready", "moving", "at_rest", "distance", "preference", "done")
 MAX_PERCEIVED_DISTANCE = 2.0  # m: an answer beyond this is a typing or tracking error, not a judgement
 
@@ -59,8 +79,9 @@ def status_to_json(status: TrialStatus) -> str:
     data = asdict(status)
     data["group_paths"] = list(status.group_paths)
     # NaN is not JSON: absent values are null, which Unity's JsonUtility and every JSON parser take
-    return json.dumps({key: (None if isinstance(value, float) and math.isnan(value) else value)
-                       for key, value in data.items()})
+    return json.dumps(
+        {key: (None if isinstance(value, float) and math.isnan(value) else value) for key, value in data.items()}
+    )
 
 
 def status_from_json(text: str) -> TrialStatus:
@@ -104,10 +125,10 @@ class ObserverInput:
 
 
 def _metres(text: str) -> float:
-    """"0.12", "0.12 m" or "12 cm" in metres; ValueError otherwise."""
+    """ "0.12", "0.12 m" or "12 cm" in metres; ValueError otherwise."""
     for unit, scale in (("cm", 0.01), ("m", 1.0)):
         if text.endswith(unit):
-            return float(text[:-len(unit)].strip()) * scale
+            return float(text[: -len(unit)].strip()) * scale
     return float(text)
 
 

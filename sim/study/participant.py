@@ -11,6 +11,7 @@ participant_model), which stand for both the participant and the observer:
   preference  names its preferred path of the group (`/study/preference`);
   done        (for its participant number) ends.
 """
+
 from __future__ import annotations
 
 import threading
@@ -21,7 +22,6 @@ import numpy as np
 from bridge.client import TcpClient
 from sim.geometry.kinematics import chain_for
 from sim.robots import RobotSpec
-from sim.wire.rosmsgs import JOINT_STATE, decode_joint_state, deserialize, encode_message, time_msg
 from sim.study.errors import StudyError
 from sim.study.interface import (
     DISTANCE_TOPIC,
@@ -35,6 +35,7 @@ from sim.study.interface import (
 )
 from sim.study.participant_model import Traits, comfort_threshold, perceived_distance, preferred_path
 from sim.study.scene import Scene
+from sim.wire.rosmsgs import JOINT_STATE, decode_joint_state, deserialize, encode_message, time_msg
 
 __all__ = ["SimulatedParticipant"]
 
@@ -71,14 +72,16 @@ class SimulatedParticipant:
         status = self._status
         if status is None or status.phase != "moving" or status.test != 2 or self._pressed:
             return
-        if stamp < status.motion_start or self.hand_distance(positions) > comfort_threshold(self.traits,
-                                                                                              status.condition):
+        if stamp < status.motion_start or self.hand_distance(positions) > comfort_threshold(
+            self.traits, status.condition
+        ):
             return
         self._pressed = True
         self.presses += 1
         source = "vr_trigger" if status.condition == "vr" else "button"
-        self.client.publish(STOP_TOPIC, _encode(STOP_TOPIC, seq=0, stamp=time_msg(stamp + self.traits.reaction_time),
-                                                frame_id=source))
+        self.client.publish(
+            STOP_TOPIC, _encode(STOP_TOPIC, seq=0, stamp=time_msg(stamp + self.traits.reaction_time), frame_id=source)
+        )
 
     def _on_status(self, payload: bytes) -> None:
         message: Any = deserialize(payload, TOPIC_TYPES[STATUS_TOPIC])
@@ -109,6 +112,7 @@ class SimulatedParticipant:
     @property
     def threshold_note(self) -> str:
         vr, reality = (comfort_threshold(self.traits, condition) for condition in ("vr", "reality"))
-        return (f"comfort {reality:.3f} m (VR {vr:.3f} m), reaction {self.traits.reaction_time:.3f} s, "
-                f"VR distance bias {self.traits.distance_bias['vr']:.2f}")
-
+        return (
+            f"comfort {reality:.3f} m (VR {vr:.3f} m), reaction {self.traits.reaction_time:.3f} s, "
+            f"VR distance bias {self.traits.distance_bias['vr']:.2f}"
+        )

@@ -8,6 +8,7 @@ Each participant has traits drawn once from a Population, seeded by (seed, parti
                         VR, then after a reaction time;
   preference            ranks a group's paths by their order in the participant's own ranking of all paths.
 """
+
 from __future__ import annotations
 
 import math
@@ -51,8 +52,15 @@ def draw_traits(population: Population, participant: int, seed: int) -> Traits:
     comfort = float(np.clip(rng.normal(population.comfort_mean, population.comfort_sd), 0.04, 0.25))
     reaction = float(np.clip(rng.normal(population.reaction_mean, population.reaction_sd), 0.1, 0.6))
     ranking = tuple(PATH_NAMES[k] for k in rng.permutation(len(PATH_NAMES)))
-    return Traits(participant, dict(population.distance_bias), population.perception_noise, comfort,
-                  population.comfort_vr_shift, reaction, ranking)
+    return Traits(
+        participant,
+        dict(population.distance_bias),
+        population.perception_noise,
+        comfort,
+        population.comfort_vr_shift,
+        reaction,
+        ranking,
+    )
 
 
 def perceived_distance(traits: Traits, condition: str, actual: float, rng: np.random.Generator) -> float:

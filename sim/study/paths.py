@@ -17,6 +17,7 @@ Timing: minimum-jerk along the arc length, s(τ) = L·(10τ³ − 15τ⁴ + 6τ�
 acceleration and peaks at 1.875·L/T half-way; T is the shortest whole number of steps dt with that peak at most
 the requested speed.
 """
+
 from __future__ import annotations
 
 import math
@@ -29,8 +30,17 @@ from sim.study.scene import Box, Scene
 from sim.wire.contract import STEP_S
 
 __all__ = [
-    "PATH_NAMES", "ON_TOP", "MIN_STANDOFF", "MAX_STANDOFF", "PathShape", "SHAPES", "ApproachPath", "hand_frame",
-    "end_point", "approach_path", "minimum_jerk",
+    "PATH_NAMES",
+    "ON_TOP",
+    "MIN_STANDOFF",
+    "MAX_STANDOFF",
+    "PathShape",
+    "SHAPES",
+    "ApproachPath",
+    "hand_frame",
+    "end_point",
+    "approach_path",
+    "minimum_jerk",
 ]
 
 ON_TOP = 0.02  # m: test 2's end, on top of the hand
@@ -49,16 +59,34 @@ class PathShape:
     description: str
 
 
-SHAPES: dict[str, PathShape] = {shape.name: shape for shape in (
-    PathShape("straight", (-0.30, 0.0, 0.30), None, (-1.0, 0.0, 1.0), "a straight line from above and in front"),
-    PathShape("vertical", (0.0, 0.0, 0.40), None, (0.0, 0.0, 1.0), "straight down from high above the hand"),
-    PathShape("lateral_arc", (0.02, 0.34, 0.24), (-0.20, 0.24, 0.26), (-1.0, 0.0, 1.0),
-              "an arc from the side away from the participant round to the front"),
-    PathShape("over_the_top", (0.12, 0.0, 0.36), (0.02, 0.0, 0.46), (0.0, 0.0, 1.0),
-              "from beyond the hand, up over it and down onto it"),
-    PathShape("diagonal", (-0.20, 0.22, 0.30), None, (-0.2, 0.22, 0.30),
-              "a straight line from above, in front and to the side"),
-)}
+SHAPES: dict[str, PathShape] = {
+    shape.name: shape
+    for shape in (
+        PathShape("straight", (-0.30, 0.0, 0.30), None, (-1.0, 0.0, 1.0), "a straight line from above and in front"),
+        PathShape("vertical", (0.0, 0.0, 0.40), None, (0.0, 0.0, 1.0), "straight down from high above the hand"),
+        PathShape(
+            "lateral_arc",
+            (0.02, 0.34, 0.24),
+            (-0.20, 0.24, 0.26),
+            (-1.0, 0.0, 1.0),
+            "an arc from the side away from the participant round to the front",
+        ),
+        PathShape(
+            "over_the_top",
+            (0.12, 0.0, 0.36),
+            (0.02, 0.0, 0.46),
+            (0.0, 0.0, 1.0),
+            "from beyond the hand, up over it and down onto it",
+        ),
+        PathShape(
+            "diagonal",
+            (-0.20, 0.22, 0.30),
+            None,
+            (-0.2, 0.22, 0.30),
+            "a straight line from above, in front and to the side",
+        ),
+    )
+}
 PATH_NAMES: tuple[str, ...] = tuple(SHAPES)
 
 
@@ -110,14 +138,14 @@ def end_point(hand: Box, direction: np.ndarray, standoff: float) -> np.ndarray:
 def minimum_jerk(tau: np.ndarray) -> np.ndarray:
     """s(τ)/L for τ in [0, 1]."""
     tau = np.clip(tau, 0.0, 1.0)
-    return tau ** 3 * (10.0 - 15.0 * tau + 6.0 * tau ** 2)
+    return tau**3 * (10.0 - 15.0 * tau + 6.0 * tau**2)
 
 
 def _curve(start: np.ndarray, via: np.ndarray | None, end: np.ndarray, u: np.ndarray) -> np.ndarray:
     """(len(u), 3): the quadratic Bézier from start to end through via at u = ½ (a line without via)."""
     control = (start + end) / 2.0 if via is None else 2.0 * via - (start + end) / 2.0
     u = u[:, None]
-    return (1.0 - u) ** 2 * start + 2.0 * u * (1.0 - u) * control + u ** 2 * end
+    return (1.0 - u) ** 2 * start + 2.0 * u * (1.0 - u) * control + u**2 * end
 
 
 def approach_path(scene: Scene, name: str, standoff: float, peak_speed: float, dt: float = STEP_S) -> ApproachPath:
@@ -137,8 +165,10 @@ def approach_path(scene: Scene, name: str, standoff: float, peak_speed: float, d
     via = None if shape.via is None else top + frame @ np.array(shape.via)
     end = end_point(scene.hand, frame @ np.array(shape.approach), standoff)
     if scene.hand.distance(start) < standoff + MIN_TRAVEL:
-        raise StudyError(f"path {name}: its start is {scene.hand.distance(start):.3f} m from the hand, not "
-                         f"{MIN_TRAVEL} m farther than the stand-off {standoff} m")
+        raise StudyError(
+            f"path {name}: its start is {scene.hand.distance(start):.3f} m from the hand, not "
+            f"{MIN_TRAVEL} m farther than the stand-off {standoff} m"
+        )
 
     dense_u = np.linspace(0.0, 1.0, _DENSE)
     dense = _curve(start, via, end, dense_u)
@@ -151,5 +181,5 @@ def approach_path(scene: Scene, name: str, standoff: float, peak_speed: float, d
     positions = _curve(start, via, end, np.interp(travelled, arc, dense_u))
     positions[0], positions[-1] = start, end
     tau = times / duration
-    speeds = length / duration * 30.0 * tau ** 2 * (1.0 - tau) ** 2  # d/dt of L·s(t/T)
+    speeds = length / duration * 30.0 * tau**2 * (1.0 - tau) ** 2  # d/dt of L·s(t/T)
     return ApproachPath(name, standoff, float(speeds.max()), dt, times, positions, speeds, length)

@@ -9,6 +9,7 @@ participant says which approach they preferred. The random orders come from nump
 
 The plan is written as YAML (`plan_to_data`), which the runner executes and the observer can print (`printable`).
 """
+
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass
@@ -20,8 +21,7 @@ from sim.study.design import CONDITIONS, Design
 from sim.study.errors import StudyError
 from sim.study.paths import MAX_STANDOFF, MIN_STANDOFF, ON_TOP, PATH_NAMES
 
-__all__ = ["PlannedTrial", "SessionPlan", "condition_order", "make_plan", "plan_to_data", "plan_from_data",
-           "printable"]
+__all__ = ["PlannedTrial", "SessionPlan", "condition_order", "make_plan", "plan_to_data", "plan_from_data", "printable"]
 
 
 @dataclass(frozen=True)
@@ -73,14 +73,19 @@ def make_plan(design: Design, participant: int, seed: int) -> SessionPlan:
         for group, s in enumerate(rng.permutation(len(design.test2_speed_sets)), start=1):
             name, speed = design.test2_speed_sets[s]
             for k in rng.permutation(len(design.test2_paths)):
-                trials.append(PlannedTrial(len(trials) + 1, condition, 2, design.test2_paths[k], ON_TOP, speed, name,
-                                           group))
+                trials.append(
+                    PlannedTrial(len(trials) + 1, condition, 2, design.test2_paths[k], ON_TOP, speed, name, group)
+                )
     return SessionPlan(participant, seed, conditions, tuple(trials))
 
 
 def plan_to_data(plan: SessionPlan) -> dict[str, Any]:
-    return {"participant": plan.participant, "seed": plan.seed, "conditions": list(plan.conditions),
-            "trials": [asdict(trial) for trial in plan.trials]}
+    return {
+        "participant": plan.participant,
+        "seed": plan.seed,
+        "conditions": list(plan.conditions),
+        "trials": [asdict(trial) for trial in plan.trials],
+    }
 
 
 _TRIAL_KEYS = ("index", "condition", "test", "path", "standoff", "peak_speed", "speed_set", "group")
@@ -95,12 +100,20 @@ def _trial(entry: object, number: int, source: str) -> PlannedTrial:
         (entry["condition"] in CONDITIONS, f"condition {entry['condition']!r} is not one of {', '.join(CONDITIONS)}"),
         (entry["test"] in (1, 2), f"test {entry['test']!r} is not 1 or 2"),
         (entry["path"] in PATH_NAMES, f"path {entry['path']!r} is not one of {', '.join(PATH_NAMES)}"),
-        (isinstance(entry["standoff"], float) and MIN_STANDOFF <= entry["standoff"] <= MAX_STANDOFF,
-         f"stand-off {entry['standoff']!r} is not {MIN_STANDOFF}..{MAX_STANDOFF} m"),
-        (isinstance(entry["peak_speed"], float) and 0.0 < entry["peak_speed"] <= 1.0,
-         f"peak speed {entry['peak_speed']!r} is not in (0, 1] m/s"),
-        (isinstance(entry["speed_set"], str) and isinstance(entry["group"], int) and not isinstance(
-            entry["group"], bool), f"speed_set {entry['speed_set']!r} / group {entry['group']!r} are malformed"),
+        (
+            isinstance(entry["standoff"], float) and MIN_STANDOFF <= entry["standoff"] <= MAX_STANDOFF,
+            f"stand-off {entry['standoff']!r} is not {MIN_STANDOFF}..{MAX_STANDOFF} m",
+        ),
+        (
+            isinstance(entry["peak_speed"], float) and 0.0 < entry["peak_speed"] <= 1.0,
+            f"peak speed {entry['peak_speed']!r} is not in (0, 1] m/s",
+        ),
+        (
+            isinstance(entry["speed_set"], str)
+            and isinstance(entry["group"], int)
+            and not isinstance(entry["group"], bool),
+            f"speed_set {entry['speed_set']!r} / group {entry['group']!r} are malformed",
+        ),
     ]
     for ok, problem in checks:
         if not ok:
@@ -127,13 +140,19 @@ def plan_from_data(data: object, source: str = "plan") -> SessionPlan:
 
 def printable(plan: SessionPlan) -> str:
     """The plan as the observer prints it: a markdown table with room for the responses."""
-    lines = [f"# Session plan: participant {plan.participant} (seed {plan.seed})", "",
-             f"Conditions in this order: {' then '.join(plan.conditions)}.", "",
-             "| # | condition | test | path | stop at | peak speed | group | response |",
-             "|---|---|---|---|---|---|---|---|"]
+    lines = [
+        f"# Session plan: participant {plan.participant} (seed {plan.seed})",
+        "",
+        f"Conditions in this order: {' then '.join(plan.conditions)}.",
+        "",
+        "| # | condition | test | path | stop at | peak speed | group | response |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
     for trial in plan.trials:
         stop = "on the hand" if trial.test == 2 else f"{trial.standoff * 100:.0f} cm"
         group = f"{trial.speed_set} ({trial.group})" if trial.test == 2 else ""
-        lines.append(f"| {trial.index} | {trial.condition} | {trial.test} | {trial.path} | {stop} | "
-                     f"{trial.peak_speed:.2f} m/s | {group} | |")
+        lines.append(
+            f"| {trial.index} | {trial.condition} | {trial.test} | {trial.path} | {stop} | "
+            f"{trial.peak_speed:.2f} m/s | {group} | |"
+        )
     return "\n".join(lines) + "\n"

@@ -3,6 +3,7 @@ column, so the analysis never works on a half-written or edited-by-hand file wit
 
 Distances are the end effector's (its FK from the achieved joint states) to the hand's surface, in metres.
 """
+
 from __future__ import annotations
 
 import csv

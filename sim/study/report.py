@@ -1,5 +1,6 @@
 """The study's report: every participant's CSV in a directory, summarised (sim.study.summary) into `report.md`
 with its plots beside it (`python -m sim.study analyse DIR`)."""
+
 from __future__ import annotations
 
 import math
@@ -35,8 +36,10 @@ def load_study(directory: Path) -> list[TrialRecord]:
 
 
 def _estimate_cell(estimate: Estimate, scale: float = 1.0, digits: int = 3) -> str:
-    return (f"{estimate.mean * scale:.{digits}f} [{estimate.ci_low * scale:.{digits}f}, "
-            f"{estimate.ci_high * scale:.{digits}f}]")
+    return (
+        f"{estimate.mean * scale:.{digits}f} [{estimate.ci_low * scale:.{digits}f}, "
+        f"{estimate.ci_high * scale:.{digits}f}]"
+    )
 
 
 def _p(value: float) -> str:
@@ -44,46 +47,84 @@ def _p(value: float) -> str:
 
 
 def _comparison_row(label: str, c: PairedComparison, scale: float, digits: int) -> str:
-    return (f"| {label} | {c.n} | {c.mean_a * scale:.{digits}f} | {c.mean_b * scale:.{digits}f} | "
-            f"{c.mean_difference * scale:+.{digits}f} "
-            f"[{c.ci_low * scale:+.{digits}f}, {c.ci_high * scale:+.{digits}f}] "
-            f"| {c.t:.2f} | {_p(c.t_p)} | {c.cohen_dz:.2f} | {c.wilcoxon_w:g} | {_p(c.wilcoxon_p)} | "
-            f"{c.rank_biserial:+.2f} |")
+    return (
+        f"| {label} | {c.n} | {c.mean_a * scale:.{digits}f} | {c.mean_b * scale:.{digits}f} | "
+        f"{c.mean_difference * scale:+.{digits}f} "
+        f"[{c.ci_low * scale:+.{digits}f}, {c.ci_high * scale:+.{digits}f}] "
+        f"| {c.t:.2f} | {_p(c.t_p)} | {c.cohen_dz:.2f} | {c.wilcoxon_w:g} | {_p(c.wilcoxon_p)} | "
+        f"{c.rank_biserial:+.2f} |"
+    )
 
 
-_COMPARISON_HEAD = ("| | n | VR | reality | VR − reality [95 % CI] | t | p (t) | d_z | W | p (Wilcoxon) | r |\n"
-                    "|---|---|---|---|---|---|---|---|---|---|---|")
+_COMPARISON_HEAD = (
+    "| | n | VR | reality | VR − reality [95 % CI] | t | p (t) | d_z | W | p (Wilcoxon) | r |\n"
+    "|---|---|---|---|---|---|---|---|---|---|---|"
+)
 
 
 def _markdown(summary: StudySummary, plots: list[Path], title: str) -> str:
-    lines = [f"# {title}", "",
-             f"{len(summary.participants)} participants, {summary.trials} trials. Within subjects: each participant's "
-             "trials are averaged per cell, then VR and reality are compared in pairs (paired t-test with Cohen's "
-             "d_z; Wilcoxon signed-rank with the matched-pairs rank-biserial r). Intervals are 95 % t intervals "
-             "across participants. Distances are the end effector's to the hand's surface, from FK of the achieved "
-             "joint states.", "",
-             "## Test 1: distance perception", "",
-             "Perceived / actual distance (1 = exact; 0.85 = a 15 % underestimate), actual = the robot at rest:", "",
-             "| condition | ratio [95 % CI] |", "|---|---|"]
+    lines = [
+        f"# {title}",
+        "",
+        f"{len(summary.participants)} participants, {summary.trials} trials. Within subjects: each participant's "
+        "trials are averaged per cell, then VR and reality are compared in pairs (paired t-test with Cohen's "
+        "d_z; Wilcoxon signed-rank with the matched-pairs rank-biserial r). Intervals are 95 % t intervals "
+        "across participants. Distances are the end effector's to the hand's surface, from FK of the achieved "
+        "joint states.",
+        "",
+        "## Test 1: distance perception",
+        "",
+        "Perceived / actual distance (1 = exact; 0.85 = a 15 % underestimate), actual = the robot at rest:",
+        "",
+        "| condition | ratio [95 % CI] |",
+        "|---|---|",
+    ]
     lines += [f"| {condition} | {_estimate_cell(summary.distance_ratio[condition])} |" for condition in CONDITIONS]
-    lines += ["", _COMPARISON_HEAD, _comparison_row("perceived / actual", summary.distance_ratio_vr_vs_reality, 1.0, 3),
-              "", "## Test 2: comfort distance", "",
-              "Distance to the hand at the press, cm:", "", "| condition | at the press [95 % CI] |", "|---|---|"]
-    lines += [f"| {condition} | {_estimate_cell(summary.stop_distance[condition], 100.0, 1)} |"
-              for condition in CONDITIONS]
-    lines += ["", "VR against reality, cm:", "", _COMPARISON_HEAD,
-              _comparison_row("all", summary.stop_distance_vr_vs_reality, 100.0, 1)]
-    lines += [_comparison_row(f"speed set {name}", c, 100.0, 1)
-              for name, c in summary.stop_distance_by_speed_set.items()]
+    lines += [
+        "",
+        _COMPARISON_HEAD,
+        _comparison_row("perceived / actual", summary.distance_ratio_vr_vs_reality, 1.0, 3),
+        "",
+        "## Test 2: comfort distance",
+        "",
+        "Distance to the hand at the press, cm:",
+        "",
+        "| condition | at the press [95 % CI] |",
+        "|---|---|",
+    ]
+    lines += [
+        f"| {condition} | {_estimate_cell(summary.stop_distance[condition], 100.0, 1)} |" for condition in CONDITIONS
+    ]
+    lines += [
+        "",
+        "VR against reality, cm:",
+        "",
+        _COMPARISON_HEAD,
+        _comparison_row("all", summary.stop_distance_vr_vs_reality, 100.0, 1),
+    ]
+    lines += [
+        _comparison_row(f"speed set {name}", c, 100.0, 1) for name, c in summary.stop_distance_by_speed_set.items()
+    ]
     lines += [_comparison_row(f"path {name}", c, 100.0, 1) for name, c in summary.stop_distance_by_path.items()]
     paths = sorted({path for counts in summary.preferences.values() for path in counts})
-    lines += ["", "Preferred approach (one answer per group of test 2):", "",
-              "| condition | " + " | ".join(paths) + " |", "|---|" + "---|" * len(paths)]
-    lines += [f"| {condition} | " + " | ".join(str(summary.preferences[condition][path]) for path in paths) + " |"
-              for condition in CONDITIONS]
+    lines += [
+        "",
+        "Preferred approach (one answer per group of test 2):",
+        "",
+        "| condition | " + " | ".join(paths) + " |",
+        "|---|" + "---|" * len(paths),
+    ]
+    lines += [
+        f"| {condition} | " + " | ".join(str(summary.preferences[condition][path]) for path in paths) + " |"
+        for condition in CONDITIONS
+    ]
     error = summary.extrapolation_error
-    lines += ["", f"The thesis's estimate (the planned distance at the press time) differs from the measured distance "
-              f"at the press by {_estimate_cell(error, 1000.0, 1)} mm on average.", ""]
+    lines += [
+        "",
+        f"The thesis's estimate (the planned distance at the press time) differs from the measured distance "
+        f"at the press by {_estimate_cell(error, 1000.0, 1)} mm on average.",
+        "",
+    ]
     if summary.notes:
         lines += ["Notes:", ""] + [f"- {note}" for note in summary.notes] + [""]
     lines += ["## Plots", ""] + [f"![{plot.stem}]({plot.name})" for plot in plots]
@@ -109,8 +150,13 @@ def _plot_test1(records: list[TrialRecord], summary: StudySummary, path: Path) -
     for participant in sorted(set(vr) & set(reality)):
         right.plot([0, 1], [reality[participant], vr[participant]], "-o", color="grey", alpha=0.6)
     right.axhline(1.0, color="k", linestyle="--", linewidth=1)
-    right.set(xticks=[0, 1], xticklabels=["reality", "VR"], xlim=(-0.3, 1.3), ylabel="perceived / actual",
-              title="Test 1: each participant's mean ratio")
+    right.set(
+        xticks=[0, 1],
+        xticklabels=["reality", "VR"],
+        xlim=(-0.3, 1.3),
+        ylabel="perceived / actual",
+        title="Test 1: each participant's mean ratio",
+    )
     figure.tight_layout()
     figure.savefig(path, dpi=110)
     plt.close(figure)
@@ -123,24 +169,35 @@ def _plot_test2(records: list[TrialRecord], summary: StudySummary, path: Path) -
     figure, (left, right) = plt.subplots(1, 2, figsize=(11, 4.5))
     speed_sets = list(summary.stop_distance_by_speed_set)
     for offset, condition in ((-0.18, "vr"), (0.18, "reality")):
-        data = [[v * 100 for v in per_participant(records, cell(2, condition, speed_set=name),
-                                                  lambda r: r.distance_at_press).values()] for name in speed_sets]
+        data = [
+            [
+                v * 100
+                for v in per_participant(
+                    records, cell(2, condition, speed_set=name), lambda r: r.distance_at_press
+                ).values()
+            ]
+            for name in speed_sets
+        ]
         boxes = left.boxplot(data, positions=np.arange(len(speed_sets)) + offset, widths=0.3, patch_artist=True)
         for box in boxes["boxes"]:
             box.set_facecolor(_COLOURS[condition])
             box.set_alpha(0.6)
         left.plot([], [], "s", color=_COLOURS[condition], label=condition)
-    left.set(xticks=range(len(speed_sets)), xticklabels=speed_sets, ylabel="distance at the press (cm)",
-             title="Test 2: per speed set (participant means)")
+    left.set(
+        xticks=range(len(speed_sets)),
+        xticklabels=speed_sets,
+        ylabel="distance at the press (cm)",
+        title="Test 2: per speed set (participant means)",
+    )
     left.legend()
     paths = sorted({p for counts in summary.preferences.values() for p in counts})
     width = 0.38
     for k, condition in enumerate(CONDITIONS):
         counts = [summary.preferences[condition][p] for p in paths]
-        right.bar(np.arange(len(paths)) + (k - 0.5) * width, counts, width, color=_COLOURS[condition],
-                  label=condition)
-    right.set(xticks=range(len(paths)), xticklabels=paths, ylabel="groups preferred",
-              title="Test 2: preferred approach")
+        right.bar(np.arange(len(paths)) + (k - 0.5) * width, counts, width, color=_COLOURS[condition], label=condition)
+    right.set(
+        xticks=range(len(paths)), xticklabels=paths, ylabel="groups preferred", title="Test 2: preferred approach"
+    )
     right.legend()
     figure.tight_layout()
     figure.savefig(path, dpi=110)
@@ -155,8 +212,10 @@ def write_report(records: list[TrialRecord], out: Path, title: str = "Perception
     matplotlib.use("Agg")
     summary = summarise(records)
     out.mkdir(parents=True, exist_ok=True)
-    plots = [_plot_test1(records, summary, out / "test1_distance_perception.png"),
-             _plot_test2(records, summary, out / "test2_comfort_distance.png")]
+    plots = [
+        _plot_test1(records, summary, out / "test1_distance_perception.png"),
+        _plot_test2(records, summary, out / "test2_comfort_distance.png"),
+    ]
     report = out / "report.md"
     report.write_text(_markdown(summary, plots, title))
     return report

@@ -17,6 +17,7 @@ held at its target while the runner waits.
 A press's time is its stamp on ROS time (a zero stamp: when it arrives); a press whose stamp has already passed is
 applied at once, and how late it was is logged. Presses before the approach starts are ignored.
 """
+
 from __future__ import annotations
 
 import math
@@ -32,9 +33,9 @@ from typing import Any, Callable, Iterable
 import numpy as np
 
 from sim.control.driver import DriverError, RobotDriver
+from sim.control.scenarios import approach
 from sim.processes import ManagedProcess, ProcessError, start_recorder, stop_recorder
 from sim.robots import RobotSpec
-from sim.control.scenarios import approach
 from sim.study.errors import StudyError
 from sim.study.feasibility import Combination, PlannedApproach
 from sim.study.interface import (
@@ -55,8 +56,18 @@ from sim.study.scene import Scene
 from sim.study.trial_run import TrialRun
 from sim.wire.contract import STEP_S
 
-__all__ = ["EXIT_OK", "EXIT_ROS", "EXIT_INTERRUPTED", "RunnerOptions", "Press", "Inputs", "StudyRunner",
-           "recorder_topics", "record_session", "run_node"]
+__all__ = [
+    "EXIT_OK",
+    "EXIT_ROS",
+    "EXIT_INTERRUPTED",
+    "RunnerOptions",
+    "Press",
+    "Inputs",
+    "StudyRunner",
+    "recorder_topics",
+    "record_session",
+    "run_node",
+]
 
 
 EXIT_OK, EXIT_ROS, EXIT_INTERRUPTED = 0, 4, 130
@@ -74,8 +85,12 @@ class RunnerOptions:
     deceleration: float = 1.0  # m/s² along the path on a press
 
 
-_PROMPTS = {"ready": "Enter to start the approach", "moving": "s + Enter to stop",
-            "distance": "the perceived distance (0.12, 0.12 m or 12 cm)?", "preference": "preferred approach: {paths}?"}
+_PROMPTS = {
+    "ready": "Enter to start the approach",
+    "moving": "s + Enter to stop",
+    "distance": "the perceived distance (0.12, 0.12 m or 12 cm)?",
+    "preference": "preferred approach: {paths}?",
+}
 
 
 @dataclass(frozen=True)
@@ -155,13 +170,28 @@ class Inputs:
 
 
 def recorder_topics(robot: RobotSpec) -> list[str]:
-    return [robot.command_topic, robot.joint_states_topic, "/clock", STATUS_TOPIC, GO_TOPIC, STOP_TOPIC,
-            DISTANCE_TOPIC, PREFERENCE_TOPIC]
+    return [
+        robot.command_topic,
+        robot.joint_states_topic,
+        "/clock",
+        STATUS_TOPIC,
+        GO_TOPIC,
+        STOP_TOPIC,
+        DISTANCE_TOPIC,
+        PREFERENCE_TOPIC,
+    ]
 
 
 class StudyRunner(RobotDriver):
-    def __init__(self, robot: RobotSpec, scene: Scene, plan: SessionPlan,
-                 approaches: dict[Combination, PlannedApproach], options: RunnerOptions, stop: threading.Event) -> None:
+    def __init__(
+        self,
+        robot: RobotSpec,
+        scene: Scene,
+        plan: SessionPlan,
+        approaches: dict[Combination, PlannedApproach],
+        options: RunnerOptions,
+        stop: threading.Event,
+    ) -> None:
         super().__init__(robot, stop)
         from std_msgs.msg import Empty, Float32, Header, String
 
@@ -188,10 +218,14 @@ class StudyRunner(RobotDriver):
         self.phase = status.phase
         self.status_pub.publish(self._string_type(data=status_to_json(status)))
         if self.options.keyboard and status.phase in _PROMPTS:
-            print(f"trial {status.index}/{status.total} ({status.condition}, test {status.test}, {status.path}): "
-                  + _PROMPTS[status.phase].format(paths=", ".join(f"{k} {p}" for k, p in
-                                                                  enumerate(status.group_paths, start=1))),
-                  file=sys.stderr, flush=True)
+            print(
+                f"trial {status.index}/{status.total} ({status.condition}, test {status.test}, {status.path}): "
+                + _PROMPTS[status.phase].format(
+                    paths=", ".join(f"{k} {p}" for k, p in enumerate(status.group_paths, start=1))
+                ),
+                file=sys.stderr,
+                flush=True,
+            )
 
     def read_keyboard(self, lines: Iterable[str]) -> None:
         """The observer's lines (sim.study.interface.observer_input), read in the phase they come in."""
@@ -260,9 +294,20 @@ class StudyRunner(RobotDriver):
 
     # --- trials ---------------------------------------------------------------------------------------------
     def status(self, trial: PlannedTrial, phase: str, **extra: Any) -> TrialStatus:
-        return TrialStatus(self.plan.participant, trial.index, len(self.plan.trials), phase, trial.condition,
-                           trial.test, trial.path, trial.standoff, trial.peak_speed, trial.speed_set, trial.group,
-                           **extra)
+        return TrialStatus(
+            self.plan.participant,
+            trial.index,
+            len(self.plan.trials),
+            phase,
+            trial.condition,
+            trial.test,
+            trial.path,
+            trial.standoff,
+            trial.peak_speed,
+            trial.speed_set,
+            trial.group,
+            **extra,
+        )
 
     def run_session(self, records_path: Path, log: Callable[[str], None]) -> list[TrialRecord]:
         positions = self.start()
@@ -283,8 +328,9 @@ class StudyRunner(RobotDriver):
         """Test 2's group that `trial` belongs to, in the order run; empty for test 1."""
         if trial.test != 2:
             return []
-        return [t for t in self.plan.trials
-                if t.test == 2 and t.condition == trial.condition and t.group == trial.group]
+        return [
+            t for t in self.plan.trials if t.test == 2 and t.condition == trial.condition and t.group == trial.group
+        ]
 
     def _ask_preference(self, trial: PlannedTrial, paths: tuple[str, ...], log: Callable[[str], None]) -> str:
         self.inputs.clear()
@@ -299,8 +345,9 @@ class StudyRunner(RobotDriver):
             except StudyError as error:
                 log(f"trial {trial.index}: {error}; asking again")
 
-    def run_trial(self, trial: PlannedTrial, positions: np.ndarray,
-                  log: Callable[[str], None]) -> tuple[TrialRecord, np.ndarray]:
+    def run_trial(
+        self, trial: PlannedTrial, positions: np.ndarray, log: Callable[[str], None]
+    ) -> tuple[TrialRecord, np.ndarray]:
         """One trial from wherever the robot is; its record (preference still empty) and where the robot ends."""
         planned = self.approaches[(trial.path, trial.standoff, trial.peak_speed)]
         dt = self.options.dt
@@ -339,8 +386,9 @@ class StudyRunner(RobotDriver):
             self.publish_status(self.status(trial, "distance", motion_start=start))
             answer = self.wait_for_input("distance")
             if answer is None:
-                log(f"trial {trial.index}: no perceived distance within {self.options.response_timeout:g} s; "
-                    "left empty")
+                log(
+                    f"trial {trial.index}: no perceived distance within {self.options.response_timeout:g} s; left empty"
+                )
             else:
                 perceived = float(answer)
             for problem in self.inputs.rejected:
@@ -348,10 +396,28 @@ class StudyRunner(RobotDriver):
             self.inputs.rejected.clear()
         position = self.plan.conditions.index(trial.condition) + 1
         record = TrialRecord(
-            self.plan.participant, trial.index, trial.condition, position, trial.test, trial.path, trial.standoff,
-            trial.peak_speed, trial.speed_set, trial.group, start, measures.pressed, measures.press_time, source,
-            late, measures.distance_at_press, measures.distance_at_rest, measures.distance_extrapolated,
-            measures.braking_distance, perceived, "")
+            self.plan.participant,
+            trial.index,
+            trial.condition,
+            position,
+            trial.test,
+            trial.path,
+            trial.standoff,
+            trial.peak_speed,
+            trial.speed_set,
+            trial.group,
+            start,
+            measures.pressed,
+            measures.press_time,
+            source,
+            late,
+            measures.distance_at_press,
+            measures.distance_at_rest,
+            measures.distance_extrapolated,
+            measures.braking_distance,
+            perceived,
+            "",
+        )
         return record, positions
 
     def close(self) -> None:
@@ -375,8 +441,16 @@ def _log(text: str) -> None:
     print(f"sim.study run: {text}", file=sys.stderr, flush=True)
 
 
-def run_node(robot: RobotSpec, scene: Scene, plan: SessionPlan, approaches: dict[Combination, PlannedApproach],
-             options: RunnerOptions, out: Path, record: bool = True, connect_timeout: float = 60.0) -> int:
+def run_node(
+    robot: RobotSpec,
+    scene: Scene,
+    plan: SessionPlan,
+    approaches: dict[Combination, PlannedApproach],
+    options: RunnerOptions,
+    out: Path,
+    record: bool = True,
+    connect_timeout: float = 60.0,
+) -> int:
     """The runner as a ROS node (rospy.init_node: once per process): the session, its CSV and its bag in `out`."""
     import rospy
 
@@ -394,8 +468,10 @@ def run_node(robot: RobotSpec, scene: Scene, plan: SessionPlan, approaches: dict
     started = time.monotonic()
     try:
         partner = runner.wait_for_partner(connect_timeout, [recorder_node] if recorder else [])
-        _log(f"engine {partner} connected; participant {plan.participant}, {len(plan.trials)} trials, conditions "
-             f"{' then '.join(plan.conditions)}")
+        _log(
+            f"engine {partner} connected; participant {plan.participant}, {len(plan.trials)} trials, conditions "
+            f"{' then '.join(plan.conditions)}"
+        )
         records = runner.run_session(records_path, _log)
     except DriverError as error:
         _log(f"error: {error}")
@@ -406,8 +482,10 @@ def run_node(robot: RobotSpec, scene: Scene, plan: SessionPlan, approaches: dict
             stop_recorder(recorder, bag)
         rospy.signal_shutdown("study session done")
     presses = sum(record.pressed for record in records)
-    print(f"participant {plan.participant}: {len(records)} trials ({presses} stopped by a press) in "
-          f"{time.monotonic() - started:.1f} s of wall time, {runner.clock:.1f} s of ROS time")
+    print(
+        f"participant {plan.participant}: {len(records)} trials ({presses} stopped by a press) in "
+        f"{time.monotonic() - started:.1f} s of wall time, {runner.clock:.1f} s of ROS time"
+    )
     print(f"records: {records_path}")
     if recorder is not None:
         print(f"bag:     {bag}")

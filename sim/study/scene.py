@@ -1,5 +1,6 @@
 """The study's scene as data: where the robot, the table, the hand and the participant are (a small YAML, see
 scene.yaml beside this file). Pure logic, but for reading the YAML in `load_scene`."""
+
 from __future__ import annotations
 
 import math
@@ -86,8 +87,11 @@ class Scene:
 
 
 def _vector(value: object, size: int, what: str) -> np.ndarray:
-    if not (isinstance(value, list) and len(value) == size and all(
-            isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in value)):
+    if not (
+        isinstance(value, list)
+        and len(value) == size
+        and all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in value)
+    ):
         raise StudyError(f"{what} must be {size} finite numbers, got {value!r}")
     return np.array(value, dtype=float)
 
@@ -120,8 +124,9 @@ def parse_scene(data: object, source: str = "scene") -> Scene:
     unknown = [key for key in data if key not in _KEYS]
     missing = [key for key in _REQUIRED if key not in data]
     if unknown or missing:
-        raise StudyError(f"{source}: unknown key(s) {unknown}, missing key(s) {missing}; a scene has "
-                         f"{', '.join(_KEYS)}")
+        raise StudyError(
+            f"{source}: unknown key(s) {unknown}, missing key(s) {missing}; a scene has {', '.join(_KEYS)}"
+        )
     robot = data["robot"]
     if not isinstance(robot, str) or not robot:
         raise StudyError(f"{source}: robot must be a robot name or a URDF path, got {robot!r}")
@@ -130,15 +135,22 @@ def parse_scene(data: object, source: str = "scene") -> Scene:
     ee_link = data.get("ee_link")
     if ee_link is not None and (not isinstance(ee_link, str) or not ee_link):
         raise StudyError(f"{source}: ee_link must be a link name, got {ee_link!r}")
-    scene = Scene(robot, ee_link, _vector(base.get("xyz"), 3, f"{source}: base.xyz"),
-                  _vector(base.get("rpy", [0.0, 0.0, 0.0]), 3, f"{source}: base.rpy"),
-                  _box(data, "table", source), _box(data, "hand", source),
-                  _vector(seat.get("xyz"), 3, f"{source}: seat.xyz"))
+    scene = Scene(
+        robot,
+        ee_link,
+        _vector(base.get("xyz"), 3, f"{source}: base.xyz"),
+        _vector(base.get("rpy", [0.0, 0.0, 0.0]), 3, f"{source}: base.rpy"),
+        _box(data, "table", source),
+        _box(data, "hand", source),
+        _vector(seat.get("xyz"), 3, f"{source}: seat.xyz"),
+    )
     table_top = scene.table.position[2] + scene.table.size[2] / 2.0
     hand_bottom = scene.hand.position[2] - scene.hand.size[2] / 2.0
     if abs(hand_bottom - table_top) > 0.005:
-        raise StudyError(f"{source}: the hand must rest on the table: its underside is at z = {hand_bottom:.4f} m, "
-                         f"the table top at z = {table_top:.4f} m")
+        raise StudyError(
+            f"{source}: the hand must rest on the table: its underside is at z = {hand_bottom:.4f} m, "
+            f"the table top at z = {table_top:.4f} m"
+        )
     return scene
 
 

@@ -3,6 +3,7 @@ DIR`): its own roscore and endpoint; per participant a session plan, the engine 
 simulated participant (TCP client of the endpoint) and the runner (rospy node, rosbag record); then the report.
 Every process it starts is stopped by PID, whatever happens.
 """
+
 from __future__ import annotations
 
 import time
@@ -48,8 +49,9 @@ def _expect(process: ManagedProcess, timeout: float) -> str:
     except ProcessError as error:
         raise SimulationError(str(error)) from None
     if code != 0:
-        raise SimulationError(f"{process.name} exited with {code}; its log: {process.log_path}\n"
-                              f"{process.output()[-2000:]}")
+        raise SimulationError(
+            f"{process.name} exited with {code}; its log: {process.log_path}\n{process.output()[-2000:]}"
+        )
     return process.output()
 
 
@@ -59,16 +61,19 @@ def simulate(settings: Simulation, log: Callable[[str], None]) -> Path:
         raise StudyError(f"--participants must be 2..200 (the analysis pairs them), got {settings.participants}")
     earlier = sorted(settings.out.glob("participant_*.csv"))
     if earlier:  # the report would mix them in, and they may be a real study's: never overwritten
-        raise StudyError(f"{settings.out} already holds participant records ({earlier[0].name}, ...): choose a new "
-                         "directory")
+        raise StudyError(
+            f"{settings.out} already holds participant records ({earlier[0].name}, ...): choose a new directory"
+        )
     design, scene = load_design(settings.design), load_scene(settings.scene)
     robot = scene_robot(scene)
     plans = [make_plan(design, participant, settings.seed) for participant in range(1, settings.participants + 1)]
     started = time.monotonic()
-    approaches = plan_combinations(robot, scene, [(t.path, t.standoff, t.peak_speed) for t in plans[0].trials],
-                                   settings.dt)
-    infeasible = [f"{p} to {s} m at {v} m/s: {'; '.join(a.problems)}" for (p, s, v), a in approaches.items()
-                  if not a.feasible]
+    approaches = plan_combinations(
+        robot, scene, [(t.path, t.standoff, t.peak_speed) for t in plans[0].trials], settings.dt
+    )
+    infeasible = [
+        f"{p} to {s} m at {v} m/s: {'; '.join(a.problems)}" for (p, s, v), a in approaches.items() if not a.feasible
+    ]
     if infeasible:
         raise StudyError(f"the design has combinations that are not feasible: {' | '.join(infeasible)}")
     log(f"{len(approaches)} combinations of the design planned and checked in {time.monotonic() - started:.1f} s")
@@ -88,24 +93,70 @@ def simulate(settings: Simulation, log: Callable[[str], None]) -> Path:
             plan_path.parent.mkdir(parents=True, exist_ok=True)
             plan_path.write_text(yaml.safe_dump(plan_to_data(plan), sort_keys=False))
             with ExitStack() as session:
-                engine = ManagedProcess([PYTHON, "-m", "sim.engine", *robot.cli_args, "--port", str(port),
-                                         "--no-auto-simulate", "--dt", str(settings.dt)], plain_env(), logs, "engine")
+                engine = ManagedProcess(
+                    [
+                        PYTHON,
+                        "-m",
+                        "sim.engine",
+                        *robot.cli_args,
+                        "--port",
+                        str(port),
+                        "--no-auto-simulate",
+                        "--dt",
+                        str(settings.dt),
+                    ],
+                    plain_env(),
+                    logs,
+                    "engine",
+                )
                 session.callback(engine.stop)
                 participant = ManagedProcess(
-                    [PYTHON, "-m", "sim.study", "participant", "--participant", str(number), "--seed",
-                     str(settings.seed), "--port", str(port), "--vr-distance-bias", str(settings.vr_distance_bias),
-                     *scene_args], plain_env(), logs, f"participant_{number:02d}")
+                    [
+                        PYTHON,
+                        "-m",
+                        "sim.study",
+                        "participant",
+                        "--participant",
+                        str(number),
+                        "--seed",
+                        str(settings.seed),
+                        "--port",
+                        str(port),
+                        "--vr-distance-bias",
+                        str(settings.vr_distance_bias),
+                        *scene_args,
+                    ],
+                    plain_env(),
+                    logs,
+                    f"participant_{number:02d}",
+                )
                 session.callback(participant.stop)
                 engine.wait_for_output("connected to", timeout=60)
                 participant.wait_for_output("connected", timeout=60)
-                runner = ManagedProcess([PYTHON, "-m", "sim.study", "run", "--plan", str(plan_path), "--out", str(out),
-                                         "--dt", str(settings.dt), *scene_args], core.env, logs,
-                                        f"runner_{number:02d}")
+                runner = ManagedProcess(
+                    [
+                        PYTHON,
+                        "-m",
+                        "sim.study",
+                        "run",
+                        "--plan",
+                        str(plan_path),
+                        "--out",
+                        str(out),
+                        "--dt",
+                        str(settings.dt),
+                        *scene_args,
+                    ],
+                    core.env,
+                    logs,
+                    f"runner_{number:02d}",
+                )
                 session.callback(runner.stop)
                 summary = _expect(runner, settings.timeout)
                 _expect(participant, 60)
             line = next((line for line in summary.splitlines() if line.startswith(f"participant {number}:")), "")
             log(line or f"participant {number}: done")
     records = load_study(out)
-    return write_report(records, out, f"Perception study, {settings.participants} simulated participants "
-                                      f"(seed {settings.seed})")
+    return write_report(
+        records, out, f"Perception study, {settings.participants} simulated participants (seed {settings.seed})"
+    )

@@ -9,6 +9,7 @@ For pairs (a_i, b_i), d_i = a_i − b_i:
   rank-biserial correlation r = (W+ − W−) / (W+ + W−).
 A ratio summary (perceived / actual) gives a bias as a fraction with its t interval: 0.85 is a 15 % underestimate.
 """
+
 from __future__ import annotations
 
 import math
@@ -83,8 +84,9 @@ def paired_comparison(a: Sequence[float], b: Sequence[float], confidence: float 
     mean, low, high = _t_interval(d, confidence)
     sem = _sem(d)
     if sem == 0.0:
-        t, t_p, dz = (math.copysign(math.inf, mean), 0.0, math.copysign(math.inf, mean)) if mean else (
-            math.nan, 1.0, 0.0)
+        t, t_p, dz = (
+            (math.copysign(math.inf, mean), 0.0, math.copysign(math.inf, mean)) if mean else (math.nan, 1.0, 0.0)
+        )
     else:  # the paired t-test (scipy's ttest_rel), computed here so that equal differences need no special case
         t = mean / sem
         t_p = float(2.0 * stats.t.sf(abs(t), d.size - 1))
@@ -100,8 +102,9 @@ def paired_comparison(a: Sequence[float], b: Sequence[float], confidence: float 
         ranks = stats.rankdata(np.abs(nonzero))
         plus, minus = float(ranks[nonzero > 0].sum()), float(ranks[nonzero < 0].sum())
         w, w_p, r = float(wilcoxon.statistic), float(wilcoxon.pvalue), (plus - minus) / (plus + minus)
-    return PairedComparison(a_arr.size, float(a_arr.mean()), float(b_arr.mean()), mean, low, high, t, t_p, dz,
-                            w, w_p, r)
+    return PairedComparison(
+        a_arr.size, float(a_arr.mean()), float(b_arr.mean()), mean, low, high, t, t_p, dz, w, w_p, r
+    )
 
 
 def ratio_summary(numerator: Sequence[float], denominator: Sequence[float], confidence: float = 0.95) -> Estimate:

@@ -10,6 +10,7 @@ same arc length (the geometry is the path's, only the timing changes), so no new
 The distances the analysis uses are the end effector's to the hand at the press and at rest, from the joint states
 (FK), and the thesis's estimate: the distance the plan would have at the press time (its extrapolation from time).
 """
+
 from __future__ import annotations
 
 import math
@@ -46,8 +47,9 @@ def arc_length(path: ApproachPath) -> np.ndarray:
     return np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(path.positions, axis=0), axis=1))])
 
 
-def stop_motion(path: ApproachPath, joint_positions: np.ndarray, press_time: float,
-                deceleration: float = STOP_DECELERATION) -> StoppedMotion:
+def stop_motion(
+    path: ApproachPath, joint_positions: np.ndarray, press_time: float, deceleration: float = STOP_DECELERATION
+) -> StoppedMotion:
     """The motion after a press at `press_time` (s from the path's start), on the path's time grid."""
     if not (math.isfinite(press_time) and press_time >= 0.0):
         raise StudyError(f"the press time must be >= 0 s, got {press_time!r}")
@@ -65,9 +67,9 @@ def stop_motion(path: ApproachPath, joint_positions: np.ndarray, press_time: flo
     steps = int(math.ceil(rest_time / path.dt - 1e-9))
     times = np.arange(steps + 1) * path.dt
     tau = np.clip(times - press_time, 0.0, braking)
-    braked = press_arc + press_speed * tau - 0.5 * deceleration * tau ** 2
+    braked = press_arc + press_speed * tau - 0.5 * deceleration * tau**2
     arc = np.minimum(np.interp(times, path.times, planned), np.where(times <= press_time, np.inf, braked))
-    rest_arc = float(min(press_arc + press_speed * braking - 0.5 * deceleration * braking ** 2, planned[-1]))
+    rest_arc = float(min(press_arc + press_speed * braking - 0.5 * deceleration * braking**2, planned[-1]))
     arc[-1] = min(arc[-1], rest_arc)
     positions = np.array([np.interp(arc, planned, path.positions[:, axis]) for axis in range(3)]).T
     joints = np.array([np.interp(arc, planned, joint_positions[:, j]) for j in range(joint_positions.shape[1])]).T

@@ -8,6 +8,7 @@ set or path), then the per-participant means are compared in pairs, VR against r
            paired VR − reality difference overall, per speed set and per path; how often each path was preferred;
            and how far the thesis's estimate from the press time lies from the measured distance.
 """
+
 from __future__ import annotations
 
 import math
@@ -40,8 +41,9 @@ class StudySummary:
     notes: list[str] = field(default_factory=list)  # missing answers, trials without a press
 
 
-def per_participant(records: Sequence[TrialRecord], keep: Callable[[TrialRecord], bool],
-                    value: Callable[[TrialRecord], float]) -> dict[int, float]:
+def per_participant(
+    records: Sequence[TrialRecord], keep: Callable[[TrialRecord], bool], value: Callable[[TrialRecord], float]
+) -> dict[int, float]:
     """Each participant's mean of `value` over their records that `keep` selects and that have a finite value."""
     sums: dict[int, list[float]] = {}
     for record in records:
@@ -52,19 +54,28 @@ def per_participant(records: Sequence[TrialRecord], keep: Callable[[TrialRecord]
     return {participant: float(np.mean(values)) for participant, values in sums.items()}
 
 
-def _paired(records: Sequence[TrialRecord], keep: Callable[[TrialRecord], bool],
-            value: Callable[[TrialRecord], float], what: str) -> PairedComparison:
+def _paired(
+    records: Sequence[TrialRecord],
+    keep: Callable[[TrialRecord], bool],
+    value: Callable[[TrialRecord], float],
+    what: str,
+) -> PairedComparison:
     vr = per_participant(records, lambda record: keep(record) and record.condition == "vr", value)
     reality = per_participant(records, lambda record: keep(record) and record.condition == "reality", value)
     both = sorted(set(vr) & set(reality))
     if len(both) < 2:
-        raise StudyError(f"{what}: a paired comparison needs at least 2 participants with both conditions, "
-                         f"got {len(both)}")
+        raise StudyError(
+            f"{what}: a paired comparison needs at least 2 participants with both conditions, got {len(both)}"
+        )
     return paired_comparison([vr[p] for p in both], [reality[p] for p in both])
 
 
-def _estimate(records: Sequence[TrialRecord], keep: Callable[[TrialRecord], bool],
-              value: Callable[[TrialRecord], float], what: str) -> Estimate:
+def _estimate(
+    records: Sequence[TrialRecord],
+    keep: Callable[[TrialRecord], bool],
+    value: Callable[[TrialRecord], float],
+    what: str,
+) -> Estimate:
     means = per_participant(records, keep, value)
     if len(means) < 2:
         raise StudyError(f"{what}: needs at least 2 participants, got {len(means)}")
@@ -84,9 +95,15 @@ def _at_press(record: TrialRecord) -> float:
 
 def cell(test: int, condition: str = "", speed_set: str = "", path: str = "") -> Callable[[TrialRecord], bool]:
     """Selects the records of `test` and, where given, of one condition, speed set or path."""
+
     def keep(record: TrialRecord) -> bool:
-        return (record.test == test and condition in ("", record.condition) and speed_set in ("", record.speed_set)
-                and path in ("", record.path))
+        return (
+            record.test == test
+            and condition in ("", record.condition)
+            and speed_set in ("", record.speed_set)
+            and path in ("", record.path)
+        )
+
     return keep
 
 
@@ -103,8 +120,9 @@ def summarise(records: Sequence[TrialRecord]) -> StudySummary:
         notes.append(f"{unpressed} test 2 trial(s) ended on the hand without a press, left out of the stop distances")
     late = [r.press_late for r in records if r.pressed and r.press_late > 0]
     if late:
-        notes.append(f"{len(late)} press(es) arrived after their stamp and were applied late (at most "
-                     f"{max(late) * 1000:.0f} ms)")
+        notes.append(
+            f"{len(late)} press(es) arrived after their stamp and were applied late (at most {max(late) * 1000:.0f} ms)"
+        )
     speed_sets = [name for _, name in sorted({(r.peak_speed, r.speed_set) for r in records if r.test == 2})]
     paths = sorted({r.path for r in records if r.test == 2})
     preferences = {condition: Counter(dict.fromkeys(paths, 0)) for condition in CONDITIONS}
@@ -117,18 +135,25 @@ def summarise(records: Sequence[TrialRecord]) -> StudySummary:
     return StudySummary(
         participants=tuple(sorted({r.participant for r in records})),
         trials=len(records),
-        distance_ratio={condition: _estimate(records, cell(1, condition), perceived_ratio, f"test 1 in {condition}")
-                        for condition in CONDITIONS},
+        distance_ratio={
+            condition: _estimate(records, cell(1, condition), perceived_ratio, f"test 1 in {condition}")
+            for condition in CONDITIONS
+        },
         distance_ratio_vr_vs_reality=_paired(records, test1, perceived_ratio, "test 1"),
-        stop_distance={condition: _estimate(records, cell(2, condition), _at_press, f"test 2 in {condition}")
-                       for condition in CONDITIONS},
+        stop_distance={
+            condition: _estimate(records, cell(2, condition), _at_press, f"test 2 in {condition}")
+            for condition in CONDITIONS
+        },
         stop_distance_vr_vs_reality=_paired(records, test2, _at_press, "test 2"),
-        stop_distance_by_speed_set={name: _paired(records, cell(2, speed_set=name), _at_press, f"test 2 at {name}")
-                                    for name in speed_sets},
-        stop_distance_by_path={name: _paired(records, cell(2, path=name), _at_press, f"test 2 on {name}")
-                               for name in paths},
+        stop_distance_by_speed_set={
+            name: _paired(records, cell(2, speed_set=name), _at_press, f"test 2 at {name}") for name in speed_sets
+        },
+        stop_distance_by_path={
+            name: _paired(records, cell(2, path=name), _at_press, f"test 2 on {name}") for name in paths
+        },
         preferences=preferences,
-        extrapolation_error=_estimate(records, test2, lambda r: abs(r.distance_extrapolated - r.distance_at_press),
-                                      "test 2's extrapolation"),
+        extrapolation_error=_estimate(
+            records, test2, lambda r: abs(r.distance_extrapolated - r.distance_at_press), "test 2's extrapolation"
+        ),
         notes=notes,
     )

@@ -7,6 +7,7 @@ measured. The runner node feeds it the clock, the presses and the achieved joint
                      of the achieved joint states (the state nearest the press, and the last one); and the thesis's
                      estimate, the distance the plan has at the press time (its extrapolation from time)
 """
+
 from __future__ import annotations
 
 import math
@@ -35,11 +36,14 @@ class TrialMeasures:
 
 
 class TrialRun:
-    def __init__(self, robot: RobotSpec, scene: Scene, planned: PlannedApproach,
-                 deceleration: float = STOP_DECELERATION) -> None:
+    def __init__(
+        self, robot: RobotSpec, scene: Scene, planned: PlannedApproach, deceleration: float = STOP_DECELERATION
+    ) -> None:
         if not planned.feasible:
-            raise StudyError(f"the {planned.path.name} path to {planned.path.standoff} m is not feasible: "
-                             f"{'; '.join(planned.problems)}")
+            raise StudyError(
+                f"the {planned.path.name} path to {planned.path.standoff} m is not feasible: "
+                f"{'; '.join(planned.problems)}"
+            )
         self.robot, self.scene, self.planned = robot, scene, planned
         self.deceleration = deceleration
         self.stopped: StoppedMotion | None = None
@@ -93,5 +97,11 @@ class TrialRun:
         nearest = min(self._states, key=lambda state: abs(state[0] - press))
         path = self.planned.path
         planned_point = np.array([np.interp(press, path.times, path.positions[:, axis]) for axis in range(3)])
-        return TrialMeasures(True, press, self.hand_distance(nearest[1]), rest,
-                             self.scene.hand.distance(planned_point), self.stopped.braking_distance)
+        return TrialMeasures(
+            True,
+            press,
+            self.hand_distance(nearest[1]),
+            rest,
+            self.scene.hand.distance(planned_point),
+            self.stopped.braking_distance,
+        )

@@ -6,6 +6,7 @@ It is one more client of the endpoint, without rospy, as a Unity scene would be:
 states, `/study/trial` and `/study/stop`. The page is updated at most `rate` times a second (in lockstep the joint
 states come hundreds of times a second), and once more whenever a trial comes to rest, so the last picture is exact.
 """
+
 from __future__ import annotations
 
 import threading
@@ -19,18 +20,23 @@ from sim.geometry.frames import matrix_to_quat
 from sim.geometry.kinematics import chain_for
 from sim.robots import RobotSpec, find_ros_package
 from sim.robots.meshes import resolve_filename
-from sim.wire.rosmsgs import JOINT_STATE, MessageError, decode_joint_state, deserialize, to_seconds
 from sim.study.errors import StudyError
 from sim.study.interface import STATUS_TOPIC, STOP_TOPIC, TOPIC_TYPES, TrialStatus, status_from_json
 from sim.study.paths import approach_path
 from sim.study.scene import Box, Scene
 from sim.wire.contract import STAMP_TOLERANCE_S, STEP_S
+from sim.wire.rosmsgs import JOINT_STATE, MessageError, decode_joint_state, deserialize, to_seconds
 
 __all__ = ["COLOURS", "LiveView"]
 
 # Distinct colours (RGB), so that a screenshot can tell the parts apart.
-COLOURS = {"table": (150, 110, 70), "hand": (255, 150, 40), "path": (40, 110, 255), "trail": (20, 190, 60),
-           "stop": (230, 20, 20)}
+COLOURS = {
+    "table": (150, 110, 70),
+    "hand": (255, 150, 40),
+    "path": (40, 110, 255),
+    "trail": (20, 190, 60),
+    "stop": (230, 20, 20),
+}
 
 
 def _wxyz(rotation: np.ndarray) -> tuple[float, float, float, float]:
@@ -56,9 +62,13 @@ class LiveView:
         self.updates = 0
         urdf_dir = robot.urdf_path.parent
         urdf = yourdfpy.URDF.load(
-            robot.urdf_path, build_scene_graph=True, load_meshes=True, build_collision_scene_graph=False,
+            robot.urdf_path,
+            build_scene_graph=True,
+            load_meshes=True,
+            build_collision_scene_graph=False,
             load_collision_meshes=False,
-            filename_handler=lambda fname: str(resolve_filename(fname, urdf_dir, find_ros_package) or fname))
+            filename_handler=lambda fname: str(resolve_filename(fname, urdf_dir, find_ros_package) or fname),
+        )
         base = scene.base_pose
         server.scene.add_frame("/robot", show_axes=False, position=tuple(base[:3, 3]), wxyz=_wxyz(base[:3, :3]))
         self._urdf = ViserUrdf(server, urdf, root_node_name="/robot")
@@ -72,8 +82,9 @@ class LiveView:
         self._draw_robot(robot.home)
 
     def _add_box(self, name: str, box: Box, colour: tuple[int, int, int]) -> None:
-        self.server.scene.add_box(name, color=colour, dimensions=tuple(box.size), position=tuple(box.position),
-                                  wxyz=_wxyz(box.rotation))
+        self.server.scene.add_box(
+            name, color=colour, dimensions=tuple(box.size), position=tuple(box.position), wxyz=_wxyz(box.rotation)
+        )
 
     def attach(self, client: TcpClient) -> None:
         client.subscribe(self.robot.joint_states_topic, JOINT_STATE, self._on_joint_state)
@@ -154,8 +165,9 @@ class LiveView:
                 self._press_stamp = stamp  # marked when the joint state of that time comes
             elif self._trail:
                 # where the end effector was at the press (a zero stamp: when it came)
-                self._mark_stop(min(self._trail, key=lambda entry: abs(entry[0] - stamp))[1] if stamp > 0
-                                else self._trail[-1][1])
+                self._mark_stop(
+                    min(self._trail, key=lambda entry: abs(entry[0] - stamp))[1] if stamp > 0 else self._trail[-1][1]
+                )
 
     def _mark_stop(self, point: np.ndarray) -> None:
         """The end effector at the press, and its distance to the hand then, drawn as a dimension line beside the

@@ -1,4 +1,5 @@
 """Reading the study's YAML files (scene, design, plans) with one clear error."""
+
 from __future__ import annotations
 
 from pathlib import Path

@@ -3,6 +3,7 @@
 Both sides of every run keep it: the engine stand-in, the physics node, the commander, the study runner and the
 analysis of their recordings. A rule changed here changes for all of them.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -15,8 +16,14 @@ import numpy as np
 from sim.errors import SimError
 from sim.geometry.frames import euler_xyz_to_quat, quat_to_euler_xyz
 
-__all__ = ["STEP_S", "STAMP_TOLERANCE_S", "MessageError", "PoseConvention", "add_pose_convention_argument",
-           "positions_by_name"]
+__all__ = [
+    "STEP_S",
+    "STAMP_TOLERANCE_S",
+    "MessageError",
+    "PoseConvention",
+    "add_pose_convention_argument",
+    "positions_by_name",
+]
 
 # The control step: Unity's FixedUpdate period by default, the thesis's controller rate (50 Hz).
 STEP_S = 0.02
@@ -65,8 +72,13 @@ class _OldPoseEulerFlag(argparse.Action):
     """`--pose-euler`, the commander's old name for `--pose-convention euler`: still accepted, with a warning on
     stderr (one line, as a command's user reads it, where warnings.warn would show argparse's source line)."""
 
-    def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace, values: object,
-                 option_string: str | None = None) -> None:
+    def __call__(
+        self,
+        parser: argparse.ArgumentParser,
+        namespace: argparse.Namespace,
+        values: object,
+        option_string: str | None = None,
+    ) -> None:
         print(f"{parser.prog}: warning: --pose-euler is deprecated; use --pose-convention euler", file=sys.stderr)
         namespace.pose_convention = PoseConvention.EULER.value
 
@@ -74,10 +86,13 @@ class _OldPoseEulerFlag(argparse.Action):
 def add_pose_convention_argument(parser: argparse.ArgumentParser, accept_old_flag: bool = False) -> None:
     """The one flag every command that reads or writes the goal pose takes (`pose_convention`: a PoseConvention
     value); `accept_old_flag` also takes the commander's old `--pose-euler`."""
-    parser.add_argument("--pose-convention", choices=[c.value for c in PoseConvention],
-                        default=PoseConvention.QUATERNION.value,
-                        help="orientation fields of the goal pose: a quaternion (default), or the thesis's XYZ Euler "
-                             "angles in x, y, z with w = 0")
+    parser.add_argument(
+        "--pose-convention",
+        choices=[c.value for c in PoseConvention],
+        default=PoseConvention.QUATERNION.value,
+        help="orientation fields of the goal pose: a quaternion (default), or the thesis's XYZ Euler "
+        "angles in x, y, z with w = 0",
+    )
     if accept_old_flag:
         parser.add_argument("--pose-euler", nargs=0, action=_OldPoseEulerFlag, help=argparse.SUPPRESS)
 
@@ -88,7 +103,8 @@ def positions_by_name(names: Sequence[str], positions: Sequence[float], joint_or
     names = list(names)
     missing = [name for name in joint_order if name not in names]
     if missing or len(positions) != len(names):
-        raise MessageError(f"JointState names {names} with {len(positions)} positions, not covering "
-                           f"{list(joint_order)}")
+        raise MessageError(
+            f"JointState names {names} with {len(positions)} positions, not covering {list(joint_order)}"
+        )
     index = {name: i for i, name in enumerate(names)}
     return np.array([positions[index[name]] for name in joint_order], dtype=float)

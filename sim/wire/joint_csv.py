@@ -4,6 +4,7 @@ A header row `time,<joint name>,...`, then one row per sample: time in s, positi
 subset of a robot's joints. Logs are written rounded (1 µs, 1e-9); files meant to be read back as the same
 doubles (the commander's export) exactly. Pure file I/O: no ROS, no physics.
 """
+
 from __future__ import annotations
 
 import csv
@@ -57,8 +58,9 @@ def read_joint_csv(path: Path, robot: RobotSpec) -> tuple[np.ndarray, list[str],
     times = data[:, 0]
     if np.any(np.diff(times) <= 0):
         k = int(np.flatnonzero(np.diff(times) <= 0)[0]) + 1
-        raise JointCsvError(f"{path}: times must be strictly increasing; data row {k + 1} has time {times[k]:g} "
-                          f"after {times[k - 1]:g}")
+        raise JointCsvError(
+            f"{path}: times must be strictly increasing; data row {k + 1} has time {times[k]:g} after {times[k - 1]:g}"
+        )
     if not np.all(np.isfinite(data)):
         raise JointCsvError(f"{path}: all values must be finite numbers")
     return times, names, data[:, 1:]

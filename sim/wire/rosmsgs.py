@@ -2,6 +2,7 @@
 
 The engine stand-in speaks to the endpoint in plain ROS 1 bytes, like Unity does, and must not import rospy.
 """
+
 from __future__ import annotations
 
 from collections.abc import Sequence
@@ -14,9 +15,26 @@ from rosbags.typesys import Stores, get_typestore
 from sim.wire.contract import MessageError, positions_by_name
 
 __all__ = [
-    "TYPESTORE", "Header", "Time", "JointStateMsg", "JOINT_STATE", "JOINT_TRAJECTORY", "CLOCK", "POSE",
-    "MessageError", "serialize", "deserialize", "encode_message", "time_msg", "to_seconds", "encode_joint_state",
-    "JointStateSample", "decode_joint_state", "decode_clock", "TrajectoryCommand", "decode_joint_trajectory",
+    "TYPESTORE",
+    "Header",
+    "Time",
+    "JointStateMsg",
+    "JOINT_STATE",
+    "JOINT_TRAJECTORY",
+    "CLOCK",
+    "POSE",
+    "MessageError",
+    "serialize",
+    "deserialize",
+    "encode_message",
+    "time_msg",
+    "to_seconds",
+    "encode_joint_state",
+    "JointStateSample",
+    "decode_joint_state",
+    "decode_clock",
+    "TrajectoryCommand",
+    "decode_joint_trajectory",
     "decode_pose",
 ]
 
@@ -140,9 +158,7 @@ def decode_joint_trajectory(data: bytes, joint_order: Sequence[str]) -> Trajecto
     positions[order] = point.positions
     if len(point.velocities):
         if len(point.velocities) != len(names):
-            raise MessageError(
-                f"JointTrajectory has {len(names)} joint names but {len(point.velocities)} velocities"
-            )
+            raise MessageError(f"JointTrajectory has {len(names)} joint names but {len(point.velocities)} velocities")
         velocities = np.full(len(joint_order), np.nan)
         velocities[order] = point.velocities
     if not np.all(np.isfinite(positions[order])):

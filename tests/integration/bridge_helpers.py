@@ -2,6 +2,7 @@
 
 Everything waits on conditions with a deadline (tests.rosenv.wait_for or socket timeouts), never on bare sleeps.
 """
+
 from __future__ import annotations
 
 import io
@@ -157,6 +158,7 @@ class RawConnection:
 
     def expect_error(self, *fragments: str, timeout: float = 10.0) -> str:
         """The next __error whose text contains every fragment (other frames are skipped but kept)."""
+
         def matches(frame: Frame) -> bool:
             if frame.destination != "__error":
                 return False

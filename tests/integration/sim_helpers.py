@@ -5,6 +5,7 @@ command, /clock and pose topics and records every joint state. `Controller.locks
 lockstep protocol: publish the command stamped t, then /clock = t, then wait for the joint state stamped t.
 Every wait has a deadline (tests.rosenv.wait_for); nothing sleeps blindly.
 """
+
 from __future__ import annotations
 
 import threading
@@ -23,10 +24,13 @@ from tests.rosenv import PYTHON, ManagedProcess, RosCore, wait_for
 DT = STEP_S
 
 
-def start_engine(roscore: RosCore, log_dir: Path, robot: str, port: int, *extra: str, name: str = "engine") -> ManagedProcess:
+def start_engine(
+    roscore: RosCore, log_dir: Path, robot: str, port: int, *extra: str, name: str = "engine"
+) -> ManagedProcess:
     """`python -m sim.engine --robot R --port P ...`, returned once it reports the connection to the endpoint."""
-    process = ManagedProcess([PYTHON, "-m", "sim.engine", "--robot", robot, "--port", str(port), *extra],
-                          roscore.env, log_dir, name)
+    process = ManagedProcess(
+        [PYTHON, "-m", "sim.engine", "--robot", robot, "--port", str(port), *extra], roscore.env, log_dir, name
+    )
     try:
         process.wait_for_output("connected to", timeout=30)
     except BaseException:
@@ -36,8 +40,9 @@ def start_engine(roscore: RosCore, log_dir: Path, robot: str, port: int, *extra:
 
 
 def start_physics_node(roscore: RosCore, log_dir: Path, robot: str, *extra: str) -> ManagedProcess:
-    process = ManagedProcess([PYTHON, "-m", "sim.physics_node", "--robot", robot, *extra], roscore.env, log_dir,
-                          f"{robot}_physics")
+    process = ManagedProcess(
+        [PYTHON, "-m", "sim.physics_node", "--robot", robot, *extra], roscore.env, log_dir, f"{robot}_physics"
+    )
     try:
         process.wait_for_output("physics node:", timeout=30)
     except BaseException:
@@ -117,23 +122,38 @@ class Controller:
         import rosgraph
 
         pubs = {"command": self.command_pub, "clock": self.clock_pub, "pose": self.pose_pub}
-        wait_for(lambda: all(pubs[name].impl.has_connection(self.peer) for name in publishers), timeout,
-                 f"{self.peer} to subscribe {list(publishers)}")
+        wait_for(
+            lambda: all(pubs[name].impl.has_connection(self.peer) for name in publishers),
+            timeout,
+            f"{self.peer} to subscribe {list(publishers)}",
+        )
         master = rosgraph.Master(self.rospy.get_name())
         uri = wait_for(lambda: _lookup(master, self.peer), timeout, f"{self.peer} registered")
-        wait_for(lambda: self.state_sub.impl.has_connection(uri), timeout,
-                 f"our {self.robot.joint_states_topic} subscriber connected to {self.peer}")
+        wait_for(
+            lambda: self.state_sub.impl.has_connection(uri),
+            timeout,
+            f"our {self.robot.joint_states_topic} subscriber connected to {self.peer}",
+        )
 
     # --- publishing -------------------------------------------------------------------------------------------
-    def command(self, stamp: float, positions: Sequence[float], velocities: Sequence[float] | None = None,
-                names: Sequence[str] | None = None) -> None:
+    def command(
+        self,
+        stamp: float,
+        positions: Sequence[float],
+        velocities: Sequence[float] | None = None,
+        names: Sequence[str] | None = None,
+    ) -> None:
         from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
         message = JointTrajectory()
         message.header.stamp = ros_time(self.rospy, stamp)
         message.joint_names = list(self.robot.joint_names if names is None else names)
-        message.points = [JointTrajectoryPoint(positions=[float(x) for x in positions],
-                                               velocities=[] if velocities is None else [float(x) for x in velocities])]
+        message.points = [
+            JointTrajectoryPoint(
+                positions=[float(x) for x in positions],
+                velocities=[] if velocities is None else [float(x) for x in velocities],
+            )
+        ]
         self.command_pub.publish(message)
 
     def clock(self, t: float) -> None:
@@ -166,8 +186,11 @@ class Controller:
             raise TimeoutError(f"{error}{detail}") from None
 
     def wait_count(self, count: int, timeout: float = 10.0) -> list:
-        return wait_for(lambda: (lambda s: s if len(s) >= count else None)(self.snapshot()), timeout,
-                        f"{count} joint states on {self.robot.joint_states_topic}")
+        return wait_for(
+            lambda: (lambda s: s if len(s) >= count else None)(self.snapshot()),
+            timeout,
+            f"{count} joint states on {self.robot.joint_states_topic}",
+        )
 
     # --- lockstep ---------------------------------------------------------------------------------------------
     def start_lockstep(self, priming_steps: int = 3):
@@ -186,8 +209,14 @@ class Controller:
             self.step(k * self.dt, home, np.zeros(self.robot.dof))
         return anchor
 
-    def step(self, t: float, positions: Sequence[float], velocities: Sequence[float] | None = None,
-             names: Sequence[str] | None = None, timeout: float = 5.0):
+    def step(
+        self,
+        t: float,
+        positions: Sequence[float],
+        velocities: Sequence[float] | None = None,
+        names: Sequence[str] | None = None,
+        timeout: float = 5.0,
+    ):
         self.command(t, positions, velocities, names)
         self.clock(t)
         return self.wait_state(t, timeout)
@@ -222,7 +251,9 @@ def _lookup(master, node: str) -> str | None:
 # --- commanded motions and the in-process reference -----------------------------------------------------------
 
 
-def sine_motion(robot: RobotSpec, steps: int, dt: float = DT, amplitude: float = 0.2, period_s: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
+def sine_motion(
+    robot: RobotSpec, steps: int, dt: float = DT, amplitude: float = 0.2, period_s: float = 1.0
+) -> tuple[np.ndarray, np.ndarray]:
     """(positions, velocities) for `steps` steps of dt: every joint swings away from home and back, from rest.
 
     q_j = home_j ± a·(1 − cos ωt) (signs alternate over the joints); prismatic joints swing a tenth as far (m).
@@ -236,8 +267,9 @@ def sine_motion(robot: RobotSpec, steps: int, dt: float = DT, amplitude: float =
     return positions, velocities
 
 
-def reference_run(robot: RobotSpec, mode: Mode, positions: np.ndarray, velocities: np.ndarray,
-                  priming_steps: int = 3, dt: float = DT) -> np.ndarray:
+def reference_run(
+    robot: RobotSpec, mode: Mode, positions: np.ndarray, velocities: np.ndarray, priming_steps: int = 3, dt: float = DT
+) -> np.ndarray:
     """The joint positions an in-process PhysicsWorld reaches for the same targets (priming steps hold home)."""
     with PhysicsWorld(robot, mode=mode, dt=dt) as world:
         for _ in range(priming_steps):

@@ -1,4 +1,5 @@
 """Helpers for the study's integration tests: plans written by hand, trial by trial."""
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -6,15 +7,30 @@ from pathlib import Path
 import yaml
 
 
-def trial(index: int, condition: str, test: int, path: str, standoff: float, peak_speed: float,
-          speed_set: str = "", group: int = 0) -> dict:
+def trial(
+    index: int,
+    condition: str,
+    test: int,
+    path: str,
+    standoff: float,
+    peak_speed: float,
+    speed_set: str = "",
+    group: int = 0,
+) -> dict:
     """One trial of a plan file, as sim.study.plan writes it."""
-    return {"index": index, "condition": condition, "test": test, "path": path, "standoff": standoff,
-            "peak_speed": peak_speed, "speed_set": speed_set, "group": group}
+    return {
+        "index": index,
+        "condition": condition,
+        "test": test,
+        "path": path,
+        "standoff": standoff,
+        "peak_speed": peak_speed,
+        "speed_set": speed_set,
+        "group": group,
+    }
 
 
 def write_plan(path: Path, participant: int, first_condition: str, trials: list[dict]) -> Path:
     conditions = ["vr", "reality"] if first_condition == "vr" else ["reality", "vr"]
-    path.write_text(yaml.safe_dump({"participant": participant, "seed": 0, "conditions": conditions,
-                                    "trials": trials}))
+    path.write_text(yaml.safe_dump({"participant": participant, "seed": 0, "conditions": conditions, "trials": trials}))
     return path

@@ -1,6 +1,7 @@
 """Chaos beside well-behaved clients, bounded in count and time (bench/chaos_bench.py runs the long variants):
 connections reset by the hundred, and mutated streams from several clients. The good clients lose nothing; the
 endpoint's threads and descriptors come back to their baseline and its memory stays near it."""
+
 from __future__ import annotations
 
 import contextlib
@@ -35,10 +36,13 @@ MASTER_CONNECTIONS = 3
 def back_to(pid: int, baseline, rss_margin_mib: float) -> None:
     """Threads, descriptors and memory back near the baseline. The endpoint gives freed memory back to the system
     once traffic has been quiet for a second (bridge.memory), so memory is waited for a few seconds too."""
+
     def released() -> bool:
         now = figures(pid)
-        return now.threads <= baseline.threads + MASTER_CONNECTIONS \
+        return (
+            now.threads <= baseline.threads + MASTER_CONNECTIONS
             and now.descriptors <= baseline.descriptors + MASTER_CONNECTIONS
+        )
 
     wait_for(released, 20, f"threads and descriptors back to the baseline ({baseline})")
     with contextlib.suppress(TimeoutError):
@@ -48,8 +52,9 @@ def back_to(pid: int, baseline, rss_margin_mib: float) -> None:
     assert after.rss_mib <= baseline.rss_mib + rss_margin_mib, (baseline, after)
 
 
-def test_connection_churn_beside_a_steady_client_loses_nothing_and_leaves_nothing(roscore, ros_node,
-                                                                                 tmp_path: Path) -> None:
+def test_connection_churn_beside_a_steady_client_loses_nothing_and_leaves_nothing(
+    roscore, ros_node, tmp_path: Path
+) -> None:
     endpoint = start_endpoint(roscore, tmp_path, "--publisher-grace", "0", name="churn_endpoint")
     to_ros, from_ros = unique("steady_out"), unique("steady_in")
     try:
@@ -86,10 +91,12 @@ def test_connection_churn_beside_a_steady_client_loses_nothing_and_leaves_nothin
         endpoint.stop()
 
 
-def test_mutated_streams_beside_a_good_client_cost_it_nothing_and_leave_nothing(roscore, ros_node,
-                                                                               tmp_path: Path) -> None:
-    endpoint = start_endpoint(roscore, tmp_path, "--publisher-grace", "0", "--service-timeout", "2",
-                              name="fuzz_endpoint")
+def test_mutated_streams_beside_a_good_client_cost_it_nothing_and_leave_nothing(
+    roscore, ros_node, tmp_path: Path
+) -> None:
+    endpoint = start_endpoint(
+        roscore, tmp_path, "--publisher-grace", "0", "--service-timeout", "2", name="fuzz_endpoint"
+    )
     topic = unique("good_stream")
     try:
         settled(roscore, "/fuzz_endpoint")
@@ -103,8 +110,10 @@ def test_mutated_streams_beside_a_good_client_cost_it_nothing_and_leave_nothing(
 
         stop = threading.Event()
         stats = [FuzzStats() for _ in range(4)]
-        fuzzers = [threading.Thread(target=fuzz_client, args=(endpoint.port, SEED + index, stop, stats[index]))
-                   for index in range(4)]
+        fuzzers = [
+            threading.Thread(target=fuzz_client, args=(endpoint.port, SEED + index, stop, stats[index]))
+            for index in range(4)
+        ]
         for fuzzer in fuzzers:
             fuzzer.start()
         sent = 0
@@ -120,8 +129,10 @@ def test_mutated_streams_beside_a_good_client_cost_it_nothing_and_leave_nothing(
             stop.set()
             for fuzzer in fuzzers:
                 fuzzer.join(30)
-        print(f"fuzzers: {sum(s.connections for s in stats)} connections, "
-              f"{sum(s.bytes_sent for s in stats) / 2**20:.1f} MiB sent")
+        print(
+            f"fuzzers: {sum(s.connections for s in stats)} connections, "
+            f"{sum(s.bytes_sent for s in stats) / 2**20:.1f} MiB sent"
+        )
 
         assert received.wait_count(sent) == [serialize(String(f"good {i}")) for i in range(sent)]
         assert good.connections == 1 and good.errors == []

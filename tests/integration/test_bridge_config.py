@@ -1,5 +1,6 @@
 """Endpoint settings and lifecycle: auth token, allow/deny lists, default loopback bind, bad settings refused by name,
 clean SIGTERM, and the catkin package's roslaunch entry point."""
+
 from __future__ import annotations
 
 import os
@@ -188,7 +189,11 @@ def test_a_bad_setting_stops_the_endpoint_at_once_with_a_message_naming_it(
     try:
         result = subprocess.run(
             [PYTHON, "-m", "bridge", "--node-name", node, *options],
-            env=roscore.env, cwd=REPO, capture_output=True, text=True, timeout=60,
+            env=roscore.env,
+            cwd=REPO,
+            capture_output=True,
+            text=True,
+            timeout=60,
         )
     finally:
         if param is not None:
@@ -201,8 +206,10 @@ def test_a_bad_setting_stops_the_endpoint_at_once_with_a_message_naming_it(
 def test_roslaunch_endpoint_launch_serves_clients_like_unitys(roscore, ros_node, tmp_path: Path) -> None:
     """The catkin package's launch file, as a Unity user starts it, with its two arguments."""
     port = free_port()
-    command = (f"source {REPO}/catkin_ws/devel/setup.bash && exec roslaunch ros_tcp_endpoint endpoint.launch "
-               f"tcp_ip:=127.0.0.1 tcp_port:={port}")
+    command = (
+        f"source {REPO}/catkin_ws/devel/setup.bash && exec roslaunch ros_tcp_endpoint endpoint.launch "
+        f"tcp_ip:=127.0.0.1 tcp_port:={port}"
+    )
     launch = ManagedProcess(["bash", "-c", command], roscore.env, tmp_path, "roslaunch")
     to_ros, to_client = unique("launched_in"), unique("launched_out")
     inbox = RosInbox(ros_node, to_ros)

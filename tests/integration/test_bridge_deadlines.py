@@ -1,5 +1,6 @@
 """Deadlines and the memory of unfinished frames: a frame begun must complete in time, __auth must come in time,
 wrong tokens are slowed down, and frames not yet complete share one budget for all clients."""
+
 from __future__ import annotations
 
 import struct
@@ -68,8 +69,11 @@ def test_wrong_tokens_are_slowed_down_and_logged_once_a_second(roscore, ros_node
         assert verdicts <= 6, verdicts
         with tcp_client(endpoint.port, reconnect=False, auth_token=TOKEN) as client:  # the right token: at once
             client.topic_list(timeout=1)
-        warnings = [line for line in endpoint.output().splitlines()
-                    if "authentication failed" in line and "disconnected" not in line]
+        warnings = [
+            line
+            for line in endpoint.output().splitlines()
+            if "authentication failed" in line and "disconnected" not in line
+        ]
         assert 1 <= len(warnings) <= 4  # once a second at most (each connection's end is logged as it ends)
     finally:
         endpoint.stop()
@@ -83,8 +87,9 @@ def test_frames_not_yet_complete_share_one_budget(roscore, ros_node, tmp_path: P
         def header(destination: bytes) -> bytes:
             return struct.pack("<I", len(destination)) + destination + struct.pack("<I", big)
 
-        with RawConnection(endpoint.port) as first, RawConnection(endpoint.port) as second, \
-                RawConnection(endpoint.port) as good:
+        with RawConnection(endpoint.port) as first, RawConnection(endpoint.port) as second, RawConnection(
+            endpoint.port
+        ) as good:
             # 5 MiB of a 6 MiB frame each would make 10 MiB. Each connection has its own reader thread, and sendall
             # returns once the kernel holds the bytes, so which of the two the endpoint reads first is not ours to
             # choose: whichever comes second is refused, the other keeps its frame.

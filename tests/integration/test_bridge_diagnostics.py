@@ -1,4 +1,5 @@
 """A window into the endpoint: /diagnostics (diagnostic_msgs/DiagnosticArray, 1 Hz) and its log lines."""
+
 from __future__ import annotations
 
 from std_msgs.msg import String
@@ -37,8 +38,11 @@ def test_diagnostics_show_each_client_and_topic(roscore, ros_node, tmp_path) -> 
                 publisher.publish(String(f"out {index}"))
                 client.publish(topic_in, serialize(String(f"in {index}")))
             inbox.wait_count(50)
-            wait_for(lambda: (s := diagnostics.find(topic_out)) and status_values(s)["messages to clients"] == "50", 10,
-                     "the topic's count on /diagnostics")
+            wait_for(
+                lambda: (s := diagnostics.find(topic_out)) and status_values(s)["messages to clients"] == "50",
+                10,
+                "the topic's count on /diagnostics",
+            )
             mine = diagnostics.find("client #")
             assert mine is not None and mine.level == 0
             shown = status_values(mine)
@@ -66,8 +70,11 @@ def test_every_accept_auth_failure_and_disconnect_is_logged_with_its_reason(rosc
         with RawConnection(endpoint.port) as wrong:
             wrong.command("__auth", token="guess")
             wrong.wait_closed(timeout=10)
-        wait_for(lambda: "disconnected: authentication failed (a wrong token" in endpoint.output(), 10,
-                 "the disconnect's line, with its reason")
+        wait_for(
+            lambda: "disconnected: authentication failed (a wrong token" in endpoint.output(),
+            10,
+            "the disconnect's line, with its reason",
+        )
         output = endpoint.output()
         assert "connected; handshake sent, waiting for __auth" in output
         assert "client #1 127.0.0.1" in output and "authentication failed (a wrong token, 1 in a row" in output

@@ -1,5 +1,6 @@
 """Limits per client and overall: past one, a clear __error; the client stays connected where that is safe; threads,
 descriptors and memory are bounded by the limits, not by what a client asks for, and released when it leaves."""
+
 from __future__ import annotations
 
 import json
@@ -110,8 +111,9 @@ class SlowSender(threading.Thread):
                     return
                 if not data:
                     return
-                self.reasons += [json.loads(f.payload)["text"] for f in feed(decoder, data)
-                                 if f.destination in ("__warn", "__error")]
+                self.reasons += [
+                    json.loads(f.payload)["text"] for f in feed(decoder, data) if f.destination in ("__warn", "__error")
+                ]
 
 
 def test_a_fresh_client_is_served_while_slow_senders_hold_every_slot(roscore, ros_node, tmp_path: Path) -> None:
@@ -133,8 +135,12 @@ def test_a_fresh_client_is_served_while_slow_senders_hold_every_slot(roscore, ro
             stop.set()
             for sender in senders:
                 sender.join(10)
-            made_room = [reason for sender in senders for reason in sender.reasons
-                         if "closed to make room for a new client" in reason and "--max-clients" in reason]
+            made_room = [
+                reason
+                for sender in senders
+                for reason in sender.reasons
+                if "closed to make room for a new client" in reason and "--max-clients" in reason
+            ]
             assert len(made_room) >= 5, [sender.reasons for sender in senders]
             steady.sync()
             assert not steady.errors(), steady.summary()
@@ -146,8 +152,9 @@ def test_a_fresh_client_is_served_while_slow_senders_hold_every_slot(roscore, ro
 
 
 def test_registrations_past_the_limits_are_refused_and_the_client_stays(roscore, ros_node, tmp_path: Path) -> None:
-    endpoint = start_endpoint(roscore, tmp_path, "--max-registrations-per-client", "5", "--max-registrations", "8",
-                              "--publisher-grace", "0")
+    endpoint = start_endpoint(
+        roscore, tmp_path, "--max-registrations-per-client", "5", "--max-registrations", "8", "--publisher-grace", "0"
+    )
     try:
         topics = [unique("limited") for _ in range(6)]
         with RawConnection(endpoint.port) as subscriber, RawConnection(endpoint.port) as publisher:
@@ -165,8 +172,7 @@ def test_registrations_past_the_limits_are_refused_and_the_client_stays(roscore,
             publisher.sync()
             assert len(publisher.errors()) == 1
             subscriber.close()
-            wait_for(lambda: _registers(publisher, published[3]), 10,
-                     "room once the subscriber left")
+            wait_for(lambda: _registers(publisher, published[3]), 10, "room once the subscriber left")
     finally:
         endpoint.stop()
 
@@ -178,8 +184,7 @@ def _registers(client: RawConnection, topic: str) -> bool:
     return len(client.errors()) == before
 
 
-def test_a_registration_flood_is_bounded_and_released_when_the_client_leaves(roscore, ros_node,
-                                                                             tmp_path: Path) -> None:
+def test_a_registration_flood_is_bounded_and_released_when_the_client_leaves(roscore, ros_node, tmp_path: Path) -> None:
     endpoint = start_endpoint(roscore, tmp_path, "--publisher-grace", "0", name="flood_endpoint")
     try:
         settled(roscore, "/flood_endpoint")
@@ -193,8 +198,14 @@ def test_a_registration_flood_is_bounded_and_released_when_the_client_leaves(ros
             during = figures(endpoint.pid)
             print(f"{baseline} before, {during} with 256 publishers")
             assert during.threads <= baseline.threads + 256 + 8  # a pump per publisher, the client's reader, writer
-        wait_for(lambda: figures(endpoint.pid).threads <= baseline.threads
-                 and figures(endpoint.pid).descriptors <= baseline.descriptors, 20, f"back to {baseline}")
+        wait_for(
+            lambda: (
+                figures(endpoint.pid).threads <= baseline.threads
+                and figures(endpoint.pid).descriptors <= baseline.descriptors
+            ),
+            20,
+            f"back to {baseline}",
+        )
     finally:
         endpoint.stop()
 

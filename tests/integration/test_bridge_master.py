@@ -2,6 +2,7 @@
 
 Each test runs its own roscore (the session's is never touched) and an endpoint on it.
 """
+
 from __future__ import annotations
 
 import os
@@ -22,7 +23,6 @@ from tests.integration.bridge_helpers import Inbox, RawConnection, serialize, st
 from tests.rosenv import EndpointProcess, ManagedProcess, RosCore, wait_for
 
 
-
 def trigger_response(message: str) -> bytes:
     """std_srvs/Trigger's response, serialized: success, message."""
     return b"\x01" + struct.pack("<I", len(message)) + message.encode()
@@ -33,8 +33,9 @@ class Graph:
 
     def __init__(self, core: RosCore) -> None:
         state = xmlrpc.client.ServerProxy(core.uri).getSystemState("/probe")[2]
-        self.publishers, self.subscribers, self.services = ({name: set(nodes) for name, nodes in part}
-                                                            for part in state)
+        self.publishers, self.subscribers, self.services = (
+            {name: set(nodes) for name, nodes in part} for part in state
+        )
 
 
 def holds(core: RosCore, node: str, publishers=(), subscribers=(), services=()) -> bool:
@@ -42,9 +43,11 @@ def holds(core: RosCore, node: str, publishers=(), subscribers=(), services=()) 
         graph = Graph(core)
     except OSError:
         return False
-    return (all(node in graph.publishers.get(name, ()) for name in publishers)
-            and all(node in graph.subscribers.get(name, ()) for name in subscribers)
-            and all(node in graph.services.get(name, ()) for name in services))
+    return (
+        all(node in graph.publishers.get(name, ()) for name in publishers)
+        and all(node in graph.subscribers.get(name, ()) for name in subscribers)
+        and all(node in graph.services.get(name, ()) for name in services)
+    )
 
 
 @pytest.fixture
@@ -72,7 +75,8 @@ def ros_tool(core: RosCore, tmp_path: Path, *args: str) -> ManagedProcess:
 
 
 def test_a_restarted_master_gets_every_registration_back_without_the_client_doing_anything(
-        core: RosCore, endpoint: EndpointProcess, tmp_path: Path) -> None:
+    core: RosCore, endpoint: EndpointProcess, tmp_path: Path
+) -> None:
     node = "/master_test_endpoint"
     published, subscribed, service, late = unique("m_pub"), unique("m_sub"), unique("m_srv"), unique("m_late")
     inbox = Inbox()
@@ -94,18 +98,21 @@ def test_a_restarted_master_gets_every_registration_back_without_the_client_doin
 
         core = restart(core)
         started = time.monotonic()
-        wait_for(lambda: holds(core, node, [published], [subscribed, late], [service]), 15,
-                 "every registration on the new master")
+        wait_for(
+            lambda: holds(core, node, [published], [subscribed, late], [service]),
+            15,
+            "every registration on the new master",
+        )
         print(f"registered again {time.monotonic() - started:.2f} s after the new master was up")
 
         # ROS nodes started now reach the client's topics and service, both ways.
         echo = ros_tool(core, tmp_path, "rostopic", "echo", "-n", "1", published)
         sent = 0
-        while "data: \"hello" not in echo.output() and sent < 100:
+        while 'data: "hello' not in echo.output() and sent < 100:
             client.publish(published, serialize(String(f"hello {sent}")))
             sent += 1
             time.sleep(0.1)
-        assert "data: \"hello" in echo.output(), echo.output()
+        assert 'data: "hello' in echo.output(), echo.output()
         ros_tool(core, tmp_path, "rostopic", "pub", "-1", subscribed, "std_msgs/String", "data: from ROS").wait(30)
         inbox.wait_count(1)
         assert inbox.snapshot()[0] == serialize(String("from ROS"))
@@ -123,7 +130,8 @@ def master_pid(core: RosCore) -> int:
 
 
 def test_a_frozen_master_holds_up_no_client_and_gets_the_registrations_when_it_thaws(
-        core: RosCore, endpoint: EndpointProcess) -> None:
+    core: RosCore, endpoint: EndpointProcess
+) -> None:
     node = "/master_test_endpoint"
     topic, published = unique("f_sub"), unique("f_pub")
     client = tcp_client(endpoint.port, reconnect=False)
@@ -155,13 +163,15 @@ def test_sigterm_ends_the_endpoint_within_seconds_whatever_is_in_flight(core: Ro
     hung_service, client_service = unique("never_answers"), unique("client_never_answers")
     silent_server = socket.create_server(("127.0.0.1", 0))  # a ROS service that accepts and never answers
     master = xmlrpc.client.ServerProxy(core.uri)
-    master.registerService("/fake_node", hung_service, f"rosrpc://127.0.0.1:{silent_server.getsockname()[1]}",
-                           "http://127.0.0.1:9/")
+    master.registerService(
+        "/fake_node", hung_service, f"rosrpc://127.0.0.1:{silent_server.getsockname()[1]}", "http://127.0.0.1:9/"
+    )
     caller = None
     pid = None
     try:
-        with RawConnection(endpoint.port) as calling, RawConnection(endpoint.port) as serving, \
-                RawConnection(endpoint.port, rcvbuf=4096) as silent:
+        with RawConnection(endpoint.port) as calling, RawConnection(endpoint.port) as serving, RawConnection(
+            endpoint.port, rcvbuf=4096
+        ) as silent:
             calling.command("__ros_service", topic=hung_service, message_name="std_srvs/Trigger")
             calling.command("__request", srv_id=1)
             calling.send_frame(hung_service, b"")
@@ -178,8 +188,10 @@ def test_sigterm_ends_the_endpoint_within_seconds_whatever_is_in_flight(core: Ro
             took = time.monotonic() - started
             print(f"endpoint exited {took:.2f} s after SIGTERM")
             assert took < 8
-            serving.wait_frame(lambda f: f.destination == "__warn" and b"shutting down" in f.payload,
-                               "the endpoint saying it shuts down")
+            serving.wait_frame(
+                lambda f: f.destination == "__warn" and b"shutting down" in f.payload,
+                "the endpoint saying it shuts down",
+            )
             calling.wait_closed()
             # The ROS caller got an error at once, not a hang (it cannot exit before the master thaws: rospy)
             wait_for(lambda: "the endpoint is shutting down" in caller.output(), 10, "the ROS caller's error")

@@ -1,6 +1,7 @@
 """The endpoint's fast paths keep their promises: client -> ROS through the per-topic pump (batched TCPROS writes,
 latching, order, flow control), and per-client service-call workers (one client's slow calls never delay
 another's)."""
+
 from __future__ import annotations
 
 import os
@@ -68,7 +69,7 @@ def test_single_frames_and_bursts_reach_ros_in_the_order_they_were_sent(bridge, 
         index = 0
         while index < len(payloads):
             size = 1 if (index // 10) % 2 == 0 else 25  # ten single writes, then a burst of 25 in one write
-            client.send(b"".join(protocol.encode_frame(topic, payload) for payload in payloads[index:index + size]))
+            client.send(b"".join(protocol.encode_frame(topic, payload) for payload in payloads[index : index + size]))
             index += size
             if size == 1:
                 time.sleep(0.001)  # so single writes arrive as single reads
@@ -82,8 +83,10 @@ def test_messages_written_together_with_a_command_reach_ros_before_the_command_t
     after the messages before it: here the topic is unadvertised only once they are published."""
     payloads = [serialize(String(f"message {index}")) for index in range(50)]
     with publishing_client(bridge.port, ros_node, "then_removed", queue_size=100) as (topic, client, inbox):
-        client.send(b"".join(protocol.encode_frame(topic, payload) for payload in payloads)
-                    + protocol.encode_syscommand("__remove_publisher", {"topic": topic}))  # one write
+        client.send(
+            b"".join(protocol.encode_frame(topic, payload) for payload in payloads)
+            + protocol.encode_syscommand("__remove_publisher", {"topic": topic})
+        )  # one write
         assert inbox.wait_count(len(payloads)) == payloads
         client.sync()
         assert not client.errors()

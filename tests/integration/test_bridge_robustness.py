@@ -1,4 +1,5 @@
 """Bad input, broken framing, slow readers and reconnects: one client's trouble never reaches another client."""
+
 from __future__ import annotations
 
 import itertools
@@ -344,10 +345,16 @@ def test_ros_subscribers_stay_connected_while_a_client_reconnects(bridge, ros_no
         for round_ in range(3):
             connections = client.connections
             client.send_raw(u32(0xFFFFFFFF))  # cut; the client reconnects and re-sends __publish
-            wait_for(lambda: client.connections > connections and client.is_connected, 10, "the client to reconnect")
+            wait_for(
+                lambda before=connections: client.connections > before and client.is_connected,
+                10,
+                "the client to reconnect",
+            )
             client.topic_list()
             client.publish(topic, serialize(String(f"right after reconnect {round_}")))
-            assert ros_inbox.wait_count(round_ + 1, timeout=5)[-1] == serialize(String(f"right after reconnect {round_}"))
+            assert ros_inbox.wait_count(round_ + 1, timeout=5)[-1] == serialize(
+                String(f"right after reconnect {round_}")
+            )
     ros_inbox.close()
 
 
@@ -420,7 +427,6 @@ def test_a_client_flooding_bad_frames_without_reading_is_bounded_and_not_logged_
         watcher.close()
     finally:
         assert endpoint.stop() is not None
-
 
 
 def test_a_client_that_cannot_be_set_up_is_closed_and_the_endpoint_keeps_accepting(ros_node, monkeypatch) -> None:

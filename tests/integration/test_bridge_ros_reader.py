@@ -1,6 +1,7 @@
-"""bridge.ros_reader.read_raw_messages, the endpoint's read of TCPROS messages from ROS publishers, on real sockets: every
-message comes out whole and in order however the stream was split between rospy's read buffer and the socket, and a
-publisher that goes mid-message ends the connection as rospy's own reads do."""
+"""bridge.ros_reader.read_raw_messages, the endpoint's read of TCPROS messages from ROS publishers, on real sockets:
+every message comes out whole and in order however the stream was split between rospy's read buffer and the socket,
+and a publisher that goes mid-message ends the connection as rospy's own reads do."""
+
 from __future__ import annotations
 
 import io
@@ -9,12 +10,11 @@ import struct
 import threading
 
 import pytest
+import rospy.impl.tcpros_pubsub
 from rospy.exceptions import TransportTerminated
 
-from bridge.framing import LARGE_PAYLOAD_BYTES
-import rospy.impl.tcpros_pubsub
-
 from bridge import ros_reader
+from bridge.framing import LARGE_PAYLOAD_BYTES
 from bridge.ros_reader import FLOOD_READ_BYTES, SUBSCRIBER_READ_BYTES, next_read_size, read_raw_messages
 from bridge.ros_types import RawMessage
 
@@ -22,8 +22,10 @@ SIZES = [0, 1, 321, LARGE_PAYLOAD_BYTES - 1, LARGE_PAYLOAD_BYTES, 5, 2_764_800, 
 
 
 def payloads() -> list[bytes]:
-    return [bytes((index * 7 + offset) % 251 for offset in range(min(size, 251))) * (size // 251 + 1)
-            for index, size in enumerate(SIZES)]
+    return [
+        bytes((index * 7 + offset) % 251 for offset in range(min(size, 251))) * (size // 251 + 1)
+        for index, size in enumerate(SIZES)
+    ]
 
 
 def tcpros(messages: list[bytes]) -> bytes:
@@ -124,8 +126,9 @@ def test_the_read_size_grows_for_a_flood_and_shrinks_for_large_messages() -> Non
 
 def test_rospy_subscriber_connections_of_raw_classes_read_with_a_size_that_follows_the_traffic() -> None:
     ros_reader.install_raw_reader()
-    protocol = rospy.impl.tcpros_pubsub.TCPROSSub("/flood", RawMessage, queue_size=None,
-                                                  buff_size=SUBSCRIBER_READ_BYTES)
+    protocol = rospy.impl.tcpros_pubsub.TCPROSSub(
+        "/flood", RawMessage, queue_size=None, buff_size=SUBSCRIBER_READ_BYTES
+    )
     small = [bytes(200)] * (SUBSCRIBER_READ_BYTES // 200)  # a full read of a flood
     large = bytes(LARGE_PAYLOAD_BYTES * 2)
     sender, receiver = socket.socketpair()

@@ -1,4 +1,5 @@
 """Services through a real endpoint: client -> ROS (__ros_service/__request) and ROS -> client (__unity_service)."""
+
 from __future__ import annotations
 
 import json
@@ -42,9 +43,7 @@ class BackgroundCall:
 
     def __init__(self, rospy, name: str, service_class=Trigger, *request_args) -> None:
         self.outcome: object = None
-        self._thread = threading.Thread(
-            target=self._run, args=(rospy, name, service_class, request_args), daemon=True
-        )
+        self._thread = threading.Thread(target=self._run, args=(rospy, name, service_class, request_args), daemon=True)
         self._thread.start()
 
     def _run(self, rospy, name: str, service_class, request_args: tuple) -> None:

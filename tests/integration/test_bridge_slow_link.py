@@ -1,6 +1,7 @@
 """A client over a slow link (tests.slow_link: rate, delay, small buffers): small messages do not wait behind queued
 camera images, a client that cannot keep up with the images gets the newest one, and /diagnostics says how long a
 topic's messages waited in the endpoint."""
+
 from __future__ import annotations
 
 import contextlib
@@ -70,8 +71,9 @@ class WaitsReported:
         self._subscriber.unregister()
 
 
-def test_over_a_slow_link_control_messages_overtake_images_and_the_newest_image_wins(roscore, ros_node,
-                                                                                   tmp_path: Path) -> None:
+def test_over_a_slow_link_control_messages_overtake_images_and_the_newest_image_wins(
+    roscore, ros_node, tmp_path: Path
+) -> None:
     endpoint = start_endpoint(roscore, tmp_path, name="slow_link_endpoint")
     images, joints = unique("camera"), unique("joints")
     image_waits = WaitsReported(ros_node, f"/slow_link_endpoint: topic {images}")
@@ -105,7 +107,7 @@ def test_over_a_slow_link_control_messages_overtake_images_and_the_newest_image_
         received_images = [number for kind, number in order if kind == "image"]
         assert received_images[-1] == "7" and len(received_images) <= 3, order  # stale ones were skipped
         # It waits for the one image on the wire when it came (which may be the newest already), never for more.
-        overtaken_by = order[arrived_before:order.index(("joints", "after the images"))]
+        overtaken_by = order[arrived_before : order.index(("joints", "after the images"))]
         assert len(overtaken_by) <= 1, (arrived_before, order)
     finally:
         image_waits.close()

@@ -1,6 +1,7 @@
 """bridge.sockets.send_to_all on real loopback TCP connections: healthy peers get every byte at once, a steady
 slow reader is waited for, a peer that stopped reading (or hung up) fails alone. Every case runs with the senders
 in blocking mode and in timeout mode (rospy sets a process-wide default socket timeout that new sockets inherit)."""
+
 from __future__ import annotations
 
 import socket
@@ -12,8 +13,16 @@ from contextlib import contextmanager
 import pytest
 
 from bridge.sockets import (
-    BEHIND_BYTES, NOTSENT_LOWAT_BYTES, PACING_CONGESTION_CONTROLS, TCP_NOTSENT_LOWAT, UnsentLimit, send_now,
-    send_to_all, takes_whole, tune_socket, unsent_bytes,
+    BEHIND_BYTES,
+    NOTSENT_LOWAT_BYTES,
+    PACING_CONGESTION_CONTROLS,
+    TCP_NOTSENT_LOWAT,
+    UnsentLimit,
+    send_now,
+    send_to_all,
+    takes_whole,
+    tune_socket,
+    unsent_bytes,
 )
 
 DATA = bytes(range(256)) * (32 * 1024)  # 8 MiB: more than loopback's socket buffers hold
@@ -26,8 +35,9 @@ def sender_timeout(request) -> float | None:
 
 
 @contextmanager
-def tcp_pairs(count: int, sender_timeout: float | None, host: str = "127.0.0.1"
-              ) -> Iterator[list[tuple[socket.socket, socket.socket]]]:
+def tcp_pairs(
+    count: int, sender_timeout: float | None, host: str = "127.0.0.1"
+) -> Iterator[list[tuple[socket.socket, socket.socket]]]:
     """`count` connected (sender, receiver) pairs over loopback; the senders have the given Python timeout."""
     family = socket.AF_INET6 if ":" in host else socket.AF_INET
     listener = socket.create_server((host, 0), family=family)

@@ -1,4 +1,5 @@
 """Topics through a real endpoint on a real roscore: byte-exact both ways, many clients, registrations, removal."""
+
 from __future__ import annotations
 
 import json
@@ -144,7 +145,7 @@ def test_two_clients_get_only_what_they_subscribed_to(bridge, ros_node) -> None:
             publisher_b.publish(String(f"b{index}"))
         for client, topic, letter in ((client_a, topic_a, "a"), (client_b, topic_b, "b")):
             for index in range(3):
-                frame = client.wait_frame(lambda f: f.destination == topic, f"message on {topic}")
+                frame = client.wait_frame(lambda f, topic=topic: f.destination == topic, f"message on {topic}")
                 assert frame.payload == serialize(String(f"{letter}{index}"))
             client.sync()
         assert {f.destination for f in client_a.received if not f.destination.startswith("__")} == {topic_a}
@@ -334,6 +335,7 @@ def test_a_client_gets_the_others_messages_on_a_topic_it_publishes_but_not_its_o
         def warmed_up() -> bool:  # the endpoint's subscriber is connected to its own publisher
             chatty.publish(topic, warm_up)
             return warm_up in other.snapshot()
+
         wait_for(warmed_up, 10, "a message from one client at the other", interval=0.1)
         ros_publisher = ros_node.Publisher(topic, String, queue_size=10)
         wait_subscribers(ros_publisher)
@@ -343,8 +345,11 @@ def test_a_client_gets_the_others_messages_on_a_topic_it_publishes_but_not_its_o
         ros_publisher.publish(String("from ros"))
         expected_own = {serialize(String(f"quiet {i}")) for i in range(20)} | {serialize(String("from ros"))}
         expected_other = {serialize(String(f"chatty {i}")) for i in range(20)} | {serialize(String("from ros"))}
-        wait_for(lambda: expected_own <= set(own.snapshot()) and expected_other <= set(other.snapshot()), 10,
-                 "every other client's message at each client")
+        wait_for(
+            lambda: expected_own <= set(own.snapshot()) and expected_other <= set(other.snapshot()),
+            10,
+            "every other client's message at each client",
+        )
         chatty.topic_list()
         quiet.topic_list()  # anything else in flight has arrived by now
         assert set(own.snapshot()) == expected_own and len(own) == 21  # none of its own, not even a warm-up
@@ -366,6 +371,7 @@ def test_an_endpoint_configured_so_sends_clients_their_own_messages_back(roscore
             def echoed() -> bool:
                 client.publish(topic, message)
                 return message in own.snapshot()
+
             wait_for(echoed, 10, "its own message back", interval=0.1)
     finally:
         process.stop()
@@ -388,8 +394,11 @@ def test_a_subscription_with_queue_size_keeps_only_that_many_waiting_for_a_slow_
             publisher.publish(String(f"sample {index:04d} " + "x" * 200))
         # neither client reads until the endpoint has handed every message to them (sent, or queued): it counts them
         # on /diagnostics
-        wait_for(lambda: (status := diagnostics.find(topic)) and status_values(status)["messages to clients"] == "600",
-                 15, f"600 messages of {topic} handed to the clients")
+        wait_for(
+            lambda: (status := diagnostics.find(topic)) and status_values(status)["messages to clients"] == "600",
+            15,
+            f"600 messages of {topic} handed to the clients",
+        )
         latest_only.sync()
         all_of_it.sync()
         got_latest, got_all = latest_only.messages(topic), all_of_it.messages(topic)

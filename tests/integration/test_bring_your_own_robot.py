@@ -1,6 +1,7 @@
 """A user's robot, the way a user brings it: a URDF path on the command line of every entry point, no Python edited.
 Bad robots are one clear line and exit 2 everywhere; good ones run the CSV mode in every physics mode and a short
 campaign."""
+
 from __future__ import annotations
 
 import shutil
@@ -10,11 +11,11 @@ from pathlib import Path
 import pytest
 
 from sim.campaign import analysis
-from sim.engine.stand_in import EngineOptions, replay_csv
 from sim.engine.physics import Mode
+from sim.engine.stand_in import EngineOptions, replay_csv
 from sim.robots import load_robot
-from tests.robot_files import LIFT_ARM, THIRD_PARTY_URDFS
 from tests.integration.sim_helpers import mean_of, report_rows
+from tests.robot_files import LIFT_ARM, THIRD_PARTY_URDFS
 from tests.rosenv import PYTHON, REPO
 
 ENTRY_POINTS = {
@@ -29,17 +30,23 @@ ENTRY_POINTS = {
 def bad_robots(tmp_path: Path) -> dict[str, tuple[str, str]]:
     """name -> (--robot value, what the error must say)"""
     no_moving = tmp_path / "no_moving.urdf"
-    no_moving.write_text('<robot name="statue"><link name="base"/><link name="head"/><joint name="neck" '
-                         'type="fixed"><parent link="base"/><child link="head"/></joint></robot>')
+    no_moving.write_text(
+        '<robot name="statue"><link name="base"/><link name="head"/><joint name="neck" '
+        'type="fixed"><parent link="base"/><child link="head"/></joint></robot>'
+    )
     floating = tmp_path / "floating.urdf"
-    floating.write_text('<robot name="drone"><link name="world"/><link name="body"/><joint name="free" '
-                        'type="floating"><parent link="world"/><child link="body"/></joint></robot>')
+    floating.write_text(
+        '<robot name="drone"><link name="world"/><link name="body"/><joint name="free" '
+        'type="floating"><parent link="world"/><child link="body"/></joint></robot>'
+    )
     ambiguous = shutil.copy(LIFT_ARM, tmp_path / "gripper_arm.urdf")  # no YAML beside it
     return {
         "missing": (str(tmp_path / "absent.urdf"), "URDF not found"),
         "no_moving_joints": (str(no_moving), "has no moving joint"),
-        "ambiguous_ee": (str(ambiguous), "is ambiguous, 2 leaves end a chain of 5 moving joints: left_finger, "
-                                         "right_finger"),
+        "ambiguous_ee": (
+            str(ambiguous),
+            "is ambiguous, 2 leaves end a chain of 5 moving joints: left_finger, right_finger",
+        ),
         "floating_joint": (str(floating), "joint 'free' is floating"),
     }
 
@@ -48,9 +55,16 @@ def bad_robots(tmp_path: Path) -> dict[str, tuple[str, str]]:
 def test_a_bad_urdf_is_one_clear_line_and_exit_2_from_every_entry_point(tmp_path, module):
     # Every kind of bad robot through sim.robots; the others share its loader (robot_from_args): one kind each.
     kinds = bad_robots(tmp_path)
-    for name, (robot, message) in kinds.items() if module == "sim.robots" else [("ambiguous_ee", kinds["ambiguous_ee"])]:
-        done = subprocess.run([PYTHON, "-m", module, "--robot", robot, *ENTRY_POINTS[module]], cwd=tmp_path,
-                              capture_output=True, text=True, timeout=60)
+    for name, (robot, message) in (
+        kinds.items() if module == "sim.robots" else [("ambiguous_ee", kinds["ambiguous_ee"])]
+    ):
+        done = subprocess.run(
+            [PYTHON, "-m", module, "--robot", robot, *ENTRY_POINTS[module]],
+            cwd=tmp_path,
+            capture_output=True,
+            text=True,
+            timeout=60,
+        )
         assert done.returncode == 2, (name, done.stdout, done.stderr)
         errors = [line for line in done.stderr.splitlines() if "error" in line]
         assert len(errors) == 1 and message in errors[0], (name, done.stderr)
@@ -58,12 +72,20 @@ def test_a_bad_urdf_is_one_clear_line_and_exit_2_from_every_entry_point(tmp_path
 
 def test_the_campaign_refuses_a_bad_robot_before_running_anything(tmp_path):
     robot, message = bad_robots(tmp_path)["ambiguous_ee"]
-    done = subprocess.run([PYTHON, "-m", "sim.trials", "--robots", "igt", robot, "--out", str(tmp_path / "out")],
-                          capture_output=True, text=True, timeout=60)
+    done = subprocess.run(
+        [PYTHON, "-m", "sim.trials", "--robots", "igt", robot, "--out", str(tmp_path / "out")],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert done.returncode == 2 and message in done.stderr
     assert not (tmp_path / "out").exists()
-    twice = subprocess.run([PYTHON, "-m", "sim.trials", "--robots", str(LIFT_ARM), str(LIFT_ARM)],
-                           capture_output=True, text=True, timeout=60)
+    twice = subprocess.run(
+        [PYTHON, "-m", "sim.trials", "--robots", str(LIFT_ARM), str(LIFT_ARM)],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert twice.returncode == 2 and "two robots are named lift_arm" in twice.stderr
 
 
@@ -73,14 +95,43 @@ def test_the_trial_exports_and_replays_in_every_physics_mode(tmp_path, name):
     0.05 % MAPE on every moving joint in physics mode. (Every scenario builds on these robots: the unit tests.)"""
     robot = load_robot(str(THIRD_PARTY_URDFS[name]))
     desired = tmp_path / "trial.csv"
-    done = subprocess.run([PYTHON, "-m", "sim.commander", *robot.cli_args, "--scenario", "trial", "--export-csv",
-                           str(desired), "--export-only"], capture_output=True, text=True, timeout=120)
+    done = subprocess.run(
+        [
+            PYTHON,
+            "-m",
+            "sim.commander",
+            *robot.cli_args,
+            "--scenario",
+            "trial",
+            "--export-csv",
+            str(desired),
+            "--export-only",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert done.returncode == 0, done.stderr
     for mode in Mode:
         achieved = tmp_path / f"achieved_{mode.value}.csv"
         if mode is Mode.PHYSICS:  # the command line once; the other modes in this process (the same replay_csv)
-            done = subprocess.run([PYTHON, "-m", "sim.engine", *robot.cli_args, "--mode", mode.value, "--csv",
-                                   str(desired), "--log", str(achieved)], capture_output=True, text=True, timeout=120)
+            done = subprocess.run(
+                [
+                    PYTHON,
+                    "-m",
+                    "sim.engine",
+                    *robot.cli_args,
+                    "--mode",
+                    mode.value,
+                    "--csv",
+                    str(desired),
+                    "--log",
+                    str(achieved),
+                ],
+                capture_output=True,
+                text=True,
+                timeout=120,
+            )
             assert done.returncode == 0, (mode, done.stderr)
         else:
             replay_csv(robot, desired, achieved, EngineOptions(mode=mode))
@@ -93,9 +144,26 @@ def test_the_trial_exports_and_replays_in_every_physics_mode(tmp_path, name):
 def test_a_short_campaign_runs_on_robots_that_are_not_ours(tmp_path, roscore):
     robots = {name: load_robot(str(path)) for name, path in THIRD_PARTY_URDFS.items()}
     cases = ("auto_simulate_off",)  # lockstep: deterministic; the CSV mode is the test above
-    done = subprocess.run([PYTHON, "-m", "sim.trials", "--robots", *(str(THIRD_PARTY_URDFS[n]) for n in robots),
-                           "--use-cases", *cases, "--trials", "1", "--out", str(tmp_path), "--no-progress"],
-                          cwd=REPO, capture_output=True, text=True, timeout=600)
+    done = subprocess.run(
+        [
+            PYTHON,
+            "-m",
+            "sim.trials",
+            "--robots",
+            *(str(THIRD_PARTY_URDFS[n]) for n in robots),
+            "--use-cases",
+            *cases,
+            "--trials",
+            "1",
+            "--out",
+            str(tmp_path),
+            "--no-progress",
+        ],
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]
     assert "messages lost: 0" in done.stdout
     rows = report_rows(tmp_path / "report.md")

@@ -6,6 +6,7 @@ The user's package (tests/fixtures/catkin/vr_test_msgs) has a message with neste
 it, a service node, and a launch file shaped like those of Unity's ROS integration tutorial (global ROS_IP
 parameter; both nodes started with args="--wait" and respawn="true").
 """
+
 from __future__ import annotations
 
 import io
@@ -33,8 +34,12 @@ def user_env(**ros: str) -> dict[str, str]:
 
 
 def ros_env(master_port: int, home: Path) -> dict[str, str]:
-    return user_env(ROS_MASTER_URI=f"http://127.0.0.1:{master_port}/", ROS_HOSTNAME="127.0.0.1",
-                    ROS_HOME=str(home / "ros_home"), ROS_LOG_DIR=str(home / "log"))
+    return user_env(
+        ROS_MASTER_URI=f"http://127.0.0.1:{master_port}/",
+        ROS_HOSTNAME="127.0.0.1",
+        ROS_HOME=str(home / "ros_home"),
+        ROS_LOG_DIR=str(home / "log"),
+    )
 
 
 def sourced(workspace: Path, space: str, command: str) -> list[str]:
@@ -47,8 +52,13 @@ def workspace(tmp_path_factory: pytest.TempPathFactory) -> Path:
     user's own package in src/; built, and installed."""
     workspace = tmp_path_factory.mktemp("user_ws")
     clone = workspace / "src" / "vr_ros_toolkit"
-    listed = subprocess.run(["git", "ls-files", "-z", "--cached", "--others", "--exclude-standard"], cwd=REPO,
-                            capture_output=True, check=True, timeout=60).stdout.decode()
+    listed = subprocess.run(
+        ["git", "ls-files", "-z", "--cached", "--others", "--exclude-standard"],
+        cwd=REPO,
+        capture_output=True,
+        check=True,
+        timeout=60,
+    ).stdout.decode()
     for name in filter(None, listed.split("\0")):
         source = REPO / name
         if source.is_file() or source.is_symlink():
@@ -56,8 +66,9 @@ def workspace(tmp_path_factory: pytest.TempPathFactory) -> Path:
             shutil.copy2(source, clone / name, follow_symlinks=False)
     shutil.copytree(REPO / "tests" / "fixtures" / "catkin" / "vr_test_msgs", workspace / "src" / "vr_test_msgs")
     for command in ("catkin_make", "catkin_make install"):
-        result = subprocess.run(["bash", "-c", command], cwd=workspace, env=user_env(), capture_output=True,
-                                text=True, timeout=600)
+        result = subprocess.run(
+            ["bash", "-c", command], cwd=workspace, env=user_env(), capture_output=True, text=True, timeout=600
+        )
         assert result.returncode == 0, f"{command} failed:\n{result.stdout[-4000:]}\n{result.stderr[-4000:]}"
     return workspace
 
@@ -96,16 +107,23 @@ def marker(types: Any, label: str, x: float) -> Any:
 
 
 def run_in(workspace: Path, env: dict[str, str], command: str, timeout: float = 60) -> str:
-    result = subprocess.run(sourced(workspace, "devel", command), cwd=workspace, env=env, capture_output=True,
-                            text=True, timeout=timeout)
+    result = subprocess.run(
+        sourced(workspace, "devel", command), cwd=workspace, env=env, capture_output=True, text=True, timeout=timeout
+    )
     assert result.returncode == 0, f"{command}:\n{result.stdout[-3000:]}\n{result.stderr[-3000:]}"
     return result.stdout
 
 
 def test_the_user_workspace_has_bridge_from_devel_and_install_space(workspace: Path) -> None:
     for space in ("devel", "install"):
-        result = subprocess.run(sourced(workspace, space, "python3 -c 'import bridge.server; print(bridge.__file__)'"),
-                                cwd=workspace, env=user_env(), capture_output=True, text=True, timeout=60)
+        result = subprocess.run(
+            sourced(workspace, space, "python3 -c 'import bridge.server; print(bridge.__file__)'"),
+            cwd=workspace,
+            env=user_env(),
+            capture_output=True,
+            text=True,
+            timeout=60,
+        )
         assert result.returncode == 0, result.stderr
         assert result.stdout.startswith(str(workspace / space)), result.stdout
     # The install space is a copy: it works without the sources.
@@ -117,14 +135,19 @@ def test_a_tutorial_launch_file_waits_for_the_master_serves_user_types_both_ways
 ) -> None:
     port, master_port = free_port(), free_port()
     env = ros_env(master_port, tmp_path)
-    launch = ManagedProcess(sourced(workspace, "devel", f"roslaunch --wait vr_test_msgs demo.launch port:={port}"),
-                            env, tmp_path, "roslaunch")
+    launch = ManagedProcess(
+        sourced(workspace, "devel", f"roslaunch --wait vr_test_msgs demo.launch port:={port}"),
+        env,
+        tmp_path,
+        "roslaunch",
+    )
     core = None
     try:
         launch.wait_for_output("will wait for it to start", timeout=30)  # roslaunch --wait, before any master
         core = RosCore(port=master_port, tmp=tmp_path / "core")
-        with TcpClient("127.0.0.1", port, reconnect_delay_s=0.2).connect(timeout=60) as client, \
-                TcpClient("127.0.0.1", port, reconnect_delay_s=0.2).connect(timeout=10) as listener:
+        with TcpClient("127.0.0.1", port, reconnect_delay_s=0.2).connect(timeout=60) as client, TcpClient(
+            "127.0.0.1", port, reconnect_delay_s=0.2
+        ).connect(timeout=10) as listener:
             types = user_types
             # A Unity client calls the user's ROS service, with the user's types.
             client.register_ros_service("/nudge", "vr_test_msgs/Nudge")
@@ -140,12 +163,20 @@ def test_a_tutorial_launch_file_waits_for_the_master_serves_user_types_both_ways
             client.register_publisher("/markers", "vr_test_msgs/Marker")
             listener.topic_list()
             sent = serialize(marker(types, "sphere", 2.0))
-            echo = subprocess.Popen(sourced(workspace, "devel", "rostopic echo -n 1 /markers/label"), cwd=workspace,
-                                    env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+            echo = subprocess.Popen(
+                sourced(workspace, "devel", "rostopic echo -n 1 /markers/label"),
+                cwd=workspace,
+                env=env,
+                stdout=subprocess.PIPE,
+                stderr=subprocess.STDOUT,
+                text=True,
+            )
             try:
+
                 def delivered() -> bool:
                     client.publish("/markers", sent)  # until every subscriber is connected
                     return bool(received) and echo.poll() is not None
+
                 wait_for(delivered, 30, "a marker at the listener and at rostopic echo", interval=0.3)
                 assert "sphere" in (echo.stdout.read() if echo.stdout else "")
             finally:
@@ -158,6 +189,7 @@ def test_a_tutorial_launch_file_waits_for_the_master_serves_user_types_both_ways
                 call = types.srv.NudgeRequest()
                 call.deserialize(payload)
                 return serialize(types.srv.NudgeResponse(moved=call.marker, ok=call.step > 0))
+
             client.implement_service("/marker_echo", "vr_test_msgs/Nudge", echo_back)
             wait_for(lambda: "/marker_echo" in run_in(workspace, env, "rosservice list"), 30, "/marker_echo offered")
             answer = run_in(workspace, env, "rosservice call /marker_echo \"{marker: {label: 'from ros'}, step: 1.0}\"")
@@ -179,9 +211,17 @@ def test_rosrun_from_devel_accepts_remappings_wait_and_unknown_arguments(
     port = free_port()
     env = {**own_master.env, "PATH": USER_PATH}
     env.pop("PYTHONPATH", None)
-    node = ManagedProcess(sourced(workspace, "devel", f"rosrun ros_tcp_endpoint default_server_endpoint.py "
-                                                      f"_tcp_port:={port} --wait --a-flag-from-another-endpoint"),
-                          env, tmp_path, "rosrun")
+    node = ManagedProcess(
+        sourced(
+            workspace,
+            "devel",
+            f"rosrun ros_tcp_endpoint default_server_endpoint.py "
+            f"_tcp_port:={port} --wait --a-flag-from-another-endpoint",
+        ),
+        env,
+        tmp_path,
+        "rosrun",
+    )
     try:
         output = node.wait_for_output("listening on", timeout=30)
         assert "ignoring argument(s) the endpoint does not know: --a-flag-from-another-endpoint" in output
@@ -195,9 +235,12 @@ def test_roslaunch_endpoint_launch_from_install_space(workspace: Path, own_maste
     port = free_port()
     env = {**own_master.env, "PATH": USER_PATH}
     env.pop("PYTHONPATH", None)
-    launch = ManagedProcess(sourced(workspace, "install", f"roslaunch ros_tcp_endpoint endpoint.launch "
-                                                          f"tcp_ip:=127.0.0.1 tcp_port:={port}"), env, tmp_path,
-                            "roslaunch")
+    launch = ManagedProcess(
+        sourced(workspace, "install", f"roslaunch ros_tcp_endpoint endpoint.launch tcp_ip:=127.0.0.1 tcp_port:={port}"),
+        env,
+        tmp_path,
+        "roslaunch",
+    )
     try:
         launch.wait_for_output("listening on", timeout=30)
         with TcpClient("127.0.0.1", port).connect(timeout=10) as client:
@@ -213,8 +256,9 @@ def endpoint_without_the_users_python(master: RosCore, tmp_path: Path, package_p
     """`python -m bridge` started where the user's workspace was never built or sourced: vr_test_msgs has no Python
     module there; `package_path` is all it may find of its definitions."""
     env = {**master.env, "ROS_PACKAGE_PATH": package_path}
-    process = ManagedProcess([PYTHON, "-m", "bridge", "--tcp-port", "0", "--node-name", "unsourced_endpoint"], env,
-                             tmp_path, "endpoint")
+    process = ManagedProcess(
+        [PYTHON, "-m", "bridge", "--tcp-port", "0", "--node-name", "unsourced_endpoint"], env, tmp_path, "endpoint"
+    )
     output = process.wait_for_output("listening on", timeout=30)
     process.port = int(next(line for line in output.splitlines() if "listening on" in line).rsplit(":", 1)[1])
     return process
@@ -225,14 +269,16 @@ def test_user_types_without_their_python_from_the_definitions_on_the_package_pat
 ) -> None:
     env = {**own_master.env, "PATH": USER_PATH}
     env.pop("PYTHONPATH", None)
-    service_node = ManagedProcess(sourced(workspace, "devel", "rosrun vr_test_msgs nudge_service.py"), env, tmp_path,
-                                  "nudge_service")
+    service_node = ManagedProcess(
+        sourced(workspace, "devel", "rosrun vr_test_msgs nudge_service.py"), env, tmp_path, "nudge_service"
+    )
     endpoint = endpoint_without_the_users_python(own_master, tmp_path, str(workspace / "src"))
     types = user_types
     try:
         service_node.wait_for_output("nudge service ready", timeout=30)
-        with TcpClient("127.0.0.1", endpoint.port).connect(timeout=10) as sender, \
-                TcpClient("127.0.0.1", endpoint.port).connect(timeout=10) as listener:
+        with TcpClient("127.0.0.1", endpoint.port).connect(timeout=10) as sender, TcpClient(
+            "127.0.0.1", endpoint.port
+        ).connect(timeout=10) as listener:
             sender.register_ros_service("/nudge", "vr_test_msgs/Nudge")
             request = types.srv.NudgeRequest(marker=marker(types, "cone", -1.0), step=2.0)
             response = types.srv.NudgeResponse()
@@ -248,6 +294,7 @@ def test_user_types_without_their_python_from_the_definitions_on_the_package_pat
             def delivered() -> bool:
                 sender.publish("/defined_markers", sent)
                 return bool(received)
+
             wait_for(delivered, 30, "a marker through ROS", interval=0.3)
             assert received[0] == sent
             assert sender.errors == [] and listener.errors == []
@@ -270,7 +317,10 @@ def test_user_types_with_no_definition_at_all_from_the_graph(
     env.pop("PYTHONPATH", None)
     ros_publisher = ManagedProcess(
         sourced(workspace, "devel", "rostopic pub -r 20 /graph_markers vr_test_msgs/Marker \"{label: 'from ros'}\""),
-        env, tmp_path, "rostopic_pub")
+        env,
+        tmp_path,
+        "rostopic_pub",
+    )
     endpoint = endpoint_without_the_users_python(own_master, tmp_path, "")
     types = user_types
     try:
@@ -289,12 +339,20 @@ def test_user_types_with_no_definition_at_all_from_the_graph(
             assert client.errors == []
             sent = serialize(marker(types, "from unity", 5.0))
 
-            echo = subprocess.Popen(sourced(workspace, "devel", "rostopic echo -n 30 /graph_markers/label"),
-                                    cwd=workspace, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+            echo = subprocess.Popen(
+                sourced(workspace, "devel", "rostopic echo -n 30 /graph_markers/label"),
+                cwd=workspace,
+                env=env,
+                stdout=subprocess.PIPE,
+                stderr=subprocess.STDOUT,
+                text=True,
+            )
             try:
+
                 def heard() -> bool:  # rostopic pub and the client both publish; rostopic echo hears both
                     client.publish("/graph_markers", sent)
                     return echo.poll() is not None
+
                 wait_for(heard, 30, "30 markers at rostopic echo", interval=0.05)
                 assert "from unity" in (echo.stdout.read() if echo.stdout else "")
             finally:

@@ -3,6 +3,7 @@
 The test process is a rospy node (`ros_node`) that records what the commander publishes; the commander is told
 to wait for it (--wait-for) so that nothing is missed. Scenarios run with short durations to keep this quick.
 """
+
 from __future__ import annotations
 
 import csv
@@ -14,10 +15,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from sim.control.scenarios import ScenarioConfig, build_motion, pose_errors
 from sim.geometry.frames import matrix_to_quat
 from sim.geometry.kinematics import chain_for
 from sim.robots import load_robot
-from sim.control.scenarios import ScenarioConfig, build_motion, pose_errors
 from tests.rosenv import PYTHON, REPO, ManagedProcess, wait_for
 
 DT = 0.02
@@ -66,7 +67,12 @@ def engines(roscore, ros_node, tmp_path_factory):
     """One /clock-driven physics node per robot (commander runs reuse them: /clock restarting at 0 re-anchors)."""
     log_dir = tmp_path_factory.mktemp("engines")
     nodes = {
-        name: ManagedProcess([PYTHON, "-m", "sim.physics_node", "--robot", name, "--no-auto-simulate"], roscore.env, log_dir, f"physics_{name}")
+        name: ManagedProcess(
+            [PYTHON, "-m", "sim.physics_node", "--robot", name, "--no-auto-simulate"],
+            roscore.env,
+            log_dir,
+            f"physics_{name}",
+        )
         for name in ("panda", "igt")
     }
     try:
@@ -86,7 +92,9 @@ def probes(ros_node, engines):
         probe.close()
 
 
-def run_commander(roscore, ros_node, args: list[str], log: Path | None = None, timeout: float = 60.0) -> subprocess.CompletedProcess:
+def run_commander(
+    roscore, ros_node, args: list[str], log: Path | None = None, timeout: float = 60.0
+) -> subprocess.CompletedProcess:
     command = [PYTHON, "-m", "sim.commander", *args, "--wait-for", ros_node.get_name()]
     if log is not None:
         command += ["--log", str(log)]
@@ -104,8 +112,11 @@ def columns(rows: list[dict[str, str]], prefix: str, names) -> np.ndarray:
 
 
 def wait_for_counts(probe: Probe, commands: int, clocks: int) -> None:
-    wait_for(lambda: len(probe.commands) >= commands and len(probe.clocks) >= clocks, 10,
-             f"{commands} commands and {clocks} /clock messages (have {len(probe.commands)}, {len(probe.clocks)})")
+    wait_for(
+        lambda: len(probe.commands) >= commands and len(probe.clocks) >= clocks,
+        10,
+        f"{commands} commands and {clocks} /clock messages (have {len(probe.commands)}, {len(probe.clocks)})",
+    )
 
 
 def check_stream(probe: Probe, robot, rows: list[dict[str, str]], priming: int) -> None:
@@ -168,13 +179,17 @@ def test_joint_scenarios_publish_their_motion(roscore, ros_node, probes, tmp_pat
     motion = build_motion(robot, scenario, ScenarioConfig(duration=float(options[1])))
     scenario_rows = [r for r in rows if r["phase"] == "scenario"]
     desired = columns(scenario_rows, "desired_", robot.joint_names)
-    np.testing.assert_allclose(desired, motion.positions[-len(scenario_rows):], atol=1e-9)
+    np.testing.assert_allclose(desired, motion.positions[-len(scenario_rows) :], atol=1e-9)
     assert not probe.poses  # no end-effector goal in joint scenarios
 
 
 IK_CASES = [
-    ("panda", "ik_joints"), ("panda", "ik_cartesian"), ("panda", "ik_orientation"), ("panda", "fk_confirm"),
-    ("igt", "ik_joints"), ("igt", "ik_orientation"),
+    ("panda", "ik_joints"),
+    ("panda", "ik_cartesian"),
+    ("panda", "ik_orientation"),
+    ("panda", "fk_confirm"),
+    ("igt", "ik_joints"),
+    ("igt", "ik_orientation"),
 ]
 
 
@@ -215,14 +230,31 @@ def test_ik_scenarios_reach_their_goals(roscore, ros_node, probes, tmp_path, rob
 def test_the_euler_pose_convention_sends_the_thesis_convention(roscore, ros_node, probes, tmp_path):
     probe = probes["panda"]
     probe.clear()
-    done = run_commander(roscore, ros_node, ["--robot", "panda", "--scenario", "ik_orientation",
-                                             "--pose-convention", "euler",
-                                             "--move-time", "0.2", "--hold", "0", "--approach", "0"], tmp_path / "e.csv")
+    done = run_commander(
+        roscore,
+        ros_node,
+        [
+            "--robot",
+            "panda",
+            "--scenario",
+            "ik_orientation",
+            "--pose-convention",
+            "euler",
+            "--move-time",
+            "0.2",
+            "--hold",
+            "0",
+            "--approach",
+            "0",
+        ],
+        tmp_path / "e.csv",
+    )
     assert done.returncode == 0, done.stderr
     wait_for(lambda: probe.poses, 5, "the goal pose")
     orientation = probe.poses[-1].orientation
-    np.testing.assert_allclose([orientation.x, orientation.y, orientation.z, orientation.w],
-                               [np.pi / 4, np.pi / 5, np.pi / 3, 0.0], atol=1e-9)
+    np.testing.assert_allclose(
+        [orientation.x, orientation.y, orientation.z, orientation.w], [np.pi / 4, np.pi / 5, np.pi / 3, 0.0], atol=1e-9
+    )
 
 
 def test_unreachable_goal_is_reported_and_nothing_is_commanded(roscore, ros_node, probes, tmp_path):
@@ -238,8 +270,25 @@ def test_nearest_fallback_is_printed_and_commanded(roscore, ros_node, probes, tm
     robot = load_robot("igt")
     probe = probes["igt"]
     probe.clear()
-    done = run_commander(roscore, ros_node, ["--robot", "igt", "--scenario", "ik_joints", "--goal", "1.2", "0.3",
-                                             "--nearest", "--move-time", "0.4", "--hold", "0"], tmp_path / "n.csv")
+    done = run_commander(
+        roscore,
+        ros_node,
+        [
+            "--robot",
+            "igt",
+            "--scenario",
+            "ik_joints",
+            "--goal",
+            "1.2",
+            "0.3",
+            "--nearest",
+            "--move-time",
+            "0.4",
+            "--hold",
+            "0",
+        ],
+        tmp_path / "n.csv",
+    )
     assert done.returncode == 3, done.stderr
     assert "FALLBACK: goal unreachable, commanding the nearest pose found" in done.stderr
     assert "nearest pose found was commanded" in done.stdout
@@ -253,8 +302,12 @@ def test_realtime_is_paced_by_the_wall_clock(roscore, ros_node, probes, tmp_path
     probe = probes["panda"]
     probe.clear()
     log = tmp_path / "rt.csv"
-    done = run_commander(roscore, ros_node, ["--robot", "panda", "--scenario", "single", "--realtime",
-                                             "--duration", "0.4", "--approach", "0"], log)
+    done = run_commander(
+        roscore,
+        ros_node,
+        ["--robot", "panda", "--scenario", "single", "--realtime", "--duration", "0.4", "--approach", "0"],
+        log,
+    )
     assert done.returncode == 0, done.stderr
     _, rows = read_log(log)
     steps = len(rows)
@@ -270,8 +323,22 @@ def test_realtime_is_paced_by_the_wall_clock(roscore, ros_node, probes, tmp_path
 
 
 def test_missing_partner_is_a_clear_error(roscore, ros_node, engines):
-    done = run_commander(roscore, ros_node, ["--robot", "panda", "--scenario", "single", "--duration", "0.1",
-                                             "--wait-for", "/nobody_here", "--connect-timeout", "1"])
+    done = run_commander(
+        roscore,
+        ros_node,
+        [
+            "--robot",
+            "panda",
+            "--scenario",
+            "single",
+            "--duration",
+            "0.1",
+            "--wait-for",
+            "/nobody_here",
+            "--connect-timeout",
+            "1",
+        ],
+    )
     assert done.returncode == 4
     assert "no engine after 1 s" in done.stderr and "/nobody_here (not registered)" in done.stderr
 
@@ -286,12 +353,46 @@ def test_bad_input_names_the_problem(roscore, ros_node):
 def test_export_round_trips_through_the_engines_csv_mode(tmp_path, robot_name, scenario):
     robot = load_robot(robot_name)
     exported, replayed = tmp_path / "desired.csv", tmp_path / "achieved.csv"
-    done = subprocess.run([PYTHON, "-m", "sim.commander", "--robot", robot_name, "--scenario", scenario,
-                           "--duration", "3", "--export-csv", str(exported), "--export-only"],
-                          cwd=REPO, capture_output=True, text=True, timeout=60)
+    done = subprocess.run(
+        [
+            PYTHON,
+            "-m",
+            "sim.commander",
+            "--robot",
+            robot_name,
+            "--scenario",
+            scenario,
+            "--duration",
+            "3",
+            "--export-csv",
+            str(exported),
+            "--export-only",
+        ],
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert done.returncode == 0, done.stderr
-    engine = subprocess.run([PYTHON, "-m", "sim.engine", "--robot", robot_name, "--csv", str(exported),
-                             "--log", str(replayed), "--mode", "no_physics"], cwd=REPO, capture_output=True, text=True, timeout=60)
+    engine = subprocess.run(
+        [
+            PYTHON,
+            "-m",
+            "sim.engine",
+            "--robot",
+            robot_name,
+            "--csv",
+            str(exported),
+            "--log",
+            str(replayed),
+            "--mode",
+            "no_physics",
+        ],
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert engine.returncode == 0, engine.stderr
     desired = np.loadtxt(exported, delimiter=",", skiprows=1)
     achieved = np.loadtxt(replayed, delimiter=",", skiprows=1)

@@ -1,6 +1,7 @@
 """Any robot the ROS way: vr_sim's description.launch (robot_description set by `python -m sim.robots --urdf`, the
 description node, Debian's robot_state_publisher) turns /<robot>/joint_states into the TF of every link, which
 matches our FK; the end-effector goal from /<robot>/pose is a TF frame too. Real roslaunch, real roscore."""
+
 from __future__ import annotations
 
 import contextlib
@@ -30,8 +31,9 @@ class TfListener:
 
         self._lock = threading.Lock()
         self.transforms: dict[str, tuple[str, np.ndarray]] = {}
-        self._subscribers = [rospy.Subscriber(topic, TFMessage, self._on_tf, queue_size=1000)
-                             for topic in ("/tf", "/tf_static")]
+        self._subscribers = [
+            rospy.Subscriber(topic, TFMessage, self._on_tf, queue_size=1000) for topic in ("/tf", "/tf_static")
+        ]
 
     def _on_tf(self, message) -> None:
         with self._lock:
@@ -84,8 +86,10 @@ def described(roscore, ros_node, tmp_path: Path) -> Iterator:
 
     def launch(robot: RobotSpec) -> TfListener:
         names.append(robot.name)
-        command = (f"source {WORKSPACE_SETUP} && exec roslaunch vr_sim description.launch "
-                   f"robot:={robot.cli_args[1]} python:={PYTHON}")
+        command = (
+            f"source {WORKSPACE_SETUP} && exec roslaunch vr_sim description.launch "
+            f"robot:={robot.cli_args[1]} python:={PYTHON}"
+        )
         process = ManagedProcess(["bash", "-c", command], roscore.env, tmp_path, f"{robot.name}_description")
         started.append(process)
         process.wait_for_output("description node: ", timeout=60)
@@ -101,17 +105,21 @@ def described(roscore, ros_node, tmp_path: Path) -> Iterator:
         process.stop(timeout=20)  # roslaunch escalates SIGINT to SIGTERM after 15 s
     for pid in nodes:  # whatever roslaunch left behind, by PID (and only if it is still that node)
         with contextlib.suppress(OSError):
-            if b"robot_state_publisher" in Path(f"/proc/{pid}/cmdline").read_bytes() or b"sim.description_node" in \
-                    Path(f"/proc/{pid}/cmdline").read_bytes():
+            if (
+                b"robot_state_publisher" in Path(f"/proc/{pid}/cmdline").read_bytes()
+                or b"sim.description_node" in Path(f"/proc/{pid}/cmdline").read_bytes()
+            ):
                 os.kill(pid, signal.SIGKILL)
 
 
 def publish_until(ros_node, topic: str, message, done, what: str) -> None:
     publisher = ros_node.Publisher(topic, type(message), queue_size=10)
     try:
+
         def published_and_done():
             publisher.publish(message)
             return done()
+
         wait_for(published_and_done, timeout=20, what=what, interval=0.1)
     finally:
         publisher.unregister()
@@ -132,6 +140,7 @@ def test_robot_state_publisher_gives_the_tf_of_every_link_and_it_matches_our_fk(
     def ee_matches() -> bool:
         pose = tf.lookup(robot.ee_link)
         return pose is not None and np.allclose(pose, expected, atol=1e-6)
+
     publish_until(ros_node, robot.joint_states_topic, state, ee_matches, f"TF of {robot.ee_link} at FK(q)")
     for link in ("left_finger", "right_finger") if name == "lift_arm" else ():  # held by the sim, still in TF
         assert tf.lookup(link) is not None
@@ -146,6 +155,7 @@ def test_robot_state_publisher_gives_the_tf_of_every_link_and_it_matches_our_fk(
 
     def goal_shown() -> bool:
         return target in tf.transforms
+
     publish_until(ros_node, robot.pose_topic, goal, goal_shown, f"the {target} frame")
     parent, pose = tf.transforms[target]
     assert parent == robot.base_link
@@ -154,8 +164,10 @@ def test_robot_state_publisher_gives_the_tf_of_every_link_and_it_matches_our_fk(
 
 
 def test_a_robot_that_cannot_be_loaded_ends_the_launch_with_one_clear_line(roscore, tmp_path):
-    command = (f"source {WORKSPACE_SETUP} && exec roslaunch vr_sim description.launch robot:=/no/such/arm.urdf "
-               f"python:={PYTHON}")
+    command = (
+        f"source {WORKSPACE_SETUP} && exec roslaunch vr_sim description.launch robot:=/no/such/arm.urdf "
+        f"python:={PYTHON}"
+    )
     process = ManagedProcess(["bash", "-c", command], roscore.env, tmp_path, "bad_description")
     try:
         assert process.wait(60) != 0

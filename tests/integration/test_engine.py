@@ -1,6 +1,7 @@
 """The game-engine stand-in end to end: real roscore, real endpoint (`python -m bridge`), engine subprocess
 (`python -m sim.engine`), and the test process as the controller on plain rospy topics.
 """
+
 from __future__ import annotations
 
 import os
@@ -177,7 +178,7 @@ def test_auto_simulate_steps_on_its_own_and_time_scale_speeds_it_up(spawn, contr
 
     def sim_seconds_per_wall_second(controller: Controller, start: int) -> float:
         states, arrivals = controller.snapshot_with_arrivals()
-        states, arrivals = states[start - 1:], arrivals[start - 1:]
+        states, arrivals = states[start - 1 :], arrivals[start - 1 :]
         sim = states[-1].header.stamp.to_sec() - states[0].header.stamp.to_sec()
         return sim / (arrivals[-1] - arrivals[0])
 
@@ -195,8 +196,11 @@ def test_auto_simulate_steps_on_its_own_and_time_scale_speeds_it_up(spawn, contr
     goal = PANDA.home + 0.25
     count = len(panda.snapshot())
     panda.command(0.0, goal)
-    reached = wait_for(lambda: next((s for s in panda.snapshot()[count:] if np.array_equal(s.position, goal)), None),
-                       5, "the commanded pose in auto-simulate mode")
+    reached = wait_for(
+        lambda: next((s for s in panda.snapshot()[count:] if np.array_equal(s.position, goal)), None),
+        5,
+        "the commanded pose in auto-simulate mode",
+    )
     assert tuple(reached.name) == PANDA.joint_names
 
 
@@ -212,8 +216,7 @@ BAD_COMMANDS = [
 ]
 
 
-def test_bad_commands_are_logged_and_rejected_and_the_engine_follows_the_next_valid_one(
-        spawn, controllers, endpoint):
+def test_bad_commands_are_logged_and_rejected_and_the_engine_follows_the_next_valid_one(spawn, controllers, endpoint):
     engine, controller = lockstep_engine(spawn, controllers, endpoint, PANDA, Mode.NO_PHYSICS)
     first = controller.lockstep(np.array([PANDA.home + 0.1]), np.zeros((1, PANDA.dof)))
     for names, positions, message in BAD_COMMANDS:
@@ -261,8 +264,8 @@ def test_commands_may_name_a_subset_of_joints_in_any_order(spawn, controllers, e
 def test_the_pose_topic_sets_the_target_marker_in_both_conventions(ros_node, controllers, endpoint):
     """In-process EngineStandIn instances on real TCP connections to the endpoint (the marker is engine state)."""
     from bridge.client import TcpClient
-    from sim.geometry import frames
     from sim.engine.stand_in import EngineOptions, EngineStandIn
+    from sim.geometry import frames
     from sim.wire.contract import PoseConvention
 
     POSE_QUATERNION, POSE_EULER = PoseConvention.QUATERNION, PoseConvention.EULER
@@ -284,27 +287,39 @@ def test_the_pose_topic_sets_the_target_marker_in_both_conventions(ros_node, con
 
         def shows(convention: str, orientation_unity) -> bool:
             marker = engines[convention].marker
-            return (marker is not None and np.allclose(marker.position_unity, unity_position, atol=1e-12)
-                    and np.allclose(marker.orientation_unity, orientation_unity, atol=1e-12))
+            return (
+                marker is not None
+                and np.allclose(marker.position_unity, unity_position, atol=1e-12)
+                and np.allclose(marker.orientation_unity, orientation_unity, atol=1e-12)
+            )
 
         def publish_until(fields, done) -> None:  # resend: the second client may register after the first pose
-            wait_for(lambda: controller.pose(position, fields) or done(), 10, f"the markers for {fields}",
-                     interval=0.05)
+            wait_for(
+                lambda: controller.pose(position, fields) or done(), 10, f"the markers for {fields}", interval=0.05
+            )
 
         # a real quaternion; the Euler engine reads its x, y, z as angles
         as_euler = frames.ros_to_unity_quat(frames.euler_xyz_to_quat(*quaternion[:3]))
-        publish_until(quaternion, lambda: shows(POSE_QUATERNION, frames.ros_to_unity_quat(quaternion))
-                      and shows(POSE_EULER, as_euler))
+        publish_until(
+            quaternion,
+            lambda: shows(POSE_QUATERNION, frames.ros_to_unity_quat(quaternion)) and shows(POSE_EULER, as_euler),
+        )
 
         # the thesis's convention: XYZ Euler angles in x, y, z (w = 0); the quaternion engine normalises the fields
         thesis_fields = np.array([*angles, 0.0])
-        publish_until(thesis_fields, lambda: shows(POSE_EULER, frames.ros_to_unity_quat(quaternion))
-                      and shows(POSE_QUATERNION, frames.ros_to_unity_quat(thesis_fields / np.linalg.norm(thesis_fields))))
+        publish_until(
+            thesis_fields,
+            lambda: (
+                shows(POSE_EULER, frames.ros_to_unity_quat(quaternion))
+                and shows(POSE_QUATERNION, frames.ros_to_unity_quat(thesis_fields / np.linalg.norm(thesis_fields)))
+            ),
+        )
 
         # a zero quaternion is refused (the marker stays); the Euler engine reads it as angles 0, 0, 0
         kept = engines[POSE_QUATERNION].marker
-        publish_until([0.0, 0.0, 0.0, 0.0], lambda: shows(POSE_EULER, frames.ros_to_unity_quat(
-            np.array([0.0, 0.0, 0.0, 1.0]))))
+        publish_until(
+            [0.0, 0.0, 0.0, 0.0], lambda: shows(POSE_EULER, frames.ros_to_unity_quat(np.array([0.0, 0.0, 0.0, 1.0])))
+        )
         np.testing.assert_array_equal(engines[POSE_QUATERNION].marker.orientation_unity, kept.orientation_unity)
     finally:
         for engine in engines.values():
@@ -321,8 +336,9 @@ def test_the_engine_reconnects_when_the_endpoint_restarts_on_the_same_port(spawn
     servers: list[EndpointProcess] = []
 
     def start_server() -> EndpointProcess:
-        server = EndpointProcess(roscore.env, tmp_path, name=f"ep_restart_{os.getpid()}_{next(names)}",
-                                 extra=("--tcp-port", str(port)))
+        server = EndpointProcess(
+            roscore.env, tmp_path, name=f"ep_restart_{os.getpid()}_{next(names)}", extra=("--tcp-port", str(port))
+        )
         servers.append(server)
         assert server.port == port
         return server
@@ -350,8 +366,11 @@ def test_the_engine_reconnects_when_the_endpoint_restarts_on_the_same_port(spawn
         goal = PANDA.home - 0.3  # and commands reach it through the new endpoint too
         count = len(controller.snapshot())
         controller.command(0.0, goal)
-        wait_for(lambda: any(np.array_equal(s.position, goal) for s in controller.snapshot()[count:]), 5,
-                 "the command through the new endpoint")
+        wait_for(
+            lambda: any(np.array_equal(s.position, goal) for s in controller.snapshot()[count:]),
+            5,
+            "the command through the new endpoint",
+        )
     finally:
         for server in servers:
             server.stop()

@@ -1,4 +1,5 @@
 """`python -m sim.physics_node`: the engine's stepping on plain rospy topics (no endpoint), against a real roscore."""
+
 from __future__ import annotations
 
 import os
@@ -92,5 +93,6 @@ def test_auto_simulate_on_rospy_steps_without_clock(node_and_controller):
     goal = IGT.home + np.array([0.05, -0.2, 0.3])
     count = len(controller.snapshot())
     controller.command(0.0, goal)
-    wait_for(lambda: any(np.array_equal(s.position, goal) for s in controller.snapshot()[count:]), 5,
-             "the commanded pose")
+    wait_for(
+        lambda: any(np.array_equal(s.position, goal) for s in controller.snapshot()[count:]), 5, "the commanded pose"
+    )

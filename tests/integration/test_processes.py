@@ -1,4 +1,5 @@
 """sim.processes.RosCore: a session's roscore leaves nothing behind but the logs asked for."""
+
 from __future__ import annotations
 
 import shutil

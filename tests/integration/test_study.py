@@ -1,5 +1,6 @@
 """The study end to end with real parts: the runner node (rospy, rosbag record), the endpoint, the engine stand-in
 in lockstep, and clients of the endpoint without rospy (a scripted VR scene; simulated participants)."""
+
 from __future__ import annotations
 
 import csv
@@ -17,7 +18,6 @@ from rosbags.rosbag1 import Reader
 from bridge.client import TcpClient
 from sim.geometry.kinematics import chain_for
 from sim.processes import plain_env
-from sim.wire.rosmsgs import JOINT_STATE, TYPESTORE, deserialize, encode_message, time_msg, to_seconds
 from sim.study.interface import (
     DISTANCE_TOPIC,
     GO_TOPIC,
@@ -30,14 +30,17 @@ from sim.study.interface import (
 from sim.study.paths import ON_TOP
 from sim.study.scene import load_scene, scene_robot
 from sim.study.stop import STOP_DECELERATION
+from sim.wire.rosmsgs import JOINT_STATE, TYPESTORE, deserialize, encode_message, time_msg, to_seconds
 from tests.integration.sim_helpers import start_engine
 from tests.integration.study_helpers import trial, write_plan
 from tests.rosenv import PYTHON, REPO, ManagedProcess, kill_process
 
 SCENE = load_scene()
 ROBOT = scene_robot(SCENE)
-SMALL_DESIGN = {"test1": {"paths": ["straight"], "standoffs": [0.08, 0.14, 0.2], "peak_speed": 0.15},
-                "test2": {"paths": ["straight", "vertical"], "speed_sets": {"slow": 0.2, "fast": 0.3}}}
+SMALL_DESIGN = {
+    "test1": {"paths": ["straight"], "standoffs": [0.08, 0.14, 0.2], "peak_speed": 0.15},
+    "test2": {"paths": ["straight", "vertical"], "speed_sets": {"slow": 0.2, "fast": 0.3}},
+}
 
 
 def message(topic: str, **fields: Any) -> bytes:
@@ -95,16 +98,25 @@ def bag_messages(bag: Path, topic: str) -> list[Any]:
 
 
 def test_a_vr_scene_stops_the_robot_and_answers_through_the_endpoint(roscore, endpoint, tmp_path: Path) -> None:
-    plan = write_plan(tmp_path / "plan.yaml", 7, "vr", [
-        trial(1, "vr", 1, "straight", 0.15, 0.15),
-        trial(2, "vr", 2, "straight", ON_TOP, 0.3, "fast", 1),
-        trial(3, "vr", 2, "vertical", ON_TOP, 0.3, "fast", 1),
-    ])
+    plan = write_plan(
+        tmp_path / "plan.yaml",
+        7,
+        "vr",
+        [
+            trial(1, "vr", 1, "straight", 0.15, 0.15),
+            trial(2, "vr", 2, "straight", ON_TOP, 0.3, "fast", 1),
+            trial(3, "vr", 2, "vertical", ON_TOP, 0.3, "fast", 1),
+        ],
+    )
     engine = start_engine(roscore, tmp_path, "panda", endpoint.port, "--no-auto-simulate")
     scene = ScriptedVrScene(endpoint.port)
     scene.client.connect(timeout=30)
-    runner = ManagedProcess([PYTHON, "-m", "sim.study", "run", "--plan", str(plan), "--out", str(tmp_path / "out")],
-                         roscore.env, tmp_path, "runner")
+    runner = ManagedProcess(
+        [PYTHON, "-m", "sim.study", "run", "--plan", str(plan), "--out", str(tmp_path / "out")],
+        roscore.env,
+        tmp_path,
+        "runner",
+    )
     try:
         assert runner.wait(120) == 0, runner.output()[-3000:]
         assert scene.done.wait(10)
@@ -115,8 +127,13 @@ def test_a_vr_scene_stops_the_robot_and_answers_through_the_endpoint(roscore, en
     log = runner.output()
     assert "an answer was refused: a perceived distance must be 0..2 m, got -1.0" in log
     assert "a preference must be one of straight, vertical or 1..2, got '9'; asking again" in log
-    assert [phase for index, phase in scene.phases if index == 1] == ["to_start", "ready", "moving", "at_rest",
-                                                                        "distance"]
+    assert [phase for index, phase in scene.phases if index == 1] == [
+        "to_start",
+        "ready",
+        "moving",
+        "at_rest",
+        "distance",
+    ]
     rows = read_csv(tmp_path / "out" / "participant_07.csv")
     assert [row["index"] for row in rows] == ["1", "2", "3"]
     first, pressed, unpressed = rows
@@ -127,7 +144,7 @@ def test_a_vr_scene_stops_the_robot_and_answers_through_the_endpoint(roscore, en
     assert float(pressed["press_time"]) >= 0.48  # after the 25th state, applied when it came (never "late")
     assert float(pressed["press_late"]) < 1e-9
     braking = float(pressed["braking_distance"])
-    assert 0 < braking <= 0.3 ** 2 / (2 * STOP_DECELERATION) + 1e-6  # pressed while moving, braked within a
+    assert 0 < braking <= 0.3**2 / (2 * STOP_DECELERATION) + 1e-6  # pressed while moving, braked within a
     at_press, at_rest = float(pressed["distance_at_press"]), float(pressed["distance_at_rest"])
     assert at_rest < at_press and at_press - at_rest == pytest.approx(braking, abs=0.01)
     assert unpressed["pressed"] == "false" and float(unpressed["distance_at_rest"]) == pytest.approx(ON_TOP, abs=0.002)
@@ -150,8 +167,25 @@ def test_simulated_participants_run_the_study_and_the_analysis_recovers_their_bi
     design = tmp_path / "design.yaml"
     design.write_text(yaml.safe_dump(SMALL_DESIGN))
     out = tmp_path / "study"
-    process = ManagedProcess([PYTHON, "-m", "sim.study", "simulate", "--participants", "4", "--design", str(design),
-                           "--out", str(out), "--seed", "11"], plain_env(), tmp_path, "simulate")
+    process = ManagedProcess(
+        [
+            PYTHON,
+            "-m",
+            "sim.study",
+            "simulate",
+            "--participants",
+            "4",
+            "--design",
+            str(design),
+            "--out",
+            str(out),
+            "--seed",
+            "11",
+        ],
+        plain_env(),
+        tmp_path,
+        "simulate",
+    )
     try:
         assert process.wait(300) == 0, process.output()[-3000:]
     finally:
@@ -164,8 +198,11 @@ def test_simulated_participants_run_the_study_and_the_analysis_recovers_their_bi
 
     records = load_study(out)
     assert len(records) == 4 * 14 and {r.participant for r in records} == {1, 2, 3, 4}
-    assert all(r.pressed and r.press_source == ("vr_trigger" if r.condition == "vr" else "button")
-               for r in records if r.test == 2)
+    assert all(
+        r.pressed and r.press_source == ("vr_trigger" if r.condition == "vr" else "button")
+        for r in records
+        if r.test == 2
+    )
     # Presses are sent one reaction time (some 12 lockstep steps) ahead of their stamps: on a loaded machine one may
     # still arrive after it, and is then applied at once; never by much.
     assert max(r.press_late for r in records if r.test == 2) < 0.1
@@ -186,10 +223,15 @@ pytestmark = pytest.mark.timeout(400)
 def test_the_observer_drives_a_reality_trial_from_the_runners_keyboard(roscore, endpoint, tmp_path: Path) -> None:
     # In real time, as a real robot would run: the approach lasts its planned seconds, and the stop typed while it
     # moves lands in it.
-    plan = write_plan(tmp_path / "plan.yaml", 8, "reality", [
-        trial(1, "reality", 1, "vertical", 0.1, 0.2),
-        trial(2, "reality", 2, "straight", ON_TOP, 0.2, "medium", 1),
-    ])
+    plan = write_plan(
+        tmp_path / "plan.yaml",
+        8,
+        "reality",
+        [
+            trial(1, "reality", 1, "vertical", 0.1, 0.2),
+            trial(2, "reality", 2, "straight", ON_TOP, 0.2, "medium", 1),
+        ],
+    )
     engine = start_engine(roscore, tmp_path, "panda", endpoint.port, "--no-auto-simulate")
     phases: list[tuple[int, str]] = []
     changed = threading.Condition()
@@ -204,9 +246,27 @@ def test_the_observer_drives_a_reality_trial_from_the_runners_keyboard(roscore, 
     watcher.subscribe(STATUS_TOPIC, TOPIC_TYPES[STATUS_TOPIC], on_status)
     watcher.connect(timeout=30)
     out = tmp_path / "out"
-    runner = subprocess.Popen([PYTHON, "-m", "sim.study", "run", "--plan", str(plan), "--out", str(out), "--keyboard",
-                               "--no-record", "--realtime"], env=roscore.env, cwd=REPO, stdin=subprocess.PIPE,
-                              stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    runner = subprocess.Popen(
+        [
+            PYTHON,
+            "-m",
+            "sim.study",
+            "run",
+            "--plan",
+            str(plan),
+            "--out",
+            str(out),
+            "--keyboard",
+            "--no-record",
+            "--realtime",
+        ],
+        env=roscore.env,
+        cwd=REPO,
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+    )
 
     def when(phase: tuple[int, str], line: str) -> None:
         with changed:
@@ -241,9 +301,11 @@ def test_roslaunch_runs_a_session_from_the_catkin_package(roscore, endpoint, tmp
     plan = write_plan(tmp_path / "plan.yaml", 9, "vr", [trial(1, "vr", 2, "vertical", ON_TOP, 0.3, "fast", 1)])
     engine = start_engine(roscore, tmp_path, "panda", endpoint.port, "--no-auto-simulate")
     out = tmp_path / "out"
-    command = (f"source {REPO / 'catkin_ws' / 'devel' / 'setup.bash'} && exec roslaunch vr_sim study.launch "
-               f"plan:={plan} out:={out} python:={PYTHON} "
-               "extra_args:='--auto-go --response-timeout 1'")
+    command = (
+        f"source {REPO / 'catkin_ws' / 'devel' / 'setup.bash'} && exec roslaunch vr_sim study.launch "
+        f"plan:={plan} out:={out} python:={PYTHON} "
+        "extra_args:='--auto-go --response-timeout 1'"
+    )
     launch = ManagedProcess(["bash", "-c", command], roscore.env, tmp_path, "roslaunch")
     try:
         assert launch.wait(120) == 0, launch.output()[-3000:]

@@ -1,5 +1,6 @@
 """python -m sim.study as a user types it: plans, checks, and bad input as one line and exit 2, before anything
 starts."""
+
 from __future__ import annotations
 
 import subprocess
@@ -13,8 +14,9 @@ from sim.study.plan import plan_from_data
 
 
 def study(*args: str, timeout: float = 120) -> subprocess.CompletedProcess:
-    return subprocess.run([PYTHON, "-m", "sim.study", *args], cwd=REPO, env=plain_env(), capture_output=True,
-                          text=True, timeout=timeout)
+    return subprocess.run(
+        [PYTHON, "-m", "sim.study", *args], cwd=REPO, env=plain_env(), capture_output=True, text=True, timeout=timeout
+    )
 
 
 def one_error_line(result: subprocess.CompletedProcess, *fragments: str) -> None:
@@ -47,21 +49,49 @@ def write(path: Path, data: object) -> Path:
     return path
 
 
-@pytest.mark.parametrize("case", ["unknown path", "infeasible stand-off", "malformed plan", "no records",
-                                  "bad participant", "bad option", "earlier records"])
+@pytest.mark.parametrize(
+    "case",
+    [
+        "unknown path",
+        "infeasible stand-off",
+        "malformed plan",
+        "no records",
+        "bad participant",
+        "bad option",
+        "earlier records",
+    ],
+)
 def test_bad_input_is_one_line_and_exit_2(tmp_path: Path, case: str) -> None:
-    design = {"test1": {"paths": ["straight"], "standoffs": [0.1], "peak_speed": 0.15},
-              "test2": {"paths": ["straight"], "speed_sets": {"slow": 0.1}}}
+    design = {
+        "test1": {"paths": ["straight"], "standoffs": [0.1], "peak_speed": 0.15},
+        "test2": {"paths": ["straight"], "speed_sets": {"slow": 0.1}},
+    }
     if case == "unknown path":
         design["test2"]["paths"] = ["zigzag"]
-        result = study("simulate", "--participants", "2", "--out", str(tmp_path / "out"), "--design",
-                       str(write(tmp_path / "d.yaml", design)))
+        result = study(
+            "simulate",
+            "--participants",
+            "2",
+            "--out",
+            str(tmp_path / "out"),
+            "--design",
+            str(write(tmp_path / "d.yaml", design)),
+        )
         one_error_line(result, "zigzag")
     elif case == "infeasible stand-off":
         scene = yaml.safe_load((REPO / "sim" / "study" / "scene.yaml").read_text())
         scene["hand"]["xyz"] = [1.05, 0.0, 0.0175]  # beyond the Panda's reach
-        result = study("simulate", "--participants", "2", "--out", str(tmp_path / "out"), "--design",
-                       str(write(tmp_path / "d.yaml", design)), "--scene", str(write(tmp_path / "s.yaml", scene)))
+        result = study(
+            "simulate",
+            "--participants",
+            "2",
+            "--out",
+            str(tmp_path / "out"),
+            "--design",
+            str(write(tmp_path / "d.yaml", design)),
+            "--scene",
+            str(write(tmp_path / "s.yaml", scene)),
+        )
         one_error_line(result, "not feasible", "straight to 0.1 m")
         assert not (tmp_path / "out").exists()  # nothing was started
     elif case == "malformed plan":
@@ -69,8 +99,11 @@ def test_bad_input_is_one_line_and_exit_2(tmp_path: Path, case: str) -> None:
         assert study("plan", "--participant", "1", "--seed", "1", "--out", str(plan)).returncode == 0
         data = yaml.safe_load(plan.read_text())
         data["trials"][4]["standoff"] = "near"
-        one_error_line(study("run", "--plan", str(write(plan, data)), "--out", str(tmp_path / "out")),
-                       "trial 5", "stand-off 'near'")
+        one_error_line(
+            study("run", "--plan", str(write(plan, data)), "--out", str(tmp_path / "out")),
+            "trial 5",
+            "stand-off 'near'",
+        )
     elif case == "no records":
         one_error_line(study("analyse", str(tmp_path)), "no participant_*.csv")
     elif case == "bad participant":

@@ -1,6 +1,7 @@
 """The experimenter's live 3-D view (sim.study.view) in a real headless browser (Debian's Chromium, WebGL in
 software): the page shows the scene before a trial, and the planned path, the trail and the stop after one, as the
 screenshots' pixels tell."""
+
 from __future__ import annotations
 
 from collections.abc import Iterator
@@ -29,8 +30,15 @@ def browser(tmp_path: Path) -> Iterator[Any]:
 
     options = webdriver.ChromeOptions()
     options.binary_location = CHROMIUM
-    for argument in ("--headless=new", "--no-sandbox", "--disable-dev-shm-usage", "--use-angle=swiftshader",
-                     "--enable-unsafe-swiftshader", "--window-size=1200,900", f"--user-data-dir={tmp_path / 'chromium'}"):
+    for argument in (
+        "--headless=new",
+        "--no-sandbox",
+        "--disable-dev-shm-usage",
+        "--use-angle=swiftshader",
+        "--enable-unsafe-swiftshader",
+        "--window-size=1200,900",
+        f"--user-data-dir={tmp_path / 'chromium'}",
+    ):
         options.add_argument(argument)
     driver = webdriver.Chrome(service=Service(CHROMEDRIVER), options=options)
     try:
@@ -70,14 +78,23 @@ def pixels_like(image: np.ndarray, colour: tuple[int, int, int], tolerance: int 
     return int((matched & saturated).sum())
 
 
-def test_the_live_view_shows_the_scene_the_plan_the_trail_and_the_stop(roscore, endpoint, browser,
-                                                                       tmp_path: Path) -> None:
+def test_the_live_view_shows_the_scene_the_plan_the_trail_and_the_stop(
+    roscore, endpoint, browser, tmp_path: Path
+) -> None:
     engine = start_engine(roscore, tmp_path, "panda", endpoint.port, "--no-auto-simulate")
     http = free_port()
-    view = ManagedProcess([PYTHON, "-m", "sim.study", "view", "--port", str(endpoint.port), "--http-port", str(http)],
-                       plain_env(), tmp_path, "view")
-    participant = ManagedProcess([PYTHON, "-m", "sim.study", "participant", "--participant", "5", "--seed", "2",
-                               "--port", str(endpoint.port)], plain_env(), tmp_path, "participant")
+    view = ManagedProcess(
+        [PYTHON, "-m", "sim.study", "view", "--port", str(endpoint.port), "--http-port", str(http)],
+        plain_env(),
+        tmp_path,
+        "view",
+    )
+    participant = ManagedProcess(
+        [PYTHON, "-m", "sim.study", "participant", "--participant", "5", "--seed", "2", "--port", str(endpoint.port)],
+        plain_env(),
+        tmp_path,
+        "participant",
+    )
     try:
         view.wait_for_output("view: http", timeout=60)
         participant.wait_for_output("connected", timeout=60)
@@ -87,8 +104,12 @@ def test_the_live_view_shows_the_scene_the_plan_the_trail_and_the_stop(roscore, 
         for part in ("path", "trail", "stop"):
             assert pixels_like(before, COLOURS[part]) < 20, part
         plan = write_plan(tmp_path / "plan.yaml", 5, "vr", [trial(1, "vr", 2, "straight", ON_TOP, 0.3, "fast", 1)])
-        runner = ManagedProcess([PYTHON, "-m", "sim.study", "run", "--plan", str(plan), "--out", str(tmp_path / "out"),
-                              "--no-record"], roscore.env, tmp_path, "runner")
+        runner = ManagedProcess(
+            [PYTHON, "-m", "sim.study", "run", "--plan", str(plan), "--out", str(tmp_path / "out"), "--no-record"],
+            roscore.env,
+            tmp_path,
+            "runner",
+        )
         assert runner.wait(120) == 0, runner.output()[-2000:]
         after = settled_screenshot(browser, tmp_path / "after.png", "/stop_distance")
         counts = {part: pixels_like(after, COLOURS[part]) for part in ("hand", "path", "trail", "stop")}

@@ -4,6 +4,7 @@ rosbag record), its report checked against the bags.
 The check is independent of sim.campaign.analysis: the bags are read with ROS's own `rosbag` module (not rosbags), and
 the metrics are recomputed here with plain numpy.
 """
+
 from __future__ import annotations
 
 import re
@@ -14,8 +15,8 @@ import numpy as np
 import pytest
 import rosbag
 
-from sim.processes import PYTHON, REPO
 from sim.campaign.analysis import scenario_start
+from sim.processes import PYTHON, REPO
 from sim.robots import load_robot
 from tests.integration.sim_helpers import mean_of, report_rows
 
@@ -28,9 +29,25 @@ TRIALS = 2
 def campaign(tmp_path_factory, roscore) -> tuple[Path, str]:
     out = tmp_path_factory.mktemp("campaign")
     result = subprocess.run(
-        [PYTHON, "-m", "sim.trials", "--robots", *ROBOTS, "--use-cases", *USE_CASES, "--trials", str(TRIALS),
-         "--out", str(out), "--no-progress"],
-        cwd=REPO, env=roscore.env, capture_output=True, text=True, timeout=400,
+        [
+            PYTHON,
+            "-m",
+            "sim.trials",
+            "--robots",
+            *ROBOTS,
+            "--use-cases",
+            *USE_CASES,
+            "--trials",
+            str(TRIALS),
+            "--out",
+            str(out),
+            "--no-progress",
+        ],
+        cwd=REPO,
+        env=roscore.env,
+        capture_output=True,
+        text=True,
+        timeout=400,
     )
     assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-3000:]
     return out, result.stdout

@@ -1,4 +1,5 @@
 """The house rules that imports can break (docs/architecture.md), checked in fresh interpreters."""
+
 import ast
 import subprocess
 
@@ -17,17 +18,40 @@ def imported_after(module: str) -> set[str]:
 
 
 @pytest.mark.parametrize(
-    "module", ["bridge.protocol", "bridge.events", "bridge.framing", "bridge.layout", "bridge.queues",
-               "bridge.memory", "bridge.diagnostics", "bridge.names", "bridge.registry"],
+    "module",
+    [
+        "bridge.protocol",
+        "bridge.events",
+        "bridge.framing",
+        "bridge.layout",
+        "bridge.queues",
+        "bridge.memory",
+        "bridge.diagnostics",
+        "bridge.names",
+        "bridge.registry",
+    ],
 )
 def test_pure_bridge_modules_import_neither_sockets_nor_ros(module: str) -> None:
     loaded = imported_after(module)
     assert not loaded & {"socket", *ROS_MODULES}, loaded & {"socket", *ROS_MODULES}
 
 
-@pytest.mark.parametrize("module", ["bridge.client", "sim.engine.stand_in", "sim.campaign.analysis", "sim.geometry.kinematics", "sim.engine.physics",
-                                    "sim.robots", "sim.control.scenario_defaults", "sim.study.paths",
-                                    "sim.study.interface", "sim.study.summary", "sim.study.participant"])
+@pytest.mark.parametrize(
+    "module",
+    [
+        "bridge.client",
+        "sim.engine.stand_in",
+        "sim.campaign.analysis",
+        "sim.geometry.kinematics",
+        "sim.engine.physics",
+        "sim.robots",
+        "sim.control.scenario_defaults",
+        "sim.study.paths",
+        "sim.study.interface",
+        "sim.study.summary",
+        "sim.study.participant",
+    ],
+)
 def test_the_client_and_the_engine_stand_in_import_no_ros(module: str) -> None:
     # Like Unity, the engine stand-in knows ROS only through the endpoint; it (de)serializes with rosbags.
     loaded = imported_after(module)
@@ -55,9 +79,9 @@ def sim_part(module: str) -> str:
 
 def test_sim_parts_import_only_from_the_layers_below() -> None:
     rank = {part: level for level, parts in enumerate(SIM_LAYERS) for part in parts}
-    on_disk = {path.stem if path.parent.name == "sim" else path.parent.name
-               for path in (REPO / "sim").glob("*/__init__.py")} | {
-        path.stem for path in (REPO / "sim").glob("*.py") if path.stem != "__init__"}
+    on_disk = {
+        path.stem if path.parent.name == "sim" else path.parent.name for path in (REPO / "sim").glob("*/__init__.py")
+    } | {path.stem for path in (REPO / "sim").glob("*.py") if path.stem != "__init__"}
     assert on_disk == set(rank), "every part of sim/ has its layer"
     wrong = []
     for path in (REPO / "sim").rglob("*.py"):
@@ -82,8 +106,13 @@ def test_only_the_bridges_ros_modules_touch_rospy() -> None:
     touching = set()
     for path in (REPO / "bridge").glob("*.py"):
         for node in ast.walk(ast.parse(path.read_text())):
-            names = [alias.name for alias in node.names] if isinstance(node, ast.Import) else \
-                [node.module] if isinstance(node, ast.ImportFrom) and node.module else []
+            names = (
+                [alias.name for alias in node.names]
+                if isinstance(node, ast.Import)
+                else [node.module]
+                if isinstance(node, ast.ImportFrom) and node.module
+                else []
+            )
             if any(name.split(".")[0] in ("rospy", "rosgraph") for name in names):
                 touching.add(path.stem)
     assert touching == {"ros_graph", "ros_master", "ros_publisher", "ros_reader", "ros_service_proxy"}
@@ -105,9 +134,20 @@ def test_every_package_type_checks(package: str) -> None:
     """Fully typed: every def annotated, and mypy finds nothing (rospy, genpy and pybullet have no type
     information, hence Any there)."""
     result = subprocess.run(
-        [PYTHON, "-m", "mypy", "--ignore-missing-imports", "--follow-imports=silent", "--disallow-untyped-defs",
-         "--cache-dir=/dev/null", package],
-        cwd=REPO, capture_output=True, text=True, timeout=240,
+        [
+            PYTHON,
+            "-m",
+            "mypy",
+            "--ignore-missing-imports",
+            "--follow-imports=silent",
+            "--disallow-untyped-defs",
+            "--cache-dir=/dev/null",
+            package,
+        ],
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+        timeout=240,
     )
     assert result.returncode == 0, result.stdout + result.stderr
 
@@ -139,5 +179,7 @@ def test_the_repository_stands_on_its_own() -> None:
     """Docs, code and tests cite only what is in the repository: no notes from outside it."""
     tracked = subprocess.run(["git", "ls-files"], cwd=REPO, capture_output=True, text=True, timeout=60).stdout.split()
     outside = "../" + "shared"
-    citing = [name for name in tracked if (REPO / name).is_file() and outside in (REPO / name).read_text(errors="ignore")]
+    citing = [
+        name for name in tracked if (REPO / name).is_file() and outside in (REPO / name).read_text(errors="ignore")
+    ]
     assert citing == []

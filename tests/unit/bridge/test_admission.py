@@ -1,11 +1,17 @@
 """bridge.admission, pure: which connection makes room for a newcomer when the endpoint is full."""
+
 from __future__ import annotations
 
 from bridge.admission import FRAME_GRACE_S, SILENT_GRACE_S, SLOW_PACE, SlotUse, pace, to_evict
 
 
-def use(connected_for_s: float = 60.0, frame_for_s: float | None = None, frame_bytes: int = 0,
-        frames_completed: int = 10, authenticated: bool = True) -> SlotUse:
+def use(
+    connected_for_s: float = 60.0,
+    frame_for_s: float | None = None,
+    frame_bytes: int = 0,
+    frames_completed: int = 10,
+    authenticated: bool = True,
+) -> SlotUse:
     return SlotUse(connected_for_s, frame_for_s, frame_bytes, frames_completed, authenticated)
 
 

@@ -1,4 +1,5 @@
 """The endpoint's settings: command line over private rosparams over defaults, and every bad value refused by name."""
+
 from __future__ import annotations
 
 import math
@@ -38,8 +39,16 @@ def test_command_line_beats_rosparam_beats_the_original_endpoints_global_params(
 
 
 def test_rosparams_of_other_yaml_types_are_converted_when_unambiguous() -> None:
-    loaded = config([], tcp_port="10004", queue_frames=64.0, service_timeout=3, validate_payloads="False",
-                    auth_token=1234, allow_topics="/a/*, /b", deny_topics=["/a/secret"])
+    loaded = config(
+        [],
+        tcp_port="10004",
+        queue_frames=64.0,
+        service_timeout=3,
+        validate_payloads="False",
+        auth_token=1234,
+        allow_topics="/a/*, /b",
+        deny_topics=["/a/secret"],
+    )
     assert (loaded.tcp_port, loaded.client_queue_frames, loaded.service_timeout_s) == (10004, 64, 3.0)
     assert loaded.validate_payloads is False
     assert loaded.auth_token == "1234"
@@ -112,6 +121,5 @@ def test_a_value_the_endpoint_cannot_serve_with_is_refused_before_it_starts(fiel
 
 
 def test_the_edges_of_each_range_are_accepted() -> None:
-    EndpointConfig(tcp_port=0, max_payload_bytes=1, client_queue_frames=1, service_timeout_s=1e-3,
-                   publisher_grace_s=0)
+    EndpointConfig(tcp_port=0, max_payload_bytes=1, client_queue_frames=1, service_timeout_s=1e-3, publisher_grace_s=0)
     EndpointConfig(tcp_port=65535, max_payload_bytes=2**31 - 1)

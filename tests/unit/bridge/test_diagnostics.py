@@ -1,4 +1,5 @@
 """bridge.diagnostics, pure: the statuses of the endpoint, its clients and topics; the client times of __ping."""
+
 from __future__ import annotations
 
 from datetime import datetime, timezone
@@ -9,9 +10,23 @@ from bridge.diagnostics import OK, WARN, ClientSnapshot, TopicSnapshot, parse_cl
 
 
 def client(**changes: object) -> ClientSnapshot:
-    fields = dict(name="#1 127.0.0.1:50000", connected_at=1000.0, authenticated=True, frames_in=10, frames_out=20,
-                  bytes_in=300, bytes_out=400, queued_frames=0, queue_capacity=1024, oldest_queued_age_s=None,
-                  dropped_out=0, dropped_in=0, pings=1, ping_clock_offset_s=0.25, ping_round_trip_s=None)
+    fields = dict(
+        name="#1 127.0.0.1:50000",
+        connected_at=1000.0,
+        authenticated=True,
+        frames_in=10,
+        frames_out=20,
+        bytes_in=300,
+        bytes_out=400,
+        queued_frames=0,
+        queue_capacity=1024,
+        oldest_queued_age_s=None,
+        dropped_out=0,
+        dropped_in=0,
+        pings=1,
+        ping_clock_offset_s=0.25,
+        ping_round_trip_s=None,
+    )
     fields.update(changes)
     return ClientSnapshot(**fields)  # type: ignore[arg-type]
 
@@ -21,19 +36,38 @@ def values(status) -> dict:
 
 
 def test_one_status_for_the_endpoint_each_client_and_each_topic() -> None:
-    topic = TopicSnapshot("/joint_states", "sensor_msgs/JointState", 2, 1, to_clients=500, from_clients=100,
-                          ros_publishers=1, ros_subscribers=3)
+    topic = TopicSnapshot(
+        "/joint_states",
+        "sensor_msgs/JointState",
+        2,
+        1,
+        to_clients=500,
+        from_clients=100,
+        ros_publishers=1,
+        ros_subscribers=3,
+    )
     statuses, counts = report("/ep", "127.0.0.1:10000", 1010.0, [client()], [topic], {}, 1.0)
     assert [s.name for s in statuses] == ["/ep: endpoint", "/ep: client #1 127.0.0.1:50000", "/ep: topic /joint_states"]
     endpoint, one, joint_states = statuses
     assert values(endpoint)["address"] == "127.0.0.1:10000" and endpoint.level == OK
     assert values(one)["address"] == "127.0.0.1:50000" and values(one)["connected for [s]"] == "10.0"
-    assert values(one)["last ping clock offset to ROS [s]"] == "0.250000" and values(one)["last ping round trip [s]"] == "-"
+    assert (
+        values(one)["last ping clock offset to ROS [s]"] == "0.250000"
+        and values(one)["last ping round trip [s]"] == "-"
+    )
     assert one.level == OK and values(joint_states)["subscribed clients"] == "2"
     assert values(joint_states)["ROS publishers"] == "1" and values(joint_states)["ROS subscribers"] == "3"
     # rates between two reports
-    later = TopicSnapshot("/joint_states", "sensor_msgs/JointState", 2, 1, to_clients=1500, from_clients=150,
-                          ros_publishers=1, ros_subscribers=3)
+    later = TopicSnapshot(
+        "/joint_states",
+        "sensor_msgs/JointState",
+        2,
+        1,
+        to_clients=1500,
+        from_clients=150,
+        ros_publishers=1,
+        ros_subscribers=3,
+    )
     statuses, _ = report("/ep", "127.0.0.1:10000", 1012.0, [client()], [later], counts, 2.0)
     assert values(statuses[2])["rate to clients [msg/s]"] == "500.0"
     assert values(statuses[2])["rate from clients [msg/s]"] == "25.0"

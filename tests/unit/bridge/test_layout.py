@@ -1,5 +1,6 @@
 """bridge.layout: a payload passes exactly when it is one whole message of the type (no truncation, no trailing
 bytes), checked against genpy's own serialization of populated messages of many shapes."""
+
 from __future__ import annotations
 
 import io

@@ -1,4 +1,5 @@
 """bridge.memory: when the endpoint gives freed memory back (QuietTrim, pure), and that giving it back works."""
+
 from __future__ import annotations
 
 from bridge.memory import QuietTrim, give_back_free_memory

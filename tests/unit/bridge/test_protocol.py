@@ -1,5 +1,6 @@
 """bridge.protocol, pure: framing (FrameDecoder, encode_frame), the exact bytes of events, and the conversation
 of both roles (commands parsed and checked, service headers paired with their bodies, errors local and remote)."""
+
 from __future__ import annotations
 
 import json
@@ -56,8 +57,9 @@ def raw_frame(destination: bytes, payload: bytes) -> bytes:
     return u32(len(destination)) + destination + u32(len(payload)) + payload
 
 
-def feed_in_pieces(decoder: FrameDecoder, stream: bytes, cuts: list[int],
-                   after_each: Callable[[int, list], None] | None = None) -> list:
+def feed_in_pieces(
+    decoder: FrameDecoder, stream: bytes, cuts: list[int], after_each: Callable[[int, list], None] | None = None
+) -> list:
     """The frames of `stream` fed cut at `cuts`; `after_each(fed, items)` is called after every feed."""
     items: list = []
     start = 0
@@ -75,9 +77,7 @@ def feed_in_pieces(decoder: FrameDecoder, stream: bytes, cuts: list[int],
 destinations = st.text(st.characters(blacklist_categories=("Cs",)), max_size=40).filter(
     lambda text: not text.endswith("\0")
 )
-frames_strategy = st.lists(
-    st.builds(Frame, destinations, st.binary(max_size=300)), min_size=1, max_size=25
-)
+frames_strategy = st.lists(st.builds(Frame, destinations, st.binary(max_size=300)), min_size=1, max_size=25)
 
 
 @settings(max_examples=300, deadline=None)
@@ -115,10 +115,18 @@ def test_incomplete_tail_stays_buffered_until_completed(frames: list[Frame], dat
 
 # Payloads of LARGE_PAYLOAD_BYTES and more are collected piece by piece: the same frames, whatever the split.
 large_frames_strategy = st.lists(
-    st.builds(Frame, st.sampled_from(["/camera/image", "/cloud", "/joint_states"]),
-              st.one_of(st.binary(max_size=50), st.integers(LARGE_PAYLOAD_BYTES - 2, LARGE_PAYLOAD_BYTES + 3000).map(
-                  lambda size: bytes(range(256)) * (size // 256) + b"x" * (size % 256)))),
-    min_size=1, max_size=6,
+    st.builds(
+        Frame,
+        st.sampled_from(["/camera/image", "/cloud", "/joint_states"]),
+        st.one_of(
+            st.binary(max_size=50),
+            st.integers(LARGE_PAYLOAD_BYTES - 2, LARGE_PAYLOAD_BYTES + 3000).map(
+                lambda size: bytes(range(256)) * (size // 256) + b"x" * (size % 256)
+            ),
+        ),
+    ),
+    min_size=1,
+    max_size=6,
 )
 
 
@@ -264,18 +272,30 @@ def test_handshake_exact_bytes() -> None:
 @pytest.mark.parametrize(
     ("event", "destination", "payload"),
     [
-        (Publish("/t", "std_msgs/String"), b"__publish",
-         b'{"topic":"/t","message_name":"std_msgs/String","queue_size":10,"latch":false}'),
+        (
+            Publish("/t", "std_msgs/String"),
+            b"__publish",
+            b'{"topic":"/t","message_name":"std_msgs/String","queue_size":10,"latch":false}',
+        ),
         (Subscribe("/t", "std_msgs/String"), b"__subscribe", b'{"topic":"/t","message_name":"std_msgs/String"}'),
-        (Subscribe("/t", "std_msgs/String", 1), b"__subscribe",
-         b'{"topic":"/t","message_name":"std_msgs/String","queue_size":1}'),
+        (
+            Subscribe("/t", "std_msgs/String", 1),
+            b"__subscribe",
+            b'{"topic":"/t","message_name":"std_msgs/String","queue_size":1}',
+        ),
         (RosService("/s", "std_srvs/SetBool"), b"__ros_service", b'{"topic":"/s","message_name":"std_srvs/SetBool"}'),
-        (UnityService("/u", "std_srvs/Trigger"), b"__unity_service",
-         b'{"topic":"/u","message_name":"std_srvs/Trigger"}'),
+        (
+            UnityService("/u", "std_srvs/Trigger"),
+            b"__unity_service",
+            b'{"topic":"/u","message_name":"std_srvs/Trigger"}',
+        ),
         (Remove("unity_service", "/u"), b"__remove_unity_service", b'{"topic":"/u"}'),
         (TopicListQuery(), b"__topic_list", b"{}"),
-        (TopicList(("/a", "/b"), ("std_msgs/String", "std_msgs/Empty")), b"__topic_list",
-         b'{"topics":["/a","/b"],"types":["std_msgs/String","std_msgs/Empty"]}'),
+        (
+            TopicList(("/a", "/b"), ("std_msgs/String", "std_msgs/Empty")),
+            b"__topic_list",
+            b'{"topics":["/a","/b"],"types":["std_msgs/String","std_msgs/Empty"]}',
+        ),
         (Auth("s3cret"), b"__auth", b'{"token":"s3cret"}'),
         (Ping("2026-11-23T04:00:00.0000000Z"), b"__ping", b'{"request_time":"2026-11-23T04:00:00.0000000Z"}'),
         (PingResponse("t0"), b"__ping_response", b'{"request_time":"t0"}'),
@@ -331,16 +351,27 @@ def parsed(destination: str, payload: bytes | str | dict) -> Event:
     ("destination", "params", "expected"),
     [
         ("__subscribe", {"topic": "/t", "message_name": "std_msgs/String"}, Subscribe("/t", "std_msgs/String")),
-        ("__subscribe", {"topic": "/t", "message_name": "std_msgs/String", "queue_size": 1},
-         Subscribe("/t", "std_msgs/String", 1)),
+        (
+            "__subscribe",
+            {"topic": "/t", "message_name": "std_msgs/String", "queue_size": 1},
+            Subscribe("/t", "std_msgs/String", 1),
+        ),
         (
             "__publish",
             {"topic": "/t", "message_name": "sensor_msgs/JointState", "queue_size": 3, "latch": True},
             Publish("/t", "sensor_msgs/JointState", 3, True),
         ),
         ("__publish", {"topic": "t", "message_name": "std_msgs/Empty"}, Publish("t", "std_msgs/Empty", 10, False)),
-        ("__ros_service", {"topic": "/srv", "message_name": "std_srvs/SetBool"}, RosService("/srv", "std_srvs/SetBool")),
-        ("__unity_service", {"topic": "/u", "message_name": "std_srvs/Trigger"}, UnityService("/u", "std_srvs/Trigger")),
+        (
+            "__ros_service",
+            {"topic": "/srv", "message_name": "std_srvs/SetBool"},
+            RosService("/srv", "std_srvs/SetBool"),
+        ),
+        (
+            "__unity_service",
+            {"topic": "/u", "message_name": "std_srvs/Trigger"},
+            UnityService("/u", "std_srvs/Trigger"),
+        ),
         ("__topic_list", {}, TopicListQuery()),
         ("__remove_subscriber", {"topic": "/t"}, Remove("subscriber", "/t")),
         ("__remove_publisher", {"topic": "/t"}, Remove("publisher", "/t")),
@@ -355,31 +386,36 @@ def test_every_client_command_parses(destination: str, params: dict, expected: E
 
 
 @settings(max_examples=100, deadline=None)
-@given(event=st.one_of(
-    st.builds(Subscribe, st.just("/t"), st.just("std_msgs/String"), st.none() | st.integers(0, 1000)),
-    st.builds(Publish, st.just("/t"), st.just("a/B"), st.integers(0, 1000), st.booleans()),
-    st.builds(ServiceRequest, st.integers(0, 2**31), st.just("/s"), st.binary(max_size=50)),
-    st.builds(ServiceResponse, st.integers(0, 2**31), st.just("/s"), st.binary(max_size=50)),
-    st.builds(TopicMessage, st.just("/t"), st.binary(max_size=50)),
-    st.builds(Ping, st.text(max_size=30)),
-    st.builds(Auth, st.text(max_size=30)),
-))
+@given(
+    event=st.one_of(
+        st.builds(Subscribe, st.just("/t"), st.just("std_msgs/String"), st.none() | st.integers(0, 1000)),
+        st.builds(Publish, st.just("/t"), st.just("a/B"), st.integers(0, 1000), st.booleans()),
+        st.builds(ServiceRequest, st.integers(0, 2**31), st.just("/s"), st.binary(max_size=50)),
+        st.builds(ServiceResponse, st.integers(0, 2**31), st.just("/s"), st.binary(max_size=50)),
+        st.builds(TopicMessage, st.just("/t"), st.binary(max_size=50)),
+        st.builds(Ping, st.text(max_size=30)),
+        st.builds(Auth, st.text(max_size=30)),
+    )
+)
 def test_what_a_client_sends_the_endpoint_receives_unchanged(event: Event) -> None:
     assert received(Conversation(Role.CLIENT).send(event)) == [event]
 
 
 @settings(max_examples=100, deadline=None)
-@given(event=st.one_of(
-    st.builds(Error, st.text(max_size=30), st.none() | st.integers(0, 2**31)),
-    st.builds(Warn, st.text(max_size=30)),
-    st.builds(Log, st.text(max_size=30)),
-    st.builds(PingResponse, st.text(max_size=30), st.none() | st.floats(0, 2e9)),
-    st.builds(ServiceRequest, st.integers(0, 2**31), st.just("/s"), st.binary(max_size=50)),
-    st.builds(ServiceResponse, st.integers(0, 2**31), st.just("/s"), st.binary(max_size=50)),
-    st.builds(TopicMessage, st.just("/t"), st.binary(max_size=50)),
-    st.lists(st.tuples(st.text(max_size=5), st.text(max_size=5)), max_size=3).map(
-        lambda pairs: TopicList(tuple(name for name, _ in pairs), tuple(kind for _, kind in pairs))),
-))
+@given(
+    event=st.one_of(
+        st.builds(Error, st.text(max_size=30), st.none() | st.integers(0, 2**31)),
+        st.builds(Warn, st.text(max_size=30)),
+        st.builds(Log, st.text(max_size=30)),
+        st.builds(PingResponse, st.text(max_size=30), st.none() | st.floats(0, 2e9)),
+        st.builds(ServiceRequest, st.integers(0, 2**31), st.just("/s"), st.binary(max_size=50)),
+        st.builds(ServiceResponse, st.integers(0, 2**31), st.just("/s"), st.binary(max_size=50)),
+        st.builds(TopicMessage, st.just("/t"), st.binary(max_size=50)),
+        st.lists(st.tuples(st.text(max_size=5), st.text(max_size=5)), max_size=3).map(
+            lambda pairs: TopicList(tuple(name for name, _ in pairs), tuple(kind for _, kind in pairs))
+        ),
+    )
+)
 def test_what_the_endpoint_sends_the_client_receives_unchanged(event: Event) -> None:
     client = Conversation(Role.CLIENT)
     assert client.receive_data(protocol.handshake() + Conversation(Role.ENDPOINT).send(event))[1:] == [event]
@@ -391,8 +427,18 @@ def test_topic_list_query_accepts_an_empty_payload() -> None:
 
 def test_client_commands_cover_the_table() -> None:
     assert protocol.CLIENT_COMMANDS == {
-        "__subscribe", "__publish", "__ros_service", "__unity_service", "__request", "__response",
-        "__topic_list", "__auth", "__ping", "__remove_subscriber", "__remove_publisher", "__remove_ros_service",
+        "__subscribe",
+        "__publish",
+        "__ros_service",
+        "__unity_service",
+        "__request",
+        "__response",
+        "__topic_list",
+        "__auth",
+        "__ping",
+        "__remove_subscriber",
+        "__remove_publisher",
+        "__remove_ros_service",
         "__remove_unity_service",
     }
 
@@ -447,8 +493,11 @@ def test_missing_field_is_named(destination: str, params: dict, field: str) -> N
 @pytest.mark.parametrize(
     ("destination", "params", "expected"),
     [
-        ("__subscribe", {"topic": "/t", "message_name": "std_msgs/String", "priority": 1},
-         Subscribe("/t", "std_msgs/String")),
+        (
+            "__subscribe",
+            {"topic": "/t", "message_name": "std_msgs/String", "priority": 1},
+            Subscribe("/t", "std_msgs/String"),
+        ),
         ("__topic_list", {"verbose": True}, TopicListQuery()),
         ("__remove_publisher", {"topic": "/t", "latch": False}, Remove("publisher", "/t")),
         ("__ping", {"request_time": "t", "sent_by": "Unity"}, Ping("t")),
@@ -466,14 +515,22 @@ def test_a_command_with_fields_we_do_not_know_is_carried_out_and_they_are_report
 def test_unknown_fields_are_reported_per_command_and_field() -> None:
     conversation = Conversation(Role.ENDPOINT)
     first = {"topic": "/t", "message_name": "a/B", "x": 1}
-    events = conversation.receive_data(command("__subscribe", first) + command("__subscribe", {**first, "y": 2})
-                                       + command("__publish", first) + command("__request", {"srv_id": 5, "x": 1})
-                                       + encode_frame("/srv", b"body"))
+    events = conversation.receive_data(
+        command("__subscribe", first)
+        + command("__subscribe", {**first, "y": 2})
+        + command("__publish", first)
+        + command("__request", {"srv_id": 5, "x": 1})
+        + encode_frame("/srv", b"body")
+    )
     assert events == [
-        IgnoredFields("__subscribe", ("x",)), Subscribe("/t", "a/B"),
-        IgnoredFields("__subscribe", ("y",)), Subscribe("/t", "a/B"),
-        IgnoredFields("__publish", ("x",)), Publish("/t", "a/B"),
-        IgnoredFields("__request", ("x",)), ServiceRequest(5, "/srv", b"body"),
+        IgnoredFields("__subscribe", ("x",)),
+        Subscribe("/t", "a/B"),
+        IgnoredFields("__subscribe", ("y",)),
+        Subscribe("/t", "a/B"),
+        IgnoredFields("__publish", ("x",)),
+        Publish("/t", "a/B"),
+        IgnoredFields("__request", ("x",)),
+        ServiceRequest(5, "/srv", b"body"),
     ]
 
 
@@ -500,12 +557,31 @@ def test_wrong_type_is_named(destination: str, params: dict, field: str) -> None
 
 @pytest.mark.parametrize("destination", ["__publish", "__subscribe"])
 def test_negative_queue_size_is_refused(destination: str) -> None:
-    rejects(command(destination, {"topic": "/t", "message_name": "std_msgs/String", "queue_size": -1}),
-            destination, "queue_size")
+    rejects(
+        command(destination, {"topic": "/t", "message_name": "std_msgs/String", "queue_size": -1}),
+        destination,
+        "queue_size",
+    )
 
 
-@pytest.mark.parametrize("topic", ["", "__hidden", "/with space", "/tab\there", "/nul\0", "/new\nline", "\x01x",
-                                   "/esc\x1b", "/x\uffff", "/caf\u00e9", "//double", "/a-b", "1st"])
+@pytest.mark.parametrize(
+    "topic",
+    [
+        "",
+        "__hidden",
+        "/with space",
+        "/tab\there",
+        "/nul\0",
+        "/new\nline",
+        "\x01x",
+        "/esc\x1b",
+        "/x\uffff",
+        "/caf\u00e9",
+        "//double",
+        "/a-b",
+        "1st",
+    ],
+)
 @pytest.mark.parametrize("destination", ["__subscribe", "__publish", "__ros_service", "__unity_service"])
 def test_bad_topic_is_named(destination: str, topic: str) -> None:
     rejects(command(destination, {"topic": topic, "message_name": "std_msgs/String"}), destination, "'topic'")
@@ -513,8 +589,11 @@ def test_bad_topic_is_named(destination: str, topic: str) -> None:
 
 @pytest.mark.parametrize("character", ["\x01", "\x1b", "\uffff"])
 def test_a_bad_character_in_a_name_is_shown_with_its_code_point(character: str) -> None:
-    rejects(command("__subscribe", {"topic": f"/a{character}", "message_name": "std_msgs/String"}),
-            f"U+{ord(character):04X}", "position 2")
+    rejects(
+        command("__subscribe", {"topic": f"/a{character}", "message_name": "std_msgs/String"}),
+        f"U+{ord(character):04X}",
+        "position 2",
+    )
 
 
 def test_a_registered_name_is_no_longer_than_a_destination_may_be() -> None:
@@ -524,7 +603,8 @@ def test_a_registered_name_is_no_longer_than_a_destination_may_be() -> None:
     (accepted,) = conversation.receive_data(command("__publish", {"topic": longest, "message_name": "std_msgs/Empty"}))
     assert isinstance(accepted, Publish)
     (refused,) = conversation.receive_data(
-        command("__publish", {"topic": longest + "a", "message_name": "std_msgs/Empty"}))
+        command("__publish", {"topic": longest + "a", "message_name": "std_msgs/Empty"})
+    )
     assert isinstance(refused, InvalidInput) and "33 bytes long" in str(refused.error)
 
 
@@ -544,8 +624,20 @@ def test_bad_topic_in_remove_is_named() -> None:
 
 @pytest.mark.parametrize(
     "message_name",
-    ["String", "std_msgs/", "/String", "std_msgs/msg/String", "std msgs/String", "std_msgs/Str-ing", "", "a/b/c",
-     "1pkg/Type", "pkg/_Type", "caf\u00e9/Type", "std_msgs/String\x00"],
+    [
+        "String",
+        "std_msgs/",
+        "/String",
+        "std_msgs/msg/String",
+        "std msgs/String",
+        "std_msgs/Str-ing",
+        "",
+        "a/b/c",
+        "1pkg/Type",
+        "pkg/_Type",
+        "caf\u00e9/Type",
+        "std_msgs/String\x00",
+    ],
 )
 def test_bad_message_name_is_named(message_name: str) -> None:
     rejects(command("__subscribe", {"topic": "/t", "message_name": message_name}), "__subscribe", "'message_name'")
@@ -578,13 +670,20 @@ def test_a_service_header_and_its_body_are_one_event_whatever_the_body_is_called
 
 
 @settings(max_examples=200, deadline=None)
-@given(events=st.lists(st.one_of(
-    st.builds(TopicMessage, st.sampled_from(["/a", "/b", "c"]), st.binary(max_size=20)),
-    st.builds(ServiceRequest, st.integers(0, 10**6), st.sampled_from(["/s", "__x"]), st.binary(max_size=20)),
-    st.builds(ServiceResponse, st.integers(0, 10**6), st.just("/s"), st.binary(max_size=20)),
-    st.builds(Subscribe, st.just("/t"), st.just("std_msgs/String")),
-    st.just(Keepalive()),
-), min_size=1, max_size=15), data=st.data())
+@given(
+    events=st.lists(
+        st.one_of(
+            st.builds(TopicMessage, st.sampled_from(["/a", "/b", "c"]), st.binary(max_size=20)),
+            st.builds(ServiceRequest, st.integers(0, 10**6), st.sampled_from(["/s", "__x"]), st.binary(max_size=20)),
+            st.builds(ServiceResponse, st.integers(0, 10**6), st.just("/s"), st.binary(max_size=20)),
+            st.builds(Subscribe, st.just("/t"), st.just("std_msgs/String")),
+            st.just(Keepalive()),
+        ),
+        min_size=1,
+        max_size=15,
+    ),
+    data=st.data(),
+)
 def test_any_split_of_a_conversation_gives_the_same_events(events: list, data) -> None:
     client = Conversation(Role.CLIENT)
     stream = b"".join(client.send(event) for event in events)
@@ -594,8 +693,7 @@ def test_any_split_of_a_conversation_gives_the_same_events(events: list, data) -
     for start, end in zip([0, *cuts], [*cuts, len(stream)]):
         got += endpoint.receive_data(stream[start:end])
     assert got == [event for event in events if not isinstance(event, Keepalive)]
-    assert endpoint.frames_received == sum(2 if isinstance(e, (ServiceRequest, ServiceResponse)) else 1
-                                           for e in events)
+    assert endpoint.frames_received == sum(2 if isinstance(e, (ServiceRequest, ServiceResponse)) else 1 for e in events)
 
 
 def test_a_body_whose_name_is_not_utf8_fails_that_call_by_its_srv_id() -> None:
@@ -651,8 +749,9 @@ def test_an_incompatible_handshake_is_reported_as_such() -> None:
 
 def test_an_error_names_the_call_it_fails() -> None:
     client = Conversation(Role.CLIENT)
-    events = client.receive_data(protocol.handshake() + command("__error", {"text": "no", "srv_id": 101})
-                                 + command("__error", {"text": "plain"}))
+    events = client.receive_data(
+        protocol.handshake() + command("__error", {"text": "no", "srv_id": 101}) + command("__error", {"text": "plain"})
+    )
     assert events[1:] == [Error("no", 101), Error("plain")]
 
 
@@ -691,8 +790,14 @@ def test_each_role_sends_only_its_own_events(role: Role, event: Event) -> None:
 
 @pytest.mark.parametrize(
     "event",
-    [Subscribe("", "std_msgs/String"), Publish("/t", "String"), Publish("/t", "a/B", -1), Remove("publisher", "a b"),
-     TopicMessage("__t", b""), TopicMessage("", b"")],
+    [
+        Subscribe("", "std_msgs/String"),
+        Publish("/t", "String"),
+        Publish("/t", "a/B", -1),
+        Remove("publisher", "a b"),
+        TopicMessage("__t", b""),
+        TopicMessage("", b""),
+    ],
 )
 def test_we_never_send_what_we_would_refuse(event: Event) -> None:
     with pytest.raises(LocalProtocolError):

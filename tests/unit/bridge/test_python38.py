@@ -1,6 +1,7 @@
 """bridge/ runs on ROS Noetic's Python 3.8: every module, and the catkin package's node script and setup.py,
 compile and import there (no 3.9+ syntax, nor library API at import time). 3.9+ calls made only at run time are
 caught by the bridge's tests, which launch_scripts/test.sh runs under 3.8 too."""
+
 from __future__ import annotations
 
 import os
@@ -14,8 +15,10 @@ CATKIN_PACKAGE = REPO / "catkin_ws" / "src" / "ros_tcp_endpoint"
 
 def test_every_bridge_module_imports_on_python_3_8() -> None:
     assert PYTHON38.exists(), "no .venv38 with Python 3.8: run launch_scripts/setup_python38.sh"
-    modules = ["bridge", *sorted(f"bridge.{path.stem}" for path in (REPO / "bridge").glob("*.py")
-                                 if path.stem != "__init__")]
+    modules = [
+        "bridge",
+        *sorted(f"bridge.{path.stem}" for path in (REPO / "bridge").glob("*.py") if path.stem != "__init__"),
+    ]
     files = [str(CATKIN_PACKAGE / "scripts" / "default_server_endpoint.py"), str(CATKIN_PACKAGE / "setup.py")]
     code = (
         "import importlib, sys\n"
@@ -26,7 +29,13 @@ def test_every_bridge_module_imports_on_python_3_8() -> None:
         "print(len(modules), len(files))\n"
     )
     env = {**os.environ, "PYTHONPATH": f"{REPO}:/usr/lib/python3/dist-packages"}
-    result = subprocess.run([str(PYTHON38), "-c", code, ",".join(modules), ",".join(files)], cwd=REPO, env=env,
-                            capture_output=True, text=True, timeout=120)
+    result = subprocess.run(
+        [str(PYTHON38), "-c", code, ",".join(modules), ",".join(files)],
+        cwd=REPO,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert result.returncode == 0, result.stderr
     assert result.stdout.split() == [str(len(modules)), str(len(files))]

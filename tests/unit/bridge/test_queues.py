@@ -1,4 +1,5 @@
 """bridge.queues.OutgoingQueue: bounded by frames and bytes, drop-oldest-droppable, close/timeout semantics."""
+
 from __future__ import annotations
 
 import threading
@@ -305,8 +306,13 @@ def large_queue() -> OutgoingQueue:
 
 def test_small_frames_go_before_queued_large_ones_and_large_ones_one_per_batch() -> None:
     queue = large_queue()
-    for frame, key in ((b"image-1...", "/image"), (b"j1", "/joints"), (b"cloud-1...", "/cloud"), (b"j2", "/joints"),
-                       (b"image-2...", "/image")):
+    for frame, key in (
+        (b"image-1...", "/image"),
+        (b"j1", "/joints"),
+        (b"cloud-1...", "/cloud"),
+        (b"j2", "/joints"),
+        (b"image-2...", "/image"),
+    ):
         queue.put(frame, key=key)
     assert queue.take_batch() == [b"j1", b"j2", b"image-1..."]  # the oldest large frame last
     queue.put(b"j3", key="/joints")

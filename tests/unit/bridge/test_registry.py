@@ -1,4 +1,5 @@
 """The book of the endpoint node's registrations with the ROS master (bridge.registry): pure, no master needed."""
+
 from __future__ import annotations
 
 from bridge.registry import Registration, RegistrationBook

@@ -1,4 +1,5 @@
 """bridge.topics.EchoFilter: which client a message that came back from ROS through our own publisher was from."""
+
 from __future__ import annotations
 
 from bridge.topics import ECHO_RECORD_MAX, EchoFilter

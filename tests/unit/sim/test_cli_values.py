@@ -1,4 +1,5 @@
 """sim.cli_values: numbers as users type them (floats, pi expressions, lists split by spaces or commas)."""
+
 from __future__ import annotations
 
 import math
@@ -10,8 +11,15 @@ from sim.cli_values import CliValueError, parse_number, parse_numbers
 
 @pytest.mark.parametrize(
     ("text", "value"),
-    [("0.5", 0.5), ("-2.45", -2.45), ("pi/4", math.pi / 4), ("-2*pi/5", -2 * math.pi / 5), (" +3 ", 3.0),
-     ("1e-3", 1e-3), ("pi - 1", math.pi - 1)],
+    [
+        ("0.5", 0.5),
+        ("-2.45", -2.45),
+        ("pi/4", math.pi / 4),
+        ("-2*pi/5", -2 * math.pi / 5),
+        (" +3 ", 3.0),
+        ("1e-3", 1e-3),
+        ("pi - 1", math.pi - 1),
+    ],
 )
 def test_numbers_and_pi_expressions(text: str, value: float) -> None:
     assert parse_number(text) == pytest.approx(value)

@@ -1,5 +1,6 @@
 #!/usr/bin/env python3
 """The endpoint node as roslaunch/rosrun start it; all logic lives in the `bridge` package."""
+
 import sys
 
 from bridge.__main__ import main

@@ -1,4 +1,5 @@
 """Tracking metrics against hand-computed values."""
+
 import numpy as np
 import pytest
 

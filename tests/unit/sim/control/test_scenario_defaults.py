@@ -1,5 +1,6 @@
 """Scenario defaults computed from the robot: every scenario builds on robots that are not ours, inside their limits,
 and the computed values keep the rules the docstring of sim.control.scenario_defaults states."""
+
 from __future__ import annotations
 
 import shutil
@@ -7,10 +8,10 @@ import shutil
 import numpy as np
 import pytest
 
-from sim.geometry.kinematics import PLANAR_WEIGHTS, chain_for
-from sim.robots import load_robot
 from sim.control.scenario_defaults import controllable_weights, trial_table, usable_range
 from sim.control.scenarios import SCENARIOS, ScenarioConfig, ScenarioError, build_motion, fk_path, pose_errors
+from sim.geometry.kinematics import PLANAR_WEIGHTS, chain_for
+from sim.robots import load_robot
 from tests.robot_files import LIFT_ARM, THIRD_PARTY_URDFS
 
 
@@ -52,10 +53,13 @@ def test_computed_one_joint_waypoints_are_slowed_to_the_velocity_limit(tmp_path)
     assert not np.allclose(fast.positions[:, 0], motion.positions[:, 0])
 
 
-@pytest.mark.parametrize("name, expected", [
-    ("panda", (1.0,) * 6),
-    ("igt", PLANAR_WEIGHTS),
-])
+@pytest.mark.parametrize(
+    "name, expected",
+    [
+        ("panda", (1.0,) * 6),
+        ("igt", PLANAR_WEIGHTS),
+    ],
+)
 def test_ik_weights_are_the_axes_the_chain_controls(name, expected):
     robot = load_robot(name)
     assert controllable_weights(chain_for(robot), robot.home) == expected

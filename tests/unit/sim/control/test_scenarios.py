@@ -1,5 +1,6 @@
 """sim.control.scenarios without ROS: shapes and grids, defaults, limits, IK goals reached (FK of the desired joints),
 unreachable goals reported, CSV export format."""
+
 from __future__ import annotations
 
 import csv
@@ -8,10 +9,6 @@ import math
 import numpy as np
 import pytest
 
-from sim.geometry.frames import rpy_to_matrix
-from sim.geometry.kinematics import chain_for
-from sim.robots import load_robot
-from sim.geometry.kinematics import rotation_vector
 from sim.control.scenario_defaults import trial_table
 from sim.control.scenarios import (
     IK_SCENARIOS,
@@ -28,6 +25,9 @@ from sim.control.scenarios import (
     sample_times,
     write_engine_csv,
 )
+from sim.geometry.frames import rpy_to_matrix
+from sim.geometry.kinematics import chain_for, rotation_vector
+from sim.robots import load_robot
 
 ROBOTS = ("panda", "igt")
 
@@ -80,7 +80,9 @@ def test_one_joint_panda_default_is_the_seeds_joint1_test():
 
 
 def test_one_joint_options_joint_waypoints_times_order(robot):
-    config = ScenarioConfig(joint="2", waypoints=[robot.home[1], robot.home[1] + 0.2], times=[0.5, 1.5], order="cubic", duration=2.0)
+    config = ScenarioConfig(
+        joint="2", waypoints=[robot.home[1], robot.home[1] + 0.2], times=[0.5, 1.5], order="cubic", duration=2.0
+    )
     motion = build_motion(robot, "one_joint", config)
     k = lambda t: round(t / 0.02)  # noqa: E731
     assert motion.positions[k(0.0), 1] == pytest.approx(robot.home[1])  # held before the first time
@@ -199,7 +201,9 @@ def test_rotation_vector_exp_round_trip():
         v = rng.normal(size=3)
         v *= rng.uniform(0, math.pi - 1e-3) / np.linalg.norm(v)
         np.testing.assert_allclose(rotation_vector(rotation_exp(v)), v, atol=1e-9)
-    np.testing.assert_allclose(np.abs(rotation_vector(rotation_exp(np.array([0, 0, math.pi])))), [0, 0, math.pi], atol=1e-9)
+    np.testing.assert_allclose(
+        np.abs(rotation_vector(rotation_exp(np.array([0, 0, math.pi])))), [0, 0, math.pi], atol=1e-9
+    )
 
 
 def test_approach_reaches_target_within_speed_fraction(robot):

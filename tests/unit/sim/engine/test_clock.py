@@ -1,4 +1,6 @@
-"""sim.engine.clock: the engine's one clock, both policies (auto-simulate and /clock-driven), stamps and the failsafe."""
+"""sim.engine.clock: the engine's one clock, both policies (auto-simulate and /clock-driven), stamps and the
+failsafe."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -92,8 +94,12 @@ def test_auto_simulate_stamps_follow_the_controllers_clock_once_seen() -> None:
 
 @pytest.mark.parametrize(
     ("kwargs", "fragment"),
-    [({"dt": 0}, "dt"), ({"dt": float("nan")}, "dt"), ({"dt": DT, "time_scale": -1}, "time_scale"),
-     ({"dt": DT, "max_jump": 0}, "max_jump")],
+    [
+        ({"dt": 0}, "dt"),
+        ({"dt": float("nan")}, "dt"),
+        ({"dt": DT, "time_scale": -1}, "time_scale"),
+        ({"dt": DT, "max_jump": 0}, "max_jump"),
+    ],
 )
 def test_bad_settings_are_named(kwargs: dict, fragment: str) -> None:
     with pytest.raises(ClockError, match=fragment):

@@ -1,4 +1,5 @@
 """sim.engine.commands: the engine's target for the end of each step (CommandBuffer)."""
+
 from __future__ import annotations
 
 import threading
@@ -14,8 +15,9 @@ START = np.array([0.1, 0.2, 0.3])
 
 
 def command(stamp: float, positions, velocities=None) -> TrajectoryCommand:
-    return TrajectoryCommand(stamp, np.array(positions, dtype=float),
-                             None if velocities is None else np.array(velocities, dtype=float))
+    return TrajectoryCommand(
+        stamp, np.array(positions, dtype=float), None if velocities is None else np.array(velocities, dtype=float)
+    )
 
 
 # --- CommandBuffer --------------------------------------------------------------------------------------------

@@ -1,4 +1,5 @@
 """sim.engine.physics: the three modes, the implicit drive, input checks, determinism. Fast, no ROS."""
+
 from __future__ import annotations
 
 import logging

@@ -1,4 +1,5 @@
 """sim.engine offline CSV mode (`--csv in.csv --log out.csv`, no ROS, no TCP) and the pose -> marker conversion."""
+
 from __future__ import annotations
 
 import csv
@@ -9,10 +10,10 @@ import numpy as np
 import pytest
 
 from sim.engine import stand_in as engine
-from sim.geometry import frames
 from sim.engine.physics import Mode
-from sim.wire.contract import PoseConvention
+from sim.geometry import frames
 from sim.robots import load_robot
+from sim.wire.contract import PoseConvention
 from tests.rosenv import PYTHON, REPO
 
 PANDA = load_robot("panda")
@@ -40,7 +41,9 @@ def replay(tmp_path: Path, csv_in: Path, *extra: str) -> tuple[list[str], np.nda
     return read_log(log)
 
 
-def sine_rows(robot, names, duration_s: float, sample_dt: float, amplitude: float = 0.3) -> tuple[np.ndarray, np.ndarray]:
+def sine_rows(
+    robot, names, duration_s: float, sample_dt: float, amplitude: float = 0.3
+) -> tuple[np.ndarray, np.ndarray]:
     """Desired positions sampled at sample_dt, rounded to the 9 decimals the CSV carries."""
     times = np.round(np.arange(0.0, duration_s + 1e-9, sample_dt), 6)
     columns = [robot.joint_names.index(name) for name in names]
@@ -69,8 +72,9 @@ def test_kinematic_modes_reproduce_the_input_positions_at_the_step_times_exactly
 
 def test_no_physics_interpolates_between_samples_and_holds_joints_the_csv_does_not_name(tmp_path):
     names = ["panda_joint4", "panda_joint2"]  # a subset, out of order
-    source = write_csv(tmp_path / "in.csv", ["time", *names],
-                       [["0", "-2.0", "-0.5"], ["0.1", "-1.0", "0.5"], ["0.2", "-1.0", "0.5"]])
+    source = write_csv(
+        tmp_path / "in.csv", ["time", *names], [["0", "-2.0", "-0.5"], ["0.1", "-1.0", "0.5"], ["0.2", "-1.0", "0.5"]]
+    )
     _, log = replay(tmp_path, source, "--mode", "no_physics")
     assert log.shape == (10, 1 + PANDA.dof)
     t = log[:, 0]
@@ -94,8 +98,7 @@ def test_physics_tracks_a_smooth_csv_trajectory_closely(tmp_path, robot):
 
 
 def test_a_far_step_in_physics_mode_lags_behind_and_then_settles(tmp_path):
-    source = write_csv(tmp_path / "in.csv", ["time", "panda_joint1"],
-                       [["0", "0"], ["0.02", "1.0"], ["3.0", "1.0"]])
+    source = write_csv(tmp_path / "in.csv", ["time", "panda_joint1"], [["0", "0"], ["0.02", "1.0"], ["3.0", "1.0"]])
     _, log = replay(tmp_path, source, "--mode", "physics")
     joint1 = log[:, 1]
     assert joint1[0] < 0.5  # force-limited drive: cannot jump 1 rad in one step
@@ -107,9 +110,14 @@ def test_csv_mode_as_a_process_needs_no_ros(tmp_path):
     source = write_csv(tmp_path / "in.csv", ["time", "igt_rail"], [["0", "0.0"], ["0.1", "0.05"]])
     log = tmp_path / "out" / "achieved.csv"
     env = {"PATH": "/usr/bin:/bin", "PYTHONPATH": str(REPO)}  # no ROS_MASTER_URI, no ROS setup at all
-    result = subprocess.run([PYTHON, "-m", "sim.engine", "--robot", "igt", "--mode", "no_physics", "--csv",
-                             str(source), "--log", str(log)], cwd=REPO, env=env, capture_output=True, text=True,
-                            timeout=60)
+    result = subprocess.run(
+        [PYTHON, "-m", "sim.engine", "--robot", "igt", "--mode", "no_physics", "--csv", str(source), "--log", str(log)],
+        cwd=REPO,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert result.returncode == 0, result.stderr
     assert "replayed" in result.stdout and "5 steps" in result.stdout
     header, data = read_log(log)
@@ -125,15 +133,23 @@ BAD_CSVS = {
     "unknown joint": (["time", "panda_joint9"], [["0", "0.1"]], ["unknown joint", "panda_joint9"]),
     "no joint columns": (["time"], [["0"], ["1"]], ["unknown joint column"]),
     "joint twice": (["time", "panda_joint1", "panda_joint1"], [["0", "0", "0"]], ["twice", "panda_joint1"]),
-    "equal times": (["time", "panda_joint1"], [["0", "0"], ["0.1", "0"], ["0.1", "0"]],
-                    ["strictly increasing", "0.1"]),
-    "decreasing times": (["time", "panda_joint1"], [["0", "0"], ["0.2", "0"], ["0.1", "0"]],
-                         ["strictly increasing", "0.1", "0.2"]),
-    "non-numeric cell": (["time", "panda_joint1"], [["0", "0"], ["0.1", "abc"]],
-                         ["'abc'", "not a number", "line 3", "panda_joint1"]),
+    "equal times": (["time", "panda_joint1"], [["0", "0"], ["0.1", "0"], ["0.1", "0"]], ["strictly increasing", "0.1"]),
+    "decreasing times": (
+        ["time", "panda_joint1"],
+        [["0", "0"], ["0.2", "0"], ["0.1", "0"]],
+        ["strictly increasing", "0.1", "0.2"],
+    ),
+    "non-numeric cell": (
+        ["time", "panda_joint1"],
+        [["0", "0"], ["0.1", "abc"]],
+        ["'abc'", "not a number", "line 3", "panda_joint1"],
+    ),
     "empty cell": (["time", "panda_joint1"], [["0", "0"], ["0.1", ""]], ["not a number", "line 3"]),
-    "short row": (["time", "panda_joint1", "panda_joint2"], [["0", "0", "0"], ["0.1", "0"]],
-                  ["line 3", "2 cells", "header has 3"]),
+    "short row": (
+        ["time", "panda_joint1", "panda_joint2"],
+        [["0", "0", "0"], ["0.1", "0"]],
+        ["line 3", "2 cells", "header has 3"],
+    ),
     "NaN position": (["time", "panda_joint1"], [["0", "0"], ["0.1", "nan"]], ["finite"]),
     "header only": (["time", "panda_joint1"], [], ["at least one data row"]),
 }
@@ -159,11 +175,14 @@ def test_a_missing_csv_exits_2_naming_the_file(tmp_path, capsys):
     assert "cannot read" in message and str(missing) in message and "No such file" in message
 
 
-@pytest.mark.parametrize("args, fragment", [
-    (["--robot", "ur5"], "unknown robot 'ur5'"),
-    (["--dt", "0"], "--dt"),
-    (["--time-scale", "-1"], "--time-scale"),
-])
+@pytest.mark.parametrize(
+    "args, fragment",
+    [
+        (["--robot", "ur5"], "unknown robot 'ur5'"),
+        (["--dt", "0"], "--dt"),
+        (["--time-scale", "-1"], "--time-scale"),
+    ],
+)
 def test_bad_options_exit_2_naming_them(tmp_path, capsys, args, fragment):
     source = write_csv(tmp_path / "in.csv", ["time", "panda_joint1"], [["0", "0"], ["0.1", "0"]])
     assert engine.main(["--csv", str(source), "--log", str(tmp_path / "out.csv"), *args]) == 2
@@ -172,8 +191,13 @@ def test_bad_options_exit_2_naming_them(tmp_path, capsys, args, fragment):
 
 def test_a_bad_csv_exits_2_as_a_process_too(tmp_path):
     source = write_csv(tmp_path / "bad.csv", ["time", "elbow"], [["0", "0"]])
-    result = subprocess.run([PYTHON, "-m", "sim.engine", "--csv", str(source), "--log", str(tmp_path / "o.csv")],
-                            cwd=REPO, capture_output=True, text=True, timeout=60)
+    result = subprocess.run(
+        [PYTHON, "-m", "sim.engine", "--csv", str(source), "--log", str(tmp_path / "o.csv")],
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert result.returncode == 2
     assert "unknown joint column(s) ['elbow']" in result.stderr
 
@@ -235,8 +259,11 @@ def test_render_writes_an_animation_of_the_replay_or_names_a_bad_file_name(tmp_p
     from PIL import Image
 
     times, positions = sine_rows(IGT, IGT.joint_names, 2.0, 0.02)
-    source = write_csv(tmp_path / "in.csv", ["time", *IGT.joint_names],
-                       [[f"{t:.6f}", *map(str, row)] for t, row in zip(times, positions)])
+    source = write_csv(
+        tmp_path / "in.csv",
+        ["time", *IGT.joint_names],
+        [[f"{t:.6f}", *map(str, row)] for t, row in zip(times, positions)],
+    )
     animation = tmp_path / "motion.gif"
     replay(tmp_path, source, "--robot", "igt", "--render", str(animation))
     with Image.open(animation) as gif:

@@ -1,4 +1,5 @@
 """ROS FLU ↔ Unity RUF conversions and the quaternion / Euler / matrix helpers."""
+
 import math
 
 import numpy as np
@@ -64,7 +65,9 @@ def test_a_rotation_applied_in_ros_equals_the_converted_rotation_applied_in_unit
         rotated_then_converted = ros_to_unity_point(quat_to_matrix(q_ros) @ p_ros)
         converted_then_rotated = quat_to_matrix(ros_to_unity_quat(q_ros)) @ ros_to_unity_point(p_ros)
         np.testing.assert_allclose(converted_then_rotated, rotated_then_converted, atol=1e-12)
-        np.testing.assert_allclose(quat_to_matrix(ros_to_unity_quat(q_ros)), ros_to_unity_matrix(quat_to_matrix(q_ros)), atol=1e-12)
+        np.testing.assert_allclose(
+            quat_to_matrix(ros_to_unity_quat(q_ros)), ros_to_unity_matrix(quat_to_matrix(q_ros)), atol=1e-12
+        )
 
 
 def test_ros_yaw_left_is_a_unity_turn_about_up_that_keeps_handedness_semantics():
@@ -93,7 +96,9 @@ def test_euler_at_gimbal_lock_still_reproduces_the_rotation():
 
 
 def test_matrix_and_quaternion_round_trip_including_half_turns():
-    quats = list(_random_quats(300)) + [np.array(v, float) for v in ([1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1])]
+    quats = list(_random_quats(300)) + [
+        np.array(v, float) for v in ([1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1])
+    ]
     for q in quats:
         q = q if q[3] >= 0 else -q
         back = matrix_to_quat(quat_to_matrix(q))

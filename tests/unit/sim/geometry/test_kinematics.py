@@ -1,4 +1,5 @@
 """URDF kinematics against pybullet and Franka's DH table, the Jacobian against finite differences, and IK."""
+
 import math
 
 import numpy as np
@@ -17,7 +18,6 @@ from sim.geometry.kinematics import (
     solve_path_ik,
 )
 from sim.robots import load_robot
-
 
 # Franka Emika Panda, modified (Craig) DH parameters as published by Franka: (a_{i-1}, d_i, alpha_{i-1}).
 PANDA_DH = (
@@ -51,6 +51,7 @@ def panda_dh_fk(q: np.ndarray) -> np.ndarray:
         )
         pose = pose @ link
     return pose
+
 
 POS_TOL, ROT_TOL = 1e-6, 1e-5  # m, rad: the issue's agreement bounds
 N_CONFIGS = 500
@@ -297,7 +298,9 @@ def test_bad_inputs_are_rejected_naming_the_value():
 
 
 def test_pose_matrix_from_quaternion_or_rpy():
-    np.testing.assert_allclose(pose_matrix((1, 2, 3), rpy=(0, 0, math.pi / 2))[:3, :3], [[0, -1, 0], [1, 0, 0], [0, 0, 1]], atol=1e-12)
+    np.testing.assert_allclose(
+        pose_matrix((1, 2, 3), rpy=(0, 0, math.pi / 2))[:3, :3], [[0, -1, 0], [1, 0, 0], [0, 0, 1]], atol=1e-12
+    )
     np.testing.assert_allclose(pose_matrix((1, 2, 3), quat_xyzw=(0, 0, 1, 0))[:3, :3], np.diag([-1, -1, 1]), atol=1e-12)
     assert pose_matrix((1, 2, 3))[:3, 3].tolist() == [1, 2, 3]
     with pytest.raises(KinematicsError, match="not both"):

@@ -1,4 +1,5 @@
 """Piecewise polynomial trajectories: waypoints hit exactly, boundary conditions, derivatives, validation."""
+
 import numpy as np
 import pytest
 

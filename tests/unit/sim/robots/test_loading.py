@@ -1,5 +1,6 @@
 """sim.robots: a robot is its URDF plus optional overrides; everything else is derived, and bad robots are one
 clear RobotError naming the file and the value."""
+
 from __future__ import annotations
 
 import argparse
@@ -21,16 +22,30 @@ def urdf(body: str, name: str = "probe") -> str:
 
 
 def link(name: str, mass: float | None = 1.0) -> str:
-    inertial = "" if mass is None else (f'<inertial><mass value="{mass}"/><inertia ixx="0.01" ixy="0" ixz="0" '
-                                        f'iyy="0.01" iyz="0" izz="0.01"/></inertial>')
+    inertial = (
+        ""
+        if mass is None
+        else (
+            f'<inertial><mass value="{mass}"/><inertia ixx="0.01" ixy="0" ixz="0" '
+            f'iyy="0.01" iyz="0" izz="0.01"/></inertial>'
+        )
+    )
     return f'<link name="{name}">{inertial}</link>'
 
 
-def joint(name: str, kind: str, parent: str, child: str, limit: str = 'lower="-1" upper="1" velocity="1" effort="10"',
-          axis: str = "0 0 1") -> str:
+def joint(
+    name: str,
+    kind: str,
+    parent: str,
+    child: str,
+    limit: str = 'lower="-1" upper="1" velocity="1" effort="10"',
+    axis: str = "0 0 1",
+) -> str:
     limit_tag = f"<limit {limit}/>" if limit else ""
-    return (f'<joint name="{name}" type="{kind}"><parent link="{parent}"/><child link="{child}"/>'
-            f'<origin xyz="0 0 0.1" rpy="0 0 0"/><axis xyz="{axis}"/>{limit_tag}</joint>')
+    return (
+        f'<joint name="{name}" type="{kind}"><parent link="{parent}"/><child link="{child}"/>'
+        f'<origin xyz="0 0 0.1" rpy="0 0 0"/><axis xyz="{axis}"/>{limit_tag}</joint>'
+    )
 
 
 def write(tmp_path: Path, text: str, name: str = "arm.urdf") -> Path:
@@ -40,8 +55,16 @@ def write(tmp_path: Path, text: str, name: str = "arm.urdf") -> Path:
 
 
 def two_link(tmp_path: Path, **joint_options: str) -> Path:
-    return write(tmp_path, urdf(link("base") + link("a") + link("b") + joint("j1", "revolute", "base", "a")
-                                + joint("j2", "revolute", "a", "b", **joint_options)))
+    return write(
+        tmp_path,
+        urdf(
+            link("base")
+            + link("a")
+            + link("b")
+            + joint("j1", "revolute", "base", "a")
+            + joint("j2", "revolute", "a", "b", **joint_options)
+        ),
+    )
 
 
 # ------------------------------------------------------------------------------------------- named robots
@@ -88,8 +111,9 @@ def test_a_gripper_makes_the_end_effector_ambiguous_until_the_yaml_beside_the_ur
     assert arm.ee_link == "tool_tip" and arm.joint_names == ("lift", "shoulder", "elbow", "wrist")
     assert arm.joint_types == ("prismatic", "revolute", "revolute", "continuous")
     alone = shutil.copy(LIFT_ARM, tmp_path / "lift_arm.urdf")
-    with pytest.raises(RobotError, match="end effector of robot 'lift_arm' is ambiguous.*left_finger, right_finger.*"
-                                         "--ee-link"):
+    with pytest.raises(
+        RobotError, match="end effector of robot 'lift_arm' is ambiguous.*left_finger, right_finger.*--ee-link"
+    ):
         load_robot(str(alone))
     assert load_robot(str(alone), ee_link="left_finger").joint_names[-1] == "left_finger_joint"
 
@@ -128,8 +152,11 @@ def test_command_line_overrides_win_over_the_yaml_and_round_trip_through_cli_arg
 
 def test_a_robot_yaml_can_name_its_urdf(tmp_path):
     shutil.copy(LIFT_ARM, tmp_path / "arm_model.urdf")
-    yaml_path = write(tmp_path, "urdf: arm_model.urdf\nname: lifter\nee_link: hand\n"
-                                "limits:\n  lift: {upper: 0.4, velocity: 0.2}\n", "lifter.yaml")
+    yaml_path = write(
+        tmp_path,
+        "urdf: arm_model.urdf\nname: lifter\nee_link: hand\nlimits:\n  lift: {upper: 0.4, velocity: 0.2}\n",
+        "lifter.yaml",
+    )
     robot = load_robot(str(yaml_path))
     assert (robot.name, robot.ee_link, robot.upper[0], robot.max_velocity[0]) == ("lifter", "hand", 0.4, 0.2)
     assert robot.cli_args == ("--robot", str(yaml_path.resolve()))
@@ -146,25 +173,51 @@ BAD_URDFS = [
     ('<?xml version="1.0"?><sdf/>', "root element is <sdf>, not <robot>"),
     (urdf(link("base")), "has no moving joint"),
     (urdf(link("base") + link("a") + joint("j", "fixed", "base", "a")), "has no moving joint"),
-    (urdf(link("world") + link("body") + joint("free", "floating", "world", "body")
-          + link("a") + joint("j", "revolute", "body", "a")), "joint 'free' is floating, which a position drive cannot"),
+    (
+        urdf(
+            link("world")
+            + link("body")
+            + joint("free", "floating", "world", "body")
+            + link("a")
+            + joint("j", "revolute", "body", "a")
+        ),
+        "joint 'free' is floating, which a position drive cannot",
+    ),
     (urdf(link("base") + link("a") + joint("j", "screw", "base", "a")), "type 'screw'"),
     (urdf(link("base") + link("a") + joint("j", "revolute", "base", "nowhere")), "names link 'nowhere'"),
     (urdf(link("base") + link("a") + joint("j", "revolute", "base", "a", axis="0 0 0")), "zero axis"),
-    (urdf(link("base") + link("a") + joint("j", "revolute", "base", "a", limit='lower="x"')), "lower='x' is not a number"),
-    (urdf(link("base") + link("a") + link("b") + joint("j1", "revolute", "base", "a")
-          + joint("j2", "revolute", "a", "b") + joint("j3", "revolute", "b", "a")), "child of two joints"),
-    (urdf(link("r") + link("a") + link("b") + joint("j1", "revolute", "a", "b") + joint("j2", "revolute", "b", "a")),
-     "in a cycle|exactly one root"),
-    (urdf(link("base") + link("a") + joint("j", "revolute", "base", "a", limit='lower="1" upper="-1"')),
-     "lower above upper"),
+    (
+        urdf(link("base") + link("a") + joint("j", "revolute", "base", "a", limit='lower="x"')),
+        "lower='x' is not a number",
+    ),
+    (
+        urdf(
+            link("base")
+            + link("a")
+            + link("b")
+            + joint("j1", "revolute", "base", "a")
+            + joint("j2", "revolute", "a", "b")
+            + joint("j3", "revolute", "b", "a")
+        ),
+        "child of two joints",
+    ),
+    (
+        urdf(link("r") + link("a") + link("b") + joint("j1", "revolute", "a", "b") + joint("j2", "revolute", "b", "a")),
+        "in a cycle|exactly one root",
+    ),
+    (
+        urdf(link("base") + link("a") + joint("j", "revolute", "base", "a", limit='lower="1" upper="-1"')),
+        "lower above upper",
+    ),
 ]
 
 
 def test_a_urdf_with_a_byte_order_mark_or_a_default_namespace_is_still_a_urdf(tmp_path):
     body = link("base") + link("a") + joint("j", "revolute", "base", "a")
-    for text in ("\ufeff" + urdf(body), urdf(body).replace('<robot name="probe">',
-                                                            '<robot xmlns="http://www.ros.org" name="probe">')):
+    for text in (
+        "\ufeff" + urdf(body),
+        urdf(body).replace('<robot name="probe">', '<robot xmlns="http://www.ros.org" name="probe">'),
+    ):
         assert load_robot(str(write(tmp_path, text))).joint_names == ("j",)
 
 
@@ -176,20 +229,23 @@ def test_a_bad_urdf_is_one_clear_error_naming_the_file(tmp_path, text, message):
     assert str(path) in str(error.value)
 
 
-@pytest.mark.parametrize("yaml_text, message", [
-    ("ee_link: [1]\n", "ee_link must be a non-empty string"),
-    ("colour: red\n", r"unknown key\(s\) \['colour'\]"),
-    ("home: [0.1]\n", "home needs 2 finite numbers"),
-    ("home: [0.0, 5.0]\n", "outside the limits of j2"),
-    ("ee_link: nowhere\n", "no link 'nowhere' for the end effector"),
-    ("limits:\n  j9: {upper: 1}\n", "joint 'j9', which is not a controlled joint"),
-    ("limits:\n  j1: {top: 1}\n", "limit 'top' is not one of"),
-    ("limits:\n  j1: {lower: 2}\n", "lower < upper"),
-    ("scenarios:\n  trial: {centres: [0.1], amplitudes: [0.1, 0.1]}\n", "trial.centres needs 2 numbers"),
-    ("scenarios:\n  dance: {}\n", "unknown scenario default 'dance'"),
-    ("urdf: other.urdf\n", "names URDF .*other.urdf, but"),
-    ("{: bad\n", "is not valid YAML"),
-])
+@pytest.mark.parametrize(
+    "yaml_text, message",
+    [
+        ("ee_link: [1]\n", "ee_link must be a non-empty string"),
+        ("colour: red\n", r"unknown key\(s\) \['colour'\]"),
+        ("home: [0.1]\n", "home needs 2 finite numbers"),
+        ("home: [0.0, 5.0]\n", "outside the limits of j2"),
+        ("ee_link: nowhere\n", "no link 'nowhere' for the end effector"),
+        ("limits:\n  j9: {upper: 1}\n", "joint 'j9', which is not a controlled joint"),
+        ("limits:\n  j1: {top: 1}\n", "limit 'top' is not one of"),
+        ("limits:\n  j1: {lower: 2}\n", "lower < upper"),
+        ("scenarios:\n  trial: {centres: [0.1], amplitudes: [0.1, 0.1]}\n", "trial.centres needs 2 numbers"),
+        ("scenarios:\n  dance: {}\n", "unknown scenario default 'dance'"),
+        ("urdf: other.urdf\n", "names URDF .*other.urdf, but"),
+        ("{: bad\n", "is not valid YAML"),
+    ],
+)
 def test_a_bad_robot_yaml_is_one_clear_error(tmp_path, yaml_text, message):
     path = two_link(tmp_path)
     write(tmp_path, yaml_text, "arm.yaml")
@@ -197,12 +253,15 @@ def test_a_bad_robot_yaml_is_one_clear_error(tmp_path, yaml_text, message):
         load_robot(str(path))
 
 
-@pytest.mark.parametrize("reference, message", [
-    ("nobody", "unknown robot 'nobody': give a URDF path"),
-    ("/no/such/arm.urdf", "URDF not found: /no/such/arm.urdf"),
-    ("/no/such/arm.yaml", "robot YAML not found"),
-    ("arm.urdf.xacro", "is a xacro file; expand it first"),
-])
+@pytest.mark.parametrize(
+    "reference, message",
+    [
+        ("nobody", "unknown robot 'nobody': give a URDF path"),
+        ("/no/such/arm.urdf", "URDF not found: /no/such/arm.urdf"),
+        ("/no/such/arm.yaml", "robot YAML not found"),
+        ("arm.urdf.xacro", "is a xacro file; expand it first"),
+    ],
+)
 def test_a_missing_or_unknown_robot_is_named(reference, message):
     with pytest.raises(RobotError, match=message):
         load_robot(reference)

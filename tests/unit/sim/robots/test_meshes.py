@@ -1,5 +1,6 @@
 """sim.robots.meshes: the files a URDF's shapes name are found as ROS finds them, and a robot whose meshes are
 nowhere still loads into the physics (which needs only <inertial>)."""
+
 from __future__ import annotations
 
 import shutil

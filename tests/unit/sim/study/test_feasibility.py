@@ -1,5 +1,6 @@
 """sim.study.feasibility: every path of the library is made joint motion that follows it, keeps the limits, touches
 nothing and reaches its stand-off in the bundled scene; a combination that cannot be run says why."""
+
 from __future__ import annotations
 
 import copy

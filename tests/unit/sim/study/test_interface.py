@@ -1,4 +1,5 @@
 """sim.study.interface: the trial status a VR client reads, and the answers it may give."""
+
 from __future__ import annotations
 
 import json
@@ -18,8 +19,21 @@ from sim.study.interface import (
 
 
 def test_a_status_survives_json_and_absent_numbers_are_null() -> None:
-    status = TrialStatus(3, 7, 38, "preference", "vr", 2, "straight", 0.02, 0.3, "fast", 2, 12.5,
-                         ("straight", "lateral_arc", "over_the_top"))
+    status = TrialStatus(
+        3,
+        7,
+        38,
+        "preference",
+        "vr",
+        2,
+        "straight",
+        0.02,
+        0.3,
+        "fast",
+        2,
+        12.5,
+        ("straight", "lateral_arc", "over_the_top"),
+    )
     assert status_from_json(status_to_json(status)) == status
     waiting = TrialStatus(3, 1, 38, "ready", "reality", 1, "vertical", 0.1, 0.15)
     data = json.loads(status_to_json(waiting))
@@ -28,11 +42,14 @@ def test_a_status_survives_json_and_absent_numbers_are_null() -> None:
     assert math.isnan(back.motion_start) and back.group_paths == ()
 
 
-@pytest.mark.parametrize("text, problem", [
-    ("{", "not JSON"),
-    ('{"participant": 1}', "exactly"),
-    (status_to_json(TrialStatus(1, 1, 2, "ready")).replace('"ready"', '"dancing"'), "unknown trial phase"),
-])
+@pytest.mark.parametrize(
+    "text, problem",
+    [
+        ("{", "not JSON"),
+        ('{"participant": 1}', "exactly"),
+        (status_to_json(TrialStatus(1, 1, 2, "ready")).replace('"ready"', '"dancing"'), "unknown trial phase"),
+    ],
+)
 def test_a_malformed_status_is_a_study_error(text: str, problem: str) -> None:
     with pytest.raises(StudyError, match=problem):
         status_from_json(text)
@@ -51,18 +68,21 @@ def test_answers_are_checked() -> None:
             chosen_path(bad, group)
 
 
-@pytest.mark.parametrize("line, phase, kind, value", [
-    ("\n", "ready", "go", None),
-    ("s\n", "moving", "stop", None),
-    ("STOP", "moving", "stop", None),
-    ("0.12", "distance", "distance", 0.12),
-    ("0.12 m", "distance", "distance", 0.12),
-    ("12 cm\n", "distance", "distance", 0.12),
-    ("2", "preference", "preference", "2"),
-    ("lateral_arc", "preference", "preference", "lateral_arc"),
-    ("near", "distance", "unknown", "not a distance"),
-    ("2", "moving", "unknown", "means nothing in phase moving"),
-])
+@pytest.mark.parametrize(
+    "line, phase, kind, value",
+    [
+        ("\n", "ready", "go", None),
+        ("s\n", "moving", "stop", None),
+        ("STOP", "moving", "stop", None),
+        ("0.12", "distance", "distance", 0.12),
+        ("0.12 m", "distance", "distance", 0.12),
+        ("12 cm\n", "distance", "distance", 0.12),
+        ("2", "preference", "preference", "2"),
+        ("lateral_arc", "preference", "preference", "lateral_arc"),
+        ("near", "distance", "unknown", "not a distance"),
+        ("2", "moving", "unknown", "means nothing in phase moving"),
+    ],
+)
 def test_the_observers_keyboard_lines_are_read_in_their_phase(line: str, phase: str, kind: str, value) -> None:
     typed = observer_input(line, phase)
     assert typed.kind == kind

@@ -1,5 +1,6 @@
 """sim.study.participant_model: traits are reproducible and spread as the population says; judgements carry the
 known bias; the press threshold and the preference follow the traits."""
+
 from __future__ import annotations
 
 import numpy as np

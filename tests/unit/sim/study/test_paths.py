@@ -1,5 +1,6 @@
 """sim.study's scene and path library, pure: every path ends at its stand-off, never comes closer on the way, starts
 and ends at rest, peaks at the requested speed, stays above the table; bad input is one StudyError naming it."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -14,9 +15,13 @@ STANDOFFS = (ON_TOP, 0.05, 0.15, MAX_STANDOFF)
 
 
 def scene_data() -> dict:
-    return {"robot": "panda", "base": {"xyz": [0, 0, 0], "rpy": [0, 0, 0]},
-            "table": {"size": [1.4, 1.0, 0.05], "xyz": [0.4, 0, -0.025]},
-            "hand": {"size": [0.19, 0.09, 0.035], "xyz": [0.55, 0, 0.0175]}, "seat": {"xyz": [0.55, -0.65, 0.45]}}
+    return {
+        "robot": "panda",
+        "base": {"xyz": [0, 0, 0], "rpy": [0, 0, 0]},
+        "table": {"size": [1.4, 1.0, 0.05], "xyz": [0.4, 0, -0.025]},
+        "hand": {"size": [0.19, 0.09, 0.035], "xyz": [0.55, 0, 0.0175]},
+        "seat": {"xyz": [0.55, -0.65, 0.45]},
+    }
 
 
 def test_the_bundled_scene_has_the_hand_resting_on_the_table_in_front_of_the_robot():
@@ -68,27 +73,33 @@ def test_the_end_point_is_found_along_any_direction():
         assert SCENE.hand.distance(point) == pytest.approx(0.07, abs=1e-9)
 
 
-@pytest.mark.parametrize("args, message", [
-    (("zigzag", 0.1, 0.2), "unknown path 'zigzag'; known paths: straight, vertical"),
-    (("straight", 0.5, 0.2), "stand-off must be 0.01..0.3 m, got 0.5"),
-    (("straight", float("nan"), 0.2), "stand-off must be"),
-    (("straight", 0.1, 0.0), "peak speed must be > 0"),
-    (("straight", 0.1, 2.0), "at most 1 m/s"),
-])
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (("zigzag", 0.1, 0.2), "unknown path 'zigzag'; known paths: straight, vertical"),
+        (("straight", 0.5, 0.2), "stand-off must be 0.01..0.3 m, got 0.5"),
+        (("straight", float("nan"), 0.2), "stand-off must be"),
+        (("straight", 0.1, 0.0), "peak speed must be > 0"),
+        (("straight", 0.1, 2.0), "at most 1 m/s"),
+    ],
+)
 def test_bad_path_requests_are_named(args, message):
     with pytest.raises(StudyError, match=message):
         approach_path(SCENE, *args)
 
 
-@pytest.mark.parametrize("change, message", [
-    (lambda d: d.pop("hand"), r"missing key\(s\) \['hand'\]"),
-    (lambda d: d.update(lamp={}), r"unknown key\(s\) \['lamp'\]"),
-    (lambda d: d["hand"].update(xyz=[0.55, 0, 0.2]), "the hand must rest on the table"),
-    (lambda d: d["table"].update(size=[1, -1, 0.05]), "table.size must be > 0"),
-    (lambda d: d["hand"].update(xyz=[0.5, "x", 0.0]), "hand.xyz must be 3 finite numbers"),
-    (lambda d: d["hand"].update(colour="pink"), r"hand has unknown key\(s\) \['colour'\]"),
-    (lambda d: d.update(robot=""), "robot must be a robot name or a URDF path"),
-])
+@pytest.mark.parametrize(
+    "change, message",
+    [
+        (lambda d: d.pop("hand"), r"missing key\(s\) \['hand'\]"),
+        (lambda d: d.update(lamp={}), r"unknown key\(s\) \['lamp'\]"),
+        (lambda d: d["hand"].update(xyz=[0.55, 0, 0.2]), "the hand must rest on the table"),
+        (lambda d: d["table"].update(size=[1, -1, 0.05]), "table.size must be > 0"),
+        (lambda d: d["hand"].update(xyz=[0.5, "x", 0.0]), "hand.xyz must be 3 finite numbers"),
+        (lambda d: d["hand"].update(colour="pink"), r"hand has unknown key\(s\) \['colour'\]"),
+        (lambda d: d.update(robot=""), "robot must be a robot name or a URDF path"),
+    ],
+)
 def test_a_bad_scene_is_one_clear_error(change, message):
     data = scene_data()
     change(data)

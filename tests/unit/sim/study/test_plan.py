@@ -1,5 +1,6 @@
 """sim.study.design and sim.study.plan: the session plan has the proposal's 38 trials, balanced and randomised as it
 says, reproducible from the seed, round-trips through YAML; bad designs and malformed plans are one StudyError."""
+
 from __future__ import annotations
 
 import copy
@@ -70,28 +71,34 @@ def malformed(change):
     return data
 
 
-@pytest.mark.parametrize("change, message", [
-    (lambda d: d.pop("seed"), "must have exactly participant, seed, conditions, trials"),
-    (lambda d: d["trials"][3].update(path="zigzag"), "trial 4: path 'zigzag' is not one of"),
-    (lambda d: d["trials"][0].update(index=7), "trial 1: index 7 where 1 comes"),
-    (lambda d: d["trials"][5].update(condition="VR"), "trial 6: condition 'VR' is not one of vr, reality"),
-    (lambda d: d["trials"][2].update(standoff=0.9), "trial 3: stand-off 0.9 is not"),
-    (lambda d: d["trials"][2].pop("peak_speed"), "trial 3 must have exactly"),
-    (lambda d: d.update(participant=0), "participant must be an integer >= 1"),
-    (lambda d: d.update(trials=[]), "trials must be a non-empty list"),
-])
+@pytest.mark.parametrize(
+    "change, message",
+    [
+        (lambda d: d.pop("seed"), "must have exactly participant, seed, conditions, trials"),
+        (lambda d: d["trials"][3].update(path="zigzag"), "trial 4: path 'zigzag' is not one of"),
+        (lambda d: d["trials"][0].update(index=7), "trial 1: index 7 where 1 comes"),
+        (lambda d: d["trials"][5].update(condition="VR"), "trial 6: condition 'VR' is not one of vr, reality"),
+        (lambda d: d["trials"][2].update(standoff=0.9), "trial 3: stand-off 0.9 is not"),
+        (lambda d: d["trials"][2].pop("peak_speed"), "trial 3 must have exactly"),
+        (lambda d: d.update(participant=0), "participant must be an integer >= 1"),
+        (lambda d: d.update(trials=[]), "trials must be a non-empty list"),
+    ],
+)
 def test_a_malformed_plan_is_one_clear_error(change, message):
     with pytest.raises(StudyError, match=message):
         plan_from_data(malformed(change))
 
 
-@pytest.mark.parametrize("change, message", [
-    (lambda d: d["test1"].update(paths=["straight", "spiral"]), r"unknown path\(s\) \['spiral'\]"),
-    (lambda d: d["test1"].update(standoffs=[0.1, 0.1]), "distinct stand-offs"),
-    (lambda d: d["test2"]["speed_sets"].update(slow=0.0), "speed_sets.slow must be a speed in"),
-    (lambda d: d.update(test3={}), "must have exactly test1 and test2"),
-    (lambda d: d["test2"].pop("paths"), "test2 must have exactly paths, speed_sets"),
-])
+@pytest.mark.parametrize(
+    "change, message",
+    [
+        (lambda d: d["test1"].update(paths=["straight", "spiral"]), r"unknown path\(s\) \['spiral'\]"),
+        (lambda d: d["test1"].update(standoffs=[0.1, 0.1]), "distinct stand-offs"),
+        (lambda d: d["test2"]["speed_sets"].update(slow=0.0), "speed_sets.slow must be a speed in"),
+        (lambda d: d.update(test3={}), "must have exactly test1 and test2"),
+        (lambda d: d["test2"].pop("paths"), "test2 must have exactly paths, speed_sets"),
+    ],
+)
 def test_a_bad_design_is_one_clear_error(change, message):
     data = copy.deepcopy(yaml.safe_load(DEFAULT_DESIGN.read_text()))
     change(data)

@@ -1,4 +1,5 @@
 """The runner's inputs (sim.study.runner.Inputs): presses by their stamps, answers in order, waits bounded."""
+
 from __future__ import annotations
 
 import threading

@@ -1,4 +1,5 @@
 """sim.study.statistics against known data and scipy's own tests."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -45,11 +46,14 @@ def test_identical_samples_and_constant_differences_are_handled():
     assert shifted.ci_low == shifted.ci_high == 1.0 and shifted.t_p == 0.0
 
 
-@pytest.mark.parametrize("a, b, message", [
-    ([1.0], [2.0], "at least 2 pairs"),
-    ([1.0, 2.0], [1.0], "equally long"),
-    ([1.0, float("nan")], [1.0, 2.0], "finite"),
-])
+@pytest.mark.parametrize(
+    "a, b, message",
+    [
+        ([1.0], [2.0], "at least 2 pairs"),
+        ([1.0, 2.0], [1.0], "equally long"),
+        ([1.0, float("nan")], [1.0, 2.0], "finite"),
+    ],
+)
 def test_bad_samples_are_named(a, b, message):
     with pytest.raises(StudyError, match=message):
         paired_comparison(a, b)

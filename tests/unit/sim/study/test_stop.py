@@ -1,5 +1,6 @@
 """sim.study.stop: a press stops the robot along its path within the stated deceleration, never ahead of the plan and
 never jumping; the distances at the press and at rest follow."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -18,7 +19,7 @@ JOINTS = np.column_stack([np.linspace(0.0, 1.0, len(PATH.times)), np.linspace(0.
 def test_a_press_at_full_speed_brakes_within_the_limit_along_the_path():
     press = PATH.duration / 2  # the peak of the minimum-jerk profile
     stopped = stop_motion(PATH, JOINTS, press)
-    assert stopped.braking_distance == pytest.approx(0.3 ** 2 / (2 * STOP_DECELERATION), rel=0.01)
+    assert stopped.braking_distance == pytest.approx(0.3**2 / (2 * STOP_DECELERATION), rel=0.01)
     assert stopped.rest_time == pytest.approx(press + 0.3 / STOP_DECELERATION, rel=0.01)
     speeds = np.diff(stopped.arc) / PATH.dt
     after = stopped.times[1:] > press + PATH.dt
@@ -47,11 +48,14 @@ def test_a_press_late_in_the_plan_rests_where_the_plan_ends_and_one_at_rest_stop
     assert at_start.rest_arc == 0.0 and at_start.braking_distance == 0.0
 
 
-@pytest.mark.parametrize("press, deceleration, message", [
-    (-1.0, 1.0, "press time must be >= 0"),
-    (float("nan"), 1.0, "press time"),
-    (1.0, 0.0, "deceleration must be > 0"),
-])
+@pytest.mark.parametrize(
+    "press, deceleration, message",
+    [
+        (-1.0, 1.0, "press time must be >= 0"),
+        (float("nan"), 1.0, "press time"),
+        (1.0, 0.0, "deceleration must be > 0"),
+    ],
+)
 def test_bad_stop_inputs_are_named(press, deceleration, message):
     with pytest.raises(StudyError, match=message):
         stop_motion(PATH, JOINTS, press, deceleration)

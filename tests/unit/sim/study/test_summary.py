@@ -1,4 +1,5 @@
 """sim.study.summary on records whose truth is known: the biases put in come out, within their intervals."""
+
 from __future__ import annotations
 
 import math
@@ -25,20 +26,65 @@ def session(participant: int, population: Population, seed: int = 5) -> list[Tri
     rows = []
     for position, condition in enumerate(("vr", "reality"), start=1):
         for standoff in STANDOFFS:
-            rows.append(TrialRecord(participant, len(rows) + 1, condition, position, 1, "straight", standoff, 0.15, "",
-                                    0, 0.0, False, math.nan, "", 0.0, math.nan, standoff, math.nan, 0.0,
-                                    perceived_distance(traits, condition, standoff, rng), ""))
+            rows.append(
+                TrialRecord(
+                    participant,
+                    len(rows) + 1,
+                    condition,
+                    position,
+                    1,
+                    "straight",
+                    standoff,
+                    0.15,
+                    "",
+                    0,
+                    0.0,
+                    False,
+                    math.nan,
+                    "",
+                    0.0,
+                    math.nan,
+                    standoff,
+                    math.nan,
+                    0.0,
+                    perceived_distance(traits, condition, standoff, rng),
+                    "",
+                )
+            )
         for group, (name, speed) in enumerate(SPEED_SETS, start=1):
             preferred = min(PATHS, key=traits.ranking.index)
             for path in PATHS:
                 at_press = comfort_threshold(traits, condition)
-                rows.append(TrialRecord(participant, len(rows) + 1, condition, position, 2, path, 0.02, speed, name,
-                                        group, 0.0, True, 2.0, "button", 0.0, at_press, at_press - 0.01,
-                                        at_press + 0.0005, 0.01, math.nan, preferred))
+                rows.append(
+                    TrialRecord(
+                        participant,
+                        len(rows) + 1,
+                        condition,
+                        position,
+                        2,
+                        path,
+                        0.02,
+                        speed,
+                        name,
+                        group,
+                        0.0,
+                        True,
+                        2.0,
+                        "button",
+                        0.0,
+                        at_press,
+                        at_press - 0.01,
+                        at_press + 0.0005,
+                        0.01,
+                        math.nan,
+                        preferred,
+                    )
+                )
     return rows
 
 
-def study(participants: int = 12, population: Population = Population()) -> list[TrialRecord]:
+def study(participants: int = 12, population: Population | None = None) -> list[TrialRecord]:
+    population = population if population is not None else Population()
     return [row for number in range(1, participants + 1) for row in session(number, population)]
 
 

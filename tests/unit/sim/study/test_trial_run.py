@@ -1,6 +1,7 @@
 """sim.study.trial_run driven against the physics in lockstep, as the runner node will drive it: without a press the
 robot rests at the planned stand-off; a press brakes it along the path, and the distances at the press, at rest and
 by the thesis's extrapolation are what the motion shows."""
+
 from __future__ import annotations
 
 import math
@@ -53,9 +54,8 @@ def test_a_press_brakes_along_the_path_and_the_distances_tell_it(planned):
     measures = trial.measures()
     assert measures.pressed and 0.14 < measures.distance_at_press < 0.15
     # straight down onto the hand: the distance shrinks by exactly the braking distance, v² / (2a)
-    assert measures.distance_at_press - measures.distance_at_rest == pytest.approx(measures.braking_distance,
-                                                                                    abs=1e-3)
-    assert measures.braking_distance <= 0.2 ** 2 / (2 * STOP_DECELERATION) + 1e-9
+    assert measures.distance_at_press - measures.distance_at_rest == pytest.approx(measures.braking_distance, abs=1e-3)
+    assert measures.braking_distance <= 0.2**2 / (2 * STOP_DECELERATION) + 1e-9
     assert measures.distance_at_rest > ON_TOP + 0.1  # stopped well before the plan's end
     assert measures.distance_extrapolated == pytest.approx(measures.distance_at_press, abs=1e-3)
 

@@ -1,4 +1,5 @@
 """sim.wire.contract: the engine-controller rules every side keeps."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -27,12 +28,15 @@ def test_a_quaternion_is_normalised_on_the_way_in():
     np.testing.assert_allclose(PoseConvention.QUATERNION.decode([0.0, 0.0, 0.0, 3.0]), [0.0, 0.0, 0.0, 1.0])
 
 
-@pytest.mark.parametrize("convention, fields, why", [
-    (PoseConvention.QUATERNION, [0.0, 0.0, 0.0, 0.0], "not a quaternion"),
-    (PoseConvention.QUATERNION, [np.nan, 0.0, 0.0, 1.0], "not 4 finite numbers"),
-    (PoseConvention.EULER, [np.inf, 0.0, 0.0, 0.0], "not 4 finite numbers"),
-    (PoseConvention.EULER, [0.0, 0.0, 0.0], "not 4 finite numbers"),
-])
+@pytest.mark.parametrize(
+    "convention, fields, why",
+    [
+        (PoseConvention.QUATERNION, [0.0, 0.0, 0.0, 0.0], "not a quaternion"),
+        (PoseConvention.QUATERNION, [np.nan, 0.0, 0.0, 1.0], "not 4 finite numbers"),
+        (PoseConvention.EULER, [np.inf, 0.0, 0.0, 0.0], "not 4 finite numbers"),
+        (PoseConvention.EULER, [0.0, 0.0, 0.0], "not 4 finite numbers"),
+    ],
+)
 def test_fields_that_carry_no_orientation_are_a_message_error(convention, fields, why):
     with pytest.raises(MessageError, match=why):
         convention.decode(fields)
@@ -56,8 +60,10 @@ def test_message_errors_are_sim_errors_and_value_errors():
 def test_the_commanders_old_pose_flag_still_works_with_a_deprecation_warning(capsys):
     old = commander_parser().parse_args(["--robot", "panda", "--scenario", "trial", "--pose-euler"])
     assert old.pose_convention == "euler"
-    assert capsys.readouterr().err == \
-        "python -m sim.commander: warning: --pose-euler is deprecated; use --pose-convention euler\n"
+    assert (
+        capsys.readouterr().err
+        == "python -m sim.commander: warning: --pose-euler is deprecated; use --pose-convention euler\n"
+    )
     new = commander_parser().parse_args(["--robot", "panda", "--scenario", "trial", "--pose-convention", "euler"])
     default = commander_parser().parse_args(["--robot", "panda", "--scenario", "trial"])
     assert (new.pose_convention, default.pose_convention) == ("euler", "quaternion")

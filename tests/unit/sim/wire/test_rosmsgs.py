@@ -1,4 +1,5 @@
 """sim.wire.rosmsgs: joint states as the engine writes them, read back by name in a robot's joint order."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -8,8 +9,7 @@ from sim.wire.rosmsgs import MessageError, decode_joint_state, encode_joint_stat
 
 
 def test_a_joint_state_is_read_by_name_whatever_its_order_and_extra_joints() -> None:
-    data = encode_joint_state(3, 12.34, ["finger", "j2", "j1"], np.array([0.04, -0.5, 1.25]), np.zeros(3),
-                              np.zeros(3))
+    data = encode_joint_state(3, 12.34, ["finger", "j2", "j1"], np.array([0.04, -0.5, 1.25]), np.zeros(3), np.zeros(3))
     sample = decode_joint_state(data, ["j1", "j2"])
     assert sample.stamp_s == pytest.approx(12.34, abs=1e-9)
     assert sample.positions.tolist() == [1.25, -0.5]
