@@ -12,16 +12,16 @@ it started (by PID), whatever happens.
 from __future__ import annotations
 
 import argparse
-import logging
 import sys
 import time
 from pathlib import Path
 
 from sim.campaign import analysis
-from sim.campaign.trials import USE_CASES, Campaign, TrialError, UseCase
-from sim.control.scenarios import ScenarioError, build_motion
-from sim.processes import ProcessError
-from sim.robots import RobotError, add_robot_arguments, robot_from_args
+from sim.campaign.trials import USE_CASES, Campaign, UseCase
+from sim.control.scenarios import build_motion
+from sim.entry import EXIT_BAD_INPUT, EXIT_FAILED, EXIT_OK, fail, log_to_stderr
+from sim.errors import SimError
+from sim.robots import add_robot_arguments, robot_from_args
 
 __all__ = ["main"]
 
@@ -30,20 +30,22 @@ def _case(name: str) -> UseCase:
     return next(case for case in USE_CASES if case.name == name)
 
 
+PROG = "sim.demo"
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m sim.demo", description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=Path("results/demo"), help="where bags, report and plots go")
     parser.add_argument("--time-scale", type=float, default=4.0, help="speed-up of the wall-clock base case")
     add_robot_arguments(parser)
     args = parser.parse_args(argv)
-    logging.basicConfig(level=logging.WARNING, format="[%(levelname)s] [%(name)s] %(message)s")
+    log_to_stderr()
     try:
         robot = robot_from_args(args)
         for scenario in ("trial", "ik_cartesian"):  # bad input is found before anything starts
             goal = build_motion(robot, scenario).goal
-    except (RobotError, ScenarioError) as error:
-        print(f"demo: error: {error}", file=sys.stderr)
-        return 2
+    except SimError as error:
+        return fail(PROG, error, EXIT_BAD_INPUT)
     assert goal is not None
     out = args.out.resolve()
     campaign = Campaign(out, time_scale=args.time_scale)
@@ -55,9 +57,8 @@ def main(argv: list[str] | None = None) -> int:
         print("demo: 2/2 IK scenario (Cartesian line, IK of every sample, /clock-driven) ...", flush=True)
         ik = campaign.run_trial(robot, _case("auto_simulate_off"), 1, ("ik_cartesian",))
         ik.use_case = "ik_cartesian"
-    except (TrialError, ProcessError, TimeoutError, analysis.AnalysisError) as error:
-        print(f"demo: failed: {error}", file=sys.stderr)
-        return 1
+    except (SimError, TimeoutError) as error:
+        return fail(PROG, error, EXIT_FAILED)
     finally:
         campaign.close()
 
@@ -75,7 +76,7 @@ def main(argv: list[str] | None = None) -> int:
     for plot in sorted(out.glob("*.png")):
         print(f"plot:   {plot}")
     print(f"(end-effector path: {ee_plot.name})")
-    return 0 if lost == 0 else 1
+    return EXIT_OK if lost == 0 else EXIT_FAILED
 
 
 if __name__ == "__main__":

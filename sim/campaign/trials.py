@@ -30,14 +30,14 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from sim.campaign import analysis
-from sim.control.scenarios import ScenarioConfig, ScenarioError, build_motion
+from sim.control.scenarios import ScenarioConfig, build_motion
 from sim.engine.physics import Mode
+from sim.entry import EXIT_BAD_INPUT, EXIT_FAILED, EXIT_OK, fail, log_to_stderr
 from sim.errors import SimError
 from sim.processes import (
     PYTHON,
     EndpointProcess,
     ManagedProcess,
-    ProcessError,
     RosCore,
     plain_env,
     start_recorder,
@@ -415,27 +415,27 @@ def _parser() -> argparse.ArgumentParser:
     return parser
 
 
+PROG = "sim.trials"
+
+
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
-    logging.basicConfig(level=logging.WARNING, format="[%(levelname)s] [%(name)s] %(message)s")
+    log_to_stderr()
     if args.trials < 1 or args.time_scale <= 0:
-        print("sim.trials: error: --trials must be >= 1 and --time-scale > 0", file=sys.stderr)
-        return 2
+        return fail(PROG, "--trials must be >= 1 and --time-scale > 0", EXIT_BAD_INPUT)
     try:
         robots = load_robots(args.robots)
         for robot in robots:  # a robot whose trial path cannot be built is bad input, found before anything runs
             build_motion(robot, "trial", ScenarioConfig(dt=STEP_S))
-    except (RobotError, ScenarioError) as error:
-        print(f"sim.trials: error: {error}", file=sys.stderr)
-        return 2
+    except SimError as error:
+        return fail(PROG, error, EXIT_BAD_INPUT)
     started = time.monotonic()
     try:
         results, skipped = run_campaign(
             robots, args.use_cases, args.trials, args.out, args.time_scale, progress=not args.no_progress
         )
-    except (TrialError, ProcessError, TimeoutError, analysis.AnalysisError) as error:
-        print(f"sim.trials: error: {error}", file=sys.stderr)
-        return 1
+    except (SimError, TimeoutError) as error:
+        return fail(PROG, error, EXIT_FAILED)
     report = analysis.write_report(results, args.out, title="Tracking accuracy per use case")
     print(analysis.markdown_table(analysis.summary_rows(results)))
     for line in skipped:
@@ -443,7 +443,7 @@ def main(argv: list[str] | None = None) -> int:
     lost = sum(result.lost_messages for result in results)
     print(f"{len(results)} trials in {time.monotonic() - started:.0f} s; messages lost: {lost}")
     print(f"report: {report.resolve()}")
-    return 0
+    return EXIT_OK
 
 
 if __name__ == "__main__":

@@ -48,7 +48,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sim.cli_values import CliValueError, parse_numbers
+from sim.cli_values import parse_numbers
 from sim.control.driver import DriverError, ReceivedJointState, RobotDriver
 from sim.control.run_log import RunResult, write_log
 from sim.control.run_summary import format_fk_confirm, format_summary
@@ -68,19 +68,24 @@ from sim.control.scenarios import (
     build_schedule,
     write_engine_csv,
 )
+from sim.entry import (
+    EXIT_BAD_INPUT,
+    EXIT_INTERRUPTED,
+    EXIT_NO_CONNECTION,
+    EXIT_OK,
+    EXIT_UNREACHABLE_GOAL,
+    fail,
+    warn,
+)
+from sim.errors import SimError
 from sim.geometry.frames import matrix_to_quat
 from sim.geometry.trajectory import ORDERS
-from sim.robots import RobotError, RobotSpec, add_robot_arguments, robot_from_args
+from sim.robots import RobotSpec, add_robot_arguments, robot_from_args
 from sim.wire.contract import STEP_S, PoseConvention, add_pose_convention_argument
 
 __all__ = [
     "REPO",
     "DEFAULT_LOG_DIR",
-    "EXIT_OK",
-    "EXIT_USAGE",
-    "EXIT_UNREACHABLE",
-    "EXIT_ROS",
-    "EXIT_INTERRUPTED",
     "config_from_args",
     "Commander",
     "main",
@@ -88,7 +93,7 @@ __all__ = [
 
 REPO = Path(__file__).resolve().parents[2]
 DEFAULT_LOG_DIR = REPO / "results" / "commander"
-EXIT_OK, EXIT_USAGE, EXIT_UNREACHABLE, EXIT_ROS, EXIT_INTERRUPTED = 0, 2, 3, 4, 130
+PROG = "sim.commander"
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -351,13 +356,11 @@ def main(argv: list[str] | None = None) -> int:
             raise ScenarioError(f"--approach must be >= 0 s, got {args.approach}")
         motion = build_motion(robot, args.scenario, config_from_args(args))
     except UnreachableGoalError as error:
-        print(f"sim.commander: UNREACHABLE: {error}", file=sys.stderr)
-        return EXIT_UNREACHABLE
-    except (ScenarioError, RobotError, CliValueError) as error:
-        print(f"sim.commander: error: {error}", file=sys.stderr)
-        return EXIT_USAGE
+        return fail(PROG, error, EXIT_UNREACHABLE_GOAL, label="UNREACHABLE")
+    except SimError as error:  # a robot, a scenario or a number that cannot be used
+        return fail(PROG, error, EXIT_BAD_INPUT)
     for note in motion.warnings:
-        print(f"sim.commander: warning: {note}", file=sys.stderr)
+        warn(PROG, note)
     if args.export_csv is not None:
         write_engine_csv(args.export_csv, motion)
         print(f"desired trajectory ({len(motion.times)} samples, dt {motion.dt:g} s) exported to {args.export_csv}")
@@ -389,8 +392,7 @@ def _run_node(robot: RobotSpec, motion: Motion, args: argparse.Namespace) -> int
         schedule, result = commander.run()
     except DriverError as error:
         rospy.logerr("%s", error)
-        print(f"sim.commander: error: {error}", file=sys.stderr)
-        return EXIT_INTERRUPTED if stop.is_set() else EXIT_ROS
+        return fail(PROG, error, EXIT_INTERRUPTED if stop.is_set() else EXIT_NO_CONNECTION)
     finally:
         commander.close()
         rospy.signal_shutdown("commander done")
@@ -400,13 +402,12 @@ def _run_node(robot: RobotSpec, motion: Motion, args: argparse.Namespace) -> int
         print(format_fk_confirm(report))
     if result.error is not None:
         rospy.logerr("%s", result.error)
-        print(f"sim.commander: error: {result.error}", file=sys.stderr)
-        return EXIT_INTERRUPTED if stop.is_set() else EXIT_ROS
+        return fail(PROG, result.error, EXIT_INTERRUPTED if stop.is_set() else EXIT_NO_CONNECTION)
     if not result.complete:
         code = EXIT_INTERRUPTED
     if motion.ik is not None and motion.ik.fallback:
         print("sim.commander: the goal was unreachable; the nearest pose found was commanded (see FALLBACK above)")
-        code = code or EXIT_UNREACHABLE
+        code = code or EXIT_UNREACHABLE_GOAL
     return code
 
 

@@ -65,12 +65,11 @@ from sim.control.scenario_defaults import (
     trial_table,
 )
 from sim.errors import SimError
-from sim.geometry.frames import matrix_to_rpy, rpy_to_matrix
+from sim.geometry.frames import matrix_to_rpy, rotation_exp, rotation_vector, rpy_to_matrix
 from sim.geometry.kinematics import (
     IKResult,
     KinematicChain,
     chain_for,
-    rotation_vector,
     solve_ik,
     solve_path_ik,
 )
@@ -106,7 +105,6 @@ __all__ = [
     "joint_index",
     "check_position_limits",
     "velocity_warnings",
-    "rotation_exp",
     "pose_errors",
     "fk_path",
     "approach",
@@ -292,16 +290,6 @@ def _finish(motion: Motion) -> Motion:
     check_position_limits(motion.robot, motion.times, motion.positions, f"scenario {motion.scenario}")
     motion.warnings.extend(velocity_warnings(motion.robot, motion.times, motion.velocities))
     return motion
-
-
-# --------------------------------------------------------------------------------------- rotation helpers
-def rotation_exp(rotvec: np.ndarray) -> np.ndarray:
-    angle = float(np.linalg.norm(rotvec))
-    if angle < 1e-12:
-        return np.eye(3)
-    k = rotvec / angle
-    kx = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
-    return np.eye(3) + math.sin(angle) * kx + (1.0 - math.cos(angle)) * kx @ kx
 
 
 def pose_errors(actual: np.ndarray, reference: np.ndarray, weights: Sequence[float]) -> tuple[np.ndarray, np.ndarray]:

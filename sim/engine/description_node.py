@@ -27,7 +27,9 @@ from geometry_msgs.msg import Pose, TransformStamped
 from sensor_msgs.msg import JointState
 from tf2_msgs.msg import TFMessage
 
-from sim.robots import RobotError, RobotSpec, add_robot_arguments, robot_from_args
+from sim.entry import EXIT_BAD_INPUT, EXIT_OK, fail
+from sim.errors import SimError
+from sim.robots import RobotSpec, add_robot_arguments, robot_from_args
 from sim.robots.urdf_model import parse_urdf
 from sim.wire.contract import MessageError, PoseConvention, add_pose_convention_argument
 
@@ -137,9 +139,8 @@ def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(rospy.myargv(argv if argv is not None else sys.argv)[1:])
     try:
         robot = robot_from_args(args)
-    except RobotError as error:
-        print(f"sim.description_node: error: {error}", file=sys.stderr)
-        return 2
+    except SimError as error:
+        return fail("sim.description_node", error, EXIT_BAD_INPUT)
     rospy.init_node(f"{robot.name}_description", disable_signals=True)
     stop = threading.Event()
     for signum in (signal.SIGINT, signal.SIGTERM):
@@ -155,7 +156,7 @@ def main(argv: list[str] | None = None) -> int:
         stop.wait(0.2)
     node.close()
     rospy.signal_shutdown("description node stopped")
-    return 0
+    return EXIT_OK
 
 
 if __name__ == "__main__":

@@ -14,7 +14,9 @@ from collections.abc import Callable
 
 import rospy
 
-from sim.engine.stand_in import EngineError, EngineStandIn, argument_parser, options_from_args
+from sim.engine.stand_in import EngineStandIn, argument_parser, options_from_args
+from sim.entry import EXIT_BAD_INPUT, EXIT_OK, fail
+from sim.errors import SimError
 from sim.robots import robot_from_args
 
 __all__ = ["RospyTransport", "main"]
@@ -73,9 +75,8 @@ def main(argv: list[str] | None = None) -> int:
     try:
         robot = robot_from_args(args)
         options = options_from_args(args)
-    except (EngineError, ValueError) as error:
-        print(f"sim.physics_node: error: {error}", file=sys.stderr)
-        return 2
+    except (SimError, ValueError) as error:
+        return fail("sim.physics_node", error, EXIT_BAD_INPUT)
     rospy.init_node(f"{robot.name}_physics", disable_signals=True)
     _log_to_screen()
     transport = RospyTransport()
@@ -92,7 +93,7 @@ def main(argv: list[str] | None = None) -> int:
         engine.close()
         rospy.signal_shutdown("physics node stopped")
         print(f"physics node: stopped after {engine.steps} steps", flush=True)
-    return 0
+    return EXIT_OK
 
 
 if __name__ == "__main__":

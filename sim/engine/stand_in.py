@@ -27,6 +27,7 @@ from bridge.client import TcpClient
 from sim.engine.clock import ClockAdvance, StepClock
 from sim.engine.commands import CommandBuffer
 from sim.engine.physics import Mode, PhysicsError, PhysicsWorld, SimulatedJointState, render_gif
+from sim.entry import EXIT_BAD_INPUT, EXIT_NO_CONNECTION, EXIT_OK, fail, log_to_stderr
 from sim.errors import SimError
 from sim.geometry import frames
 from sim.robots import RobotSpec, add_robot_arguments, robot_from_args
@@ -373,9 +374,12 @@ def options_from_args(args: argparse.Namespace) -> EngineOptions:
     )
 
 
+PROG = "sim.engine"
+
+
 def main(argv: list[str] | None = None) -> int:
     args = argument_parser().parse_args(argv)
-    logging.basicConfig(level=logging.INFO, format="[%(levelname)s] [%(name)s] %(message)s", stream=sys.stderr)
+    log_to_stderr(logging.INFO)
     try:
         robot = robot_from_args(args)
         options = options_from_args(args)
@@ -383,10 +387,9 @@ def main(argv: list[str] | None = None) -> int:
         if args.csv is not None:
             steps = replay_csv(robot, args.csv, args.log, options, recorder)
             print(f"replayed {args.csv} in {steps} steps of {args.dt} s; achieved positions in {args.log}")
-            return 0
-    except (EngineError, ValueError) as error:
-        print(f"sim.engine: error: {error}", file=sys.stderr)
-        return 2
+            return EXIT_OK
+    except (SimError, ValueError) as error:  # ValueError: numbers numpy or the CSV reader could not take
+        return fail(PROG, error, EXIT_BAD_INPUT)
     return _run_online(robot, options, args, recorder)
 
 
@@ -403,9 +406,8 @@ def _run_online(
     try:
         client.connect(timeout=30.0)
     except Exception as error:
-        print(f"sim.engine: error: {error}", file=sys.stderr)
         engine.close()
-        return 1
+        return fail(PROG, error, EXIT_NO_CONNECTION)
     mode = "auto-simulate" if options.auto_simulate else "/clock-driven"
     print(
         f"engine: {robot.name} in {options.mode.value} mode, {mode}, dt {options.dt} s, "
@@ -424,7 +426,7 @@ def _run_online(
             f"{engine.rejected_commands} rejected",
             flush=True,
         )
-    return 0
+    return EXIT_OK
 
 
 if __name__ == "__main__":

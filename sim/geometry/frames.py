@@ -28,6 +28,9 @@ from sim.errors import SimError
 
 __all__ = [
     "FrameError",
+    "rotation_vector",
+    "rotation_log",
+    "rotation_exp",
     "ros_to_unity_point",
     "unity_to_ros_point",
     "ros_to_unity_quat",
@@ -186,3 +189,44 @@ def quat_multiply(a: ArrayLike, b: ArrayLike) -> np.ndarray:
             aw * bw - ax * bx - ay * by - az * bz,
         ]
     )
+
+
+def rotation_vector(rotation: np.ndarray) -> np.ndarray:
+    """Rotation vector (axis · angle, angle in [0, π]) of a 3x3 rotation matrix: the log map the IK uses."""
+    rx, ry, rz, _ = rotation_log(np.asarray(rotation, dtype=float).tolist())
+    return np.array([rx, ry, rz])
+
+
+def rotation_log(r: list[list[float]]) -> tuple[float, float, float, float]:
+    """Rotation vector (x, y, z) and angle of a rotation matrix given as nested lists (the log map, in plain floats:
+    the IK calls it every iteration)."""
+    lx, ly, lz = r[2][1] - r[1][2], r[0][2] - r[2][0], r[1][0] - r[0][1]
+    trace = r[0][0] + r[1][1] + r[2][2]
+    norm_l = math.sqrt(lx * lx + ly * ly + lz * lz)  # = 2 sin(angle)
+    if norm_l > 1e-9:
+        angle = math.atan2(norm_l, trace - 1.0)
+        k = angle / norm_l
+        return k * lx, k * ly, k * lz, angle
+    if trace > 1.0:  # ~identity: rotvec ≈ l / 2
+        return 0.5 * lx, 0.5 * ly, 0.5 * lz, 0.5 * norm_l
+    # ~half turn: axis from the diagonal, sign from the largest off-diagonal pair
+    ax = math.sqrt(max((r[0][0] + 1.0) / 2.0, 0.0))
+    ay = math.sqrt(max((r[1][1] + 1.0) / 2.0, 0.0))
+    az = math.sqrt(max((r[2][2] + 1.0) / 2.0, 0.0))
+    if ax >= ay and ax >= az:
+        ay, az = math.copysign(ay, r[0][1] + r[1][0]), math.copysign(az, r[0][2] + r[2][0])
+    elif ay >= az:
+        ax, az = math.copysign(ax, r[0][1] + r[1][0]), math.copysign(az, r[1][2] + r[2][1])
+    else:
+        ax, ay = math.copysign(ax, r[0][2] + r[2][0]), math.copysign(ay, r[1][2] + r[2][1])
+    return math.pi * ax, math.pi * ay, math.pi * az, math.pi
+
+
+def rotation_exp(rotvec: np.ndarray) -> np.ndarray:
+    """The rotation matrix of a rotation vector (axis · angle): the exp map, inverse of rotation_vector."""
+    angle = float(np.linalg.norm(rotvec))
+    if angle < 1e-12:
+        return np.eye(3)
+    k = rotvec / angle
+    kx = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
+    return np.eye(3) + math.sin(angle) * kx + (1.0 - math.cos(angle)) * kx @ kx

@@ -37,7 +37,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from sim.errors import SimError
-from sim.geometry.frames import quat_to_matrix, rpy_to_matrix
+from sim.geometry.frames import quat_to_matrix, rotation_log, rpy_to_matrix
 from sim.robots import RobotError, RobotSpec
 from sim.robots.urdf_model import parse_urdf
 
@@ -55,7 +55,6 @@ __all__ = [
     "chain_for",
     "IKResult",
     "PathIKResult",
-    "rotation_vector",
     "solve_ik",
     "solve_path_ik",
 ]
@@ -278,10 +277,6 @@ class KinematicChain:
         """Geometric Jacobian (6 x n) at the ee origin in the base frame, rows (v, ω)."""
         return self._jacobian_from_frames(self._frames(self._q(q)))
 
-    def within_limits(self, q: ArrayLike, tol: float = 1e-9) -> bool:
-        q_arr = self._q(q)
-        return bool(np.all(q_arr >= self._lower - tol) and np.all(q_arr <= self._upper + tol))
-
 
 _ChainKey = tuple[str, int, int, str, str, tuple[str, ...], tuple[float, ...], tuple[float, ...]]
 _CHAINS: dict[_ChainKey, KinematicChain] = {}
@@ -344,36 +339,6 @@ class PathIKResult:
         return bool(np.all(self.success))
 
 
-def rotation_vector(rotation: np.ndarray) -> np.ndarray:
-    """Rotation vector (axis · angle, angle in [0, π]) of a 3x3 rotation matrix: the log map the IK uses."""
-    rx, ry, rz, _ = _rotation_error(np.asarray(rotation, dtype=float).tolist())
-    return np.array([rx, ry, rz])
-
-
-def _rotation_error(r: list[list[float]]) -> tuple[float, float, float, float]:
-    """Rotation vector (x, y, z) and angle of a rotation matrix given as nested lists (log map)."""
-    lx, ly, lz = r[2][1] - r[1][2], r[0][2] - r[2][0], r[1][0] - r[0][1]
-    trace = r[0][0] + r[1][1] + r[2][2]
-    norm_l = math.sqrt(lx * lx + ly * ly + lz * lz)  # = 2 sin(angle)
-    if norm_l > 1e-9:
-        angle = math.atan2(norm_l, trace - 1.0)
-        k = angle / norm_l
-        return k * lx, k * ly, k * lz, angle
-    if trace > 1.0:  # ~identity: rotvec ≈ l / 2
-        return 0.5 * lx, 0.5 * ly, 0.5 * lz, 0.5 * norm_l
-    # ~half turn: axis from the diagonal, sign from the largest off-diagonal pair
-    ax = math.sqrt(max((r[0][0] + 1.0) / 2.0, 0.0))
-    ay = math.sqrt(max((r[1][1] + 1.0) / 2.0, 0.0))
-    az = math.sqrt(max((r[2][2] + 1.0) / 2.0, 0.0))
-    if ax >= ay and ax >= az:
-        ay, az = math.copysign(ay, r[0][1] + r[1][0]), math.copysign(az, r[0][2] + r[2][0])
-    elif ay >= az:
-        ax, az = math.copysign(ax, r[0][1] + r[1][0]), math.copysign(az, r[1][2] + r[2][1])
-    else:
-        ax, ay = math.copysign(ax, r[0][2] + r[2][0]), math.copysign(ay, r[1][2] + r[2][1])
-    return math.pi * ax, math.pi * ay, math.pi * az, math.pi
-
-
 class _Problem:
     """One IK target with its weights, set up once so that the iterations do little Python work."""
 
@@ -394,7 +359,7 @@ class _Problem:
         tx, ty, tz = self.target_pos
         px, py, pz = ee[:3, 3].tolist()
         e = [tx - px, ty - py, tz - pz]
-        rx, ry, rz, angle = _rotation_error((self.target_rot @ ee[:3, :3].T).tolist())
+        rx, ry, rz, angle = rotation_log((self.target_rot @ ee[:3, :3].T).tolist())
         e += (rx, ry, rz)
         w = self.w_list
         energy = 0.5 * sum(w[i] * e[i] * e[i] for i in range(6))

@@ -7,6 +7,7 @@ from __future__ import annotations
 import argparse
 import sys
 
+from sim.entry import EXIT_BAD_INPUT, EXIT_OK, fail
 from sim.robots import RobotError, RobotSpec, add_robot_arguments, robot_from_args
 
 __all__ = ["summary", "main"]
@@ -41,13 +42,12 @@ def main(argv: list[str] | None = None) -> int:
     try:
         robot = robot_from_args(args)
     except RobotError as error:
-        print(f"sim.robots: error: {error}", file=sys.stderr)
-        return 2
+        return fail("sim.robots", error, EXIT_BAD_INPUT)
     if args.urdf:  # exactly the file: robot_description is then the same text as the URDF
         sys.stdout.write(robot.urdf_path.read_text(encoding="utf-8"))
     else:
         print(summary(robot))
-    return 0
+    return EXIT_OK
 
 
 if __name__ == "__main__":

@@ -19,7 +19,8 @@ from pathlib import Path
 
 import yaml
 
-from sim.robots import RobotError
+from sim.entry import EXIT_BAD_INPUT, EXIT_FAILED, EXIT_NO_CONNECTION, EXIT_OK, fail
+from sim.errors import SimError
 from sim.study.design import load_design
 from sim.study.errors import StudyError
 from sim.study.plan import make_plan, plan_from_data, plan_to_data, printable
@@ -28,8 +29,6 @@ from sim.study.yamlfile import read_yaml
 from sim.wire.contract import STEP_S
 
 __all__ = ["main"]
-
-EXIT_USAGE = 2
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -133,9 +132,8 @@ def main(argv: list[str] | None = None) -> int:
     }
     try:
         return commands[args.command](args)
-    except (StudyError, RobotError) as error:
-        print(f"sim.study {args.command}: error: {error}", file=sys.stderr)
-        return EXIT_USAGE
+    except SimError as error:  # a design, scene, plan, robot or number that cannot be used
+        return fail(f"sim.study {args.command}", error, EXIT_BAD_INPUT)
 
 
 def _plan(args: argparse.Namespace) -> int:
@@ -150,7 +148,7 @@ def _plan(args: argparse.Namespace) -> int:
             f"plan of participant {plan.participant}: {len(plan.trials)} trials, {' then '.join(plan.conditions)}"
             f" -> {args.out}"
         )
-    return 0
+    return EXIT_OK
 
 
 def _check(args: argparse.Namespace) -> int:
@@ -180,7 +178,7 @@ def _check(args: argparse.Namespace) -> int:
             f"{len(infeasible)} combination(s) of the design are not feasible: "
             f"{', '.join(f'{p} to {s} m at {v} m/s' for p, s, v in infeasible)}"
         )
-    return 0
+    return EXIT_OK
 
 
 def _run(args: argparse.Namespace) -> int:
@@ -232,8 +230,11 @@ def _participant(args: argparse.Namespace) -> int:
     try:
         client.connect(timeout=30)
     except ClientError as error:
-        print(f"sim.study participant: cannot reach the endpoint at {args.host}:{args.port}: {error}", file=sys.stderr)
-        return 4
+        return fail(
+            "sim.study participant",
+            f"cannot reach the endpoint at {args.host}:{args.port}: {error}",
+            EXIT_NO_CONNECTION,
+        )
     print(f"participant {args.participant}: connected; {participant.threshold_note}", flush=True)
     try:
         finished = participant.done.wait(args.timeout)
@@ -242,10 +243,9 @@ def _participant(args: argparse.Namespace) -> int:
     for problem in participant.problems:
         print(f"sim.study participant: {problem}", file=sys.stderr)
     if not finished:
-        print(f"sim.study participant: the session did not end within {args.timeout:g} s", file=sys.stderr)
-        return 4
+        return fail("sim.study participant", f"the session did not end within {args.timeout:g} s", EXIT_NO_CONNECTION)
     print(f"participant {args.participant}: session done, {participant.presses} presses")
-    return 0 if not participant.problems else 1
+    return EXIT_OK if not participant.problems else EXIT_FAILED
 
 
 def _view(args: argparse.Namespace) -> int:
@@ -273,14 +273,15 @@ def _view(args: argparse.Namespace) -> int:
     try:
         client.connect(timeout=30)
     except ClientError as error:
-        print(f"sim.study view: cannot reach the endpoint at {args.host}:{args.port}: {error}", file=sys.stderr)
         server.stop()
-        return 4
+        return fail(
+            "sim.study view", f"cannot reach the endpoint at {args.host}:{args.port}: {error}", EXIT_NO_CONNECTION
+        )
     print(f"view: http://{args.http_host}:{server.get_port()} (the endpoint at {args.host}:{args.port})", flush=True)
     stop.wait()
     client.close()
     server.stop()
-    return 0
+    return EXIT_OK
 
 
 def _analyse(args: argparse.Namespace) -> int:
@@ -289,7 +290,7 @@ def _analyse(args: argparse.Namespace) -> int:
     report = write_report(load_study(args.directory), args.out or args.directory)
     print(report.read_text(), end="")
     print(f"report: {report}")
-    return 0
+    return EXIT_OK
 
 
 def _simulate(args: argparse.Namespace) -> int:
@@ -306,11 +307,10 @@ def _simulate(args: argparse.Namespace) -> int:
     try:
         report = simulate(settings, lambda line: print(f"simulate: {line}", flush=True))
     except SimulationError as error:
-        print(f"sim.study simulate: failed: {error}", file=sys.stderr)
-        return 1
+        return fail("sim.study simulate", error, EXIT_FAILED)
     print(report.read_text(), end="")
     print(f"simulate: {args.participants} participants in {time.monotonic() - started:.0f} s; report: {report}")
-    return 0
+    return EXIT_OK
 
 
 if __name__ == "__main__":

@@ -21,12 +21,11 @@ from sim.control.scenarios import (
     fk_path,
     joint_index,
     pose_errors,
-    rotation_exp,
     sample_times,
     write_engine_csv,
 )
 from sim.geometry.frames import rpy_to_matrix
-from sim.geometry.kinematics import chain_for, rotation_vector
+from sim.geometry.kinematics import chain_for
 from sim.robots import load_robot
 
 ROBOTS = ("panda", "igt")
@@ -193,17 +192,6 @@ def test_nearest_fallback_is_explicit_and_heads_for_a_reachable_pose(robot):
 def test_igt_rejects_roll_and_pitch():
     with pytest.raises(ScenarioError, match="igt can only reach x, y and yaw: goal rpy"):
         build_motion(load_robot("igt"), "ik_joints", ScenarioConfig(goal_rpy=(0.1, 0.0, 0.5)))
-
-
-def test_rotation_vector_exp_round_trip():
-    rng = np.random.default_rng(3)
-    for _ in range(50):
-        v = rng.normal(size=3)
-        v *= rng.uniform(0, math.pi - 1e-3) / np.linalg.norm(v)
-        np.testing.assert_allclose(rotation_vector(rotation_exp(v)), v, atol=1e-9)
-    np.testing.assert_allclose(
-        np.abs(rotation_vector(rotation_exp(np.array([0, 0, math.pi])))), [0, 0, math.pi], atol=1e-9
-    )
 
 
 def test_approach_reaches_target_within_speed_fraction(robot):

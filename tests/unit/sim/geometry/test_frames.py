@@ -16,6 +16,8 @@ from sim.geometry.frames import (
     ros_to_unity_matrix,
     ros_to_unity_point,
     ros_to_unity_quat,
+    rotation_exp,
+    rotation_vector,
     rpy_to_matrix,
     unity_to_ros_point,
     unity_to_ros_quat,
@@ -121,3 +123,14 @@ def test_bad_shapes_and_zero_quaternion_are_rejected():
         quat_to_matrix([0, 0, 0, 0])
     with pytest.raises(FrameError, match="3x3"):
         matrix_to_quat(np.eye(4))
+
+
+def test_rotation_vector_exp_round_trip():
+    rng = np.random.default_rng(3)
+    for _ in range(50):
+        v = rng.normal(size=3)
+        v *= rng.uniform(0, math.pi - 1e-3) / np.linalg.norm(v)
+        np.testing.assert_allclose(rotation_vector(rotation_exp(v)), v, atol=1e-9)
+    np.testing.assert_allclose(
+        np.abs(rotation_vector(rotation_exp(np.array([0, 0, math.pi])))), [0, 0, math.pi], atol=1e-9
+    )
