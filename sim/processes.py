@@ -153,6 +153,32 @@ class ManagedProcess:
         return self.process.returncode
 
 
+class _QuickTransport(xmlrpc.client.Transport):
+    """An XML-RPC transport that gives up after a second."""
+
+    def make_connection(self, host: Any) -> Any:
+        connection = super().make_connection(host)
+        connection.timeout = 1.0
+        return connection
+
+
+def _stop_pid(pid: int, timeout: float) -> None:
+    """SIGTERM to a process that is not our child, then SIGKILL if it is still there after `timeout`."""
+    deadline = time.monotonic() + timeout
+    for sig in (signal.SIGTERM, signal.SIGKILL):
+        try:
+            os.kill(pid, sig)
+        except (ProcessLookupError, PermissionError):
+            return
+        while time.monotonic() < deadline:
+            try:
+                os.kill(pid, 0)
+            except ProcessLookupError:
+                return
+            time.sleep(0.05)
+        deadline = time.monotonic() + 1.0
+
+
 class RosCore(ManagedProcess):
     """`roscore -p <port>` with its own ROS_HOME/ROS_LOG_DIR in a temp dir; `env` is for every process of it.
 
@@ -182,10 +208,23 @@ class RosCore(ManagedProcess):
             raise
 
     def stop(self, timeout: float = 5.0, keep_logs: bool = False) -> int | None:
+        # roslaunch may not take rosmaster down with it when stopped right after start: it is then stopped by its pid.
+        master_pid = self._master_pid()
         returncode = super().stop(timeout)
+        if master_pid is not None:
+            _stop_pid(master_pid, timeout)
         if self.remove_tmp and not keep_logs:
             shutil.rmtree(self.tmp, ignore_errors=True)
         return returncode
+
+    def _master_pid(self) -> int | None:
+        """rosmaster's pid, as the master says (None when it does not answer within a second)."""
+        try:
+            proxy: Any = xmlrpc.client.ServerProxy(self.uri, transport=_QuickTransport())
+            code, _, pid = proxy.getPid("/stopping")
+        except (OSError, xmlrpc.client.Error):
+            return None
+        return int(pid) if code == 1 else None
 
     def subscribers(self, topic: str) -> list[str]:
         """Node names subscribed to `topic`, as the master sees them."""
