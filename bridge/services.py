@@ -5,7 +5,6 @@ client implements for ROS (__unity_service: ROS calls become __request frames, t
 from __future__ import annotations
 
 import itertools
-import logging
 import threading
 import time
 from dataclasses import dataclass, field
@@ -18,8 +17,6 @@ from bridge.ros_types import RosError
 from bridge.session import ClientSession, RequestRefused
 
 __all__ = ["Services"]
-
-log = logging.getLogger(__name__)
 
 
 @dataclass

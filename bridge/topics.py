@@ -4,7 +4,6 @@ topic fed by every publishing client, and the EchoFilter that keeps a client's o
 
 from __future__ import annotations
 
-import logging
 import threading
 import time
 from collections import deque
@@ -20,7 +19,6 @@ from bridge.session import ClientSession, RequestRefused
 
 __all__ = ["ECHO_RECORD_MAX", "EchoFilter", "SharedSubscriber", "SharedPublisher", "Topics"]
 
-log = logging.getLogger(__name__)
 # Client messages remembered per topic until they come back from ROS (see EchoFilter)
 ECHO_RECORD_MAX = 4096
 
