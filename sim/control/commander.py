@@ -8,11 +8,10 @@ registry's joint names, ONE point with positions and velocities, header.stamp = 
 IK scenarios only; a real quaternion, or with --pose-convention euler the thesis's: XYZ Euler angles in the
 quaternion's x, y, z fields and w = 0) and logs desired vs achieved (`<prefix>/joint_states`) for every step.
 
-Timing (the contract with the engine): fixed steps of dt; the target of step k (t_k -> t_k+1) is for its END.
-  lockstep (default): publish the command stamped t_k+1, then /clock = t_k+1, then wait for a joint state stamped
-      >= t_k+1 (at most --timeout s). The engine steps once when /clock reaches t_k+1, so a 40 s trial takes seconds.
-  --realtime: every dt / --time-scale of wall time publish /clock = t_k and the command stamped t_k+1 (the engine
-      extrapolates along the velocity); no waiting.
+Timing (the contract with the engine, sim.control.stepper): fixed steps of dt; the target of step k (t_k -> t_k+1)
+is for its END. Lockstep (default): the engine steps once per /clock value and answers each with its joint state, so
+a 40 s trial takes seconds. --realtime: /clock and the commands are paced by the wall clock (x --time-scale) and
+nothing is waited for.
 Start-up: wait (at most --connect-timeout s) until a partner node (one that publishes joint_states and
 subscribes the command topic) is connected to our command, /clock and pose publishers and our joint_states
 subscriber, and so is every node named with --wait-for (e.g. a rosbag recorder); publish /clock = 0. In lockstep,
@@ -43,13 +42,14 @@ import signal
 import sys
 import threading
 import time
+from dataclasses import dataclass
 from datetime import datetime
 from pathlib import Path
 
 import numpy as np
 
 from sim.cli_values import parse_numbers
-from sim.control.driver import DriverError, ReceivedJointState, RobotDriver
+from sim.control.driver import DriverError, RobotDriver
 from sim.control.run_log import RunResult, write_log
 from sim.control.run_summary import format_fk_confirm, format_summary
 from sim.control.scenarios import (
@@ -68,6 +68,7 @@ from sim.control.scenarios import (
     build_schedule,
     write_engine_csv,
 )
+from sim.control.stepper import Pacing, Stepper
 from sim.entry import (
     EXIT_BAD_INPUT,
     EXIT_INTERRUPTED,
@@ -87,6 +88,8 @@ __all__ = [
     "REPO",
     "DEFAULT_LOG_DIR",
     "config_from_args",
+    "CommanderOptions",
+    "options_from_args",
     "Commander",
     "main",
 ]
@@ -205,18 +208,30 @@ def config_from_args(args: argparse.Namespace) -> ScenarioConfig:
     )
 
 
+@dataclass(frozen=True)
+class CommanderOptions:
+    """How the commander runs a motion (the motion itself is the scenario's: sim.control.scenarios)."""
+
+    pacing: Pacing = Pacing()
+    connect_timeout: float = 30.0  # s: the longest wait for the engine at the start
+    approach: float = APPROACH_MIN_S  # s: the shortest approach to the scenario's start; 0 = off
+    pose_convention: PoseConvention = PoseConvention.QUATERNION
+    node_name: str | None = None  # default <robot>_commander
+    log: Path | None = None  # default DEFAULT_LOG_DIR/<robot>_<scenario>_<time>.csv
+    wait_for: tuple[str, ...] = ()  # further nodes (e.g. a rosbag recorder) that must be connected first
+
+
 # ------------------------------------------------------------------------------------------------ the node
 class Commander(RobotDriver):
-    """The driver (sim.control.driver) with the goal pose publisher and the stepping loops."""
+    """The driver (sim.control.driver) with the goal pose publisher; runs the motion through a Stepper."""
 
-    def __init__(self, robot: RobotSpec, motion: Motion, args: argparse.Namespace, stop: threading.Event) -> None:
+    def __init__(self, robot: RobotSpec, motion: Motion, options: CommanderOptions, stop: threading.Event) -> None:
         super().__init__(robot, stop)
         from geometry_msgs.msg import Pose
 
         self._pose_type = Pose
         self.motion = motion
-        self.args = args
-        self.dt = motion.dt
+        self.options = options
         self.pose_pub = None
         if motion.goal is not None:
             self.pose_pub = self.rospy.Publisher(robot.pose_topic, Pose, queue_size=1, latch=True)
@@ -228,37 +243,29 @@ class Commander(RobotDriver):
         pose = self._pose_type()
         position, quaternion = self.motion.goal[:3, 3], matrix_to_quat(self.motion.goal[:3, :3])
         pose.position.x, pose.position.y, pose.position.z = (float(v) for v in position)
-        fields = PoseConvention(self.args.pose_convention).encode(quaternion)
+        fields = self.options.pose_convention.encode(quaternion)
         pose.orientation.x, pose.orientation.y, pose.orientation.z, pose.orientation.w = fields
         self.pose_pub.publish(pose)
 
-    def _state_or_fail(self, stamp: float, timeout: float) -> ReceivedJointState:
-        return self.state_or_fail(stamp, timeout, self.dt)
-
-    # --- running ------------------------------------------------------------------------------------------
     def run(self) -> tuple[Schedule, RunResult]:
+        """The approach (when on) and the scenario, step by step; a failure mid-run ends it with what was logged."""
+        options, pacing = self.options, self.options.pacing
+        stepper = Stepper(self, pacing)
         self.publish_goal()
-        if self.args.realtime:
-            return self._run_realtime()
-        self.publish_clock(0.0)
-        # The engine anchors its step grid on /clock 0 and answers with its joint state stamped 0: only then may
-        # /clock move on (a later value seen first would become the anchor and the lockstep would stall).
-        self._state_or_fail(0.0, self.args.connect_timeout)
-        return self._run_lockstep()
-
-    def _run_lockstep(self) -> tuple[Schedule, RunResult]:
-        dt = self.dt
+        approach_on = options.approach > 0
+        state = stepper.start(options.connect_timeout, need_state=approach_on or not pacing.realtime)
         priming = 0
-        q_start = None
-        if self.args.approach > 0:
+        if approach_on and not pacing.realtime:
             # Priming step: no new command; the engine's joint state tells where the robot is.
             priming = 1
-            self.publish_clock(dt)
-            q_start = self._state_or_fail(dt, self.args.timeout).positions
+            state = stepper.hold()
+        q_start = None
+        if approach_on and state is not None:
+            q_start = state.positions
             self.rospy.loginfo("robot at %s; approaching the scenario start", np.round(q_start, 4).tolist())
-        schedule = build_schedule(self.motion, q_start, self.args.approach)
+        schedule = build_schedule(self.motion, q_start, options.approach)
         steps = len(schedule.positions) - 1
-        times = (np.arange(1, steps + 1) + priming) * dt
+        times = (np.arange(1, steps + 1) + priming) * pacing.dt
         achieved = np.full((steps, self.robot.dof), np.nan)
         stamps = np.full(steps, np.nan)
         started = time.monotonic()
@@ -267,16 +274,19 @@ class Commander(RobotDriver):
         for i in range(1, steps + 1):
             if self.stop.is_set():
                 break
-            t_end = (priming + i) * dt
-            self.publish_command(t_end, schedule.positions[i], schedule.velocities[i])
-            self.publish_clock(t_end)
             try:
-                state = self._state_or_fail(t_end, self.args.timeout)
+                state = stepper.step(schedule.positions[i], schedule.velocities[i])
             except DriverError as error:
-                failure = str(error)
+                failure = None if self.stop.is_set() else str(error)
                 break
-            achieved[i - 1], stamps[i - 1] = state.positions, state.stamp
+            if state is not None:
+                achieved[i - 1], stamps[i - 1] = state.positions, state.stamp
             done = i
+        if done == steps:
+            try:
+                stepper.finish()
+            except DriverError:  # stopped while waiting for the last step's end: the run is complete anyway
+                pass
         result = RunResult(
             times,
             np.arange(1, steps + 1),
@@ -290,53 +300,29 @@ class Commander(RobotDriver):
         )
         return schedule, result
 
-    def _run_realtime(self) -> tuple[Schedule, RunResult]:
-        dt = self.dt
-        wall_dt = dt / self.args.time_scale  # --time-scale 5: the controller's clock runs 5x faster than the wall
-        q_start = None
-        if self.args.approach > 0:
-            q_start = self._state_or_fail(-math.inf, self.args.connect_timeout).positions
-        schedule = build_schedule(self.motion, q_start, self.args.approach)
-        steps = len(schedule.positions) - 1
-        times = np.arange(1, steps + 1) * dt
-        achieved = np.full((steps, self.robot.dof), np.nan)
-        stamps = np.full(steps, np.nan)
-        # /clock 0 goes out as the paced loop starts, so the controller's clock runs without a gap from 0 on.
-        started = time.monotonic()
-        self.publish_clock(0.0)
-        done = 0
-        for k in range(steps):  # at wall time k·dt: /clock = t_k, command for t_k+1
-            delay = started + k * wall_dt - time.monotonic()
-            if delay > 0 and self.stop.wait(delay):
-                break
-            if self.stop.is_set():
-                break
-            if k > 0:
-                self.publish_clock(k * dt)
-            self.publish_command((k + 1) * dt, schedule.positions[k + 1], schedule.velocities[k + 1])
-            latest = self.states.latest
-            if latest is not None:
-                achieved[k], stamps[k] = latest.positions, latest.stamp
-            done = k + 1
-        if done == steps and not self.stop.is_set():
-            self.stop.wait(max(0.0, started + steps * wall_dt - time.monotonic()))
-            self.publish_clock(steps * dt)
-        result = RunResult(
-            times,
-            np.arange(1, steps + 1),
-            schedule.positions[1:],
-            achieved,
-            stamps,
-            time.monotonic() - started,
-            0,
-            done == steps,
-        )
-        return schedule, result
-
 
 # ------------------------------------------------------------------------------------------------------ main
 def _default_log_path(robot: str, scenario: str) -> Path:
     return DEFAULT_LOG_DIR / f"{robot}_{scenario}_{datetime.now().strftime('%Y%m%d-%H%M%S-%f')}.csv"
+
+
+def options_from_args(args: argparse.Namespace) -> CommanderOptions:
+    """The run options of the command line, checked (ScenarioError names the first bad one)."""
+    for option in ("timeout", "connect_timeout", "time_scale"):
+        value = getattr(args, option)
+        if not (math.isfinite(value) and value > 0):
+            raise ScenarioError(f"--{option.replace('_', '-')} must be > 0, got {value}")
+    if not (math.isfinite(args.approach) and args.approach >= 0):
+        raise ScenarioError(f"--approach must be >= 0 s, got {args.approach}")
+    return CommanderOptions(
+        pacing=Pacing(args.dt, args.realtime, args.time_scale, args.timeout),
+        connect_timeout=args.connect_timeout,
+        approach=args.approach,
+        pose_convention=PoseConvention(args.pose_convention),
+        node_name=args.node_name,
+        log=args.log,
+        wait_for=tuple(args.wait_for),
+    )
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -349,11 +335,7 @@ def main(argv: list[str] | None = None) -> int:
             raise ScenarioError(f"unknown scenario {args.scenario!r}; known: {', '.join(SCENARIOS)}")
         if args.export_only and args.export_csv is None:
             raise ScenarioError("--export-only needs --export-csv PATH")
-        for option in ("timeout", "connect_timeout"):
-            if not getattr(args, option) > 0:
-                raise ScenarioError(f"--{option.replace('_', '-')} must be > 0 s, got {getattr(args, option)}")
-        if not (math.isfinite(args.approach) and args.approach >= 0):
-            raise ScenarioError(f"--approach must be >= 0 s, got {args.approach}")
+        options = options_from_args(args)
         motion = build_motion(robot, args.scenario, config_from_args(args))
     except UnreachableGoalError as error:
         return fail(PROG, error, EXIT_UNREACHABLE_GOAL, label="UNREACHABLE")
@@ -366,21 +348,21 @@ def main(argv: list[str] | None = None) -> int:
         print(f"desired trajectory ({len(motion.times)} samples, dt {motion.dt:g} s) exported to {args.export_csv}")
         if args.export_only:
             return EXIT_OK
-    return _run_node(robot, motion, args)
+    return _run_node(robot, motion, options)
 
 
-def _run_node(robot: RobotSpec, motion: Motion, args: argparse.Namespace) -> int:
+def _run_node(robot: RobotSpec, motion: Motion, options: CommanderOptions) -> int:
     import rospy
 
     stop = threading.Event()
-    rospy.init_node(args.node_name or f"{robot.name}_commander", disable_signals=True)
+    rospy.init_node(options.node_name or f"{robot.name}_commander", disable_signals=True)
     for signum in (signal.SIGINT, signal.SIGTERM):
         signal.signal(signum, lambda *_: stop.set())
-    commander = Commander(robot, motion, args, stop)
-    log_path = args.log or _default_log_path(robot.name, motion.scenario)
+    commander = Commander(robot, motion, options, stop)
+    log_path = options.log or _default_log_path(robot.name, motion.scenario)
     code = EXIT_OK
     try:
-        partner = commander.wait_for_partner(args.connect_timeout, args.wait_for)
+        partner = commander.wait_for_partner(options.connect_timeout, options.wait_for)
         rospy.loginfo(
             "engine %s connected; running %s for %s (%d steps of %g s)",
             partner,
@@ -397,7 +379,7 @@ def _run_node(robot: RobotSpec, motion: Motion, args: argparse.Namespace) -> int
         commander.close()
         rospy.signal_shutdown("commander done")
     report = write_log(log_path, robot, motion, schedule, result)
-    print(format_summary(robot, motion, result, report, log_path, args.realtime))
+    print(format_summary(robot, motion, result, report, log_path, options.pacing.realtime))
     if motion.scenario == "fk_confirm":
         print(format_fk_confirm(report))
     if result.error is not None:

@@ -182,6 +182,7 @@ def _check(args: argparse.Namespace) -> int:
 
 
 def _run(args: argparse.Namespace) -> int:
+    from sim.control.stepper import Pacing
     from sim.study.feasibility import plan_combinations
     from sim.study.runner import RunnerOptions, run_node
 
@@ -198,12 +199,10 @@ def _run(args: argparse.Namespace) -> int:
             + "; ".join(f"{p} to {s} m at {v} m/s: {', '.join(problems)}" for (p, s, v), problems in infeasible.items())
         )
     options = RunnerOptions(
-        args.dt,
-        args.realtime,
+        Pacing(args.dt, args.realtime, step_timeout=args.step_timeout),
         args.auto_go,
         args.keyboard,
         args.settle,
-        args.step_timeout,
         args.response_timeout,
         args.deceleration,
     )

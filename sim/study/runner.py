@@ -34,6 +34,7 @@ import numpy as np
 
 from sim.control.driver import DriverError, RobotDriver
 from sim.control.scenarios import approach
+from sim.control.stepper import Pacing, Stepper
 from sim.processes import ManagedProcess, ProcessError, start_recorder, stop_recorder
 from sim.robots import RobotSpec
 from sim.study.errors import StudyError
@@ -54,7 +55,6 @@ from sim.study.plan import PlannedTrial, SessionPlan
 from sim.study.records import TrialRecord, write_records
 from sim.study.scene import Scene
 from sim.study.trial_run import TrialRun
-from sim.wire.contract import STEP_S
 
 __all__ = [
     "EXIT_OK",
@@ -75,12 +75,10 @@ EXIT_OK, EXIT_ROS, EXIT_INTERRUPTED = 0, 4, 130
 
 @dataclass(frozen=True)
 class RunnerOptions:
-    dt: float = STEP_S
-    realtime: bool = False
+    pacing: Pacing = Pacing(step_timeout=10.0)
     auto_go: bool = False
     keyboard: bool = False  # the observer types at this terminal: go, stop, distances, preferences
     settle: float = 0.5  # s held after the motion ends, before it counts as at rest
-    step_timeout: float = 10.0  # lockstep: the longest wait for the engine's joint state
     response_timeout: float = 300.0  # the longest wait for go or an answer; then the trial goes on without it
     deceleration: float = 1.0  # m/s² along the path on a press
 
@@ -198,10 +196,9 @@ class StudyRunner(RobotDriver):
         self._string_type = String
         self.scene, self.plan, self.approaches, self.options = scene, plan, approaches, options
         self.inputs = Inputs()
-        self.clock = 0.0  # ROS time of the last step
+        self.stepper = Stepper(self, options.pacing)
         self.phase = ""  # of the last status published
         self._target = (robot.home.copy(), np.zeros(robot.dof))
-        self._wall_anchor = 0.0
         self.status_pub = self.rospy.Publisher(STATUS_TOPIC, String, queue_size=10, latch=True)
         self.watched_publishers.append((STATUS_TOPIC, self.status_pub))
         self._subscribers = [
@@ -243,46 +240,31 @@ class StudyRunner(RobotDriver):
                 print(f"sim.study run: {typed.text}", file=sys.stderr, flush=True)
 
     # --- time -----------------------------------------------------------------------------------------------
+    @property
+    def clock(self) -> float:
+        """The controller's ROS time: the last step's end."""
+        return self.stepper.clock
+
     def start(self) -> np.ndarray:
         """/clock 0 and the engine's answer (lockstep), or its first joint state (realtime): where the robot is."""
-        dt = self.options.dt
-        if self.options.realtime:
-            self._wall_anchor = time.monotonic()
-            self.publish_clock(0.0)
-            state = self.state_or_fail(-math.inf, self.options.step_timeout, dt)
-        else:
-            self.publish_clock(0.0)
-            state = self.state_or_fail(0.0, self.options.step_timeout, dt)
+        state = self.stepper.start(self.options.pacing.step_timeout)
+        if state is None:  # cannot happen: a state was asked for
+            raise DriverError(f"no {self.robot.joint_states_topic} message received")
         self._target = (state.positions.copy(), np.zeros(self.robot.dof))
         return state.positions
 
     def step(self, positions: np.ndarray, velocities: np.ndarray) -> np.ndarray:
         """Command the target for the end of the next step and let the step happen; the achieved positions."""
-        dt = self.options.dt
-        t = round(self.clock + dt, 9)
         self._target = (positions, velocities)
-        if self.options.realtime:  # at wall time t - dt: /clock = t - dt and the target for t
-            delay = self._wall_anchor + (t - dt) - time.monotonic()
-            if delay > 0 and self.stop.wait(delay):
-                raise DriverError("interrupted")
-            if t - dt > 0:
-                self.publish_clock(t - dt)
-            self.publish_command(t, positions, velocities)
-            latest = self.states.latest
-            self.clock = t
-            if latest is None:
-                raise DriverError(f"no {self.robot.joint_states_topic} message received")
-            return latest.positions
-        self.publish_command(t, positions, velocities)
-        self.publish_clock(t)
-        state = self.state_or_fail(t, self.options.step_timeout, dt)
-        self.clock = t
+        state = self.stepper.step(positions, velocities)
+        if state is None:
+            raise DriverError(f"no {self.robot.joint_states_topic} message received")
         return state.positions
 
     def wait_for_input(self, what: str) -> Any:
         """Go or an answer, waited for at most --response-timeout s. In real time the robot holds its target
         meanwhile (the controller keeps streaming); in lockstep the clock stands still."""
-        if not self.options.realtime:
+        if not self.options.pacing.realtime:
             return self.inputs.wait(what, self.options.response_timeout, self.stop)
         deadline = time.monotonic() + self.options.response_timeout
         while time.monotonic() < deadline and not self.stop.is_set():
@@ -350,7 +332,7 @@ class StudyRunner(RobotDriver):
     ) -> tuple[TrialRecord, np.ndarray]:
         """One trial from wherever the robot is; its record (preference still empty) and where the robot ends."""
         planned = self.approaches[(trial.path, trial.standoff, trial.peak_speed)]
-        dt = self.options.dt
+        dt = self.options.pacing.dt
         self.publish_status(self.status(trial, "to_start"))
         to_start, speeds = approach(self.robot, positions, planned.positions[0], dt)
         for k in range(1, len(to_start)):

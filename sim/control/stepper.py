@@ -1,0 +1,102 @@
+"""The controller's side of the timing contract, once: fixed steps of dt, in lockstep or paced by the wall clock.
+
+The commander and the study runner both step the robot through this.
+  lockstep: a step publishes the command stamped t+dt, then /clock = t+dt, and waits for the engine's joint state
+      stamped >= t+dt. The engine steps once per /clock value, so the run goes as fast as the engine does.
+  realtime: the step that starts at controller time t is due at wall time t / time_scale from the start. It
+      publishes /clock = t and the command stamped t+dt (the engine extrapolates along the velocity) and takes the
+      latest joint state, with no waiting.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from sim.control.driver import DriverError, ReceivedJointState, RobotDriver
+from sim.wire.contract import STEP_S
+
+__all__ = ["Pacing", "Stepper"]
+
+
+@dataclass(frozen=True)
+class Pacing:
+    """How the controller steps: dt, lockstep or real time, and how long a lockstep answer may take."""
+
+    dt: float = STEP_S
+    realtime: bool = False
+    time_scale: float = 1.0  # realtime: controller seconds per wall second (the engine needs the same)
+    step_timeout: float = 5.0  # lockstep: the longest wait for the engine's answer to a step, in s
+
+
+class Stepper:
+    """Steps a robot through `driver` as `pacing` says; `clock` is the controller's time (the last step's end)."""
+
+    def __init__(self, driver: RobotDriver, pacing: Pacing) -> None:
+        self.driver = driver
+        self.pacing = pacing
+        self.clock = 0.0
+        self._wall_start = 0.0
+
+    def start(self, timeout: float, need_state: bool = True) -> ReceivedJointState | None:
+        """Publish /clock 0 and tell where the robot is (waited for at most `timeout` s).
+
+        Lockstep: the engine anchors its step grid on /clock 0 and answers with its joint state stamped 0; only
+        then may /clock move on (a later value seen first would become the anchor and the lockstep would stall).
+        Realtime: the paced steps count from /clock 0; then comes the engine's first joint state (when
+        `need_state`), of any stamp: an engine on its own wall clock may have published before, and one stepping
+        on /clock answers this /clock 0.
+        """
+        self.clock = 0.0
+        self._wall_start = time.monotonic()
+        self.driver.publish_clock(0.0)
+        if not self.pacing.realtime:
+            return self.driver.state_or_fail(0.0, timeout, self.pacing.dt)
+        return self.driver.state_or_fail(-math.inf, timeout, self.pacing.dt) if need_state else None
+
+    def hold(self) -> ReceivedJointState:
+        """Lockstep only: one step with no new command (the engine holds its target); the joint state after it."""
+        if self.pacing.realtime:
+            raise DriverError("a step without a command is a lockstep step")
+        end = self._next_end()
+        self.driver.publish_clock(end)
+        state = self.driver.state_or_fail(end, self.pacing.step_timeout, self.pacing.dt)
+        self.clock = end
+        return state
+
+    def step(self, positions: np.ndarray, velocities: np.ndarray) -> ReceivedJointState | None:
+        """Command the target for the end of the next step and let the step happen.
+
+        Lockstep: the engine's joint state stamped at the step's end (DriverError when it does not come in time).
+        Realtime: the latest joint state (None before the first one). DriverError when stopped while waiting.
+        """
+        end = self._next_end()
+        if not self.pacing.realtime:
+            self.driver.publish_command(end, positions, velocities)
+            self.driver.publish_clock(end)
+            state = self.driver.state_or_fail(end, self.pacing.step_timeout, self.pacing.dt)
+            self.clock = end
+            return state
+        self._wait_until(self.clock)
+        if self.clock > 0:  # /clock 0 went out at the start
+            self.driver.publish_clock(self.clock)
+        self.driver.publish_command(end, positions, velocities)
+        self.clock = end
+        return self.driver.states.latest
+
+    def finish(self) -> None:
+        """Realtime: at the last step's end, /clock reaches it (lockstep is there already)."""
+        if self.pacing.realtime and self.clock > 0:
+            self._wait_until(self.clock)
+            self.driver.publish_clock(self.clock)
+
+    def _next_end(self) -> float:
+        return round(self.clock + self.pacing.dt, 9)
+
+    def _wait_until(self, controller_time: float) -> None:
+        delay = self._wall_start + controller_time / self.pacing.time_scale - time.monotonic()
+        if (delay > 0 and self.driver.stop.wait(delay)) or self.driver.stop.is_set():
+            raise DriverError("interrupted")
