@@ -2,7 +2,7 @@
 
 Run: .venv/bin/python bench/ik_bench.py [--targets 500] [--seed 0] [--robots path/to/arm.urdf ...]
 Every case solves IK for FK poses of random configurations within the datasheet limits, so all are reachable.
-`--robots` adds a near-seed case per robot, on the axes its chain controls (sim.control.scenario_defaults).
+`--robots` adds a near-seed case per robot, on the axes its chain controls (sim.control.scenarios.defaults).
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from sim.control.scenario_defaults import controllable_weights, describe_axes  # noqa: E402
+from sim.control.scenarios.defaults import controllable_weights, describe_axes  # noqa: E402
 from sim.geometry.kinematics import PLANAR_WEIGHTS, IKResult, chain_for, planar_pose, solve_ik, solve_path_ik  # noqa: E402
 from sim.robots import RobotSpec, load_robot  # noqa: E402
 

@@ -16,14 +16,14 @@ from sim.robots.loading import (
     load_robot,
     robot_from_args,
 )
-from sim.robots.spec import RobotSpec, ScenarioHints
+from sim.robots.spec import RobotSpec, ScenarioDefaults
 
 __all__ = [
     "ROBOTS_DIR",
     "ROBOT_NAMES",
     "RobotError",
     "RobotSpec",
-    "ScenarioHints",
+    "ScenarioDefaults",
     "load_robot",
     "find_ros_package",
     "add_robot_arguments",

@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from sim.robots.errors import RobotError
-from sim.robots.spec import RobotSpec, ScenarioHints
+from sim.robots.spec import RobotSpec, ScenarioDefaults
 from sim.robots.urdf_model import MOVING_TYPES, UrdfJoint, UrdfModel
 
 __all__ = [
@@ -56,7 +56,7 @@ class RobotOverrides:
     ee_link: str | None = None
     home: tuple[float, ...] | None = None
     limits: Mapping[str, Mapping[str, float]] = field(default_factory=dict)  # joint -> {lower, upper, ...}
-    hints: ScenarioHints = field(default_factory=ScenarioHints)
+    scenario_defaults: ScenarioDefaults = field(default_factory=ScenarioDefaults)
 
 
 def ros_name(text: str) -> str:
@@ -155,25 +155,26 @@ def _apply_limit_overrides(
             table[names.index(joint), LIMIT_KEYS.index(key)] = float(value)
 
 
-def _check_hints(hints: ScenarioHints, names: Sequence[str], source: str) -> None:
-    if hints.one_joint is not None and hints.one_joint not in names:
+def _check_scenario_defaults(own: ScenarioDefaults, names: Sequence[str], source: str) -> None:
+    if own.one_joint is not None and own.one_joint not in names:
         raise RobotError(
-            f"{source}: scenarios.one_joint names joint {hints.one_joint!r}, which is not a controlled "
+            f"{source}: scenario_defaults.one_joint names joint {own.one_joint!r}, which is not a controlled "
             f"joint ({', '.join(names)})"
         )
-    for what, values in (("trial.centres", hints.trial_centres), ("trial.amplitudes", hints.trial_amplitudes)):
+    for what, values in (("trial.centres", own.trial_centres), ("trial.amplitudes", own.trial_amplitudes)):
         if values is not None and len(values) != len(names):
             raise RobotError(
-                f"{source}: scenarios.{what} needs {len(names)} numbers (for {', '.join(names)}), got {len(values)}"
+                f"{source}: scenario_defaults.{what} needs {len(names)} numbers (for {', '.join(names)}), "
+                f"got {len(values)}"
             )
     for what, values in (
-        ("ik_goal", hints.ik_goal_position),
-        ("orientation_goal", hints.orientation_goal_position),
-        ("ik_goal.rpy", hints.ik_goal_rpy),
-        ("orientation_goal.rpy", hints.orientation_goal_rpy),
+        ("ik_goal", own.ik_goal_position),
+        ("orientation_goal", own.orientation_goal_position),
+        ("ik_goal.rpy", own.ik_goal_rpy),
+        ("orientation_goal.rpy", own.orientation_goal_rpy),
     ):
         if values is not None and len(values) != 3:
-            raise RobotError(f"{source}: scenarios.{what} needs 3 numbers, got {len(values)}")
+            raise RobotError(f"{source}: scenario_defaults.{what} needs 3 numbers, got {len(values)}")
 
 
 def derive_robot(
@@ -232,7 +233,7 @@ def derive_robot(
         if outside:
             raise RobotError(f"{source}: home {home.tolist()} is outside the limits of {', '.join(outside)}")
 
-    _check_hints(overrides.hints, names, source)
+    _check_scenario_defaults(overrides.scenario_defaults, names, source)
     name = ros_name(overrides.name or model.name or urdf_path.stem)
     if not name:
         raise RobotError(f"{source}: the robot has no usable name; give one with --name")
@@ -252,7 +253,7 @@ def derive_robot(
         ee_link=ee,
         topic_prefix=f"/{name}",
         home=home,
-        hints=overrides.hints,
+        scenario_defaults=overrides.scenario_defaults,
         default_inertia_links=inertia_less,
         zeroed_inertia_links=zeroed,
         notes=tuple(notes),

@@ -9,11 +9,13 @@ A robot YAML holds overrides as data (every key optional except `urdf` in a YAML
     home: [0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785]
     limits:                                       # per joint, any of lower, upper, velocity, effort
       panda_joint1: {lower: -2.8973, upper: 2.8973, velocity: 2.175, effort: 87}
-    scenarios:                                    # scenario defaults; computed from the robot when absent
+    scenario_defaults:                            # computed from the robot when absent
       one_joint: {joint: panda_joint1, waypoints: [0.25, 1.0]}
       ik_goal: {position: [0.5, 0.375, 0.75]}     # rpy: [r, p, y] for a full pose
       orientation_goal: {position: [0.3, 0.5, 0.75], rpy: [0.785, 0.628, 1.047]}
       trial: {centres: [...], amplitudes: [...]}
+
+The old name of `scenario_defaults:`, `scenarios:`, is still read, with a warning.
 
 `--robot path/to/arm.urdf` also reads `path/to/arm.yaml` when it exists. Command-line overrides win over the YAML.
 """
@@ -32,7 +34,7 @@ from typing import Any
 from sim.cli_values import CliValueError, parse_numbers
 from sim.robots.derive import RobotOverrides, derive_robot
 from sim.robots.errors import RobotError
-from sim.robots.spec import RobotSpec, ScenarioHints
+from sim.robots.spec import RobotSpec, ScenarioDefaults
 from sim.robots.urdf_model import parse_urdf
 
 __all__ = ["ROBOTS_DIR", "ROBOT_NAMES", "load_robot", "find_ros_package", "add_robot_arguments", "robot_from_args"]
@@ -41,7 +43,7 @@ log = logging.getLogger(__name__)
 
 ROBOTS_DIR = Path(__file__).resolve().parent
 ROBOT_NAMES: tuple[str, ...] = ("panda", "igt")  # the robots shipped as ROBOTS_DIR/<name>.yaml
-_YAML_KEYS = ("urdf", "name", "base_link", "ee_link", "home", "limits", "scenarios")
+_YAML_KEYS = ("urdf", "name", "base_link", "ee_link", "home", "limits", "scenario_defaults", "scenarios")
 _SCENARIO_KEYS = {
     "one_joint": ("joint", "waypoints"),
     "ik_goal": ("position", "rpy"),
@@ -86,17 +88,17 @@ def _text(value: object, what: str) -> str:
     return value
 
 
-def _hints(value: object, source: Path) -> ScenarioHints:
+def _scenario_defaults(value: object, source: Path) -> ScenarioDefaults:
     if not isinstance(value, dict):
-        raise RobotError(f"{source}: scenarios must be a mapping of {', '.join(_SCENARIO_KEYS)}")
+        raise RobotError(f"{source}: scenario_defaults must be a mapping of {', '.join(_SCENARIO_KEYS)}")
     fields: dict[str, Any] = {}
     for scenario, entry in value.items():
         allowed = _SCENARIO_KEYS.get(scenario)
         if allowed is None:
             raise RobotError(f"{source}: unknown scenario default {scenario!r}; known: {', '.join(_SCENARIO_KEYS)}")
         if not isinstance(entry, dict) or any(key not in allowed for key in entry):
-            raise RobotError(f"{source}: scenarios.{scenario} takes {', '.join(allowed)}, got {entry!r}")
-        where = f"{source}: scenarios.{scenario}"
+            raise RobotError(f"{source}: scenario_defaults.{scenario} takes {', '.join(allowed)}, got {entry!r}")
+        where = f"{source}: scenario_defaults.{scenario}"
         if scenario == "one_joint":
             fields["one_joint"] = _text(entry.get("joint"), f"{where}.joint")
             fields["one_joint_waypoints"] = _numbers(entry.get("waypoints"), f"{where}.waypoints")
@@ -108,7 +110,7 @@ def _hints(value: object, source: Path) -> ScenarioHints:
             fields[f"{prefix}_position"] = _numbers(entry.get("position"), f"{where}.position")
             if "rpy" in entry or scenario == "orientation_goal":
                 fields[f"{prefix}_rpy"] = _numbers(entry.get("rpy"), f"{where}.rpy")
-    return ScenarioHints(**fields)
+    return ScenarioDefaults(**fields)
 
 
 def _limits(value: object, source: Path) -> dict[str, dict[str, float]]:
@@ -124,8 +126,18 @@ def _overrides(data: Mapping[str, Any], source: Path) -> RobotOverrides:
         ee_link=None if data.get("ee_link") is None else _text(data["ee_link"], f"{source}: ee_link"),
         home=None if data.get("home") is None else _numbers(data["home"], f"{source}: home"),
         limits=_limits(data.get("limits", {}), source),
-        hints=_hints(data.get("scenarios", {}), source),
+        scenario_defaults=_scenario_defaults(_scenario_defaults_entry(data, source), source),
     )
+
+
+def _scenario_defaults_entry(data: Mapping[str, Any], source: Path) -> object:
+    """`scenario_defaults:`, or its old name `scenarios:` (with a warning); not both."""
+    if "scenarios" not in data:
+        return data.get("scenario_defaults", {})
+    if "scenario_defaults" in data:
+        raise RobotError(f"{source}: give scenario_defaults only (scenarios is its old name)")
+    log.warning("%s: 'scenarios:' is deprecated; rename it 'scenario_defaults:'", source)
+    return data["scenarios"]
 
 
 def _urdf_of(yaml_path: Path, value: object) -> Path:

@@ -1,5 +1,5 @@
-"""What the toolkit knows of a robot once it is loaded: `RobotSpec`, plus the scenario hints a robot's YAML may
-carry. Pure data."""
+"""What the toolkit knows of a robot once it is loaded: `RobotSpec`, plus the scenario defaults a robot's YAML may
+fix. Pure data."""
 
 from __future__ import annotations
 
@@ -8,13 +8,13 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["ScenarioHints", "RobotSpec"]
+__all__ = ["ScenarioDefaults", "RobotSpec"]
 
 
 @dataclass(frozen=True)
-class ScenarioHints:
-    """Scenario defaults a robot's YAML may fix (`scenarios:`); None = computed from the robot (sim.control.scenarios).
-    The Panda and the igt keep the motions the README documents this way."""
+class ScenarioDefaults:
+    """The scenario defaults a robot's YAML fixes (`scenario_defaults:`); None = computed from the robot
+    (sim.control.scenarios.defaults). The Panda and the igt keep the motions the README documents this way."""
 
     one_joint: str | None = None  # a joint name
     one_joint_waypoints: tuple[float, ...] | None = None
@@ -40,7 +40,7 @@ class RobotSpec:
     ee_link: str
     topic_prefix: str  # e.g. "/panda"; topics are <prefix>/joint_states etc.
     home: np.ndarray  # a comfortable start configuration inside the limits
-    hints: ScenarioHints = field(default_factory=ScenarioHints)
+    scenario_defaults: ScenarioDefaults = field(default_factory=ScenarioDefaults)
     default_inertia_links: tuple[str, ...] = ()  # moving links without <inertial>: pybullet gives them 1 kg
     zeroed_inertia_links: tuple[str, ...] = ()  # moving links whose inertia is not physical: pybullet zeroes it
     notes: tuple[str, ...] = ()  # what was assumed while loading (missing limits, ...), for the user to read

@@ -4,7 +4,7 @@ itself (pybullet's collision shapes), and the stand-off actually reached (FK of 
 combination is reported with every reason, never run.
 
 The end effector keeps the orientation it has at home throughout (the Panda's flange points down), on the axes
-its chain controls (sim.control.scenario_defaults).
+its chain controls (sim.control.scenarios.defaults).
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pybullet as p
 
-from sim.control.scenario_defaults import controllable_weights
+from sim.control.scenarios.defaults import controllable_weights
 from sim.engine.physics import load_urdf_text
 from sim.geometry.frames import matrix_to_quat, rpy_to_matrix
 from sim.geometry.kinematics import chain_for, solve_ik, solve_path_ik

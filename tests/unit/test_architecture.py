@@ -45,7 +45,7 @@ def test_pure_bridge_modules_import_neither_sockets_nor_ros(module: str) -> None
         "sim.geometry.kinematics",
         "sim.engine.physics",
         "sim.robots",
-        "sim.control.scenario_defaults",
+        "sim.control.scenarios",
         "sim.study.paths",
         "sim.study.interface",
         "sim.study.summary",

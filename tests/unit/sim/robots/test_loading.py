@@ -4,6 +4,7 @@ clear RobotError naming the file and the value."""
 from __future__ import annotations
 
 import argparse
+import logging
 import math
 import shutil
 from pathlib import Path
@@ -240,8 +241,9 @@ def test_a_bad_urdf_is_one_clear_error_naming_the_file(tmp_path, text, message):
         ("limits:\n  j9: {upper: 1}\n", "joint 'j9', which is not a controlled joint"),
         ("limits:\n  j1: {top: 1}\n", "limit 'top' is not one of"),
         ("limits:\n  j1: {lower: 2}\n", "lower < upper"),
-        ("scenarios:\n  trial: {centres: [0.1], amplitudes: [0.1, 0.1]}\n", "trial.centres needs 2 numbers"),
-        ("scenarios:\n  dance: {}\n", "unknown scenario default 'dance'"),
+        ("scenario_defaults:\n  trial: {centres: [0.1], amplitudes: [0.1, 0.1]}\n", "trial.centres needs 2 numbers"),
+        ("scenario_defaults:\n  dance: {}\n", "unknown scenario default 'dance'"),
+        ("scenario_defaults: {}\nscenarios: {}\n", "give scenario_defaults only"),
         ("urdf: other.urdf\n", "names URDF .*other.urdf, but"),
         ("{: bad\n", "is not valid YAML"),
     ],
@@ -251,6 +253,15 @@ def test_a_bad_robot_yaml_is_one_clear_error(tmp_path, yaml_text, message):
     write(tmp_path, yaml_text, "arm.yaml")
     with pytest.raises(RobotError, match=message):
         load_robot(str(path))
+
+
+def test_the_old_name_of_scenario_defaults_is_read_with_a_warning(tmp_path, caplog):
+    path = two_link(tmp_path)
+    write(tmp_path, "scenarios:\n  trial: {centres: [0.3, 0.4], amplitudes: [0.1, 0.2]}\n", "arm.yaml")
+    with caplog.at_level(logging.WARNING, logger="sim.robots.loading"):
+        robot = load_robot(str(path))
+    assert robot.scenario_defaults.trial_centres == (0.3, 0.4)
+    assert "'scenarios:' is deprecated; rename it 'scenario_defaults:'" in caplog.text
 
 
 @pytest.mark.parametrize(

@@ -1,7 +1,8 @@
-"""Scenario defaults computed from a robot, never tabled by its name. Pure logic.
+"""Every scenario default, in one place: the fixed ones, a robot's own (its YAML's `scenario_defaults:`, read by
+sim.robots.loading into `RobotSpec.scenario_defaults`) and the ones computed from a robot when it has none. Pure logic.
 
-A robot's YAML may fix any of them (`scenarios:` in sim.robots.loading, as the Panda and the igt do to keep the
-motions the README documents); everything else is computed here from the limits and the kinematic chain:
+The Panda and the igt fix theirs in their YAML, to keep the motions the README documents; for any other robot they
+are computed here from the limits and the kinematic chain, never tabled by its name:
 
   usable range     the joint limits; a continuous joint (±2π) is used over ±π. A margin of MARGIN of the range is
                    kept at each end.
@@ -13,7 +14,7 @@ motions the README documents); everything else is computed here from the limits 
                    back, far down), scaled towards the centre if needed so it peaks at 0.8 of its velocity limit.
   IK weights       the task-space axes the chain controls: greedily x, y, z, yaw, roll, pitch, each kept when it
                    raises the rank of the Jacobian's selected rows (at the best of a few seeded configurations).
-                   Six controllable axes = full pose; the igt's (x, y, yaw) = PLANAR_WEIGHTS.
+                   Six controllable axes = full pose; the igt's = x, y and yaw.
   IK goals         the FK of reachable offsets from home (every joint IK_GOAL_SHIFT of its usable range towards the
                    side with more room, at most IK_GOAL_MAX_SHIFT); ik_orientation shifts the other way.
 """
@@ -29,6 +30,20 @@ from sim.geometry.kinematics import KinematicChain
 from sim.robots import RobotSpec
 
 __all__ = [
+    "SINGLE_DURATION_S",
+    "ONE_JOINT_SPACING_S",
+    "ONE_JOINT_HOLD_S",
+    "IK_MOVE_TIME_S",
+    "IK_HOLD_S",
+    "IK_RESTARTS",
+    "IK_SEED",
+    "IK_TOL_POS",
+    "IK_TOL_ROT",
+    "TRIAL_DURATION_S",
+    "TRIAL_SEGMENT_S",
+    "TRIAL_PATTERN",
+    "APPROACH_MIN_S",
+    "APPROACH_SPEED_FRACTION",
     "MARGIN",
     "TRIAL_MAX_SWING",
     "ONE_JOINT_FRACTIONS",
@@ -46,6 +61,23 @@ __all__ = [
     "describe_axes",
 ]
 
+# Fixed defaults, the same for every robot.
+SINGLE_DURATION_S = 5.0
+ONE_JOINT_SPACING_S = 2.0
+ONE_JOINT_HOLD_S = 1.0
+IK_MOVE_TIME_S = 4.0
+IK_HOLD_S = 1.0
+IK_RESTARTS = 20
+IK_SEED = 0
+IK_TOL_POS = 1e-6  # m
+IK_TOL_ROT = 1e-5  # rad
+TRIAL_DURATION_S = 40.0
+TRIAL_SEGMENT_S = 5.0
+TRIAL_PATTERN = (0.0, 1.0, 0.0, -1.0, 0.0, -1.0, 0.0, 1.0, 0.0)  # multiples of A around c, one per 5 s
+APPROACH_MIN_S = 2.0
+APPROACH_SPEED_FRACTION = 0.5  # approach segments peak at no more than this fraction of the velocity limits
+
+# What the computed defaults are made of.
 MARGIN = 0.1
 TRIAL_MAX_SWING = {"revolute": 0.5, "continuous": 0.5, "prismatic": 0.1}  # rad or m
 TRIAL_SEGMENT_PEAK = 1.875 / 5.0  # a 5 s quintic from rest to rest peaks at 1.875·Δ/5
@@ -69,9 +101,9 @@ def usable_range(robot: RobotSpec) -> tuple[np.ndarray, np.ndarray]:
 
 def trial_table(robot: RobotSpec) -> tuple[np.ndarray, np.ndarray]:
     """(centres, amplitudes) of the trial path, from the robot's YAML or computed (module docstring)."""
-    hints = robot.hints
-    if hints.trial_centres is not None and hints.trial_amplitudes is not None:
-        return np.array(hints.trial_centres), np.array(hints.trial_amplitudes)
+    own = robot.scenario_defaults
+    if own.trial_centres is not None and own.trial_amplitudes is not None:
+        return np.array(own.trial_centres), np.array(own.trial_amplitudes)
     lower, upper = usable_range(robot)
     centres, amplitudes = np.empty(robot.dof), np.empty(robot.dof)
     for j, kind in enumerate(robot.joint_types):
@@ -85,10 +117,10 @@ def trial_table(robot: RobotSpec) -> tuple[np.ndarray, np.ndarray]:
 
 def one_joint_default(robot: RobotSpec) -> tuple[int, np.ndarray]:
     """(joint index, waypoints) of one_joint, from the robot's YAML or computed (module docstring; the computed
-    waypoints are slowed down by sim.control.scenarios where they would be too fast)."""
-    hints = robot.hints
-    if hints.one_joint is not None and hints.one_joint_waypoints is not None:
-        return robot.joint_names.index(hints.one_joint), np.array(hints.one_joint_waypoints)
+    waypoints are slowed down by sim.control.scenarios.joint_space where they would be too fast)."""
+    own = robot.scenario_defaults
+    if own.one_joint is not None and own.one_joint_waypoints is not None:
+        return robot.joint_names.index(own.one_joint), np.array(own.one_joint_waypoints)
     lower, upper = usable_range(robot)
     return 0, lower[0] + np.array(ONE_JOINT_FRACTIONS) * (upper[0] - lower[0])
 
@@ -141,6 +173,6 @@ def ik_goal(robot: RobotSpec, chain: KinematicChain, orientation: bool) -> tuple
 
 
 def describe_axes(weights: tuple[float, ...]) -> str:
-    """'x, y and yaw' for PLANAR_WEIGHTS."""
+    """'x, y and yaw' for the weights (1, 1, 0, 0, 0, 1)."""
     names = [AXIS_NAMES[axis] for axis in range(6) if weights[axis]]
     return names[0] if len(names) == 1 else f"{', '.join(names[:-1])} and {names[-1]}"

@@ -1,5 +1,5 @@
 """Scenario defaults computed from the robot: every scenario builds on robots that are not ours, inside their limits,
-and the computed values keep the rules the docstring of sim.control.scenario_defaults states."""
+and the computed values keep the rules the docstring of sim.control.scenarios.defaults states."""
 
 from __future__ import annotations
 
@@ -8,8 +8,8 @@ import shutil
 import numpy as np
 import pytest
 
-from sim.control.scenario_defaults import controllable_weights, trial_table, usable_range
 from sim.control.scenarios import SCENARIOS, ScenarioConfig, ScenarioError, build_motion, fk_path, pose_errors
+from sim.control.scenarios.defaults import controllable_weights, trial_table, usable_range
 from sim.geometry.kinematics import PLANAR_WEIGHTS, chain_for
 from sim.robots import load_robot
 from tests.robot_files import LIFT_ARM, THIRD_PARTY_URDFS
