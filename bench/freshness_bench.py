@@ -138,15 +138,19 @@ class Run:
     def node(self, name: str, *args: str) -> ManagedProcess:
         return ManagedProcess([PYTHON, ROSNODE, *args], self.core.env, self.log_dir, name)
 
-    def down(self) -> dict[str, Received]:
-        received = {topic: Received(kind) for kind, topic, _ in DOWN}
-        with SlowLink(
+    def _link(self) -> SlowLink:
+        """The Wi-Fi-like link between the client and the endpoint, the same both ways."""
+        return SlowLink(
             ("127.0.0.1", self.endpoint.port),
             LINK_RATE_BPS,
             LINK_DELAY_S,
             LINK_BUFFER_BYTES,
             max_seconds=self.duration_s + 120,
-        ) as link:
+        )
+
+    def down(self) -> dict[str, Received]:
+        received = {topic: Received(kind) for kind, topic, _ in DOWN}
+        with self._link() as link:
             client = TcpClient("127.0.0.1", link.port, reconnect=False).connect(timeout=10.0)
             try:
                 for kind, topic, _ in DOWN:
@@ -182,13 +186,7 @@ class Run:
             *[arg for kind, topic, _ in UP for arg in ("--listen", f"{kind}:{topic}")],
         )
         received = {topic: Received(kind) for kind, topic, _ in UP}
-        with SlowLink(
-            ("127.0.0.1", self.endpoint.port),
-            LINK_RATE_BPS,
-            LINK_DELAY_S,
-            LINK_BUFFER_BYTES,
-            max_seconds=self.duration_s + 120,
-        ) as link:
+        with self._link() as link:
             client = TcpClient("127.0.0.1", link.port, reconnect=False).connect(timeout=10.0)
             sender = EngineSender(client)
             try:

@@ -60,6 +60,20 @@ class Bridged:
             raise RequestRefused(f"topic {resolved} is not permitted by the endpoint's allow/deny lists")
         return resolved
 
+    def payload_problem(self, type_name: str, payload: bytes, service_part: str = "") -> str | None:
+        """Why `payload` is not exactly one `type_name` message (or, given `service_part` "request" or "response",
+        one such part of a `type_name` service); None when it is, or when the settings skip the check."""
+        if not self.config.validate_payloads:
+            return None
+        try:
+            if service_part:
+                self.ros.types.validate_service(type_name, service_part, payload)
+            else:
+                self.ros.types.validate(type_name, payload)
+        except RosError as error:
+            return str(error)
+        return None
+
 
 def made_for_client(make: Callable[[], _Made]) -> _Made:
     """A ROS object made for a client's request; a ROS-side failure is that request's refusal."""

@@ -78,15 +78,13 @@ class Services:
                 "this call will not complete",
                 srv_id,
             )
-        if self._config.validate_payloads:
-            try:
-                self._ros.types.validate_service(proxy.service_type, "request", request.payload)
-            except RosError as error:
-                raise RequestRefused(
-                    f"__request {srv_id}: service {request.service}: {error}; not sent to ROS, this call will not "
-                    "complete",
-                    srv_id,
-                ) from None
+        problem = self._bridged.payload_problem(proxy.service_type, request.payload, "request")
+        if problem is not None:
+            raise RequestRefused(
+                f"__request {srv_id}: service {request.service}: {problem}; not sent to ROS, this call will not "
+                "complete",
+                srv_id,
+            )
         timeout = self._config.service_timeout_s
 
         def call() -> None:
@@ -177,16 +175,14 @@ class Services:
                 "response discarded",
                 srv_id,
             )
-        if self._config.validate_payloads:
-            try:
-                self._ros.types.validate_service(call.service_type, "response", response.payload)
-            except RosError as error:
-                # The ROS caller hears at once instead of getting bytes it cannot read (or waiting for a timeout).
-                call.failure = f"client {session.name} answered with an invalid response: {error}"
-                call.done.set()
-                raise RequestRefused(
-                    f"__response {srv_id}: service {response.service}: {error}; the ROS call fails", srv_id
-                ) from None
+        problem = self._bridged.payload_problem(call.service_type, response.payload, "response")
+        if problem is not None:
+            # The ROS caller hears at once instead of getting bytes it cannot read (or waiting for a timeout).
+            call.failure = f"client {session.name} answered with an invalid response: {problem}"
+            call.done.set()
+            raise RequestRefused(
+                f"__response {srv_id}: service {response.service}: {problem}; the ROS call fails", srv_id
+            )
         call.response = response.payload
         call.done.set()
 

@@ -14,7 +14,6 @@ from bridge import protocol
 from bridge.bridged import Bridged, ClientRegistrations, made_for_client
 from bridge.protocol import Publish, Subscribe, TopicMessage, Warn
 from bridge.ros_publisher import RawPublisher, end_topic
-from bridge.ros_types import RosError
 from bridge.session import ClientSession, RequestRefused
 
 __all__ = ["ECHO_RECORD_MAX", "EchoFilter", "SharedSubscriber", "SharedPublisher", "Topics"]
@@ -277,11 +276,9 @@ class Topics:
                 f"message for topic {message.topic!r}, which this client has not registered with __publish"
             )
         resolved, publisher = entry
-        if self._config.validate_payloads:
-            try:
-                self._ros.types.validate(publisher.message_name, message.payload)
-            except RosError as error:
-                raise RequestRefused(f"topic {resolved}: {error}; message not published") from None
+        problem = self._bridged.payload_problem(publisher.message_name, message.payload)
+        if problem is not None:
+            raise RequestRefused(f"topic {resolved}: {problem}; message not published")
         subscribed = self.subscribers.get(resolved)
         if subscribed is not None and subscribed.echoes.records:
             subscribed.echoes.record(session, message.payload)

@@ -2,7 +2,7 @@
 
 Starts its own roscore (free port, own ROS_HOME/ROS_LOG_DIR), then for the Panda (or `--robot`: any URDF):
   1. the base case: endpoint + game-engine stand-in (TCP, pybullet physics, auto-simulate) driven by the commander
-     along the 40 s trial path (at --time-scale), recorded by rosbag record;
+     along the 40 s sweep (at --time-scale), recorded by rosbag record;
   2. an IK scenario: a straight Cartesian line to the robot's default IK goal (the Panda's: (0.5, 0.375, 0.75) m),
      IK of every sample, /clock-driven;
 then analyses both bags (rosbags), prints the metrics table, writes the report and plots, and stops everything
@@ -42,7 +42,7 @@ def main(argv: list[str] | None = None) -> int:
     log_to_stderr()
     try:
         robot = robot_from_args(args)
-        for scenario in ("trial", "ik_cartesian"):  # bad input is found before anything starts
+        for scenario in ("sweep", "ik_cartesian"):  # bad input is found before anything starts
             goal = build_motion(robot, scenario).goal
     except SimError as error:
         return fail(PROG, error, EXIT_BAD_INPUT)
@@ -52,7 +52,7 @@ def main(argv: list[str] | None = None) -> int:
     started = time.monotonic()
     try:
         print(f"demo: roscore, endpoint, engine and commander for the {robot.name}; output in {out}", flush=True)
-        print("demo: 1/2 base case (TCP engine, physics, auto-simulate), 40 s trial path ...", flush=True)
+        print("demo: 1/2 base case (TCP engine, physics, auto-simulate), 40 s sweep ...", flush=True)
         base = campaign.run_trial(robot, _case("base"), 1)
         print("demo: 2/2 IK scenario (Cartesian line, IK of every sample, /clock-driven) ...", flush=True)
         ik = campaign.run_trial(robot, _case("auto_simulate_off"), 1, ("ik_cartesian",))

@@ -1,4 +1,4 @@
-"""The accuracy campaign: robots × use cases × trials of the commander's 40 s trial path, each recorded by a real
+"""The accuracy campaign: robots × use cases × trials of the commander's 40 s sweep, each recorded by a real
 `rosbag record` into its own bag (CSV logs for the no-ROS cases), then analysed into a report with plots.
 
     python -m sim.trials --robots panda igt --trials 5 --out results/
@@ -196,10 +196,10 @@ class Campaign:
         self.timeout_s = timeout_s
         self._roscore: RosCore | None = None
 
-    def paths(self, robot: RobotSpec, case: UseCase, trial: int, scenario: str = "trial") -> TrialPaths:
+    def paths(self, robot: RobotSpec, case: UseCase, trial: int, scenario: str = "sweep") -> TrialPaths:
         stem = (
             f"{robot.name}_{case.name}_{trial}"
-            if scenario == "trial"
+            if scenario == "sweep"
             else f"{robot.name}_{case.name}_{scenario}_{trial}"
         )
         return TrialPaths(
@@ -221,7 +221,7 @@ class Campaign:
         return self._roscore
 
     def run_trial(
-        self, robot: RobotSpec, case: UseCase, trial: int, scenario: Sequence[str] = ("trial",)
+        self, robot: RobotSpec, case: UseCase, trial: int, scenario: Sequence[str] = ("sweep",)
     ) -> analysis.TrialResult:
         """One run of the commander's `scenario` (name and options) under `case`, recorded and analysed."""
         paths = self.paths(robot, case, trial, scenario[0])
@@ -265,7 +265,7 @@ class Campaign:
                 "sim.commander",
                 *robot.cli_args,
                 "--scenario",
-                "trial",
+                "sweep",
                 "--dt",
                 str(STEP_S),
                 "--export-csv",
@@ -425,8 +425,8 @@ def main(argv: list[str] | None = None) -> int:
         return fail(PROG, "--trials must be >= 1 and --time-scale > 0", EXIT_BAD_INPUT)
     try:
         robots = load_robots(args.robots)
-        for robot in robots:  # a robot whose trial path cannot be built is bad input, found before anything runs
-            build_motion(robot, "trial", ScenarioConfig(dt=STEP_S))
+        for robot in robots:  # a robot whose sweep cannot be built is bad input, found before anything runs
+            build_motion(robot, "sweep", ScenarioConfig(dt=STEP_S))
     except SimError as error:
         return fail(PROG, error, EXIT_BAD_INPUT)
     started = time.monotonic()

@@ -10,7 +10,7 @@ quaternion's x, y, z fields and w = 0) and logs desired vs achieved (`<prefix>/j
 
 Timing (the contract with the engine, sim.control.stepper): fixed steps of dt; the target of step k (t_k -> t_k+1)
 is for its END. Lockstep (default): the engine steps once per /clock value and answers each with its joint state, so
-a 40 s trial takes seconds. --realtime: /clock and the commands are paced by the wall clock (x --time-scale) and
+a 40 s motion takes seconds. --realtime: /clock and the commands are paced by the wall clock (x --time-scale) and
 nothing is waited for.
 Start-up: wait (at most --connect-timeout s) until a partner node (one that publishes joint_states and
 subscribes the command topic) is connected to our command, /clock and pose publishers and our joint_states
@@ -49,7 +49,7 @@ from pathlib import Path
 import numpy as np
 
 from sim.cli_values import parse_numbers
-from sim.control.driver import DriverError, RobotDriver
+from sim.control.controller_node import ControllerError, ControllerNode
 from sim.control.run_log import RunResult, write_log
 from sim.control.run_summary import format_fk_confirm, format_summary
 from sim.control.scenarios import (
@@ -57,6 +57,7 @@ from sim.control.scenarios import (
     IK_HOLD_S,
     IK_MOVE_TIME_S,
     IK_RESTARTS,
+    OLD_SCENARIO_NAMES,
     SCENARIOS,
     SPACES,
     Motion,
@@ -222,8 +223,9 @@ class CommanderOptions:
 
 
 # ------------------------------------------------------------------------------------------------ the node
-class Commander(RobotDriver):
-    """The driver (sim.control.driver) with the goal pose publisher; runs the motion through a Stepper."""
+class Commander(ControllerNode):
+    """The controller node (sim.control.controller_node) with the goal pose publisher; runs the motion through a
+    Stepper."""
 
     def __init__(self, robot: RobotSpec, motion: Motion, options: CommanderOptions, stop: threading.Event) -> None:
         super().__init__(robot, stop)
@@ -276,7 +278,7 @@ class Commander(RobotDriver):
                 break
             try:
                 state = stepper.step(schedule.positions[i], schedule.velocities[i])
-            except DriverError as error:
+            except ControllerError as error:
                 failure = None if self.stop.is_set() else str(error)
                 break
             if state is not None:
@@ -285,7 +287,7 @@ class Commander(RobotDriver):
         if done == steps:
             try:
                 stepper.finish()
-            except DriverError:  # stopped while waiting for the last step's end: the run is complete anyway
+            except ControllerError:  # stopped while waiting for the last step's end: the run is complete anyway
                 pass
         result = RunResult(
             times,
@@ -331,6 +333,9 @@ def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(raw)
     try:
         robot = robot_from_args(args)
+        if args.scenario in OLD_SCENARIO_NAMES:
+            warn(PROG, f"scenario {args.scenario!r} is now {OLD_SCENARIO_NAMES[args.scenario]!r}")
+            args.scenario = OLD_SCENARIO_NAMES[args.scenario]
         if args.scenario not in SCENARIOS:
             raise ScenarioError(f"unknown scenario {args.scenario!r}; known: {', '.join(SCENARIOS)}")
         if args.export_only and args.export_csv is None:
@@ -372,7 +377,7 @@ def _run_node(robot: RobotSpec, motion: Motion, options: CommanderOptions) -> in
             motion.dt,
         )
         schedule, result = commander.run()
-    except DriverError as error:
+    except ControllerError as error:
         rospy.logerr("%s", error)
         return fail(PROG, error, EXIT_INTERRUPTED if stop.is_set() else EXIT_NO_CONNECTION)
     finally:

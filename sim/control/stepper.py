@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from sim.control.driver import DriverError, ReceivedJointState, RobotDriver
+from sim.control.controller_node import ControllerError, ControllerNode, ReceivedJointState
 from sim.wire.contract import STEP_S
 
 __all__ = ["Pacing", "Stepper"]
@@ -33,10 +33,10 @@ class Pacing:
 
 
 class Stepper:
-    """Steps a robot through `driver` as `pacing` says; `clock` is the controller's time (the last step's end)."""
+    """Steps a robot through `node` as `pacing` says; `clock` is the controller's time (the last step's end)."""
 
-    def __init__(self, driver: RobotDriver, pacing: Pacing) -> None:
-        self.driver = driver
+    def __init__(self, node: ControllerNode, pacing: Pacing) -> None:
+        self.node = node
         self.pacing = pacing
         self.clock = 0.0
         self._wall_start = 0.0
@@ -52,51 +52,51 @@ class Stepper:
         """
         self.clock = 0.0
         self._wall_start = time.monotonic()
-        self.driver.publish_clock(0.0)
+        self.node.publish_clock(0.0)
         if not self.pacing.realtime:
-            return self.driver.state_or_fail(0.0, timeout, self.pacing.dt)
-        return self.driver.state_or_fail(-math.inf, timeout, self.pacing.dt) if need_state else None
+            return self.node.state_or_fail(0.0, timeout, self.pacing.dt)
+        return self.node.state_or_fail(-math.inf, timeout, self.pacing.dt) if need_state else None
 
     def hold(self) -> ReceivedJointState:
         """Lockstep only: one step with no new command (the engine holds its target); the joint state after it."""
         if self.pacing.realtime:
-            raise DriverError("a step without a command is a lockstep step")
+            raise ControllerError("a step without a command is a lockstep step")
         end = self._next_end()
-        self.driver.publish_clock(end)
-        state = self.driver.state_or_fail(end, self.pacing.step_timeout, self.pacing.dt)
+        self.node.publish_clock(end)
+        state = self.node.state_or_fail(end, self.pacing.step_timeout, self.pacing.dt)
         self.clock = end
         return state
 
     def step(self, positions: np.ndarray, velocities: np.ndarray) -> ReceivedJointState | None:
         """Command the target for the end of the next step and let the step happen.
 
-        Lockstep: the engine's joint state stamped at the step's end (DriverError when it does not come in time).
-        Realtime: the latest joint state (None before the first one). DriverError when stopped while waiting.
+        Lockstep: the engine's joint state stamped at the step's end (ControllerError when it does not come in time).
+        Realtime: the latest joint state (None before the first one). ControllerError when stopped while waiting.
         """
         end = self._next_end()
         if not self.pacing.realtime:
-            self.driver.publish_command(end, positions, velocities)
-            self.driver.publish_clock(end)
-            state = self.driver.state_or_fail(end, self.pacing.step_timeout, self.pacing.dt)
+            self.node.publish_command(end, positions, velocities)
+            self.node.publish_clock(end)
+            state = self.node.state_or_fail(end, self.pacing.step_timeout, self.pacing.dt)
             self.clock = end
             return state
         self._wait_until(self.clock)
         if self.clock > 0:  # /clock 0 went out at the start
-            self.driver.publish_clock(self.clock)
-        self.driver.publish_command(end, positions, velocities)
+            self.node.publish_clock(self.clock)
+        self.node.publish_command(end, positions, velocities)
         self.clock = end
-        return self.driver.states.latest
+        return self.node.states.latest
 
     def finish(self) -> None:
         """Realtime: at the last step's end, /clock reaches it (lockstep is there already)."""
         if self.pacing.realtime and self.clock > 0:
             self._wait_until(self.clock)
-            self.driver.publish_clock(self.clock)
+            self.node.publish_clock(self.clock)
 
     def _next_end(self) -> float:
         return round(self.clock + self.pacing.dt, 9)
 
     def _wait_until(self, controller_time: float) -> None:
         delay = self._wall_start + controller_time / self.pacing.time_scale - time.monotonic()
-        if (delay > 0 and self.driver.stop.wait(delay)) or self.driver.stop.is_set():
-            raise DriverError("interrupted")
+        if (delay > 0 and self.node.stop.wait(delay)) or self.node.stop.is_set():
+            raise ControllerError("interrupted")

@@ -161,7 +161,10 @@ def _check_scenario_defaults(own: ScenarioDefaults, names: Sequence[str], source
             f"{source}: scenario_defaults.one_joint names joint {own.one_joint!r}, which is not a controlled "
             f"joint ({', '.join(names)})"
         )
-    for what, values in (("trial.centres", own.trial_centres), ("trial.amplitudes", own.trial_amplitudes)):
+    for what, values in (
+        ("sweep.centres", own.sweep_centres),
+        ("sweep.amplitudes", own.sweep_amplitudes),
+    ):
         if values is not None and len(values) != len(names):
             raise RobotError(
                 f"{source}: scenario_defaults.{what} needs {len(names)} numbers (for {', '.join(names)}), "

@@ -13,9 +13,10 @@ A robot YAML holds overrides as data (every key optional except `urdf` in a YAML
       one_joint: {joint: panda_joint1, waypoints: [0.25, 1.0]}
       ik_goal: {position: [0.5, 0.375, 0.75]}     # rpy: [r, p, y] for a full pose
       orientation_goal: {position: [0.3, 0.5, 0.75], rpy: [0.785, 0.628, 1.047]}
-      trial: {centres: [...], amplitudes: [...]}
+      sweep: {centres: [...], amplitudes: [...]}
 
-The old name of `scenario_defaults:`, `scenarios:`, is still read, with a warning.
+The old name of `scenario_defaults:`, `scenarios:`, is still read, with a warning, and in it the old name of
+`sweep`, `trial`.
 
 `--robot path/to/arm.urdf` also reads `path/to/arm.yaml` when it exists. Command-line overrides win over the YAML.
 """
@@ -48,7 +49,7 @@ _SCENARIO_KEYS = {
     "one_joint": ("joint", "waypoints"),
     "ik_goal": ("position", "rpy"),
     "orientation_goal": ("position", "rpy"),
-    "trial": ("centres", "amplitudes"),
+    "sweep": ("centres", "amplitudes"),
 }
 _PYBULLET_DATA = "pybullet_data:"
 
@@ -102,9 +103,9 @@ def _scenario_defaults(value: object, source: Path) -> ScenarioDefaults:
         if scenario == "one_joint":
             fields["one_joint"] = _text(entry.get("joint"), f"{where}.joint")
             fields["one_joint_waypoints"] = _numbers(entry.get("waypoints"), f"{where}.waypoints")
-        elif scenario == "trial":
-            fields["trial_centres"] = _numbers(entry.get("centres"), f"{where}.centres")
-            fields["trial_amplitudes"] = _numbers(entry.get("amplitudes"), f"{where}.amplitudes")
+        elif scenario == "sweep":
+            fields["sweep_centres"] = _numbers(entry.get("centres"), f"{where}.centres")
+            fields["sweep_amplitudes"] = _numbers(entry.get("amplitudes"), f"{where}.amplitudes")
         else:
             prefix = "ik_goal" if scenario == "ik_goal" else "orientation_goal"
             fields[f"{prefix}_position"] = _numbers(entry.get("position"), f"{where}.position")
@@ -137,7 +138,10 @@ def _scenario_defaults_entry(data: Mapping[str, Any], source: Path) -> object:
     if "scenario_defaults" in data:
         raise RobotError(f"{source}: give scenario_defaults only (scenarios is its old name)")
     log.warning("%s: 'scenarios:' is deprecated; rename it 'scenario_defaults:'", source)
-    return data["scenarios"]
+    old = data["scenarios"]
+    if isinstance(old, dict) and "trial" in old:  # the sweep's old name
+        old = {("sweep" if key == "trial" else key): value for key, value in old.items()}
+    return old
 
 
 def _urdf_of(yaml_path: Path, value: object) -> Path:

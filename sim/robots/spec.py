@@ -22,8 +22,8 @@ class ScenarioDefaults:
     ik_goal_rpy: tuple[float, ...] | None = None  # None: position only
     orientation_goal_position: tuple[float, ...] | None = None  # ik_orientation
     orientation_goal_rpy: tuple[float, ...] | None = None
-    trial_centres: tuple[float, ...] | None = None
-    trial_amplitudes: tuple[float, ...] | None = None
+    sweep_centres: tuple[float, ...] | None = None
+    sweep_amplitudes: tuple[float, ...] | None = None
 
 
 @dataclass(frozen=True, eq=False)

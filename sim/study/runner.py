@@ -8,11 +8,11 @@ preference. The trial's phase goes out on `/study/trial` (sim.study.interface ha
 written to the participant's CSV as soon as its trial ends, and `rosbag record` (started and stopped here) records
 the robot's topics, /clock and every /study topic.
 
-It drives the robot through sim.control.driver, the commander's topics: the engine stand-in, Unity, or a real robot's
-controller take the same stream. Lockstep (default): the runner owns /clock and the engine steps once per value, so
-a session takes seconds of wall time; while the runner waits for go or an answer, the clock stands still.
---realtime: /clock and the commands are paced by the wall clock (a VR headset, a real robot), and the robot is
-held at its target while the runner waits.
+It is a controller (sim.control): it drives the robot on the commander's topics, through the same controller node
+and stepper, so the engine stand-in, Unity, or a real robot's controller take the same stream. Lockstep (default):
+the runner owns /clock and the engine steps once per value, so a session takes seconds of wall time; while the
+runner waits for go or an answer, the clock stands still. --realtime: /clock and the commands are paced by the wall
+clock (a VR headset, a real robot), and the robot is held at its target while the runner waits.
 
 A press's time is its stamp on ROS time (a zero stamp: when it arrives); a press whose stamp has already passed is
 applied at once, and how late it was is logged. Presses before the approach starts are ignored.
@@ -32,7 +32,7 @@ from typing import Any, Callable, Iterable
 
 import numpy as np
 
-from sim.control.driver import DriverError, RobotDriver
+from sim.control.controller_node import ControllerError, ControllerNode
 from sim.control.scenarios import approach
 from sim.control.stepper import Pacing, Stepper
 from sim.processes import ManagedProcess, ProcessError, start_recorder, stop_recorder
@@ -180,7 +180,7 @@ def recorder_topics(robot: RobotSpec) -> list[str]:
     ]
 
 
-class StudyRunner(RobotDriver):
+class StudyRunner(ControllerNode):
     def __init__(
         self,
         robot: RobotSpec,
@@ -249,7 +249,7 @@ class StudyRunner(RobotDriver):
         """/clock 0 and the engine's answer (lockstep), or its first joint state (realtime): where the robot is."""
         state = self.stepper.start(self.options.pacing.step_timeout)
         if state is None:  # cannot happen: a state was asked for
-            raise DriverError(f"no {self.robot.joint_states_topic} message received")
+            raise ControllerError(f"no {self.robot.joint_states_topic} message received")
         self._target = (state.positions.copy(), np.zeros(self.robot.dof))
         return state.positions
 
@@ -258,7 +258,7 @@ class StudyRunner(RobotDriver):
         self._target = (positions, velocities)
         state = self.stepper.step(positions, velocities)
         if state is None:
-            raise DriverError(f"no {self.robot.joint_states_topic} message received")
+            raise ControllerError(f"no {self.robot.joint_states_topic} message received")
         return state.positions
 
     def wait_for_input(self, what: str) -> Any:
@@ -455,7 +455,7 @@ def run_node(
             f"{' then '.join(plan.conditions)}"
         )
         records = runner.run_session(records_path, _log)
-    except DriverError as error:
+    except ControllerError as error:
         _log(f"error: {error}")
         return EXIT_INTERRUPTED if stop.is_set() else EXIT_ROS
     finally:

@@ -21,7 +21,7 @@ from tests.rosenv import PYTHON, REPO
 ENTRY_POINTS = {
     "sim.robots": [],
     "sim.engine": ["--csv", "desired.csv"],
-    "sim.commander": ["--scenario", "trial", "--export-csv", "out.csv", "--export-only"],
+    "sim.commander": ["--scenario", "sweep", "--export-csv", "out.csv", "--export-only"],
     "sim.physics_node": [],
     "sim.description_node": [],
 }
@@ -102,7 +102,7 @@ def test_the_trial_exports_and_replays_in_every_physics_mode(tmp_path, name):
             "sim.commander",
             *robot.cli_args,
             "--scenario",
-            "trial",
+            "sweep",
             "--export-csv",
             str(desired),
             "--export-only",

@@ -148,7 +148,7 @@ def test_trial_lockstep_stream_log_and_summary(roscore, ros_node, probes, tmp_pa
     probe.clear()
     log = tmp_path / "trial.csv"
     started = time.monotonic()
-    done = run_commander(roscore, ros_node, ["--robot", "panda", "--scenario", "trial", "--duration", "1"], log)
+    done = run_commander(roscore, ros_node, ["--robot", "panda", "--scenario", "sweep", "--duration", "1"], log)
     assert done.returncode == 0, done.stderr
     header, rows = read_log(log)
     assert header[:3] == ["time", "scenario_time", "phase"]
@@ -157,7 +157,7 @@ def test_trial_lockstep_stream_log_and_summary(roscore, ros_node, probes, tmp_pa
     phases = [r["phase"] for r in rows]
     assert phases[0] == "approach" and phases.count("scenario") == 51  # 1 s of trial: samples 0..50
     scenario = [r for r in rows if r["phase"] == "scenario"]
-    motion = build_motion(robot, "trial", ScenarioConfig(duration=1.0))
+    motion = build_motion(robot, "sweep", ScenarioConfig(duration=1.0))
     np.testing.assert_allclose(columns(scenario, "desired_", robot.joint_names), motion.positions, atol=1e-9)
     achieved = columns(scenario, "achieved_", robot.joint_names)
     assert np.abs(achieved - motion.positions).max() < 1e-3  # end-of-step targets track closely
@@ -349,7 +349,7 @@ def test_bad_input_names_the_problem(roscore, ros_node):
     assert "needs 7 values, got 2" in done.stderr
 
 
-@pytest.mark.parametrize("robot_name, scenario", [("panda", "one_joint"), ("igt", "trial"), ("panda", "ik_cartesian")])
+@pytest.mark.parametrize("robot_name, scenario", [("panda", "one_joint"), ("igt", "sweep"), ("panda", "ik_cartesian")])
 def test_export_round_trips_through_the_engines_csv_mode(tmp_path, robot_name, scenario):
     robot = load_robot(robot_name)
     exported, replayed = tmp_path / "desired.csv", tmp_path / "achieved.csv"

@@ -10,7 +10,7 @@ import pytest
 from tests.rosenv import PYTHON, REPO
 
 COMMANDS = [
-    ("sim.commander", ["--scenario", "trial"]),
+    ("sim.commander", ["--scenario", "sweep"]),
     ("sim.engine", []),
     ("sim.physics_node", []),
     ("sim.description_node", []),

@@ -34,11 +34,12 @@ their robot YAML (`scenario_defaults:` in sim/robots/*.yaml) so that they stay t
   fk_confirm      an IK motion (`space` [cartesian], goal as ik_joints); the commander compares FK of the achieved
                   joint states with the reference path. The reference path is what the motion means in Cartesian
                   space: the Cartesian polynomial (cartesian) or FK of the desired joints (joint).
-  trial           the accuracy trial, `duration` [40 s]: every joint at once follows
-                  c -> c+A -> c -> c-A -> c -> c-A -> c -> c+A -> c in eight quintic segments of 5 s (time-symmetric,
-                  amplitude-antisymmetric), with per-joint centres c and amplitudes A (`trial_table`): inside the
-                  limits with margin, and of one sign over the whole swing (c ± A ≠ 0) so that MAPE, which divides
-                  by the reference, stays meaningful. Peak speeds are well below the limits.
+  sweep           the accuracy trials' motion (formerly `trial`), `duration` [40 s]: every joint
+                  at once follows c -> c+A -> c -> c-A -> c -> c-A -> c -> c+A -> c in eight quintic segments of
+                  5 s (time-symmetric, amplitude-antisymmetric), with per-joint centres c and amplitudes A
+                  (`sweep_table`): inside the limits with margin, and of one sign over the whole swing
+                  (c ± A ≠ 0) so that MAPE, which divides by the reference, stays meaningful. Peak speeds are well
+                  below the limits.
 
 Unreachable IK goals raise `UnreachableGoalError` with the best residual, unless `nearest=True`: then the best
 configuration found is used and the motion says so (`Motion.ik.fallback`).
@@ -47,7 +48,7 @@ The package by concern: `motion` (options, Motion, errors, checks), `defaults` (
 `ik` (the builders by kind), `build` (by name), `schedule` (the approach and what is streamed), `engine_csv`.
 """
 
-from sim.control.scenarios.build import SCENARIOS, build_motion
+from sim.control.scenarios.build import OLD_SCENARIO_NAMES, SCENARIOS, build_motion
 from sim.control.scenarios.defaults import APPROACH_MIN_S, IK_HOLD_S, IK_MOVE_TIME_S, IK_RESTARTS
 from sim.control.scenarios.engine_csv import write_engine_csv
 from sim.control.scenarios.ik import IK_SCENARIOS, SPACES, fk_path, pose_errors
@@ -64,6 +65,7 @@ from sim.control.scenarios.schedule import Schedule, approach, build_schedule
 
 __all__ = [
     "SCENARIOS",
+    "OLD_SCENARIO_NAMES",
     "IK_SCENARIOS",
     "SPACES",
     "APPROACH_MIN_S",

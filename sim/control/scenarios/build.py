@@ -7,12 +7,12 @@ import math
 from collections.abc import Callable
 
 from sim.control.scenarios.ik import ik_motion
-from sim.control.scenarios.joint_space import one_joint, single, trial
+from sim.control.scenarios.joint_space import one_joint, single, sweep
 from sim.control.scenarios.motion import Motion, ScenarioConfig, ScenarioError, checked_motion, sample_times
 from sim.geometry.trajectory import ORDERS
 from sim.robots import RobotSpec
 
-__all__ = ["SCENARIOS", "build_motion"]
+__all__ = ["SCENARIOS", "OLD_SCENARIO_NAMES", "build_motion"]
 
 _BUILDERS: dict[str, Callable[[RobotSpec, str, ScenarioConfig], Motion]] = {
     "single": single,
@@ -21,9 +21,11 @@ _BUILDERS: dict[str, Callable[[RobotSpec, str, ScenarioConfig], Motion]] = {
     "ik_cartesian": ik_motion,
     "ik_orientation": ik_motion,
     "fk_confirm": ik_motion,
-    "trial": trial,
+    "sweep": sweep,
 }
 SCENARIOS: tuple[str, ...] = tuple(_BUILDERS)
+# Scenario names that were renamed: still understood by the commands, which say the new name.
+OLD_SCENARIO_NAMES = {"trial": "sweep"}
 
 
 def build_motion(robot: RobotSpec, scenario: str, config: ScenarioConfig | None = None) -> Motion:

@@ -6,9 +6,9 @@ are computed here from the limits and the kinematic chain, never tabled by its n
 
   usable range     the joint limits; a continuous joint (±2π) is used over ±π. A margin of MARGIN of the range is
                    kept at each end.
-  trial            per joint a centre c and amplitude A such that c ± A stays on one side of 0 (MAPE divides by the
+  sweep            per joint a centre c and amplitude A such that c ± A stays on one side of 0 (MAPE divides by the
                    reference): on the range's larger side of 0, c in its middle and A = 0.3 of its width, so the
-                   swing keeps 0.2 of the width from 0; A at most TRIAL_MAX_SWING and slow enough that the 5 s
+                   swing keeps 0.2 of the width from 0; A at most SWEEP_MAX_SWING and slow enough that the 5 s
                    quintic segments peak at half the velocity limit.
   one_joint        the first joint through ONE_JOINT_FRACTIONS of its usable range (the thesis's shape: up, far up,
                    back, far down), scaled towards the centre if needed so it peaks at 0.8 of its velocity limit.
@@ -39,20 +39,20 @@ __all__ = [
     "IK_SEED",
     "IK_TOL_POS",
     "IK_TOL_ROT",
-    "TRIAL_DURATION_S",
-    "TRIAL_SEGMENT_S",
-    "TRIAL_PATTERN",
+    "SWEEP_DURATION_S",
+    "SWEEP_SEGMENT_S",
+    "SWEEP_PATTERN",
     "APPROACH_MIN_S",
     "APPROACH_SPEED_FRACTION",
     "MARGIN",
-    "TRIAL_MAX_SWING",
+    "SWEEP_MAX_SWING",
     "ONE_JOINT_FRACTIONS",
     "ONE_JOINT_SPEED_FRACTION",
     "IK_GOAL_SHIFT",
     "IK_GOAL_MAX_SHIFT",
     "AXIS_NAMES",
     "usable_range",
-    "trial_table",
+    "sweep_table",
     "one_joint_default",
     "controllable_weights",
     "rotates_about_z_only",
@@ -71,16 +71,16 @@ IK_RESTARTS = 20
 IK_SEED = 0
 IK_TOL_POS = 1e-6  # m
 IK_TOL_ROT = 1e-5  # rad
-TRIAL_DURATION_S = 40.0
-TRIAL_SEGMENT_S = 5.0
-TRIAL_PATTERN = (0.0, 1.0, 0.0, -1.0, 0.0, -1.0, 0.0, 1.0, 0.0)  # multiples of A around c, one per 5 s
+SWEEP_DURATION_S = 40.0
+SWEEP_SEGMENT_S = 5.0
+SWEEP_PATTERN = (0.0, 1.0, 0.0, -1.0, 0.0, -1.0, 0.0, 1.0, 0.0)  # multiples of A around c, one per 5 s
 APPROACH_MIN_S = 2.0
 APPROACH_SPEED_FRACTION = 0.5  # approach segments peak at no more than this fraction of the velocity limits
 
 # What the computed defaults are made of.
 MARGIN = 0.1
-TRIAL_MAX_SWING = {"revolute": 0.5, "continuous": 0.5, "prismatic": 0.1}  # rad or m
-TRIAL_SEGMENT_PEAK = 1.875 / 5.0  # a 5 s quintic from rest to rest peaks at 1.875·Δ/5
+SWEEP_MAX_SWING = {"revolute": 0.5, "continuous": 0.5, "prismatic": 0.1}  # rad or m
+SWEEP_SEGMENT_PEAK = 1.875 / 5.0  # a 5 s quintic from rest to rest peaks at 1.875·Δ/5
 ONE_JOINT_FRACTIONS = (0.55, 0.7, 0.9, 0.75, 0.25, 0.1)
 ONE_JOINT_SPEED_FRACTION = 0.8
 IK_GOAL_SHIFT = 0.15
@@ -99,11 +99,11 @@ def usable_range(robot: RobotSpec) -> tuple[np.ndarray, np.ndarray]:
     return lower + margin, upper - margin
 
 
-def trial_table(robot: RobotSpec) -> tuple[np.ndarray, np.ndarray]:
-    """(centres, amplitudes) of the trial path, from the robot's YAML or computed (module docstring)."""
+def sweep_table(robot: RobotSpec) -> tuple[np.ndarray, np.ndarray]:
+    """(centres, amplitudes) of the sweep, from the robot's YAML or computed (module docstring)."""
     own = robot.scenario_defaults
-    if own.trial_centres is not None and own.trial_amplitudes is not None:
-        return np.array(own.trial_centres), np.array(own.trial_amplitudes)
+    if own.sweep_centres is not None and own.sweep_amplitudes is not None:
+        return np.array(own.sweep_centres), np.array(own.sweep_amplitudes)
     lower, upper = usable_range(robot)
     centres, amplitudes = np.empty(robot.dof), np.empty(robot.dof)
     for j, kind in enumerate(robot.joint_types):
@@ -111,7 +111,8 @@ def trial_table(robot: RobotSpec) -> tuple[np.ndarray, np.ndarray]:
         if low < 0.0 < high:  # keep to the larger side of 0
             low, high = (0.0, high) if high >= -low else (low, 0.0)
         centres[j] = (low + high) / 2.0
-        amplitudes[j] = min(0.3 * (high - low), TRIAL_MAX_SWING[kind], 0.5 * robot.max_velocity[j] / TRIAL_SEGMENT_PEAK)
+        slow_enough = 0.5 * robot.max_velocity[j] / SWEEP_SEGMENT_PEAK
+        amplitudes[j] = min(0.3 * (high - low), SWEEP_MAX_SWING[kind], slow_enough)
     return centres, amplitudes
 
 

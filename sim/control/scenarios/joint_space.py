@@ -1,4 +1,4 @@
-"""The joint-space scenarios: single, one_joint and the accuracy trial. Pure logic."""
+"""The joint-space scenarios: single, one_joint and the accuracy trials' sweep. Pure logic."""
 
 from __future__ import annotations
 
@@ -9,11 +9,11 @@ from sim.control.scenarios.defaults import (
     ONE_JOINT_SPACING_S,
     ONE_JOINT_SPEED_FRACTION,
     SINGLE_DURATION_S,
-    TRIAL_DURATION_S,
-    TRIAL_PATTERN,
-    TRIAL_SEGMENT_S,
+    SWEEP_DURATION_S,
+    SWEEP_PATTERN,
+    SWEEP_SEGMENT_S,
     one_joint_default,
-    trial_table,
+    sweep_table,
 )
 from sim.control.scenarios.motion import (
     Motion,
@@ -28,7 +28,7 @@ from sim.control.scenarios.motion import (
 from sim.geometry.trajectory import PolynomialTrajectory
 from sim.robots import RobotSpec
 
-__all__ = ["single", "one_joint", "trial"]
+__all__ = ["single", "one_joint", "sweep"]
 
 
 def single(robot: RobotSpec, scenario: str, config: ScenarioConfig) -> Motion:
@@ -106,16 +106,16 @@ def _slowed(points: np.ndarray, j: int, robot: RobotSpec, config: ScenarioConfig
     return points if peak <= limit else centre + (points - centre) * (limit / peak)
 
 
-def trial(robot: RobotSpec, scenario: str, config: ScenarioConfig) -> Motion:
-    centres, amplitudes = trial_table(robot)
-    pattern = np.array(TRIAL_PATTERN)
-    wp_times = np.arange(len(pattern)) * TRIAL_SEGMENT_S
+def sweep(robot: RobotSpec, scenario: str, config: ScenarioConfig) -> Motion:
+    centres, amplitudes = sweep_table(robot)
+    pattern = np.array(SWEEP_PATTERN)
+    wp_times = np.arange(len(pattern)) * SWEEP_SEGMENT_S
     points = centres[None, :] + pattern[:, None] * amplitudes[None, :]
     traj = PolynomialTrajectory(wp_times, points, order="quintic")
-    times = fit_duration(TRIAL_DURATION_S, config.duration, config.dt)
+    times = fit_duration(SWEEP_DURATION_S, config.duration, config.dt)
     positions, velocities = sample_trajectory(traj, times)
     description = (
-        f"trial: every joint c -> c+A -> c -> c-A -> c -> c-A -> c -> c+A -> c, {TRIAL_SEGMENT_S:g} s quintic "
-        f"segments; c = {centres.tolist()}, A = {amplitudes.tolist()}"
+        f"sweep: every joint c -> c+A -> c -> c-A -> c -> c-A -> c -> c+A -> c, "
+        f"{SWEEP_SEGMENT_S:g} s quintic segments; c = {centres.tolist()}, A = {amplitudes.tolist()}"
     )
     return Motion(scenario, robot, config.dt, times, positions, velocities, description)

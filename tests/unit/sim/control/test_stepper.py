@@ -1,4 +1,4 @@
-"""The controller's timing contract (sim.control.stepper) against a recording driver: what goes out, in which
+"""The controller's timing contract (sim.control.stepper) against a recording controller node: what goes out, in which
 order, and what a step waits for."""
 
 from __future__ import annotations
@@ -11,11 +11,11 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from sim.control.driver import DriverError, ReceivedJointState
+from sim.control.controller_node import ControllerError, ReceivedJointState
 from sim.control.stepper import Pacing, Stepper
 
 
-class RecordingDriver:
+class RecordingNode:
     """Answers every wait with a joint state of the stamp asked for; records what was published, with when."""
 
     def __init__(self) -> None:
@@ -36,25 +36,25 @@ class RecordingDriver:
         return ReceivedJointState(0.0 if stamp == -math.inf else stamp, np.zeros(2))
 
 
-def _sent(driver: RecordingDriver) -> list[tuple[str, float]]:
-    return [(what, round(value, 9)) for what, value, _ in driver.sent]
+def _sent(node: RecordingNode) -> list[tuple[str, float]]:
+    return [(what, round(value, 9)) for what, value, _ in node.sent]
 
 
 def test_lockstep_sends_the_command_then_the_clock_and_waits_for_that_stamp() -> None:
-    driver = RecordingDriver()
-    stepper = Stepper(driver, Pacing(dt=0.02, step_timeout=3.0))  # type: ignore[arg-type]
+    node = RecordingNode()
+    stepper = Stepper(node, Pacing(dt=0.02, step_timeout=3.0))  # type: ignore[arg-type]
     assert stepper.start(timeout=9.0) is not None
     stepper.hold()
     state = stepper.step(np.ones(2), np.zeros(2))
     assert state is not None and state.stamp == pytest.approx(0.04)
-    assert _sent(driver) == [("clock", 0.0), ("clock", 0.02), ("command", 0.04), ("clock", 0.04)]
-    assert driver.waits == [(0.0, 9.0), (0.02, 3.0), (0.04, 3.0)]
+    assert _sent(node) == [("clock", 0.0), ("clock", 0.02), ("command", 0.04), ("clock", 0.04)]
+    assert node.waits == [(0.0, 9.0), (0.02, 3.0), (0.04, 3.0)]
     assert stepper.clock == pytest.approx(0.04)
 
 
 def test_lockstep_step_ends_stay_on_the_grid_over_a_long_run() -> None:
-    driver = RecordingDriver()
-    stepper = Stepper(driver, Pacing(dt=0.02))  # type: ignore[arg-type]
+    node = RecordingNode()
+    stepper = Stepper(node, Pacing(dt=0.02))  # type: ignore[arg-type]
     stepper.start(timeout=1.0)
     for _ in range(10_000):
         stepper.step(np.zeros(2), np.zeros(2))
@@ -62,15 +62,15 @@ def test_lockstep_step_ends_stay_on_the_grid_over_a_long_run() -> None:
 
 
 def test_realtime_sends_the_clock_of_the_step_start_and_the_command_for_its_end_paced_by_the_wall() -> None:
-    driver = RecordingDriver()
-    stepper = Stepper(driver, Pacing(dt=0.02, realtime=True, time_scale=2.0))  # type: ignore[arg-type]
+    node = RecordingNode()
+    stepper = Stepper(node, Pacing(dt=0.02, realtime=True, time_scale=2.0))  # type: ignore[arg-type]
     assert stepper.start(timeout=1.0, need_state=False) is None
-    assert driver.waits == []
+    assert node.waits == []
     assert stepper.step(np.zeros(2), np.zeros(2)) is not None  # the latest state, no wait
     for _ in range(4):
         stepper.step(np.zeros(2), np.zeros(2))
     stepper.finish()
-    assert _sent(driver) == [
+    assert _sent(node) == [
         ("clock", 0.0),
         ("command", 0.02),
         ("clock", 0.02),
@@ -83,34 +83,34 @@ def test_realtime_sends_the_clock_of_the_step_start_and_the_command_for_its_end_
         ("command", 0.1),
         ("clock", 0.1),
     ]
-    assert driver.waits == []
-    started = driver.sent[0][2]
-    for what, value, at in driver.sent:
+    assert node.waits == []
+    started = node.sent[0][2]
+    for what, value, at in node.sent:
         if what == "clock":  # /clock t goes out at wall time t / time_scale, never before
             assert at - started >= value / 2.0 - 1e-4
 
 
 def test_realtime_start_takes_the_first_joint_state_of_any_stamp_after_the_clock_starts() -> None:
-    driver = RecordingDriver()
-    stepper = Stepper(driver, Pacing(realtime=True))  # type: ignore[arg-type]
+    node = RecordingNode()
+    stepper = Stepper(node, Pacing(realtime=True))  # type: ignore[arg-type]
     assert stepper.start(timeout=4.0) is not None
-    assert _sent(driver) == [("clock", 0.0)] and driver.waits == [(-math.inf, 4.0)]
+    assert _sent(node) == [("clock", 0.0)] and node.waits == [(-math.inf, 4.0)]
 
 
 def test_a_step_without_a_command_is_lockstep_only() -> None:
-    stepper = Stepper(RecordingDriver(), Pacing(realtime=True))  # type: ignore[arg-type]
+    stepper = Stepper(RecordingNode(), Pacing(realtime=True))  # type: ignore[arg-type]
     stepper.start(timeout=1.0)
-    with pytest.raises(DriverError, match="lockstep"):
+    with pytest.raises(ControllerError, match="lockstep"):
         stepper.hold()
 
 
 def test_a_stop_ends_a_paced_wait_with_an_error() -> None:
-    driver = RecordingDriver()
-    stepper = Stepper(driver, Pacing(dt=5.0, realtime=True))  # type: ignore[arg-type]
+    node = RecordingNode()
+    stepper = Stepper(node, Pacing(dt=5.0, realtime=True))  # type: ignore[arg-type]
     stepper.start(timeout=1.0, need_state=False)
     stepper.step(np.zeros(2), np.zeros(2))
-    threading.Timer(0.05, driver.stop.set).start()
+    threading.Timer(0.05, node.stop.set).start()
     began = time.monotonic()
-    with pytest.raises(DriverError, match="interrupted"):
+    with pytest.raises(ControllerError, match="interrupted"):
         stepper.step(np.zeros(2), np.zeros(2))  # due 5 s after the start
     assert time.monotonic() - began < 2.0

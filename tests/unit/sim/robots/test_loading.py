@@ -241,7 +241,10 @@ def test_a_bad_urdf_is_one_clear_error_naming_the_file(tmp_path, text, message):
         ("limits:\n  j9: {upper: 1}\n", "joint 'j9', which is not a controlled joint"),
         ("limits:\n  j1: {top: 1}\n", "limit 'top' is not one of"),
         ("limits:\n  j1: {lower: 2}\n", "lower < upper"),
-        ("scenario_defaults:\n  trial: {centres: [0.1], amplitudes: [0.1, 0.1]}\n", "trial.centres needs 2 numbers"),
+        (
+            "scenario_defaults:\n  sweep: {centres: [0.1], amplitudes: [0.1, 0.1]}\n",
+            "sweep.centres needs 2 numbers",
+        ),
         ("scenario_defaults:\n  dance: {}\n", "unknown scenario default 'dance'"),
         ("scenario_defaults: {}\nscenarios: {}\n", "give scenario_defaults only"),
         ("urdf: other.urdf\n", "names URDF .*other.urdf, but"),
@@ -260,7 +263,7 @@ def test_the_old_name_of_scenario_defaults_is_read_with_a_warning(tmp_path, capl
     write(tmp_path, "scenarios:\n  trial: {centres: [0.3, 0.4], amplitudes: [0.1, 0.2]}\n", "arm.yaml")
     with caplog.at_level(logging.WARNING, logger="sim.robots.loading"):
         robot = load_robot(str(path))
-    assert robot.scenario_defaults.trial_centres == (0.3, 0.4)
+    assert robot.scenario_defaults.sweep_centres == (0.3, 0.4)
     assert "'scenarios:' is deprecated; rename it 'scenario_defaults:'" in caplog.text
 
 

@@ -58,13 +58,13 @@ def test_message_errors_are_sim_errors_and_value_errors():
 
 
 def test_the_commanders_old_pose_flag_still_works_with_a_deprecation_warning(capsys):
-    old = commander_parser().parse_args(["--robot", "panda", "--scenario", "trial", "--pose-euler"])
+    old = commander_parser().parse_args(["--robot", "panda", "--scenario", "sweep", "--pose-euler"])
     assert old.pose_convention == "euler"
     assert (
         capsys.readouterr().err
         == "python -m sim.commander: warning: --pose-euler is deprecated; use --pose-convention euler\n"
     )
-    new = commander_parser().parse_args(["--robot", "panda", "--scenario", "trial", "--pose-convention", "euler"])
-    default = commander_parser().parse_args(["--robot", "panda", "--scenario", "trial"])
+    new = commander_parser().parse_args(["--robot", "panda", "--scenario", "sweep", "--pose-convention", "euler"])
+    default = commander_parser().parse_args(["--robot", "panda", "--scenario", "sweep"])
     assert (new.pose_convention, default.pose_convention) == ("euler", "quaternion")
     assert capsys.readouterr().err == ""

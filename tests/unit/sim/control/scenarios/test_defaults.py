@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from sim.control.scenarios import SCENARIOS, ScenarioConfig, ScenarioError, build_motion, fk_path, pose_errors
-from sim.control.scenarios.defaults import controllable_weights, trial_table, usable_range
+from sim.control.scenarios.defaults import controllable_weights, sweep_table, usable_range
 from sim.geometry.kinematics import PLANAR_WEIGHTS, chain_for
 from sim.robots import load_robot
 from tests.robot_files import LIFT_ARM, THIRD_PARTY_URDFS
@@ -33,12 +33,12 @@ def test_every_scenario_builds_on_a_robot_that_is_not_ours(robot, scenario):
 
 
 def test_the_trial_never_crosses_zero_and_stays_slow(robot):
-    centres, amplitudes = trial_table(robot)
+    centres, amplitudes = sweep_table(robot)
     lower, upper = usable_range(robot)
     assert np.all(centres - amplitudes >= lower) and np.all(centres + amplitudes <= upper)
     assert np.all(np.sign(centres - amplitudes) == np.sign(centres + amplitudes))
     assert np.all(amplitudes > 0)
-    motion = build_motion(robot, "trial")
+    motion = build_motion(robot, "sweep")
     assert np.all(np.abs(motion.velocities).max(axis=0) <= 0.5 * robot.max_velocity + 1e-9)
 
 

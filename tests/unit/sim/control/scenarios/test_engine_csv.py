@@ -14,7 +14,7 @@ from sim.control.scenarios import (
 
 
 def test_engine_csv_export_round_trips_exactly(robot, tmp_path):
-    motion = build_motion(robot, "trial", ScenarioConfig(duration=1.0))
+    motion = build_motion(robot, "sweep", ScenarioConfig(duration=1.0))
     path = tmp_path / "desired.csv"
     write_engine_csv(path, motion)
     with open(path, newline="") as handle:

@@ -12,7 +12,7 @@ from sim.control.scenarios import (
     fk_path,
     joint_index,
 )
-from sim.control.scenarios.defaults import trial_table
+from sim.control.scenarios.defaults import sweep_table
 from sim.geometry.kinematics import chain_for
 from sim.robots import load_robot
 
@@ -76,9 +76,9 @@ def test_bad_one_joint_options_name_the_problem(robot, config, message):
 
 
 def test_trial_is_40s_symmetric_all_joints_moving_and_never_crossing_zero(robot):
-    motion = build_motion(robot, "trial")
+    motion = build_motion(robot, "sweep")
     assert motion.duration == pytest.approx(40.0)
-    centres, amplitudes = trial_table(robot)
+    centres, amplitudes = sweep_table(robot)
     np.testing.assert_allclose(motion.positions.max(axis=0), centres + amplitudes, atol=1e-9)
     np.testing.assert_allclose(motion.positions.min(axis=0), centres - amplitudes, atol=1e-9)
     assert np.all(np.sign(motion.positions) == np.sign(centres))  # MAPE stays meaningful
@@ -91,5 +91,5 @@ def test_trial_is_40s_symmetric_all_joints_moving_and_never_crossing_zero(robot)
 
 
 def test_trial_duration_cuts_the_motion(robot):
-    motion = build_motion(robot, "trial", ScenarioConfig(duration=2.0))
-    np.testing.assert_allclose(motion.positions, build_motion(robot, "trial").positions[:101])
+    motion = build_motion(robot, "sweep", ScenarioConfig(duration=2.0))
+    np.testing.assert_allclose(motion.positions, build_motion(robot, "sweep").positions[:101])

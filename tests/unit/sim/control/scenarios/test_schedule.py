@@ -22,7 +22,7 @@ def test_approach_reaches_target_within_speed_fraction(robot):
 
 
 def test_schedule_prepends_an_approach_only_when_needed(robot):
-    motion = build_motion(robot, "trial", ScenarioConfig(duration=1.0))
+    motion = build_motion(robot, "sweep", ScenarioConfig(duration=1.0))
     direct = build_schedule(motion, motion.positions[0])
     assert direct.approach_steps == 0 and len(direct.positions) == len(motion.times)
     assert build_schedule(motion, None).approach_steps == 0

@@ -1,4 +1,5 @@
-"""The ROS side of driving a robot, simulated or real, shared by the commander and the study runner (rospy nodes).
+"""The controller's ROS side: the node that drives a robot, simulated or real, whose subclasses are the commander and
+the study runner (rospy nodes). In the thesis, Simulink played this part.
 
 Publishes the joint command (`<prefix>/arm_controller/command`, trajectory_msgs/JointTrajectory with ONE point of
 positions and velocities, stamped with the time the target is for) and `/clock`; listens to `<prefix>/joint_states`.
@@ -20,10 +21,10 @@ from sim.errors import SimError
 from sim.robots import RobotSpec
 from sim.wire.contract import STAMP_TOLERANCE_S, MessageError, positions_by_name
 
-__all__ = ["DriverError", "ReceivedJointState", "StateListener", "RobotDriver"]
+__all__ = ["ControllerError", "ReceivedJointState", "StateListener", "ControllerNode"]
 
 
-class DriverError(SimError, RuntimeError):
+class ControllerError(SimError, RuntimeError):
     """A ROS-side failure: no partner, a joint state that does not arrive, a malformed joint state."""
 
 
@@ -64,7 +65,7 @@ class StateListener:
         with self._changed:
             while True:
                 if self.error is not None:
-                    raise DriverError(f"{self.robot.joint_states_topic}: {self.error}")
+                    raise ControllerError(f"{self.robot.joint_states_topic}: {self.error}")
                 if self.latest is not None and self.latest.stamp >= stamp - STAMP_TOLERANCE_S:
                     return self.latest
                 remaining = deadline - time.monotonic()
@@ -77,7 +78,7 @@ class StateListener:
             self._changed.notify_all()
 
 
-class RobotDriver:
+class ControllerNode:
     """The command and /clock publishers, the joint-state subscriber, and the waits on them. `stop` (set by a
     signal handler) ends every wait."""
 
@@ -120,7 +121,7 @@ class RobotDriver:
 
     def publish_clock(self, seconds: float) -> None:
         if seconds <= self._last_clock:
-            raise DriverError(f"/clock must increase strictly: {seconds} after {self._last_clock}")
+            raise ControllerError(f"/clock must increase strictly: {seconds} after {self._last_clock}")
         self._last_clock = seconds
         self.clock_pub.publish(self._clock_type(clock=self.ros_time(seconds)))
 
@@ -157,22 +158,22 @@ class RobotDriver:
                     return partner
                 status = f"{partner} found, waiting for {[t for t, ok in links.items() if not ok]}"
             if time.monotonic() > deadline:
-                raise DriverError(
+                raise ControllerError(
                     f"no engine after {timeout:g} s: needs a node publishing {self.robot.joint_states_topic} and "
                     f"subscribing {self.robot.command_topic} ({status}); start e.g. "
                     f"`python -m sim.physics_node --robot {self.robot.name} --no-auto-simulate`"
                 )
             self.stop.wait(0.05)
-        raise DriverError("interrupted while waiting for the engine")
+        raise ControllerError("interrupted while waiting for the engine")
 
     def state_or_fail(self, stamp: float, timeout: float, dt: float) -> ReceivedJointState:
         """The joint state stamped >= `stamp`, waited for at most `timeout` s."""
         state = self.states.wait_for_stamp(stamp, timeout, self.stop)
         if state is None:
             if self.stop.is_set():
-                raise DriverError("interrupted")
+                raise ControllerError("interrupted")
             last = "none received" if self.states.latest is None else f"latest stamped {self.states.latest.stamp:.6f} s"
-            raise DriverError(
+            raise ControllerError(
                 f"no {self.robot.joint_states_topic} message stamped >= {stamp:.6f} s within {timeout:g} s "
                 f"({last}); is the engine stepping on /clock (--no-auto-simulate) with dt {dt:g} s?"
             )
