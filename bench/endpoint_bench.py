@@ -974,11 +974,19 @@ def main(argv: list[str] | None = None) -> int:
         metavar="REVISION",
         help="also run REVISION's endpoint (a git worktree), phase by phase alternately on one roscore, and compare",
     )
+    parser.add_argument(
+        "--their-first",
+        action="store_true",
+        help="with --ab: REVISION's endpoint runs first in every phase (a phase's first side may meet a different "
+        "machine than its second: run both orders to tell)",
+    )
     parser.add_argument("--endpoint-arg", action="append", default=[], help="extra endpoint argument (repeatable)")
     parser.add_argument("--only", nargs="+", choices=PHASES, help="run only these phases")
     args = parser.parse_args(argv)
     if args.ab is not None and args.bridge_dir is not None:
         parser.error("--ab compares this tree with REVISION; it takes no --bridge-dir")
+    if args.their_first and args.ab is None:
+        parser.error("--their-first orders the two sides of --ab REVISION")
     if args.ab is not None:
         known = subprocess.run(
             ["git", "-C", str(REPO), "rev-parse", "--verify", "--quiet", args.ab + "^{commit}"],
@@ -1016,6 +1024,8 @@ def main(argv: list[str] | None = None) -> int:
         sides = [("this tree" if args.ab else str(args.bridge_dir or REPO), args.bridge_dir)]
         if args.ab is not None:
             sides.append((args.ab, stack.enter_context(worktree_of(args.ab))))
+        if args.their_first:
+            sides.reverse()
         return run(settings, sides, args.only or PHASES, args.keep_logs)
 
 
@@ -1053,8 +1063,11 @@ def run(settings: Settings, sides: list[tuple[str, Path | None]], phases: tuple[
             )
             print_table(bench.rows, header)
             print()
-        if len(benches) == 2:
-            compare_tables(benches[0].rows, benches[1].rows, sides[0][0], sides[1][0])
+        if len(benches) == 2:  # this tree's figures over the other's, whichever ran first
+            (ours, our_bench), (theirs, their_bench) = sorted(
+                zip(sides, benches), key=lambda side_bench: side_bench[0][1] is not None
+            )
+            compare_tables(our_bench.rows, their_bench.rows, ours[0], theirs[0])
         failed = False
     finally:
         for bench in benches:
