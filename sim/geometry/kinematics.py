@@ -31,7 +31,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Tuple
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -278,7 +278,8 @@ class KinematicChain:
         return self._jacobian_from_frames(self._frames(self._q(q)))
 
 
-_ChainKey = tuple[str, int, int, str, str, tuple[str, ...], tuple[float, ...], tuple[float, ...]]
+# typing.Tuple: an alias is evaluated at run time, and Python 3.8 (ROS Noetic's) cannot subscript tuple.
+_ChainKey = Tuple[str, int, int, str, str, Tuple[str, ...], Tuple[float, ...], Tuple[float, ...]]
 _CHAINS: dict[_ChainKey, KinematicChain] = {}
 
 

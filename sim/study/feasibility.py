@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable
 from dataclasses import dataclass, field
+from typing import Tuple
 
 import numpy as np
 import pybullet as p
@@ -39,7 +40,8 @@ CONTACT_MARGIN = 0.005  # m: closer than this to the table, the hand or itself c
 STANDOFF_TOLERANCE = 0.002  # m: FK of the planned end vs the path's stand-off
 _IK_RESTARTS = 20
 
-Combination = tuple[str, float, float]  # path name, stand-off (m), peak speed (m/s)
+# path name, stand-off (m), peak speed (m/s); typing.Tuple, as an alias is evaluated at run time (3.8 has no tuple[])
+Combination = Tuple[str, float, float]
 
 
 @dataclass

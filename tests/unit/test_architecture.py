@@ -1,7 +1,10 @@
 """The house rules that imports can break (docs/architecture.md), checked in fresh interpreters."""
 
+from __future__ import annotations
+
 import ast
 import subprocess
+import sys
 
 import pytest
 
@@ -116,6 +119,27 @@ def test_only_the_bridges_ros_modules_touch_rospy() -> None:
             if any(name.split(".")[0] in ("rospy", "rosgraph") for name in names):
                 touching.add(path.stem)
     assert touching == {"ros_graph", "ros_master", "ros_publisher", "ros_reader", "ros_service_proxy"}
+
+
+# What a ROS 1 install brings for Python (ROS's own packages): the endpoint may import these and the standard library.
+ROS_PYTHON_PACKAGES = {"rospy", "rosgraph", "genpy", "genmsg", "rospkg", "roslib", "diagnostic_msgs", "std_msgs"}
+
+
+def test_the_bridge_needs_only_python_and_ros() -> None:
+    """No pip dependency: a Noetic user runs the endpoint with what ROS installed (every import, even in functions)."""
+    foreign = {}
+    for path in (REPO / "bridge").glob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.Import):
+                tops = [alias.name.split(".")[0] for alias in node.names]
+            elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+                tops = [node.module.split(".")[0]]
+            else:
+                continue
+            for top in tops:
+                if top not in sys.stdlib_module_names and top not in ROS_PYTHON_PACKAGES and top != "bridge":
+                    foreign.setdefault(top, []).append(path.name)
+    assert foreign == {}
 
 
 def test_sim_uses_no_bridge_internals_but_the_client() -> None:

@@ -1,5 +1,7 @@
 """URDF kinematics against pybullet and Franka's DH table, the Jacobian against finite differences, and IK."""
 
+from __future__ import annotations
+
 import math
 
 import numpy as np
