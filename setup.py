@@ -6,9 +6,11 @@ setup(
     name="vr_ros_toolkit",
     version="0.1.0",
     description="Drop-in ROS-TCP-Endpoint (protocol v0.7.0, ROS 1) plus simulated robots, controllers and trials",
-    # The pip package for the project venv: sim needs 3.11. The endpoint alone (bridge) runs on 3.8+ with ROS's own
-    # packages and installs the ROS way, through the catkin package catkin_ws/src/ros_tcp_endpoint.
-    python_requires=">=3.11",
+    # Python 3.8 (ROS Noetic's) and later: the suite runs on 3.8, 3.10 and 3.11 (launch_scripts/test.sh). Every
+    # lower bound below is a release that still supports 3.8, and what pip resolves there is what the tests run on.
+    # The endpoint alone (bridge) needs none of it: ROS's own packages only, installed the ROS way through the catkin
+    # package catkin_ws/src/ros_tcp_endpoint.
+    python_requires=">=3.8",
     packages=find_packages(include=["bridge", "bridge.*", "sim", "sim.*"]),
     package_data={
         "bridge": ["py.typed"],

@@ -220,6 +220,34 @@ def test_simulated_participants_run_the_study_and_the_analysis_recovers_their_bi
 pytestmark = pytest.mark.timeout(400)
 
 
+def test_a_short_simulated_study_runs_end_to_end(tmp_path: Path) -> None:
+    """Two simulated participants through the whole study: roscore, endpoint, engine, the runner, participants over
+    TCP, rosbag record, the report and its plots. launch_scripts/test.sh runs it on ROS Noetic's Python 3.8 (and
+    3.10), where every process of it but roscore and rosbag runs on that Python."""
+    design = tmp_path / "design.yaml"
+    design.write_text(yaml.safe_dump(SMALL_DESIGN))
+    out = tmp_path / "study"
+    process = ManagedProcess(
+        [PYTHON, "-m", "sim.study", "simulate", "--participants", "2", "--design", str(design), "--out", str(out)],
+        plain_env(),
+        tmp_path,
+        "simulate",
+    )
+    try:
+        assert process.wait(300) == 0, process.output()[-3000:]
+    finally:
+        process.stop()
+    from sim.study.report import load_study
+
+    records = load_study(out)
+    assert len(records) == 2 * 14 and {r.participant for r in records} == {1, 2}
+    assert all(r.pressed for r in records if r.test == 2)
+    assert all(math.isfinite(r.perceived_distance) for r in records if r.test == 1)
+    assert (out / "test1_distance_perception.png").stat().st_size > 10_000
+    for number in (1, 2):
+        assert len(bag_messages(out / "bags" / f"participant_{number:02d}.bag", STOP_TOPIC)) == 8
+
+
 def test_the_observer_drives_a_reality_trial_from_the_runners_keyboard(roscore, endpoint, tmp_path: Path) -> None:
     # In real time, as a real robot would run: the approach lasts its planned seconds, and the stop typed while it
     # moves lands in it.

@@ -14,7 +14,7 @@ CATKIN_PACKAGE = REPO / "catkin_ws" / "src" / "ros_tcp_endpoint"
 
 
 def test_every_bridge_module_imports_on_python_3_8() -> None:
-    assert PYTHON38.exists(), "no .venv38 with Python 3.8: run launch_scripts/setup_python38.sh"
+    assert PYTHON38.exists(), "no .venv38 with Python 3.8: run launch_scripts/setup_ros_pythons.sh"
     modules = [
         "bridge",
         *sorted(f"bridge.{path.stem}" for path in (REPO / "bridge").glob("*.py") if path.stem != "__init__"),
