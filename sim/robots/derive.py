@@ -2,8 +2,10 @@
 
 The rules (README, "Bring your own robot"):
   base link     the URDF's root link
-  end effector  the leaf at the end of the longest chain of moving joints below the base; two or more such leaves
-                are ambiguous: an error lists them (choose with --ee-link)
+  end effector  the leaf at the end of the longest chain of moving joints below the base. When two or more leaves
+                end such chains and they are a gripper's fingers (each one's last moving joint hangs from the same
+                link, the hand), the hand: its tool frame if it has exactly one (a leaf fixed to it), else the hand
+                link itself, said in a note. Other ties are ambiguous: an error lists them (choose with --ee-link)
   joints        the moving joints (revolute, continuous, prismatic) from the base to the end effector, in order;
                 the moving joints off that chain (e.g. a gripper's fingers) are held where they start
   limits        from <limit>; a continuous joint gets a full turn each way (±2π); stated defaults where the URDF
@@ -71,8 +73,9 @@ def _moving_count(model: UrdfModel, base: str, link: str) -> int:
     return sum(joint.moving for joint in model.path(base, link))
 
 
-def end_effector(model: UrdfModel, base: str, source: str = "URDF") -> str:
-    """The leaf below `base` at the end of the longest chain of moving joints (RobotError when ambiguous)."""
+def end_effector(model: UrdfModel, base: str, source: str = "URDF", notes: list[str] | None = None) -> str:
+    """The leaf below `base` at the end of the longest chain of moving joints; for a gripper's fingers, the hand they
+    hang from (its tool frame if it has one), said in `notes` (RobotError when ambiguous)."""
     below = [leaf for leaf in model.leaves() if leaf != base and _is_below(model, base, leaf)]
     counts = {leaf: _moving_count(model, base, leaf) for leaf in below}
     longest = max(counts.values(), default=0)
@@ -82,13 +85,35 @@ def end_effector(model: UrdfModel, base: str, source: str = "URDF") -> str:
             f"(moving joints are {', '.join(MOVING_TYPES)})"
         )
     candidates = [leaf for leaf, count in counts.items() if count == longest]
-    if len(candidates) > 1:
-        raise RobotError(
-            f"{source}: the end effector of robot {model.name!r} is ambiguous, {len(candidates)} leaves end a "
-            f"chain of {longest} moving joints: {', '.join(candidates)}; choose one with --ee-link "
-            f"(or ee_link in the robot's YAML)"
-        )
-    return candidates[0]
+    if len(candidates) == 1:
+        return candidates[0]
+    fingers = [_last_moving_joint(model, base, leaf) for leaf in candidates]
+    hands = {finger.parent for finger in fingers}
+    hand = hands.pop() if len(hands) == 1 else ""
+    # Fingers: distinct joints from one hand, and the hand is carried by the arm (not the base of two arms).
+    if hand and len({finger.name for finger in fingers}) == len(fingers) and _moving_count(model, base, hand) > 0:
+        tools = [
+            joint.child for joint in model.joints if joint.parent == hand and not joint.moving and joint.child in below
+        ]
+        chosen = tools[0] if len(tools) == 1 else hand
+        what = f"the tool frame of {hand!r}" if chosen != hand else "the hand"
+        if notes is not None:
+            notes.append(
+                f"end effector {chosen!r}: {what}, from which the gripper's fingers hang "
+                f"({', '.join(finger.name for finger in fingers)}, held where they start); choose another with "
+                f"--ee-link"
+            )
+        return chosen
+    raise RobotError(
+        f"{source}: the end effector of robot {model.name!r} is ambiguous, {len(candidates)} leaves end a "
+        f"chain of {longest} moving joints: {', '.join(candidates)}; choose one with --ee-link "
+        f"(or ee_link in the robot's YAML)"
+    )
+
+
+def _last_moving_joint(model: UrdfModel, base: str, leaf: str) -> UrdfJoint:
+    """The moving joint nearest `leaf` on its path from `base` (there is one: the leaf ends a moving chain)."""
+    return [joint for joint in model.path(base, leaf) if joint.moving][-1]
 
 
 def _is_below(model: UrdfModel, base: str, link: str) -> bool:
@@ -202,7 +227,8 @@ def derive_robot(
     base = overrides.base_link or model.root
     if base not in model.links:
         raise RobotError(f"{source}: no link {base!r} for the base; links: {', '.join(model.links)}")
-    ee = overrides.ee_link or end_effector(model, base, source)
+    notes: list[str] = []
+    ee = overrides.ee_link or end_effector(model, base, source, notes)
     if ee not in model.links:
         raise RobotError(f"{source}: no link {ee!r} for the end effector; links: {', '.join(model.links)}")
     if not _is_below(model, base, ee):
@@ -211,7 +237,6 @@ def derive_robot(
     if not chain:
         raise RobotError(f"{source}: no moving joint between base link {base!r} and end-effector link {ee!r}")
 
-    notes: list[str] = []
     names = [joint.name for joint in chain]
     table = np.array([_limits(joint, notes, source) for joint in chain], dtype=float)
     _apply_limit_overrides(names, table, overrides.limits, source)

@@ -4,7 +4,6 @@ campaign."""
 
 from __future__ import annotations
 
-import shutil
 import subprocess
 from pathlib import Path
 
@@ -15,7 +14,7 @@ from sim.engine.physics import Mode
 from sim.engine.stand_in import EngineOptions, replay_csv
 from sim.robots import load_robot
 from tests.integration.sim_helpers import mean_of, report_rows
-from tests.robot_files import LIFT_ARM, THIRD_PARTY_URDFS
+from tests.robot_files import LIFT_ARM, PANDA_WITH_HAND, THIRD_PARTY_URDFS, write_gripper_arm
 from tests.rosenv import PYTHON, REPO
 
 ENTRY_POINTS = {
@@ -39,13 +38,23 @@ def bad_robots(tmp_path: Path) -> dict[str, tuple[str, str]]:
         '<robot name="drone"><link name="world"/><link name="body"/><joint name="free" '
         'type="floating"><parent link="world"/><child link="body"/></joint></robot>'
     )
-    ambiguous = shutil.copy(LIFT_ARM, tmp_path / "gripper_arm.urdf")  # no YAML beside it
+    ambiguous = tmp_path / "twins.urdf"  # two equal arms on one torso: no end effector can be derived
+    limit = '<limit lower="-1" upper="1" velocity="1" effort="10"/>'
+    ambiguous.write_text(
+        '<robot name="twins"><link name="torso"/>'
+        + "".join(
+            f'<link name="{side}_hand"/><joint name="{side}_shoulder" type="revolute"><parent link="torso"/>'
+            f'<child link="{side}_hand"/><axis xyz="0 0 1"/>{limit}</joint>'
+            for side in ("left", "right")
+        )
+        + "</robot>"
+    )
     return {
         "missing": (str(tmp_path / "absent.urdf"), "URDF not found"),
         "no_moving_joints": (str(no_moving), "has no moving joint"),
         "ambiguous_ee": (
             str(ambiguous),
-            "is ambiguous, 2 leaves end a chain of 5 moving joints: left_finger, right_finger",
+            "is ambiguous, 2 leaves end a chain of 1 moving joints: left_hand, right_hand",
         ),
         "floating_joint": (str(floating), "joint 'free' is floating"),
     }
@@ -173,3 +182,41 @@ def test_a_short_campaign_runs_on_robots_that_are_not_ours(tmp_path, roscore):
                 row = rows[(name, case, joint)]
                 assert row["lost msgs"] == "0" and mean_of(row["MAPE %"]) < 0.05, (name, case, joint, row)
     assert (tmp_path / "bags" / "lift_arm_auto_simulate_off_1.bag").is_file()
+
+
+def test_arms_with_a_gripper_run_the_campaign_from_their_urdf_alone(tmp_path: Path, roscore) -> None:
+    """The Panda with its hand and an arm the test writes (fingers under a flange with a tool frame), each named by
+    its URDF path and nothing else: the end effector is the hand's tool frame, said in one line, and every moving
+    joint tracks within 0.05 % MAPE with no message lost."""
+    arms = {"panda": PANDA_WITH_HAND, "gripper_arm": write_gripper_arm(tmp_path)}
+    done = subprocess.run(
+        [
+            PYTHON,
+            "-m",
+            "sim.trials",
+            "--robots",
+            *(str(path) for path in arms.values()),
+            "--use-cases",
+            "auto_simulate_off",
+            "--trials",
+            "1",
+            "--out",
+            str(tmp_path / "out"),
+            "--no-progress",
+        ],
+        cwd=REPO,
+        env=roscore.env,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]
+    assert "messages lost: 0" in done.stdout
+    for name, tool in (("panda", "panda_grasptarget"), ("gripper_arm", "tool0")):
+        said = [line for line in done.stderr.splitlines() if f"robot {name}: end effector '{tool}'" in line]
+        assert len(said) == 1, done.stderr[-3000:]
+    rows = report_rows(tmp_path / "out" / "report.md")
+    for name, path in arms.items():
+        for joint in load_robot(str(path)).joint_names:
+            row = rows[(name, "auto_simulate_off", joint)]
+            assert row["lost msgs"] == "0" and mean_of(row["MAPE %"]) <= 0.05, (name, joint, row)

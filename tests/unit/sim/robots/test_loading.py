@@ -107,15 +107,11 @@ def test_transmission_joints_are_not_joints_of_the_tree():
     assert (xarm.base_link, xarm.ee_link) == ("world", "link6")
 
 
-def test_a_gripper_makes_the_end_effector_ambiguous_until_the_yaml_beside_the_urdf_says(tmp_path):
+def test_the_yaml_beside_the_urdf_and_the_command_line_choose_the_end_effector(tmp_path):
     arm = load_robot(str(LIFT_ARM))  # lift_arm.yaml beside it: ee_link: tool_tip
     assert arm.ee_link == "tool_tip" and arm.joint_names == ("lift", "shoulder", "elbow", "wrist")
     assert arm.joint_types == ("prismatic", "revolute", "revolute", "continuous")
     alone = shutil.copy(LIFT_ARM, tmp_path / "lift_arm.urdf")
-    with pytest.raises(
-        RobotError, match="end effector of robot 'lift_arm' is ambiguous.*left_finger, right_finger.*--ee-link"
-    ):
-        load_robot(str(alone))
     assert load_robot(str(alone), ee_link="left_finger").joint_names[-1] == "left_finger_joint"
 
 
