@@ -8,6 +8,7 @@ Every wait has a deadline (tests.rosenv.wait_for); nothing sleeps blindly.
 
 from __future__ import annotations
 
+import subprocess
 import threading
 import time
 from collections.abc import Sequence
@@ -19,7 +20,7 @@ import numpy as np
 from sim.engine.physics import Mode, PhysicsWorld
 from sim.robots import RobotSpec
 from sim.wire.contract import STAMP_TOLERANCE_S, STEP_S
-from tests.rosenv import PYTHON, ManagedProcess, RosCore, wait_for
+from tests.rosenv import PYTHON, REPO, ManagedProcess, RosCore, wait_for
 
 DT = STEP_S
 
@@ -294,3 +295,25 @@ def report_rows(report: Path) -> dict[tuple[str, str, str], dict[str, str]]:
 
 def mean_of(cell: str) -> float:
     return float(cell.split("±")[0])
+
+
+def run_campaign(
+    robots: Sequence[str],
+    use_cases: Sequence[str],
+    out: Path,
+    trials: int = 1,
+    env: dict[str, str] | None = None,
+    timeout: float = 600,
+) -> subprocess.CompletedProcess[str]:
+    """`python -m sim.trials` over `robots` (names or paths) and `use_cases` into `out`; it must succeed."""
+    done = subprocess.run(
+        [PYTHON, "-m", "sim.trials", "--robots", *robots, "--use-cases", *use_cases, "--trials", str(trials)]
+        + ["--out", str(out), "--no-progress"],
+        cwd=REPO,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+    )
+    assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]
+    return done

@@ -13,9 +13,9 @@ from sim.campaign import analysis
 from sim.engine.physics import Mode
 from sim.engine.stand_in import EngineOptions, replay_csv
 from sim.robots import load_robot
-from tests.integration.sim_helpers import mean_of, report_rows
+from tests.integration.sim_helpers import mean_of, report_rows, run_campaign
 from tests.robot_files import LIFT_ARM, PANDA_WITH_HAND, THIRD_PARTY_URDFS, write_gripper_arm
-from tests.rosenv import PYTHON, REPO
+from tests.rosenv import PYTHON
 
 ENTRY_POINTS = {
     "sim.robots": [],
@@ -153,27 +153,7 @@ def test_the_trial_exports_and_replays_in_every_physics_mode(tmp_path, name):
 def test_a_short_campaign_runs_on_robots_that_are_not_ours(tmp_path, roscore):
     robots = {name: load_robot(str(path)) for name, path in THIRD_PARTY_URDFS.items()}
     cases = ("auto_simulate_off",)  # lockstep: deterministic; the CSV mode is the test above
-    done = subprocess.run(
-        [
-            PYTHON,
-            "-m",
-            "sim.trials",
-            "--robots",
-            *(str(THIRD_PARTY_URDFS[n]) for n in robots),
-            "--use-cases",
-            *cases,
-            "--trials",
-            "1",
-            "--out",
-            str(tmp_path),
-            "--no-progress",
-        ],
-        cwd=REPO,
-        capture_output=True,
-        text=True,
-        timeout=600,
-    )
-    assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]
+    done = run_campaign([str(THIRD_PARTY_URDFS[n]) for n in robots], cases, tmp_path)
     assert "messages lost: 0" in done.stdout
     rows = report_rows(tmp_path / "report.md")
     for name, robot in robots.items():
@@ -189,28 +169,7 @@ def test_arms_with_a_gripper_run_the_campaign_from_their_urdf_alone(tmp_path: Pa
     its URDF path and nothing else: the end effector is the hand's tool frame, said in one line, and every moving
     joint tracks within 0.05 % MAPE with no message lost."""
     arms = {"panda": PANDA_WITH_HAND, "gripper_arm": write_gripper_arm(tmp_path)}
-    done = subprocess.run(
-        [
-            PYTHON,
-            "-m",
-            "sim.trials",
-            "--robots",
-            *(str(path) for path in arms.values()),
-            "--use-cases",
-            "auto_simulate_off",
-            "--trials",
-            "1",
-            "--out",
-            str(tmp_path / "out"),
-            "--no-progress",
-        ],
-        cwd=REPO,
-        env=roscore.env,
-        capture_output=True,
-        text=True,
-        timeout=600,
-    )
-    assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]
+    done = run_campaign([str(path) for path in arms.values()], ["auto_simulate_off"], tmp_path / "out", env=roscore.env)
     assert "messages lost: 0" in done.stdout
     for name, tool in (("panda", "panda_grasptarget"), ("gripper_arm", "tool0")):
         said = [line for line in done.stderr.splitlines() if f"robot {name}: end effector '{tool}'" in line]

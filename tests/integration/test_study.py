@@ -43,6 +43,21 @@ SMALL_DESIGN = {
 }
 
 
+def simulate_small_study(tmp_path: Path, participants: int, seed: int | None = None) -> Path:
+    """`python -m sim.study simulate` of SMALL_DESIGN with simulated participants; the folder it wrote."""
+    design = tmp_path / "design.yaml"
+    design.write_text(yaml.safe_dump(SMALL_DESIGN))
+    out = tmp_path / "study"
+    command = [PYTHON, "-m", "sim.study", "simulate", "--participants", str(participants), "--design", str(design)]
+    command += ["--out", str(out)] + ([] if seed is None else ["--seed", str(seed)])
+    process = ManagedProcess(command, plain_env(), tmp_path, "simulate")
+    try:
+        assert process.wait(300) == 0, process.output()[-3000:]
+    finally:
+        process.stop()
+    return out
+
+
 def message(topic: str, **fields: Any) -> bytes:
     return encode_message(TOPIC_TYPES[topic], **fields)
 
@@ -164,32 +179,7 @@ def test_a_vr_scene_stops_the_robot_and_answers_through_the_endpoint(roscore, en
 
 
 def test_simulated_participants_run_the_study_and_the_analysis_recovers_their_biases(tmp_path: Path) -> None:
-    design = tmp_path / "design.yaml"
-    design.write_text(yaml.safe_dump(SMALL_DESIGN))
-    out = tmp_path / "study"
-    process = ManagedProcess(
-        [
-            PYTHON,
-            "-m",
-            "sim.study",
-            "simulate",
-            "--participants",
-            "4",
-            "--design",
-            str(design),
-            "--out",
-            str(out),
-            "--seed",
-            "11",
-        ],
-        plain_env(),
-        tmp_path,
-        "simulate",
-    )
-    try:
-        assert process.wait(300) == 0, process.output()[-3000:]
-    finally:
-        process.stop()
+    out = simulate_small_study(tmp_path, participants=4, seed=11)
     report = (out / "report.md").read_text()
     for plot in ("test1_distance_perception.png", "test2_comfort_distance.png"):
         assert f"]({plot})" in report and (out / plot).stat().st_size > 10_000
@@ -224,19 +214,7 @@ def test_a_short_simulated_study_runs_end_to_end(tmp_path: Path) -> None:
     """Two simulated participants through the whole study: roscore, endpoint, engine, the runner, participants over
     TCP, rosbag record, the report and its plots. launch_scripts/test.sh runs it on ROS Noetic's Python 3.8 (and
     3.10), where every process of it but roscore and rosbag runs on that Python."""
-    design = tmp_path / "design.yaml"
-    design.write_text(yaml.safe_dump(SMALL_DESIGN))
-    out = tmp_path / "study"
-    process = ManagedProcess(
-        [PYTHON, "-m", "sim.study", "simulate", "--participants", "2", "--design", str(design), "--out", str(out)],
-        plain_env(),
-        tmp_path,
-        "simulate",
-    )
-    try:
-        assert process.wait(300) == 0, process.output()[-3000:]
-    finally:
-        process.stop()
+    out = simulate_small_study(tmp_path, participants=2)
     from sim.study.report import load_study
 
     records = load_study(out)

@@ -8,7 +8,6 @@ the metrics are recomputed here with plain numpy.
 from __future__ import annotations
 
 import re
-import subprocess
 from pathlib import Path
 
 import numpy as np
@@ -16,9 +15,8 @@ import pytest
 import rosbag
 
 from sim.campaign.analysis import scenario_start
-from sim.processes import PYTHON, REPO
 from sim.robots import load_robot
-from tests.integration.sim_helpers import mean_of, report_rows
+from tests.integration.sim_helpers import mean_of, report_rows, run_campaign
 
 ROBOTS = ("panda", "igt")
 USE_CASES = ("auto_simulate_off", "no_ros")
@@ -28,28 +26,7 @@ TRIALS = 2
 @pytest.fixture(scope="module")
 def campaign(tmp_path_factory, roscore) -> tuple[Path, str]:
     out = tmp_path_factory.mktemp("campaign")
-    result = subprocess.run(
-        [
-            PYTHON,
-            "-m",
-            "sim.trials",
-            "--robots",
-            *ROBOTS,
-            "--use-cases",
-            *USE_CASES,
-            "--trials",
-            str(TRIALS),
-            "--out",
-            str(out),
-            "--no-progress",
-        ],
-        cwd=REPO,
-        env=roscore.env,
-        capture_output=True,
-        text=True,
-        timeout=400,
-    )
-    assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-3000:]
+    result = run_campaign(ROBOTS, USE_CASES, out, TRIALS, roscore.env, timeout=400)
     return out, result.stdout
 
 
@@ -136,28 +113,7 @@ def test_the_base_case_tracks_the_sweep_and_loses_nothing(tmp_path: Path, roscor
     """The thesis's base case (endpoint + TCP engine, physics, auto-simulate at the default time scale), one trial
     of the Panda: every moving joint within the issue's 0.05 % MAPE, no message lost. launch_scripts/test.sh also runs
     it on ROS Noetic's Python 3.8 (and 3.10): there every process of it runs on that Python but roscore and rosbag."""
-    done = subprocess.run(
-        [
-            PYTHON,
-            "-m",
-            "sim.trials",
-            "--robots",
-            "panda",
-            "--use-cases",
-            "base",
-            "--trials",
-            "1",
-            "--out",
-            str(tmp_path),
-            "--no-progress",
-        ],
-        cwd=REPO,
-        env=roscore.env,
-        capture_output=True,
-        text=True,
-        timeout=300,
-    )
-    assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]
+    done = run_campaign(["panda"], ["base"], tmp_path, env=roscore.env, timeout=300)
     assert "messages lost: 0" in done.stdout
     rows = report_rows(tmp_path / "report.md")
     for joint in load_robot("panda").joint_names:
