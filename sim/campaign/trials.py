@@ -24,10 +24,11 @@ import shutil
 import subprocess
 import sys
 import time
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from contextlib import ExitStack, contextmanager
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from sim.campaign import analysis
 from sim.control.scenarios import ScenarioConfig, build_motion
@@ -43,7 +44,7 @@ from sim.processes import (
     start_recorder,
     stop_recorder,
 )
-from sim.robots import ROBOT_NAMES, RobotError, RobotSpec, load_robot
+from sim.robots import ROBOT_NAMES, RobotError, RobotSpec, add_robot_overrides, load_robot, overrides_from_args
 from sim.wire.contract import STEP_S
 
 __all__ = [
@@ -363,9 +364,18 @@ def _expect_success(process: ManagedProcess, timeout_s: float) -> None:
 # --- campaign --------------------------------------------------------------------------------------------------
 
 
-def load_robots(references: Sequence[str]) -> list[RobotSpec]:
-    """The campaign's robots (names or URDF/YAML paths); their names key bags and reports, so they must differ."""
-    specs = [load_robot(reference) for reference in references]
+def load_robots(references: Sequence[str], overrides: Mapping[str, Any] | None = None) -> list[RobotSpec]:
+    """The campaign's robots (names or URDF/YAML paths); their names key bags and reports, so they must differ.
+    `overrides` (load_robot's keywords, from the command line) are for a campaign of one robot: several robots each
+    keep theirs in a YAML beside the URDF."""
+    if overrides and len(references) > 1:
+        options = ", ".join(f"--{key.replace('_', '-')}" for key in overrides)
+        raise RobotError(
+            f"{options} {'applies' if len(overrides) == 1 else 'apply'} to one robot, and {len(references)} are "
+            "given; put each robot's overrides in a YAML "
+            "beside its URDF (arm.urdf -> arm.yaml: ee_link, base_link, name, home)"
+        )
+    specs = [load_robot(reference, **(overrides or {})) for reference in references]
     names = [spec.name for spec in specs]
     twice = sorted({name for name in names if names.count(name) > 1})
     if twice:
@@ -407,6 +417,7 @@ def _parser() -> argparse.ArgumentParser:
         metavar="ROBOT",
         help=f"names ({', '.join(ROBOT_NAMES)}) or URDF / robot YAML paths (default: all names)",
     )
+    add_robot_overrides(parser.add_argument_group("overrides of a single robot (as every command takes them)"))
     parser.add_argument("--use-cases", nargs="+", default=list(USE_CASE_NAMES), choices=USE_CASE_NAMES)
     parser.add_argument("--trials", type=int, default=5)
     parser.add_argument("--out", type=Path, default=Path("results"))
@@ -424,7 +435,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.trials < 1 or args.time_scale <= 0:
         return fail(PROG, "--trials must be >= 1 and --time-scale > 0", EXIT_BAD_INPUT)
     try:
-        robots = load_robots(args.robots)
+        robots = load_robots(args.robots, overrides_from_args(args))
         for robot in robots:  # a robot whose sweep cannot be built is bad input, found before anything runs
             build_motion(robot, "sweep", ScenarioConfig(dt=STEP_S))
     except SimError as error:

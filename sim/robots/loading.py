@@ -38,7 +38,16 @@ from sim.robots.errors import RobotError
 from sim.robots.spec import RobotSpec, ScenarioDefaults
 from sim.robots.urdf_model import parse_urdf
 
-__all__ = ["ROBOTS_DIR", "ROBOT_NAMES", "load_robot", "find_ros_package", "add_robot_arguments", "robot_from_args"]
+__all__ = [
+    "ROBOTS_DIR",
+    "ROBOT_NAMES",
+    "load_robot",
+    "find_ros_package",
+    "add_robot_arguments",
+    "add_robot_overrides",
+    "overrides_from_args",
+    "robot_from_args",
+]
 
 log = logging.getLogger(__name__)
 
@@ -247,22 +256,32 @@ def add_robot_arguments(parser: argparse.ArgumentParser, default: str = "panda")
         default=default,
         help=f"a URDF path, a robot YAML path or one of {', '.join(ROBOT_NAMES)} (default {default})",
     )
+    add_robot_overrides(group)
+
+
+def add_robot_overrides(group: argparse._ActionsContainer) -> None:
+    """The overrides of what is derived from a URDF: --name, --base-link, --ee-link, --home."""
     group.add_argument("--name", help="the robot's name (topics /<name>/...); default: the URDF's robot name")
     group.add_argument("--base-link", help="default: the URDF's root link")
-    group.add_argument("--ee-link", help="default: the leaf ending the longest chain of moving joints")
+    group.add_argument(
+        "--ee-link", help="default: the leaf ending the longest chain of moving joints (a gripper's hand)"
+    )
     group.add_argument("--home", nargs="+", metavar="Q", help="home joint positions; default: mid-range")
 
 
-def robot_from_args(args: argparse.Namespace) -> RobotSpec:
-    """The robot `add_robot_arguments`' options name (RobotError or CliValueError when they are bad)."""
+def overrides_from_args(args: argparse.Namespace) -> dict[str, Any]:
+    """`load_robot`'s keyword overrides from `add_robot_overrides`' options, the ones given only (RobotError when
+    --home is not numbers)."""
     try:
         home = parse_numbers(args.home, "--home")
     except CliValueError as error:
         raise RobotError(str(error)) from None
-    return load_robot(
-        args.robot,
-        name=args.name,
-        base_link=args.base_link,
-        ee_link=args.ee_link,
-        home=None if home is None else tuple(home),
-    )
+    given = {"name": args.name, "base_link": args.base_link, "ee_link": args.ee_link}
+    if home is not None:
+        given["home"] = tuple(home)
+    return {key: value for key, value in given.items() if value is not None}
+
+
+def robot_from_args(args: argparse.Namespace) -> RobotSpec:
+    """The robot `add_robot_arguments`' options name (RobotError or CliValueError when they are bad)."""
+    return load_robot(args.robot, **overrides_from_args(args))

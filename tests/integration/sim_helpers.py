@@ -304,11 +304,13 @@ def run_campaign(
     trials: int = 1,
     env: dict[str, str] | None = None,
     timeout: float = 600,
+    extra: Sequence[str] = (),
 ) -> subprocess.CompletedProcess[str]:
-    """`python -m sim.trials` over `robots` (names or paths) and `use_cases` into `out`; it must succeed."""
+    """`python -m sim.trials` over `robots` (names or paths) and `use_cases` into `out`, with `extra` options; it
+    must succeed."""
     done = subprocess.run(
         [PYTHON, "-m", "sim.trials", "--robots", *robots, "--use-cases", *use_cases, "--trials", str(trials)]
-        + ["--out", str(out), "--no-progress"],
+        + ["--out", str(out), "--no-progress", *extra],
         cwd=REPO,
         env=env,
         capture_output=True,

@@ -15,7 +15,7 @@ from sim.engine.stand_in import EngineOptions, replay_csv
 from sim.robots import load_robot
 from tests.integration.sim_helpers import mean_of, report_rows, run_campaign
 from tests.robot_files import LIFT_ARM, PANDA_WITH_HAND, THIRD_PARTY_URDFS, write_gripper_arm
-from tests.rosenv import PYTHON
+from tests.rosenv import PYTHON, REPO
 
 ENTRY_POINTS = {
     "sim.robots": [],
@@ -179,3 +179,24 @@ def test_arms_with_a_gripper_run_the_campaign_from_their_urdf_alone(tmp_path: Pa
         for joint in load_robot(str(path)).joint_names:
             row = rows[(name, "auto_simulate_off", joint)]
             assert row["lost msgs"] == "0" and mean_of(row["MAPE %"]) <= 0.05, (name, joint, row)
+
+
+def test_the_campaign_takes_the_overrides_every_command_takes(tmp_path: Path) -> None:
+    """`sim.trials` accepts --ee-link (and --base-link, --name, --home) as the other commands do, for one robot; with
+    several it says where their overrides go, in one line, exit 2."""
+    arm = str(write_gripper_arm(tmp_path))
+    done = run_campaign([arm], ["no_ros"], tmp_path / "out", extra=["--ee-link", "flange", "--name", "arm"])
+    rows = report_rows(tmp_path / "out" / "report.md")
+    assert {joint for robot, _, joint in rows if robot == "arm"} == {f"joint{k}" for k in range(1, 7)}
+    assert "end effector 'tool0'" not in done.stderr  # the given end effector, nothing derived to say
+    refused = subprocess.run(
+        [PYTHON, "-m", "sim.trials", "--robots", arm, "igt", "--ee-link", "flange", "--out", str(tmp_path / "x")],
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    errors = [line for line in refused.stderr.splitlines() if "error" in line]
+    assert refused.returncode == 2 and len(errors) == 1, refused.stderr
+    assert "--ee-link applies to one robot, and 2 are given; put each robot's overrides in a YAML" in errors[0]
+    assert not (tmp_path / "x").exists()
