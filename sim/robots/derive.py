@@ -87,11 +87,14 @@ def end_effector(model: UrdfModel, base: str, source: str = "URDF", notes: list[
     candidates = [leaf for leaf, count in counts.items() if count == longest]
     if len(candidates) == 1:
         return candidates[0]
-    fingers = [_last_moving_joint(model, base, leaf) for leaf in candidates]
+    # A finger may end in more than one leaf (a fingertip frame, a pad): one joint, one finger.
+    fingers = list(
+        {joint.name: joint for joint in (_last_moving_joint(model, base, leaf) for leaf in candidates)}.values()
+    )
     hands = {finger.parent for finger in fingers}
     hand = hands.pop() if len(hands) == 1 else ""
-    # Fingers: distinct joints from one hand, and the hand is carried by the arm (not the base of two arms).
-    if hand and len({finger.name for finger in fingers}) == len(fingers) and _moving_count(model, base, hand) > 0:
+    # Fingers: two or more joints from one hand, which the arm carries (not the base of two arms).
+    if hand and len(fingers) >= 2 and _moving_count(model, base, hand) > 0:
         tools = [
             joint.child for joint in model.joints if joint.parent == hand and not joint.moving and joint.child in below
         ]
@@ -100,7 +103,7 @@ def end_effector(model: UrdfModel, base: str, source: str = "URDF", notes: list[
         if notes is not None:
             notes.append(
                 f"end effector {chosen!r}: {what}, from which the gripper's fingers hang "
-                f"({', '.join(finger.name for finger in fingers)}, held where they start); choose another with "
+                f"({', '.join(sorted(finger.name for finger in fingers))}, held where they start); choose another with "
                 f"--ee-link"
             )
         return chosen

@@ -70,3 +70,14 @@ def test_arms_straight_on_the_base_are_no_gripper() -> None:
     text = text.replace('<parent link="right_link1"/>', '<parent link="torso"/>')
     with pytest.raises(RobotError, match="ambiguous, 4 leaves end a chain of 1 moving joints"):
         end_effector(parse_urdf(text), "torso")
+
+
+def test_a_finger_with_two_leaves_is_still_one_finger() -> None:
+    text = gripper_arm_urdf().replace(
+        "</robot>",
+        '<link name="left_pad"/><joint name="left_pad_fixed" type="fixed"><parent link="left_finger"/>'
+        '<child link="left_pad"/></joint></robot>',
+    )
+    notes: list[str] = []
+    assert end_effector(parse_urdf(text), "base_link", notes=notes) == "tool0"
+    assert "(left_finger_joint, right_finger_joint, held" in notes[0]
