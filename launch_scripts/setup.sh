@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Idempotent set-up: Debian's ROS 1 packages, the project venv (system site packages, so rospy imports),
-# the project installed editable with its dev extras, and the catkin workspace.
+# the project installed editable with its dev extras, the system Python's packages for vr_sim, and the catkin
+# workspace.
 set -euo pipefail
 repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$repo"
@@ -10,6 +11,7 @@ apt_packages=(ros-core python3-rospy python3-rosbag python3-sensor-msgs python3-
   python3-diagnostic-msgs
   python3-geometry-msgs python3-std-msgs python3-rosgraph-msgs python3-std-srvs python3-tf2-msgs
   ros-robot-state-publisher python3-yaml
+  python3-numpy python3-scipy python3-matplotlib python3-pip
   chromium chromium-driver
   catkin rosbash iproute2)
 missing=()
@@ -36,10 +38,22 @@ if [ ! -f "$stamp" ] || [ setup.py -nt "$stamp" ]; then
   touch "$stamp"
 fi
 
-# catkin_make only when the workspace has never been built or a package file changed since.
-if [ ! -f catkin_ws/devel/setup.bash ] || [ -n "$(find catkin_ws/src -newer catkin_ws/devel/setup.bash \( -name package.xml -o -name CMakeLists.txt \) -print -quit)" ]; then
+# The system Python as a ROS user runs vr_sim's nodes with in their own workspace (the workspace test): Debian's
+# packages above for the rosdep keys Debian has, and `pip install --user` for the pip keys (pybullet, rosbags), into
+# a user base of the repository's own rather than the home directory's.
+user_base="$repo/.user_python"
+if ! PYTHONUSERBASE="$user_base" /usr/bin/python3 -c "import pybullet, rosbags" 2>/dev/null; then
+  echo "setup: pip install --user pybullet rosbags for /usr/bin/python3 (in $user_base)"
+  PYTHONUSERBASE="$user_base" PIP_ROOT_USER_ACTION=ignore /usr/bin/python3 -m pip install -q \
+    --disable-pip-version-check --no-warn-script-location --user --break-system-packages pybullet rosbags
+fi
+
+# catkin_make only when the workspace has never been built or a package's build files changed since.
+stamp=catkin_ws/devel/.setup_stamp
+if [ ! -f "$stamp" ] || [ -n "$(find catkin_ws/src -newer "$stamp" \( -name package.xml -o -name CMakeLists.txt -o -name setup.py \) -print -quit)" ]; then
   echo "setup: catkin_make"
   (cd catkin_ws && catkin_make -DPYTHON_EXECUTABLE="$repo/.venv/bin/python" >/tmp/catkin_make.log 2>&1) \
     || { tail -30 /tmp/catkin_make.log; echo "setup: catkin_make failed" >&2; exit 1; }
+  touch "$stamp"
 fi
 echo "setup: ready ($repo/.venv)"

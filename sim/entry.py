@@ -6,6 +6,7 @@ python -m sim.X ... ; echo $?    0 done, 1 the run failed, 2 bad input (as argpa
 
 from __future__ import annotations
 
+import importlib
 import logging
 import sys
 
@@ -19,6 +20,8 @@ __all__ = [
     "fail",
     "warn",
     "log_to_stderr",
+    "without_ros_arguments",
+    "run_as_ros_command",
 ]
 
 EXIT_OK = 0
@@ -43,3 +46,31 @@ def warn(prog: str, note: object) -> None:
 def log_to_stderr(level: int = logging.WARNING) -> None:
     """The commands' log lines, on stderr: `[LEVEL] [logger] message`."""
     logging.basicConfig(level=level, format="[%(levelname)s] [%(name)s] %(message)s", stream=sys.stderr)
+
+
+def without_ros_arguments(argv: list[str]) -> list[str]:
+    """The command's own arguments from those rosrun and roslaunch add: remappings and special keys such as
+    `__name:=commander` and `__log:=...` all have `:=` in them, and no option of ours does (as rospy.myargv)."""
+    return [arg for arg in argv if ":=" not in arg]
+
+
+# pip's names where they differ from the module's
+_PIP_NAMES = {"yaml": "PyYAML"}
+
+
+def run_as_ros_command(module: str, argv: list[str]) -> int:
+    """`module`'s main as rosrun and roslaunch start it (vr_sim's scripts): with their arguments left out, and a
+    package this Python lacks named in one line, with how to get it, rather than a traceback."""
+    try:
+        return int(importlib.import_module(module).main(without_ros_arguments(argv)))
+    except ModuleNotFoundError as error:
+        missing = (error.name or "").split(".")[0]
+        if missing in ("", "sim", "bridge"):
+            raise
+        pip_name = _PIP_NAMES.get(missing, missing)
+        return fail(
+            module,
+            f"{sys.executable} has no module {missing!r}; install vr_sim's dependencies: `rosdep install "
+            f"--from-paths src --ignore-src` in the workspace, or `pip3 install --user {pip_name}`",
+            EXIT_BAD_INPUT,
+        )

@@ -78,6 +78,7 @@ from sim.entry import (
     EXIT_UNREACHABLE_GOAL,
     fail,
     warn,
+    without_ros_arguments,
 )
 from sim.errors import SimError
 from sim.geometry.frames import matrix_to_quat
@@ -86,7 +87,6 @@ from sim.robots import RobotSpec, add_robot_arguments, robot_from_args
 from sim.wire.contract import STEP_S, PoseConvention, add_pose_convention_argument
 
 __all__ = [
-    "REPO",
     "DEFAULT_LOG_DIR",
     "config_from_args",
     "CommanderOptions",
@@ -95,8 +95,8 @@ __all__ = [
     "main",
 ]
 
-REPO = Path(__file__).resolve().parents[2]
-DEFAULT_LOG_DIR = REPO / "results" / "commander"
+# Relative to where the commander runs (roslaunch runs nodes in ROS_HOME): never into the installed package.
+DEFAULT_LOG_DIR = Path("results") / "commander"
 PROG = "sim.commander"
 
 
@@ -328,9 +328,7 @@ def options_from_args(args: argparse.Namespace) -> CommanderOptions:
 
 
 def main(argv: list[str] | None = None) -> int:
-    raw = list(sys.argv[1:] if argv is None else argv)
-    raw = [a for a in raw if not a.startswith("__name:=") and not a.startswith("__log:=")]
-    args = _parser().parse_args(raw)
+    args = _parser().parse_args(without_ros_arguments(sys.argv[1:] if argv is None else argv))
     try:
         robot = robot_from_args(args)
         if args.scenario in OLD_SCENARIO_NAMES:

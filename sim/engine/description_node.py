@@ -27,7 +27,7 @@ from geometry_msgs.msg import Pose, TransformStamped
 from sensor_msgs.msg import JointState
 from tf2_msgs.msg import TFMessage
 
-from sim.entry import EXIT_BAD_INPUT, EXIT_OK, fail
+from sim.entry import EXIT_BAD_INPUT, EXIT_OK, fail, without_ros_arguments
 from sim.errors import SimError
 from sim.robots import RobotSpec, add_robot_arguments, robot_from_args
 from sim.robots.urdf_model import parse_urdf
@@ -136,7 +136,7 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    args = _parser().parse_args(rospy.myargv(argv if argv is not None else sys.argv)[1:])
+    args = _parser().parse_args(without_ros_arguments(sys.argv[1:] if argv is None else argv))
     try:
         robot = robot_from_args(args)
     except SimError as error:

@@ -15,7 +15,7 @@ from collections.abc import Callable
 import rospy
 
 from sim.engine.stand_in import EngineStandIn, argument_parser, options_from_args
-from sim.entry import EXIT_BAD_INPUT, EXIT_OK, fail
+from sim.entry import EXIT_BAD_INPUT, EXIT_OK, fail, without_ros_arguments
 from sim.errors import SimError
 from sim.robots import robot_from_args
 
@@ -71,7 +71,7 @@ def _log_to_screen() -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    args = argument_parser().parse_args(rospy.myargv(argv if argv is not None else sys.argv)[1:])
+    args = argument_parser().parse_args(without_ros_arguments(sys.argv[1:] if argv is None else argv))
     try:
         robot = robot_from_args(args)
         options = options_from_args(args)

@@ -271,15 +271,16 @@ def add_robot_overrides(group: argparse._ActionsContainer) -> None:
 
 def overrides_from_args(args: argparse.Namespace) -> dict[str, Any]:
     """`load_robot`'s keyword overrides from `add_robot_overrides`' options, the ones given only (RobotError when
-    --home is not numbers)."""
+    --home is not numbers). An empty value is one not given: a launch file passes its arguments' empty defaults."""
+    home_given = args.home is not None and any(token.strip() for token in args.home)
     try:
-        home = parse_numbers(args.home, "--home")
+        home = parse_numbers(args.home, "--home") if home_given else None
     except CliValueError as error:
         raise RobotError(str(error)) from None
     given = {"name": args.name, "base_link": args.base_link, "ee_link": args.ee_link}
     if home is not None:
         given["home"] = tuple(home)
-    return {key: value for key, value in given.items() if value is not None}
+    return {key: value for key, value in given.items() if value}
 
 
 def robot_from_args(args: argparse.Namespace) -> RobotSpec:

@@ -1,6 +1,9 @@
-"""The endpoint where ROS users put it: this repository in a fresh catkin workspace's src/, beside a message and
-service package of the user's own, built by plain `catkin_make` (and `catkin_make install`) with the system Python
-and no venv, then started by rosrun or roslaunch, from devel and from install space.
+"""The endpoint and the simulator where ROS users put them: this repository in a fresh catkin workspace's src/,
+beside a message and service package of the user's own, built by plain `catkin_make` (and `catkin_make install`)
+with the system Python and no venv, then started by rosrun or roslaunch, from devel and from install space.
+
+The system Python has what `rosdep install` gives vr_sim's keys on Debian: Debian's numpy, scipy, yaml and
+matplotlib, and pybullet and rosbags by `pip install --user` (set-up puts them in the user base .user_python).
 
 The user's package (tests/fixtures/catkin/vr_test_msgs) has a message with nested standard types, a service using
 it, a service node, and a launch file shaped like those of Unity's ROS integration tutorial (global ROS_IP
@@ -11,6 +14,7 @@ from __future__ import annotations
 
 import io
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -21,14 +25,24 @@ from typing import Any
 import pytest
 
 from bridge.client import TcpClient
+from sim.campaign import analysis
+from sim.robots import load_robot
 from tests.rosenv import PYTHON, REPO, ManagedProcess, RosCore, free_port, wait_for
 
-# What a ROS user's shell has: the system Python first, no venv, nothing of this repository on the path.
+# What a ROS user's shell has: the system Python first, no venv, nothing of this repository on the path, and
+# their `pip install --user` packages.
 USER_PATH = "/usr/local/sbin:/usr/local/bin:/usr/sbin:/usr/bin:/sbin:/bin"
+USER_BASE = REPO / ".user_python"
 
 
 def user_env(**ros: str) -> dict[str, str]:
-    env = {"HOME": os.environ.get("HOME", "/root"), "PATH": USER_PATH, "LANG": "C.UTF-8", "PYTHONUNBUFFERED": "1"}
+    env = {
+        "HOME": os.environ.get("HOME", "/root"),
+        "PATH": USER_PATH,
+        "LANG": "C.UTF-8",
+        "PYTHONUNBUFFERED": "1",
+        "PYTHONUSERBASE": str(USER_BASE),
+    }
     env.update(ros)
     return env
 
@@ -362,3 +376,84 @@ def test_user_types_with_no_definition_at_all_from_the_graph(
     finally:
         endpoint.stop()
         ros_publisher.stop()
+
+
+# --- vr_sim -------------------------------------------------------------------------------------------------------
+
+
+def test_the_sim_is_importable_from_devel_and_install_space_with_the_bundled_robots(workspace: Path) -> None:
+    for space in ("devel", "install"):
+        result = subprocess.run(
+            sourced(workspace, space, "rosrun vr_sim robot --robot igt"),
+            cwd=workspace,
+            env=user_env(),
+            capture_output=True,
+            text=True,
+            timeout=60,
+        )
+        assert result.returncode == 0, result.stderr
+        assert "robot igt: " in result.stdout and "topics /igt/arm_controller/command" in result.stdout
+        # catkin gave every script the Python the workspace was built with: the system's, /usr/bin/python3 here
+        script = workspace / space / "lib" / "vr_sim" / "engine"
+        assert script.read_text().splitlines()[0] in ("#!/usr/bin/python3", "#!/usr/bin/env python3")
+    # The install space is a copy, data files included: it works without the sources.
+    installed = workspace / "install" / "lib" / "python3" / "dist-packages" / "sim"
+    assert (installed / "robots" / "igt.yaml").is_file() and (installed / "study" / "design.yaml").is_file()
+
+
+def test_roslaunch_vr_sim_demo_records_a_trial_with_the_system_python(workspace: Path, tmp_path: Path) -> None:
+    """The base case from the user's workspace: roslaunch starts the master, the endpoint, the engine, the commander
+    and rosbag record, and ends when the sweep is done; the bag holds the whole trial, tracked within 0.05 %."""
+    env = ros_env(free_port(), tmp_path)  # no master runs there: roslaunch starts one
+    bag = tmp_path / "demo.bag"
+    launch = ManagedProcess(
+        sourced(workspace, "devel", f"roslaunch vr_sim demo.launch tcp_port:={free_port()} time_scale:=4 bag:={bag}"),
+        env,
+        tmp_path,
+        "roslaunch",
+    )
+    try:
+        assert launch.wait(240) == 0, launch.output()[-4000:]
+    finally:
+        launch.stop(timeout=20)
+    output = launch.output()
+    assert "REQUIRED process [commander-" in output and "process has finished cleanly" in output
+    assert "Traceback" not in output, output[-4000:]
+
+    robot = load_robot("panda")
+    (log,) = (tmp_path / "ros_home" / "results" / "commander").glob("panda_sweep_*.csv")  # in ROS_HOME
+    series = analysis.without_approach(analysis.read_bag(bag, robot), analysis.scenario_start(log))
+    assert series.lost_messages == 0 and series.recorded_commands >= 2000
+    for joint, metrics in analysis.trial_metrics(series, 0.02).items():
+        assert metrics.mape_percent <= 0.05, (joint, metrics)
+
+
+def test_a_bad_robot_in_a_vr_sim_launch_is_one_line_and_the_launch_ends(workspace: Path, tmp_path: Path) -> None:
+    env = ros_env(free_port(), tmp_path)
+    launch = ManagedProcess(
+        sourced(workspace, "devel", "roslaunch vr_sim commander.launch robot:=/no/such/arm.urdf"), env, tmp_path, "bad"
+    )
+    try:
+        launch.wait(120)
+    finally:
+        launch.stop(timeout=20)
+    output = launch.output()
+    assert "sim.commander: error: URDF not found: /no/such/arm.urdf" in output, output[-3000:]
+    assert "Traceback" not in output
+
+
+def test_a_package_the_system_python_lacks_is_one_line_saying_how_to_get_it(workspace: Path) -> None:
+    env = user_env()
+    env.pop("PYTHONUSERBASE")  # as before `pip install --user pybullet rosbags`
+    result = subprocess.run(
+        sourced(workspace, "devel", "rosrun vr_sim engine --robot panda"),
+        cwd=workspace,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert result.returncode == 2, result.stderr
+    (line,) = result.stderr.splitlines()
+    assert re.fullmatch(r"sim\.engine\.stand_in: error: \S*python3 has no module '(pybullet|rosbags)'; .*", line), line
+    assert "rosdep install --from-paths src --ignore-src" in line

@@ -58,6 +58,17 @@ class TfListener:
             subscriber.unregister()
 
 
+def interpreters_of(script: str) -> set[str]:
+    """The programs running `script` (a path's end), from /proc: an interpreter's path, or the script's own."""
+    programs = set()
+    for entry in Path("/proc").iterdir():
+        with contextlib.suppress(OSError):
+            argv = (entry / "cmdline").read_bytes().decode().split("\0")
+            if any(arg.endswith(script) for arg in argv):
+                programs.add(argv[0])
+    return programs
+
+
 def node_pids(ros_node, names: list[str]) -> list[int]:
     """The PIDs of the named nodes, from their own slave API (roslaunch starts each node in a session of its own,
     so stopping roslaunch's process group does not reach them)."""
@@ -93,6 +104,7 @@ def described(roscore, ros_node, tmp_path: Path) -> Iterator:
         process = ManagedProcess(["bash", "-c", command], roscore.env, tmp_path, f"{robot.name}_description")
         started.append(process)
         process.wait_for_output("description node: ", timeout=60)
+        assert PYTHON in interpreters_of("vr_sim/description_node")  # python:= is the Python the node runs on
         listener = TfListener(ros_node)
         listeners.append(listener)
         return listener

@@ -147,6 +147,21 @@ def test_command_line_overrides_win_over_the_yaml_and_round_trip_through_cli_arg
     assert load_robot("igt").cli_args == ("--robot", "igt")
 
 
+def test_empty_overrides_are_not_given_as_a_launch_file_passes_its_empty_defaults():
+    parser = argparse.ArgumentParser()
+    add_robot_arguments(parser)
+    args = parser.parse_args(["--robot", str(LIFT_ARM), "--name", "", "--ee-link", "", "--base-link", "", "--home", ""])
+    robot = robot_from_args(args)
+    derived = load_robot(str(LIFT_ARM))
+    assert (robot.name, robot.ee_link, robot.base_link) == (derived.name, derived.ee_link, derived.base_link)
+    assert np.array_equal(robot.home, derived.home)
+    # A launch argument holds the home as one string.
+    home = robot_from_args(parser.parse_args(["--robot", str(LIFT_ARM), "--home", "0.1 0 0 pi/2"])).home
+    assert home[3] == pytest.approx(math.pi / 2)
+    with pytest.raises(RobotError, match="not a number: 'x'"):
+        robot_from_args(parser.parse_args(["--robot", str(LIFT_ARM), "--home", "0 x"]))
+
+
 def test_a_robot_yaml_can_name_its_urdf(tmp_path):
     shutil.copy(LIFT_ARM, tmp_path / "arm_model.urdf")
     yaml_path = write(
