@@ -264,7 +264,7 @@ def add_robot_overrides(group: argparse._ActionsContainer) -> None:
     group.add_argument("--name", help="the robot's name (topics /<name>/...); default: the URDF's robot name")
     group.add_argument("--base-link", help="default: the URDF's root link")
     group.add_argument(
-        "--ee-link", help="default: the leaf ending the longest chain of moving joints (a gripper's hand)"
+        "--ee-link", help="default: the end of the longest chain of moving joints; of a gripper, the hand's tool frame"
     )
     group.add_argument("--home", nargs="+", metavar="Q", help="home joint positions; default: mid-range")
 

@@ -21,10 +21,11 @@ import yaml
 
 from sim.entry import EXIT_BAD_INPUT, EXIT_FAILED, EXIT_NO_CONNECTION, EXIT_OK, fail
 from sim.errors import SimError
+from sim.robots import RobotSpec, add_robot_overrides, overrides_from_args
 from sim.study.design import load_design
 from sim.study.errors import StudyError
 from sim.study.plan import make_plan, plan_from_data, plan_to_data, printable
-from sim.study.scene import load_scene, scene_robot
+from sim.study.scene import Scene, load_scene, scene_robot
 from sim.study.yamlfile import read_yaml
 from sim.wire.contract import STEP_S
 
@@ -35,8 +36,14 @@ def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="python -m sim.study", description=__doc__.splitlines()[0])
     commands = parser.add_subparsers(dest="command", required=True)
 
-    def with_scene(command: argparse.ArgumentParser) -> None:
+    def with_robot(command: argparse.ArgumentParser) -> None:
         command.add_argument("--scene", type=Path, help="scene YAML (default: the bundled scene.yaml)")
+        robot = command.add_argument_group("robot (default: the scene's, with its ee_link)")
+        robot.add_argument("--robot", help="a URDF path, a robot YAML path or a bundled name, in the scene's place")
+        add_robot_overrides(robot)
+
+    def with_scene(command: argparse.ArgumentParser) -> None:
+        with_robot(command)
         command.add_argument("--dt", type=float, default=STEP_S, help=f"control step in s (default {STEP_S})")
 
     plan = commands.add_parser("plan", help="a participant's session plan")
@@ -78,7 +85,7 @@ def _parser() -> argparse.ArgumentParser:
     participant.add_argument("--seed", type=int, required=True)
     participant.add_argument("--host", default="127.0.0.1", help="endpoint address")
     participant.add_argument("--port", type=int, default=10000, help="endpoint port")
-    participant.add_argument("--scene", type=Path, help="scene YAML (default: the bundled scene.yaml)")
+    with_robot(participant)
     participant.add_argument(
         "--vr-distance-bias",
         type=float,
@@ -112,6 +119,11 @@ def _parser() -> argparse.ArgumentParser:
         help="the simulated participants' perceived / actual distance in VR (default 0.85)",
     )
     return parser
+
+
+def _robot(scene: Scene, args: argparse.Namespace) -> RobotSpec:
+    """The robot of a command: the scene's, or the one --robot names; the overrides on top."""
+    return scene_robot(scene, args.robot, overrides_from_args(args))
 
 
 def _check_positive(value: float, option: str) -> None:
@@ -156,7 +168,7 @@ def _check(args: argparse.Namespace) -> int:
 
     _check_positive(args.dt, "--dt")
     design, scene = load_design(args.design), load_scene(args.scene)
-    robot = scene_robot(scene)
+    robot = _robot(scene, args)
     plan = make_plan(design, 1, 0)
     started = time.monotonic()
     approaches = plan_combinations(robot, scene, [(t.path, t.standoff, t.peak_speed) for t in plan.trials], args.dt)
@@ -190,7 +202,7 @@ def _run(args: argparse.Namespace) -> int:
         _check_positive(getattr(args, option), f"--{option.replace('_', '-')}")
     plan = plan_from_data(read_yaml(args.plan, "plan"), str(args.plan))
     scene = load_scene(args.scene)
-    robot = scene_robot(scene)
+    robot = _robot(scene, args)
     approaches = plan_combinations(robot, scene, [(t.path, t.standoff, t.peak_speed) for t in plan.trials], args.dt)
     infeasible = {key: planned.problems for key, planned in approaches.items() if not planned.feasible}
     if infeasible:
@@ -219,7 +231,7 @@ def _participant(args: argparse.Namespace) -> int:
     _check_positive(args.vr_distance_bias, "--vr-distance-bias")
     _check_positive(args.timeout, "--timeout")
     scene = load_scene(args.scene)
-    robot = scene_robot(scene)
+    robot = _robot(scene, args)
     traits = draw_traits(
         Population(distance_bias={"vr": args.vr_distance_bias, "reality": 1.0}), args.participant, args.seed
     )
@@ -261,7 +273,7 @@ def _view(args: argparse.Namespace) -> int:
     if not 0 < args.http_port < 65536:
         raise StudyError(f"--http-port must be 1..65535, got {args.http_port}")
     scene = load_scene(args.scene)
-    robot = scene_robot(scene)
+    robot = _robot(scene, args)
     server = viser.ViserServer(host=args.http_host, port=args.http_port, verbose=False)
     view = LiveView(server, robot, scene, args.dt, args.rate)
     client = TcpClient(args.host, args.port)
@@ -301,7 +313,15 @@ def _simulate(args: argparse.Namespace) -> int:
         raise StudyError(f"--seed must be >= 0, got {args.seed}")
     started = time.monotonic()
     settings = Simulation(
-        args.participants, args.seed, args.out, args.design, args.scene, args.dt, args.vr_distance_bias
+        args.participants,
+        args.seed,
+        args.out,
+        args.design,
+        args.scene,
+        args.dt,
+        args.vr_distance_bias,
+        robot=args.robot,
+        robot_overrides=overrides_from_args(args),
     )
     try:
         report = simulate(settings, lambda line: print(f"simulate: {line}", flush=True))

@@ -154,12 +154,18 @@ def parse_scene(data: object, source: str = "scene") -> Scene:
     return scene
 
 
-def scene_robot(scene: Scene) -> RobotSpec:
-    """The scene's robot, its end effector the scene's `ee_link` where one is given."""
+def scene_robot(scene: Scene, robot: str | None = None, overrides: Mapping[str, Any] | None = None) -> RobotSpec:
+    """The scene's robot, its end effector the scene's `ee_link` where one is given; or `robot` (a command line's
+    --robot), which the scene's `ee_link` does not apply to since it names a link of the scene's robot. `overrides`
+    (load_robot's keywords from the command line) win over both."""
+    keywords = dict(overrides or {})
+    if not robot and scene.ee_link:
+        keywords.setdefault("ee_link", scene.ee_link)
     try:
-        return load_robot(scene.robot, ee_link=scene.ee_link)
+        return load_robot(robot or scene.robot, **keywords)
     except RobotError as error:
-        raise StudyError(f"the scene's robot: {error}") from None
+        whose = "the given robot" if robot else "the scene's robot"
+        raise StudyError(f"{whose}: {error}") from None
 
 
 def load_scene(path: Path | None = None) -> Scene:

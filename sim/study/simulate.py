@@ -8,9 +8,9 @@ from __future__ import annotations
 
 import time
 from contextlib import ExitStack
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable
+from typing import Any, Callable, Mapping
 
 import yaml
 
@@ -41,6 +41,8 @@ class Simulation:
     dt: float = STEP_S
     vr_distance_bias: float = 0.85
     timeout: float = 600.0  # s per participant's session
+    robot: str | None = None  # --robot: in the scene's place
+    robot_overrides: Mapping[str, Any] = field(default_factory=dict)  # load_robot's keywords from the command line
 
 
 def _expect(process: ManagedProcess, timeout: float) -> str:
@@ -65,7 +67,7 @@ def simulate(settings: Simulation, log: Callable[[str], None]) -> Path:
             f"{settings.out} already holds participant records ({earlier[0].name}, ...): choose a new directory"
         )
     design, scene = load_design(settings.design), load_scene(settings.scene)
-    robot = scene_robot(scene)
+    robot = scene_robot(scene, settings.robot, settings.robot_overrides)
     plans = [make_plan(design, participant, settings.seed) for participant in range(1, settings.participants + 1)]
     started = time.monotonic()
     approaches = plan_combinations(
@@ -79,7 +81,8 @@ def simulate(settings: Simulation, log: Callable[[str], None]) -> Path:
     log(f"{len(approaches)} combinations of the design planned and checked in {time.monotonic() - started:.1f} s")
     out = settings.out.resolve()
     logs = out / "logs"
-    scene_args = ["--scene", str(Path(settings.scene).resolve())] if settings.scene is not None else []
+    scene_and_robot = ["--scene", str(Path(settings.scene).resolve())] if settings.scene is not None else []
+    scene_and_robot += robot.cli_args  # every process of the study takes the robot, with its overrides, as chosen here
     with ExitStack() as running:
         core = RosCore()
         running.callback(core.stop)
@@ -124,7 +127,7 @@ def simulate(settings: Simulation, log: Callable[[str], None]) -> Path:
                         str(port),
                         "--vr-distance-bias",
                         str(settings.vr_distance_bias),
-                        *scene_args,
+                        *scene_and_robot,
                     ],
                     plain_env(),
                     logs,
@@ -145,7 +148,7 @@ def simulate(settings: Simulation, log: Callable[[str], None]) -> Path:
                         str(out),
                         "--dt",
                         str(settings.dt),
-                        *scene_args,
+                        *scene_and_robot,
                     ],
                     core.env,
                     logs,

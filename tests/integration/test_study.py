@@ -7,6 +7,7 @@ import csv
 import math
 import subprocess
 import threading
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -33,6 +34,7 @@ from sim.study.stop import STOP_DECELERATION
 from sim.wire.rosmsgs import JOINT_STATE, TYPESTORE, deserialize, encode_message, time_msg, to_seconds
 from tests.integration.sim_helpers import start_engine
 from tests.integration.study_helpers import trial, write_plan
+from tests.robot_files import PANDA_WITH_HAND
 from tests.rosenv import PYTHON, REPO, ManagedProcess, kill_process
 
 SCENE = load_scene()
@@ -43,13 +45,13 @@ SMALL_DESIGN = {
 }
 
 
-def simulate_small_study(tmp_path: Path, participants: int, seed: int | None = None) -> Path:
+def simulate_small_study(tmp_path: Path, participants: int, seed: int | None = None, extra: Sequence[str] = ()) -> Path:
     """`python -m sim.study simulate` of SMALL_DESIGN with simulated participants; the folder it wrote."""
     design = tmp_path / "design.yaml"
     design.write_text(yaml.safe_dump(SMALL_DESIGN))
     out = tmp_path / "study"
     command = [PYTHON, "-m", "sim.study", "simulate", "--participants", str(participants), "--design", str(design)]
-    command += ["--out", str(out)] + ([] if seed is None else ["--seed", str(seed)])
+    command += ["--out", str(out)] + ([] if seed is None else ["--seed", str(seed)]) + list(extra)
     process = ManagedProcess(command, plain_env(), tmp_path, "simulate")
     try:
         assert process.wait(300) == 0, process.output()[-3000:]
@@ -213,8 +215,10 @@ pytestmark = pytest.mark.timeout(400)
 def test_a_short_simulated_study_runs_end_to_end(tmp_path: Path) -> None:
     """Two simulated participants through the whole study: roscore, endpoint, engine, the runner, participants over
     TCP, rosbag record, the report and its plots. launch_scripts/test.sh runs it on ROS Noetic's Python 3.8 (and
-    3.10), where every process of it but roscore and rosbag runs on that Python."""
-    out = simulate_small_study(tmp_path, participants=2)
+    3.10), where every process of it but roscore and rosbag runs on that Python. The robot is the Panda from its
+    URDF path alone, in the scene's place: simulate hands it to every process (its end effector the hand's tool
+    frame, as the scene's own robot has it)."""
+    out = simulate_small_study(tmp_path, participants=2, extra=["--robot", str(PANDA_WITH_HAND)])
     from sim.study.report import load_study
 
     records = load_study(out)
@@ -224,6 +228,9 @@ def test_a_short_simulated_study_runs_end_to_end(tmp_path: Path) -> None:
     assert (out / "test1_distance_perception.png").stat().st_size > 10_000
     for number in (1, 2):
         assert len(bag_messages(out / "bags" / f"participant_{number:02d}.bag", STOP_TOPIC)) == 8
+    derived = "robot panda: end effector 'panda_grasptarget': the tool frame of 'panda_hand'"
+    for log in [*(out / "logs").glob("runner_*.log"), *(out / "logs").glob("participant_*.log")]:
+        assert derived in log.read_text(), log
 
 
 def test_the_observer_drives_a_reality_trial_from_the_runners_keyboard(roscore, endpoint, tmp_path: Path) -> None:

@@ -11,6 +11,7 @@ import yaml
 
 from sim.processes import PYTHON, REPO, plain_env
 from sim.study.plan import plan_from_data
+from tests.robot_files import PANDA_WITH_HAND
 
 
 def study(*args: str, timeout: float = 120) -> subprocess.CompletedProcess:
@@ -38,8 +39,9 @@ def test_a_plan_is_written_reproducibly_and_printable(tmp_path: Path) -> None:
     assert printed.returncode == 0 and "Conditions in this order: reality then vr." in printed.stdout
 
 
-def test_check_plans_every_combination_of_the_design() -> None:
-    result = study("check")
+@pytest.mark.parametrize("robot", [[], ["--robot", str(PANDA_WITH_HAND)]], ids=["the scene's", "from its URDF"])
+def test_check_plans_every_combination_of_the_design(robot: list[str]) -> None:
+    result = study("check", *robot)
     assert result.returncode == 0, result.stderr
     assert "19 combinations planned" in result.stdout and "not feasible" not in result.stdout
 
@@ -59,6 +61,7 @@ def write(path: Path, data: object) -> Path:
         "bad participant",
         "bad option",
         "earlier records",
+        "bad robot",
     ],
 )
 def test_bad_input_is_one_line_and_exit_2(tmp_path: Path, case: str) -> None:
@@ -112,5 +115,13 @@ def test_bad_input_is_one_line_and_exit_2(tmp_path: Path, case: str) -> None:
         (tmp_path / "participant_01.csv").write_text("kept\n")
         one_error_line(study("simulate", "--participants", "2", "--out", str(tmp_path)), "already holds participant")
         assert (tmp_path / "participant_01.csv").read_text() == "kept\n"
+    elif case == "bad robot":
+        plan = tmp_path / "plan.yaml"
+        assert study("plan", "--participant", "1", "--seed", "1", "--out", str(plan)).returncode == 0
+        one_error_line(
+            study("run", "--plan", str(plan), "--out", str(tmp_path / "out"), "--robot", "/no/arm.urdf"),
+            "the given robot: URDF not found",
+        )
+        one_error_line(study("check", "--ee-link", "nope"), "the scene's robot", "no link 'nope'")
     else:
         one_error_line(study("simulate", "--participants", "1", "--out", str(tmp_path / "out")), "--participants")
