@@ -11,7 +11,7 @@ apt_packages=(ros-core python3-rospy python3-rosbag python3-sensor-msgs python3-
   python3-diagnostic-msgs
   python3-geometry-msgs python3-std-msgs python3-rosgraph-msgs python3-std-srvs python3-tf2-msgs
   ros-robot-state-publisher python3-yaml
-  python3-numpy python3-scipy python3-matplotlib python3-pip
+  python3-pip
   chromium chromium-driver
   catkin rosbash iproute2)
 missing=()
@@ -38,14 +38,16 @@ if [ ! -f "$stamp" ] || [ setup.py -nt "$stamp" ]; then
   touch "$stamp"
 fi
 
-# The system Python as a ROS user runs vr_sim's nodes with in their own workspace (the workspace test): Debian's
-# packages above for the rosdep keys Debian has, and `pip install --user` for the pip keys (pybullet, rosbags), into
-# a user base of the repository's own rather than the home directory's.
+# The system Python as a ROS user runs vr_sim's nodes with in their own workspace (the workspace test): what the
+# package's rosdep keys name, by `pip install --user` into a user base of the repository's own (not the home
+# directory's). Debian's python3-numpy and the like would do too, but the project venv sees the system's packages,
+# and would then run on them.
 user_base="$repo/.user_python"
-if ! PYTHONUSERBASE="$user_base" /usr/bin/python3 -c "import pybullet, rosbags" 2>/dev/null; then
-  echo "setup: pip install --user pybullet rosbags for /usr/bin/python3 (in $user_base)"
+if ! PYTHONUSERBASE="$user_base" /usr/bin/python3 -c "import numpy, scipy, matplotlib, pybullet, rosbags" 2>/dev/null; then
+  echo "setup: pip install --user numpy scipy matplotlib pybullet rosbags for /usr/bin/python3 (in $user_base)"
   PYTHONUSERBASE="$user_base" PIP_ROOT_USER_ACTION=ignore /usr/bin/python3 -m pip install -q \
-    --disable-pip-version-check --no-warn-script-location --user --break-system-packages pybullet rosbags
+    --disable-pip-version-check --no-warn-script-location --user --break-system-packages \
+    numpy scipy matplotlib pybullet rosbags
 fi
 
 # catkin_make only when the workspace has never been built or a package's build files changed since.

@@ -2,8 +2,8 @@
 beside a message and service package of the user's own, built by plain `catkin_make` (and `catkin_make install`)
 with the system Python and no venv, then started by rosrun or roslaunch, from devel and from install space.
 
-The system Python has what `rosdep install` gives vr_sim's keys on Debian: Debian's numpy, scipy, yaml and
-matplotlib, and pybullet and rosbags by `pip install --user` (set-up puts them in the user base .user_python).
+The system Python has the packages vr_sim's rosdep keys name, by `pip install --user` (set-up puts numpy, scipy,
+matplotlib, pybullet and rosbags in the user base .user_python; Debian's python3-yaml and python3-pil are there).
 
 The user's package (tests/fixtures/catkin/vr_test_msgs) has a message with nested standard types, a service using
 it, a service node, and a launch file shaped like those of Unity's ROS integration tutorial (global ROS_IP
@@ -444,7 +444,7 @@ def test_a_bad_robot_in_a_vr_sim_launch_is_one_line_and_the_launch_ends(workspac
 
 def test_a_package_the_system_python_lacks_is_one_line_saying_how_to_get_it(workspace: Path) -> None:
     env = user_env()
-    env.pop("PYTHONUSERBASE")  # as before `pip install --user pybullet rosbags`
+    env.pop("PYTHONUSERBASE")  # as before `rosdep install` (or `pip install --user`)
     result = subprocess.run(
         sourced(workspace, "devel", "rosrun vr_sim engine --robot panda"),
         cwd=workspace,
@@ -455,5 +455,6 @@ def test_a_package_the_system_python_lacks_is_one_line_saying_how_to_get_it(work
     )
     assert result.returncode == 2, result.stderr
     (line,) = result.stderr.splitlines()
-    assert re.fullmatch(r"sim\.engine\.stand_in: error: \S*python3 has no module '(pybullet|rosbags)'; .*", line), line
+    missing = r"sim\.engine\.stand_in: error: \S*python3 has no module '(numpy|pybullet|rosbags)'; .*"
+    assert re.fullmatch(missing, line), line
     assert "rosdep install --from-paths src --ignore-src" in line
