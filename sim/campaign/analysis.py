@@ -26,7 +26,7 @@ from sim.wire import rosmsgs
 from sim.wire.joint_csv import read_joint_csv
 
 __all__ = [
-    "STATE_LEAD_TOLERANCE_S",
+    "controller_time_start",
     "MOVING_JOINT_RANGE",
     "AnalysisError",
     "TrialSeries",
@@ -46,7 +46,6 @@ __all__ = [
 
 log = logging.getLogger(__name__)
 
-STATE_LEAD_TOLERANCE_S = 0.5  # how far (sim time) a joint state may lead the newest command recorded before it
 MOVING_JOINT_RANGE = 1e-3  # a joint whose desired range is below this (rad or m) does not move in the trial
 
 
@@ -92,21 +91,33 @@ def _seq_span(seqs: list[int]) -> int:
     return 0 if not seqs else max(seqs) - min(seqs) + 1
 
 
+def controller_time_start(stamps: Sequence[float]) -> int:
+    """The index of the first joint state on the controller's time base, given the states' stamps in the order the
+    engine published them. An auto-simulating engine stamps with its own clock until it hears /clock, and its stamps
+    then jump back to the controller's: whatever comes before the last jump back is the engine's own time. Pure."""
+    start = 0
+    for index in range(1, len(stamps)):
+        if stamps[index] < stamps[index - 1]:
+            start = index
+    return start
+
+
 def read_bag(path: Path, robot: RobotSpec) -> TrialSeries:
+    """The trial in a bag. Messages of the two topics reach rosbag record over separate connections, so one
+    topic may be recorded well ahead of the other under load: each topic is read in its own publication order
+    (header.seq), never against the other's record order. Only gaps in header.seq count as lost."""
     from rosbags.rosbag1 import Reader
 
     command_t, command_q, command_seq = [], [], []
-    state_t, state_q, state_seq = [], [], []
-    newest_command_stamp: float | None = None
+    states: list[rosmsgs.JointStateSample] = []
     hold = robot.home.copy()
     with Reader(path) as reader:
         wanted = [c for c in reader.connections if c.topic in (robot.command_topic, robot.joint_states_topic)]
         if not any(c.topic == robot.joint_states_topic for c in wanted):
             raise AnalysisError(f"{path}: no {robot.joint_states_topic} messages recorded")
-        for connection, _, raw in reader.messages(connections=wanted):  # in record order
+        for connection, _, raw in reader.messages(connections=wanted):
             if connection.topic == robot.command_topic:
                 command = rosmsgs.decode_joint_trajectory(raw, robot.joint_names)
-                newest_command_stamp = command.stamp_s
                 named = np.isfinite(command.positions)
                 hold = np.where(named, command.positions, hold)
                 command_t.append(command.stamp_s)
@@ -114,29 +125,24 @@ def read_bag(path: Path, robot: RobotSpec) -> TrialSeries:
                 command_seq.append(_header_seq(raw))
             else:
                 try:
-                    state = rosmsgs.decode_joint_state(raw, robot.joint_names)
+                    states.append(rosmsgs.decode_joint_state(raw, robot.joint_names))
                 except rosmsgs.MessageError as error:
                     raise AnalysisError(f"{path}: {robot.joint_states_topic}: {error}") from None
-                # Until it hears /clock, an auto-simulating engine stamps with its own clock: a state stamped far
-                # ahead of every command recorded so far is not on the controller's time base yet.
-                if newest_command_stamp is None or state.stamp_s > newest_command_stamp + STATE_LEAD_TOLERANCE_S:
-                    continue
-                state_t.append(state.stamp_s)
-                state_q.append(state.positions)
-                state_seq.append(state.seq)
     if len(command_t) < 2:
         raise AnalysisError(f"{path}: fewer than 2 commands on {robot.command_topic}")
+    states.sort(key=lambda state: state.seq)
+    on_time = states[controller_time_start([state.stamp_s for state in states]) :]
     return TrialSeries(
         robot=robot.name,
         joint_names=robot.joint_names,
         desired_t=np.array(command_t),
         desired_q=np.array(command_q),
-        achieved_t=np.array(state_t),
-        achieved_q=np.array(state_q),
+        achieved_t=np.array([state.stamp_s for state in on_time]),
+        achieved_q=np.array([state.positions for state in on_time]).reshape(len(on_time), robot.dof),
         commanded=_seq_span(command_seq),
         recorded_commands=len(command_seq),
-        states_published=_seq_span(state_seq),
-        recorded_states=len(state_seq),
+        states_published=_seq_span([state.seq for state in states]),
+        recorded_states=len(states),
     )
 
 
