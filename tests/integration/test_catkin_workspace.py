@@ -407,7 +407,7 @@ def test_roslaunch_vr_sim_demo_records_a_trial_with_the_system_python(workspace:
     env = ros_env(free_port(), tmp_path)  # no master runs there: roslaunch starts one
     bag = tmp_path / "demo.bag"
     launch = ManagedProcess(
-        sourced(workspace, "devel", f"roslaunch vr_sim demo.launch tcp_port:={free_port()} time_scale:=4 bag:={bag}"),
+        sourced(workspace, "devel", f"roslaunch vr_sim demo.launch tcp_port:={free_port()} time_scale:=8 bag:={bag}"),
         env,
         tmp_path,
         "roslaunch",
