@@ -120,24 +120,29 @@ def marker(types: Any, label: str, x: float) -> Any:
     return message
 
 
-def run_in(workspace: Path, env: dict[str, str], command: str, timeout: float = 60) -> str:
-    result = subprocess.run(
-        sourced(workspace, "devel", command), cwd=workspace, env=env, capture_output=True, text=True, timeout=timeout
+def in_space(
+    workspace: Path, space: str, command: str, env: dict[str, str] | None = None, timeout: float = 60
+) -> subprocess.CompletedProcess[str]:
+    """`command` run in a shell that sourced the workspace's `space` (devel or install), as the user's shell."""
+    return subprocess.run(
+        sourced(workspace, space, command),
+        cwd=workspace,
+        env=user_env() if env is None else env,
+        capture_output=True,
+        text=True,
+        timeout=timeout,
     )
+
+
+def run_in(workspace: Path, env: dict[str, str], command: str, timeout: float = 60) -> str:
+    result = in_space(workspace, "devel", command, env, timeout)
     assert result.returncode == 0, f"{command}:\n{result.stdout[-3000:]}\n{result.stderr[-3000:]}"
     return result.stdout
 
 
 def test_the_user_workspace_has_bridge_from_devel_and_install_space(workspace: Path) -> None:
     for space in ("devel", "install"):
-        result = subprocess.run(
-            sourced(workspace, space, "python3 -c 'import bridge.server; print(bridge.__file__)'"),
-            cwd=workspace,
-            env=user_env(),
-            capture_output=True,
-            text=True,
-            timeout=60,
-        )
+        result = in_space(workspace, space, "python3 -c 'import bridge.server; print(bridge.__file__)'")
         assert result.returncode == 0, result.stderr
         assert result.stdout.startswith(str(workspace / space)), result.stdout
     # The install space is a copy: it works without the sources.
@@ -383,14 +388,7 @@ def test_user_types_with_no_definition_at_all_from_the_graph(
 
 def test_the_sim_is_importable_from_devel_and_install_space_with_the_bundled_robots(workspace: Path) -> None:
     for space in ("devel", "install"):
-        result = subprocess.run(
-            sourced(workspace, space, "rosrun vr_sim robot --robot igt"),
-            cwd=workspace,
-            env=user_env(),
-            capture_output=True,
-            text=True,
-            timeout=60,
-        )
+        result = in_space(workspace, space, "rosrun vr_sim robot --robot igt")
         assert result.returncode == 0, result.stderr
         assert "robot igt: " in result.stdout and "topics /igt/arm_controller/command" in result.stdout
         # catkin gave every script the Python the workspace was built with: the system's, /usr/bin/python3 here
@@ -445,14 +443,7 @@ def test_a_bad_robot_in_a_vr_sim_launch_is_one_line_and_the_launch_ends(workspac
 def test_a_package_the_system_python_lacks_is_one_line_saying_how_to_get_it(workspace: Path) -> None:
     env = user_env()
     env.pop("PYTHONUSERBASE")  # as before `rosdep install` (or `pip install --user`)
-    result = subprocess.run(
-        sourced(workspace, "devel", "rosrun vr_sim engine --robot panda"),
-        cwd=workspace,
-        env=env,
-        capture_output=True,
-        text=True,
-        timeout=60,
-    )
+    result = in_space(workspace, "devel", "rosrun vr_sim engine --robot panda", env)
     assert result.returncode == 2, result.stderr
     (line,) = result.stderr.splitlines()
     missing = r"sim\.engine\.stand_in: error: \S*python3 has no module '(numpy|pybullet|rosbags)'; .*"
