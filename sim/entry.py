@@ -55,7 +55,7 @@ def without_ros_arguments(argv: list[str]) -> list[str]:
 
 
 # pip's names where they differ from the module's
-_PIP_NAMES = {"yaml": "PyYAML"}
+_PIP_NAMES = {"yaml": "PyYAML", "PIL": "Pillow"}
 
 
 def run_as_ros_command(module: str, argv: list[str]) -> int:
