@@ -32,11 +32,22 @@ make_venv() {  # make_venv VERSION DIR INTERPRETER
   if [ ! -f "$dir/.setup_stamp" ] || [ setup.py -nt "$dir/.setup_stamp" ]; then
     # Without ROS's path while pip runs: it would take Debian's Pillow (built for another Python) as installed.
     rm -f "$site/ros_dist_packages.pth"
-    echo "setup_ros_pythons: pip install -e . pytest hypothesis pytest-timeout (Python $version)"
-    "$dir/bin/python" -m pip install -q --disable-pip-version-check -e . pytest hypothesis pytest-timeout
+    echo "setup_ros_pythons: pip install of setup.py's requirements, pytest, hypothesis, pytest-timeout (Python $version)"
+    # setup.py's install_requires, and the working tree on the path by a .pth file: what `pip install -e .` gives
+    # but for the egg-info it writes into the tree, which venvs made at the same time would both write.
+    "$dir/bin/python" -m pip install -q --disable-pip-version-check $(requirements "$dir/bin/python") \
+      pytest hypothesis pytest-timeout
+    echo "$repo" > "$site/vr_ros_toolkit.pth"
     touch "$dir/.setup_stamp"
   fi
   echo /usr/lib/python3/dist-packages > "$site/ros_dist_packages.pth"
+}
+
+requirements() {  # requirements PYTHON: setup.py's install_requires, one a line (read, not run)
+  "$1" -c 'import ast, pathlib
+call = next(node for node in ast.walk(ast.parse(pathlib.Path("setup.py").read_text()))
+            if isinstance(node, ast.Call) and getattr(node.func, "id", "") == "setup")
+print("\n".join(ast.literal_eval(next(k.value for k in call.keywords if k.arg == "install_requires"))))'
 }
 
 py38="$(find_python 3.8 "${PYTHON38:-}")"
@@ -45,11 +56,15 @@ if [ -z "$py38" ]; then
     "\$(pyenv root)/versions/3.8.*): the tests on ROS Noetic's Python cannot run" >&2
   exit 1
 fi
-make_venv 3.8 .venv38 "$py38"
-
 py310="$(find_python 3.10 "${PYTHON310:-}")"
+[ -n "$py310" ] || echo "setup_ros_pythons: no Python 3.10 found (PYTHON310 or \$(pyenv root)/versions/3.10.*): its tests are left out"
+# The two venvs at once, each in a subshell that stops at its first failure: pip mostly waits on downloads.
+make_venv 3.8 .venv38 "$py38" &
+pids=($!)
 if [ -n "$py310" ]; then
-  make_venv 3.10 .venv310 "$py310"
-else
-  echo "setup_ros_pythons: no Python 3.10 found (PYTHON310 or \$(pyenv root)/versions/3.10.*): its tests are left out"
+  make_venv 3.10 .venv310 "$py310" &
+  pids+=($!)
 fi
+status=0
+for pid in "${pids[@]}"; do wait "$pid" || status=$?; done
+exit "$status"

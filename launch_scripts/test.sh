@@ -8,8 +8,11 @@
 # campaigns, the study, the catkin workspaces). Extra args go to pytest (every run).
 set -euo pipefail
 repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+# The ROS distros' venvs are made while setup.sh runs: neither writes what the other reads.
+"$repo/launch_scripts/setup_ros_pythons.sh" &
+ros_pythons=$!
 "$repo/launch_scripts/setup.sh"
-"$repo/launch_scripts/setup_ros_pythons.sh"
+wait "$ros_pythons"
 cd "$repo"
 # Lint and format first (pyproject.toml): a finding fails the run before any test starts.
 .venv/bin/ruff check .
