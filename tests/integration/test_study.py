@@ -214,8 +214,8 @@ pytestmark = pytest.mark.timeout(400)
 
 def test_a_short_simulated_study_runs_end_to_end(tmp_path: Path) -> None:
     """Two simulated participants through the whole study: roscore, endpoint, engine, the runner, participants over
-    TCP, rosbag record, the report and its plots. launch_scripts/test.sh runs it on ROS Noetic's Python 3.8 (and
-    3.10), where every process of it but roscore and rosbag runs on that Python. The robot is the Panda from its
+    TCP, rosbag record, the report and its plots. launch_scripts/test.sh runs it on ROS Noetic's Python 3.8, where
+    every process of it but roscore and rosbag runs on that Python. The robot is the Panda from its
     URDF path alone, in the scene's place: simulate hands it to every process (its end effector the hand's tool
     frame, as the scene's own robot has it)."""
     out = simulate_small_study(tmp_path, participants=2, extra=["--robot", str(PANDA_WITH_HAND)])

@@ -112,7 +112,7 @@ def test_no_ros_use_case_compares_the_engines_csv_log_with_its_input(campaign) -
 def test_the_base_case_tracks_the_sweep_and_loses_nothing(tmp_path: Path, roscore) -> None:
     """The thesis's base case (endpoint + TCP engine, physics, auto-simulate at the default time scale), one trial
     of the Panda: every moving joint within the issue's 0.05 % MAPE, no message lost. launch_scripts/test.sh also runs
-    it on ROS Noetic's Python 3.8 (and 3.10): there every process of it runs on that Python but roscore and rosbag."""
+    it on ROS Noetic's Python 3.8: there every process of it runs on that Python but roscore and rosbag."""
     done = run_campaign(["panda"], ["base"], tmp_path, env=roscore.env, timeout=300)
     assert "messages lost: 0" in done.stdout
     rows = report_rows(tmp_path / "report.md")
