@@ -18,30 +18,50 @@ cd "$repo"
 .venv/bin/ruff check .
 .venv/bin/ruff format --check .
 
-# The ROS nodes' tests that run on Noetic's Python: the engine stand-in, the physics node, the description node, the
-# commander, a campaign's base case and a short simulated study (runner, participants, rosbag, report).
-noetic_files=(tests/integration/test_engine.py tests/integration/test_physics_node.py
-  tests/integration/test_description.py tests/integration/test_commander.py)
-noetic_tests=("tests/integration/test_trials.py::test_the_base_case_tracks_the_sweep_and_loses_nothing"
-  "tests/integration/test_study.py::test_a_short_simulated_study_runs_end_to_end")
-not_here=(--ignore-glob="tests/integration/test_bridge_*.py")
-for file in "${noetic_files[@]}"; do not_here+=(--ignore="$file"); done
-for test in "${noetic_tests[@]}"; do not_here+=(--deselect="$test"); done
-
-# One run at a time. Tried side by side (even with the other at nice 10), the campaigns' bags lost messages: they
-# record ~1000 messages a second per topic through rosbag record, whose queue (100 per topic) overflows when another
-# suite starves it of CPU; and a starved endpoint forwarded a lockstep step's /clock before its command (two topics,
-# two connections). pytest exits 5 when it collected nothing: that fails like any other code.
+python310=""
+[ -x .venv310/bin/python ] && python310=.venv310/bin/python
 status=0
-echo "test.sh: on $(.venv/bin/python --version)"
-.venv/bin/python -m pytest -q -p no:cacheprovider "${not_here[@]}" "$@" tests || status=$?
-echo "test.sh: on $(.venv38/bin/python --version) (ROS Noetic's)"
-.venv38/bin/python -m pytest -q -p no:cacheprovider "$@" tests/unit/bridge tests/unit/sim \
-  tests/integration/test_bridge_*.py "${noetic_files[@]}" "${noetic_tests[@]}" || status=$?
-if [ -x .venv310/bin/python ]; then
-  echo "test.sh: on $(.venv310/bin/python --version)"
-  .venv310/bin/python -m pytest -q -p no:cacheprovider "$@" tests/unit/sim tests/integration/test_engine.py || status=$?
-fi
+run() {  # run PYTHON PYTEST_ARGS...: one pytest run; a failure is kept in $status. pytest exits 5 when it collected
+  local python="$1"  # nothing: that fails like any other code.
+  shift
+  echo "test.sh: on $("$python" --version) ($python): $*" | cut -c1-200
+  "$python" -m pytest -q -p no:cacheprovider "$@" || status=$?
+}
+
+# Two phases. Phase 1: the endpoint's integration tests on 3.8, which mostly wait on sockets, timers and the master,
+# run beside what needs CPU but no timing (the unit tests on every Python, the study's and the processes' command
+# lines, the description node). Phase 2: the tests that run a robot through ROS, one at a time and alone. Tried beside
+# another suite (even at nice 10), the campaigns' bags lost messages: they record ~1000 messages a second per topic
+# through rosbag record, whose queue (100 per topic) overflows when the recorder is starved of CPU; and a starved
+# endpoint forwarded a lockstep step's /clock before its command (two topics, two connections).
+beside_endpoint=(tests/integration/test_study_cli.py tests/integration/test_processes.py
+  tests/integration/test_entry_points.py)
+# Phase 2 on Noetic's Python: the engine stand-in, the physics node, the commander, a campaign's base case and a short
+# simulated study (runner, participants, rosbag, report).
+noetic_files=(tests/integration/test_engine.py tests/integration/test_physics_node.py
+  tests/integration/test_commander.py)
+noetic_tests=("tests/integration/test_trials.py::test_the_base_case_tracks_the_sweep_and_loses_nothing"
+  "tests/integration/test_study.py::test_simulated_participants_run_the_study_and_the_analysis_recovers_their_biases")
+alone=(--ignore-glob="tests/integration/test_bridge_*.py" --ignore=tests/integration/test_description.py)
+for file in "${beside_endpoint[@]}" "${noetic_files[@]}"; do alone+=(--ignore="$file"); done
+for test in "${noetic_tests[@]}"; do alone+=(--deselect="$test"); done
+
+endpoint_log="$(mktemp)"
+trap 'rm -f "$endpoint_log"' EXIT
+.venv38/bin/python -m pytest -q -p no:cacheprovider "$@" tests/integration/test_bridge_*.py >"$endpoint_log" 2>&1 &
+endpoint_tests=$!
+run .venv/bin/python "$@" tests/unit "${beside_endpoint[@]}"
+run .venv38/bin/python "$@" tests/unit/bridge tests/unit/sim tests/integration/test_description.py
+if [ -n "$python310" ]; then run "$python310" "$@" tests/unit/sim; fi
+endpoint_status=0
+wait "$endpoint_tests" || endpoint_status=$?
+echo "test.sh: on $(.venv38/bin/python --version) (.venv38/bin/python): tests/integration/test_bridge_*.py"
+cat "$endpoint_log"
+if [ "$endpoint_status" -ne 0 ]; then status=$endpoint_status; fi
+
+run .venv/bin/python "${alone[@]}" "$@" tests/integration
+run .venv38/bin/python "$@" "${noetic_files[@]}" "${noetic_tests[@]}"
+if [ -n "$python310" ]; then run "$python310" "$@" tests/integration/test_engine.py; fi
 if [ "$status" -ne 0 ]; then
   echo "test.sh: FAILED (a run above exited with $status)" >&2
   exit "$status"
