@@ -26,6 +26,7 @@ setup(
         "tqdm>=4.60",
         "PyYAML>=5.4",
         "scipy>=1.10",
+        "statsmodels>=0.14.1",  # the study's mixed models and equivalence tests
         "viser>=1.0",  # the study's live 3-D view
         "yourdfpy>=0.0.56",  # viser's URDF loader
     ],

@@ -4,7 +4,7 @@
   check                                                       every combination of the design planned and checked
   run --plan PLAN.yaml --out DIR [--realtime] [--auto-go]     the runner node: executes the plan (ROS)
   participant --port P --participant N --seed S               a simulated participant (a TCP client, no rospy)
-  analyse DIR [--out DIR]                                     the report over every participant's CSV in DIR
+  analyse DIR [--out DIR] [--design D]                        the report (verdicts, models) over every CSV in DIR
   simulate --participants 12 --out DIR                        the whole study with simulated participants, end to end
 
 Bad input (an unknown path name, an infeasible combination, a malformed plan or scene) is one line and exit 2.
@@ -105,6 +105,7 @@ def _parser() -> argparse.ArgumentParser:
     analyse = commands.add_parser("analyse", help="the report over every participant's CSV in a directory")
     analyse.add_argument("directory", type=Path, help="where the participant_*.csv files are")
     analyse.add_argument("--out", type=Path, help="where report.md and the plots go (default: the directory)")
+    analyse.add_argument("--design", type=Path, help="the design whose SESOIs judge VR (default: the bundled one)")
 
     simulate = commands.add_parser("simulate", help="the whole study with simulated participants, end to end")
     simulate.add_argument("--participants", type=int, default=12)
@@ -298,7 +299,8 @@ def _view(args: argparse.Namespace) -> int:
 def _analyse(args: argparse.Namespace) -> int:
     from sim.study.report import load_study, write_report
 
-    report = write_report(load_study(args.directory), args.out or args.directory)
+    sesoi = load_design(args.design).sesoi
+    report = write_report(load_study(args.directory), args.out or args.directory, sesoi=sesoi)
     print(report.read_text(), end="")
     print(f"report: {report}")
     return EXIT_OK

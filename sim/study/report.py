@@ -1,13 +1,16 @@
 """The study's report: every participant's CSV in a directory, summarised (sim.study.summary) into `report.md`
-with its plots beside it (`python -m sim.study analyse DIR`)."""
+with its plots beside it (`python -m sim.study analyse DIR`): the verdicts on VR against reality first, then each
+test's mixed model, the paired comparisons, and the plots (Bland–Altman among them)."""
 
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from pathlib import Path
 
 import numpy as np
 
+from sim.study.contrasts import MEASURES, TestContrast
 from sim.study.design import CONDITIONS
 from sim.study.errors import StudyError
 from sim.study.records import TrialRecord, read_records
@@ -62,10 +65,62 @@ _COMPARISON_HEAD = (
 )
 
 
+def _verdict_lines(contrasts: Mapping[int, TestContrast]) -> list[str]:
+    if not contrasts:
+        return []
+    lines = [
+        "## VR against reality: the verdicts",
+        "",
+        "Each test's VR − reality contrast is the condition's coefficient in its mixed model (below), averaged over "
+        "the design's cells. It is judged against the SESOI declared in the design: **equivalent** if its 90 % CI "
+        "lies inside ±SESOI, **different** if its 95 % CI excludes 0, else **inconclusive**. The paired TOST on "
+        "per-participant means and the Bland–Altman agreement are beside it.",
+        "",
+        "| test | measure | SESOI | VR − reality [95 % CI] | 90 % CI | verdict | paired TOST p | "
+        "Bland–Altman bias [95 % limits of agreement] |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for test, c in sorted(contrasts.items()):
+        v, a = c.verdict, c.agreement
+        lines.append(
+            f"| {test} | {MEASURES[test]} | ±{v.sesoi:g} | {v.estimate:+.4f} [{v.ci95[0]:+.4f}, {v.ci95[1]:+.4f}] | "
+            f"[{v.ci90[0]:+.4f}, {v.ci90[1]:+.4f}] | **{v.label}** | {_p(c.tost.p)} "
+            f"({'equivalent' if c.tost.equivalent else 'not shown equivalent'}) | "
+            f"{a.bias:+.4f} [{a.low:+.4f}, {a.high:+.4f}] |"
+        )
+    lines.append("")
+    lines += [f"- Test {test}: {c.verdict.label}: {c.verdict.explanation}." for test, c in sorted(contrasts.items())]
+    lines.append("")
+    for test, c in sorted(contrasts.items()):
+        fit = c.fit
+        lines += [
+            f"### Test {test}: the mixed model",
+            "",
+            f"{MEASURES[test]} ~ condition × {'stand-off' if test == 1 else 'speed set'} × path + order + "
+            f"condition × order; random effects: {fit.random_effects}. REML (statsmodels MixedLM), "
+            f"{fit.participants} participants, {fit.trials} trials; 95 % CIs from Student's t with {fit.df} df "
+            "(participants − order groups). Condition and order are coded ±½, the factors sum-to-zero.",
+            "",
+        ]
+        lines += [f"- {note}" for note in fit.notes] + ([""] if fit.notes else [])
+        lines += ["| term | estimate | SE | 95 % CI |", "|---|---|---|---|"]
+        lines += [
+            f"| {k.name} | {k.estimate:+.4f} | {k.se:.4f} | [{k.ci_low:+.4f}, {k.ci_high:+.4f}] |"
+            for k in fit.coefficients
+        ]
+        lines += [
+            "",
+            "Variances: " + ", ".join(f"{name} {value:.3g}" for name, value in fit.variances.items()) + ".",
+            "",
+        ]
+    return lines
+
+
 def _markdown(summary: StudySummary, plots: list[Path], title: str) -> str:
     lines = [
         f"# {title}",
         "",
+        *_verdict_lines(summary.contrasts),
         f"{len(summary.participants)} participants, {summary.trials} trials. Within subjects: each participant's "
         "trials are averaged per cell, then VR and reality are compared in pairs (paired t-test with Cohen's "
         "d_z; Wilcoxon signed-rank with the matched-pairs rank-biserial r). Intervals are 95 % t intervals "
@@ -205,17 +260,50 @@ def _plot_test2(records: list[TrialRecord], summary: StudySummary, path: Path) -
     return path
 
 
-def write_report(records: list[TrialRecord], out: Path, title: str = "Perception study") -> Path:
-    """report.md and its plots in `out`; StudyError when the records cannot be analysed."""
+def _plot_agreement(contrasts: Mapping[int, TestContrast], path: Path) -> Path:
+    import matplotlib.pyplot as plt
+    from statsmodels.graphics.agreement import mean_diff_plot
+
+    figure, axes = plt.subplots(1, len(contrasts), figsize=(5.5 * len(contrasts), 4.5), squeeze=False)
+    for axis, (test, c) in zip(axes[0], sorted(contrasts.items())):
+        participants = sorted(c.vr_means)
+        mean_diff_plot(
+            np.array([c.vr_means[p] for p in participants]),
+            np.array([c.reality_means[p] for p in participants]),
+            ax=axis,
+        )
+        axis.axhspan(-c.verdict.sesoi, c.verdict.sesoi, color="tab:green", alpha=0.12, label="±SESOI")
+        axis.set(
+            title=f"Test {test}: Bland–Altman, participant means",
+            xlabel=f"mean of VR and reality: {MEASURES[test]}",
+            ylabel="VR − reality",
+        )
+        axis.legend(loc="lower right")
+    figure.tight_layout()
+    figure.savefig(path, dpi=110)
+    plt.close(figure)
+    return path
+
+
+def write_report(
+    records: list[TrialRecord],
+    out: Path,
+    title: str = "Perception study",
+    sesoi: Mapping[int, float] | None = None,
+) -> Path:
+    """report.md and its plots in `out`; with `sesoi` (per test, the design's), the verdicts, mixed models and
+    Bland–Altman plot too. StudyError when the records cannot be analysed."""
     import matplotlib
 
     matplotlib.use("Agg")
-    summary = summarise(records)
+    summary = summarise(records, sesoi)
     out.mkdir(parents=True, exist_ok=True)
     plots = [
         _plot_test1(records, summary, out / "test1_distance_perception.png"),
         _plot_test2(records, summary, out / "test2_comfort_distance.png"),
     ]
+    if summary.contrasts:
+        plots.append(_plot_agreement(summary.contrasts, out / "agreement_bland_altman.png"))
     report = out / "report.md"
     report.write_text(_markdown(summary, plots, title))
     return report

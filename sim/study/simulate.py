@@ -161,5 +161,8 @@ def simulate(settings: Simulation, log: Callable[[str], None]) -> Path:
             log(line or f"participant {number}: done")
     records = load_study(out)
     return write_report(
-        records, out, f"Perception study, {settings.participants} simulated participants (seed {settings.seed})"
+        records,
+        out,
+        f"Perception study, {settings.participants} simulated participants (seed {settings.seed})",
+        design.sesoi,
     )

@@ -7,18 +7,20 @@ set or path), then the per-participant means are compared in pairs, VR against r
   test 2   the end effector's distance to the hand at the press (FK of the achieved state) per condition, and the
            paired VR − reality difference overall, per speed set and per path; how often each path was preferred;
            and how far the thesis's estimate from the press time lies from the measured distance.
+Given the design's SESOI, each test's mixed model and its verdicts (sim.study.contrasts) come with it.
 """
 
 from __future__ import annotations
 
 import math
 from collections import Counter
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from sim.study.design import CONDITIONS
+from sim.study.contrasts import TestContrast, contrast
+from sim.study.design import CONDITIONS, TESTS
 from sim.study.errors import StudyError
 from sim.study.records import TrialRecord
 from sim.study.statistics import Estimate, PairedComparison, mean_estimate, paired_comparison
@@ -39,6 +41,7 @@ class StudySummary:
     preferences: dict[str, Counter[str]]  # per condition: groups in which each path was preferred (0 too)
     extrapolation_error: Estimate  # test 2: |the plan's distance at the press time − the measured one|, m
     notes: list[str] = field(default_factory=list)  # missing answers, trials without a press
+    contrasts: dict[int, TestContrast] = field(default_factory=dict)  # per test, given its SESOI and enough data
 
 
 def per_participant(
@@ -107,7 +110,18 @@ def cell(test: int, condition: str = "", speed_set: str = "", path: str = "") ->
     return keep
 
 
-def summarise(records: Sequence[TrialRecord]) -> StudySummary:
+def _contrasts(records: Sequence[TrialRecord], sesoi: Mapping[int, float], notes: list[str]) -> dict[int, TestContrast]:
+    found = {}
+    for test in TESTS:
+        try:
+            found[test] = contrast(records, test, sesoi[test])
+        except StudyError as error:
+            notes.append(f"test {test}: no mixed model or verdict: {error}")
+    return found
+
+
+def summarise(records: Sequence[TrialRecord], sesoi: Mapping[int, float] | None = None) -> StudySummary:
+    """The study's results; with `sesoi` (per test, the design's), each test's mixed model and verdicts too."""
     if not records:
         raise StudyError("no trial records to analyse")
     test1, test2 = cell(1), cell(2)
@@ -156,4 +170,5 @@ def summarise(records: Sequence[TrialRecord]) -> StudySummary:
             records, test2, lambda r: abs(r.distance_extrapolated - r.distance_at_press), "test 2's extrapolation"
         ),
         notes=notes,
+        contrasts={} if sesoi is None else _contrasts(records, sesoi, notes),
     )

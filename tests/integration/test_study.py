@@ -40,8 +40,8 @@ from tests.rosenv import PYTHON, REPO, ManagedProcess, kill_process
 SCENE = load_scene()
 ROBOT = scene_robot(SCENE)
 SMALL_DESIGN = {
-    "test1": {"paths": ["straight"], "standoffs": [0.08, 0.14, 0.2], "peak_speed": 0.15},
-    "test2": {"paths": ["straight", "vertical"], "speed_sets": {"slow": 0.2, "fast": 0.3}},
+    "test1": {"paths": ["straight"], "standoffs": [0.08, 0.14, 0.2], "peak_speed": 0.15, "sesoi": 0.05},
+    "test2": {"paths": ["straight", "vertical"], "speed_sets": {"slow": 0.2, "fast": 0.3}, "sesoi": 0.02},
 }
 
 
@@ -188,8 +188,9 @@ def test_simulated_participants_run_the_study_and_the_analysis_recovers_their_bi
     own robot has it)."""
     out = simulate_small_study(tmp_path, participants=4, seed=11, extra=["--robot", str(PANDA_WITH_HAND)])
     report = (out / "report.md").read_text()
-    for plot in ("test1_distance_perception.png", "test2_comfort_distance.png"):
+    for plot in ("test1_distance_perception.png", "test2_comfort_distance.png", "agreement_bland_altman.png"):
         assert f"]({plot})" in report and (out / plot).stat().st_size > 10_000
+    assert "## VR against reality: the verdicts" in report and "### Test 2: the mixed model" in report
     from sim.study.report import load_study
     from sim.study.summary import summarise
 

@@ -66,8 +66,8 @@ def write(path: Path, data: object) -> Path:
 )
 def test_bad_input_is_one_line_and_exit_2(tmp_path: Path, case: str) -> None:
     design = {
-        "test1": {"paths": ["straight"], "standoffs": [0.1], "peak_speed": 0.15},
-        "test2": {"paths": ["straight"], "speed_sets": {"slow": 0.1}},
+        "test1": {"paths": ["straight"], "standoffs": [0.1], "peak_speed": 0.15, "sesoi": 0.05},
+        "test2": {"paths": ["straight"], "speed_sets": {"slow": 0.1}, "sesoi": 0.02},
     }
     if case == "unknown path":
         design["test2"]["paths"] = ["zigzag"]

@@ -154,6 +154,7 @@ SIM_ROSDEP_KEYS = {
     "scipy": "python3-scipy",
     "yaml": "python3-yaml",
     "matplotlib": "python3-matplotlib",
+    "statsmodels": "python3-statsmodels",  # the study's analysis
     "PIL": "python3-pil",  # the engine's --render pictures
     "pybullet": "python3-pybullet-pip",
     "pybullet_data": "python3-pybullet-pip",

@@ -95,11 +95,20 @@ def test_a_malformed_plan_is_one_clear_error(change, message):
         (lambda d: d["test1"].update(paths=["straight", "spiral"]), r"unknown path\(s\) \['spiral'\]"),
         (lambda d: d["test1"].update(standoffs=[0.1, 0.1]), "distinct stand-offs"),
         (lambda d: d["test2"]["speed_sets"].update(slow=0.0), "speed_sets.slow must be a speed in"),
-        (lambda d: d.update(test3={}), "must have exactly test1 and test2"),
-        (lambda d: d["test2"].pop("paths"), "test2 must have exactly paths, speed_sets"),
+        (lambda d: d.update(test3={}), "must have exactly test1, test2 and optionally planning"),
+        (lambda d: d["test2"].pop("paths"), "test2 must have exactly paths, speed_sets, sesoi"),
+        (lambda d: d["test2"].pop("sesoi"), "test2 must have exactly paths, speed_sets, sesoi"),
+        (lambda d: d["test1"].update(sesoi=0), r"test1.sesoi \(perceived / actual\) must be a number in \(0, 1\]"),
+        (lambda d: d["test2"].update(sesoi="2 cm"), r"test2.sesoi \(m\) must be a number"),
+        (lambda d: d["planning"].pop("seed"), "planning must have exactly sd_between"),
+        (lambda d: d["planning"].update(participants=[12, 8]), "planning.participants must be increasing"),
+        (lambda d: d["planning"]["sd_between"].pop("test2"), "planning.sd_between must give test1 and test2"),
+        (lambda d: d["planning"].update(power=1.5), r"planning.power must be a number in \(0.5, 0.99\]"),
     ],
 )
 def test_a_bad_design_is_one_clear_error(change, message):
+    """Each test's SESOI is required: the verdicts judge against it. The planning section is optional (analysis
+    needs none), but checked whole when given."""
     data = copy.deepcopy(yaml.safe_load(DEFAULT_DESIGN.read_text()))
     change(data)
     with pytest.raises(StudyError, match=message):

@@ -20,11 +20,13 @@ PATHS = ("straight", "lateral_arc", "over_the_top")
 
 def session(participant: int, population: Population, seed: int = 5) -> list[TrialRecord]:
     """What a participant of `population` would give, straight from the model (no robot): test 1 at every
-    stand-off, test 2 pressed at the comfort threshold (the robot then brakes 1 cm)."""
+    stand-off, test 2 pressed at the comfort threshold give or take 5 mm (the robot then brakes 1 cm). Odd
+    participants start with VR."""
     traits = draw_traits(population, participant, seed)
     rng = np.random.default_rng([seed, participant])
     rows = []
-    for position, condition in enumerate(("vr", "reality"), start=1):
+    order = ("vr", "reality") if participant % 2 else ("reality", "vr")
+    for position, condition in enumerate(order, start=1):
         for standoff in STANDOFFS:
             rows.append(
                 TrialRecord(
@@ -54,7 +56,7 @@ def session(participant: int, population: Population, seed: int = 5) -> list[Tri
         for group, (name, speed) in enumerate(SPEED_SETS, start=1):
             preferred = min(PATHS, key=traits.ranking.index)
             for path in PATHS:
-                at_press = comfort_threshold(traits, condition)
+                at_press = comfort_threshold(traits, condition) + rng.normal(0.0, 0.005)
                 rows.append(
                     TrialRecord(
                         participant,
@@ -112,6 +114,34 @@ def test_comfort_distances_are_closer_in_vr_by_the_shift_put_in() -> None:
     for comparison in [*summary.stop_distance_by_speed_set.values(), *summary.stop_distance_by_path.values()]:
         assert comparison.mean_difference == pytest.approx(shift, abs=0.003)
     assert summary.extrapolation_error.mean == pytest.approx(0.0005)
+
+
+def test_with_the_designs_sesoi_each_test_gets_its_mixed_model_and_verdict() -> None:
+    sesoi = {1: 0.05, 2: 0.02}
+    biased = summarise(study(), sesoi)
+    ratio, press = biased.contrasts[1], biased.contrasts[2]
+    assert ratio.verdict.label == "different" and ratio.verdict.ci95[0] <= -0.15 <= ratio.verdict.ci95[1]
+    assert ratio.fit.participants == 12 and ratio.fit.trials == 12 * 10 and ratio.fit.df == 10
+    assert press.verdict.ci95[0] <= Population().comfort_vr_shift <= press.verdict.ci95[1]
+    assert press.verdict.different and not press.verdict.equivalent  # a shift of one whole SESOI
+    assert press.tost.n == 12 and not press.tost.equivalent
+    assert press.agreement.bias == pytest.approx(press.tost.mean_difference)
+    same = summarise(
+        study(population=Population(distance_bias={"vr": 1.0, "reality": 1.0}, comfort_vr_shift=0.0)), sesoi
+    )
+    for test in (1, 2):
+        assert same.contrasts[test].verdict.label == "equivalent", same.contrasts[test].verdict
+        assert same.contrasts[test].tost.equivalent
+    assert summarise(study()).contrasts == {}  # without a SESOI, no verdict
+
+
+def test_too_few_participants_for_a_model_is_said_not_raised() -> None:
+    summary = summarise(study(participants=2), {1: 0.05, 2: 0.02})
+    assert summary.contrasts == {}
+    assert [note for note in summary.notes if "no mixed model or verdict" in note] == [
+        "test 1: no mixed model or verdict: a mixed model needs at least 3 participants, got 2",
+        "test 2: no mixed model or verdict: a mixed model needs at least 3 participants, got 2",
+    ]
 
 
 def test_preferences_count_one_answer_per_group() -> None:
