@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Idempotent: venvs on the Pythons of the ROS 1 distros, with the toolkit's requirements, the working tree on the path and the test tools:
+# Idempotent: venvs on the Pythons of the ROS 1 distros, with the toolkit's requirements, the working tree on the
+# path and the test tools:
 #   .venv38   Python 3.8, ROS Noetic's (Ubuntu 20.04): required; none found is an error, never a skip.
 #   .venv310  Python 3.10, Ubuntu 22.04's (ROS-O): made when one is found.
 # The interpreter: $PYTHON38 / $PYTHON310, else the newest $(pyenv root)/versions/3.8.* / 3.10.*.
