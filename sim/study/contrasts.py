@@ -19,7 +19,7 @@ from sim.study.errors import StudyError
 from sim.study.mixed_model import ModelDesign, ModelFit, Trials, fit_model, model_design
 from sim.study.records import TrialRecord
 
-__all__ = ["FACTOR_NAMES", "MEASURES", "TestContrast", "measure", "trials_for", "judge", "contrast"]
+__all__ = ["FACTOR_NAMES", "MEASURES", "TestContrast", "perceived_ratio", "measure", "trials_for", "judge", "contrast"]
 
 FACTOR_NAMES = {1: "stand-off", 2: "speed set"}
 MEASURES = {1: "perceived / actual distance", 2: "distance at the press (m)"}
@@ -36,12 +36,17 @@ class TestContrast:
     reality_means: dict[int, float]
 
 
+def perceived_ratio(record: TrialRecord) -> float:
+    """Test 1: perceived / actual distance (actual: the robot at rest); NaN where it is undefined."""
+    if record.distance_at_rest <= 0.0:
+        return math.nan
+    return record.perceived_distance / record.distance_at_rest
+
+
 def measure(record: TrialRecord) -> float:
     """The record's value in its test's model; NaN where it has none (no answer, no press)."""
     if record.test == 1:
-        if record.distance_at_rest <= 0.0:
-            return math.nan
-        return record.perceived_distance / record.distance_at_rest
+        return perceived_ratio(record)
     return record.distance_at_press if record.pressed else math.nan
 
 

@@ -99,7 +99,7 @@ def _products(a: Sequence[tuple[str, np.ndarray]], b: Sequence[tuple[str, np.nda
     return [(f"{name_a} × {name_b}", col_a * col_b) for name_a, col_a in a for name_b, col_b in b]
 
 
-def _check(trials: Trials) -> int:
+def _check(trials: Trials) -> None:
     size = trials.value.shape[0]
     arrays = (trials.participant, trials.vr, trials.vr_first, trials.factor, trials.path, trials.value)
     if any(np.asarray(array).shape != (size,) for array in arrays):
@@ -112,7 +112,6 @@ def _check(trials: Trials) -> int:
             raise StudyError(f"participant {participant} has trials in one condition only")
         if len(set(trials.vr_first[mine].tolist())) > 1:
             raise StudyError(f"participant {participant} is marked both VR first and VR second")
-    return size
 
 
 def model_design(trials: Trials, factor_name: str) -> ModelDesign:

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sim.study.contrasts import MEASURES, TestContrast
+from sim.study.contrasts import FACTOR_NAMES, MEASURES, TestContrast
 from sim.study.design import CONDITIONS
 from sim.study.errors import StudyError
 from sim.study.records import TrialRecord, read_records
@@ -96,7 +96,7 @@ def _verdict_lines(contrasts: Mapping[int, TestContrast]) -> list[str]:
         lines += [
             f"### Test {test}: the mixed model",
             "",
-            f"{MEASURES[test]} ~ condition × {'stand-off' if test == 1 else 'speed set'} × path + order + "
+            f"{MEASURES[test]} ~ condition × {FACTOR_NAMES[test]} × path + order + "
             f"condition × order; random effects: {fit.random_effects}. REML (statsmodels MixedLM), "
             f"{fit.participants} participants, {fit.trials} trials; 95 % CIs from Student's t with {fit.df} df "
             "(participants − order groups). Condition and order are coded ±½, the factors sum-to-zero.",

@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from sim.study.contrasts import TestContrast, contrast
+from sim.study.contrasts import TestContrast, contrast, perceived_ratio
 from sim.study.design import CONDITIONS, TESTS
 from sim.study.errors import StudyError
 from sim.study.records import TrialRecord
@@ -85,13 +85,6 @@ def _estimate(
     return mean_estimate(list(means.values()))
 
 
-def perceived_ratio(record: TrialRecord) -> float:
-    """Test 1: perceived / actual distance (actual: the robot at rest); NaN where it is undefined."""
-    if record.distance_at_rest <= 0.0:
-        return math.nan
-    return record.perceived_distance / record.distance_at_rest
-
-
 def _at_press(record: TrialRecord) -> float:
     return record.distance_at_press
 
@@ -146,6 +139,7 @@ def summarise(records: Sequence[TrialRecord], sesoi: Mapping[int, float] | None 
         if record.test == 2 and record.preferred_path and key not in seen_groups:
             seen_groups.add(key)
             preferences[record.condition][record.preferred_path] += 1
+    contrasts = {} if sesoi is None else _contrasts(records, sesoi, notes)
     return StudySummary(
         participants=tuple(sorted({r.participant for r in records})),
         trials=len(records),
@@ -170,5 +164,5 @@ def summarise(records: Sequence[TrialRecord], sesoi: Mapping[int, float] | None 
             records, test2, lambda r: abs(r.distance_extrapolated - r.distance_at_press), "test 2's extrapolation"
         ),
         notes=notes,
-        contrasts={} if sesoi is None else _contrasts(records, sesoi, notes),
+        contrasts=contrasts,
     )
