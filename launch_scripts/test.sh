@@ -34,7 +34,7 @@ run() {  # run PYTHON PYTEST_ARGS...: one pytest run; a failure is kept in $stat
 # another suite (even at nice 10), the campaigns' bags lost messages: they record ~1000 messages a second per topic
 # through rosbag record, whose queue (100 per topic) overflows when the recorder is starved of CPU; and a starved
 # endpoint forwarded a lockstep step's /clock before its command (two topics, two connections).
-beside_endpoint=(tests/integration/test_study_cli.py tests/integration/test_processes.py
+beside_endpoint=(tests/integration/test_study_cli.py tests/integration/test_power_cli.py tests/integration/test_processes.py
   tests/integration/test_entry_points.py)
 # Phase 2 on Noetic's Python: the engine stand-in, the physics node, the commander, a campaign's base case and a short
 # simulated study (runner, participants, rosbag, report).

@@ -6,6 +6,7 @@
   participant --port P --participant N --seed S               a simulated participant (a TCP client, no rospy)
   analyse DIR [--out DIR] [--design D]                        the report (verdicts, models) over every CSV in DIR
   simulate --participants 12 --out DIR                        the whole study with simulated participants, end to end
+  power --test 2 [--difference D --sd-between S ...]          the sample size, from studies simulated without physics
 
 Bad input (an unknown path name, an infeasible combination, a malformed plan or scene) is one line and exit 2.
 """
@@ -13,17 +14,20 @@ Bad input (an unknown path name, an infeasible combination, a malformed plan or 
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 import yaml
 
 from sim.entry import EXIT_BAD_INPUT, EXIT_FAILED, EXIT_NO_CONNECTION, EXIT_OK, fail
 from sim.errors import SimError
 from sim.robots import RobotSpec, add_robot_overrides, overrides_from_args
-from sim.study.design import load_design
+from sim.study.design import TESTS, load_design
 from sim.study.errors import StudyError
+from sim.study.participant_model import KNOWN_TRUTHS, Population
 from sim.study.plan import make_plan, plan_from_data, plan_to_data, printable
 from sim.study.scene import Scene, load_scene, scene_robot
 from sim.study.yamlfile import read_yaml
@@ -45,6 +49,14 @@ def _parser() -> argparse.ArgumentParser:
     def with_scene(command: argparse.ArgumentParser) -> None:
         with_robot(command)
         command.add_argument("--dt", type=float, default=STEP_S, help=f"control step in s (default {STEP_S})")
+
+    def with_population(command: argparse.ArgumentParser) -> None:
+        truths = command.add_argument_group("the simulated participants' known truths")
+        for name, meaning in KNOWN_TRUTHS.items():
+            default = getattr(Population(), name)
+            truths.add_argument(
+                f"--{name.replace('_', '-')}", type=float, default=default, help=f"{meaning} ({default})"
+            )
 
     plan = commands.add_parser("plan", help="a participant's session plan")
     plan.add_argument("--participant", type=int, required=True)
@@ -85,13 +97,8 @@ def _parser() -> argparse.ArgumentParser:
     participant.add_argument("--seed", type=int, required=True)
     participant.add_argument("--host", default="127.0.0.1", help="endpoint address")
     participant.add_argument("--port", type=int, default=10000, help="endpoint port")
-    with_robot(participant)
-    participant.add_argument(
-        "--vr-distance-bias",
-        type=float,
-        default=0.85,
-        help="perceived / actual distance in VR (default 0.85: a 15 %% underestimate)",
-    )
+    with_scene(participant)
+    with_population(participant)
     participant.add_argument("--timeout", type=float, default=1800.0, help="give up after this many s")
 
     view = commands.add_parser("view", help="the experimenter's live 3-D view, a web page (viser)")
@@ -113,18 +120,32 @@ def _parser() -> argparse.ArgumentParser:
     simulate.add_argument("--seed", type=int, default=1)
     simulate.add_argument("--design", type=Path, help="design YAML (default: the bundled design.yaml)")
     with_scene(simulate)
-    simulate.add_argument(
-        "--vr-distance-bias",
-        type=float,
-        default=0.85,
-        help="the simulated participants' perceived / actual distance in VR (default 0.85)",
+    with_population(simulate)
+
+    power = commands.add_parser("power", help="the sample size: whole studies simulated from the participant model")
+    power.add_argument("--test", type=int, choices=TESTS, required=True)
+    power.add_argument("--difference", type=float, help="the true VR - reality, in the measure's units")
+    power.add_argument("--sd-between", type=float, help="the SD of the participants' own VR - reality differences")
+    power.add_argument("--sesoi", type=float, help="the smallest effect size of interest (default: the design's)")
+    power.add_argument("--participants", help="numbers of participants to simulate, comma-separated (e.g. 8,12,16)")
+    power.add_argument("--simulations", type=int, help="simulated studies per number of participants")
+    power.add_argument("--seed", type=int)
+    power.add_argument("--design", type=Path, help="design YAML whose planning gives the defaults (default: bundled)")
+    power.add_argument(
+        "--json", type=Path, help="write the rows here (a list `rows` of participants, p_different, ...)"
     )
+    power.add_argument("--plot", type=Path, help="the power curve (default: beside --json, else power_test<T>.png)")
+    power.add_argument("--workers", type=int, default=0, help="processes (default: one per core, at most 2)")
     return parser
 
 
 def _robot(scene: Scene, args: argparse.Namespace) -> RobotSpec:
     """The robot of a command: the scene's, or the one --robot names; the overrides on top."""
     return scene_robot(scene, args.robot, overrides_from_args(args))
+
+
+def _population(args: argparse.Namespace) -> Population:
+    return Population(**{name: getattr(args, name) for name in KNOWN_TRUTHS})
 
 
 def _check_positive(value: float, option: str) -> None:
@@ -142,6 +163,7 @@ def main(argv: list[str] | None = None) -> int:
         "view": _view,
         "analyse": _analyse,
         "simulate": _simulate,
+        "power": _power,
     }
     try:
         return commands[args.command](args)
@@ -227,17 +249,15 @@ def _run(args: argparse.Namespace) -> int:
 def _participant(args: argparse.Namespace) -> int:
     from bridge.client import ClientError, TcpClient
     from sim.study.participant import SimulatedParticipant
-    from sim.study.participant_model import Population, draw_traits
+    from sim.study.participant_model import draw_traits
 
-    _check_positive(args.vr_distance_bias, "--vr-distance-bias")
     _check_positive(args.timeout, "--timeout")
+    _check_positive(args.dt, "--dt")
     scene = load_scene(args.scene)
     robot = _robot(scene, args)
-    traits = draw_traits(
-        Population(distance_bias={"vr": args.vr_distance_bias, "reality": 1.0}), args.participant, args.seed
-    )
+    traits = draw_traits(_population(args), args.participant, args.seed)
     client = TcpClient(args.host, args.port)
-    participant = SimulatedParticipant(client, robot, scene, traits, args.seed)
+    participant = SimulatedParticipant(client, robot, scene, traits, args.seed, args.dt)
     participant.attach()
     try:
         client.connect(timeout=30)
@@ -247,7 +267,7 @@ def _participant(args: argparse.Namespace) -> int:
             f"cannot reach the endpoint at {args.host}:{args.port}: {error}",
             EXIT_NO_CONNECTION,
         )
-    print(f"participant {args.participant}: connected; {participant.threshold_note}", flush=True)
+    print(f"participant {args.participant}: connected; {participant.traits_note}", flush=True)
     try:
         finished = participant.done.wait(args.timeout)
     finally:
@@ -310,7 +330,6 @@ def _simulate(args: argparse.Namespace) -> int:
     from sim.study.simulate import Simulation, SimulationError, simulate
 
     _check_positive(args.dt, "--dt")
-    _check_positive(args.vr_distance_bias, "--vr-distance-bias")
     if args.seed < 0:
         raise StudyError(f"--seed must be >= 0, got {args.seed}")
     started = time.monotonic()
@@ -321,7 +340,7 @@ def _simulate(args: argparse.Namespace) -> int:
         args.design,
         args.scene,
         args.dt,
-        args.vr_distance_bias,
+        _population(args),
         robot=args.robot,
         robot_overrides=overrides_from_args(args),
     )
@@ -331,6 +350,70 @@ def _simulate(args: argparse.Namespace) -> int:
         return fail("sim.study simulate", error, EXIT_FAILED)
     print(report.read_text(), end="")
     print(f"simulate: {args.participants} participants in {time.monotonic() - started:.0f} s; report: {report}")
+    return EXIT_OK
+
+
+def _participant_counts(text: str) -> tuple[int, ...]:
+    try:
+        return tuple(int(part) for part in text.split(","))
+    except ValueError:
+        raise StudyError(f"--participants must be whole numbers separated by commas, got {text!r}") from None
+
+
+def _power(args: argparse.Namespace) -> int:
+    from tqdm import tqdm
+
+    from sim.study.power import PowerQuestion, power_rows
+    from sim.study.power_report import plot_power, power_data, power_table
+
+    design, test = load_design(args.design), args.test
+    given: dict[str, Any] = {
+        "difference": args.difference,
+        "sd_between": args.sd_between,
+        "participants": None if args.participants is None else _participant_counts(args.participants),
+        "simulations": args.simulations,
+        "seed": args.seed,
+    }
+    planning = design.planning
+    planned: dict[str, Any] = (
+        {}
+        if planning is None
+        else {
+            "difference": planning.expected_difference[test],
+            "sd_between": planning.sd_between[test],
+            "participants": planning.participants,
+            "simulations": planning.simulations,
+            "seed": planning.seed,
+        }
+    )
+    missing = [f"--{name.replace('_', '-')}" for name, value in given.items() if value is None and name not in planned]
+    if missing:
+        raise StudyError(f"{', '.join(missing)} needed: the design has no planning section to take them from")
+    chosen = {name: planned[name] if value is None else value for name, value in given.items()}
+    question = PowerQuestion(
+        test=test,
+        difference=float(chosen["difference"]),
+        sd_between=float(chosen["sd_between"]),
+        sesoi=design.sesoi[test] if args.sesoi is None else args.sesoi,
+        participants=tuple(chosen["participants"]),
+        simulations=int(chosen["simulations"]),
+        seed=int(chosen["seed"]),
+    )
+    if not 0 <= args.workers <= 64:
+        raise StudyError(f"--workers must be 0..64 (0: one per core, at most 2), got {args.workers}")
+    plot = args.plot or (args.json.with_suffix(".png") if args.json is not None else Path(f"power_test{test}.png"))
+    started = time.monotonic()
+    total = question.simulations * len(question.participants)
+    with tqdm(total=total, desc="simulated studies", unit="study", file=sys.stderr, mininterval=1.0) as bar:
+        rows = power_rows(question, design, workers=args.workers, progress=bar.update)
+    seconds = time.monotonic() - started
+    print(power_table(question, rows), end="")
+    if args.json is not None:
+        args.json.parent.mkdir(parents=True, exist_ok=True)
+        args.json.write_text(json.dumps(power_data(question, rows, seconds), indent=2) + "\n")
+        print(f"rows: {args.json}")
+    print(f"power curve: {plot_power(question, rows, plot)}")
+    print(f"power: {total} simulated studies in {seconds:.1f} s")
     return EXIT_OK
 
 

@@ -19,7 +19,17 @@ from sim.study.errors import StudyError
 from sim.study.mixed_model import ModelDesign, ModelFit, Trials, fit_model, model_design
 from sim.study.records import TrialRecord
 
-__all__ = ["FACTOR_NAMES", "MEASURES", "TestContrast", "perceived_ratio", "measure", "trials_for", "judge", "contrast"]
+__all__ = [
+    "FACTOR_NAMES",
+    "MEASURES",
+    "TestContrast",
+    "perceived_ratio",
+    "measure",
+    "factor_level",
+    "trials_for",
+    "judge",
+    "contrast",
+]
 
 FACTOR_NAMES = {1: "stand-off", 2: "speed set"}
 MEASURES = {1: "perceived / actual distance", 2: "distance at the press (m)"}
@@ -50,8 +60,9 @@ def measure(record: TrialRecord) -> float:
     return record.distance_at_press if record.pressed else math.nan
 
 
-def _factor(record: TrialRecord) -> str:
-    return f"{record.standoff:g} m" if record.test == 1 else record.speed_set
+def factor_level(test: int, standoff: float, speed_set: str) -> str:
+    """A trial's level of its test's factor (FACTOR_NAMES): test 1 its stand-off, test 2 its speed set."""
+    return f"{standoff:g} m" if test == 1 else speed_set
 
 
 def trials_for(records: Sequence[TrialRecord], test: int) -> Trials:
@@ -63,7 +74,7 @@ def trials_for(records: Sequence[TrialRecord], test: int) -> Trials:
         participant=np.array([r.participant for r in rows]),
         vr=np.array([r.condition == "vr" for r in rows]),
         vr_first=np.array([(r.condition == "vr") == (r.condition_position == 1) for r in rows]),
-        factor=np.array([_factor(r) for r in rows]),
+        factor=np.array([factor_level(r.test, r.standoff, r.speed_set) for r in rows]),
         path=np.array([r.path for r in rows]),
         value=np.array([measure(r) for r in rows], dtype=float),
     )

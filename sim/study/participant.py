@@ -4,9 +4,9 @@
 It follows the runner's `/study/trial` and the robot's joint states, and acts by its traits (sim.study.
 participant_model), which stand for both the participant and the observer:
   ready       says go (`/study/go`), as the observer would;
-  moving      test 2: computes its own end-effector distance to the hand (FK of each joint state) and, once it is
-              within its comfort threshold, presses stop (`/study/stop`) stamped one reaction time after the joint
-              state that crossed it;
+  moving      test 2: draws where this trial's press is to land (its comfort distance), finds when the trial's
+              planned approach gets there, and presses stop (`/study/stop`) on the first joint state one reaction
+              time before, stamped when the press lands: it anticipates the robot, as people do;
   distance    test 1: reports its perceived distance of the robot at rest (`/study/perceived_distance`);
   preference  names its preferred path of the group (`/study/preference`);
   done        (for its participant number) ends.
@@ -33,8 +33,16 @@ from sim.study.interface import (
     TrialStatus,
     status_from_json,
 )
-from sim.study.participant_model import Traits, comfort_threshold, perceived_distance, preferred_path
+from sim.study.participant_model import (
+    Traits,
+    arrival_time,
+    comfort_at_press,
+    perceived_distance,
+    preferred_path,
+)
+from sim.study.paths import approach_path
 from sim.study.scene import Scene
+from sim.wire.contract import STEP_S
 from sim.wire.rosmsgs import JOINT_STATE, decode_joint_state, deserialize, encode_message, time_msg
 
 __all__ = ["SimulatedParticipant"]
@@ -45,15 +53,17 @@ def _encode(topic: str, **fields: Any) -> bytes:
 
 
 class SimulatedParticipant:
-    def __init__(self, client: TcpClient, robot: RobotSpec, scene: Scene, traits: Traits, seed: int) -> None:
-        self.client, self.robot, self.scene, self.traits = client, robot, scene, traits
+    def __init__(
+        self, client: TcpClient, robot: RobotSpec, scene: Scene, traits: Traits, seed: int, dt: float = STEP_S
+    ) -> None:
+        self.client, self.robot, self.scene, self.traits, self.dt = client, robot, scene, traits, dt
         self.rng = np.random.default_rng([seed, traits.participant, 2])  # the judgements' noise
         self.done = threading.Event()
         self.presses = 0
         self.problems: list[str] = []
         self._chain = chain_for(robot)
         self._status: TrialStatus | None = None
-        self._pressed = False
+        self._press: tuple[float, float] | None = None  # this trial's (decide at, lands at), s of ROS time
         self._latest: tuple[float, np.ndarray] | None = None
 
     def attach(self) -> None:
@@ -67,21 +77,22 @@ class SimulatedParticipant:
 
     def _on_joint_state(self, payload: bytes) -> None:
         sample = decode_joint_state(payload, self.robot.joint_names)
-        stamp, positions = sample.stamp_s, sample.positions
-        self._latest = (stamp, positions)
-        status = self._status
-        if status is None or status.phase != "moving" or status.test != 2 or self._pressed:
+        self._latest = (sample.stamp_s, sample.positions)
+        press = self._press
+        if press is None or sample.stamp_s < press[0]:
             return
-        if stamp < status.motion_start or self.hand_distance(positions) > comfort_threshold(
-            self.traits, status.condition
-        ):
-            return
-        self._pressed = True
+        self._press = None
         self.presses += 1
-        source = "vr_trigger" if status.condition == "vr" else "button"
-        self.client.publish(
-            STOP_TOPIC, _encode(STOP_TOPIC, seq=0, stamp=time_msg(stamp + self.traits.reaction_time), frame_id=source)
-        )
+        source = "vr_trigger" if self._status is not None and self._status.condition == "vr" else "button"
+        self.client.publish(STOP_TOPIC, _encode(STOP_TOPIC, seq=0, stamp=time_msg(press[1]), frame_id=source))
+
+    def _plan_press(self, status: TrialStatus) -> tuple[float, float]:
+        """When to decide and when the press lands (s of ROS time): where the planned approach reaches this
+        trial's comfort distance, one reaction time before that, and then."""
+        path = approach_path(self.scene, status.path, status.standoff, status.peak_speed, self.dt)
+        distances = np.array([self.scene.hand.distance(point) for point in path.positions])
+        lands = arrival_time(path.times, distances, comfort_at_press(self.traits, status.condition, self.rng))
+        return status.motion_start + max(lands - self.traits.reaction_time, 0.0), status.motion_start + lands
 
     def _on_status(self, payload: bytes) -> None:
         message: Any = deserialize(payload, TOPIC_TYPES[STATUS_TOPIC])
@@ -94,8 +105,15 @@ class SimulatedParticipant:
             return  # another session's (a latched status from before)
         self._status = status
         if status.phase == "ready":
-            self._pressed = False
+            self._press = None
             self.client.publish(GO_TOPIC, _encode(GO_TOPIC))
+        elif status.phase == "moving" and status.test == 2:
+            try:
+                self._press = self._plan_press(status)
+            except StudyError as error:
+                self.problems.append(f"trial {status.index}: {error}")
+        elif status.phase == "at_rest":
+            self._press = None
         elif status.phase == "distance":
             if self._latest is None:
                 self.problems.append(f"trial {status.index}: asked for a distance before any joint state")
@@ -110,9 +128,9 @@ class SimulatedParticipant:
             self.done.set()
 
     @property
-    def threshold_note(self) -> str:
-        vr, reality = (comfort_threshold(self.traits, condition) for condition in ("vr", "reality"))
+    def traits_note(self) -> str:
+        ratio, comfort = self.traits.distance_ratio, self.traits.comfort_distance
         return (
-            f"comfort {reality:.3f} m (VR {vr:.3f} m), reaction {self.traits.reaction_time:.3f} s, "
-            f"VR distance bias {self.traits.distance_bias['vr']:.2f}"
+            f"comfort {comfort['reality']:.3f} m (VR {comfort['vr']:.3f} m), reaction "
+            f"{self.traits.reaction_time:.3f} s, perceived / actual {ratio['reality']:.2f} (VR {ratio['vr']:.2f})"
         )

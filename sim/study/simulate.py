@@ -19,6 +19,7 @@ from sim.processes import PYTHON, EndpointProcess, ManagedProcess, ProcessError,
 from sim.study.design import load_design
 from sim.study.errors import StudyError
 from sim.study.feasibility import plan_combinations
+from sim.study.participant_model import KNOWN_TRUTHS, Population
 from sim.study.plan import make_plan, plan_to_data
 from sim.study.report import load_study, write_report
 from sim.study.scene import load_scene, scene_robot
@@ -39,7 +40,7 @@ class Simulation:
     design: Path | None = None
     scene: Path | None = None
     dt: float = STEP_S
-    vr_distance_bias: float = 0.85
+    population: Population = Population()  # the simulated participants' known truths
     timeout: float = 600.0  # s per participant's session
     robot: str | None = None  # --robot: in the scene's place
     robot_overrides: Mapping[str, Any] = field(default_factory=dict)  # load_robot's keywords from the command line
@@ -82,6 +83,7 @@ def simulate(settings: Simulation, log: Callable[[str], None]) -> Path:
     out = settings.out.resolve()
     logs = out / "logs"
     scene_and_robot = ["--scene", str(Path(settings.scene).resolve())] if settings.scene is not None else []
+    truths = [f"--{name.replace('_', '-')}={getattr(settings.population, name)!r}" for name in KNOWN_TRUTHS]
     scene_and_robot += robot.cli_args  # every process of the study takes the robot, with its overrides, as chosen here
     with ExitStack() as running:
         core = RosCore()
@@ -125,8 +127,9 @@ def simulate(settings: Simulation, log: Callable[[str], None]) -> Path:
                         str(settings.seed),
                         "--port",
                         str(port),
-                        "--vr-distance-bias",
-                        str(settings.vr_distance_bias),
+                        "--dt",
+                        str(settings.dt),
+                        *truths,
                         *scene_and_robot,
                     ],
                     plain_env(),

@@ -1,0 +1,83 @@
+"""python -m sim.study power as its users call it, and the error rates of the verdict it simulates: with thousands of
+studies, so that a test that does not keep them fails (normal intervals give ~11 % false "different" with 6
+participants, against the 7.5 % allowed) and one that keeps them passes whatever the seed (each bound lies about
+2.5 binomial SDs or more from the rate a valid test has)."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+from pathlib import Path
+
+import pytest
+
+from sim.processes import PYTHON, REPO, plain_env
+
+
+def power(tmp_path: Path, *args: str) -> dict:
+    out = tmp_path / "power.json"
+    result = subprocess.run(
+        [PYTHON, "-m", "sim.study", "power", *args, "--json", str(out)],
+        cwd=tmp_path,
+        env=plain_env(),
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert result.returncode == 0, result.stderr
+    assert f"rows: {out}" in result.stdout and out.with_suffix(".png").stat().st_size > 10_000
+    return json.loads(out.read_text())
+
+
+def rates(data: dict, key: str) -> list[float]:
+    return [row[key] for row in data["rows"]]
+
+
+def test_with_no_difference_different_stays_at_5_percent_and_equivalent_rises_with_the_participants(tmp_path):
+    data = power(tmp_path, "--test", "2", "--difference", "0", "--sd-between", "0.02", "--sesoi", "0.02",
+                 "--participants", "6,16", "--simulations", "800", "--seed", "21")  # fmt: skip
+    assert [row["participants"] for row in data["rows"]] == [6, 16]
+    for p in rates(data, "p_different"):
+        assert 0.025 <= p <= 0.075, data["rows"]
+    low, high = rates(data, "p_equivalent")
+    assert high > low + 0.2 and high > 0.9, data["rows"]
+    assert data["needed"]["equivalent"]["0.8"] == 16
+
+
+@pytest.mark.parametrize(
+    "test, difference",
+    [("2", "0.02"), ("1", "-0.05")],
+    ids=["test 2 at +SESOI", "test 1 at -SESOI"],
+)
+def test_a_difference_of_one_sesoi_is_called_equivalent_at_most_5_percent_of_the_time(tmp_path, test, difference):
+    sd = {"1": "0.06", "2": "0.02"}[test]
+    sesoi = difference.lstrip("-")
+    # 16 participants: with no difference they are found equivalent nearly always, so the bound is tight
+    data = power(tmp_path, "--test", test, "--difference", difference, "--sd-between", sd, "--sesoi", sesoi,
+                 "--participants", "16", "--simulations", "800", "--seed", "22")  # fmt: skip
+    assert rates(data, "p_equivalent")[0] <= 0.075, data["rows"]
+
+
+@pytest.mark.parametrize("test, difference, sd", [("2", "0.04", "0.02"), ("1", "0.1", "0.06")])
+def test_a_difference_of_twice_the_sesoi_is_found_more_often_with_more_participants(tmp_path, test, difference, sd):
+    data = power(tmp_path, "--test", test, "--difference", difference, "--sd-between", sd,
+                 "--participants", "4,8,12", "--simulations", "200", "--seed", "23")  # fmt: skip
+    different = rates(data, "p_different")
+    assert different == sorted(different) and different[-1] >= 0.95 and different[0] < 0.9, data["rows"]
+    assert data["sesoi"] == {"1": 0.05, "2": 0.02}[test]  # the design's, as none was given
+
+
+def test_the_designs_planning_gives_the_defaults_and_bad_input_is_one_line(tmp_path):
+    design = tmp_path / "design.yaml"
+    design.write_text((REPO / "sim" / "study" / "design.yaml").read_text().split("planning:")[0])
+    for args, fragment in (
+        (["--test", "2", "--design", str(design)], "--difference, --sd-between, --participants, --simulations, --seed"),
+        (["--test", "2", "--participants", "8,x"], "--participants must be whole numbers"),
+        (["--test", "2", "--participants", "2,8"], "must be 4..500"),
+        (["--test", "2", "--sesoi", "-1"], "SESOI must be > 0"),
+    ):
+        result = subprocess.run(
+            [PYTHON, "-m", "sim.study", "power", *args], cwd=tmp_path, env=plain_env(), capture_output=True, text=True
+        )
+        lines = [line for line in result.stderr.splitlines() if "pybullet build time" not in line]
+        assert result.returncode == 2 and len(lines) == 1 and fragment in lines[0], result.stderr
