@@ -7,6 +7,7 @@
   analyse DIR [--out DIR] [--design D]                        the report (verdicts, models) over every CSV in DIR
   simulate --participants 12 --out DIR                        the whole study with simulated participants, end to end
   power --test 2 [--difference D --sd-between S ...]          the sample size, from studies simulated without physics
+  preregister [--design D] [--out FILE]                       the pre-registration summary, from the design file
 
 Bad input (an unknown path name, an infeasible combination, a malformed plan or scene) is one line and exit 2.
 """
@@ -136,6 +137,13 @@ def _parser() -> argparse.ArgumentParser:
     )
     power.add_argument("--plot", type=Path, help="the power curve (default: beside --json, else power_test<T>.png)")
     power.add_argument("--workers", type=int, default=0, help="processes (default: one per core, at most 2)")
+
+    preregister = commands.add_parser("preregister", help="the pre-registration summary (Markdown) from the design")
+    preregister.add_argument("--design", type=Path, help="design YAML, with its planning (default: the bundled one)")
+    preregister.add_argument("--out", type=Path, help="write the Markdown here (default: print it)")
+    preregister.add_argument("--participants", help="sizes to try, comma-separated (default: the design's planning)")
+    preregister.add_argument("--simulations", type=int, help="studies per size (default: the design's planning)")
+    preregister.add_argument("--workers", type=int, default=0, help="processes (default: one per core, at most 2)")
     return parser
 
 
@@ -164,6 +172,7 @@ def main(argv: list[str] | None = None) -> int:
         "analyse": _analyse,
         "simulate": _simulate,
         "power": _power,
+        "preregister": _preregister,
     }
     try:
         return commands[args.command](args)
@@ -360,6 +369,41 @@ def _participant_counts(text: str) -> tuple[int, ...]:
         raise StudyError(f"--participants must be whole numbers separated by commas, got {text!r}") from None
 
 
+def _check_workers(workers: int) -> None:
+    if not 0 <= workers <= 64:
+        raise StudyError(f"--workers must be 0..64 (0: one per core, at most 2), got {workers}")
+
+
+def _preregister(args: argparse.Namespace) -> int:
+    import hashlib
+
+    from tqdm import tqdm
+
+    from sim.study.design import DEFAULT_DESIGN
+    from sim.study.power import plan_sample, planning_of
+    from sim.study.preregistration import preregistration
+
+    _check_workers(args.workers)
+    source = DEFAULT_DESIGN if args.design is None else args.design
+    design = load_design(source)
+    planning_of(design)  # before the progress bar: a design without planning is one line
+    digest = hashlib.sha256(Path(source).read_bytes()).hexdigest()
+    sizes = None if args.participants is None else _participant_counts(args.participants)
+    if args.simulations is not None and not 1 <= args.simulations <= 100_000:
+        raise StudyError(f"--simulations must be 1..100000, got {args.simulations}")
+    with tqdm(desc="simulated studies", unit="study", file=sys.stderr, mininterval=1.0) as bar:
+        sample = plan_sample(design, sizes, args.simulations, args.workers, progress=bar.update)
+    text = preregistration(design, str(source), digest, sample)
+    if args.out is None:
+        print(text, end="")
+    else:
+        args.out.parent.mkdir(parents=True, exist_ok=True)
+        args.out.write_text(text)
+        planned = "none of the sizes tried" if sample.participants is None else f"{sample.participants} participants"
+        print(f"pre-registration: {args.out} (planned: {planned})")
+    return EXIT_OK
+
+
 def _power(args: argparse.Namespace) -> int:
     from tqdm import tqdm
 
@@ -399,8 +443,7 @@ def _power(args: argparse.Namespace) -> int:
         simulations=int(chosen["simulations"]),
         seed=int(chosen["seed"]),
     )
-    if not 0 <= args.workers <= 64:
-        raise StudyError(f"--workers must be 0..64 (0: one per core, at most 2), got {args.workers}")
+    _check_workers(args.workers)
     plot = args.plot or (args.json.with_suffix(".png") if args.json is not None else Path(f"power_test{test}.png"))
     started = time.monotonic()
     total = question.simulations * len(question.participants)

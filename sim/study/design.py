@@ -5,7 +5,7 @@ sample size is planned on. Pure logic, but for reading the YAML in `load_design`
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from sim.study.errors import StudyError
@@ -41,6 +41,7 @@ class Design:
     test2_speed_sets: tuple[tuple[str, float], ...]  # (name, peak speed), in the design's order
     sesoi: dict[int, float]  # per test, in its measure's units: test 1 the ratio, test 2 metres
     planning: Planning | None = None
+    sesoi_reason: dict[int, str] = field(default_factory=dict)  # per test, why that SESOI (for the pre-registration)
 
     @property
     def trials_per_participant(self) -> int:
@@ -71,8 +72,13 @@ def _speed(value: object, what: str) -> float:
 
 def _section(data: dict, key: str, keys: tuple[str, ...], source: str) -> dict:
     section = data.get(key)
-    if not isinstance(section, dict) or sorted(section) != sorted(keys):
-        raise StudyError(f"{source}: {key} must have exactly {', '.join(keys)}, got {section!r}")
+    if not isinstance(section, dict) or sorted(set(section) - {"sesoi_reason"}) != sorted(keys):
+        raise StudyError(
+            f"{source}: {key} must have exactly {', '.join(keys)} and optionally sesoi_reason, got {section!r}"
+        )
+    reason = section.get("sesoi_reason", "")
+    if not isinstance(reason, str):
+        raise StudyError(f"{source}: {key}.sesoi_reason must be text, got {reason!r}")
     return section
 
 
@@ -152,6 +158,11 @@ def parse_design(data: object, source: str = "design") -> Design:
             2: _number(test2["sesoi"], f"{source}: test2.sesoi (m)", 0.0, 0.3),
         },
         planning=_planning(data["planning"], source) if "planning" in data else None,
+        sesoi_reason={
+            test: " ".join(str(section.get("sesoi_reason", "")).split())
+            for test, section in ((1, test1), (2, test2))
+            if section.get("sesoi_reason")
+        },
     )
 
 

@@ -22,13 +22,22 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from sim.study.contrasts import FACTOR_NAMES, factor_level, judge
-from sim.study.design import TESTS, Design
+from sim.study.design import TESTS, Design, Planning
 from sim.study.errors import StudyError
 from sim.study.mixed_model import ModelDesign, Trials, model_design
 from sim.study.participant_model import Population, study_measures
 from sim.study.plan import make_plan
 
-__all__ = ["PowerQuestion", "PowerRow", "study_layout", "power_rows", "needed"]
+__all__ = [
+    "PowerQuestion",
+    "PowerRow",
+    "PlannedSample",
+    "study_layout",
+    "power_rows",
+    "needed",
+    "planning_of",
+    "plan_sample",
+]
 
 _CHUNK = 25  # studies per task: small enough for the progress bar, large enough to hide the pool's overhead
 # a fit's matrices are small: BLAS threads only fight over the cores the workers already fill (2x slower)
@@ -210,3 +219,50 @@ def needed(rows: Sequence[PowerRow], power: float, verdict: str) -> int | None:
         if (row.p_different if verdict == "different" else row.p_equivalent) >= power:
             return row.participants
     return None
+
+
+@dataclass(frozen=True)
+class PlannedSample:
+    """The design's planning carried out: per N tried, in order, each test's row; the N planned (the first at which
+    every test reaches the planned power of "equivalent"), None when none of those tried does."""
+
+    participants: int | None
+    rows: dict[int, list[PowerRow]]  # per test
+    simulations: int
+    seed: int
+
+
+def planning_of(design: Design) -> Planning:
+    if design.planning is None:
+        raise StudyError("the design has no planning section: it says nothing to plan the sample on")
+    return design.planning
+
+
+def plan_sample(
+    design: Design,
+    sizes: Sequence[int] | None = None,
+    simulations: int | None = None,
+    workers: int = 0,
+    progress: Callable[[int], None] | None = None,
+) -> PlannedSample:
+    """The design's planning (its difference and SD per test, its power) tried at `sizes` (default: its own), in
+    increasing order, up to the first N that reaches the power in every test."""
+    planning = planning_of(design)
+    sizes = tuple(sorted(sizes if sizes is not None else planning.participants))
+    simulations = simulations if simulations is not None else planning.simulations
+    rows: dict[int, list[PowerRow]] = {test: [] for test in TESTS}
+    for n in sizes:
+        for test in TESTS:
+            question = PowerQuestion(
+                test,
+                planning.expected_difference[test],
+                planning.sd_between[test],
+                design.sesoi[test],
+                (n,),
+                simulations,
+                planning.seed,
+            )
+            rows[test] += power_rows(question, design, workers=workers, progress=progress)
+        if all(rows[test][-1].p_equivalent >= planning.power for test in TESTS):
+            return PlannedSample(n, rows, simulations, planning.seed)
+    return PlannedSample(None, rows, simulations, planning.seed)

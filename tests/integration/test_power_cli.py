@@ -81,3 +81,27 @@ def test_the_designs_planning_gives_the_defaults_and_bad_input_is_one_line(tmp_p
         )
         lines = [line for line in result.stderr.splitlines() if "pybullet build time" not in line]
         assert result.returncode == 2 and len(lines) == 1 and fragment in lines[0], result.stderr
+
+
+def test_preregister_writes_the_summary_of_the_design_it_read(tmp_path):
+    import hashlib
+
+    out = tmp_path / "prereg.md"
+    command = [PYTHON, "-m", "sim.study", "preregister", "--participants", "8,12", "--simulations", "40"]
+    result = subprocess.run(
+        [*command, "--out", str(out)], cwd=tmp_path, env=plain_env(), capture_output=True, text=True, timeout=300
+    )
+    assert result.returncode == 0, result.stderr
+    text = out.read_text()
+    bundled = REPO / "sim" / "study" / "design.yaml"
+    assert f"SHA-256 `{hashlib.sha256(bundled.read_bytes()).hexdigest()}`" in text
+    assert text.startswith("# Pre-registration: VR against reality") and "## Decision rules" in text
+    planned = "(planned: none of the sizes tried)" if "No size tried" in text else "(planned: "
+    assert planned in result.stdout
+    no_planning = tmp_path / "design.yaml"
+    no_planning.write_text(bundled.read_text().split("planning:")[0])
+    result = subprocess.run(
+        [*command, "--design", str(no_planning)], cwd=tmp_path, env=plain_env(), capture_output=True, text=True
+    )
+    lines = [line for line in result.stderr.splitlines() if "pybullet build time" not in line]
+    assert result.returncode == 2 and len(lines) == 1 and "no planning section" in lines[0], result.stderr
