@@ -96,6 +96,11 @@ class ModelFit:
     trials: int
     notes: tuple[str, ...]  # a random slope that did not converge, terms left out
 
+    @property
+    def with_slope(self) -> bool:
+        """The random condition slope was fitted (not left out for want of convergence)."""
+        return self.random_effects == _WITH_SLOPE
+
 
 def _sum_coded(labels: np.ndarray, name: str) -> list[tuple[str, np.ndarray]]:
     levels = sorted(set(labels.tolist()))

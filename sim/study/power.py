@@ -132,7 +132,7 @@ def _run_chunk(chunk: _Chunk) -> tuple[int, int, int, int]:
         fit, judged = judge(chunk.model, values, chunk.sesoi)
         different += judged.different
         equivalent += judged.equivalent
-        dropped += "slope" not in fit.random_effects
+        dropped += not fit.with_slope
     return chunk.participants, different, equivalent, dropped
 
 
