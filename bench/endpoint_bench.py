@@ -35,6 +35,11 @@ raw (bytes-only) message class, like the endpoint, so the ceiling is rospy's tra
   8. The Unity-typical mix: down 4 PoseStamped and 4 JointState topics at 60 Hz and TF at 100 Hz, up a PoseStamped
      and a JointState at 60 Hz, for two windows: what arrived of what was sent, one-way latency each way, and the
      endpoint's CPU meanwhile.
+  9. WebSocket clients (--websocket-port): JointState and the 2.7 MB Image both ways through WebSocket clients
+     (bridge.client.TcpClient(websocket=True), as a browser or a Unity WebGL build connects) against TCP clients of
+     the same endpoint in the same rounds, with the endpoint's CPU per message. The phase has an endpoint of its
+     own with the WebSocket port open; every other phase's endpoint serves TCP only (the default). Skipped for a
+     revision without the transport.
 `--quick` shortens every window (2 s), the RTT sample counts and the soak (10 s) for a smoke run.
 `--ab REVISION` runs REVISION's endpoint (a git worktree of it) beside this tree's, phase by phase alternately on
 one roscore, and prints both tables and a comparison with the ratios.
@@ -93,7 +98,7 @@ LARGE_KINDS = (("image", "Image 2.7 MB"), ("cloud", "PointCloud2 1 MiB"))
 LARGE_ROS_QUEUE = 10  # queue_size of the rospy publisher feeding large messages to the endpoint
 LARGE_RTT_HZ = 30  # a camera's rate
 LARGE_IDLE_S = 3.0  # the endpoint gives freed memory back after a quiet second (bridge.memory)
-PHASES = ("throughput", "large", "unity_mix", "rtt", "fan_out", "huge_prefix", "never_reader")
+PHASES = ("throughput", "large", "unity_mix", "rtt", "fan_out", "huge_prefix", "never_reader", "websocket")
 
 
 @dataclass(frozen=True)
@@ -255,8 +260,9 @@ class Bench:
                 return json.loads(line[len("RESULT ") :])
         raise RuntimeError(f"{process.log_path.name} printed no RESULT:\n{process.output()[-2000:]}")
 
-    def client(self) -> TcpClient:
-        client = TcpClient("127.0.0.1", self.endpoint.port, reconnect=False).connect(timeout=10.0)
+    def client(self, websocket: bool = False) -> TcpClient:
+        port = self.endpoint.websocket_port if websocket else self.endpoint.port
+        client = TcpClient("127.0.0.1", port, reconnect=False, websocket=websocket).connect(timeout=10.0)
         self.clients.append(client)
         return client
 
@@ -294,35 +300,35 @@ class Bench:
         counted = self.result(counter, 20)
         return Flow(rate_of(counted["count"], counted["first"], counted["last"]), counted["count"], sent, 0.0)
 
-    def tcp_to_ros(self, kind: str = "joint_state") -> Flow:
+    def tcp_to_ros(self, kind: str = "joint_state", websocket: bool = False) -> Flow:
         """A TcpClient writing frames as fast as the endpoint takes them -> a rospy counting subscriber process."""
         window = self.settings.window_s
-        topic = f"/bench/tcp_in_{kind}"
+        topic = f"/bench/{'ws' if websocket else 'tcp'}_in_{kind}"
         counter = self.node("count", "--topic", topic, "--max-seconds", str(window + 40), "--kind", kind)
         message_name, make_payload = MESSAGE_KINDS[kind]
         with self.clients_closed():
-            client = self.client()
+            client = self.client(websocket)
             client.register_publisher(topic, message_name, queue_size=PUBLISH_QUEUE)
             counter.wait_for_output("CONNECTED", 30)
             time.sleep(0.3)
-            frame = protocol.encode_frame(topic, make_payload())
+            frame = client.wire(protocol.encode_frame(topic, make_payload()))  # framed once, for every write
             cpu_before = self.cpu()
             sent = 0
             deadline = time.monotonic() + window
             while sent < FLOOD_MAX_MESSAGES and (sent % 100 or time.monotonic() < deadline):
-                client.send_raw(frame)  # one write per frame, as Unity's client does
+                client.send_raw(frame, as_is=True)  # one write per frame, as Unity's client does
                 sent += 1
             counted = self.result(counter, 40)
             cpu_used = self.cpu() - cpu_before
         return Flow(rate_of(counted["count"], counted["first"], counted["last"]), counted["count"], sent, cpu_used)
 
-    def ros_to_tcp(self, queue_size: int, kind: str = "joint_state") -> Flow:
+    def ros_to_tcp(self, queue_size: int, kind: str = "joint_state", websocket: bool = False) -> Flow:
         """A rospy flood publisher process -> the endpoint -> a counting TcpClient."""
         window = self.settings.window_s
-        topic = f"/bench/ros_out_{kind}_q{queue_size}"
+        topic = f"/bench/ros_out_{kind}_q{queue_size}{'_ws' if websocket else ''}"
         arrivals = Arrivals()
         with self.clients_closed():
-            client = self.client()
+            client = self.client(websocket)
             client.subscribe(topic, MESSAGE_KINDS[kind][0], arrivals)
             time.sleep(0.3)
             cpu_before = self.cpu()
@@ -547,6 +553,64 @@ class Bench:
             )
         self.rows.append(Row(f"  pongs received @ {hz} Hz", f"{len(mine)}/{sent}", f"{len(theirs)}/{count * rounds}"))
         self.rows.append(Row("  endpoint CPU during the round trips [% of a core]", f"{cpu_used / elapsed * 100:.1f}"))
+
+    # --- 9: WebSocket clients -------------------------------------------------------------------------------------
+    def websocket(self) -> None:
+        """WebSocket clients against TCP clients, JointState and Image both ways, on an endpoint of this phase's own
+        with the WebSocket port open; the TCP and WebSocket flows take turns in rounds, the median round is shown."""
+        if not ((self.settings.bridge_dir or REPO) / "bridge" / "websocket.py").exists():
+            self.rows.append(Row("WebSocket clients", "not served by this revision"))
+            return
+        plain, plain_pid = self.endpoint, self.pid
+        settings = self.settings
+        self.endpoint = self._track(
+            start_endpoint(
+                self.core.env,
+                self.log_dir,
+                settings.bridge_dir,
+                (*settings.endpoint_args, "--websocket-port", "0"),
+                f"{plain.name}_ws",
+            )
+        )
+        self.pid = self.endpoint.process.pid
+        try:
+            for kind, label, queue_size in (
+                ("joint_state", "JointState", 0),
+                ("image", "Image 2.7 MB", LARGE_ROS_QUEUE),
+            ):
+                flows: dict[str, list[Flow]] = {name: [] for name in ("in_tcp", "in_ws", "out_tcp", "out_ws")}
+                for _ in range(settings.throughput_rounds):
+                    flows["in_tcp"].append(self.tcp_to_ros(kind))
+                    flows["in_ws"].append(self.tcp_to_ros(kind, websocket=True))
+                    flows["out_tcp"].append(self.ros_to_tcp(queue_size, kind))
+                    flows["out_ws"].append(self.ros_to_tcp(queue_size, kind, websocket=True))
+                for direction, tcp_name, ws_name in (
+                    ("client->ROS", "in_tcp", "in_ws"),
+                    ("ROS->client", "out_tcp", "out_ws"),
+                ):
+                    tcp, ws = median_flow(flows[tcp_name]), median_flow(flows[ws_name])
+                    digits = 0 if kind == "joint_state" else 1
+                    self.rows.append(
+                        Row(
+                            f"WebSocket {label} {direction} [msg/s] vs TCP client",
+                            f"{ws.rate:,.{digits}f}",
+                            f"{tcp.rate:,.{digits}f}",
+                            f"{ws.rate / tcp.rate if tcp.rate else 0.0:.2f}",
+                        )
+                    )
+                    per = 1e4 if kind == "joint_state" else 100
+                    self.rows.append(
+                        Row(
+                            f"  endpoint CPU s / {per:,.0f} msgs, WebSocket vs TCP",
+                            f"{ws.cpu_s / max(ws.received, 1) * per:.3f}",
+                            f"{tcp.cpu_s / max(tcp.received, 1) * per:.3f}",
+                        )
+                    )
+                    received, sent = sum(f.received for f in flows[ws_name]), sum(f.sent for f in flows[ws_name])
+                    self.rows.append(Row("  WebSocket delivered/sent", f"{received:,}/{sent:,}"))
+        finally:
+            kill_process(self.endpoint.process)
+            self.endpoint, self.pid = plain, plain_pid
 
     # --- 8: the Unity-typical mix -------------------------------------------------------------------------------
     def unity_mix(self) -> None:
@@ -847,8 +911,13 @@ def start_endpoint(
     process = ManagedProcess(
         [PYTHON, "-c", launcher, "--tcp-port", "0", "--node-name", name, *extra], env, log_dir, name
     )
-    line = next(line for line in process.wait_for_output("listening on", 30).splitlines() if "listening on" in line)
+    websocket = "--websocket-port" in extra
+    output = process.wait_for_output("WebSocket clients: ws://" if websocket else "listening on", 30).splitlines()
+    line = next(line for line in output if "listening on" in line)
     process.port = int(line.rsplit(":", 1)[1])  # type: ignore[attr-defined]
+    if websocket:
+        line = next(line for line in output if "WebSocket clients: ws://" in line)
+        process.websocket_port = int(line.rstrip("/").rsplit(":", 1)[1])  # type: ignore[attr-defined]
     return process
 
 

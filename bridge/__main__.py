@@ -30,6 +30,12 @@ def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="python -m bridge", description=__doc__.splitlines()[0])
     parser.add_argument("--tcp-ip", help="address to bind (default 127.0.0.1; 0.0.0.0 only when asked)")
     parser.add_argument("--tcp-port", type=int, help="port to listen on (default 10000; 0 = any free port)")
+    parser.add_argument(
+        "--websocket-port",
+        type=int,
+        help="also serve WebSocket clients (browsers, Unity WebGL) on this port, one frame per binary message "
+        "(default off; 0 = any free port; needs python3-wsproto)",
+    )
     parser.add_argument("--node-name", default="ros_tcp_endpoint")
     parser.add_argument(
         "--max-payload-bytes", type=int, help=f"largest accepted payload (default {DEFAULT_MAX_PAYLOAD_BYTES})"
@@ -120,6 +126,7 @@ class _Source:
 _SOURCES = {
     "tcp_ip": _Source("--tcp-ip", "~tcp_ip", "/ROS_IP"),
     "tcp_port": _Source("--tcp-port", "~tcp_port", "/ROS_TCP_PORT"),
+    "websocket_port": _Source("--websocket-port", "~websocket_port"),
     "max_payload_bytes": _Source("--max-payload-bytes", "~max_payload_bytes"),
     "client_queue_frames": _Source("--queue-frames", "~queue_frames"),
     "auth_token": _Source("--auth-token", "~auth_token"),
@@ -199,6 +206,7 @@ def build_config(args: argparse.Namespace, ros: Any) -> EndpointConfig:
         **limits,
         tcp_ip=read("tcp_ip", args.tcp_ip, str),
         tcp_port=read("tcp_port", args.tcp_port, int),
+        websocket_port=read("websocket_port", args.websocket_port, int),
         max_payload_bytes=read("max_payload_bytes", args.max_payload_bytes, int),
         client_queue_frames=read("client_queue_frames", args.queue_frames, int),
         auth_token=token,
@@ -211,6 +219,21 @@ def build_config(args: argparse.Namespace, ros: Any) -> EndpointConfig:
         latest_only_bytes=read("latest_only_bytes", args.latest_only_bytes, int),
         echo_own_publications=args.echo_own_publications or read("echo_own_publications", None, bool),
     )
+
+
+def _missing_websocket_library(config: EndpointConfig) -> str | None:
+    """What to install, in one line, when WebSocket clients are asked for and wsproto cannot be imported."""
+    if config.websocket_port is None:
+        return None
+    try:
+        import bridge.websocket  # noqa: F401  (wsproto, through it)
+    except ImportError as error:
+        return (
+            f"{_SOURCES['websocket_port']} needs the WebSocket library wsproto, which this Python cannot import "
+            f"({error}): install python3-wsproto (sudo apt install python3-wsproto, or rosdep install "
+            "ros_tcp_endpoint)"
+        )
+    return None
 
 
 def _log_to_screen() -> None:
@@ -254,6 +277,11 @@ def main(argv: list[str] | None = None) -> int:
         )
         ros.shutdown("bad setting")
         return 2
+    missing = _missing_websocket_library(config)
+    if missing is not None:
+        print(f"python -m bridge: {missing}", file=sys.stderr)
+        ros.shutdown("no WebSocket library")
+        return 2
     endpoint = Endpoint(ros, config)
     try:
         port = endpoint.start()
@@ -261,14 +289,24 @@ def main(argv: list[str] | None = None) -> int:
         log.error("cannot listen on %s:%d: %s", config.tcp_ip, config.tcp_port, error)
         ros.shutdown("bind failed")
         return 1
-    ros.set_param("~actual_port", port)
-    ros.master.on_new_master(lambda: ros.set_param("~actual_port", port))  # a new master's parameters are empty
+    actual = {"~actual_port": port}
+    if endpoint.websocket_port is not None:
+        actual["~actual_websocket_port"] = endpoint.websocket_port
+
+    def store_actual_ports() -> None:
+        for name, value in actual.items():
+            ros.set_param(name, value)
+
+    store_actual_ports()
+    ros.master.on_new_master(store_actual_ports)  # a new master's parameters are empty
     # What start-up made (modules, rospy's node and threads) lives as long as the process: take it out of the
     # cyclic GC's view, so a full collection scans only what was made since. Measured: a full collection over
     # the start-up objects froze every endpoint thread for 20-30 ms, the worst case of 1 kHz round trips.
     gc.collect()
     gc.freeze()
     print(f"ROS-TCP endpoint v0.7.0 listening on {config.tcp_ip}:{port}", flush=True)
+    if endpoint.websocket_port is not None:
+        print(f"WebSocket clients: ws://{config.tcp_ip}:{endpoint.websocket_port}/", flush=True)
 
     stop = threading.Event()
     for signum in (signal.SIGINT, signal.SIGTERM):

@@ -2,7 +2,8 @@
 
 It connects, checks the handshake, sends a keepalive after each second without sending, registers topics and
 services, and on a lost connection reconnects (fixed delay) and re-sends every registration. Payloads are plain
-ROS 1 serialized bytes; (de)serialize them with rosbags or any ROS 1 serializer.
+ROS 1 serialized bytes; (de)serialize them with rosbags or any ROS 1 serializer. With `websocket=True` it speaks
+the same protocol over a WebSocket (bridge.websocket; needs wsproto), as a browser or a Unity WebGL build would.
 Callbacks run on the client's reader thread: keep them short.
 """
 
@@ -15,7 +16,7 @@ import threading
 import time
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
-from typing import Any, Callable
+from typing import TYPE_CHECKING, Any, Callable
 
 from bridge.errors import BridgeError
 from bridge.framing import LARGE_PAYLOAD_BYTES
@@ -45,6 +46,9 @@ from bridge.protocol import (
     Warn,
 )
 from bridge.sockets import UnsentLimit, unpaced_on_loopback
+
+if TYPE_CHECKING:  # wsproto is optional: bridge.websocket is imported only by WebSocket clients
+    from bridge.websocket import WebSocketLink
 
 __all__ = ["ClientError", "PingResult", "TcpClient"]
 
@@ -86,6 +90,8 @@ class TcpClient:
         keepalive_interval_s: float = 1.0,
         auth_token: str | None = None,
         on_error: Callable[[str], None] | None = None,
+        websocket: bool = False,
+        websocket_path: str = "/",
     ) -> None:
         self.host = host
         self.port = port
@@ -94,6 +100,8 @@ class TcpClient:
         self.keepalive_interval_s = keepalive_interval_s
         self.auth_token = auth_token
         self.on_error = on_error
+        self.websocket = websocket
+        self.websocket_path = websocket_path
         self.handshake: Handshake | None = None
         self.errors: list[str] = []  # __error texts received (newest last, at most 100 kept)
         self.warnings: list[str] = []
@@ -101,6 +109,7 @@ class TcpClient:
         self._sock: socket.socket | None = None
         self._unsent_limit: UnsentLimit | None = None  # of the current connection
         self._conversation = Conversation(Role.CLIENT)  # a new one for every connection
+        self._link: WebSocketLink | None = None  # the current connection's WebSocket layer, when websocket
         self._write_lock = threading.Lock()
         self._state_lock = threading.Lock()
         self._connected = threading.Event()
@@ -152,6 +161,11 @@ class TcpClient:
         sock = self._sock
         if sock is not None:
             try:
+                if self._link is not None:
+                    sock.sendall(self._link.close())
+            except OSError:
+                pass
+            try:
                 sock.shutdown(socket.SHUT_RDWR)
             except OSError:
                 pass
@@ -174,13 +188,44 @@ class TcpClient:
         unpaced_on_loopback(sock)
         self._unsent_limit = UnsentLimit(sock)
         self._conversation = Conversation(Role.CLIENT)
+        early: list[Event] = []
+        if self.websocket:
+            early = self._upgrade(sock)
         self._sock = sock
         # Like Unity: a keepalive first, then every registration, before reading anything.
         events: list[Event] = [Keepalive()]
         if self.auth_token is not None:
             events.append(Auth(self.auth_token))
         events.extend(self._registrations())
-        self._send_raw(b"".join(self._conversation.send(event) for event in events))
+        self._send_raw(self._wrap(b"".join(self._conversation.send(event) for event in events)))
+        self._deliver_all(early)
+
+    def _upgrade(self, sock: socket.socket) -> list[Event]:
+        """The WebSocket upgrade (the first messages may come with its answer: their events are returned); OSError
+        when the endpoint refuses it or does not answer in time."""
+        from bridge.websocket import WebSocketLink
+
+        link = WebSocketLink(Role.CLIENT, self._conversation)
+        sock.settimeout(5.0)
+        try:
+            sock.sendall(link.upgrade_request(f"{self.host}:{self.port}", self.websocket_path))
+            events: list[Event] = []
+            while not link.upgraded:
+                data = sock.recv(64 * 1024)
+                events.extend(link.receive_data(data) if data else [])
+                if link.closed is not None or not data:
+                    raise ConnectionRefusedError(link.closed or "the endpoint closed the connection during the upgrade")
+        except OSError:
+            sock.close()
+            raise
+        finally:
+            if sock.fileno() >= 0:
+                sock.settimeout(None)
+        self._link = link
+        return events
+
+    def _wrap(self, frames: bytes) -> bytes:
+        return frames if self._link is None else self._link.wrap(frames)
 
     def _registrations(self) -> list[Event]:
         with self._state_lock:
@@ -206,7 +251,7 @@ class TcpClient:
     def _say(self, event: Event, *, or_raise: bool = False) -> None:
         """Send an event. Unless `or_raise`, a failure while disconnected is silent: like Unity, registrations are
         re-sent on reconnect."""
-        data = self._conversation.send(event)
+        data = self._wrap(self._conversation.send(event))
         try:
             self._send_raw(data)
         except (OSError, ClientError) as error:
@@ -317,16 +362,22 @@ class TcpClient:
             with self._state_lock:
                 self._ping_waiters.pop(request_time, None)
 
-    def send_raw(self, data: bytes) -> None:
-        """Write arbitrary bytes (tests and fault injection)."""
-        self._send_raw(data)
+    def send_raw(self, data: bytes, *, as_is: bool = False) -> None:
+        """Write arbitrary bytes (tests and fault injection); over a WebSocket, as one binary message, unless
+        `as_is`: then exactly these bytes (made by `wire`, or a fault in the WebSocket's own framing)."""
+        self._send_raw(data if self._link is None or as_is else self._link.message(data))
+
+    def wire(self, frames: bytes) -> bytes:
+        """Whole frames as this connection carries them (over a WebSocket, a binary message each), to be written
+        with send_raw(..., as_is=True): a flood then frames its message once, not at every write."""
+        return self._wrap(frames)
 
     # --- reading ------------------------------------------------------------------------------------------
     def _read_loop(self) -> None:
         while not self._closing.is_set():
             sock = self._sock
             if sock is not None:
-                self._read_connection(sock, self._conversation)
+                self._read_connection(sock, self._conversation if self._link is None else self._link)
             self._connected.clear()
             self._fail_pending("connection lost")
             if self._closing.is_set() or not self.reconnect:
@@ -339,21 +390,22 @@ class TcpClient:
                 self._sock = None
                 log.debug("reconnect to %s:%d failed: %s", self.host, self.port, error)
 
-    def _read_connection(self, sock: socket.socket, conversation: Conversation) -> None:
+    def _read_connection(self, sock: socket.socket, incoming: Conversation | WebSocketLink) -> None:
         try:
             while True:
                 data = sock.recv(256 * 1024)
                 if not data:
                     return
-                for event in conversation.receive_data(data):
-                    if type(event) is TopicMessage:
-                        self._deliver(event)
-                    elif isinstance(event, InvalidInput):
-                        log.warning("endpoint %s:%d: %s", self.host, self.port, event.error)
-                        if event.error.fatal:
-                            return
-                    else:
-                        self._handle(event)
+                if not self._deliver_all(incoming.receive_data(data)):
+                    return
+                link = self._link
+                if link is not None:
+                    reply = link.data_to_send()  # pongs, the answer to a close
+                    if reply:
+                        self._send_raw(reply)
+                    if link.closed is not None:
+                        log.info("endpoint %s:%d: %s", self.host, self.port, link.closed)
+                        return
         except OSError as error:
             if not self._closing.is_set():
                 log.info("connection to %s:%d lost: %s", self.host, self.port, error)
@@ -362,6 +414,19 @@ class TcpClient:
                 sock.close()
             except OSError:
                 pass
+
+    def _deliver_all(self, events: list[Event]) -> bool:
+        """Act on the endpoint's events; False after one that ends the connection."""
+        for event in events:
+            if type(event) is TopicMessage:
+                self._deliver(event)
+            elif isinstance(event, InvalidInput):
+                log.warning("endpoint %s:%d: %s", self.host, self.port, event.error)
+                if event.error.fatal:
+                    return False
+            else:
+                self._handle(event)
+        return True
 
     def _deliver(self, message: TopicMessage) -> None:
         with self._state_lock:

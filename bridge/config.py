@@ -30,6 +30,8 @@ MAX_FRAME_LENGTH = 2**31 - 1
 class EndpointConfig:
     tcp_ip: str = "127.0.0.1"
     tcp_port: int = 10000
+    # Where WebSocket clients (browsers, Unity WebGL builds) are served, on tcp_ip; None: not at all (needs wsproto)
+    websocket_port: int | None = None
     max_payload_bytes: int = DEFAULT_MAX_PAYLOAD_BYTES
     max_destination_bytes: int = MAX_DESTINATION_BYTES
     client_queue_frames: int = 1024
@@ -73,6 +75,10 @@ class EndpointConfig:
         if not isinstance(self.tcp_ip, str) or not self.tcp_ip:
             raise ConfigError("tcp_ip", f"must be an address or host name, got {self.tcp_ip!r}")
         _check_whole("tcp_port", self.tcp_port, 0, 65535)
+        if self.websocket_port is not None:
+            _check_whole("websocket_port", self.websocket_port, 0, 65535)
+            if self.websocket_port == self.tcp_port and self.tcp_port != 0:
+                raise ConfigError("websocket_port", f"must differ from tcp_port, both are {self.tcp_port}")
         _check_whole("max_payload_bytes", self.max_payload_bytes, 1, MAX_FRAME_LENGTH)
         _check_whole("max_destination_bytes", self.max_destination_bytes, 1, MAX_FRAME_LENGTH)
         _check_whole("client_queue_frames", self.client_queue_frames, 1)

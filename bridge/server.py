@@ -1,11 +1,12 @@
 """The endpoint's TCP server: admits clients (bridge.session) and dispatches what they ask to the topic and service
-tables (bridge.topics, bridge.services), which it owns; housekeeping once a second.
+tables (bridge.topics, bridge.services), which it owns; housekeeping once a second. With a WebSocket port, a second
+listener admits WebSocket clients (browsers, Unity WebGL builds) to the same tables, under the same rules.
 
-Threads: one accept thread; per client a reader (frames in), a writer (drains the client's bounded queue when a
-direct send could not write everything, see ClientSession.send) and a few workers for its ROS service calls and
-topic-list look-ups (so a slow service never stalls a reader, nor another client's calls); per published topic a
-pump thread (bridge.ros_publisher.RawPublisher); rospy's own threads deliver ROS messages, which are fanned out to the
-subscribed clients (bridge.topics.Topics.fan_out); one housekeeping thread.
+Threads: one accept thread per listener; per client a reader (frames in), a writer (drains the client's bounded
+queue when a direct send could not write everything, see ClientSession.send) and a few workers for its ROS service
+calls and topic-list look-ups (so a slow service never stalls a reader, nor another client's calls); per published
+topic a pump thread (bridge.ros_publisher.RawPublisher); rospy's own threads deliver ROS messages, which are fanned
+out to the subscribed clients (bridge.topics.Topics.fan_out); one housekeeping thread.
 """
 
 from __future__ import annotations
@@ -71,8 +72,9 @@ class Endpoint:
         # The session's fast path for topic messages goes straight to the topics.
         self.publisher_for = self.topics.publisher_for
         self._client_ids = itertools.count(1)
-        self._listener: socket.socket | None = None
-        self._accept_thread: threading.Thread | None = None
+        self._listeners: list[socket.socket] = []
+        self._accept_threads: list[threading.Thread] = []
+        self.websocket_port: int | None = None  # where WebSocket clients are served, once started
         self._housekeeping_thread: threading.Thread | None = None
         self._address = ""
         self._stopping = threading.Event()
@@ -101,37 +103,54 @@ class Endpoint:
 
     # --- lifecycle ------------------------------------------------------------------------------------------
     def start(self) -> int:
-        """Bind and start accepting; returns the actual port (useful with tcp_port 0)."""
-        listener = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
-        listener.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-        listener.bind((self.config.tcp_ip, self.config.tcp_port))
-        listener.listen(64)
-        self._listener = listener
-        self._accept_thread = threading.Thread(target=self._accept_loop, name="accept", daemon=True)
-        self._accept_thread.start()
+        """Bind and start accepting; returns the actual TCP port (useful with tcp_port 0). With a websocket_port,
+        WebSocket clients are accepted too (self.websocket_port says where). Both are bound before either accepts:
+        an OSError (the port is taken) leaves nothing running."""
+        listener = _listen(self.config.tcp_ip, self.config.tcp_port)
+        websocket_listener = None
+        if self.config.websocket_port is not None:
+            try:
+                websocket_listener = _listen(self.config.tcp_ip, self.config.websocket_port)
+            except OSError:
+                listener.close()
+                raise
+        self._listeners = [listener]
+        self._start_accepting(listener, websocket=False)
         port: int = listener.getsockname()[1]
         self._address = f"{self.config.tcp_ip}:{port}"
+        if websocket_listener is not None:
+            self._listeners.append(websocket_listener)
+            self._start_accepting(websocket_listener, websocket=True)
+            self.websocket_port = websocket_listener.getsockname()[1]
         self._housekeeping_thread = threading.Thread(target=self._housekeeping_loop, name="housekeeping", daemon=True)
         self._housekeeping_thread.start()
         log.info("ROS-TCP endpoint listening on %s:%d", self.config.tcp_ip, port)
+        if self.websocket_port is not None:
+            log.info("WebSocket clients served on %s:%d", self.config.tcp_ip, self.websocket_port)
         return port
+
+    def _start_accepting(self, listener: socket.socket, websocket: bool) -> None:
+        name = "accept websocket" if websocket else "accept"
+        thread = threading.Thread(target=self._accept_loop, args=(listener, websocket), name=name, daemon=True)
+        self._accept_threads.append(thread)
+        thread.start()
 
     def stop(self) -> None:
         self._stopping.set()
-        if self._listener is not None:
+        for listener in self._listeners:
             # shutdown() wakes the blocked accept(); close() alone does not on Linux.
             try:
-                self._listener.shutdown(socket.SHUT_RDWR)
+                listener.shutdown(socket.SHUT_RDWR)
             except OSError:
                 pass
-            self._listener.close()
+            listener.close()
         with self._lock:
             sessions = list(self._clients)
         self.services.fail_waiting_calls("the endpoint is shutting down")  # their ROS callers hear at once
         for session in sessions:
             session.close("the endpoint is shutting down", tell_client=True)
-        if self._accept_thread is not None:
-            self._accept_thread.join(timeout=2)
+        for thread in self._accept_threads:
+            thread.join(timeout=2)
         if self._housekeeping_thread is not None:
             self._housekeeping_thread.join(timeout=2)
         log.info("endpoint stopped: %s", self.stats())
@@ -152,11 +171,10 @@ class Endpoint:
             "dropped": self.dropped + sum(s.dropped for s in sessions),
         }
 
-    def _accept_loop(self) -> None:
-        assert self._listener is not None
+    def _accept_loop(self, listener: socket.socket, websocket: bool) -> None:
         while not self._stopping.is_set():
             try:
-                sock, address = self._listener.accept()
+                sock, address = listener.accept()
             except OSError as error:
                 if self._stopping.is_set():
                     return
@@ -165,14 +183,21 @@ class Endpoint:
                 continue
             refusal = self._admission_refusal(address[0])
             if refusal is not None:
-                _turn_away(sock, refusal)
+                _turn_away(sock, refusal, websocket)
                 self._turned_away.warning("turned away a client at %s:%d: %s", address[0], address[1], refusal)
                 continue
             session: ClientSession | None = None
             try:
                 tune_socket(sock, self.config.dead_peer_timeout_s)
                 session = ClientSession(
-                    self, self.config, sock, address, next(self._client_ids), self._auth, self._partial_frames
+                    self,
+                    self.config,
+                    sock,
+                    address,
+                    next(self._client_ids),
+                    self._auth,
+                    self._partial_frames,
+                    websocket,
                 )
                 with self._lock:
                     self._clients[session] = ClientRegistrations()
@@ -373,10 +398,29 @@ class Endpoint:
         session.run_lookup("__topic_list", look_up)
 
 
-def _turn_away(sock: socket.socket, reason: str) -> None:
-    """Tell a client that cannot be served why (an __error, in place of the handshake), and close."""
+def _listen(host: str, port: int) -> socket.socket:
+    listener = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+    listener.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
     try:
-        send_now(sock, protocol.encode(protocol.Error(f"connection refused: {reason}")))
+        listener.bind((host, port))
+        listener.listen(64)
+    except OSError:
+        listener.close()
+        raise
+    return listener
+
+
+def _turn_away(sock: socket.socket, reason: str, websocket: bool) -> None:
+    """Tell a client that cannot be served why (an __error in place of the handshake; a WebSocket client, an HTTP
+    503 in place of the upgrade's answer, sent without waiting for its request), and close."""
+    if websocket:
+        from bridge.websocket import refusal_response
+
+        refusal = refusal_response(f"connection refused: {reason}")
+    else:
+        refusal = protocol.encode(protocol.Error(f"connection refused: {reason}"))
+    try:
+        send_now(sock, refusal)
     except OSError:
         pass
     sock.close()

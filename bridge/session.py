@@ -1,5 +1,8 @@
 """One client connection of the endpoint: the socket, the conversation on it, and the way out to the client.
 
+The connection carries ROS-TCP frames directly (TCP), or one frame per binary message of a WebSocket
+(bridge.websocket, for browsers and Unity WebGL builds); everything above the frames is the same.
+
 A reader thread feeds the client's bytes to its Conversation and hands the events to the session's owner (the
 Endpoint, which owns every registration and everything clients share): topic messages go to their ROS publisher,
 a read's worth at a time; commands and service bodies to `owner.handle`. Frames to the client go out directly
@@ -15,7 +18,7 @@ import socket
 import threading
 import time
 from concurrent.futures import Future, ThreadPoolExecutor
-from typing import Callable, Protocol
+from typing import TYPE_CHECKING, Callable, Protocol
 
 from bridge import protocol
 from bridge.admission import SlotUse
@@ -28,6 +31,9 @@ from bridge.queues import ByteBudget, OutgoingQueue
 from bridge.ros_publisher import RawPublisher
 from bridge.sockets import UnsentLimit, send_now, takes_whole, unsent_bytes, wait_writable
 from bridge.throttle import LogThrottle
+
+if TYPE_CHECKING:  # wsproto is optional: bridge.websocket is imported only for WebSocket clients
+    from bridge.websocket import WebSocketLink
 
 __all__ = ["ClientSession", "RequestRefused", "SessionOwner"]
 
@@ -77,6 +83,7 @@ class ClientSession:
         client_id: int,
         auth: AuthGuard | None = None,
         partial_frames: ByteBudget | None = None,
+        websocket: bool = False,
     ) -> None:
         self.owner = owner
         self.sock = sock
@@ -85,11 +92,20 @@ class ClientSession:
         # Small frames go before queued large ones (take_batch): control messages never wait behind camera images.
         self.queue = OutgoingQueue(config.client_queue_frames, config.client_queue_bytes, LARGE_PAYLOAD_BYTES)
         self.conversation = Conversation(Role.ENDPOINT, config.max_payload_bytes, config.max_destination_bytes)
+        # What the client's bytes are fed to: the conversation itself, or the WebSocket link around it.
+        self._link: WebSocketLink | None = None
+        self._incoming: Conversation | WebSocketLink = self.conversation
+        if websocket:
+            from bridge.websocket import WebSocketLink
+
+            self._link = self._incoming = WebSocketLink(Role.ENDPOINT, self.conversation, protocol.handshake())
         self._auth = auth
         self.authenticated = auth is None
         self._auth_deadline = time.monotonic() + config.auth_timeout_s
         self._frame_timeout_s = config.frame_timeout_s
-        self._frame_started: float | None = None  # monotonic time the frame now partly received began
+        # Monotonic time the frame now partly received began. A WebSocket client's upgrade request counts as a frame
+        # begun at connect: it must be complete within --frame-timeout.
+        self._frame_started: float | None = time.monotonic() if websocket else None
         # Partly received frames above PARTIAL_FRAME_FREE_BYTES count against the endpoint's budget for all clients
         self._partial_frames = partial_frames
         self._partial_held = 0
@@ -128,7 +144,7 @@ class ClientSession:
 
     @property
     def frames_in(self) -> int:
-        return self.conversation.frames_received
+        return self._incoming.frames_received
 
     @property
     def closing(self) -> bool:
@@ -141,7 +157,7 @@ class ClientSession:
         return SlotUse(
             now - self._connected_monotonic,
             None if frame_started is None else now - frame_started,
-            self.conversation.buffered_bytes,
+            self._incoming.buffered_bytes,
             self.frames_in,
             self.authenticated,
         )
@@ -152,11 +168,13 @@ class ClientSession:
         return self.queue.dropped
 
     def start(self) -> None:
-        log.info(
-            "client %s connected; handshake sent%s", self.name, "" if self.authenticated else ", waiting for __auth"
-        )
-        # The handshake goes out at once, before the client says anything.
-        self.queue.put(protocol.handshake(), droppable=False)
+        auth = "" if self.authenticated else ", waiting for __auth"
+        if self._link is None:
+            log.info("client %s connected; handshake sent%s", self.name, auth)
+            # The handshake goes out at once, before the client says anything.
+            self.queue.put(protocol.handshake(), droppable=False)
+        else:  # the handshake follows the answer to the client's WebSocket upgrade
+            log.info("client %s connected by WebSocket; waiting for its upgrade request%s", self.name, auth)
         self._writer.start()
         self._reader.start()
 
@@ -174,6 +192,15 @@ class ClientSession:
         answered could have reached the limit. `key` and `key_limit`: at most that many frames of the key (a topic)
         wait in the queue, the oldest going first (the client's queue_size for the topic).
         """
+        link = self._link
+        if link is not None:
+            if not link.upgraded:  # nothing can be said in frames before the upgrade (link.close answers in HTTP)
+                return
+            frame = link.wrap(frame)
+        self._send_bytes(frame, droppable, key, key_limit)
+
+    def _send_bytes(self, frame: bytes, droppable: bool = True, key: str | None = None, key_limit: int = 0) -> None:
+        """send() for bytes ready for the socket (frames, or WebSocket messages)."""
         if self._send_lock.acquire(blocking=False):
             try:
                 if not self.queue and not self._closed.is_set() and self._peer_keeps_up(len(frame)):
@@ -253,7 +280,11 @@ class ClientSession:
             self._ended(reason)
             if tell_client and self._send_lock.acquire(blocking=False):
                 try:
-                    send_now(self.sock, protocol.encode(Warn(f"closing the connection: {reason}")))
+                    goodbye = protocol.encode(Warn(f"closing the connection: {reason}"))
+                    if self._link is not None:
+                        link = self._link
+                        goodbye = (link.wrap(goodbye) if link.upgraded else b"") + link.close(reason, going_away=True)
+                    send_now(self.sock, goodbye)
                 except OSError:
                     pass
                 finally:
@@ -278,9 +309,12 @@ class ClientSession:
                     self._ended("closed by the client")
                     break
                 self.bytes_in += len(data)
-                frames_before = self.conversation.frames_received
-                events = self.conversation.receive_data(data)
-                if not self._account_partial_frame(self.conversation.frames_received > frames_before):
+                incoming = self._incoming
+                frames_before = incoming.frames_received
+                events = incoming.receive_data(data)
+                if self._link is not None:
+                    self._answer_link()  # before the events' answers: the upgrade's must go first
+                if not self._account_partial_frame(incoming.frames_received > frames_before):
                     break
                 for event in events:
                     if type(event) is TopicMessage and self.authenticated:
@@ -289,10 +323,22 @@ class ClientSession:
                         return
                 # messages that came together go to ROS together; one that came alone may go directly (RawPublisher)
                 self._publish_pending(alone=len(events) == 1)
+                if self._link is not None and self._link.closed is not None:
+                    self._ended(self._link.closed)
+                    break
         except OSError as error:
             self._ended(f"connection error: {error}")
         finally:
             self._finish()
+
+    def _answer_link(self) -> None:
+        """Send what the WebSocket link says of its own accord: the upgrade's answer and the handshake, pongs."""
+        assert self._link is not None
+        reply = self._link.data_to_send()
+        if reply:
+            self._send_bytes(reply, droppable=False)
+            if self._link.upgraded and reply.startswith(b"HTTP/"):
+                log.info("client %s: WebSocket upgraded; handshake sent", self.name)
 
     def _readable_in_time(self, readable: select.poll) -> bool:
         """Wait for bytes while a deadline runs (a frame begun, __auth due); False when it passed (the client was
@@ -320,7 +366,7 @@ class ClientSession:
     def _account_partial_frame(self, frames_completed: bool) -> bool:
         """After a read: when the frame now partly received began, and its bytes against the endpoint's budget;
         False when the budget cannot take them (the client was told)."""
-        buffered = self.conversation.buffered_bytes
+        buffered = self._incoming.buffered_bytes
         if not buffered:
             self._frame_started = None
         elif self._frame_started is None or frames_completed:
@@ -355,7 +401,10 @@ class ClientSession:
             future.cancel()
         self._calls.shutdown(wait=False)
         self._lookups.shutdown(wait=False)
-        # Let the writer drain what is queued (e.g. the closing __error), then close the socket.
+        # Let the writer drain what is queued (the closing __error, a WebSocket's close), then close the socket.
+        closing = self._link.close(self._end_reason or "") if self._link is not None else b""
+        if closing:
+            self.queue.put(closing, droppable=False)
         self.queue.close()
         self._writer.join(timeout=2.0)
         self.close()
@@ -499,4 +548,5 @@ class ClientSession:
                 f"raise queue_size in __publish), {publish_dropped} in total"
             )
         self._reported_drops, self._reported_publish_drops = dropped, publish_dropped
-        return protocol.encode(protocol.Warn("; ".join(parts)))
+        warning = protocol.encode(protocol.Warn("; ".join(parts)))
+        return warning if self._link is None else self._link.wrap(warning)

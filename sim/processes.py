@@ -240,8 +240,9 @@ class RosCore(ManagedProcess):
 
 
 class EndpointProcess(ManagedProcess):
-    """`python -m bridge --tcp-port 0` (a free port), returned once it listens; `port` is the port it reports.
-    `host`: the address it listens on (default: the endpoint's own default)."""
+    """`python -m bridge --tcp-port 0` (a free port), returned once it listens; `port` is the port it reports, and
+    `websocket_port` the WebSocket port when `extra` asks for one (--websocket-port). `host`: the address it listens
+    on (default: the endpoint's own default)."""
 
     def __init__(
         self,
@@ -260,13 +261,18 @@ class EndpointProcess(ManagedProcess):
             name,
             prefix,
         )
+        websocket = "--websocket-port" in extra
         try:
-            text = self.wait_for_output("listening on", timeout=30)
+            text = self.wait_for_output("WebSocket clients: ws://" if websocket else "listening on", timeout=30)
         except BaseException:
             self.stop()
             raise
         line = next(line for line in text.splitlines() if "listening on" in line)
         self.port = int(line.rsplit(":", 1)[1])
+        self.websocket_port: int | None = None
+        if websocket:
+            line = next(line for line in text.splitlines() if "WebSocket clients: ws://" in line)
+            self.websocket_port = int(line.rstrip("/").rsplit(":", 1)[1])
 
 
 def start_recorder(

@@ -5,6 +5,7 @@ Everything waits on conditions with a deadline (tests.rosenv.wait_for or socket 
 
 from __future__ import annotations
 
+import contextlib
 import io
 import itertools
 import json
@@ -328,3 +329,156 @@ class DiagnosticsInbox:
 
 def status_values(status) -> dict:
     return {entry.key: entry.value for entry in status.values}
+
+
+# --- a raw WebSocket connection ------------------------------------------------------------------------------------
+
+
+class RawWebSocket:
+    """A WebSocket client of the endpoint written with wsproto alone (not bridge.websocket, which is under test): it
+    upgrades, sends what it is told (ROS-TCP frames as binary messages, or any WebSocket bytes), and keeps every
+    frame it reads in `received`, checking that each binary message carries exactly one frame. `close_code` and
+    `close_reason` say how the endpoint closed the WebSocket; `refusal` holds the body of an HTTP refusal."""
+
+    def __init__(self, port: int, *, upgrade: bool = True, handshake: bool = True, timeout: float = 10.0) -> None:
+        import wsproto
+        from wsproto.events import Request
+
+        self.sock = socket.create_connection((LOOPBACK, port), timeout=timeout)
+        self.ws = wsproto.WSConnection(wsproto.ConnectionType.CLIENT)
+        self.received: list[Frame] = []
+        self.messages = 0  # binary messages read
+        self._unread: list[Frame] = []
+        self._message = bytearray()
+        self.upgraded = False
+        self.refusal: str | None = None
+        self.close_code: int | None = None
+        self.close_reason: str | None = None
+        self.closed = False
+        self.handshake: dict | None = None
+        if upgrade:
+            self.sock.sendall(self.ws.send(Request(host=f"{LOOPBACK}:{port}", target="/")))
+            deadline = time.monotonic() + timeout
+            while not self.upgraded:
+                if self.refusal is not None or self.closed or time.monotonic() > deadline:
+                    raise ConnectionClosed(f"upgrade failed: {self.refusal}")
+                self._read(deadline - time.monotonic())
+            if handshake:
+                first = self.next_frame()
+                assert first.destination == "__handshake", f"first frame was {first.destination!r}"
+                self.handshake = json.loads(first.payload)
+
+    def __enter__(self) -> RawWebSocket:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.sock.close()
+
+    # sending
+    def send_bytes(self, data: bytes) -> None:
+        """Raw bytes on the socket (WebSocket frames made by hand)."""
+        self.sock.sendall(data)
+
+    def send_event(self, event) -> None:
+        self.sock.sendall(self.ws.send(event))
+
+    def send_message(self, data: bytes, *, finished: bool = True) -> None:
+        """`data` as one binary message (or, with finished=False, the first part of one)."""
+        from wsproto.events import BytesMessage
+
+        self.send_event(BytesMessage(data=data, message_finished=finished))
+
+    def send_frame(self, destination: str, payload: bytes) -> None:
+        self.send_message(protocol.encode_frame(destination, payload))
+
+    def command(self, name: str, **params) -> None:
+        self.send_message(protocol.encode_syscommand(name, params))
+
+    # reading
+    def _read(self, timeout: float) -> None:
+        from wsproto.events import AcceptConnection, BytesMessage, CloseConnection, Ping, RejectConnection, RejectData
+
+        self.sock.settimeout(max(timeout, 0.001))
+        try:
+            data = self.sock.recv(1 << 20)
+        except socket.timeout:
+            raise TimeoutError(f"nothing read within {timeout:.1f} s") from None
+        except ConnectionResetError:
+            data = b""
+        if not data:
+            self.closed = True
+            return
+        self.ws.receive_data(data)
+        for event in self.ws.events():
+            if isinstance(event, AcceptConnection):
+                self.upgraded = True
+            elif isinstance(event, RejectConnection):
+                self.refusal = f"HTTP {event.status_code}"
+            elif isinstance(event, RejectData):
+                self.refusal = f"{self.refusal} {bytes(event.data).decode(errors='replace')}"
+            elif isinstance(event, BytesMessage):
+                self._message += event.data
+                if event.message_finished:
+                    self._take_message(bytes(self._message))
+                    self._message = bytearray()
+            elif isinstance(event, Ping):
+                self.send_event(event.response())
+            elif isinstance(event, CloseConnection):
+                self.close_code, self.close_reason = int(event.code), event.reason
+                with contextlib.suppress(Exception):
+                    self.send_event(event.response())
+                self.closed = True
+
+    def _take_message(self, data: bytes) -> None:
+        decoder = FrameDecoder(max_payload_bytes=1 << 30)
+        frames = [item for item in feed(decoder, data) if not isinstance(item, BadFrame)]
+        assert len(frames) == 1 and not decoder.buffered_bytes, f"a binary message held {len(frames)} frame(s)"
+        self.messages += 1
+        self.received.extend(frames)
+        self._unread.extend(frames)
+
+    def next_frame(self, timeout: float = 10.0) -> Frame:
+        deadline = time.monotonic() + timeout
+        while not self._unread:
+            if self.closed:
+                raise ConnectionClosed(f"the endpoint closed the WebSocket ({self.close_code} {self.close_reason})")
+            remaining = deadline - time.monotonic()
+            if remaining <= 0:
+                raise TimeoutError(f"no frame within {timeout} s")
+            self._read(remaining)
+        return self._unread.pop(0)
+
+    def wait_frame(self, predicate: Callable[[Frame], bool], what: str, timeout: float = 10.0) -> Frame:
+        deadline = time.monotonic() + timeout
+        while True:
+            remaining = deadline - time.monotonic()
+            if remaining <= 0:
+                raise TimeoutError(f"no {what} within {timeout} s; got {[f.destination for f in self.received]}")
+            frame = self.next_frame(remaining)
+            if predicate(frame):
+                return frame
+
+    def expect_error(self, *fragments: str, timeout: float = 10.0) -> str:
+        def matches(frame: Frame) -> bool:
+            text = json.loads(frame.payload)["text"] if frame.destination == "__error" else ""
+            return frame.destination == "__error" and all(fragment in text for fragment in fragments)
+
+        frame = self.wait_frame(matches, f"__error containing {fragments}", timeout)
+        return json.loads(frame.payload)["text"]
+
+    def sync(self, timeout: float = 10.0) -> None:
+        """A __topic_list round trip: everything sent before has been handled."""
+        self.command("__topic_list")
+        self.wait_frame(lambda frame: frame.destination == "__topic_list", "__topic_list", timeout)
+
+    def wait_closed(self, timeout: float = 10.0) -> None:
+        deadline = time.monotonic() + timeout
+        while not self.closed:
+            remaining = deadline - time.monotonic()
+            if remaining <= 0:
+                raise TimeoutError(f"WebSocket still open after {timeout} s")
+            with contextlib.suppress(TimeoutError):
+                self._read(remaining)
+
+    def errors(self) -> list[str]:
+        return [json.loads(f.payload)["text"] for f in self.received if f.destination == "__error"]

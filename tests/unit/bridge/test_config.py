@@ -98,6 +98,9 @@ def test_a_rosparam_of_the_wrong_type_is_named(params: dict[str, Any], setting: 
         ("tcp_ip", ""),
         ("tcp_port", -1),
         ("tcp_port", 65536),
+        ("websocket_port", -1),
+        ("websocket_port", "9090"),
+        ("websocket_port", 10000),  # the TCP port's
         ("max_payload_bytes", 0),
         ("max_payload_bytes", 2**31),  # Unity's client reads lengths as int32
         ("max_destination_bytes", 0),
@@ -123,3 +126,10 @@ def test_a_value_the_endpoint_cannot_serve_with_is_refused_before_it_starts(fiel
 def test_the_edges_of_each_range_are_accepted() -> None:
     EndpointConfig(tcp_port=0, max_payload_bytes=1, client_queue_frames=1, service_timeout_s=1e-3, publisher_grace_s=0)
     EndpointConfig(tcp_port=65535, max_payload_bytes=2**31 - 1)
+
+
+def test_the_websocket_port_is_off_unless_given_and_zero_means_any_free_port() -> None:
+    assert config([]).websocket_port is None
+    assert config([], websocket_port=9090).websocket_port == 9090
+    assert config(["--websocket-port", "0"], websocket_port=9090).websocket_port == 0
+    assert EndpointConfig(tcp_port=0, websocket_port=0).websocket_port == 0  # two free ports, both picked at bind
