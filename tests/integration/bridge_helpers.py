@@ -70,7 +70,67 @@ class ConnectionClosed(ConnectionError):
     pass
 
 
-class RawConnection:
+class FrameReader:
+    """What the raw clients share: waiting for frames (their `next_frame`) and reading what came (`received`)."""
+
+    received: list[Frame]
+
+    def next_frame(self, timeout: float = 10.0) -> Frame:
+        raise NotImplementedError
+
+    def command(self, name: str, **params) -> None:
+        raise NotImplementedError
+
+    def wait_frame(self, predicate: Callable[[Frame], bool], what: str, timeout: float = 10.0) -> Frame:
+        deadline = time.monotonic() + timeout
+        while True:
+            remaining = deadline - time.monotonic()
+            if remaining <= 0:
+                raise TimeoutError(f"no {what} within {timeout} s; got {self.summary()}")
+            frame = self.next_frame(remaining)
+            if predicate(frame):
+                return frame
+
+    def wait_command(self, name: str, timeout: float = 10.0) -> dict:
+        frame = self.wait_frame(lambda f: f.destination == name, name, timeout)
+        return json.loads(frame.payload)
+
+    def expect_error(self, *fragments: str, timeout: float = 10.0) -> str:
+        """The next __error whose text contains every fragment (other frames are skipped but kept)."""
+
+        def matches(frame: Frame) -> bool:
+            if frame.destination != "__error":
+                return False
+            text = json.loads(frame.payload)["text"]
+            return all(fragment in text for fragment in fragments)
+
+        frame = self.wait_frame(matches, f"__error containing {fragments}", timeout)
+        return json.loads(frame.payload)["text"]
+
+    def topic_list(self, timeout: float = 10.0) -> dict[str, str]:
+        """Round trip through the endpoint: every command sent before has been handled when this returns."""
+        self.command("__topic_list")
+        params = self.wait_command("__topic_list", timeout)
+        assert len(params["topics"]) == len(params["types"])
+        return dict(zip(params["topics"], params["types"]))
+
+    def sync(self, timeout: float = 10.0) -> None:
+        self.topic_list(timeout)
+
+    def errors(self) -> list[str]:
+        return [json.loads(f.payload)["text"] for f in self.received if f.destination == "__error"]
+
+    def messages(self, topic: str) -> list[bytes]:
+        return [f.payload for f in self.received if f.destination == topic]
+
+    def summary(self) -> str:
+        return ", ".join(
+            f.destination + (f" {f.payload[:200].decode(errors='replace')}" if f.destination.startswith("__") else "")
+            for f in self.received[-20:]
+        )
+
+
+class RawConnection(FrameReader):
     """A client socket that speaks the protocol by hand; every frame it reads is kept in `received`."""
 
     def __init__(self, port: int, *, handshake: bool = True, timeout: float = 10.0, rcvbuf: int | None = None) -> None:
@@ -143,42 +203,6 @@ class RawConnection:
                 self._unread.append(item)
         return self._unread.pop(0)
 
-    def wait_frame(self, predicate: Callable[[Frame], bool], what: str, timeout: float = 10.0) -> Frame:
-        deadline = time.monotonic() + timeout
-        while True:
-            remaining = deadline - time.monotonic()
-            if remaining <= 0:
-                raise TimeoutError(f"no {what} within {timeout} s; got {self.summary()}")
-            frame = self.next_frame(remaining)
-            if predicate(frame):
-                return frame
-
-    def wait_command(self, name: str, timeout: float = 10.0) -> dict:
-        frame = self.wait_frame(lambda f: f.destination == name, name, timeout)
-        return json.loads(frame.payload)
-
-    def expect_error(self, *fragments: str, timeout: float = 10.0) -> str:
-        """The next __error whose text contains every fragment (other frames are skipped but kept)."""
-
-        def matches(frame: Frame) -> bool:
-            if frame.destination != "__error":
-                return False
-            text = json.loads(frame.payload)["text"]
-            return all(fragment in text for fragment in fragments)
-
-        frame = self.wait_frame(matches, f"__error containing {fragments}", timeout)
-        return json.loads(frame.payload)["text"]
-
-    def topic_list(self, timeout: float = 10.0) -> dict[str, str]:
-        """Round trip through the endpoint: every command sent before has been handled when this returns."""
-        self.command("__topic_list")
-        params = self.wait_command("__topic_list", timeout)
-        assert len(params["topics"]) == len(params["types"])
-        return dict(zip(params["topics"], params["types"]))
-
-    def sync(self, timeout: float = 10.0) -> None:
-        self.topic_list(timeout)
-
     def wait_closed(self, timeout: float = 10.0) -> None:
         """Read (and keep) frames until the endpoint closes the connection."""
         deadline = time.monotonic() + timeout
@@ -190,18 +214,6 @@ class RawConnection:
                 self.next_frame(remaining)
             except ConnectionClosed:
                 return
-
-    def errors(self) -> list[str]:
-        return [json.loads(f.payload)["text"] for f in self.received if f.destination == "__error"]
-
-    def messages(self, topic: str) -> list[bytes]:
-        return [f.payload for f in self.received if f.destination == topic]
-
-    def summary(self) -> str:
-        return ", ".join(
-            f.destination + (f" {f.payload[:200].decode(errors='replace')}" if f.destination.startswith("__") else "")
-            for f in self.received[-20:]
-        )
 
 
 # --- TcpClient helpers -----------------------------------------------------------------------------------------
@@ -334,7 +346,7 @@ def status_values(status) -> dict:
 # --- a raw WebSocket connection ------------------------------------------------------------------------------------
 
 
-class RawWebSocket:
+class RawWebSocket(FrameReader):
     """A WebSocket client of the endpoint written with wsproto alone (not bridge.websocket, which is under test): it
     upgrades, sends what it is told (ROS-TCP frames as binary messages, or any WebSocket bytes), and keeps every
     frame it reads in `received`, checking that each binary message carries exactly one frame. `close_code` and
@@ -448,29 +460,6 @@ class RawWebSocket:
             self._read(remaining)
         return self._unread.pop(0)
 
-    def wait_frame(self, predicate: Callable[[Frame], bool], what: str, timeout: float = 10.0) -> Frame:
-        deadline = time.monotonic() + timeout
-        while True:
-            remaining = deadline - time.monotonic()
-            if remaining <= 0:
-                raise TimeoutError(f"no {what} within {timeout} s; got {[f.destination for f in self.received]}")
-            frame = self.next_frame(remaining)
-            if predicate(frame):
-                return frame
-
-    def expect_error(self, *fragments: str, timeout: float = 10.0) -> str:
-        def matches(frame: Frame) -> bool:
-            text = json.loads(frame.payload)["text"] if frame.destination == "__error" else ""
-            return frame.destination == "__error" and all(fragment in text for fragment in fragments)
-
-        frame = self.wait_frame(matches, f"__error containing {fragments}", timeout)
-        return json.loads(frame.payload)["text"]
-
-    def sync(self, timeout: float = 10.0) -> None:
-        """A __topic_list round trip: everything sent before has been handled."""
-        self.command("__topic_list")
-        self.wait_frame(lambda frame: frame.destination == "__topic_list", "__topic_list", timeout)
-
     def wait_closed(self, timeout: float = 10.0) -> None:
         deadline = time.monotonic() + timeout
         while not self.closed:
@@ -479,6 +468,3 @@ class RawWebSocket:
                 raise TimeoutError(f"WebSocket still open after {timeout} s")
             with contextlib.suppress(TimeoutError):
                 self._read(remaining)
-
-    def errors(self) -> list[str]:
-        return [json.loads(f.payload)["text"] for f in self.received if f.destination == "__error"]
