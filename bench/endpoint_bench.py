@@ -85,6 +85,7 @@ from endpoint_common import (  # noqa: E402
 
 from bridge import protocol  # noqa: E402
 from bridge.client import TcpClient  # noqa: E402
+from sim.processes import endpoint_ports  # noqa: E402
 from tests.rosenv import PYTHON, EndpointProcess, ManagedProcess, RosCore, kill_process  # noqa: E402
 
 ROSNODE = str(BENCH / "endpoint_rosnode.py")
@@ -911,13 +912,8 @@ def start_endpoint(
     process = ManagedProcess(
         [PYTHON, "-c", launcher, "--tcp-port", "0", "--node-name", name, *extra], env, log_dir, name
     )
-    websocket = "--websocket-port" in extra
-    output = process.wait_for_output("WebSocket clients: ws://" if websocket else "listening on", 30).splitlines()
-    line = next(line for line in output if "listening on" in line)
-    process.port = int(line.rsplit(":", 1)[1])  # type: ignore[attr-defined]
-    if websocket:
-        line = next(line for line in output if "WebSocket clients: ws://" in line)
-        process.websocket_port = int(line.rstrip("/").rsplit(":", 1)[1])  # type: ignore[attr-defined]
+    ports = endpoint_ports(process, "--websocket-port" in extra)
+    process.port, process.websocket_port = ports  # type: ignore[attr-defined]
     return process
 
 

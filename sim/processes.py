@@ -34,6 +34,7 @@ __all__ = [
     "ManagedProcess",
     "RosCore",
     "EndpointProcess",
+    "endpoint_ports",
     "start_recorder",
     "stop_recorder",
     "plain_env",
@@ -263,16 +264,21 @@ class EndpointProcess(ManagedProcess):
         )
         websocket = "--websocket-port" in extra
         try:
-            text = self.wait_for_output("WebSocket clients: ws://" if websocket else "listening on", timeout=30)
+            self.port, self.websocket_port = endpoint_ports(self, websocket)
         except BaseException:
             self.stop()
             raise
-        line = next(line for line in text.splitlines() if "listening on" in line)
-        self.port = int(line.rsplit(":", 1)[1])
-        self.websocket_port: int | None = None
-        if websocket:
-            line = next(line for line in text.splitlines() if "WebSocket clients: ws://" in line)
-            self.websocket_port = int(line.rstrip("/").rsplit(":", 1)[1])
+
+
+def endpoint_ports(endpoint: ManagedProcess, websocket: bool) -> tuple[int, int | None]:
+    """The TCP port a starting endpoint process reports once it listens, and its WebSocket port when it was asked
+    for one (None otherwise)."""
+    websocket_line = "WebSocket clients: ws://"
+    lines = endpoint.wait_for_output(websocket_line if websocket else "listening on", timeout=30).splitlines()
+    port = int(next(line for line in lines if "listening on" in line).rsplit(":", 1)[1])
+    if not websocket:
+        return port, None
+    return port, int(next(line for line in lines if websocket_line in line).rstrip("/").rsplit(":", 1)[1])
 
 
 def start_recorder(
