@@ -380,19 +380,18 @@ def _preregister(args: argparse.Namespace) -> int:
     from tqdm import tqdm
 
     from sim.study.design import DEFAULT_DESIGN
-    from sim.study.power import plan_sample, planning_of
+    from sim.study.power import plan_sample, planned_questions
     from sim.study.preregistration import preregistration
 
     _check_workers(args.workers)
     source = DEFAULT_DESIGN if args.design is None else args.design
     design = load_design(source)
-    planning_of(design)  # before the progress bar: a design without planning is one line
     digest = hashlib.sha256(Path(source).read_bytes()).hexdigest()
     sizes = None if args.participants is None else _participant_counts(args.participants)
-    if args.simulations is not None and not 1 <= args.simulations <= 100_000:
-        raise StudyError(f"--simulations must be 1..100000, got {args.simulations}")
+    # before the progress bar: a design without planning, or a bad --simulations, is one line
+    questions = planned_questions(design, sizes, args.simulations)
     with tqdm(desc="simulated studies", unit="study", file=sys.stderr, mininterval=1.0) as bar:
-        sample = plan_sample(design, sizes, args.simulations, args.workers, progress=bar.update)
+        sample = plan_sample(design, questions, args.workers, progress=bar.update)
     text = preregistration(design, str(source), digest, sample)
     if args.out is None:
         print(text, end="")

@@ -36,6 +36,7 @@ __all__ = [
     "power_rows",
     "needed",
     "planning_of",
+    "planned_questions",
     "plan_sample",
 ]
 
@@ -238,22 +239,17 @@ def planning_of(design: Design) -> Planning:
     return design.planning
 
 
-def plan_sample(
-    design: Design,
-    sizes: Sequence[int] | None = None,
-    simulations: int | None = None,
-    workers: int = 0,
-    progress: Callable[[int], None] | None = None,
-) -> PlannedSample:
-    """The design's planning (its difference and SD per test, its power) tried at `sizes` (default: its own), in
-    increasing order, up to the first N that reaches the power in every test."""
+def planned_questions(
+    design: Design, sizes: Sequence[int] | None = None, simulations: int | None = None
+) -> list[dict[int, PowerQuestion]]:
+    """The design's planning (its difference and SD per test, its seed) as each test's PowerQuestion per N to try,
+    `sizes` (default: its own) in increasing order; `simulations` overrides its studies per N. Every question is
+    checked here, so a bad value is one StudyError before anything runs."""
     planning = planning_of(design)
-    sizes = tuple(sorted(sizes if sizes is not None else planning.participants))
     simulations = simulations if simulations is not None else planning.simulations
-    rows: dict[int, list[PowerRow]] = {test: [] for test in TESTS}
-    for n in sizes:
-        for test in TESTS:
-            question = PowerQuestion(
+    return [
+        {
+            test: PowerQuestion(
                 test,
                 planning.expected_difference[test],
                 planning.sd_between[test],
@@ -262,7 +258,26 @@ def plan_sample(
                 simulations,
                 planning.seed,
             )
-            rows[test] += power_rows(question, design, workers=workers, progress=progress)
+            for test in TESTS
+        }
+        for n in sorted(sizes if sizes is not None else planning.participants)
+    ]
+
+
+def plan_sample(
+    design: Design,
+    questions: list[dict[int, PowerQuestion]],
+    workers: int = 0,
+    progress: Callable[[int], None] | None = None,
+) -> PlannedSample:
+    """The planned questions (planned_questions) answered N by N, up to the first N at which every test reaches the
+    design's power of "equivalent"."""
+    planning = planning_of(design)
+    first = questions[0][TESTS[0]]
+    rows: dict[int, list[PowerRow]] = {test: [] for test in TESTS}
+    for at_size in questions:
+        for test in TESTS:
+            rows[test] += power_rows(at_size[test], design, workers=workers, progress=progress)
         if all(rows[test][-1].p_equivalent >= planning.power for test in TESTS):
-            return PlannedSample(n, rows, simulations, planning.seed)
-    return PlannedSample(None, rows, simulations, planning.seed)
+            return PlannedSample(rows[TESTS[0]][-1].participants, rows, first.simulations, first.seed)
+    return PlannedSample(None, rows, first.simulations, first.seed)

@@ -98,6 +98,16 @@ def test_preregister_writes_the_summary_of_the_design_it_read(tmp_path):
     assert text.startswith("# Pre-registration: VR against reality") and "## Decision rules" in text
     planned = "(planned: none of the sizes tried)" if "No size tried" in text else "(planned: "
     assert planned in result.stdout
+    for args, fragment in (
+        (["--simulations", "0"], "simulations must be 1..100000, got 0"),
+        (["--participants", "2,8"], "must be 4..500"),
+    ):  # refused before the progress bar starts: one line
+        refused = subprocess.run(
+            [PYTHON, "-m", "sim.study", "preregister", *args], cwd=tmp_path, env=plain_env(), capture_output=True,
+            text=True, timeout=60,
+        )  # fmt: skip
+        lines = [line for line in refused.stderr.splitlines() if "pybullet build time" not in line]
+        assert refused.returncode == 2 and len(lines) == 1 and fragment in lines[0], refused.stderr
     no_planning = tmp_path / "design.yaml"
     no_planning.write_text(bundled.read_text().split("planning:")[0])
     result = subprocess.run(

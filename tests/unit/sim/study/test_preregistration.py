@@ -11,7 +11,7 @@ import yaml
 
 from sim.study.design import DEFAULT_DESIGN, parse_design
 from sim.study.errors import StudyError
-from sim.study.power import PlannedSample, PowerRow, plan_sample
+from sim.study.power import PlannedSample, PowerRow, plan_sample, planned_questions
 from sim.study.preregistration import preregistration
 
 DATA = yaml.safe_load(DEFAULT_DESIGN.read_text())
@@ -25,16 +25,16 @@ def design_with(**planning: object):
 
 def test_the_sample_is_the_first_size_at_which_both_tests_reach_the_power():
     easy = design_with(sd_between={"test1": 0.005, "test2": 0.002}, participants=[6, 8, 12])
-    sample = plan_sample(easy, simulations=20, workers=1)
+    sample = plan_sample(easy, planned_questions(easy, simulations=20), workers=1)
     assert sample.participants == 6  # tiny differences between people: the smallest size is enough
     assert [row.participants for row in sample.rows[1]] == [6] and sample.simulations == 20
     hard = design_with(sd_between={"test1": 0.3, "test2": 0.1}, participants=[6, 8])
-    sample = plan_sample(hard, simulations=20, workers=1)
+    sample = plan_sample(hard, planned_questions(hard, simulations=20), workers=1)
     assert sample.participants is None and [row.participants for row in sample.rows[2]] == [6, 8]
     data = copy.deepcopy(DATA)
     del data["planning"]
     with pytest.raises(StudyError, match="no planning section"):
-        plan_sample(parse_design(data))
+        planned_questions(parse_design(data))
 
 
 def test_the_summary_declares_what_the_analysis_will_judge_by():
