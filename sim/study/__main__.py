@@ -4,6 +4,7 @@
   check                                                       every combination of the design planned and checked
   run --plan PLAN.yaml --out DIR [--realtime] [--auto-go]     the runner node: executes the plan (ROS)
   participant --port P --participant N --seed S               a simulated participant (a TCP client, no rospy)
+  vr --websocket-port W [--port 8443]                          the VR condition's page for a WebXR headset (HTTPS)
   analyse DIR [--out DIR] [--design D]                        the report (verdicts, models) over every CSV in DIR
   simulate --participants 12 --out DIR                        the whole study with simulated participants, end to end
   power --test 2 [--difference D --sd-between S ...]          the sample size, from studies simulated without physics
@@ -110,6 +111,30 @@ def _parser() -> argparse.ArgumentParser:
     view.add_argument("--rate", type=float, default=20.0, help="page updates per second at most (default 20)")
     with_scene(view)
 
+    vr = commands.add_parser("vr", help="the VR condition's page for a WebXR headset (docs/study.md)")
+    vr.add_argument("--endpoint-host", default="127.0.0.1", help="the endpoint's address")
+    vr.add_argument("--websocket-port", type=int, default=9090, help="the endpoint's --websocket-port (default 9090)")
+    vr.add_argument("--host", default="0.0.0.0", help="the page's address (default 0.0.0.0: every interface)")
+    vr.add_argument("--port", type=int, default=8443, help="the page's port (default 8443; 0 picks a free one)")
+    vr.add_argument(
+        "--plain-http",
+        action="store_true",
+        help="HTTP without TLS: only for a browser on this machine or behind `adb reverse` (localhost is secure)",
+    )
+    vr.add_argument("--certificate", type=Path, help="your own TLS certificate (PEM), with --key")
+    vr.add_argument("--key", type=Path, help="the key of --certificate (PEM)")
+    vr.add_argument(
+        "--certificate-dir",
+        type=Path,
+        help="where the self-signed certificate is made once and kept (default ~/.ros/sim_study_vr)",
+    )
+    vr.add_argument(
+        "--emulate-headset",
+        action="store_true",
+        help="load an emulated Quest 3 (IWER) in the page: for tests and for trying the page without a headset",
+    )
+    with_robot(vr)
+
     analyse = commands.add_parser("analyse", help="the report over every participant's CSV in a directory")
     analyse.add_argument("directory", type=Path, help="where the participant_*.csv files are")
     analyse.add_argument("--out", type=Path, help="where report.md and the plots go (default: the directory)")
@@ -169,6 +194,7 @@ def main(argv: list[str] | None = None) -> int:
         "run": _run,
         "participant": _participant,
         "view": _view,
+        "vr": _vr,
         "analyse": _analyse,
         "simulate": _simulate,
         "power": _power,
@@ -322,6 +348,64 @@ def _view(args: argparse.Namespace) -> int:
     stop.wait()
     client.close()
     server.stop()
+    return EXIT_OK
+
+
+def _port(value: int, option: str, zero: bool = False) -> None:
+    if not (0 if zero else 1) <= value <= 65535:
+        raise StudyError(f"{option} must be {0 if zero else 1}..65535, got {value}")
+
+
+def _vr(args: argparse.Namespace) -> int:
+    import ssl
+
+    from sim.robots import find_ros_package
+    from sim.study.vr.certificate import DEFAULT_CERTIFICATE_DIR, ensure_certificate, machine_addresses
+    from sim.study.vr.server import PageServer, serve
+    from sim.study.vr.site import WEB_DIR, make_site
+
+    _port(args.websocket_port, "--websocket-port")
+    _port(args.port, "--port", zero=True)
+    if (args.certificate is None) != (args.key is None):
+        raise StudyError("--certificate and --key go together")
+    if args.plain_http and args.certificate is not None:
+        raise StudyError("--plain-http serves no TLS: leave out --certificate and --key")
+    if not (WEB_DIR / "node_modules" / "three").is_dir():
+        raise StudyError(f"the page's libraries are not in {WEB_DIR / 'node_modules'}: run launch_scripts/setup.sh")
+    scene = load_scene(args.scene)
+    robot = _robot(scene, args)
+    site = make_site(robot, scene, robot.urdf_path.read_text(), find_ros_package, emulation=args.emulate_headset)
+    addresses = machine_addresses()
+    tls = None
+    if not args.plain_http:
+        if args.certificate is not None:
+            certificate, key = args.certificate, args.key
+        else:
+            certificate, key = ensure_certificate(args.certificate_dir or DEFAULT_CERTIFICATE_DIR, addresses)
+        tls = ssl.create_default_context(ssl.Purpose.CLIENT_AUTH)
+        try:
+            tls.load_cert_chain(certificate, key)
+        except (OSError, ssl.SSLError) as error:
+            raise StudyError(f"cannot use the certificate {certificate} with the key {key}: {error}") from None
+    server = PageServer(site, (args.endpoint_host, args.websocket_port), args.host, args.port, tls)
+
+    def ready(port: int) -> None:
+        scheme = "http" if tls is None else "https"
+        hosts = ["localhost"] if args.host in ("127.0.0.1", "localhost") else ["localhost", *addresses]
+        if args.host not in ("0.0.0.0", "127.0.0.1", "localhost"):
+            hosts = [args.host]
+        for host in hosts:
+            print(f"vr: the page: {scheme}://{host}:{port}/", flush=True)
+        print(
+            f"vr: its WebSocket /ros goes to the endpoint's ws://{args.endpoint_host}:{args.websocket_port}/"
+            + ("" if tls is None else "; the certificate is self-signed: accept it once in the headset's browser"),
+            flush=True,
+        )
+
+    try:
+        serve(server, ready)
+    except OSError as error:
+        raise StudyError(f"cannot serve the page on {args.host}:{args.port}: {error}") from None
     return EXIT_OK
 
 

@@ -1,0 +1,132 @@
+// The page as a client of the endpoint, over its WebSocket transport: one ROS-TCP frame per binary message.
+// Like Unity's connector it registers its topics after connecting, sends a keepalive after each quiet second, and
+// connects again (and registers again) when the connection drops. `__ping` measures how far ROS time is ahead of
+// this browser's clock, for the stamps of the participant's presses.
+
+import { KEEPALIVE, command, commandFields, frame, framesIn } from './rostcp.js';
+
+const RECONNECT_DELAY_MS = 1000;
+const KEEPALIVE_AFTER_MS = 1000;
+const PING_EVERY_MS = 5000;
+const PINGS_KEPT = 8; // the offset is taken from the quickest of the last few round trips
+
+export class RosConnection {
+  // url: the WebSocket's URL; onState(text): what the connection is doing, for the page to show.
+  constructor(url, onState = () => {}) {
+    this.url = url;
+    this.onState = onState;
+    this.subscriptions = new Map(); // topic -> [type, handler(payload)]
+    this.publishers = new Map(); // topic -> type
+    this.socket = null;
+    this.connected = false;
+    this.lastSent = 0;
+    this.pings = new Map(); // request_time -> when sent (ms, Date.now())
+    this.pingCount = 0;
+    this.samples = []; // [round trip ms, offset s]
+    this.errors = []; // the endpoint's __error texts, newest last
+    this.timers = [];
+  }
+
+  subscribe(topic, type, handler) {
+    this.subscriptions.set(topic, [type, handler]);
+    if (this.connected) this._send(command('__subscribe', { topic, message_name: type }));
+  }
+
+  advertise(topic, type) {
+    this.publishers.set(topic, type);
+    if (this.connected) this._send(command('__publish', { topic, message_name: type, queue_size: 10, latch: false }));
+  }
+
+  // Publish `payload` (a serialized message) on a topic advertised before; false when not connected.
+  publish(topic, payload) {
+    if (!this.connected) return false;
+    this._send(frame(topic, payload));
+    return true;
+  }
+
+  // ROS time minus this browser's clock (s), from the quickest recent ping; null before any answer.
+  get clockOffset() {
+    if (this.samples.length === 0) return null;
+    return this.samples.reduce((best, sample) => (sample[0] < best[0] ? sample : best))[1];
+  }
+
+  // Now in ROS time (s), or null without a clock offset.
+  rosNow() {
+    const offset = this.clockOffset;
+    return offset === null ? null : Date.now() / 1000 + offset;
+  }
+
+  open() {
+    this.onState(`connecting to ${this.url}`);
+    const socket = new WebSocket(this.url);
+    socket.binaryType = 'arraybuffer';
+    this.socket = socket;
+    socket.onopen = () => {
+      this.connected = true;
+      this.onState('connected');
+      this._send(KEEPALIVE);
+      for (const [topic, type] of this.publishers) {
+        this._send(command('__publish', { topic, message_name: type, queue_size: 10, latch: false }));
+      }
+      for (const [topic, [type]] of this.subscriptions) {
+        this._send(command('__subscribe', { topic, message_name: type }));
+      }
+      this._ping();
+      this.timers = [
+        setInterval(() => this._ping(), PING_EVERY_MS),
+        setInterval(() => {
+          if (Date.now() - this.lastSent >= KEEPALIVE_AFTER_MS) this._send(KEEPALIVE);
+        }, KEEPALIVE_AFTER_MS / 2),
+      ];
+    };
+    socket.onmessage = (event) => this._receive(event.data);
+    socket.onclose = (event) => {
+      this.connected = false;
+      this.timers.forEach(clearInterval);
+      this.timers = [];
+      this.onState(`disconnected (${event.code}${event.reason ? ': ' + event.reason : ''}); connecting again`);
+      setTimeout(() => this.open(), RECONNECT_DELAY_MS);
+    };
+  }
+
+  _send(bytes) {
+    if (this.socket && this.socket.readyState === WebSocket.OPEN) {
+      this.socket.send(bytes);
+      this.lastSent = Date.now();
+    }
+  }
+
+  _ping() {
+    const sentAt = Date.now();
+    this.pingCount += 1;
+    const requestTime = `${new Date(sentAt).toISOString()}#${this.pingCount}`;
+    this.pings.set(requestTime, sentAt);
+    this._send(command('__ping', { request_time: requestTime }));
+  }
+
+  _receive(data) {
+    for (const [destination, payload] of framesIn(data)) {
+      if (destination === '') continue; // keepalive
+      if (destination.startsWith('__')) {
+        this._system(destination, commandFields(payload));
+        continue;
+      }
+      const subscription = this.subscriptions.get(destination);
+      if (subscription) subscription[1](payload);
+    }
+  }
+
+  _system(name, fields) {
+    if (name === '__ping_response') {
+      const sentAt = this.pings.get(fields.request_time);
+      this.pings.delete(fields.request_time);
+      if (sentAt === undefined || typeof fields.ros_time !== 'number') return;
+      const roundTrip = Date.now() - sentAt;
+      this.samples.push([roundTrip, fields.ros_time - (sentAt + roundTrip / 2) / 1000]);
+      this.samples = this.samples.slice(-PINGS_KEPT);
+    } else if (name === '__error' || name === '__warn') {
+      this.errors.push(`${name}: ${fields.text}`);
+      console.warn(`endpoint ${name}: ${fields.text}`);
+    }
+  }
+}
