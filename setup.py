@@ -17,6 +17,8 @@ setup(
         "sim": ["py.typed"],
         "sim.robots": ["*.yaml", "urdf/*.urdf"],
         "sim.study": ["*.yaml"],
+        # the VR page, and the npm packages setup.sh fetched beside it (node_modules)
+        "sim.study.vr": ["web/*.html", "web/*.css", "web/*.js", "web/*.json", "web/node_modules/**/*"],
     },
     install_requires=[
         "numpy>=1.24",
@@ -29,6 +31,7 @@ setup(
         "statsmodels>=0.14.1",  # the study's mixed models and equivalence tests
         "viser>=1.0",  # the study's live 3-D view
         "yourdfpy>=0.0.56",  # viser's URDF loader
+        "h11>=0.13",  # the VR page's server reads HTTP requests with it
     ],
     # selenium drives Debian's chromium (and chromedriver) for the web view's test
     extras_require={

@@ -12,7 +12,7 @@ apt_packages=(ros-core python3-rospy python3-rosbag python3-sensor-msgs python3-
   python3-geometry-msgs python3-std-msgs python3-rosgraph-msgs python3-std-srvs python3-tf2-msgs
   ros-robot-state-publisher python3-yaml python3-wsproto
   python3-pip
-  chromium chromium-driver
+  chromium chromium-driver nodejs openssl
   catkin rosbash iproute2)
 missing=()
 for pkg in "${apt_packages[@]}"; do
@@ -48,6 +48,18 @@ if ! PYTHONUSERBASE="$user_base" /usr/bin/python3 -c "import numpy, scipy, matpl
   PYTHONUSERBASE="$user_base" PIP_ROOT_USER_ACTION=ignore /usr/bin/python3 -m pip install -q \
     --disable-pip-version-check --no-warn-script-location --user --break-system-packages \
     numpy scipy matplotlib pybullet rosbags
+fi
+
+# The VR page's libraries (three.js, urdf-loader; IWER for the tests' emulated headset) from the npm registry, at the
+# versions and hashes of package-lock.json, into the package's web folder: served from there, never from a CDN.
+web=sim/study/vr/web
+if [ ! -f "$web/node_modules/.package-lock.json" ] || [ "$web/package-lock.json" -nt "$web/node_modules/.package-lock.json" ]; then
+  if ! command -v npm >/dev/null; then  # Debian's npm is its own package; NodeSource's nodejs carries one
+    echo "setup: installing Debian's npm"
+    $( [ "$(id -u)" -eq 0 ] || echo sudo ) apt-get install -y -qq npm >/dev/null
+  fi
+  echo "setup: npm ci (the VR page's three.js, urdf-loader, iwer)"
+  (cd "$web" && npm ci --ignore-scripts --no-audit --no-fund --loglevel=error >/dev/null)
 fi
 
 # catkin_make only when the workspace has never been built or a package's build files changed since.

@@ -20,6 +20,7 @@ import re
 import signal
 import ssl
 from collections.abc import Callable
+from urllib.parse import unquote
 
 import h11
 
@@ -67,7 +68,7 @@ class PageServer:
                 request = await _read_request(http, reader)
                 if request is None:
                     return
-                path = request.target.decode("ascii", "replace").split("?", 1)[0]
+                path = unquote(request.target.decode("ascii", "replace").split("?", 1)[0])
                 if path == ROS_PATH and _header(request, b"upgrade").lower() == b"websocket":
                     await self._pass_through(request, http.trailing_data[0], reader, writer)
                     return

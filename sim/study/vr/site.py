@@ -12,7 +12,7 @@ import mimetypes
 import xml.etree.ElementTree as ET
 from collections.abc import Callable
 from dataclasses import dataclass
-from pathlib import Path, PurePosixPath
+from pathlib import Path
 from typing import Any
 
 from sim.geometry.frames import matrix_to_quat
@@ -73,9 +73,10 @@ class Site:
 
 
 def _inside(folder: Path, relative: str) -> Path | None:
-    """folder/relative when `relative` is a plain relative path (no `..`, no absolute part, no backslash)."""
-    parts = PurePosixPath(relative).parts
-    if not relative or "\\" in relative or relative.startswith("/") or any(p in ("..", ".") for p in parts):
+    """folder/relative when `relative` is plain: names joined by single slashes, none of them `.` or `..`, no
+    backslash."""
+    parts = relative.split("/")
+    if "\\" in relative or any(part in ("", ".", "..") for part in parts):
         return None
     return folder.joinpath(*parts)
 

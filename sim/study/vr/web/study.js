@@ -66,6 +66,7 @@ export class Participant {
         return null;
       }
       this.answered = true;
+      this.notice = '';
       return ['distance', controllersDistance];
     }
     if (phase === 'preference') {

@@ -1,0 +1,77 @@
+// The page's study rules (sim/study/vr/web/study.js) and ROS-TCP frames (rostcp.js), run by node's test runner
+// (tests/unit/sim/study/test_vr_page_js.py runs this file and cross-checks the bytes against Python).
+import assert from 'node:assert/strict';
+import { test } from 'node:test';
+
+import { FrameError, KEEPALIVE, command, commandFields, frame, framesIn, rosTime } from '../../sim/study/vr/web/rostcp.js';
+import { ControllerEdges, Participant, STOP_SOURCE } from '../../sim/study/vr/web/study.js';
+
+function status(phase, extra = {}) {
+  return { participant: 3, index: 2, total: 4, phase, condition: 'vr', test: 2, path: 'straight', standoff: 0,
+    peak_speed: 0.3, speed_set: 'fast', group: 1, motion_start: null, group_paths: [], ...extra };
+}
+
+test('the trigger stops only while the robot moves, stamped on the runner clock or zero', () => {
+  const participant = new Participant();
+  participant.onStatus(status('ready'));
+  assert.equal(participant.onTrigger(12.0), null);
+  participant.onStatus(status('moving', { motion_start: 10.0 }));
+  assert.deepEqual(participant.onTrigger(12.5), ['stop', 12.5]);
+  assert.deepEqual(participant.onTrigger(null), ['stop', 0]); // no clock offset yet
+  assert.deepEqual(participant.onTrigger(1.79e9), ['stop', 0]); // the wall clock, not the runner's /clock
+  assert.equal(STOP_SOURCE, 'webxr_trigger');
+});
+
+test('A says go once per ready phase', () => {
+  const participant = new Participant();
+  participant.onStatus(status('ready'));
+  assert.deepEqual(participant.onConfirm(null), ['go']);
+  assert.equal(participant.onConfirm(null), null);
+  participant.onStatus(status('ready', { index: 3 }));
+  assert.deepEqual(participant.onConfirm(null), ['go']);
+});
+
+test('the distance is the controllers\' when both are tracked and within reach', () => {
+  const participant = new Participant();
+  participant.onStatus(status('distance', { test: 1 }));
+  assert.equal(participant.onConfirm(null), null);
+  assert.match(participant.instructions()[1].at(-1), /both controllers/);
+  assert.equal(participant.onConfirm(2.5), null);
+  assert.deepEqual(participant.onConfirm(0.12), ['distance', 0.12]);
+  assert.equal(participant.onConfirm(0.2), null); // answered once
+  assert.deepEqual(participant.instructions()[1], ['Thank you.']);
+});
+
+test('the thumbstick walks the group\'s paths and A chooses the one shown', () => {
+  const participant = new Participant();
+  participant.onStatus(status('preference', { group_paths: ['straight', 'vertical', 'lateral_arc'] }));
+  participant.onChoose(-1);
+  assert.match(participant.instructions()[1][1], /3: lateral_arc/);
+  participant.onChoose(+1);
+  participant.onChoose(+1);
+  assert.deepEqual(participant.onConfirm(null), ['preference', 'vertical']);
+});
+
+test('button and thumbstick edges', () => {
+  const edges = new ControllerEdges();
+  const pressed = [false, false, false, false, true];
+  assert.deepEqual(edges.update(pressed, [0, 0, 0, 0]), { confirm: true, choose: 0 });
+  assert.deepEqual(edges.update(pressed, [0, 0, 0.9, 0]), { confirm: false, choose: 1 });
+  assert.deepEqual(edges.update([], [0, 0, 0.95, 0]), { confirm: false, choose: 0 }); // still pushed
+  assert.deepEqual(edges.update([], [0, 0, 0.1, 0]), { confirm: false, choose: 0 });
+  assert.deepEqual(edges.update([], [0, 0, -0.7, 0]), { confirm: false, choose: -1 });
+});
+
+test('frames: several in one message, and a message that ends inside one', () => {
+  const message = new Uint8Array([...frame('/t', new Uint8Array([1, 2, 3])), ...KEEPALIVE, ...command('__ping', { a: 1 })]);
+  const frames = framesIn(message);
+  assert.deepEqual(frames.map(([name]) => name), ['/t', '', '__ping']);
+  assert.deepEqual([...frames[0][1]], [1, 2, 3]);
+  assert.deepEqual(commandFields(frames[2][1]), { a: 1 });
+  for (const cut of [2, 5, 9, message.length - 1]) assert.throws(() => framesIn(message.subarray(0, cut)), FrameError);
+});
+
+test('ROS time to the nanosecond', () => {
+  assert.deepEqual(rosTime(1.16), { secs: 1, nsecs: 160000000 });
+  assert.deepEqual(rosTime(2.9999999999), { secs: 3, nsecs: 0 });
+});
