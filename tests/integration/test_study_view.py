@@ -15,36 +15,17 @@ from PIL import Image
 from sim.processes import plain_env
 from sim.study.paths import ON_TOP
 from sim.study.view import COLOURS
+from tests.integration import browser_helpers
+from tests.integration.browser_helpers import chromium
 from tests.integration.sim_helpers import start_engine
 from tests.integration.study_helpers import trial, write_plan
 from tests.rosenv import PYTHON, ManagedProcess, free_port, wait_for
 
-CHROMIUM, CHROMEDRIVER = "/usr/bin/chromium", "/usr/bin/chromedriver"
-
 
 @pytest.fixture
 def browser(tmp_path: Path) -> Iterator[Any]:
-    """Debian's Chromium, headless, WebGL in software, driven by Debian's chromedriver (no download)."""
-    from selenium import webdriver
-    from selenium.webdriver.chrome.service import Service
-
-    options = webdriver.ChromeOptions()
-    options.binary_location = CHROMIUM
-    for argument in (
-        "--headless=new",
-        "--no-sandbox",
-        "--disable-dev-shm-usage",
-        "--use-angle=swiftshader",
-        "--enable-unsafe-swiftshader",
-        "--window-size=1200,900",
-        f"--user-data-dir={tmp_path / 'chromium'}",
-    ):
-        options.add_argument(argument)
-    driver = webdriver.Chrome(service=Service(CHROMEDRIVER), options=options)
-    try:
+    with chromium(tmp_path / "chromium") as driver:
         yield driver
-    finally:
-        driver.quit()
 
 
 def settled_screenshot(driver: Any, path: Path, listed: str, timeout: float = 60.0) -> np.ndarray:
@@ -67,15 +48,9 @@ def settled_screenshot(driver: Any, path: Path, listed: str, timeout: float = 60
 
 
 def pixels_like(image: np.ndarray, colour: tuple[int, int, int], tolerance: int = 60) -> int:
-    """Pixels of about that colour, lit or shaded, in the 3-D scene (between the notice on the left and viser's
-    panel on the right, whose buttons are blue): the same hue, within `tolerance` per channel once the brightness
-    is matched."""
-    image = image[:, 330:850]
-    reference = np.array(colour, dtype=float)
-    brightness = image.sum(axis=2, keepdims=True) / max(reference.sum(), 1.0)
-    matched = np.abs(image - brightness * reference).max(axis=2) < tolerance
-    saturated = image.max(axis=2) - image.min(axis=2) > 60  # the white page and grey robot are not colours
-    return int((matched & saturated).sum())
+    """Pixels of about that colour in the 3-D scene: between the notice on the left and viser's panel on the right,
+    whose buttons are blue."""
+    return browser_helpers.pixels_like(image[:, 330:850], colour, tolerance)
 
 
 def test_the_live_view_shows_the_scene_the_plan_the_trail_and_the_stop(

@@ -24,7 +24,10 @@ const page = {
   robotLoaded: false,
   meshesLoaded: false,
   inSession: false,
-  jointStates: 0,
+  jointStates: 0, // received
+  joints: null, // the latest joint state: {stamp, names, positions, ...}
+  frames: 0, // of the immersive session
+  triggers: 0, // presses of a trigger
   actions: [], // [what, value] sent, oldest first
   frameIntervals: [], // ms between the session's frames
   frameWork: [], // ms of each frame's update and rendering (rendering waited for with ?frametime)
@@ -181,6 +184,7 @@ let latestJoints = null;
 let appliedJoints = null;
 connection.subscribe(topics.joint_states[0], topics.joint_states[1], (payload) => {
   latestJoints = decodeJointState(payload);
+  page.joints = latestJoints;
   page.jointStates += 1;
 });
 connection.subscribe(topics.trial[0], topics.trial[1], (payload) => {
@@ -206,27 +210,26 @@ function act(action) {
 const edges = new Map(); // handedness -> ControllerEdges
 let lastFrameAt = null;
 
+// The controllers' tips first, then their buttons: a confirm on either hand measures between both tips.
 function readControllers(frame) {
   const session = renderer.xr.getSession();
   const space = renderer.xr.getReferenceSpace();
-  const tips = [];
-  for (const source of session.inputSources) {
-    if (!source.gamepad) continue;
-    const pose = frame.getPose(source.targetRaySpace, space);
-    if (pose) tips.push(pose.transform.position);
+  const controllers = [...session.inputSources].filter((source) => source.gamepad);
+  const tips = controllers.map((source) => frame.getPose(source.targetRaySpace, space)).filter(Boolean);
+  const [a, b] = tips.map((pose) => pose.transform.position);
+  const distance = tips.length === 2 ? Math.hypot(a.x - b.x, a.y - b.y, a.z - b.z) : null;
+  for (const source of controllers) {
     if (!edges.has(source.handedness)) edges.set(source.handedness, new ControllerEdges());
     const buttons = source.gamepad.buttons.map((button) => button.pressed);
     const { confirm, choose } = edges.get(source.handedness).update(buttons, source.gamepad.axes);
     if (choose) page.participant.onChoose(choose);
-    if (confirm) {
-      const distance = tips.length === 2 ? Math.hypot(tips[0].x - tips[1].x, tips[0].y - tips[1].y, tips[0].z - tips[1].z) : null;
-      act(page.participant.onConfirm(distance));
-    }
+    if (confirm) act(page.participant.onConfirm(distance));
   }
 }
 
 function onFrame(time, frame) {
   const started = performance.now();
+  if (frame) page.frames += 1;
   if (frame && lastFrameAt !== null) {
     page.frameIntervals.push(time - lastFrameAt);
     if (page.frameIntervals.length > FRAMES_KEPT) page.frameIntervals.shift();
@@ -256,7 +259,10 @@ window.addEventListener('resize', () => {
 // --- entering the headset's session
 async function enter() {
   const session = await navigator.xr.requestSession('immersive-vr', { optionalFeatures: ['local-floor'] });
-  session.addEventListener('selectstart', () => act(page.participant.onTrigger(connection.rosNow())));
+  session.addEventListener('selectstart', () => {
+    page.triggers += 1;
+    act(page.participant.onTrigger(connection.rosNow()));
+  });
   session.addEventListener('end', () => {
     page.inSession = false;
     enterButton.disabled = false;

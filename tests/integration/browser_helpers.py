@@ -1,0 +1,51 @@
+"""Debian's Chromium, headless with WebGL in software, driven by Debian's chromedriver (no download); and the pixels
+of a colour in a screenshot. For the web pages' tests: the live view and the VR page."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+CHROMIUM, CHROMEDRIVER = "/usr/bin/chromium", "/usr/bin/chromedriver"
+
+
+@contextmanager
+def chromium(profile: Path, accept_insecure_certs: bool = False, size: str = "1200,900") -> Iterator[Any]:
+    """A headless Chromium with its own profile folder; `accept_insecure_certs` for a self-signed certificate."""
+    from selenium import webdriver
+    from selenium.webdriver.chrome.service import Service
+
+    options = webdriver.ChromeOptions()
+    options.binary_location = CHROMIUM
+    for argument in (
+        "--headless=new",
+        "--no-sandbox",
+        "--disable-dev-shm-usage",
+        "--use-angle=swiftshader",
+        "--enable-unsafe-swiftshader",
+        f"--window-size={size}",
+        f"--user-data-dir={profile}",
+    ):
+        options.add_argument(argument)
+    if accept_insecure_certs:
+        options.set_capability("acceptInsecureCerts", True)
+    options.set_capability("goog:loggingPrefs", {"browser": "ALL"})
+    driver = webdriver.Chrome(service=Service(CHROMEDRIVER), options=options)
+    try:
+        yield driver
+    finally:
+        driver.quit()
+
+
+def pixels_like(image: np.ndarray, colour: tuple[int, int, int], tolerance: int = 60) -> int:
+    """Pixels of about that colour, lit or shaded: the same hue, within `tolerance` per channel once the brightness
+    is matched, and saturated (white, grey and black are not colours)."""
+    reference = np.array(colour, dtype=float)
+    brightness = image.sum(axis=2, keepdims=True) / max(reference.sum(), 1.0)
+    matched = np.abs(image - brightness * reference).max(axis=2) < tolerance
+    saturated = image.max(axis=2) - image.min(axis=2) > 60
+    return int((matched & saturated).sum())

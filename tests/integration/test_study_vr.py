@@ -1,0 +1,205 @@
+"""The VR condition's page (`python -m sim.study vr`) in a real headless browser (Debian's Chromium, WebGL in
+software), with an emulated Meta Quest 3 (IWER, loaded only with --emulate-headset) as the participant's headset:
+over HTTPS with the page's self-signed certificate, its WebSocket passed through to the endpoint's, it enters the
+immersive session, shows the robot and the hand, and answers a short session of the runner (--realtime) with the
+trigger, the controllers and the buttons, as the participant would."""
+
+from __future__ import annotations
+
+import csv
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from sim.geometry.kinematics import chain_for
+from sim.processes import plain_env
+from sim.study.interface import STATUS_TOPIC, status_from_json
+from sim.study.paths import ON_TOP
+from sim.study.scene import load_scene, scene_robot
+from sim.study.view import COLOURS
+from sim.wire.rosmsgs import decode_joint_state, deserialize
+from tests.integration.browser_helpers import chromium, pixels_like
+from tests.integration.sim_helpers import start_engine
+from tests.integration.study_helpers import trial, write_plan
+from tests.rosenv import PYTHON, EndpointProcess, ManagedProcess, RosCore, wait_for
+
+PARTICIPANT = 4
+CONTROLLERS_APART = 0.12  # m
+
+
+def page_state(browser: Any) -> dict[str, Any]:
+    return browser.execute_script(
+        "const p = window.vrPage; if (!p) return null;"
+        "const s = p.participant.status;"
+        "return {connected: !!(p.connection && p.connection.connected), robot: p.robotLoaded, meshes: p.meshesLoaded,"
+        " inSession: p.inSession, frames: p.frames, triggers: p.triggers, error: p.error, actions: p.actions,"
+        " index: s ? s.index : null, phase: s ? s.phase : null, motionStart: s ? s.motion_start : null,"
+        " joints: p.joints ? Array.from(p.joints.positions) : null,"
+        " enterable: !document.getElementById('enter').disabled};"
+    )
+
+
+def after_frames(browser: Any, count: int = 2) -> None:
+    """Until the session has drawn `count` more frames: the emulated headset applies input once per frame."""
+    start = page_state(browser)["frames"]
+    wait_for(lambda: page_state(browser)["frames"] >= start + count, 30, f"{count} frames of the session")
+
+
+def press(browser: Any, hand: str, button: str) -> None:
+    controller = f"window.emulatedHeadset.controllers.{hand}"
+    browser.execute_script(f"{controller}.updateButtonValue('{button}', 1)")
+    after_frames(browser, 1)
+    browser.execute_script(f"{controller}.updateButtonValue('{button}', 0)")  # released at the next frame
+
+
+def push_thumbstick(browser: Any, hand: str, x: float) -> None:
+    controller = f"window.emulatedHeadset.controllers.{hand}"
+    browser.execute_script(f"{controller}.updateAxes('thumbstick', {x}, 0)")
+    after_frames(browser)
+    browser.execute_script(f"{controller}.updateAxes('thumbstick', 0, 0)")
+    after_frames(browser)
+
+
+def read_csv(path: Path) -> list[dict[str, str]]:
+    with open(path, newline="") as rows:
+        return list(csv.DictReader(rows))
+
+
+def joints_before_trial(bag: Path, robot: Any, index: int) -> np.ndarray:
+    """The robot's last recorded joint positions before the runner announced trial `index` (held at rest since the
+    last trial ended)."""
+    from rosbags.rosbag1 import Reader
+
+    latest = None
+    with Reader(bag) as reader:
+        for connection, _, raw in reader.messages():
+            if connection.topic == robot.joint_states_topic:
+                latest = decode_joint_state(raw, robot.joint_names).positions
+            elif connection.topic == STATUS_TOPIC:
+                status = status_from_json(deserialize(raw, "std_msgs/String").data)
+                if status.index == index:
+                    assert latest is not None
+                    return latest
+    raise AssertionError(f"no trial {index} in {bag}")
+
+
+def test_an_emulated_quest_enters_the_session_and_answers_the_runner(tmp_path: Path) -> None:
+    core = RosCore()  # this test's own: the page's pings see its ROS time
+    endpoint = EndpointProcess(core.env, tmp_path, extra=["--websocket-port", "0"])
+    processes: list[ManagedProcess] = [endpoint]
+    try:
+        processes.append(start_engine(core, tmp_path, "panda", endpoint.port, "--no-auto-simulate"))
+        vr = ManagedProcess(
+            [
+                *(PYTHON, "-m", "sim.study", "vr", "--websocket-port", str(endpoint.websocket_port)),
+                *("--port", "0", "--host", "127.0.0.1", "--certificate-dir", str(tmp_path / "certificate")),
+                "--emulate-headset",
+            ],
+            plain_env(),
+            tmp_path,
+            "vr",
+        )
+        processes.append(vr)
+        lines = vr.wait_for_output("its WebSocket /ros goes to", timeout=60).splitlines()
+        url = next(line.split("the page: ")[1] for line in lines if "the page: " in line)
+        assert url.startswith("https://localhost:")
+        assert (tmp_path / "certificate" / "certificate.pem").is_file()
+        with chromium(tmp_path / "chromium", accept_insecure_certs=True, size="800,600") as browser:
+            browser.get(url)
+            wait_for(
+                lambda: (s := page_state(browser)) and s["meshes"] and s["connected"] and s["enterable"],
+                60,
+                "the page to load the robot and connect",
+            )
+            browser.find_element("id", "enter").click()
+            wait_for(lambda: page_state(browser)["inSession"], 30, "the immersive session")
+            after_frames(browser, 5)
+            browser.save_screenshot(str(tmp_path / "session.png"))
+            picture = np.asarray(Image.open(tmp_path / "session.png").convert("RGB")).astype(int)
+            counts = {
+                "hand": pixels_like(picture, COLOURS["hand"]),
+                "table": pixels_like(picture, COLOURS["table"]),
+                "robot": int(((picture.max(axis=2) - picture.min(axis=2)) <= 6).sum()),  # its white and grey links
+            }
+            assert counts["hand"] > 400 and counts["table"] > 30_000 and counts["robot"] > 6_000, counts
+
+            out = tmp_path / "out"
+            plan = write_plan(
+                tmp_path / "plan.yaml",
+                PARTICIPANT,
+                "vr",
+                [
+                    trial(1, "vr", 1, "straight", 0.10, 0.3),
+                    trial(2, "vr", 2, "straight", ON_TOP, 0.1, "slow", 1),  # seconds for the page's slow frames
+                    trial(3, "vr", 2, "vertical", ON_TOP, 0.1, "slow", 1),
+                ],
+            )
+            runner = ManagedProcess(
+                [PYTHON, "-m", "sim.study", "run", "--plan", str(plan), "--out", str(out), "--realtime"],
+                core.env,
+                tmp_path,
+                "runner",
+            )
+            processes.append(runner)
+            answered: set[tuple[int, str]] = set()
+            seen: list[tuple[int, str]] = []  # the phases in the order the page showed them
+            deadline = time.monotonic() + 90
+            while time.monotonic() < deadline:
+                state = page_state(browser)
+                key = (state["index"], state["phase"])
+                if state["phase"] == "done" or runner.process.poll() is not None:
+                    break
+                if key in answered:
+                    time.sleep(0.05)
+                    continue
+                answered.add(key)
+                seen.append(key)
+                if state["phase"] == "ready":
+                    press(browser, "right", "a-button")
+                elif key == (1, "distance"):
+                    headset = "window.emulatedHeadset.controllers"
+                    browser.execute_script(
+                        f"{headset}.left.position.set({-CONTROLLERS_APART / 2}, 1.4, -0.45);"
+                        f"{headset}.right.position.set({CONTROLLERS_APART / 2}, 1.4, -0.45);"
+                    )
+                    after_frames(browser)
+                    press(browser, "left", "x-button")
+                elif key == (2, "moving"):
+                    time.sleep(0.1)  # into the approach
+                    press(browser, "right", "trigger")
+                elif key == (3, "preference"):
+                    push_thumbstick(browser, "right", 0.9)  # the second of the group: vertical
+                    press(browser, "right", "a-button")
+            if runner.process.poll() is None:
+                pytest.fail(f"the session did not end; the page showed {seen}, did {page_state(browser)['actions']}")
+            assert runner.wait(60) == 0, runner.output()[-3000:]
+            actions = page_state(browser)["actions"]
+        assert [what for what, _ in actions] == ["go", "distance", "go", "stop", "go", "preference"], (actions, seen)
+    finally:
+        for process in reversed(processes):
+            process.stop()
+        core.stop()
+
+    first, second, third = read_csv(out / f"participant_{PARTICIPANT:02d}.csv")
+    assert float(first["perceived_distance"]) == pytest.approx(CONTROLLERS_APART, abs=0.001)
+    assert second["pressed"] == "true" and second["press_source"] == "webxr_trigger"
+    assert third["pressed"] == "false"
+    assert second["preferred_path"] == third["preferred_path"] == "vertical"
+    # the stop's distance is the FK of the joints the robot achieved: its last state before trial 3 began (recorded)
+    scene = load_scene()
+    robot = scene_robot(scene)
+    at_rest = joints_before_trial(out / "bags" / f"participant_{PARTICIPANT:02d}.bag", robot, 3)
+    tip = scene.end_effector(chain_for(robot), at_rest)
+    assert float(second["distance_at_rest"]) == pytest.approx(scene.hand.distance(tip), abs=0.001)
+    assert float(second["distance_at_rest"]) > 0.02  # stopped before reaching the hand
+    # Without /use_sim_time the endpoint's pings answer with the wall clock, not the runner's /clock: the page sees
+    # that its offset does not fit the trial's motion_start, and stamps zero ("when it arrives")
+    stamp = next(value for what, value in actions if what == "stop")
+    assert stamp == 0 and float(second["press_late"]) == 0.0
+
+
+pytestmark = pytest.mark.timeout(400)
