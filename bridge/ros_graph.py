@@ -38,6 +38,26 @@ MessageCallback = Callable[[str, bytes, Dict[str, str]], None]
 ServiceHandler = Callable[[bytes], bytes]
 
 
+def _message_bytes(msg: Any) -> bytes:
+    """A received message's bytes: as they came (our raw classes keep them), or serialized again when rospy handed
+    over a decoded message. That happens when rospy itself subscribes to the topic in this process with its own
+    class: under /use_sim_time it takes /clock as rosgraph_msgs/Clock, and one subscription of a process has one
+    class. (genpy serializes canonically: the bytes are those sent.)"""
+    try:
+        return msg._buff  # type: ignore[no-any-return]
+    except AttributeError:
+        out = io.BytesIO()
+        msg.serialize(out)
+        return out.getvalue()
+
+
+def _passing_bytes(topic: str, callback: MessageCallback) -> Callable[[Any], None]:
+    def deliver(msg: Any) -> None:
+        callback(topic, _message_bytes(msg), msg._connection_header)
+
+    return deliver
+
+
 class RosGraph:
     """The endpoint's node on the ROS graph. Thread-safe; every rospy object is created and destroyed here."""
 
@@ -181,11 +201,7 @@ class RosGraph:
             return self._subscribe_untyped(topic, message_name, callback)
         # tcp_nodelay: a 1 kHz stream must not wait for Nagle; buff_size large enough for big messages.
         return rospy.Subscriber(
-            topic,
-            raw,
-            lambda msg: callback(topic, msg._buff, msg._connection_header),
-            tcp_nodelay=True,
-            buff_size=SUBSCRIBER_READ_BYTES,
+            topic, raw, _passing_bytes(topic, callback), tcp_nodelay=True, buff_size=SUBSCRIBER_READ_BYTES
         )
 
     @staticmethod
@@ -197,7 +213,7 @@ class RosGraph:
         def deliver(msg: Any) -> None:
             header = msg._connection_header
             if header.get("type") == message_name:
-                callback(topic, msg._buff, header)
+                callback(topic, _message_bytes(msg), header)
             elif not mismatches:
                 mismatches.append(header.get("type"))
                 log.warning(

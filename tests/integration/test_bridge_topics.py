@@ -409,3 +409,44 @@ def test_a_subscription_with_queue_size_keeps_only_that_many_waiting_for_a_slow_
         assert "dropped" in warnings
     diagnostics.close()
     publisher.unregister()
+
+
+def test_under_use_sim_time_clients_get_clock_and_pings_answer_in_simulated_time(tmp_path) -> None:
+    """With /use_sim_time, rospy subscribes to /clock in the endpoint's own process with its own class, and one
+    subscription of a process has one class: a client's /clock subscription then gets decoded messages, which the
+    endpoint serializes again (it used to fail on them, and the client got no /clock at all)."""
+    import io
+    import subprocess
+
+    from bridge.client import TcpClient
+    from tests.rosenv import EndpointProcess, RosCore
+
+    core = RosCore()
+    try:
+        subprocess.run(["rosparam", "set", "/use_sim_time", "true"], env=core.env, check=True, timeout=30)
+        endpoint = EndpointProcess(core.env, tmp_path)
+        source, sink = TcpClient("127.0.0.1", endpoint.port), TcpClient("127.0.0.1", endpoint.port)
+        received: list[bytes] = []
+        try:
+            source.register_publisher("/clock", "rosgraph_msgs/Clock")
+            sink.subscribe("/clock", "rosgraph_msgs/Clock", received.append)
+            source.connect()
+            sink.connect()
+            sent = io.BytesIO()
+            Clock(clock=rospy.Time(1234, 500_000_000)).serialize(sent)
+
+            def clock_seen() -> bool:
+                source.publish("/clock", sent.getvalue())
+                return bool(received)
+
+            wait_for(clock_seen, 20, "/clock through the endpoint", interval=0.2)
+            assert received[-1] == sent.getvalue()
+            answer = sink.ping()
+            assert answer.ros_clock_offset_s is not None
+            assert answer.ros_clock_offset_s + time.time() == pytest.approx(1234.5, abs=0.5)  # ROS time is /clock's
+        finally:
+            source.close()
+            sink.close()
+            endpoint.stop()
+    finally:
+        core.stop()
