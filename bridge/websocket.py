@@ -201,6 +201,9 @@ class WebSocketLink:
                 ", in the middle of a frame" if mid_frame else ""
             )
             return []
+        if self._ws.state is ConnectionState.CLOSED:  # the peer's answer to the close this end sent
+            self.closed = f"WebSocket closed (code {int(close.code)}), the peer answering this end's close"
+            return []
         # wsproto reports WebSocket frames it cannot parse (unmasked, a bad opcode, ...) as a close of its own
         return [self._failed(f"broken WebSocket framing: {close.reason}", int(close.code))]
 

@@ -133,6 +133,15 @@ def test_the_peers_close_is_answered_and_said(mid_frame: bool) -> None:
     assert endpoint.close() == b""
 
 
+@pytest.mark.parametrize("first", ["client", "endpoint"])
+def test_the_answer_to_ones_own_close_ends_the_link_quietly(first: str) -> None:
+    endpoint, client = upgraded_pair()
+    closer, peer = (client, endpoint) if first == "client" else (endpoint, client)
+    assert peer.receive_data(closer.close(going_away=True)) == []
+    assert closer.receive_data(peer.data_to_send()) == []  # its answer: no error
+    assert closer.closed == "WebSocket closed (code 1001), the peer answering this end's close"
+
+
 def test_an_unmasked_frame_is_broken_framing() -> None:
     endpoint, _ = upgraded_pair()
     frame = protocol.encode_frame("/a", b"abc")
