@@ -408,11 +408,14 @@ class StudyRunner(ControllerNode):
         super().close()
 
 
-def record_session(robot: RobotSpec, bag: Path, node: str, logs: Path) -> ManagedProcess:
-    """`rosbag record` of the session's topics into `bag` (in this process's ROS environment), once it records."""
-    recorder = start_recorder(bag, recorder_topics(robot), node, dict(os.environ), logs)
+def record_session(robot: RobotSpec, bag: Path, node: str, logs: Path, sim_time: bool) -> ManagedProcess:
+    """`rosbag record` of the session's topics into `bag` (in this process's ROS environment), once it records; or,
+    under /use_sim_time (`sim_time`), once it has subscribed to them all: it then opens the bag only when /clock has
+    moved past 0, and /clock is the runner's to publish (wait_for_partner waits for the recorder's links)."""
+    topics = recorder_topics(robot)
+    recorder = start_recorder(bag, topics, node, dict(os.environ), logs)
     try:
-        recorder.wait_for_output("Recording to", timeout=30)
+        recorder.wait_for_output(f"Subscribing to {topics[-1]}" if sim_time else "Recording to", timeout=30)
     except (ProcessError, TimeoutError):
         stop_recorder(recorder, bag)
         raise
@@ -443,7 +446,8 @@ def run_node(
     stem = f"participant_{plan.participant:02d}"
     bag, records_path = out / "bags" / f"{stem}.bag", out / f"{stem}.csv"
     recorder_node = f"study_recorder_{plan.participant}"
-    recorder = record_session(robot, bag, recorder_node, out / "logs") if record else None
+    sim_time = bool(rospy.get_param("/use_sim_time", False))
+    recorder = record_session(robot, bag, recorder_node, out / "logs", sim_time) if record else None
     runner = StudyRunner(robot, scene, plan, approaches, options, stop)
     if options.keyboard:
         threading.Thread(target=runner.read_keyboard, args=(sys.stdin,), name="keyboard", daemon=True).start()

@@ -7,6 +7,7 @@ trigger, the controllers and the buttons, as the participant would."""
 from __future__ import annotations
 
 import csv
+import subprocess
 import time
 from pathlib import Path
 from typing import Any
@@ -38,7 +39,8 @@ def page_state(browser: Any) -> dict[str, Any]:
         "return {connected: !!(p.connection && p.connection.connected), robot: p.robotLoaded, meshes: p.meshesLoaded,"
         " inSession: p.inSession, frames: p.frames, triggers: p.triggers, error: p.error, actions: p.actions,"
         " index: s ? s.index : null, phase: s ? s.phase : null, motionStart: s ? s.motion_start : null,"
-        " joints: p.joints ? Array.from(p.joints.positions) : null,"
+        " joints: p.joints ? Array.from(p.joints.positions) : null, jointsStamp: p.joints ? p.joints.stamp : null,"
+        " rosNow: p.connection ? p.connection.rosNow() : null,"
         " enterable: !document.getElementById('enter').disabled};"
     )
 
@@ -89,6 +91,9 @@ def joints_before_trial(bag: Path, robot: Any, index: int) -> np.ndarray:
 
 def test_an_emulated_quest_enters_the_session_and_answers_the_runner(tmp_path: Path) -> None:
     core = RosCore()  # this test's own: the page's pings see its ROS time
+    # ROS time is the runner's /clock: the endpoint answers the page's pings with it, so the page stamps its presses
+    # on the runner's clock
+    subprocess.run(["rosparam", "set", "/use_sim_time", "true"], env=core.env, check=True, timeout=30)
     endpoint = EndpointProcess(core.env, tmp_path, extra=["--websocket-port", "0"])
     processes: list[ManagedProcess] = [endpoint]
     try:
@@ -146,6 +151,7 @@ def test_an_emulated_quest_enters_the_session_and_answers_the_runner(tmp_path: P
             )
             processes.append(runner)
             answered: set[tuple[int, str]] = set()
+            motion_start: float | None = None  # of trial 2, as the page was told
             seen: list[tuple[int, str]] = []  # the phases in the order the page showed them
             deadline = time.monotonic() + 90
             while time.monotonic() < deadline:
@@ -169,6 +175,10 @@ def test_an_emulated_quest_enters_the_session_and_answers_the_runner(tmp_path: P
                     after_frames(browser)
                     press(browser, "left", "x-button")
                 elif key == (2, "moving"):
+                    motion_start = state["motionStart"]
+                    # the page's ROS time (its pings' clock offset) is the runner's clock, which the engine's joint
+                    # states (50 Hz) are stamped with
+                    assert state["rosNow"] == pytest.approx(state["jointsStamp"], abs=0.25), state
                     time.sleep(0.1)  # into the approach
                     press(browser, "right", "trigger")
                 elif key == (3, "preference"):
@@ -196,10 +206,13 @@ def test_an_emulated_quest_enters_the_session_and_answers_the_runner(tmp_path: P
     tip = scene.end_effector(chain_for(robot), at_rest)
     assert float(second["distance_at_rest"]) == pytest.approx(scene.hand.distance(tip), abs=0.001)
     assert float(second["distance_at_rest"]) > 0.02  # stopped before reaching the hand
-    # Without /use_sim_time the endpoint's pings answer with the wall clock, not the runner's /clock: the page sees
-    # that its offset does not fit the trial's motion_start, and stamps zero ("when it arrives")
+    # The press is stamped on the runner's clock (from the page's pings) and applied at its stamp, or just after
     stamp = next(value for what, value in actions if what == "stop")
-    assert stamp == 0 and float(second["press_late"]) == 0.0
+    assert motion_start is not None
+    assert motion_start < stamp < motion_start + 5, (stamp, motion_start)
+    late = float(second["press_late"])
+    assert 0 <= late < 0.3
+    assert float(second["press_time"]) == pytest.approx(stamp - motion_start + late, abs=0.01)
 
 
 pytestmark = pytest.mark.timeout(400)

@@ -35,7 +35,16 @@ __all__ = ["WEB_DIR", "ROS_PATH", "PAGE_FILES", "Site", "make_site", "page_setti
 
 WEB_DIR = Path(__file__).resolve().parent / "web"
 ROS_PATH = "/ros"  # the WebSocket that is passed through to the endpoint
-PAGE_FILES = ("index.html", "page.css", "page.js", "rostcp.js", "study.js", "connection.js", "emulation.js")
+PAGE_FILES = (
+    "index.html",
+    "page.css",
+    "page.js",
+    "rostcp.js",
+    "study.js",
+    "connection.js",
+    "clock.js",
+    "emulation.js",
+)
 # URL prefix -> folder under the npm packages (node_modules): what the page imports, and only that
 _VENDOR = {
     "/vendor/three/build/": "three/build",

@@ -1,14 +1,14 @@
 // The page as a client of the endpoint, over its WebSocket transport: one ROS-TCP frame per binary message.
 // Like Unity's connector it registers its topics after connecting, sends a keepalive after each quiet second, and
 // connects again (and registers again) when the connection drops. `__ping` measures how far ROS time is ahead of
-// this browser's clock, for the stamps of the participant's presses.
+// this browser's clock (clock.js), for the stamps of the participant's presses.
 
+import { ClockOffset } from './clock.js';
 import { KEEPALIVE, command, commandFields, frame, framesIn } from './rostcp.js';
 
 const RECONNECT_DELAY_MS = 1000;
 const KEEPALIVE_AFTER_MS = 1000;
-const PING_EVERY_MS = 5000;
-const PINGS_KEPT = 8; // the offset is taken from the quickest of the last few round trips
+const PING_EVERY_MS = 2000; // a /clock that starts after the page connected is seen within this
 
 export class RosConnection {
   // url: the WebSocket's URL; onState(text): what the connection is doing, for the page to show.
@@ -22,7 +22,7 @@ export class RosConnection {
     this.lastSent = 0;
     this.pings = new Map(); // request_time -> when sent (ms, Date.now())
     this.pingCount = 0;
-    this.samples = []; // [round trip ms, offset s]
+    this.clock = new ClockOffset();
     this.errors = []; // the endpoint's __error texts, newest last
     this.timers = [];
   }
@@ -46,8 +46,7 @@ export class RosConnection {
 
   // ROS time minus this browser's clock (s), from the quickest recent ping; null before any answer.
   get clockOffset() {
-    if (this.samples.length === 0) return null;
-    return this.samples.reduce((best, sample) => (sample[0] < best[0] ? sample : best))[1];
+    return this.clock.offset;
   }
 
   // Now in ROS time (s), or null without a clock offset.
@@ -121,9 +120,7 @@ export class RosConnection {
       const sentAt = this.pings.get(fields.request_time);
       this.pings.delete(fields.request_time);
       if (sentAt === undefined || typeof fields.ros_time !== 'number') return;
-      const roundTrip = Date.now() - sentAt;
-      this.samples.push([roundTrip, fields.ros_time - (sentAt + roundTrip / 2) / 1000]);
-      this.samples = this.samples.slice(-PINGS_KEPT);
+      this.clock.add(sentAt, Date.now(), fields.ros_time);
     } else if (name === '__error' || name === '__warn') {
       this.errors.push(`${name}: ${fields.text}`);
       console.warn(`endpoint ${name}: ${fields.text}`);

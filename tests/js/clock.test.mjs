@@ -1,0 +1,31 @@
+// The page's estimate of ROS time from the endpoint's ping answers (sim/study/vr/web/clock.js).
+import assert from 'node:assert/strict';
+import { test } from 'node:test';
+
+import { ClockOffset } from '../../sim/study/vr/web/clock.js';
+
+test('the offset is the quickest round trip\'s, taken at its middle', () => {
+  const clock = new ClockOffset();
+  assert.equal(clock.offset, null);
+  clock.add(10_000, 10_100, 110.2); // ROS time 110.2 at browser 10.05 s: 100.15 s ahead, within 0.05 s
+  clock.add(12_000, 12_010, 112.155); // quicker: 100.15 s ahead, within 0.005 s
+  clock.add(14_000, 14_300, 114.0); // slow and off by 0.15 s: not chosen
+  assert.ok(Math.abs(clock.offset - 100.15) < 1e-9);
+});
+
+test('a jump of ROS time (a /clock that starts late) drops the samples before it', () => {
+  const clock = new ClockOffset();
+  clock.add(1_000, 1_002, 0.0); // the endpoint's ROS time before any /clock: 0
+  assert.ok(Math.abs(clock.offset - -1.001) < 1e-9);
+  clock.add(3_000, 3_050, 0.525); // /clock began at browser 2.5 s: slower round trip, yet it wins
+  assert.ok(Math.abs(clock.offset - -2.5) < 1e-9);
+  assert.equal(clock.samples.length, 1);
+});
+
+test('only the last few samples count', () => {
+  const clock = new ClockOffset();
+  clock.add(0, 1, 5.0005); // the quickest (5.0 ahead), then eight slower ones (5.01 ahead)
+  for (let k = 1; k <= 8; k += 1) clock.add(k * 1000, k * 1000 + 20, k + 5.02);
+  assert.equal(clock.samples.length, 8);
+  assert.ok(Math.abs(clock.offset - 5.01) < 1e-9); // the quickest is gone
+});
