@@ -4,8 +4,10 @@ Two policies, like Unity's Physics.autoSimulate:
 - **auto-simulate**: the engine's own wall clock drives the steps, `time_scale` times faster than real time. Once a
   /clock value has been seen, a step ends at the controller's time when it runs (its newest /clock, extrapolated
   along the wall clock × time_scale), so commands and joint states share one time base, and stamps never go back
-  behind a /clock already seen; steps that fall due together end dt apart, the last one now. Before any /clock,
-  steps end on the engine's own sim time (steps × dt).
+  behind a /clock already seen; steps that fall due together end dt apart, the last one now. A /clock that comes
+  late pulls that estimate back by its lateness: a step then ends just after the one before it (MIN_ADVANCE_S)
+  instead of before it, as long as the fall is within max_jump (beyond it the controller's clock was restarted, and
+  is followed). Before any /clock, steps end on the engine's own sim time (steps × dt).
 - **clock-driven** (lockstep): the controller's /clock drives the steps. They end on the grid first value + k·dt,
   up to the newest /clock value.
 
@@ -25,7 +27,9 @@ from dataclasses import dataclass
 from sim.errors import SimError
 from sim.wire.contract import STAMP_TOLERANCE_S
 
-__all__ = ["ClockAdvance", "ClockError", "StepClock"]
+__all__ = ["ClockAdvance", "ClockError", "StepClock", "MIN_ADVANCE_S"]
+
+MIN_ADVANCE_S = 1e-6  # how far a step's end is after the one before, at least, on the controller's time base
 
 
 class ClockError(SimError, ValueError):
@@ -108,6 +112,7 @@ class StepClock:
         # auto-simulate: the wall clock drives, one step per dt / time_scale wall seconds; else /clock, one per dt.
         self._grid = _Grid(self.dt / self.time_scale if auto_simulate else self.dt, float(max_jump))
         self._controller: tuple[float, float] | None = None  # (newest /clock value, wall time it came)
+        self._last_controller_end: float | None = None  # the last step's end on the controller's time base
         self.steps = 0  # steps run in total
         self.resyncs = 0
         self._anchored_before = False
@@ -168,8 +173,20 @@ class StepClock:
         else:
             # When the step runs, not when it was due: a late wake-up after a new /clock must not stamp behind it.
             now = controller[0] + (wall_s - controller[1]) * self.time_scale
-            ends = tuple(now - (due - 1 - k) * self.dt for k in range(due))
+            ends = self._after_last(tuple(now - (due - 1 - k) * self.dt for k in range(due)))
         return self._advance(ends, anchored_at, jump)
+
+    def _after_last(self, ends: tuple[float, ...]) -> tuple[float, ...]:
+        """`ends`, each after the end before it: a late /clock's fall within max_jump is not followed."""
+        kept: list[float] = []
+        last = self._last_controller_end
+        for end in ends:
+            if last is not None and 0 <= last - end <= self._grid.max_jump:
+                end = last + MIN_ADVANCE_S
+            kept.append(end)
+            last = end
+        self._last_controller_end = last
+        return tuple(kept)
 
     def next_step_wall(self) -> float | None:
         """The wall time the next step is due at (None before the first poll)."""

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from sim.engine.clock import ClockError, StepClock
+from sim.engine.clock import MIN_ADVANCE_S, ClockError, StepClock
 
 DT = 0.02
 
@@ -87,6 +87,20 @@ def test_auto_simulate_stamps_follow_the_controllers_clock_once_seen() -> None:
     assert late == pytest.approx(10.1024) and late > 10.1  # never behind the /clock already seen
     clock.observe_clock(0.0, wall_s=100.3)  # a restarted controller: its newest value is the base
     assert clock.controller_time(100.4) == pytest.approx(0.4)
+
+
+def test_a_late_clock_does_not_stamp_a_step_before_the_one_before_it() -> None:
+    clock = StepClock(0.01, auto_simulate=True, max_jump=1.0)
+    clock.poll(100.0)
+    clock.observe_clock(10.0, wall_s=100.0)
+    assert clock.poll(100.02).step_ends == pytest.approx((10.01, 10.02))
+    clock.observe_clock(10.01, wall_s=100.025)  # sent at 100.01, 15 ms late: the estimate falls back by 15 ms
+    (held,) = clock.poll(100.03).step_ends  # "now" is 10.015, before the last end (10.02)
+    assert held == pytest.approx(10.02 + MIN_ADVANCE_S, abs=1e-12)
+    followed = clock.poll(100.05).step_ends  # the estimate is past the last end again: followed
+    assert followed == pytest.approx((10.025, 10.035))
+    clock.observe_clock(0.0, wall_s=100.06)  # a restarted controller, far back: followed
+    assert clock.poll(100.06).step_ends == pytest.approx((0.0,))
 
 
 # --- checks ---------------------------------------------------------------------------------------------------
