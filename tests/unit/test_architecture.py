@@ -170,6 +170,7 @@ SIM_ROSDEP_KEYS = {
     "matplotlib": "python3-matplotlib",
     "statsmodels": "python3-statsmodels",  # the study's analysis
     "PIL": "python3-pil",  # the engine's --render pictures
+    "h11": "python3-h11",  # the VR page's server
     "pybullet": "python3-pybullet-pip",
     "pybullet_data": "python3-pybullet-pip",
     "rosbags": "python3-rosbags-pip",  # defined by vr_sim's rosdep.yaml: rosdistro has no key for it
