@@ -46,16 +46,25 @@ alone=(--ignore-glob="tests/integration/test_bridge_*.py" --ignore=tests/integra
 for file in "${beside_endpoint[@]}" "${noetic_files[@]}"; do alone+=(--ignore="$file"); done
 for test in "${noetic_tests[@]}"; do alone+=(--deselect="$test"); done
 
+# The endpoint's lane (in the background, its output shown after the foreground's): its tests on 3.8, then the sim's
+# unit tests on 3.10, which it has time for while the foreground runs the unit tests on 3.11 and 3.8.
 endpoint_log="$(mktemp)"
 trap 'rm -f "$endpoint_log"' EXIT
-.venv38/bin/python -m pytest -q -p no:cacheprovider "$@" tests/integration/test_bridge_*.py >"$endpoint_log" 2>&1 &
-endpoint_tests=$!
+(
+  lane_status=0
+  echo "test.sh: on $(.venv38/bin/python --version) (.venv38/bin/python): tests/integration/test_bridge_*.py"
+  .venv38/bin/python -m pytest -q -p no:cacheprovider "$@" tests/integration/test_bridge_*.py || lane_status=$?
+  if [ -n "$python310" ]; then
+    echo "test.sh: on $("$python310" --version) ($python310): tests/unit/sim"
+    "$python310" -m pytest -q -p no:cacheprovider "$@" tests/unit/sim || lane_status=$?
+  fi
+  exit "$lane_status"
+) >"$endpoint_log" 2>&1 &
+endpoint_lane=$!
 run .venv/bin/python "$@" tests/unit "${beside_endpoint[@]}"
 run .venv38/bin/python "$@" tests/unit/bridge tests/unit/sim tests/integration/test_description.py
-if [ -n "$python310" ]; then run "$python310" "$@" tests/unit/sim; fi
 endpoint_status=0
-wait "$endpoint_tests" || endpoint_status=$?
-echo "test.sh: on $(.venv38/bin/python --version) (.venv38/bin/python): tests/integration/test_bridge_*.py"
+wait "$endpoint_lane" || endpoint_status=$?
 cat "$endpoint_log"
 if [ "$endpoint_status" -ne 0 ]; then status=$endpoint_status; fi
 

@@ -45,25 +45,32 @@ def page_state(browser: Any) -> dict[str, Any]:
     )
 
 
-def after_frames(browser: Any, count: int = 2) -> None:
-    """Until the session has drawn `count` more frames: the emulated headset applies input once per frame."""
-    start = page_state(browser)["frames"]
-    wait_for(lambda: page_state(browser)["frames"] >= start + count, 30, f"{count} frames of the session")
+def over_frames(browser: Any, now: str = "", then: str = "", frames: int = 2) -> None:
+    """Run the script `now` in the page, and `then` once the session has drawn `frames` more frames (the emulated
+    headset reads its input once a frame), in one call: in the session each call to the browser takes ~0.7 s here,
+    as software rendering keeps it busy."""
+    browser.execute_async_script(
+        "const done = arguments[arguments.length - 1]; const session = window.vrPage.renderer.xr.getSession();"
+        f"{now}; let left = {frames};"
+        "const next = () => session.requestAnimationFrame(() => {"
+        f" if (--left > 0) {{ next(); }} else {{ {then}; done(); }} }});"
+        "next();"
+    )
 
 
 def press(browser: Any, hand: str, button: str) -> None:
     controller = f"window.emulatedHeadset.controllers.{hand}"
-    browser.execute_script(f"{controller}.updateButtonValue('{button}', 1)")
-    after_frames(browser, 1)
-    browser.execute_script(f"{controller}.updateButtonValue('{button}', 0)")  # released at the next frame
+    over_frames(
+        browser, f"{controller}.updateButtonValue('{button}', 1)", f"{controller}.updateButtonValue('{button}', 0)"
+    )
 
 
 def push_thumbstick(browser: Any, hand: str, x: float) -> None:
     controller = f"window.emulatedHeadset.controllers.{hand}"
-    browser.execute_script(f"{controller}.updateAxes('thumbstick', {x}, 0)")
-    after_frames(browser)
-    browser.execute_script(f"{controller}.updateAxes('thumbstick', 0, 0)")
-    after_frames(browser)
+    over_frames(
+        browser, f"{controller}.updateAxes('thumbstick', {x}, 0)", f"{controller}.updateAxes('thumbstick', 0, 0)"
+    )
+    over_frames(browser)  # seen back at rest before anything else
 
 
 def read_csv(path: Path) -> list[dict[str, str]]:
@@ -122,7 +129,7 @@ def test_an_emulated_quest_enters_the_session_and_answers_the_runner(tmp_path: P
             )
             browser.find_element("id", "enter").click()
             wait_for(lambda: page_state(browser)["inSession"], 30, "the immersive session")
-            after_frames(browser, 5)
+            over_frames(browser, frames=5)
             browser.save_screenshot(str(tmp_path / "session.png"))
             picture = np.asarray(Image.open(tmp_path / "session.png").convert("RGB")).astype(int)
             counts = {
@@ -172,7 +179,7 @@ def test_an_emulated_quest_enters_the_session_and_answers_the_runner(tmp_path: P
                         f"{headset}.left.position.set({-CONTROLLERS_APART / 2}, 1.4, -0.45);"
                         f"{headset}.right.position.set({CONTROLLERS_APART / 2}, 1.4, -0.45);"
                     )
-                    after_frames(browser)
+                    over_frames(browser)
                     press(browser, "left", "x-button")
                 elif key == (2, "moving"):
                     motion_start = state["motionStart"]
