@@ -43,7 +43,7 @@ from bridge.protocol import (
 from bridge.queues import ByteBudget
 from bridge.ros_graph import RosGraph
 from bridge.services import Services
-from bridge.session import ClientSession, RequestRefused
+from bridge.session import ClientSession, RequestRefused, WebSocketSession
 from bridge.sockets import send_now, tune_socket
 from bridge.throttle import LogThrottle
 from bridge.topics import Topics
@@ -189,15 +189,8 @@ class Endpoint:
             session: ClientSession | None = None
             try:
                 tune_socket(sock, self.config.dead_peer_timeout_s)
-                session = ClientSession(
-                    self,
-                    self.config,
-                    sock,
-                    address,
-                    next(self._client_ids),
-                    self._auth,
-                    self._partial_frames,
-                    websocket,
+                session = (WebSocketSession if websocket else ClientSession)(
+                    self, self.config, sock, address, next(self._client_ids), self._auth, self._partial_frames
                 )
                 with self._lock:
                     self._clients[session] = ClientRegistrations()
