@@ -38,22 +38,33 @@ MessageCallback = Callable[[str, bytes, Dict[str, str]], None]
 ServiceHandler = Callable[[bytes], bytes]
 
 
+def _serialized(msg: Any) -> bytes:
+    """A decoded message's bytes. rospy hands one over in place of our raw class's when it subscribes to the topic
+    itself in this process, with its own class: under /use_sim_time it takes /clock as rosgraph_msgs/Clock, and one
+    subscription of a process has one class. (genpy serializes canonically: the bytes are those sent.)"""
+    out = io.BytesIO()
+    msg.serialize(out)
+    return out.getvalue()
+
+
 def _message_bytes(msg: Any) -> bytes:
-    """A received message's bytes: as they came (our raw classes keep them), or serialized again when rospy handed
-    over a decoded message. That happens when rospy itself subscribes to the topic in this process with its own
-    class: under /use_sim_time it takes /clock as rosgraph_msgs/Clock, and one subscription of a process has one
-    class. (genpy serializes canonically: the bytes are those sent.)"""
+    """A received message's bytes: as they came (our raw classes keep them), or serialized again (_serialized)."""
     try:
         return msg._buff  # type: ignore[no-any-return]
     except AttributeError:
-        out = io.BytesIO()
-        msg.serialize(out)
-        return out.getvalue()
+        return _serialized(msg)
 
 
 def _passing_bytes(topic: str, callback: MessageCallback) -> Callable[[Any], None]:
+    """rospy's callback for `topic`: the message's bytes to `callback`. _message_bytes inlined: this runs for every
+    message from ROS, so it makes no more calls than passing `msg._buff` on did."""
+
     def deliver(msg: Any) -> None:
-        callback(topic, _message_bytes(msg), msg._connection_header)
+        try:
+            data = msg._buff
+        except AttributeError:
+            data = _serialized(msg)
+        callback(topic, data, msg._connection_header)
 
     return deliver
 
