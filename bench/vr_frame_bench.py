@@ -36,10 +36,10 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from bridge.client import TcpClient  # noqa: E402
-from sim.processes import PYTHON, EndpointProcess, ManagedProcess, RosCore, plain_env, wait_for  # noqa: E402
+from sim.processes import EndpointProcess, ManagedProcess, RosCore, wait_for  # noqa: E402
 from sim.study.scene import load_scene, scene_robot  # noqa: E402
 from sim.wire.rosmsgs import JOINT_STATE, encode_joint_state  # noqa: E402
-from tests.integration.browser_helpers import chromium  # noqa: E402
+from tests.integration.browser_helpers import chromium, start_vr_page  # noqa: E402
 
 HEADSET_RATES_HZ = (72, 90)
 PUBLISH_HZ = 100.0
@@ -139,19 +139,8 @@ def main() -> int:
     try:
         endpoint = EndpointProcess(core.env, tmp, extra=["--websocket-port", "0"])
         processes.append(endpoint)
-        vr = ManagedProcess(
-            [
-                *(PYTHON, "-m", "sim.study", "vr", "--websocket-port", str(endpoint.websocket_port)),
-                *("--port", "0", "--host", "127.0.0.1", "--certificate-dir", str(tmp / "certificate")),
-                "--emulate-headset",
-            ],
-            plain_env(),
-            tmp,
-            "vr",
-        )
+        vr, url = start_vr_page(endpoint.websocket_port, tmp)
         processes.append(vr)
-        lines = vr.wait_for_output("its WebSocket /ros goes to", timeout=60).splitlines()
-        url = next(line.split("the page: ")[1] for line in lines if "the page: " in line)
         publisher = threading.Thread(target=publish_joint_states, args=(endpoint.port, stop), daemon=True)
         publisher.start()
         for name, query in (("rendered", "?frametime"), ("submitted", "")):

@@ -1,5 +1,6 @@
 """Debian's Chromium, headless with WebGL in software, driven by Debian's chromedriver (no download); and the pixels
-of a colour in a screenshot. For the web pages' tests: the live view and the VR page."""
+of a colour in a screenshot; the VR page's server with its emulated headset. For the web pages' tests (the live view,
+the VR page) and the VR page's frame-time bench."""
 
 from __future__ import annotations
 
@@ -10,7 +11,31 @@ from typing import Any
 
 import numpy as np
 
+from sim.processes import PYTHON, ManagedProcess, plain_env
+
 CHROMIUM, CHROMEDRIVER = "/usr/bin/chromium", "/usr/bin/chromedriver"
+
+
+def start_vr_page(websocket_port: int, log_dir: Path) -> tuple[ManagedProcess, str]:
+    """`python -m sim.study vr` with the emulated headset on a free port of localhost, passing its WebSocket to the
+    endpoint's `websocket_port`, its certificate made in log_dir/certificate; returned once it serves, with the
+    page's URL."""
+    vr = ManagedProcess(
+        [
+            *(PYTHON, "-m", "sim.study", "vr", "--websocket-port", str(websocket_port)),
+            *("--port", "0", "--host", "127.0.0.1", "--certificate-dir", str(log_dir / "certificate")),
+            "--emulate-headset",
+        ],
+        plain_env(),
+        log_dir,
+        "vr",
+    )
+    try:
+        lines = vr.wait_for_output("its WebSocket /ros goes to", timeout=60).splitlines()
+    except BaseException:
+        vr.stop()
+        raise
+    return vr, next(line.split("the page: ")[1] for line in lines if "the page: " in line)
 
 
 @contextmanager

@@ -17,13 +17,12 @@ import pytest
 from PIL import Image
 
 from sim.geometry.kinematics import chain_for
-from sim.processes import plain_env
 from sim.study.interface import STATUS_TOPIC, status_from_json
 from sim.study.paths import ON_TOP
 from sim.study.scene import load_scene, scene_robot
 from sim.study.view import COLOURS
 from sim.wire.rosmsgs import decode_joint_state, deserialize
-from tests.integration.browser_helpers import chromium, pixels_like
+from tests.integration.browser_helpers import chromium, pixels_like, start_vr_page
 from tests.integration.sim_helpers import start_engine
 from tests.integration.study_helpers import trial, write_plan
 from tests.rosenv import PYTHON, EndpointProcess, ManagedProcess, RosCore, wait_for
@@ -105,19 +104,8 @@ def test_an_emulated_quest_enters_the_session_and_answers_the_runner(tmp_path: P
     processes: list[ManagedProcess] = [endpoint]
     try:
         processes.append(start_engine(core, tmp_path, "panda", endpoint.port, "--no-auto-simulate"))
-        vr = ManagedProcess(
-            [
-                *(PYTHON, "-m", "sim.study", "vr", "--websocket-port", str(endpoint.websocket_port)),
-                *("--port", "0", "--host", "127.0.0.1", "--certificate-dir", str(tmp_path / "certificate")),
-                "--emulate-headset",
-            ],
-            plain_env(),
-            tmp_path,
-            "vr",
-        )
+        vr, url = start_vr_page(endpoint.websocket_port, tmp_path)
         processes.append(vr)
-        lines = vr.wait_for_output("its WebSocket /ros goes to", timeout=60).splitlines()
-        url = next(line.split("the page: ")[1] for line in lines if "the page: " in line)
         assert url.startswith("https://localhost:")
         assert (tmp_path / "certificate" / "certificate.pem").is_file()
         with chromium(tmp_path / "chromium", accept_insecure_certs=True, size="800,600") as browser:
