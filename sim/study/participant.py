@@ -3,10 +3,14 @@
 
 It follows the runner's `/study/trial` and the robot's joint states, and acts by its traits (sim.study.
 participant_model), which stand for both the participant and the observer:
-  ready       says go (`/study/go`), as the observer would;
-  moving      test 2: draws where this trial's press is to land (its comfort distance), finds when the trial's
-              planned approach gets there, and presses stop (`/study/stop`) on the first joint state one reaction
-              time before, stamped when the press lands: it anticipates the robot, as people do;
+  ready       test 2: draws where this trial's press is to land (its comfort distance) and finds how long after
+              the start the planned approach gets there; then says go (`/study/go`), as the observer would;
+  moving      test 2: presses stop (`/study/stop`) at once, stamped when the press is to land: it anticipates the
+              robot, as people do, and the runner applies a press at its stamp.
+Why at once, and planned before go: a lockstep runs some 15 times faster than real time on a busy machine, so
+whatever the participant does after the approach starts races the robot. Pressing on the joint state one human
+reaction time ahead (some 15 ms of wall time there) came late in three studies of seven; planning on `moving` (5 ms,
+sometimes 140 ms on a starved CPU) still did now and then. While the runner waits for go nothing moves.
   distance    test 1: reports its perceived distance of the robot at rest (`/study/perceived_distance`);
   preference  names its preferred path of the group (`/study/preference`);
   done        (for its participant number) ends.
@@ -63,7 +67,7 @@ class SimulatedParticipant:
         self.problems: list[str] = []
         self._chain = chain_for(robot)
         self._status: TrialStatus | None = None
-        self._press: tuple[float, float] | None = None  # this trial's (decide at, lands at), s of ROS time
+        self._press_after: float | None = None  # test 2: s after the approach starts at which this trial's press lands
         self._latest: tuple[float, np.ndarray] | None = None
 
     def attach(self) -> None:
@@ -78,21 +82,18 @@ class SimulatedParticipant:
     def _on_joint_state(self, payload: bytes) -> None:
         sample = decode_joint_state(payload, self.robot.joint_names)
         self._latest = (sample.stamp_s, sample.positions)
-        press = self._press
-        if press is None or sample.stamp_s < press[0]:
-            return
-        self._press = None
-        self.presses += 1
-        source = "vr_trigger" if self._status is not None and self._status.condition == "vr" else "button"
-        self.client.publish(STOP_TOPIC, _encode(STOP_TOPIC, seq=0, stamp=time_msg(press[1]), frame_id=source))
 
-    def _plan_press(self, status: TrialStatus) -> tuple[float, float]:
-        """When to decide and when the press lands (s of ROS time): where the planned approach reaches this
-        trial's comfort distance, one reaction time before that, and then."""
+    def _plan_press(self, status: TrialStatus) -> float:
+        """How long after the start (s) the planned approach reaches this trial's comfort distance."""
         path = approach_path(self.scene, status.path, status.standoff, status.peak_speed, self.dt)
         distances = np.array([self.scene.hand.distance(point) for point in path.positions])
-        lands = arrival_time(path.times, distances, comfort_at_press(self.traits, status.condition, self.rng))
-        return status.motion_start + max(lands - self.traits.reaction_time, 0.0), status.motion_start + lands
+        return arrival_time(path.times, distances, comfort_at_press(self.traits, status.condition, self.rng))
+
+    def _press(self, status: TrialStatus, after: float) -> None:
+        source = "vr_trigger" if status.condition == "vr" else "button"
+        stamp = time_msg(status.motion_start + after)
+        self.presses += 1
+        self.client.publish(STOP_TOPIC, _encode(STOP_TOPIC, seq=0, stamp=stamp, frame_id=source))
 
     def _on_status(self, payload: bytes) -> None:
         message: Any = deserialize(payload, TOPIC_TYPES[STATUS_TOPIC])
@@ -105,15 +106,16 @@ class SimulatedParticipant:
             return  # another session's (a latched status from before)
         self._status = status
         if status.phase == "ready":
-            self._press = None
+            self._press_after = None
+            if status.test == 2:
+                try:
+                    self._press_after = self._plan_press(status)
+                except StudyError as error:
+                    self.problems.append(f"trial {status.index}: {error}")
             self.client.publish(GO_TOPIC, _encode(GO_TOPIC))
-        elif status.phase == "moving" and status.test == 2:
-            try:
-                self._press = self._plan_press(status)
-            except StudyError as error:
-                self.problems.append(f"trial {status.index}: {error}")
-        elif status.phase == "at_rest":
-            self._press = None
+        elif status.phase == "moving" and self._press_after is not None:
+            self._press(status, self._press_after)
+            self._press_after = None
         elif status.phase == "distance":
             if self._latest is None:
                 self.problems.append(f"trial {status.index}: asked for a distance before any joint state")
@@ -131,6 +133,6 @@ class SimulatedParticipant:
     def traits_note(self) -> str:
         ratio, comfort = self.traits.distance_ratio, self.traits.comfort_distance
         return (
-            f"comfort {comfort['reality']:.3f} m (VR {comfort['vr']:.3f} m), reaction "
-            f"{self.traits.reaction_time:.3f} s, perceived / actual {ratio['reality']:.2f} (VR {ratio['vr']:.2f})"
+            f"comfort {comfort['reality']:.3f} m (VR {comfort['vr']:.3f} m), "
+            f"perceived / actual {ratio['reality']:.2f} (VR {ratio['vr']:.2f})"
         )

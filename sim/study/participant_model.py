@@ -12,8 +12,8 @@ A Population gives the distributions; each participant's traits are drawn from i
   comfort distance      test 2's measure, where the robot is when the press lands: the participant's own in reality,
                         plus a VR − reality difference of their own (mean `vr_comfort_shift`, SD `comfort_shift_sd`);
                         each trial's varies by `comfort_noise`;
-  reaction time         the participant anticipates: knowing the approach, they decide one reaction time before the
-                        robot reaches their comfort distance, so the press lands there;
+  the press             the participant anticipates: knowing the approach, they press so that the press lands when
+                        the robot reaches their comfort distance;
   preference            ranks a group's paths by their order in the participant's own ranking of all paths.
 """
 
@@ -64,8 +64,6 @@ class Population:
     vr_comfort_shift: float = -0.02  # m: closer in VR
     comfort_shift_sd: float = 0.02  # m
     comfort_noise: float = 0.01  # m: one trial's, around the participant's own
-    reaction_mean: float = 0.25  # s
-    reaction_sd: float = 0.04
 
     def __post_init__(self) -> None:
         spreads = {
@@ -75,7 +73,6 @@ class Population:
             "comfort_sd": self.comfort_sd,
             "comfort_shift_sd": self.comfort_shift_sd,
             "comfort_noise": self.comfort_noise,
-            "reaction_sd": self.reaction_sd,
         }
         bad = [f"{name} {value!r}" for name, value in spreads.items() if not (math.isfinite(value) and value >= 0.0)]
         if bad:
@@ -94,13 +91,11 @@ class Population:
         ratio_vr = np.maximum(ratio + rng.normal(self.vr_distance_shift, self.distance_shift_sd, participants), 0.1)
         comfort = np.maximum(rng.normal(self.comfort_mean, self.comfort_sd, participants), MIN_COMFORT)
         comfort_vr = comfort + rng.normal(self.vr_comfort_shift, self.comfort_shift_sd, participants)
-        reaction = np.clip(rng.normal(self.reaction_mean, self.reaction_sd, participants), 0.1, 0.6)
         return {
             "ratio_reality": ratio,
             "ratio_vr": ratio_vr,
             "comfort_reality": comfort,
             "comfort_vr": np.maximum(comfort_vr, MIN_COMFORT),
-            "reaction": reaction,
         }
 
 
@@ -111,7 +106,6 @@ class Traits:
     perception_noise: float
     comfort_distance: dict[str, float]  # per condition, m: where the robot is at the press, the participant's mean
     comfort_noise: float
-    reaction_time: float  # s
     ranking: tuple[str, ...]  # every path, most preferred first
 
 
@@ -127,7 +121,6 @@ def draw_traits(population: Population, participant: int, seed: int) -> Traits:
         population.perception_noise,
         {"vr": drawn["comfort_vr"], "reality": drawn["comfort_reality"]},
         population.comfort_noise,
-        drawn["reaction"],
         ranking,
     )
 

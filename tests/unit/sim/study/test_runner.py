@@ -9,7 +9,7 @@ from sim.study.runner import Inputs
 
 def test_presses_are_taken_when_their_time_has_come_and_unstamped_ones_at_once() -> None:
     inputs = Inputs()
-    inputs.press(12.40, "vr_trigger")  # decided now, pressed one reaction time later
+    inputs.press(12.40, "vr_trigger")  # sent ahead, stamped when it is to land
     assert inputs.take_press(until=12.38) is None
     taken = inputs.take_press(until=12.40)
     assert taken is not None and taken.source == "vr_trigger"
