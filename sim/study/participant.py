@@ -7,13 +7,14 @@ participant_model), which stand for both the participant and the observer:
               the start the planned approach gets there; then says go (`/study/go`), as the observer would;
   moving      test 2: presses stop (`/study/stop`) at once, stamped when the press is to land: it anticipates the
               robot, as people do, and the runner applies a press at its stamp.
+  distance    test 1: reports its perceived distance of the robot at rest (`/study/perceived_distance`);
+  preference  names its preferred path of the group (`/study/preference`);
+  done        (for its participant number) ends.
+
 Why at once, and planned before go: a lockstep runs some 15 times faster than real time on a busy machine, so
 whatever the participant does after the approach starts races the robot. Pressing on the joint state one human
 reaction time ahead (some 15 ms of wall time there) came late in three studies of seven; planning on `moving` (5 ms,
 sometimes 140 ms on a starved CPU) still did now and then. While the runner waits for go nothing moves.
-  distance    test 1: reports its perceived distance of the robot at rest (`/study/perceived_distance`);
-  preference  names its preferred path of the group (`/study/preference`);
-  done        (for its participant number) ends.
 """
 
 from __future__ import annotations
