@@ -56,17 +56,14 @@ def _message_bytes(msg: Any) -> bytes:
 
 
 def _passing_bytes(topic: str, callback: MessageCallback) -> Callable[[Any], None]:
-    """rospy's callback for `topic`: the message's bytes to `callback`. _message_bytes inlined: this runs for every
-    message from ROS, so it makes no more calls than passing `msg._buff` on did."""
-
-    def deliver(msg: Any) -> None:
-        try:
-            data = msg._buff
-        except AttributeError:
-            data = _serialized(msg)
-        callback(topic, data, msg._connection_header)
-
-    return deliver
+    """rospy's callback for `topic`: the message's bytes to `callback`. rospy hands over messages of the class the
+    process's first subscription to the topic asked for: ours keep their bytes; another (rospy's own /clock under
+    /use_sim_time) is serialized again. Decided once here: this runs for every message from ROS, and passing
+    `msg._buff` on is all the usual case needs."""
+    impl = rospy.topics.get_topic_manager().get_subscriber_impl(rospy.names.resolve_name(topic))
+    if impl is None or issubclass(impl.data_class, RawMessage):
+        return lambda msg: callback(topic, msg._buff, msg._connection_header)
+    return lambda msg: callback(topic, _serialized(msg), msg._connection_header)
 
 
 class RosGraph:
