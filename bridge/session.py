@@ -74,6 +74,8 @@ class SessionOwner(Protocol):
 class ClientSession:
     """One connected client: its conversation, its outgoing queue and writer, and the workers of its ROS calls."""
 
+    websocket = False  # the transport: ROS-TCP frames directly; WebSocketSession's are WebSocket messages
+
     def __init__(
         self,
         owner: SessionOwner,
@@ -83,7 +85,6 @@ class ClientSession:
         client_id: int,
         auth: AuthGuard | None = None,
         partial_frames: ByteBudget | None = None,
-        websocket: bool = False,
     ) -> None:
         self.owner = owner
         self.sock = sock
@@ -95,7 +96,7 @@ class ClientSession:
         # What the client's bytes are fed to: the conversation itself, or the WebSocket link around it.
         self._link: WebSocketLink | None = None
         self._incoming: Conversation | WebSocketLink = self.conversation
-        if websocket:
+        if self.websocket:
             from bridge.websocket import WebSocketLink
 
             self._link = self._incoming = WebSocketLink(Role.ENDPOINT, self.conversation, protocol.handshake())
@@ -105,7 +106,7 @@ class ClientSession:
         self._frame_timeout_s = config.frame_timeout_s
         # Monotonic time the frame now partly received began. A WebSocket client's upgrade request counts as a frame
         # begun at connect: it must be complete within --frame-timeout.
-        self._frame_started: float | None = time.monotonic() if websocket else None
+        self._frame_started: float | None = time.monotonic() if self.websocket else None
         # Partly received frames above PARTIAL_FRAME_FREE_BYTES count against the endpoint's budget for all clients
         self._partial_frames = partial_frames
         self._partial_held = 0
@@ -551,17 +552,7 @@ class WebSocketSession(ClientSession):
     """A client of the WebSocket transport: each frame it is sent goes out as a binary message of its own. (Its own
     class, so that sending to a TCP client, the endpoint's hot path, checks nothing more per frame.)"""
 
-    def __init__(
-        self,
-        owner: SessionOwner,
-        config: EndpointConfig,
-        sock: socket.socket,
-        address: tuple,
-        client_id: int,
-        auth: AuthGuard | None = None,
-        partial_frames: ByteBudget | None = None,
-    ) -> None:
-        super().__init__(owner, config, sock, address, client_id, auth, partial_frames, websocket=True)
+    websocket = True
 
     def send(self, frame: bytes, droppable: bool = True, key: str | None = None, key_limit: int = 0) -> None:
         link = self._link
