@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
-from bridge.memory import QuietTrim, give_back_free_memory
+import subprocess
+import sys
+
+from bridge.memory import QuietTrim
 
 
 def test_memory_goes_back_in_the_first_quiet_period_after_traffic() -> None:
@@ -20,6 +23,35 @@ def test_light_steady_traffic_gives_memory_back_once_per_quiet_bytes_moved() -> 
     assert dues.count(True) == 5 and dues[3]  # at 120, 240, 360, 480, 600
 
 
-def test_giving_memory_back_is_harmless_when_there_is_none() -> None:
-    give_back_free_memory()
-    give_back_free_memory()
+# Run in a process of its own: keep_large_buffers changes the allocator for the whole process. Heap memory freed by
+# 200 MiB of buffers goes back to the system; a second call, with nothing left to give, changes nothing (the data
+# still held is intact, the process does not grow).
+_GIVE_BACK = """
+import os
+from bridge.memory import give_back_free_memory, keep_large_buffers
+
+def rss():
+    with open("/proc/self/statm") as statm:
+        return int(statm.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+
+keep_large_buffers()
+kept = bytes(range(256)) * 4096
+buffers = [bytearray(1 << 20) for _ in range(200)]
+for buffer in buffers:
+    buffer[::4096] = b"x" * len(buffer[::4096])  # touched: resident
+full = rss()
+del buffers
+given = give_back_free_memory()
+after_first = rss()
+again = give_back_free_memory()
+after_second = rss()
+print(given, again, full - after_first, after_second - after_first, kept == bytes(range(256)) * 4096)
+"""
+
+
+def test_freed_memory_goes_back_and_giving_it_back_again_is_harmless() -> None:
+    result = subprocess.run([sys.executable, "-c", _GIVE_BACK], capture_output=True, text=True, timeout=60)
+    assert result.returncode == 0, result.stderr
+    given, again, returned, grown, intact = result.stdout.split()
+    assert given == "True" and int(returned) > 150 * (1 << 20), result.stdout  # most of the 200 MiB
+    assert again in ("True", "False") and int(grown) < 1 << 20 and intact == "True", result.stdout
