@@ -6,6 +6,12 @@ WebSocket must then be wss:// too. The endpoint speaks plain ws://, so this serv
 on: the page and its WebSocket share one origin and one certificate, and the endpoint sees one more WebSocket
 client, which does the whole ROS-TCP conversation itself.
 
+Only this server's own page may open /ros: a browser sends the page's origin with the upgrade, and any other page
+the headset's (or the lab machine's) browser has open gets HTTP 403. The request goes on without its Origin (the
+endpoint serves a client without one, having no origins of its own to allow) and with the browser's address in
+X-Forwarded-For, which the endpoint believes from a trusted proxy (its --trusted-proxy, 127.0.0.1 by default) for
+its per-address limits, back-off and /diagnostics.
+
 asyncio, so one thread serves every connection, TLS included; h11 parses the requests.
 """
 
@@ -32,6 +38,8 @@ MAX_HEAD_BYTES = 16 * 1024  # a request's line and headers
 HEAD_TIMEOUT_S = 30.0  # for a request to arrive on an open connection (browsers keep idle connections a while)
 CHUNK = 64 * 1024
 _REASONS = {200: b"OK", 404: b"Not Found", 405: b"Method Not Allowed"}
+# Headers the endpoint is told afresh, never passed on as a client wrote them
+_REPLACED_HEADERS = (b"origin", b"x-forwarded-for", b"forwarded")
 
 
 class PageServer:
@@ -131,20 +139,23 @@ class PageServer:
     async def _pass_through(
         self, request: h11.Request, rest: bytes, reader: asyncio.StreamReader, writer: asyncio.StreamWriter
     ) -> None:
+        origin = _header(request, b"origin").decode("latin-1")
+        own = f"{'https' if self.tls else 'http'}://{_header(request, b'host').decode('latin-1')}"
+        if origin and origin.lower() != own.lower():
+            self.log(f"vr: refused a WebSocket from the page {origin}: only {own}'s own page may open /ros")
+            _refuse(writer, "403 Forbidden", f"only this server's page ({own}) may open {ROS_PATH}, not {origin}")
+            await writer.drain()
+            return
         host, port = self.endpoint
         try:
             upstream_reader, upstream_writer = await asyncio.open_connection(host, port)
         except OSError as error:
             self.log(f"vr: a page's WebSocket could not reach the endpoint at ws://{host}:{port}/: {error}")
-            body = f"the endpoint's WebSocket port {host}:{port} is not reachable: {error}\n".encode()
-            writer.write(
-                b"HTTP/1.1 502 Bad Gateway\r\nContent-Type: text/plain; charset=utf-8\r\nConnection: close\r\n"
-                + f"Content-Length: {len(body)}\r\n\r\n".encode()
-                + body
-            )
+            _refuse(writer, "502 Bad Gateway", f"the endpoint's WebSocket port {host}:{port} is not reachable: {error}")
             await writer.drain()
             return
-        upstream_writer.write(_request_head(request) + rest)
+        browser = str(writer.get_extra_info("peername")[0])
+        upstream_writer.write(_request_head(request, browser) + rest)
         copies = [
             asyncio.ensure_future(_copy(reader, upstream_writer)),
             asyncio.ensure_future(_copy(upstream_reader, writer)),
@@ -204,11 +215,24 @@ def _header(request: h11.Request, name: bytes) -> bytes:
     return next((value for key, value in request.headers if key == name), b"")
 
 
-def _request_head(request: h11.Request) -> bytes:
-    """The request as it came (names in their own case), for the endpoint's WebSocket upgrade."""
+def _request_head(request: h11.Request, browser: str) -> bytes:
+    """The request for the endpoint's WebSocket upgrade: as it came (names in their own case), but without the
+    page's Origin (checked here) and with the browser's address as this proxy saw it."""
     lines = [request.method + b" " + request.target + b" HTTP/1.1"]
-    lines += [name + b": " + value for name, value in request.headers.raw_items()]
+    lines += [
+        name + b": " + value for name, value in request.headers.raw_items() if name.lower() not in _REPLACED_HEADERS
+    ]
+    lines.append(b"X-Forwarded-For: " + browser.encode("ascii"))
     return b"\r\n".join(lines) + b"\r\n\r\n"
+
+
+def _refuse(writer: asyncio.StreamWriter, status: str, reason: str) -> None:
+    body = f"{reason}\n".encode()
+    writer.write(
+        f"HTTP/1.1 {status}\r\nContent-Type: text/plain; charset=utf-8\r\nConnection: close\r\n".encode()
+        + f"Content-Length: {len(body)}\r\n\r\n".encode()
+        + body
+    )
 
 
 async def _copy(reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
