@@ -36,6 +36,21 @@ def _parser() -> argparse.ArgumentParser:
         help="also serve WebSocket clients (browsers, Unity WebGL) on this port, one frame per binary message "
         "(default off; 0 = any free port; needs python3-wsproto)",
     )
+    parser.add_argument(
+        "--websocket-origin",
+        action="append",
+        metavar="PATTERN",
+        help="a web page allowed to open a WebSocket, by its origin (fnmatch, e.g. http://localhost:8000; "
+        "repeatable; '*' = any page). By default no page is: an upgrade whose Origin matches none gets HTTP 403, "
+        "one without an Origin (not a browser) is served",
+    )
+    parser.add_argument(
+        "--trusted-proxy",
+        action="append",
+        metavar="ADDRESS",
+        help="a proxy whose X-Forwarded-For is believed for WebSocket clients (repeatable; default 127.0.0.1, the "
+        "VR page's server on this machine)",
+    )
     parser.add_argument("--node-name", default="ros_tcp_endpoint")
     parser.add_argument(
         "--max-payload-bytes", type=int, help=f"largest accepted payload (default {DEFAULT_MAX_PAYLOAD_BYTES})"
@@ -127,6 +142,8 @@ _SOURCES = {
     "tcp_ip": _Source("--tcp-ip", "~tcp_ip", "/ROS_IP"),
     "tcp_port": _Source("--tcp-port", "~tcp_port", "/ROS_TCP_PORT"),
     "websocket_port": _Source("--websocket-port", "~websocket_port"),
+    "websocket_origins": _Source("--websocket-origin", "~websocket_origins"),
+    "trusted_proxies": _Source("--trusted-proxy", "~trusted_proxies"),
     "max_payload_bytes": _Source("--max-payload-bytes", "~max_payload_bytes"),
     "client_queue_frames": _Source("--queue-frames", "~queue_frames"),
     "auth_token": _Source("--auth-token", "~auth_token"),
@@ -178,13 +195,14 @@ def _typed(setting: str, value: Any, kind: type) -> Any:
 
 
 def _patterns(setting: str, value: Any) -> tuple[str, ...]:
+    """A list setting: a YAML list, or one string of items separated by commas or spaces (a launch file's arg)."""
     if value is None:
         return ()
     if isinstance(value, str):
         return tuple(part for part in value.replace(",", " ").split() if part)
     if isinstance(value, (list, tuple)):
         return tuple(_typed(setting, part, str) for part in value)
-    raise ConfigError(setting, f"{value!r} is not a list of topic patterns")
+    raise ConfigError(setting, f"{value!r} is not a list of patterns")
 
 
 def build_config(args: argparse.Namespace, ros: Any) -> EndpointConfig:
@@ -198,6 +216,7 @@ def build_config(args: argparse.Namespace, ros: Any) -> EndpointConfig:
     token = _given("auth_token", args.auth_token, ros)
     if token is not None:
         token = _typed("auth_token", token, str) or None  # an empty token (the launch file's default) = off
+    proxies = _given("trusted_proxies", args.trusted_proxy, ros)  # an empty list trusts none
     limits = {
         setting: read(setting, getattr(args, option[2:].replace("-", "_")), type(getattr(defaults, setting)))
         for setting, option, _ in _LIMITS
@@ -207,6 +226,8 @@ def build_config(args: argparse.Namespace, ros: Any) -> EndpointConfig:
         tcp_ip=read("tcp_ip", args.tcp_ip, str),
         tcp_port=read("tcp_port", args.tcp_port, int),
         websocket_port=read("websocket_port", args.websocket_port, int),
+        websocket_origins=_patterns("websocket_origins", _given("websocket_origins", args.websocket_origin, ros)),
+        trusted_proxies=defaults.trusted_proxies if proxies is None else _patterns("trusted_proxies", proxies),
         max_payload_bytes=read("max_payload_bytes", args.max_payload_bytes, int),
         client_queue_frames=read("client_queue_frames", args.queue_frames, int),
         auth_token=token,

@@ -9,6 +9,7 @@ from dataclasses import dataclass
 from bridge.errors import BridgeError
 from bridge.framing import LARGE_PAYLOAD_BYTES
 from bridge.protocol import DEFAULT_MAX_PAYLOAD_BYTES, MAX_DESTINATION_BYTES
+from bridge.web_clients import is_address
 
 __all__ = ["ConfigError", "EndpointConfig", "MAX_FRAME_LENGTH"]
 
@@ -32,6 +33,12 @@ class EndpointConfig:
     tcp_port: int = 10000
     # Where WebSocket clients (browsers, Unity WebGL builds) are served, on tcp_ip; None: not at all (needs wsproto)
     websocket_port: int | None = None
+    # Web pages allowed to open a WebSocket, as fnmatch patterns on their Origin ("http://localhost:8000", "*" for
+    # any); an upgrade with another Origin gets HTTP 403. Clients that send none (not browsers) are always served.
+    websocket_origins: tuple[str, ...] = ()
+    # Proxies whose X-Forwarded-For the endpoint believes (the VR page's server, on this machine): their WebSocket
+    # clients are limited, backed off and reported by the address the proxy says they have
+    trusted_proxies: tuple[str, ...] = ("127.0.0.1",)
     max_payload_bytes: int = DEFAULT_MAX_PAYLOAD_BYTES
     max_destination_bytes: int = MAX_DESTINATION_BYTES
     client_queue_frames: int = 1024
@@ -79,6 +86,12 @@ class EndpointConfig:
             _check_whole("websocket_port", self.websocket_port, 0, 65535)
             if self.websocket_port == self.tcp_port and self.tcp_port != 0:
                 raise ConfigError("websocket_port", f"must differ from tcp_port, both are {self.tcp_port}")
+        for pattern in self.websocket_origins:
+            if not isinstance(pattern, str) or not pattern.strip():
+                raise ConfigError("websocket_origins", f"each must be an origin or a pattern, got {pattern!r}")
+        for proxy in self.trusted_proxies:
+            if not isinstance(proxy, str) or not is_address(proxy):
+                raise ConfigError("trusted_proxies", f"each must be an IP address, got {proxy!r}")
         _check_whole("max_payload_bytes", self.max_payload_bytes, 1, MAX_FRAME_LENGTH)
         _check_whole("max_destination_bytes", self.max_destination_bytes, 1, MAX_FRAME_LENGTH)
         _check_whole("client_queue_frames", self.client_queue_frames, 1)

@@ -71,10 +71,15 @@ def report(
     topics: Sequence[TopicSnapshot],
     previous: dict[str, tuple[int, int]],
     interval_s: float,
+    refused_origins: int | None = None,
 ) -> tuple[list[Status], dict[str, tuple[int, int]]]:
     """The statuses at wall time `now`, and the counts to pass as `previous` next time (rates and new drops are
-    measured between two reports `interval_s` apart)."""
+    measured between two reports `interval_s` apart). `refused_origins`: WebSocket upgrades refused for their
+    Origin so far (None: the endpoint serves no WebSocket clients)."""
     counts: dict[str, tuple[int, int]] = {}
+    websocket = (
+        () if refused_origins is None else (("WebSocket upgrades refused for their origin", str(refused_origins)),)
+    )
     statuses = [
         Status(
             OK,
@@ -85,6 +90,7 @@ def report(
                 ("address", address),
                 ("clients", str(len(clients))),
                 ("topics", str(len(topics))),
+                *websocket,
             ),
         )
     ]

@@ -44,7 +44,8 @@ class OutgoingQueue:
         self._kept_bytes = 0  # of frames that are never dropped (answers)
         self._longest_waits: dict[str, float] = {}  # per key, the longest a taken frame waited (take_batch)
         self._continuation = False  # the first frame is the rest of one begun on the wire (put_continuation)
-        self._closed = False
+        self._closed = False  # no more frames are taken (the writer drains what is queued)
+        self._discarded = False  # closed with what was queued thrown away: nothing more is sent
         self._dropped = 0
         lock = threading.Lock()
         self._not_empty = threading.Condition(lock)  # the consumer waits here
@@ -106,9 +107,9 @@ class OutgoingQueue:
 
     def put_continuation(self, data: bytes) -> None:
         """Queue the rest of a frame whose first bytes were written directly, ahead of everything: it must follow
-        them on the wire. Never dropped."""
+        them on the wire. Never dropped; taken after close() too (unless discarded), as its frame is on the wire."""
         with self._not_full:
-            if self._closed:
+            if self._discarded:
                 return
             self._items.appendleft((data, False, None, time.monotonic(), False))
             self._bytes += len(data)
@@ -286,9 +287,30 @@ class OutgoingQueue:
         with self._not_empty:
             self._closed = True
             if discard:
+                self._discarded = True
                 self._clear()
             self._not_empty.notify_all()
             self._not_full.notify_all()
+
+    def finish_with(self, data: bytes) -> bool:
+        """Close with `data` as the last thing sent: every frame not yet begun is thrown away (the rest of one begun
+        on the wire stays first), then `data` is queued and no more puts are taken. False, and nothing queued, when
+        the queue was closed already. (A connection's goodbye: it must not wait behind a backlog, nor cut a frame.)"""
+        with self._not_empty:
+            if self._closed:
+                return False
+            begun = self._items[0] if self._continuation and self._items else None
+            self._clear()
+            if begun is not None:
+                self._items.append(begun)
+                self._bytes = self._kept_bytes = len(begun[0])
+                self._large = int(self.large_bytes is not None and len(begun[0]) >= self.large_bytes)
+                self._continuation = True
+            self._append(data, False, None, 0, time.monotonic())
+            self._closed = True
+            self._not_empty.notify_all()
+            self._not_full.notify_all()
+            return True
 
 
 class ByteBudget:

@@ -13,6 +13,7 @@ oldest topic frames, never the endpoint's memory.
 from __future__ import annotations
 
 import logging
+import math
 import select
 import socket
 import threading
@@ -33,7 +34,7 @@ from bridge.sockets import UnsentLimit, send_now, takes_whole, unsent_bytes, wai
 from bridge.throttle import LogThrottle
 
 if TYPE_CHECKING:  # wsproto is optional: bridge.websocket is imported only for WebSocket clients
-    from bridge.websocket import WebSocketLink
+    from bridge.websocket import UpgradeRequest, WebSocketLink
 
 __all__ = ["ClientSession", "WebSocketSession", "RequestRefused", "SessionOwner"]
 
@@ -46,6 +47,11 @@ DROP_WARNING_INTERVAL_S = 1.0
 ERROR_LOG_INTERVAL_S = 1.0
 # A client may hold this much of a frame not yet complete without counting against the endpoint's budget for them.
 PARTIAL_FRAME_FREE_BYTES = 1024 * 1024
+# A WebSocket's reader looks up at least this often (s), so that a close made on another thread starts its handshake
+CLOSE_CHECK_INTERVAL_S = 0.2
+# How long a closing WebSocket waits for the peer's Close (RFC 6455 7.1.1: the server closes the TCP connection
+# once the close handshake is done); a peer that does not answer in time is cut off.
+CLOSE_TIMEOUT_S = 2.0
 _AUTH_FAILURES_LOG = LogThrottle(log)  # wrong tokens may come thousands a second: logged once a second
 
 
@@ -70,6 +76,9 @@ class SessionOwner(Protocol):
     def release(self, session: ClientSession) -> None:
         """The client has gone: undo its registrations."""
 
+    def upgrade_refusal(self, session: WebSocketSession, request: UpgradeRequest) -> tuple[str, str] | None:
+        """Why a WebSocket client's upgrade request is refused, as (HTTP status, reason); None to accept it."""
+
 
 class ClientSession:
     """One connected client: its conversation, its outgoing queue and writer, and the workers of its ROS calls."""
@@ -88,8 +97,12 @@ class ClientSession:
     ) -> None:
         self.owner = owner
         self.sock = sock
+        self.client_id = client_id
         self.name = f"#{client_id} {address[0]}:{address[1]}"
+        # The client's address for per-address limits and back-off: the peer's, or (behind a trusted proxy) the one
+        # the proxy says the client has (WebSocketSession.use_forwarded_address)
         self.host: str = address[0]
+        self.peer_host: str = address[0]
         # Small frames go before queued large ones (take_batch): control messages never wait behind camera images.
         self.queue = OutgoingQueue(config.client_queue_frames, config.client_queue_bytes, LARGE_PAYLOAD_BYTES)
         self.conversation = Conversation(Role.ENDPOINT, config.max_payload_bytes, config.max_destination_bytes)
@@ -104,6 +117,8 @@ class ClientSession:
         self.authenticated = auth is None
         self._auth_deadline = time.monotonic() + config.auth_timeout_s
         self._frame_timeout_s = config.frame_timeout_s
+        # Bytes of answers (never dropped) that may wait unread before more are refused (Endpoint.handle) or dropped
+        self._answers_budget = config.client_queue_bytes
         # Monotonic time the frame now partly received began. A WebSocket client's upgrade request counts as a frame
         # begun at connect: it must be complete within --frame-timeout.
         self._frame_started: float | None = time.monotonic() if self.websocket else None
@@ -120,6 +135,7 @@ class ClientSession:
         self.ping_round_trip_s: float | None = None
         self._end_reason: str | None = None  # why the connection ended, first cause only
         self.publish_drops = 0  # this client's messages dropped before reaching ROS (publisher queue full)
+        self.pongs_refused = 0  # WebSocket pongs not sent: the client left its budget of answers unread
         self._closed = threading.Event()
         # Set once the reader has ended: the client will read no more answers, so its ROS calls may give up.
         self.gone = threading.Event()
@@ -138,6 +154,7 @@ class ClientSession:
         self._pending_payloads: list[bytes] = []
         self._reported_drops = 0
         self._reported_publish_drops = 0
+        self._reported_pongs_refused = 0
         self._last_drop_warning_at = 0.0
         self._error_log = LogThrottle(log, ERROR_LOG_INTERVAL_S)
         self._reader = threading.Thread(target=self._read_loop, name=f"read {self.name}", daemon=True)
@@ -268,25 +285,28 @@ class ClientSession:
             log.error("client %s: a ROS call failed", self.name, exc_info=future.exception())
 
     def close(self, reason: str | None = None, tell_client: bool = False) -> None:
-        """End the connection; with `tell_client`, the reason goes to the client first as a __warn, if its socket
-        takes it at once (nothing waits for a client that does not read)."""
+        """End the connection (from any thread); with `tell_client`, the reason goes to the client first as a __warn,
+        if its socket takes it at once (nothing waits for a client that does not read)."""
         if self._closed.is_set():
             return
         if reason is not None:
             self._ended(reason)
-            if tell_client and self._send_lock.acquire(blocking=False):
-                try:
-                    goodbye = protocol.encode(Warn(f"closing the connection: {reason}"))
-                    if self._link is not None:
-                        link = self._link
-                        goodbye = (link.wrap(goodbye) if link.upgraded else b"") + link.close(reason, going_away=True)
-                    send_now(self.sock, goodbye)
-                except OSError:
-                    pass
-                finally:
-                    self._send_lock.release()
+        self._say_goodbye(reason if tell_client else None)
+
+    def _say_goodbye(self, text: str | None) -> None:
+        """Over TCP: the __warn with `text` if the socket takes it now, then the connection is shut at once."""
+        if text is not None and self._send_lock.acquire(blocking=False):
+            try:
+                send_now(self.sock, protocol.encode(Warn(f"closing the connection: {text}")))
+            except OSError:
+                pass
+            finally:
+                self._send_lock.release()
         self._closed.set()
         self.queue.close(discard=True)
+        self._shut()
+
+    def _shut(self) -> None:
         try:
             self.sock.shutdown(socket.SHUT_RDWR)
         except OSError:
@@ -309,7 +329,11 @@ class ClientSession:
                 frames_before = incoming.frames_received
                 events = incoming.receive_data(data)
                 if self._link is not None:
+                    if self._link.pending_request is not None:
+                        self._decide_upgrade(self._link.pending_request)
                     self._answer_link()  # before the events' answers: the upgrade's must go first
+                    if self._closed.is_set() and self._link.closed is None:  # closed on another thread meanwhile
+                        break
                 if not self._account_partial_frame(incoming.frames_received > frames_before):
                     break
                 for event in events:
@@ -328,36 +352,79 @@ class ClientSession:
             self._finish()
 
     def _answer_link(self) -> None:
-        """Send what the WebSocket link says of its own accord: the upgrade's answer and the handshake, pongs."""
+        """Send what the WebSocket link says of its own accord: the upgrade's answer and the handshake, pongs, the
+        answer to the peer's Close. Pongs are answers too: while more than the budget of earlier answers waits unread
+        (Endpoint.handle), they are dropped, and the client is told."""
+        link = self._link
+        assert link is not None
+        pongs = link.pongs_waiting()
+        over_budget = pongs and self.queue.kept_bytes + pongs > self._answers_budget
+        reply = link.data_to_send(pongs=not over_budget)
+        if over_budget:
+            self._pongs_refused()
+        if not reply:
+            return
+        if link.close_sent:  # the answer to the peer's Close: the last thing sent, nothing is queued after it
+            self._ended(link.closed or "WebSocket closed by the peer")
+            self._closed.set()  # first: direct sends stop (see WebSocketSession._say_goodbye)
+            self.queue.put(reply, droppable=False)
+            self.queue.close()
+            return
+        self._send_bytes(reply, droppable=False)
+        if link.upgraded and reply.startswith(b"HTTP/"):
+            log.info("client %s: WebSocket upgraded; handshake sent", self.name)
+
+    def _pongs_refused(self) -> None:
+        """A pong dropped for the budget: logged, and said in the writer's next warning (_drop_warning), which goes
+        with the next batch the client reads (a frame queued now would be dropped at once: the queue is over its
+        bytes with answers)."""
+        self.pongs_refused += 1
+        self._error_log.warning(
+            "client %s: WebSocket pong not sent: %d bytes of earlier answers wait unread (%d pongs not sent)",
+            self.name,
+            self.queue.kept_bytes,
+            self.pongs_refused,
+        )
+
+    def _decide_upgrade(self, request: UpgradeRequest) -> None:
+        """Accept or refuse a WebSocket client's upgrade request, as the owner says."""
         assert self._link is not None
-        reply = self._link.data_to_send()
-        if reply:
-            self._send_bytes(reply, droppable=False)
-            if self._link.upgraded and reply.startswith(b"HTTP/"):
-                log.info("client %s: WebSocket upgraded; handshake sent", self.name)
+        refusal = self.owner.upgrade_refusal(self, request)  # type: ignore[arg-type]
+        if refusal is None:
+            self._link.accept()
+        else:
+            self._link.refuse(*refusal)
 
     def _readable_in_time(self, readable: select.poll) -> bool:
         """Wait for bytes while a deadline runs (a frame begun, __auth due); False when it passed (the client was
-        told). Without one, recv simply waits: keepalives and TCP keepalive tell a live peer from a dead one."""
-        deadlines = []
-        if not self.authenticated:
-            deadlines.append((self._auth_deadline, "no __auth within the endpoint's --auth-timeout"))
-        if self._frame_started is not None:
-            deadlines.append(
-                (
-                    self._frame_started + self._frame_timeout_s,
-                    f"a frame begun was not completed within {self._frame_timeout_s:g} s (--frame-timeout)",
+        told), or when the connection was closed meanwhile. Without a deadline, a TCP client's recv simply waits:
+        keepalives and TCP keepalive tell a live peer from a dead one (a close on another thread shuts the socket,
+        which wakes it). A WebSocket's reader looks up every CLOSE_CHECK_INTERVAL_S: its close must be handshaken
+        from here, so its socket is not shut."""
+        while True:
+            deadlines = []
+            if not self.authenticated:
+                deadlines.append((self._auth_deadline, "no __auth within the endpoint's --auth-timeout"))
+            if self._frame_started is not None:
+                deadlines.append(
+                    (
+                        self._frame_started + self._frame_timeout_s,
+                        f"a frame begun was not completed within {self._frame_timeout_s:g} s (--frame-timeout)",
+                    )
                 )
-            )
-        if not deadlines:
-            return True
-        deadline, why = min(deadlines)
-        while not readable.poll(max(0.0, deadline - time.monotonic()) * 1000):
+            if not deadlines and not self.websocket:
+                return True
+            deadline, why = min(deadlines) if deadlines else (math.inf, "")
+            now = time.monotonic()
+            wait_s = min(deadline - now, CLOSE_CHECK_INTERVAL_S) if self.websocket else deadline - now
+            if readable.poll(max(0.0, wait_s) * 1000):
+                return True
+            if self._closed.is_set():
+                return False
             if time.monotonic() >= deadline:
                 self.send_error(f"closing the connection: {why}")
                 self._ended(why)
                 return False
-        return True
 
     def _account_partial_frame(self, frames_completed: bool) -> bool:
         """After a read: when the frame now partly received began, and its bytes against the endpoint's budget;
@@ -397,14 +464,7 @@ class ClientSession:
             future.cancel()
         self._calls.shutdown(wait=False)
         self._lookups.shutdown(wait=False)
-        # Let the writer drain what is queued (the closing __error, a WebSocket's close), then close the socket.
-        closing = self._link.close(self._end_reason or "") if self._link is not None else b""
-        if closing:
-            self.queue.put(closing, droppable=False)
-        self.queue.close()
-        self._writer.join(timeout=2.0)
-        self.close()
-        self.sock.close()
+        self._end_transport()
         log.info(
             "client %s disconnected: %s (frames in %d, out %d, dropped %d)",
             self.name,
@@ -413,6 +473,18 @@ class ClientSession:
             self.frames_out,
             self.dropped,
         )
+
+    def _end_transport(self) -> None:
+        """Over TCP: let the writer drain what is queued (the closing __error), then close the socket."""
+        self.queue.close()
+        self._writer.join(timeout=CLOSE_TIMEOUT_S)
+        self.close()
+        self.sock.close()
+
+    def wait_closed(self, timeout_s: float) -> None:
+        """Until the connection has ended (its reader finished, the socket closed), at most `timeout_s`."""
+        if self._reader.is_alive():
+            self._reader.join(timeout_s)
 
     def _ended(self, reason: str) -> None:
         if self._end_reason is None and not self._closed.is_set():
@@ -509,7 +581,8 @@ class ClientSession:
                 # taking frames off the queue and writing them.
                 with self._send_lock:
                     batch = self.queue.take_batch()
-                    warning = self._drop_warning()
+                    # Nothing after a WebSocket's Close: a batch that holds it was taken after _closed was set
+                    warning = None if self._closed.is_set() else self._drop_warning()
                     if warning is not None:
                         batch.append(warning)
                     if batch:
@@ -523,9 +596,14 @@ class ClientSession:
             self.close()
 
     def _drop_warning(self) -> bytes | None:
-        """At most once per wake-up (>= 1 s apart when idle): how many frames were lost each way."""
-        dropped, publish_dropped = self.queue.dropped, self.publish_drops
-        if dropped == self._reported_drops and publish_dropped == self._reported_publish_drops:
+        """At most once per wake-up (>= 1 s apart when idle): how many frames were lost each way, and how many
+        WebSocket pongs were not sent."""
+        dropped, publish_dropped, pongs_refused = self.queue.dropped, self.publish_drops, self.pongs_refused
+        if (
+            dropped == self._reported_drops
+            and publish_dropped == self._reported_publish_drops
+            and pongs_refused == self._reported_pongs_refused
+        ):
             return None
         now = time.monotonic()
         if now - self._last_drop_warning_at < DROP_WARNING_INTERVAL_S:
@@ -543,14 +621,24 @@ class ClientSession:
                 f"{publish_dropped - self._reported_publish_drops} published message(s) dropped (oldest first; "
                 f"raise queue_size in __publish), {publish_dropped} in total"
             )
+        if pongs_refused != self._reported_pongs_refused:
+            parts.append(
+                f"{pongs_refused - self._reported_pongs_refused} WebSocket pong(s) not sent: more than "
+                f"{self._answers_budget} bytes of earlier answers waited unread, {pongs_refused} in total"
+            )
         self._reported_drops, self._reported_publish_drops = dropped, publish_dropped
+        self._reported_pongs_refused = pongs_refused
         warning = protocol.encode(protocol.Warn("; ".join(parts)))
         return warning if self._link is None else self._link.wrap(warning)
 
 
 class WebSocketSession(ClientSession):
     """A client of the WebSocket transport: each frame it is sent goes out as a binary message of its own. (Its own
-    class, so that sending to a TCP client, the endpoint's hot path, checks nothing more per frame.)"""
+    class, so that sending to a TCP client, the endpoint's hot path, checks nothing more per frame.)
+
+    Its close is a handshake (RFC 6455 7.1): the Close goes out after the frame on the wire, never inside it, and
+    nothing after it; then the reader waits up to CLOSE_TIMEOUT_S for the peer's Close before the socket closes.
+    Only the reader touches the socket's reading side, so a close made on another thread never races it."""
 
     websocket = True
 
@@ -560,3 +648,54 @@ class WebSocketSession(ClientSession):
         if not link.upgraded:  # nothing can be said in frames before the upgrade (link.close answers in HTTP)
             return
         super().send(link.wrap(frame), droppable, key, key_limit)
+
+    def use_forwarded_address(self, host: str) -> None:
+        """The client's own address, as a trusted proxy in front of the endpoint says it: per-address limits,
+        back-off and /diagnostics go by it from now on."""
+        self.name = f"#{self.client_id} {host} via {self.name.split(' ', 1)[1]}"
+        self.host = host
+
+    def _say_goodbye(self, text: str | None) -> None:
+        """The __warn with `text` and the Close (1001, going away), after the frame on the wire; what is queued and
+        not begun is dropped. Before the upgrade, an HTTP 503 instead. The reader sees the close within
+        CLOSE_CHECK_INTERVAL_S and waits for the peer's answer (_end_transport)."""
+        link = self._link
+        assert link is not None
+        self._closed.set()  # first: a direct send that checks it under the send lock from now on queues instead
+        goodbye = link.wrap(protocol.encode(Warn(f"closing the connection: {text}"))) if text and link.upgraded else b""
+        goodbye += link.close(text or self._end_reason or "", going_away=True)
+        self.queue.finish_with(goodbye)
+
+    def _end_transport(self) -> None:
+        link = self._link
+        assert link is not None
+        if not self._closed.is_set():  # the reader ended it: what it said last (an __error) goes before the Close
+            self._closed.set()
+            closing = link.close(self._end_reason or "")
+            if closing:
+                self.queue.put(closing, droppable=False)
+        self.queue.close()
+        deadline = time.monotonic() + CLOSE_TIMEOUT_S
+        if link.close_sent and not link.peer_closed:
+            self._await_peer_close(deadline)
+        self._writer.join(timeout=max(0.0, deadline - time.monotonic()))
+        self._shut()
+        self.sock.close()
+
+    def _await_peer_close(self, deadline: float) -> None:
+        """Read until the peer answers this end's Close, hangs up, or `deadline` passes; what else it sends is not
+        acted on any more."""
+        assert self._link is not None
+        readable = select.poll()
+        readable.register(self.sock, select.POLLIN)
+        while True:
+            remaining = deadline - time.monotonic()
+            if remaining <= 0 or not readable.poll(remaining * 1000):
+                log.info("client %s: no answer to the WebSocket close within %g s", self.name, CLOSE_TIMEOUT_S)
+                return
+            try:
+                data = self.sock.recv(RECV_BYTES)
+            except OSError:
+                return
+            if not data or self._link.await_close(data):
+                return

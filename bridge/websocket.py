@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import struct
 import threading
+from dataclasses import dataclass
 
 import wsproto
 from wsproto.connection import ConnectionState
@@ -36,7 +37,15 @@ from wsproto.utilities import RemoteProtocolError as WsRemoteProtocolError
 from bridge.events import Event, FramingError, InvalidInput, RemoteProtocolError
 from bridge.protocol import Conversation, Role
 
-__all__ = ["WebSocketLink", "refusal_response", "split_frames", "CLOSE_NORMAL", "CLOSE_GOING_AWAY", "CLOSE_POLICY"]
+__all__ = [
+    "WebSocketLink",
+    "UpgradeRequest",
+    "refusal_response",
+    "split_frames",
+    "CLOSE_NORMAL",
+    "CLOSE_GOING_AWAY",
+    "CLOSE_POLICY",
+]
 
 # Close codes the endpoint sends (RFC 6455 7.4.1): done; the endpoint is stopping; the client broke a rule.
 CLOSE_NORMAL = int(CloseReason.NORMAL_CLOSURE)
@@ -75,6 +84,16 @@ def _message_header(length: int) -> bytes:
     return _LONG_HEADER.pack(_FIN_BINARY, 127, length)
 
 
+@dataclass(frozen=True)
+class UpgradeRequest:
+    """What the endpoint decides a WebSocket upgrade on: the page's Origin (None from clients that are not
+    browsers), and the client's address as a proxy in front says it (X-Forwarded-For, all its values in order)."""
+
+    target: str
+    origin: str | None
+    forwarded_for: str | None
+
+
 def refusal_response(reason: str, status: str = "503 Service Unavailable") -> bytes:
     """An HTTP answer in place of the upgrade's, saying why in the body: by default the 503 that turns a client away
     when the endpoint is full, sent at once, so that the endpoint's accept thread never waits for a request."""
@@ -89,13 +108,19 @@ def refusal_response(reason: str, status: str = "503 Service Unavailable") -> by
 class WebSocketLink:
     """One connection's WebSocket layer around its Conversation: bytes from the socket in, ROS-TCP events out.
 
-    For the endpoint: the client's upgrade request is accepted, and `first_frames` (the handshake) follow the
-    answer. For a client: `upgrade_request()` starts the connection. What the link must send of its own accord
-    (the upgrade's answer, pongs, a close's reply) waits in `data_to_send()`; what the conversation sends goes
-    through `wrap()`. `closed` says why the peer ended the WebSocket, once it has.
+    For the endpoint: the client's upgrade request waits in `pending_request` until the endpoint decides on it with
+    `accept()` (then `first_frames`, the handshake, follow the answer) or `refuse()`. For a client:
+    `upgrade_request()` starts the connection. What the link must send of its own accord (the upgrade's answer,
+    pongs, a close's reply) waits in `data_to_send()`; what the conversation sends goes through `wrap()`. `closed`
+    says why the WebSocket ended, once it has; `close_sent` says a Close has been made (nothing may follow it).
+
+    Pongs: the peer may ping faster than it reads. Only the newest ping of a read is answered (RFC 6455 5.5.3
+    allows it), and `pongs_waiting()` tells the owner how many bytes of pongs wait, so that it can drop them
+    (`data_to_send(pongs=False)`) when the peer leaves its answers unread.
 
     Thread safety: `wrap()` may be called from any thread at the endpoint (each message header is made here, from
-    the frame's length alone); wsproto's own sending is serialised by a lock; the rest belongs to the reading thread.
+    the frame's length alone); everything that touches wsproto holds one lock, so a close made on another thread
+    never meets the reading thread inside wsproto.
     """
 
     def __init__(self, role: Role, conversation: Conversation, first_frames: bytes = b"") -> None:
@@ -106,11 +131,16 @@ class WebSocketLink:
         )
         self._first_frames = first_frames
         self._outgoing = bytearray()
-        self._send_lock = threading.Lock()  # wsproto's sending is for one thread at a time
+        self._pong = b""  # the answer to the newest ping not yet taken (data_to_send)
+        self.pongs_dropped = 0
+        self._lock = threading.RLock()  # wsproto is for one thread at a time
+        self.pending_request: UpgradeRequest | None = None  # an upgrade request the owner has not decided on
         self._in_message = False  # a data message has begun and not ended
         self._failure: tuple[int, str] | None = None  # the close code and reason a fatal problem calls for
         self._http_answered = False  # the upgrade request has had its answer (accepted, or refused)
         self.upgraded = False
+        self.close_sent = False
+        self.peer_closed = False  # the peer's Close came (an answer to this end's, or its own)
         self.closed: str | None = None
 
     # --- what the session reads of the conversation -----------------------------------------------------------
@@ -129,19 +159,22 @@ class WebSocketLink:
     def receive_data(self, data: bytes) -> list[Event]:
         """The ROS-TCP events in `data`, with an InvalidInput for each WebSocket-level problem (fatal when the
         stream cannot go on). Nothing more is read once the WebSocket has closed or failed."""
-        if self.closed is not None:
-            return []
-        try:
-            self._ws.receive_data(data)
-            return self._events()
-        except WsRemoteProtocolError as error:  # a malformed upgrade request
-            if self.role is Role.ENDPOINT and error.event_hint is not None:
-                self._outgoing += self._send(error.event_hint)
-                self._http_answered = True
-            return [self._failed(f"WebSocket upgrade failed: {error}")]
+        with self._lock:
+            if self.closed is not None:
+                return []
+            try:
+                self._ws.receive_data(data)
+                return self._events()
+            except WsRemoteProtocolError as error:  # a malformed upgrade request
+                if self.role is Role.ENDPOINT and error.event_hint is not None:
+                    self._outgoing += self._send(error.event_hint)
+                    self._http_answered = True
+                return [self._failed(f"WebSocket upgrade failed: {error}")]
 
     def _events(self) -> list[Event]:
         events: list[Event] = []
+        if self.pending_request is not None:  # nothing is read past the request until it is decided on
+            return events
         for ws_event in self._ws.events():
             if isinstance(ws_event, BytesMessage):
                 events.extend(self._binary(bytes(ws_event.data), ws_event.message_finished))
@@ -158,15 +191,25 @@ class WebSocketLink:
                         )
                     )
             elif isinstance(ws_event, Ping):
-                self._outgoing += self._send(ws_event.response())
+                if self._ws.state is ConnectionState.OPEN:  # after a Close, nothing but its answer may be sent
+                    if self._pong:
+                        self.pongs_dropped += 1  # superseded by this newer ping's answer
+                    self._pong = self._send(ws_event.response())
             elif isinstance(ws_event, CloseConnection):
                 events.extend(self._close_received(ws_event))
                 break
             elif isinstance(ws_event, Request):
-                self._outgoing += self._send(AcceptConnection())
-                self._http_answered = True
-                self._outgoing += self.wrap(self._first_frames) if self._first_frames else b""
-                self.upgraded = True
+                headers: dict[bytes, list[bytes]] = {}
+                for name, value in ws_event.extra_headers:
+                    headers.setdefault(bytes(name).lower(), []).append(bytes(value))
+                origin = headers.get(b"origin")
+                forwarded = headers.get(b"x-forwarded-for")
+                self.pending_request = UpgradeRequest(
+                    ws_event.target,
+                    origin[-1].decode("latin-1") if origin else None,
+                    b", ".join(forwarded).decode("latin-1") if forwarded else None,
+                )
+                break
             elif isinstance(ws_event, AcceptConnection):
                 self.upgraded = True
             elif isinstance(ws_event, RejectConnection):
@@ -195,6 +238,7 @@ class WebSocketLink:
     def _close_received(self, close: CloseConnection) -> list[Event]:
         if self._ws.state is ConnectionState.REMOTE_CLOSING:  # the peer closed: answer, and end
             self._outgoing += self._send(close.response())
+            self.close_sent = self.peer_closed = True
             mid_frame = self._in_message or self.conversation.buffered_bytes
             reason = f": {close.reason}" if close.reason else ""
             self.closed = f"WebSocket closed by the peer (code {int(close.code)}{reason})" + (
@@ -202,6 +246,7 @@ class WebSocketLink:
             )
             return []
         if self._ws.state is ConnectionState.CLOSED:  # the peer's answer to the close this end sent
+            self.peer_closed = True
             self.closed = f"WebSocket closed (code {int(close.code)}), the peer answering this end's close"
             return []
         # wsproto reports WebSocket frames it cannot parse (unmasked, a bad opcode, ...) as a close of its own
@@ -214,10 +259,56 @@ class WebSocketLink:
         self.closed = why
         return InvalidInput(FramingError(why))
 
-    def data_to_send(self) -> bytes:
-        """Bytes the link itself must send (the upgrade's answer, pongs, close replies), taken once."""
-        data, self._outgoing = bytes(self._outgoing), bytearray()
-        return data
+    # --- the endpoint's decision on an upgrade request -----------------------------------------------------------
+    def accept(self) -> None:
+        """Accept the pending upgrade request: its answer and the first frames wait in data_to_send(). (A client
+        must wait for the answer before it sends anything, RFC 6455 4.1; wsproto drops what one sent earlier.)"""
+        with self._lock:
+            self.pending_request = None
+            self._outgoing += self._send(AcceptConnection())
+            self._http_answered = True
+            self._outgoing += self.wrap(self._first_frames) if self._first_frames else b""
+            self.upgraded = True
+
+    def refuse(self, status: str, reason: str) -> None:
+        """Refuse the pending upgrade request with an HTTP answer (e.g. "403 Forbidden") that says why; the link is
+        closed."""
+        with self._lock:
+            self.pending_request = None
+            self._outgoing += refusal_response(reason, status)
+            self._http_answered = True
+            self.closed = f"WebSocket upgrade refused ({status}): {reason}"
+
+    def await_close(self, data: bytes) -> bool:
+        """After this end's Close: read `data` for the peer's answer (nothing else in it is acted on); True once it
+        came, or once the peer's bytes cannot be read for it any more."""
+        with self._lock:
+            try:
+                self._ws.receive_data(data)
+                for event in self._ws.events():
+                    if isinstance(event, CloseConnection):  # the answer, or wsproto's word that the stream broke
+                        self.peer_closed = True
+            except WsRemoteProtocolError:
+                self.peer_closed = True
+            return self.peer_closed
+
+    def pongs_waiting(self) -> int:
+        """Bytes of pongs that data_to_send() would send."""
+        return len(self._pong)
+
+    def data_to_send(self, pongs: bool = True) -> bytes:
+        """Bytes the link itself must send (the upgrade's answer, pongs, close replies), taken once; with
+        `pongs=False` the waiting pong is dropped (counted in pongs_dropped)."""
+        with self._lock:
+            data = bytes(self._outgoing)
+            self._outgoing = bytearray()
+            if self._pong and pongs:
+                # A pong goes before a Close that follows it (nothing may follow a Close)
+                data = self._pong + data
+            elif self._pong:
+                self.pongs_dropped += 1
+            self._pong = b""
+            return data
 
     # --- bytes out ---------------------------------------------------------------------------------------------
     def wrap(self, frames: bytes) -> bytes:
@@ -246,20 +337,23 @@ class WebSocketLink:
         client missed a deadline or its authentication) with `reason`, else "normal". Nothing once a close has been
         sent. At the endpoint before the upgrade, an HTTP answer instead: 503 when going away, else 408 (the only
         other way to end there is the upgrade request's deadline)."""
-        if self.role is Role.ENDPOINT and not self.upgraded:
-            if self._http_answered:
-                return b""
-            self._http_answered = True
-            return refusal_response(reason, "503 Service Unavailable" if going_away else "408 Request Timeout")
-        code = CLOSE_GOING_AWAY if going_away else CLOSE_POLICY if reason else CLOSE_NORMAL
-        if self._failure is not None and not going_away:
-            code, reason = self._failure
-        with self._send_lock:
+        with self._lock:
+            if self.role is Role.ENDPOINT and not self.upgraded:
+                if self._http_answered:
+                    return b""
+                self._http_answered = True
+                self.pending_request = None
+                return refusal_response(reason, "503 Service Unavailable" if going_away else "408 Request Timeout")
+            code = CLOSE_GOING_AWAY if going_away else CLOSE_POLICY if reason else CLOSE_NORMAL
+            if self._failure is not None and not going_away:
+                code, reason = self._failure
             if self._ws.state not in (ConnectionState.OPEN, ConnectionState.REMOTE_CLOSING):
                 return b""
+            self.close_sent = True
+            self._pong = b""  # a pong not yet taken can no longer be sent (nothing follows a Close)
             # wsproto cuts the reason to the 123 bytes a close has room for
             return self._ws.send(CloseConnection(code, reason or None))
 
     def _send(self, event: WsEvent) -> bytes:
-        with self._send_lock:
+        with self._lock:
             return self._ws.send(event)

@@ -203,6 +203,16 @@ class RawConnection(FrameReader):
                 self._unread.append(item)
         return self._unread.pop(0)
 
+    def wait_eof(self, timeout: float = 10.0) -> None:
+        """Read on until the endpoint closes the TCP connection."""
+        deadline = time.monotonic() + timeout
+        while not self.eof:
+            remaining = deadline - time.monotonic()
+            if remaining <= 0:
+                raise TimeoutError(f"the TCP connection still open after {timeout} s")
+            with contextlib.suppress(TimeoutError):
+                self._read(remaining)
+
     def wait_closed(self, timeout: float = 10.0) -> None:
         """Read (and keep) frames until the endpoint closes the connection."""
         deadline = time.monotonic() + timeout
@@ -352,7 +362,16 @@ class RawWebSocket(FrameReader):
     frame it reads in `received`, checking that each binary message carries exactly one frame. `close_code` and
     `close_reason` say how the endpoint closed the WebSocket; `refusal` holds the body of an HTTP refusal."""
 
-    def __init__(self, port: int, *, upgrade: bool = True, handshake: bool = True, timeout: float = 10.0) -> None:
+    def __init__(
+        self,
+        port: int,
+        *,
+        upgrade: bool = True,
+        handshake: bool = True,
+        timeout: float = 10.0,
+        headers: tuple[tuple[str, str], ...] = (),
+        answer_close: bool = True,
+    ) -> None:
         import wsproto
         from wsproto.events import Request
 
@@ -367,9 +386,14 @@ class RawWebSocket(FrameReader):
         self.close_code: int | None = None
         self.close_reason: str | None = None
         self.closed = False
+        self.answer_close = answer_close  # answer the endpoint's Close, as RFC 6455 says a client must
+        self.after_close = 0  # WebSocket events that came after the endpoint's Close (there must be none)
+        self.eof = False  # the endpoint closed the TCP connection
+        self.pongs = 0  # answers to WebSocket pings
         self.handshake: dict | None = None
         if upgrade:
-            self.sock.sendall(self.ws.send(Request(host=f"{LOOPBACK}:{port}", target="/")))
+            extra = [(name.encode(), value.encode()) for name, value in headers]
+            self.sock.sendall(self.ws.send(Request(host=f"{LOOPBACK}:{port}", target="/", extra_headers=extra)))
             deadline = time.monotonic() + timeout
             while not self.upgraded:
                 if self.refusal is not None or self.closed or time.monotonic() > deadline:
@@ -408,7 +432,15 @@ class RawWebSocket(FrameReader):
 
     # reading
     def _read(self, timeout: float) -> None:
-        from wsproto.events import AcceptConnection, BytesMessage, CloseConnection, Ping, RejectConnection, RejectData
+        from wsproto.events import (
+            AcceptConnection,
+            BytesMessage,
+            CloseConnection,
+            Ping,
+            Pong,
+            RejectConnection,
+            RejectData,
+        )
 
         self.sock.settimeout(max(timeout, 0.001))
         try:
@@ -418,10 +450,12 @@ class RawWebSocket(FrameReader):
         except ConnectionResetError:
             data = b""
         if not data:
-            self.closed = True
+            self.closed = self.eof = True
             return
         self.ws.receive_data(data)
         for event in self.ws.events():
+            if self.close_code is not None:
+                self.after_close += 1
             if isinstance(event, AcceptConnection):
                 self.upgraded = True
             elif isinstance(event, RejectConnection):
@@ -435,10 +469,13 @@ class RawWebSocket(FrameReader):
                     self._message = bytearray()
             elif isinstance(event, Ping):
                 self.send_event(event.response())
+            elif isinstance(event, Pong):
+                self.pongs += 1
             elif isinstance(event, CloseConnection):
                 self.close_code, self.close_reason = int(event.code), event.reason
-                with contextlib.suppress(Exception):
-                    self.send_event(event.response())
+                if self.answer_close:
+                    with contextlib.suppress(Exception):
+                        self.send_event(event.response())
                 self.closed = True
 
     def _take_message(self, data: bytes) -> None:
@@ -459,6 +496,16 @@ class RawWebSocket(FrameReader):
                 raise TimeoutError(f"no frame within {timeout} s")
             self._read(remaining)
         return self._unread.pop(0)
+
+    def wait_eof(self, timeout: float = 10.0) -> None:
+        """Read on until the endpoint closes the TCP connection."""
+        deadline = time.monotonic() + timeout
+        while not self.eof:
+            remaining = deadline - time.monotonic()
+            if remaining <= 0:
+                raise TimeoutError(f"the TCP connection still open after {timeout} s")
+            with contextlib.suppress(TimeoutError):
+                self._read(remaining)
 
     def wait_closed(self, timeout: float = 10.0) -> None:
         deadline = time.monotonic() + timeout

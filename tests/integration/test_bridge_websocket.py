@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import json
 import os
+import select
+import signal
 import subprocess
 from collections.abc import Iterator
 
@@ -205,6 +207,137 @@ def _fanned_out(diagnostics: DiagnosticsInbox, topic: str) -> int:
 def _dropped_for_client(diagnostics: DiagnosticsInbox, address: str) -> int:
     status = diagnostics.find(address)
     return -1 if status is None else int(status_values(status)["dropped to client"])
+
+
+# --- answers are bounded ------------------------------------------------------------------------------------------
+
+
+def endpoint_rss(endpoint: EndpointProcess) -> int:
+    with open(f"/proc/{endpoint.pid}/status") as status:
+        return next(int(line.split()[1]) * 1024 for line in status if line.startswith("VmRSS:"))
+
+
+def test_a_flood_of_pings_gets_one_pong_per_read_and_does_not_grow_the_endpoint(bridge) -> None:
+    """200,000 WebSocket pings (26 MB) from a client that reads nothing meanwhile: the endpoint answers only the
+    newest of each read (RFC 6455 allows it). Answering each would have queued 200,000 pongs (25 MB and more)."""
+    from wsproto.events import Ping
+
+    with RawWebSocket(bridge.websocket_port) as ws:
+        ws.sync()
+        before = endpoint_rss(bridge)
+        pings = b"".join(ws.ws.send(Ping(b"%0125d" % n)) for n in range(1000))
+        for _ in range(200):
+            ws.send_bytes(pings)
+        ws.sync()  # everything before it has been read and answered
+        assert 1 <= ws.pongs < 20_000, ws.pongs
+        assert endpoint_rss(bridge) - before < 8 * 1024 * 1024
+        pong_before = ws.pongs
+        ws.send_event(Ping(b"still answered"))
+        ws.sync()
+        assert ws.pongs == pong_before + 1
+
+
+def test_past_the_unread_answers_budget_pongs_are_dropped_and_the_client_is_told(bridge, ros_node) -> None:
+    """A client that asks for 24 MB of service answers and reads none has more than its 4 MiB of unread answers
+    queued: its pings then get no pong (the budget every answer shares), and a warning says so."""
+    from wsproto.events import Ping
+
+    name = unique("ws_big_answers")
+    answered = []
+
+    def big(request):
+        answered.append(request)
+        return TriggerResponse(True, "x" * 1_000_000)
+
+    service = ros_node.Service(name, Trigger, big)
+    try:
+        with RawWebSocket(bridge.websocket_port) as ws:
+            ws.command("__ros_service", topic=name, message_name="std_srvs/Trigger")
+            ws.sync()
+            for srv_id in range(24):
+                ws.command("__request", srv_id=srv_id)
+                ws.send_frame(name, b"")
+            wait_for(lambda: len(answered) == 24, 30, "the 24 calls answered")
+            ws.send_event(Ping(b"answer me"))
+            wait_for(lambda: "WebSocket pong not sent" in bridge.output(), 10, "the dropped pong in the log")
+            warning = ws.wait_frame(
+                lambda frame: frame.destination == "__warn" and b"WebSocket pong(s) not sent" in frame.payload,
+                "the warning",
+                30,
+            )
+            assert b"bytes of earlier answers waited unread" in warning.payload
+            while len([frame for frame in ws.received if frame.destination == name]) < 24:  # no answer lost
+                ws.next_frame(30)
+            assert ws.pongs == 0
+            ws.send_event(Ping(b"read now"))  # read everything: the budget is free again
+            ws.sync()
+            assert ws.pongs == 1
+    finally:
+        service.shutdown()
+
+
+# --- the close handshake -------------------------------------------------------------------------------------------
+
+
+def test_a_shutdown_close_follows_the_message_on_the_wire_and_nothing_follows_it(roscore, ros_node, tmp_path) -> None:
+    """The endpoint stops while a client that reads nothing has a backlog of 1 MB messages, one of them half on the
+    wire, and more keep coming: the client then reads whole messages, the goodbye and the Close (1001), and not one
+    byte of WebSocket after it; it answers, and the endpoint closes the connection."""
+    endpoint = start_endpoint(roscore, tmp_path, "--websocket-port", "0")
+    topic = unique("ws_closing")
+    publisher = ros_node.Publisher(topic, String, queue_size=100)
+    ws = RawWebSocket(endpoint.websocket_port, timeout=30)
+    try:
+        ws.command("__subscribe", topic=topic, message_name="std_msgs/String", queue_size=50)
+        ws.sync()
+        wait_for(lambda: publisher.get_num_connections() == 1, 10, "the endpoint's subscriber")
+        for index in range(40):
+            publisher.publish(String(data=f"{index:06d}" + "x" * 1_000_000))
+        wait_for(lambda: unsent_by_endpoint(ws) > 0, 10, "a message half on the wire")
+        endpoint.process.send_signal(signal.SIGTERM)
+        ws.wait_closed(30)
+        assert ws.close_code == 1001, (ws.close_code, ws.close_reason)
+        assert ws.received[-1].destination == "__warn" and b"shutting down" in ws.received[-1].payload
+        ws.wait_eof(10)
+        assert ws.after_close == 0
+        assert all(frame.payload.endswith(b"x" * 100) for frame in ws.received if frame.destination == topic)
+        endpoint.process.wait(10)
+    finally:
+        ws.sock.close()
+        publisher.unregister()
+        endpoint.stop()
+
+
+def unsent_by_endpoint(ws: RawWebSocket) -> int:
+    """Bytes the client has not read yet (its receive queue): the endpoint is writing to a full connection."""
+    import fcntl
+    import struct
+    import termios
+
+    return struct.unpack("i", fcntl.ioctl(ws.sock.fileno(), termios.FIONREAD, b"\0\0\0\0"))[0]
+
+
+@pytest.mark.parametrize("answers", [True, False])
+def test_the_endpoint_waits_for_the_peers_close_before_it_hangs_up(bridge, answers: bool) -> None:
+    """A close of the endpoint's own (here for broken framing): it keeps the connection open for the client's
+    answer; one that answers is hung up on at once, one that does not after the close timeout (said in the log)."""
+    with RawWebSocket(bridge.websocket_port, answer_close=False) as ws:
+        port = ws.sock.getsockname()[1]
+        ws.send_message(b"\x04\x00\x00\x00/big" + (2**31 - 2).to_bytes(4, "little"))
+        ws.wait_closed()
+        assert ws.close_code == 1008 and not ws.eof
+        readable = select.poll()
+        readable.register(ws.sock, select.POLLIN)
+        assert not readable.poll(500)  # the endpoint waits: no hang-up yet (it waits 2 s)
+        if answers:
+            from wsproto.events import CloseConnection
+
+            ws.send_event(CloseConnection(code=1008))
+        ws.wait_eof(10)
+        assert ws.after_close == 0
+    unanswered = f"127.0.0.1:{port}: no answer to the WebSocket close"
+    wait_for(lambda: f"127.0.0.1:{port} disconnected" in bridge.output(), 10, "the disconnect's log line")
+    assert (unanswered in bridge.output()) is not answers
 
 
 # --- bad input ----------------------------------------------------------------------------------------------------

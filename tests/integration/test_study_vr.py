@@ -7,6 +7,8 @@ trigger, the controllers and the buttons, as the participant would."""
 from __future__ import annotations
 
 import csv
+import socket
+import ssl
 import subprocess
 import time
 from pathlib import Path
@@ -22,6 +24,7 @@ from sim.study.paths import ON_TOP
 from sim.study.scene import load_scene, scene_robot
 from sim.study.view import COLOURS
 from sim.wire.rosmsgs import decode_joint_state, deserialize
+from tests.integration.bridge_helpers import DiagnosticsInbox, start_endpoint
 from tests.integration.browser_helpers import chromium, pixels_like, start_vr_page
 from tests.integration.sim_helpers import start_engine
 from tests.integration.study_helpers import trial, write_plan
@@ -213,3 +216,54 @@ def test_an_emulated_quest_enters_the_session_and_answers_the_runner(tmp_path: P
 
 
 pytestmark = pytest.mark.timeout(400)
+
+
+def test_the_pages_server_passes_only_its_own_page_on_with_the_browsers_address(roscore, ros_node, tmp_path) -> None:
+    """`python -m sim.study vr` in front of an endpoint that allows no page: its own page's WebSocket is served (the
+    server checked the Origin and says the browser's address); another page's is refused by the server itself."""
+    endpoint = start_endpoint(roscore, tmp_path / "endpoint", "--websocket-port", "0")
+    diagnostics = DiagnosticsInbox(ros_node, "/" + endpoint.name)
+    vr, url = start_vr_page(endpoint.websocket_port, tmp_path / "vr")
+    try:
+        page = url.split("://", 1)[1].split("/", 1)[0]
+        host, port = page.rsplit(":", 1)
+        own = f"https://{page}"
+        with _tls_websocket(host, int(port), own) as (answer, sock):
+            assert answer.startswith(b"HTTP/1.1 101"), answer
+            # the browser's address (loopback here too), said by the server: the endpoint counts the client by it
+            wait_for(lambda: diagnostics.find("127.0.0.1 via 127.0.0.1:"), 10, "the page's client on /diagnostics")
+        with _tls_websocket(host, int(port), "https://attacker.example") as (answer, _):
+            assert answer.startswith(b"HTTP/1.1 403") and b"attacker.example" in answer, answer
+        assert "refused a WebSocket from the page https://attacker.example" in vr.output()
+    finally:
+        diagnostics.close()
+        vr.stop()
+        endpoint.stop()
+
+
+class _tls_websocket:
+    """A WebSocket upgrade over TLS to the VR page's server, as a browser on `origin` sends it; yields the answer's
+    head and the socket."""
+
+    def __init__(self, host: str, port: int, origin: str) -> None:
+        context = ssl.create_default_context()
+        context.check_hostname = False
+        context.verify_mode = ssl.CERT_NONE  # the server's self-signed certificate
+        self.sock = context.wrap_socket(socket.create_connection((host, port), timeout=10), server_hostname=host)
+        self.request = (
+            f"GET /ros HTTP/1.1\r\nHost: {host}:{port}\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
+            f"Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\nOrigin: {origin}\r\n\r\n"
+        ).encode()
+
+    def __enter__(self) -> tuple[bytes, socket.socket]:
+        self.sock.sendall(self.request)
+        answer = b""
+        while b"\r\n\r\n" not in answer:
+            data = self.sock.recv(65536)
+            if not data:
+                break
+            answer += data
+        return answer, self.sock
+
+    def __exit__(self, *exc: object) -> None:
+        self.sock.close()

@@ -73,6 +73,15 @@ def test_one_status_for_the_endpoint_each_client_and_each_topic() -> None:
     assert values(statuses[2])["rate from clients [msg/s]"] == "25.0"
 
 
+def test_refused_web_pages_are_counted_where_websocket_clients_are_served() -> None:
+    def endpoint_values(refused: int | None) -> dict[str, str]:
+        statuses, _ = report("/ep", "a", 0.0, [], [], {}, 1.0, refused)
+        return dict(statuses[0].values)
+
+    assert endpoint_values(3)["WebSocket upgrades refused for their origin"] == "3"
+    assert "WebSocket upgrades refused for their origin" not in endpoint_values(None)
+
+
 def test_a_client_that_drops_or_fills_its_queue_is_a_warning() -> None:
     _, counts = report("/ep", "a", 0.0, [client()], [], {}, 1.0)
     statuses, counts = report("/ep", "a", 1.0, [client(dropped_out=7)], [], counts, 1.0)

@@ -343,6 +343,30 @@ def test_the_rest_of_a_frame_begun_on_the_wire_goes_first() -> None:
     assert queue.take_batch() == [b"xy", b"j2", b"image-3..."]
 
 
+def test_a_goodbye_drops_what_is_not_begun_and_follows_the_frame_on_the_wire() -> None:
+    queue = large_queue()
+    queue.put(b"j1", key="/joints")
+    queue.put(b"answer", droppable=False)
+    queue.put_continuation(b"...rest of an image")
+    assert queue.finish_with(b"close")
+    assert queue.take_batch() == [b"...rest of an image", b"close"]
+    queue.put(b"j2")  # nothing after the goodbye
+    assert not queue.finish_with(b"again") and queue.take_all(timeout=1) is None
+    assert queue.dropped == 0  # frames thrown away for the close are not the client's slowness
+
+
+def test_the_rest_of_a_frame_begun_goes_out_after_close_too() -> None:
+    """A direct send that wrote a frame's first bytes as the queue closed: the rest must still follow them."""
+    queue = OutgoingQueue(10, 100)
+    assert queue.finish_with(b"close")
+    queue.put_continuation(b"rest")
+    assert queue.take_all(timeout=1) == [b"rest", b"close"]
+    discarded = OutgoingQueue(10, 100)
+    discarded.close(discard=True)  # the TCP session's close: nothing more goes out at all
+    discarded.put_continuation(b"rest")
+    assert discarded.take_all(timeout=1) is None
+
+
 def test_a_topic_limited_to_one_keeps_its_newest_large_frame() -> None:
     queue = large_queue()
     for index in range(5):

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import struct
+import threading
 
 import pytest
 from hypothesis import given, settings
@@ -20,7 +21,7 @@ from bridge.protocol import (
     Subscribe,
     TopicMessage,
 )
-from bridge.websocket import WebSocketLink, refusal_response, split_frames
+from bridge.websocket import UpgradeRequest, WebSocketLink, refusal_response, split_frames
 
 
 def upgraded_pair(max_payload_bytes: int = protocol.DEFAULT_MAX_PAYLOAD_BYTES) -> tuple[WebSocketLink, WebSocketLink]:
@@ -29,6 +30,7 @@ def upgraded_pair(max_payload_bytes: int = protocol.DEFAULT_MAX_PAYLOAD_BYTES) -
     )
     client = WebSocketLink(Role.CLIENT, Conversation(Role.CLIENT))
     assert endpoint.receive_data(client.upgrade_request("localhost:9090", "/")) == []
+    endpoint.accept()
     assert client.receive_data(endpoint.data_to_send()) == [Handshake("v0.7.0", {"protocol": "ROS1"})]
     return endpoint, client
 
@@ -44,10 +46,95 @@ def test_the_upgrade_is_answered_and_the_handshake_follows_it() -> None:
     assert endpoint.buffered_bytes >= 1  # the upgrade request is under way: the frame deadline runs
     request = client.upgrade_request("localhost:9090", "/ros")
     assert endpoint.receive_data(request[:10]) == [] and not endpoint.upgraded
-    assert endpoint.receive_data(request[10:]) == [] and endpoint.upgraded and endpoint.buffered_bytes == 0
+    assert endpoint.receive_data(request[10:]) == [] and not endpoint.upgraded  # until the endpoint decides
+    assert endpoint.pending_request == UpgradeRequest("/ros", None, None) and endpoint.data_to_send() == b""
+    endpoint.accept()
+    assert endpoint.upgraded and endpoint.buffered_bytes == 0
     answer = endpoint.data_to_send()
     assert answer.startswith(b"HTTP/1.1 101 ") and endpoint.data_to_send() == b""
     assert client.receive_data(answer) == [Handshake("v0.7.0", {"protocol": "ROS1"})] and client.upgraded
+
+
+def request_with(*headers: tuple[str, str]) -> bytes:
+    lines = [
+        "GET /ros HTTP/1.1",
+        "Host: localhost:9090",
+        "Upgrade: websocket",
+        "Connection: Upgrade",
+        "Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==",
+        "Sec-WebSocket-Version: 13",
+        *(f"{name}: {value}" for name, value in headers),
+    ]
+    return ("\r\n".join(lines) + "\r\n\r\n").encode()
+
+
+def test_the_request_says_the_pages_origin_and_the_forwarded_addresses() -> None:
+    endpoint = WebSocketLink(Role.ENDPOINT, Conversation(Role.ENDPOINT), protocol.handshake())
+    request = request_with(
+        ("Origin", "https://Lab.Example"), ("X-Forwarded-For", "10.0.0.9"), ("x-forwarded-for", "192.168.1.7")
+    )
+    assert endpoint.receive_data(request) == []
+    assert endpoint.pending_request == UpgradeRequest("/ros", "https://Lab.Example", "10.0.0.9, 192.168.1.7")
+
+
+def test_a_refused_request_gets_its_http_answer_and_nothing_more() -> None:
+    endpoint = WebSocketLink(Role.ENDPOINT, Conversation(Role.ENDPOINT), protocol.handshake())
+    endpoint.receive_data(request_with(("Origin", "https://attacker.example")))
+    endpoint.refuse("403 Forbidden", "the origin https://attacker.example may not open a WebSocket here")
+    answer = endpoint.data_to_send()
+    assert answer.startswith(b"HTTP/1.1 403 Forbidden\r\n") and answer.endswith(b"here\n")
+    assert endpoint.closed is not None and "403" in endpoint.closed and not endpoint.upgraded
+    assert endpoint.receive_data(b"more") == [] and endpoint.close() == b"" and endpoint.data_to_send() == b""
+
+
+def test_only_the_newest_ping_of_a_read_is_answered_and_pongs_can_be_dropped() -> None:
+    endpoint, client = upgraded_pair()
+    endpoint.receive_data(b"".join(client._send(Ping(b"%d" % n)) for n in range(3)))
+    assert endpoint.pongs_waiting() > 0 and endpoint.pongs_dropped == 2
+    pongs = [event for event in _client_events(client, endpoint.data_to_send())]
+    assert [bytes(event.payload) for event in pongs] == [b"2"]
+    endpoint.receive_data(client._send(Ping(b"unread")))
+    assert endpoint.data_to_send(pongs=False) == b"" and endpoint.pongs_dropped == 3 and endpoint.pongs_waiting() == 0
+
+
+def test_nothing_follows_the_close() -> None:
+    endpoint, client = upgraded_pair()
+    endpoint.receive_data(client._send(Ping(b"before")))
+    close = endpoint.close("bye")
+    assert endpoint.close_sent and endpoint.data_to_send() == b""  # the pong not yet taken is not sent after it
+    assert endpoint.receive_data(client._send(Ping(b"after"))) == [] and endpoint.data_to_send() == b""
+    assert closing(client, close)[0] == 1008
+
+
+def test_closing_waits_for_a_read_inside_wsproto() -> None:
+    """close() on another thread while the reader is inside wsproto: it waits for the read to end (one lock)."""
+    endpoint, client = upgraded_pair()
+    inside, release = threading.Event(), threading.Event()
+    receive = endpoint._ws.receive_data
+
+    def slow_receive(data: bytes) -> None:
+        inside.set()
+        release.wait(5)
+        receive(data)
+
+    endpoint._ws.receive_data = slow_receive  # type: ignore[method-assign]
+    reader = threading.Thread(target=endpoint.receive_data, args=(client._send(Ping(b"x")),))
+    reader.start()
+    assert inside.wait(5)
+    closed: list[bytes] = []
+    closer = threading.Thread(target=lambda: closed.append(endpoint.close("going")))
+    closer.start()
+    closer.join(0.2)
+    assert closer.is_alive() and not closed  # waiting for the read
+    release.set()
+    reader.join(5)
+    closer.join(5)
+    assert closed and closing(client, closed[0])[0] == 1008
+
+
+def _client_events(client: WebSocketLink, data: bytes) -> list:
+    client._ws.receive_data(data)
+    return [event for event in client._ws.events() if not isinstance(event, CloseConnection)]
 
 
 def test_each_frame_goes_in_a_message_of_its_own() -> None:
