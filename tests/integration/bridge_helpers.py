@@ -203,16 +203,6 @@ class RawConnection(FrameReader):
                 self._unread.append(item)
         return self._unread.pop(0)
 
-    def wait_eof(self, timeout: float = 10.0) -> None:
-        """Read on until the endpoint closes the TCP connection."""
-        deadline = time.monotonic() + timeout
-        while not self.eof:
-            remaining = deadline - time.monotonic()
-            if remaining <= 0:
-                raise TimeoutError(f"the TCP connection still open after {timeout} s")
-            with contextlib.suppress(TimeoutError):
-                self._read(remaining)
-
     def wait_closed(self, timeout: float = 10.0) -> None:
         """Read (and keep) frames until the endpoint closes the connection."""
         deadline = time.monotonic() + timeout
