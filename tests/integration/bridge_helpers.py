@@ -293,6 +293,27 @@ def publishers_connected(rospy, topic: str) -> bool:
     return True
 
 
+def fully_connected(rospy, topic: str) -> bool:
+    """Every node publishing `topic` writes to every node subscribed to it, itself included (each publisher's
+    getBusInfo): until then, what is published may not reach every subscriber."""
+    import xmlrpc.client
+
+    import rosgraph
+
+    master = rosgraph.Master(rospy.get_name())
+    publishers_, subscribers_, _ = master.getSystemState()
+    publishers = next((nodes for name, nodes in publishers_ if name == topic), [])
+    subscribers = set(next((nodes for name, nodes in subscribers_ if name == topic), []))
+    if not publishers or not subscribers:
+        return False
+    for node in publishers:
+        code, _, bus_info = xmlrpc.client.ServerProxy(master.lookupNode(node)).getBusInfo(rospy.get_name())
+        written_to = {entry[1] for entry in bus_info if entry[2] == "o" and entry[4] == topic}
+        if code != 1 or not subscribers <= written_to:
+            return False
+    return True
+
+
 def wait_subscribers(publisher, count: int = 1, timeout: float = 10.0) -> None:
     wait_for(lambda: publisher.get_num_connections() >= count, timeout, f"{count} subscriber connection(s)")
 
