@@ -510,19 +510,16 @@ class RawWebSocket(FrameReader):
 
     def wait_eof(self, timeout: float = 10.0) -> None:
         """Read on until the endpoint closes the TCP connection."""
-        deadline = time.monotonic() + timeout
-        while not self.eof:
-            remaining = deadline - time.monotonic()
-            if remaining <= 0:
-                raise TimeoutError(f"the TCP connection still open after {timeout} s")
-            with contextlib.suppress(TimeoutError):
-                self._read(remaining)
+        self._read_until(lambda: self.eof, timeout, "the TCP connection")
 
     def wait_closed(self, timeout: float = 10.0) -> None:
+        self._read_until(lambda: self.closed, timeout, "WebSocket")
+
+    def _read_until(self, done: Callable[[], bool], timeout: float, what: str) -> None:
         deadline = time.monotonic() + timeout
-        while not self.closed:
+        while not done():
             remaining = deadline - time.monotonic()
             if remaining <= 0:
-                raise TimeoutError(f"WebSocket still open after {timeout} s")
+                raise TimeoutError(f"{what} still open after {timeout} s")
             with contextlib.suppress(TimeoutError):
                 self._read(remaining)
