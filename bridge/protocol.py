@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import enum
 import json
+import re
 from dataclasses import dataclass
 from typing import Any, Callable, Dict, Type, Union
 
@@ -65,6 +66,7 @@ __all__ = [
     "PROTOCOL_VERSION",
     "ROS_DISTRO_PROTOCOL",
     "MAX_DESTINATION_BYTES",
+    "MAX_JSON_NESTING",
     "DEFAULT_MAX_PAYLOAD_BYTES",
     "ProtocolError",
     "LocalProtocolError",
@@ -490,15 +492,51 @@ class Conversation:
         return encode(event)
 
 
+# Commands nest three levels at most. Deeper input is refused before json.loads sees it: relying on its
+# RecursionError is not safe on Python 3.8, which aborts the whole process ("Cannot recover from stack overflow")
+# when the decoder recurses while a RecursionError caught earlier on the same stack (in a garbage collector's
+# finalizer, say) still counts.
+MAX_JSON_NESTING = 32
+_JSON_ESCAPE = re.compile(rb"\\.", re.DOTALL)
+_JSON_STRING = re.compile(rb'"[^"]*"')  # with escapes gone and every quote matched, linear
+_NOT_A_BRACKET = bytes(byte for byte in range(256) if byte not in b"[]{}")
+_BRACKETS_AS_ONE_KIND = bytes.maketrans(b"{}", b"[]")
+
+
+def _json_nesting_exceeds(payload: bytes, limit: int) -> bool:
+    """True when payload's arrays and objects nest deeper than limit; False bounds json.loads's depth by 2 * limit.
+
+    Works on the brackets outside strings, all of one kind, at the speed of bytes methods: each pass removes every
+    innermost pair, so a pair left after limit passes sits deeper than limit. No pass removes brackets that never
+    close, which the decoder also descends into before it finds the error.
+    """
+    if payload.count(b"[") + payload.count(b"{") <= limit:  # the usual command needs no scan
+        return False
+    unescaped = _JSON_ESCAPE.sub(b"", payload)
+    if unescaped.count(b'"') % 2:  # the decoder stops at a string that never ends: so does the scan
+        unescaped = unescaped[: unescaped.rindex(b'"')]
+    outside_strings = _JSON_STRING.sub(b"", unescaped)
+    brackets = outside_strings.translate(_BRACKETS_AS_ONE_KIND, _NOT_A_BRACKET)
+    too_deep = b"[" * (limit + 1)
+    for _ in range(limit):
+        if too_deep in brackets:  # spares the passes that would peel such a run one pair at a time
+            return True
+        innermost_removed = brackets.replace(b"[]", b"")
+        if innermost_removed == brackets:
+            break
+        brackets = innermost_removed
+    return b"[]" in brackets or brackets.count(b"[") > limit
+
+
 def _json_object(command: str, payload: bytes) -> _Params:
+    if _json_nesting_exceeds(payload, MAX_JSON_NESTING):
+        raise ProtocolError(f"{command}: JSON nested more than {MAX_JSON_NESTING} levels deep")
     try:
         params = json.loads(payload.decode("utf-8")) if payload else {}
     except UnicodeDecodeError:
         raise ProtocolError(f"{command}: payload is not valid UTF-8") from None
     except json.JSONDecodeError as error:
         raise ProtocolError(f"{command}: malformed JSON ({error.msg} at position {error.pos})") from None
-    except RecursionError:
-        raise ProtocolError(f"{command}: JSON nested too deeply") from None
     if not isinstance(params, dict):
         raise ProtocolError(f"{command}: payload must be a JSON object, got {type(params).__name__}")
     return params

@@ -5,6 +5,9 @@ from __future__ import annotations
 
 import json
 import struct
+import subprocess
+import sys
+import textwrap
 import tracemalloc
 from typing import Callable
 
@@ -15,6 +18,7 @@ from hypothesis import strategies as st
 from bridge import protocol
 from bridge.framing import LARGE_PAYLOAD_BYTES
 from bridge.protocol import (
+    MAX_JSON_NESTING,
     Auth,
     Conversation,
     Error,
@@ -616,6 +620,75 @@ def test_good_names_pass(topic: str) -> None:
 
 def test_deeply_nested_json_is_refused_as_bad_input() -> None:
     rejects(protocol.encode_frame("__subscribe", b"[" * 100_000 + b"]" * 100_000), "__subscribe", "nested")
+
+
+def nested(depth: int, inner: str = "1") -> str:
+    """A JSON value whose arrays and objects alternate depth levels deep, with siblings on the way."""
+    value = inner
+    for level in range(depth):
+        sibling = "[]" if level else "0"  # no deeper than the chain
+        value = f'{{"k": {value}, "s": [0]}}' if level % 2 else f"[0, {value}, {sibling}]"
+    return value
+
+
+@pytest.mark.parametrize("depth", [MAX_JSON_NESTING - 1, MAX_JSON_NESTING])
+def test_json_nested_to_the_limit_is_parsed(depth: int) -> None:
+    events = received(
+        command("__subscribe", f'{{"topic": "/t", "message_name": "std_msgs/String", "x": {nested(depth - 1)}}}')
+    )
+    assert [type(event) for event in events] == [IgnoredFields, Subscribe]
+
+
+@pytest.mark.parametrize(
+    "payload",
+    [
+        f'{{"topic": "/t", "message_name": "std_msgs/String", "x": {nested(MAX_JSON_NESTING)}}}',
+        '{"x": ' + "[" * 10_000,  # never closed: the decoder would descend before it finds the error
+        '{"x": ' + "[[1], " * 40 + "]" * 40 + "}",  # no run of opening brackets, still 41 deep
+    ],
+    ids=["one-level-too-deep", "unclosed", "climbing"],
+)
+def test_json_nested_past_the_limit_is_refused_before_decoding(payload: str) -> None:
+    rejects(command("__subscribe", payload), "__subscribe", f"nested more than {MAX_JSON_NESTING} levels")
+
+
+def test_brackets_inside_strings_do_not_count_as_nesting() -> None:
+    escaped_quotes = '\\"' + "[" * 100 + '\\"'
+    events = received(
+        command("__subscribe", f'{{"topic": "/t", "message_name": "std_msgs/String", "x": "{escaped_quotes}"}}')
+    )
+    assert [type(event) for event in events] == [IgnoredFields, Subscribe]
+    (refused,) = received(command("__subscribe", {"topic": "[" * 100, "message_name": "std_msgs/String"}))
+    assert isinstance(refused, InvalidInput) and "nested" not in str(refused.error)
+
+
+def test_deep_json_cannot_abort_the_process_after_a_caught_recursion_error() -> None:
+    """Python 3.8 aborts ("Cannot recover from stack overflow") if its JSON decoder recurses past the recursion
+    limit while a RecursionError caught earlier on the same stack still counts, as when a garbage collector's
+    finalizer hit it deep inside the decoder: the endpoint's reader must never get there."""
+    script = textwrap.dedent(
+        """
+        import sys
+        from bridge.protocol import Conversation, Role, encode_frame
+
+        def recurse():
+            recurse()
+
+        def at_depth(frames):
+            if frames:
+                return at_depth(frames - 1)
+            try:
+                recurse()
+            except RecursionError:
+                pass
+            frame = encode_frame("__subscribe", b"[" * 100_000 + b"]" * 100_000)
+            print(type(Conversation(Role.ENDPOINT).receive_data(frame)[0]).__name__)
+
+        at_depth(sys.getrecursionlimit() - 30)
+        """
+    )
+    result = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=60)
+    assert (result.returncode, result.stdout.strip()) == (0, "InvalidInput"), result.stderr[-2000:]
 
 
 def test_bad_topic_in_remove_is_named() -> None:
