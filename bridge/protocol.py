@@ -192,8 +192,8 @@ def _topic_list(command: str, params: _Params) -> Event:
 
 def _handshake(command: str, params: _Params) -> Event:
     try:
-        metadata = json.loads(params.get("metadata", "{}"))
-    except json.JSONDecodeError:
+        metadata = _json_value(command, params.get("metadata", "{}").encode("utf-8"))
+    except ProtocolError:
         metadata = None
     if not isinstance(metadata, dict):
         raise ProtocolError(f"{command}: field 'metadata' must hold a JSON object, got {params['metadata']!r}")
@@ -528,15 +528,19 @@ def _json_nesting_exceeds(payload: bytes, limit: int) -> bool:
     return b"[]" in brackets or brackets.count(b"[") > limit
 
 
-def _json_object(command: str, payload: bytes) -> _Params:
-    if _json_nesting_exceeds(payload, MAX_JSON_NESTING):
+def _json_value(command: str, text: bytes) -> Any:
+    if _json_nesting_exceeds(text, MAX_JSON_NESTING):
         raise ProtocolError(f"{command}: JSON nested more than {MAX_JSON_NESTING} levels deep")
     try:
-        params = json.loads(payload.decode("utf-8")) if payload else {}
+        return json.loads(text.decode("utf-8"))
     except UnicodeDecodeError:
         raise ProtocolError(f"{command}: payload is not valid UTF-8") from None
     except json.JSONDecodeError as error:
         raise ProtocolError(f"{command}: malformed JSON ({error.msg} at position {error.pos})") from None
+
+
+def _json_object(command: str, payload: bytes) -> _Params:
+    params = _json_value(command, payload) if payload else {}
     if not isinstance(params, dict):
         raise ProtocolError(f"{command}: payload must be a JSON object, got {type(params).__name__}")
     return params

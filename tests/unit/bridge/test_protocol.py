@@ -818,6 +818,9 @@ def test_an_incompatible_handshake_is_reported_as_such() -> None:
     assert isinstance(handshake, Handshake) and not handshake.is_compatible
     (bad,) = Conversation(Role.CLIENT).receive_data(command("__handshake", {"version": "v0.7.0", "metadata": "{"}))
     assert isinstance(bad, InvalidInput) and "metadata" in str(bad.error)
+    deep = "[" * 100_000 + "]" * 100_000
+    (bad,) = Conversation(Role.CLIENT).receive_data(command("__handshake", {"version": "v0.7.0", "metadata": deep}))
+    assert isinstance(bad, InvalidInput) and "metadata" in str(bad.error)
 
 
 def test_an_error_names_the_call_it_fails() -> None:
