@@ -18,6 +18,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from sim.errors import SimError
+from sim.processes import writes_to
 from sim.robots import RobotSpec
 from sim.wire.contract import STAMP_TOLERANCE_S, MessageError, positions_by_name
 
@@ -143,7 +144,11 @@ class ControllerNode:
                 (pubs.get(self.robot.joint_states_topic, set()) & subs.get(self.robot.command_topic, set())) - {me}
             )
             for partner in partners:
-                links = {self.robot.joint_states_topic: self.state_sub.impl.has_connection(master.lookupNode(partner))}
+                links = {
+                    self.robot.joint_states_topic: writes_to(
+                        master.lookupNode(partner), self.robot.joint_states_topic, me
+                    )
+                }
                 for topic, publisher in self.watched_publishers:
                     if partner in subs.get(topic, set()):
                         links[topic] = publisher.impl.has_connection(partner)

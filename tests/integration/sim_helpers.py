@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from sim.engine.physics import Mode, PhysicsWorld
+from sim.processes import writes_to
 from sim.robots import RobotSpec
 from sim.wire.contract import STAMP_TOLERANCE_S, STEP_S
 from tests.rosenv import PYTHON, REPO, ManagedProcess, RosCore, wait_for
@@ -131,9 +132,9 @@ class Controller:
         master = rosgraph.Master(self.rospy.get_name())
         uri = wait_for(lambda: _lookup(master, self.peer), timeout, f"{self.peer} registered")
         wait_for(
-            lambda: self.state_sub.impl.has_connection(uri),
+            lambda: writes_to(uri, self.robot.joint_states_topic, self.rospy.get_name()),
             timeout,
-            f"our {self.robot.joint_states_topic} subscriber connected to {self.peer}",
+            f"{self.peer} writing {self.robot.joint_states_topic} to us",
         )
 
     # --- publishing -------------------------------------------------------------------------------------------
