@@ -33,6 +33,7 @@ from tests.rosenv import PYTHON, EndpointProcess, ManagedProcess, RosCore, wait_
 PARTICIPANT = 4
 CONTROLLERS_APART = 0.12  # m
 RUNNER_PACE_SLACK_S = 0.25
+DELIVERY_S = 0.3  # a press from the page to the runner, on a quiet machine
 # No new phase on the page for this long means the session is stuck. On a quiet machine the whole session takes
 # ~25 s; beside two CPU burners, where the software-rendered page drew a frame every 1.5 s, the longest wait for the
 # next phase was 36 s (the press, the approach, the rest and the way back to the start).
@@ -73,14 +74,16 @@ def press(browser: Any, hand: str, button: str) -> None:
 def press_once_moving(browser: Any, index: int, hand: str, button: str) -> None:
     """Press (for two frames) in the first frame that shows trial `index` moving, as a participant who reacts at once
     would. Watched frame by frame in the page: a round trip through the browser's driver took seconds beside two CPU
-    burners, more than the approach lasts."""
+    burners, more than the approach lasts. Keeps the round trip of the ping that the press's stamp rests on
+    (window.pressClockRoundTripMs)."""
     browser.execute_script(
         "const page = window.vrPage; const session = page.renderer.xr.getSession();"
         f"const controller = window.emulatedHeadset.controllers.{hand}; let releaseAfter = null;"
         "const watch = () => session.requestAnimationFrame(() => {"
         " const status = page.participant.status;"
         f" if (releaseAfter === null && status && status.index === {index} && status.phase === 'moving') {{"
-        f"  controller.updateButtonValue('{button}', 1); releaseAfter = page.frames + 2; }}"
+        f"  controller.updateButtonValue('{button}', 1); releaseAfter = page.frames + 2;"
+        "  window.pressClockRoundTripMs = page.connection.clock.best()[0]; }"
         f" if (releaseAfter !== null && page.frames >= releaseAfter) {{ controller.updateButtonValue('{button}', 0); }}"
         " else { watch(); } });"
         "watch();"
@@ -222,6 +225,7 @@ def test_an_emulated_quest_enters_the_session_and_answers_the_runner(tmp_path: P
                 )
             assert runner.wait(60) == 0, runner.output()[-3000:]  # the page may see "done" before the runner exits
             actions = page_state(browser)["actions"]
+            press_round_trip_s = browser.execute_script("return window.pressClockRoundTripMs;") / 1000
         assert [what for what, _ in actions] == ["go", "distance", "go", "stop", "go", "preference"], (actions, seen)
     finally:
         for process in reversed(processes):
@@ -245,8 +249,10 @@ def test_an_emulated_quest_enters_the_session_and_answers_the_runner(tmp_path: P
     motion_start = float(second["motion_start"])
     approach = approach_path(scene, "straight", ON_TOP, 0.1).duration
     assert motion_start < stamp < motion_start + approach, (stamp, motion_start)
+    # Late by the delivery (page, endpoint, runner) and by the error of the page's clock offset, which is at most
+    # half its ping's round trip (2 ms here when quiet; 1.3 s beside two CPU burners, where a press came 0.45 s late)
     late = float(second["press_late"])
-    assert 0 <= late < 0.3
+    assert 0 <= late < DELIVERY_S + press_round_trip_s / 2, (late, press_round_trip_s)
     assert float(second["press_time"]) == pytest.approx(stamp - motion_start + late, abs=0.01)
 
 
