@@ -27,6 +27,7 @@ __all__ = [
     "REPO",
     "PYTHON",
     "ProcessError",
+    "subscribers_written",
     "writes_to",
     "free_port",
     "wait_for",
@@ -164,17 +165,22 @@ class _QuickTransport(xmlrpc.client.Transport):
         return connection
 
 
-def writes_to(node_uri: str, topic: str, caller_id: str) -> bool:
-    """Whether the ROS node at `node_uri` writes `topic` to the node `caller_id` (its getBusInfo). Only the publisher
-    knows: a rospy subscriber counts a publisher as connected before it has even opened the socket, and what is
-    published until the publisher takes the connection is lost."""
+def subscribers_written(node_uri: str, topic: str, caller_id: str = "/probe") -> set[str]:
+    """The nodes that the ROS node at `node_uri` writes `topic` to (its getBusInfo; none when it does not answer).
+    Only the publisher knows: a rospy subscriber counts a publisher as connected before it has even opened the
+    socket, and what is published until the publisher takes the connection is lost."""
     try:
         proxy: Any = xmlrpc.client.ServerProxy(node_uri, transport=_QuickTransport())
         code, _, bus_info = proxy.getBusInfo(caller_id)
     except (OSError, xmlrpc.client.Error, ValueError):
-        return False
+        return set()
     # entries: [connection id, the other end (a subscriber's caller id), direction, transport, topic, ...]
-    return code == 1 and any(entry[1] == caller_id and entry[2] == "o" and entry[4] == topic for entry in bus_info)
+    return {entry[1] for entry in bus_info if entry[2] == "o" and entry[4] == topic} if code == 1 else set()
+
+
+def writes_to(node_uri: str, topic: str, caller_id: str) -> bool:
+    """Whether the ROS node at `node_uri` writes `topic` to the node `caller_id` (see subscribers_written)."""
+    return caller_id in subscribers_written(node_uri, topic, caller_id)
 
 
 def _stop_pid(pid: int, timeout: float) -> None:

@@ -21,6 +21,7 @@ import pytest
 from bridge import protocol
 from bridge.client import TcpClient
 from bridge.protocol import FrameDecoder
+from sim.processes import subscribers_written, writes_to
 from tests.frames import BadFrame, Frame, feed
 from tests.rosenv import EndpointProcess, RosCore, wait_for
 
@@ -275,29 +276,17 @@ class RosInbox(Inbox):
 
 def publishers_connected(rospy, topic: str) -> bool:
     """Every node publishing `topic` reports an outbound connection on it to this node (its getBusInfo)."""
-    import xmlrpc.client
-
     import rosgraph
 
     master = rosgraph.Master(rospy.get_name())
     publishers = next((nodes for name, nodes in master.getSystemState()[0] if name == topic), [])
-    if not publishers:
-        return False
-    for node in publishers:
-        code, _, bus_info = xmlrpc.client.ServerProxy(master.lookupNode(node)).getBusInfo(rospy.get_name())
-        if code != 1:
-            return False
-        # entries: [connection id, destination (caller id or URI), direction, transport, topic, connected, ...]
-        if not any(entry[2] == "o" and entry[4] == topic and entry[1] == rospy.get_name() for entry in bus_info):
-            return False
-    return True
+    me = rospy.get_name()
+    return bool(publishers) and all(writes_to(master.lookupNode(node), topic, me) for node in publishers)
 
 
 def fully_connected(rospy, topic: str) -> bool:
     """Every node publishing `topic` writes to every node subscribed to it, itself included (each publisher's
     getBusInfo): until then, what is published may not reach every subscriber."""
-    import xmlrpc.client
-
     import rosgraph
 
     master = rosgraph.Master(rospy.get_name())
@@ -306,12 +295,8 @@ def fully_connected(rospy, topic: str) -> bool:
     subscribers = set(next((nodes for name, nodes in subscribers_ if name == topic), []))
     if not publishers or not subscribers:
         return False
-    for node in publishers:
-        code, _, bus_info = xmlrpc.client.ServerProxy(master.lookupNode(node)).getBusInfo(rospy.get_name())
-        written_to = {entry[1] for entry in bus_info if entry[2] == "o" and entry[4] == topic}
-        if code != 1 or not subscribers <= written_to:
-            return False
-    return True
+    me = rospy.get_name()
+    return all(subscribers <= subscribers_written(master.lookupNode(node), topic, me) for node in publishers)
 
 
 def wait_subscribers(publisher, count: int = 1, timeout: float = 10.0) -> None:
