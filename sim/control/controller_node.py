@@ -22,7 +22,10 @@ from sim.processes import writes_to
 from sim.robots import RobotSpec
 from sim.wire.contract import STAMP_TOLERANCE_S, MessageError, positions_by_name
 
-__all__ = ["ControllerError", "ReceivedJointState", "StateListener", "ControllerNode"]
+__all__ = ["ControllerError", "ReceivedJointState", "StateListener", "ControllerNode", "unwritten_subscribers"]
+
+# How long close() waits for queued messages to reach slow subscribers (e.g. a rosbag recorder on a loaded machine).
+DRAIN_TIMEOUT_S = 5.0
 
 
 class ControllerError(SimError, RuntimeError):
@@ -77,6 +80,26 @@ class StateListener:
     def wake(self) -> None:
         with self._changed:
             self._changed.notify_all()
+
+
+def unwritten_subscribers(publisher: Any) -> list[str]:
+    """The subscribers (caller ids) to which `publisher` still holds messages that it has not written.
+
+    A rospy publisher made with a queue_size writes to each subscriber from a thread of its own, and unregistering
+    drops what that thread has not written yet: the last commands of a run never reached a busy recorder. rospy
+    offers no flush, so this reads its queued connection: everything is written once the queue is empty and the
+    thread is back waiting for more (it waits only after writing all that it took)."""
+    behind = []
+    for connection in publisher.impl.connections:
+        available = getattr(connection, "_cond_data_available", None)
+        if available is None:  # an unqueued connection: publish() itself wrote the message
+            continue
+        with available:
+            if connection.done:  # closed: nothing more can be written
+                continue
+            if connection._queue or not available._waiters:
+                behind.append(connection.endpoint_id)
+    return behind
 
 
 class ControllerNode:
@@ -186,6 +209,12 @@ class ControllerNode:
 
     def close(self) -> None:
         self.states.wake()
+        deadline = time.monotonic() + DRAIN_TIMEOUT_S
+        for topic, publisher in self.watched_publishers:
+            while (behind := unwritten_subscribers(publisher)) and time.monotonic() < deadline:
+                time.sleep(0.005)
+            if behind:
+                self.rospy.logwarn("%s: messages to %s were not written within %g s", topic, behind, DRAIN_TIMEOUT_S)
         for _, publisher in self.watched_publishers:
             publisher.unregister()
         self.state_sub.unregister()
