@@ -16,7 +16,7 @@ import numpy as np
 from sim.wire.contract import STAMP_TOLERANCE_S
 from sim.wire.rosmsgs import TrajectoryCommand
 
-__all__ = ["Target", "CommandBuffer"]
+__all__ = ["Target", "CommandBuffer", "command_is_due"]
 
 
 @dataclass(frozen=True)
@@ -61,10 +61,16 @@ class CommandBuffer:
         with self._lock:
             return self._stamp
 
-    def wait_for_stamp(self, stamp: float, timeout: float, tolerance: float = STAMP_TOLERANCE_S) -> bool:
-        """Block until a command stamped >= `stamp` is stored (or `timeout` passes)."""
+    def wait_for_stamp(
+        self, stamp: float, timeout: float, received_after: int = -1, tolerance: float = STAMP_TOLERANCE_S
+    ) -> bool:
+        """Block until a command stamped >= `stamp` is stored, the `received_after`-th or later (or `timeout`
+        passes). A count skips a stale command, e.g. one stamped late in a run before /clock restarted at 0."""
         with self._changed:
-            return self._changed.wait_for(lambda: self._stamp is not None and self._stamp >= stamp - tolerance, timeout)
+            return self._changed.wait_for(
+                lambda: self.received > received_after and self._stamp is not None and self._stamp >= stamp - tolerance,
+                timeout,
+            )
 
     def target_at(self, t: float) -> Target:
         with self._lock:
@@ -74,3 +80,23 @@ class CommandBuffer:
             if abs(ahead) <= self.stamp_tolerance_s:
                 ahead = 0.0  # stamped for t: ROS stamps are whole ns, so "exactly t" arrives as t ± 1 ns
             return Target(self._positions + self._velocities * ahead, self._velocities.copy())
+
+
+def command_is_due(
+    newest_stamp: float | None, step_end: float, dt: float, streaming: bool, first_after_anchor: bool
+) -> bool:
+    """Whether a clock-driven step ending at `step_end` should wait (briefly) for a command stamped at its end.
+
+    A lockstep controller publishes each step's command before the step's /clock tick, but on two topics, over two
+    connections: the tick can win the race. So the step waits when its command is not here yet and either
+    - this is the first step after the grid was (re)anchored: a lockstep controller's first command is on its way,
+      and it is what tells the engine that the controller streams per step; or
+    - the controller `streaming` (a command stamped at a step's end has arrived before) sent the previous
+      step's command, and so will send this one.
+    A controller that stamps its commands with its current time (one step behind) never counts as streaming, so
+    it costs one wait after an anchor and none after."""
+    if newest_stamp is not None and abs(newest_stamp - step_end) < STAMP_TOLERANCE_S:
+        return False
+    if first_after_anchor:
+        return True
+    return streaming and newest_stamp is not None and abs(newest_stamp - (step_end - dt)) < STAMP_TOLERANCE_S

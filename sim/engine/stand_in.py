@@ -25,7 +25,7 @@ import numpy as np
 
 from bridge.client import TcpClient
 from sim.engine.clock import ClockAdvance, StepClock
-from sim.engine.commands import CommandBuffer
+from sim.engine.commands import CommandBuffer, command_is_due
 from sim.engine.physics import Mode, PhysicsError, PhysicsWorld, SimulatedJointState, render_gif
 from sim.entry import EXIT_BAD_INPUT, EXIT_NO_CONNECTION, EXIT_OK, fail, log_to_stderr
 from sim.errors import SimError
@@ -152,7 +152,8 @@ class EngineStandIn:
         self._clock_changed = threading.Condition()  # a new /clock value (clock-driven stepping waits for it)
         self._stop = threading.Event()
         self._seq = 0
-        self._lockstep = False  # True once commands arrive stamped exactly at step ends
+        self._streaming = False  # True once a command stamped exactly at a step's end has arrived for it
+        self._first_step_after_anchor = False  # the next clock-driven step is the first on a (re)anchored grid
 
     # --- TCP side ---------------------------------------------------------------------------------------------
     def attach(self) -> None:
@@ -246,8 +247,10 @@ class EngineStandIn:
                 # The step grid is (re)anchored on this /clock value: say where the robot is, stamped with it.
                 # This is the controller's cue that its clock has been taken (no steps were run).
                 self._publish_state(advance.anchored_at, self.world.state())
+                self._first_step_after_anchor = True
             for step_end in advance.step_ends:
-                self._await_lockstep_command(step_end, clock.dt)
+                self._await_lockstep_command(step_end, clock.dt, self._first_step_after_anchor)
+                self._first_step_after_anchor = False
                 self.step_to(step_end)
             if duration_s is not None and clock.time >= duration_s - 1e-9:
                 return
@@ -261,16 +264,18 @@ class EngineStandIn:
                 advance.anchored_at,
             )
 
-    def _await_lockstep_command(self, step_end: float, dt: float) -> None:
-        """In lockstep, wait briefly for this step's command: it may arrive just after the /clock tick."""
+    def _await_lockstep_command(self, step_end: float, dt: float, first_after_anchor: bool) -> None:
+        """Wait briefly for this step's command when one is due (see `command_is_due`): it may arrive just after
+        the /clock tick."""
+        received, newest = self.commands.received, self.commands.newest_stamp
+        if command_is_due(newest, step_end, dt, self._streaming, first_after_anchor):
+            if not self.commands.wait_for_stamp(step_end, self.options.command_grace_s, received_after=received):
+                self._streaming = False  # the controller stopped streaming per step, or never did
+                log.info("no command for t=%.3f s; holding the last target", step_end)
+                return
         newest = self.commands.newest_stamp
         if newest is not None and abs(newest - step_end) < STAMP_TOLERANCE_S:
-            self._lockstep = True
-            return
-        if self._lockstep and newest is not None and abs(newest - (step_end - dt)) < STAMP_TOLERANCE_S:
-            if not self.commands.wait_for_stamp(step_end, self.options.command_grace_s):
-                self._lockstep = False  # the controller stopped streaming per step
-                log.info("no command for t=%.3f s; holding the last target", step_end)
+            self._streaming = True
 
     def close(self) -> None:
         self.stop()
@@ -335,6 +340,13 @@ def argument_parser() -> argparse.ArgumentParser:
     parser.add_argument("--no-auto-simulate", action="store_true", help="step only as /clock advances")
     parser.add_argument("--time-scale", type=float, default=1.0, help="sim seconds per wall second (auto-simulate)")
     parser.add_argument("--max-clock-jump", type=float, default=1.0, help="larger /clock jumps pause and resume")
+    parser.add_argument(
+        "--command-grace",
+        type=float,
+        default=EngineOptions.command_grace_s,
+        help="--no-auto-simulate: how long (s) a step waits for its command after its /clock tick "
+        f"(default {EngineOptions.command_grace_s:g})",
+    )
     add_pose_convention_argument(parser)
     parser.add_argument("--stiffness", type=float, help="drive stiffness for every joint (N·m/rad or N/m)")
     parser.add_argument("--damping", type=float, help="drive damping for every joint (N·m·s/rad or N·s/m)")
@@ -360,12 +372,15 @@ def options_from_args(args: argparse.Namespace) -> EngineOptions:
             f"--dt, --time-scale and --max-clock-jump must be > 0, got {args.dt}, {args.time_scale} "
             f"and {args.max_clock_jump}"
         )
+    if not 0 <= args.command_grace < float("inf"):
+        raise EngineError(f"--command-grace must be a finite number of seconds >= 0, got {args.command_grace}")
     return EngineOptions(
         mode=Mode(args.mode),
         dt=args.dt,
         auto_simulate=not args.no_auto_simulate,
         time_scale=args.time_scale,
         max_clock_jump_s=args.max_clock_jump,
+        command_grace_s=args.command_grace,
         pose_convention=PoseConvention(args.pose_convention),
         stiffness=args.stiffness,
         damping=args.damping,

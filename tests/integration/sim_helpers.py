@@ -200,9 +200,8 @@ class Controller:
 
         The engine answers the anchoring with its joint state stamped 0; /clock may only move on after that (the
         engine keeps just the newest /clock value, so a quick second value would become the anchor instead).
-        The first command may lose its race against its /clock tick (two topics, two connections); the engine
-        then holds its start pose for that step, which is what the priming commands ask for anyway, so every run
-        is the same whichever wins. Returns the anchor state.
+        A command may lose its race against its /clock tick (two topics, two connections); the engine waits for it
+        (`sim.engine.commands.command_is_due`). Returns the anchor state.
         """
         self.clock(0.0)
         anchor = self.wait_state(0.0, timeout=10.0)

@@ -161,6 +161,28 @@ def test_clock_driven_stepping_is_deterministic_across_runs(spawn, controllers, 
     np.testing.assert_array_equal(first.stamps, second.stamps)
 
 
+def test_commands_that_lose_their_race_against_the_tick_are_still_their_steps_targets(spawn, controllers, endpoint):
+    """Command and /clock travel on two topics over two connections, so a tick can arrive before its step's command
+    (beside two CPU burners, the first five did once, and the run lagged a step). Here every tick is sent first and
+    its command only after the engine has had a second to step without it: the first step after the anchor waits
+    for its command, and once one has come, so does every step after it (a grace of 60 s, to rule the clock out)."""
+    spawn(IGT.name, endpoint.port, "--no-auto-simulate", "--command-grace", "60")
+    controller = controllers(IGT, endpoint.name)
+    controller.wait_ready()
+    controller.clock(0.0)
+    controller.wait_state(0.0, timeout=10.0)
+    goals = IGT.home + np.array([[0.05, 0.3, -0.3], [0.1, 0.6, -0.6]])
+    at_rest = np.zeros_like(goals)
+    for k, goal in enumerate(goals, start=1):
+        controller.clock(k * DT)
+        with pytest.raises(TimeoutError):
+            controller.wait_state(k * DT, timeout=1.0)
+        controller.command(k * DT, goal, at_rest[0])
+        controller.wait_state(k * DT)
+    reached = np.array([controller.wait_state(k * DT).position for k in (1, 2)])
+    np.testing.assert_array_equal(reached, reference_run(IGT, Mode.PHYSICS, goals, at_rest, priming_steps=0))
+
+
 # --- auto-simulate --------------------------------------------------------------------------------------------
 
 

@@ -1,4 +1,5 @@
-"""sim.engine.commands: the engine's target for the end of each step (CommandBuffer)."""
+"""sim.engine.commands: the engine's target for the end of each step (CommandBuffer), and when a clock-driven step
+waits for its command (command_is_due)."""
 
 from __future__ import annotations
 
@@ -7,7 +8,7 @@ import threading
 import numpy as np
 import pytest
 
-from sim.engine.commands import CommandBuffer
+from sim.engine.commands import CommandBuffer, command_is_due
 from sim.wire.rosmsgs import TrajectoryCommand
 
 NAN = np.nan
@@ -139,3 +140,42 @@ def test_wait_for_stamp_wakes_when_another_thread_stores_the_command():
     thread.join(5.0)
     assert not thread.is_alive()
     assert result == {"ok": True}
+
+
+def test_a_wait_past_a_count_skips_a_stale_command_stamped_later_than_the_step():
+    buffer = CommandBuffer(START)
+    buffer.store(command(0.32, [1.0, 2.0, 3.0]))  # the end of a run before /clock restarted at 0
+    stale = buffer.received
+    assert buffer.wait_for_stamp(0.02, timeout=0.0) is True
+    assert buffer.wait_for_stamp(0.02, timeout=0.01, received_after=stale) is False
+    buffer.store(command(0.02, [0.0, 0.0, 0.0]))
+    assert buffer.wait_for_stamp(0.02, timeout=0.0, received_after=stale) is True
+
+
+# --- command_is_due ---------------------------------------------------------------------------------------------
+
+DT = 0.02
+
+
+@pytest.mark.parametrize("streaming", [False, True])
+@pytest.mark.parametrize("first", [False, True])
+def test_a_command_already_here_is_never_waited_for(streaming, first):
+    assert not command_is_due(0.1 + 4e-7, 0.1, DT, streaming, first)
+
+
+@pytest.mark.parametrize("newest", [None, 0.32, 0.0, 0.08])
+def test_the_first_step_after_an_anchor_waits_whatever_came_before(newest):
+    """Before any command of this run has arrived, the tick may have won the race against the first one."""
+    assert command_is_due(newest, 0.1, DT, streaming=False, first_after_anchor=True)
+
+
+def test_a_streaming_controller_is_waited_for_after_it_sent_the_previous_step():
+    assert command_is_due(0.08, 0.1, DT, streaming=True, first_after_anchor=False)
+    assert not command_is_due(0.06, 0.1, DT, streaming=True, first_after_anchor=False)  # it stopped streaming
+    assert not command_is_due(None, 0.1, DT, streaming=True, first_after_anchor=False)
+
+
+def test_a_controller_stamping_its_current_time_is_not_waited_for_between_anchors():
+    """Its command for the step ending at t is stamped t - dt, exactly like a lockstep command that lost its race;
+    only the streaming flag, set by a command that was on time, tells them apart."""
+    assert not command_is_due(0.08, 0.1, DT, streaming=False, first_after_anchor=False)
