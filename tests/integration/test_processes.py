@@ -111,7 +111,7 @@ def test_a_controller_closes_only_once_every_subscriber_has_what_it_published(ro
         wait_for(lambda: writes_to(uri, topic, me), 10, "the command publisher to write to the subscriber")
         for step in range(1, 6):
             node.publish_command(step * 0.02, [0.0] * robot.dof, [0.0] * robot.dof)
-        assert unwritten(node.command_pub) == [me]
+        assert me in unwritten(node.command_pub)
         node.close()
         wait_for(lambda: len(received) == 5, 10, f"the five commands (have {len(received)})")
         assert received == [0.02, 0.04, 0.06, 0.08, 0.1]
