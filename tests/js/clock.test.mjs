@@ -13,12 +13,22 @@ test('the offset is the quickest round trip\'s, taken at its middle', () => {
   assert.ok(Math.abs(clock.offset - 100.15) < 1e-9);
 });
 
-test('a jump of ROS time (a /clock that starts late) drops the samples before it', () => {
+test('a jump of ROS time (a /clock that restarts) drops the samples before it', () => {
+  const clock = new ClockOffset();
+  clock.add(1_000, 1_002, 50.001); // 49 s ahead
+  clock.add(3_000, 3_050, 0.525); // /clock restarted at 0 at browser 2.5 s: slower round trip, yet it wins
+  assert.ok(Math.abs(clock.offset - -2.5) < 1e-9);
+  assert.equal(clock.samples.length, 1);
+});
+
+test('an answer of ROS time 0 (no /clock yet) is no sample, even the quickest just before the clock starts', () => {
   const clock = new ClockOffset();
   clock.add(1_000, 1_002, 0.0); // the endpoint's ROS time before any /clock: 0
-  assert.ok(Math.abs(clock.offset - -1.001) < 1e-9);
-  clock.add(3_000, 3_050, 0.525); // /clock began at browser 2.5 s: slower round trip, yet it wins
-  assert.ok(Math.abs(clock.offset - -2.5) < 1e-9);
+  assert.equal(clock.offset, null);
+  // /clock starts at browser 1.3 s, within the jump threshold of what the 0 would have stood for (-1.001 s ahead):
+  // kept, the quicker 0 would be chosen, 0.3 s off
+  clock.add(3_000, 3_050, 1.725);
+  assert.ok(Math.abs(clock.offset - -1.3) < 1e-9);
   assert.equal(clock.samples.length, 1);
 });
 
