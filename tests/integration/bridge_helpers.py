@@ -303,6 +303,15 @@ def wait_subscribers(publisher, count: int = 1, timeout: float = 10.0) -> None:
     wait_for(lambda: publisher.get_num_connections() >= count, timeout, f"{count} subscriber connection(s)")
 
 
+def wait_new_subscriber(publisher, before: list, timeout: float = 10.0) -> None:
+    """Until `publisher` has a connection that is not among `before` (its connections at some earlier time).
+
+    A client that reconnects subscribes again, and the endpoint makes a new ROS subscriber for it; the old one's
+    connection can still be counted by the publisher, which notices a closed peer only when it writes to it. A
+    count of connections then passes before the new one is up, and a message goes only to the closed one."""
+    wait_for(lambda: any(c not in before for c in publisher.impl.connections), timeout, "a new subscriber connection")
+
+
 def wait_no_subscribers(publisher, timeout: float = 10.0) -> None:
     wait_for(lambda: publisher.get_num_connections() == 0, timeout, "the endpoint to drop its subscription")
 

@@ -22,6 +22,7 @@ from tests.integration.bridge_helpers import (
     start_endpoint,
     tcp_client,
     unique,
+    wait_new_subscriber,
     wait_subscribers,
 )
 from tests.rosenv import free_port, wait_for
@@ -283,11 +284,13 @@ def test_client_reconnects_after_its_connection_is_cut_and_reregisters(bridge, r
         client.subscribe(topic, "std_msgs/String", inbox)
         client.register_publisher(pub_topic, "std_msgs/String")
         client.topic_list()
+        wait_subscribers(publisher)
+        before_cut = list(publisher.impl.connections)
         client.send_raw(u32(0xFFFFFFFF))  # the endpoint closes this connection; the client reconnects
         wait_for(lambda: client.connections >= 2 and client.is_connected, 10, "the client to reconnect")
         assert any("framing lost" in text for text in client.errors)
         client.topic_list()  # the re-sent registrations have been handled
-        wait_subscribers(publisher)
+        wait_new_subscriber(publisher, before_cut)  # the endpoint's new subscription, not the ended one
         ros_inbox.wait_connected()
         publisher.publish(String("after reconnect"))
         assert inbox.wait_count(1) == [serialize(String("after reconnect"))]
@@ -313,12 +316,13 @@ def test_client_reconnects_after_the_endpoint_restarts(roscore, ros_node, tmp_pa
         wait_subscribers(publisher)
         publisher.publish(String("first endpoint"))
         inbox.wait_count(1)
+        before_restart = list(publisher.impl.connections)
         assert first.stop() == 0
         wait_for(lambda: not client.is_connected, 10, "the client to notice the endpoint is gone")
         second = start_endpoint(roscore, tmp_path, "--tcp-port", str(port))
         wait_for(lambda: client.connections == 2 and client.is_connected, 15, "the client to reconnect")
         client.topic_list()
-        wait_subscribers(publisher)
+        wait_new_subscriber(publisher, before_restart)  # the second endpoint's, not the stopped one's
         publisher.publish(String("second endpoint"))
         assert inbox.wait_count(2)[1] == serialize(String("second endpoint"))
         ros_inbox.wait_connected()
