@@ -16,9 +16,9 @@ setup(
         "bridge": ["py.typed"],
         "sim": ["py.typed"],
         "sim.robots": ["*.yaml", "urdf/*.urdf"],
-        "sim.study": ["*.yaml"],
+        "sim.study.design": ["*.yaml"],
         # the VR page, and the npm packages setup.sh fetched beside it (node_modules)
-        "sim.study.vr": ["web/*.html", "web/*.css", "web/*.js", "web/*.json", "web/node_modules/**/*"],
+        "sim.study.views.vr": ["web/*.html", "web/*.css", "web/*.js", "web/*.json", "web/node_modules/**/*"],
     },
     install_requires=[
         "numpy>=1.24",

@@ -23,12 +23,12 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from sim.study.design import load_design  # noqa: E402
-from sim.study.feasibility import SceneWorld, plan_approach  # noqa: E402
-from sim.study.paths import approach_path  # noqa: E402
-from sim.study.plan import make_plan  # noqa: E402
-from sim.study.scene import load_scene, scene_robot  # noqa: E402
-from sim.study.simulate import Simulation, simulate  # noqa: E402
+from sim.study.design.feasibility import SceneWorld, plan_approach  # noqa: E402
+from sim.study.design.paths import approach_path  # noqa: E402
+from sim.study.design.plan import make_plan  # noqa: E402
+from sim.study.design.scene import load_scene, scene_robot  # noqa: E402
+from sim.study.design.spec import load_design  # noqa: E402
+from sim.study.simulation.session import Simulation, simulate  # noqa: E402
 
 SESSION_TARGET_S = 60.0
 DT = 0.02

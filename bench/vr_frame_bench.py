@@ -37,7 +37,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from bridge.client import TcpClient  # noqa: E402
 from sim.processes import EndpointProcess, ManagedProcess, RosCore, wait_for  # noqa: E402
-from sim.study.scene import load_scene, scene_robot  # noqa: E402
+from sim.study.design.scene import load_scene, scene_robot  # noqa: E402
 from sim.wire.rosmsgs import JOINT_STATE, encode_joint_state  # noqa: E402
 from tests.integration.browser_helpers import chromium, start_vr_page  # noqa: E402
 

@@ -52,7 +52,7 @@ fi
 
 # The VR page's libraries (three.js, urdf-loader; IWER for the tests' emulated headset) from the npm registry, at the
 # versions and hashes of package-lock.json, into the package's web folder: served from there, never from a CDN.
-web=sim/study/vr/web
+web=sim/study/views/vr/web
 if [ ! -f "$web/node_modules/.package-lock.json" ] || [ "$web/package-lock.json" -nt "$web/node_modules/.package-lock.json" ]; then
   if ! command -v npm >/dev/null; then  # Debian's npm is its own package; NodeSource's nodejs carries one
     echo "setup: installing Debian's npm"

@@ -16,7 +16,7 @@ wait "$ros_pythons"
 cd "$repo"
 # One BLAS thread per test process: the lanes below already fill both cores, and OpenBLAS's extra threads spin while
 # they wait for work, fighting every other process for the CPU. Measured beside two CPU burners: the 3.8 run of
-# tests/unit/sim/study/test_power.py (mixed models fitted in the test process) took over 150 s with OpenBLAS's default
+# tests/unit/sim/study/power/test_sample_size.py (mixed models fitted in the test process) took over 150 s with OpenBLAS's default
 # threads, 3 of its tests passing pytest's 300 s timeout in a full run, and 22 s with one thread.
 export OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 MKL_NUM_THREADS=1
 # Lint and format first (pyproject.toml): a finding fails the run before any test starts.

@@ -17,7 +17,7 @@ def trial(
     speed_set: str = "",
     group: int = 0,
 ) -> dict:
-    """One trial of a plan file, as sim.study.plan writes it."""
+    """One trial of a plan file, as sim.study.design.plan writes it."""
     return {
         "index": index,
         "condition": condition,

@@ -19,7 +19,9 @@ from rosbags.rosbag1 import Reader
 from bridge.client import TcpClient
 from sim.geometry.kinematics import chain_for
 from sim.processes import plain_env
-from sim.study.interface import (
+from sim.study.design.paths import ON_TOP
+from sim.study.design.scene import load_scene, scene_robot
+from sim.study.run.protocol import (
     DISTANCE_TOPIC,
     GO_TOPIC,
     PREFERENCE_TOPIC,
@@ -28,9 +30,7 @@ from sim.study.interface import (
     TOPIC_TYPES,
     status_from_json,
 )
-from sim.study.paths import ON_TOP
-from sim.study.scene import load_scene, scene_robot
-from sim.study.stop import STOP_DECELERATION
+from sim.study.run.stop import STOP_DECELERATION
 from sim.wire.rosmsgs import JOINT_STATE, TYPESTORE, deserialize, encode_message, time_msg, to_seconds
 from tests.integration.sim_helpers import start_engine
 from tests.integration.study_helpers import trial, write_plan
@@ -193,8 +193,8 @@ def test_simulated_participants_run_the_study_and_the_analysis_recovers_their_bi
     for plot in ("test1_distance_perception.png", "test2_comfort_distance.png", "agreement_bland_altman.png"):
         assert f"]({plot})" in report and (out / plot).stat().st_size > 10_000
     assert "## VR against reality: the verdicts" in report and "### Test 2: the mixed model" in report
-    from sim.study.report import load_study
-    from sim.study.summary import summarise
+    from sim.study.analysis.report import load_study
+    from sim.study.analysis.summary import summarise
 
     records = load_study(out)
     assert len(records) == 4 * 14 and {r.participant for r in records} == {1, 2, 3, 4}

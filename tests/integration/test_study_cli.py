@@ -10,7 +10,7 @@ import pytest
 import yaml
 
 from sim.processes import PYTHON, REPO, plain_env
-from sim.study.plan import plan_from_data
+from sim.study.design.plan import plan_from_data
 from tests.robot_files import PANDA_WITH_HAND
 
 

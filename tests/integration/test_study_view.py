@@ -1,4 +1,4 @@
-"""The experimenter's live 3-D view (sim.study.view) in a real headless browser (Debian's Chromium, WebGL in
+"""The experimenter's live 3-D view (sim.study.views.live) in a real headless browser (Debian's Chromium, WebGL in
 software): the page shows the scene before a trial, and the planned path, the trail and the stop after one, as the
 screenshots' pixels tell."""
 
@@ -13,8 +13,8 @@ import pytest
 from PIL import Image
 
 from sim.processes import plain_env
-from sim.study.paths import ON_TOP
-from sim.study.view import COLOURS
+from sim.study.design.paths import ON_TOP
+from sim.study.views.live import COLOURS
 from tests.integration import browser_helpers
 from tests.integration.browser_helpers import chromium
 from tests.integration.sim_helpers import start_engine

@@ -19,10 +19,10 @@ import pytest
 from PIL import Image
 
 from sim.geometry.kinematics import chain_for
-from sim.study.interface import STATUS_TOPIC, status_from_json
-from sim.study.paths import ON_TOP, approach_path
-from sim.study.scene import load_scene, scene_robot
-from sim.study.view import COLOURS
+from sim.study.design.paths import ON_TOP, approach_path
+from sim.study.design.scene import load_scene, scene_robot
+from sim.study.run.protocol import STATUS_TOPIC, status_from_json
+from sim.study.views.live import COLOURS
 from sim.wire.rosmsgs import decode_joint_state, deserialize
 from tests.integration.bridge_helpers import DiagnosticsInbox, start_endpoint, tcp_client
 from tests.integration.browser_helpers import chromium, pixels_like, start_vr_page

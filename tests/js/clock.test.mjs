@@ -1,8 +1,8 @@
-// The page's estimate of ROS time from the endpoint's ping answers (sim/study/vr/web/clock.js).
+// The page's estimate of ROS time from the endpoint's ping answers (sim/study/views/vr/web/clock.js).
 import assert from 'node:assert/strict';
 import { test } from 'node:test';
 
-import { ClockOffset } from '../../sim/study/vr/web/clock.js';
+import { ClockOffset } from '../../sim/study/views/vr/web/clock.js';
 
 test('the offset is the quickest round trip\'s, taken at its middle', () => {
   const clock = new ClockOffset();

@@ -1,8 +1,8 @@
-// For tests/unit/sim/study/test_vr_page_js.py: what the page's codec (sim/study/vr/web/rostcp.js) makes of bytes
+// For tests/unit/sim/study/views/test_vr_page_js.py: what the page's codec (sim/study/views/vr/web/rostcp.js) makes of bytes
 // Python wrote, and the bytes it writes, as JSON on stdout. Input: JSON on stdin.
 import { readFileSync } from 'node:fs';
 
-import { command, decodeJointState, encodeFloat32, encodeHeader, encodeString, frame, framesIn, rosTime } from '../../sim/study/vr/web/rostcp.js';
+import { command, decodeJointState, encodeFloat32, encodeHeader, encodeString, frame, framesIn, rosTime } from '../../sim/study/views/vr/web/rostcp.js';
 
 const input = JSON.parse(readFileSync(0, 'utf-8'));
 const hex = (bytes) => Buffer.from(bytes).toString('hex');

@@ -1,10 +1,10 @@
-// The page's study rules (sim/study/vr/web/study.js) and ROS-TCP frames (rostcp.js), run by node's test runner
-// (tests/unit/sim/study/test_vr_page_js.py runs this file and cross-checks the bytes against Python).
+// The page's study rules (sim/study/views/vr/web/study.js) and ROS-TCP frames (rostcp.js), run by node's test runner
+// (tests/unit/sim/study/views/test_vr_page_js.py runs this file and cross-checks the bytes against Python).
 import assert from 'node:assert/strict';
 import { test } from 'node:test';
 
-import { FrameError, KEEPALIVE, command, commandFields, frame, framesIn, rosTime } from '../../sim/study/vr/web/rostcp.js';
-import { ControllerEdges, Participant, STOP_SOURCE } from '../../sim/study/vr/web/study.js';
+import { FrameError, KEEPALIVE, command, commandFields, frame, framesIn, rosTime } from '../../sim/study/views/vr/web/rostcp.js';
+import { ControllerEdges, Participant, STOP_SOURCE } from '../../sim/study/views/vr/web/study.js';
 
 function status(phase, extra = {}) {
   return { participant: 3, index: 2, total: 4, phase, condition: 'vr', test: 2, path: 'straight', standoff: 0,

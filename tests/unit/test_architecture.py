@@ -5,6 +5,8 @@ from __future__ import annotations
 import ast
 import subprocess
 import sys
+from collections.abc import Callable, Iterator
+from pathlib import Path
 
 import pytest
 
@@ -49,10 +51,10 @@ def test_pure_bridge_modules_import_neither_sockets_nor_ros(module: str) -> None
         "sim.engine.physics",
         "sim.robots",
         "sim.control.scenarios",
-        "sim.study.paths",
-        "sim.study.interface",
-        "sim.study.summary",
-        "sim.study.participant",
+        "sim.study.design.paths",
+        "sim.study.run.protocol",
+        "sim.study.analysis.summary",
+        "sim.study.participants.simulated",
     ],
 )
 def test_the_client_and_the_engine_stand_in_import_no_ros(module: str) -> None:
@@ -80,16 +82,11 @@ def sim_part(module: str) -> str:
     return module.split(".")[1] if module.count(".") else module
 
 
-def test_sim_parts_import_only_from_the_layers_below() -> None:
-    rank = {part: level for level, parts in enumerate(SIM_LAYERS) for part in parts}
-    on_disk = {
-        path.stem if path.parent.name == "sim" else path.parent.name for path in (REPO / "sim").glob("*/__init__.py")
-    } | {path.stem for path in (REPO / "sim").glob("*.py") if path.stem != "__init__"}
-    assert on_disk == set(rank), "every part of sim/ has its layer"
-    wrong = []
-    for path in (REPO / "sim").rglob("*.py"):
+def sim_imports(folder: Path) -> Iterator[tuple[str, str]]:
+    """(importing module, imported sim module) for every import of sim by the modules under `folder`, even in
+    functions."""
+    for path in folder.rglob("*.py"):
         module = ".".join(path.relative_to(REPO).with_suffix("").parts)
-        here = sim_part(module)
         for node in ast.walk(ast.parse(path.read_text())):
             if isinstance(node, ast.ImportFrom) and node.module and node.module.split(".")[0] == "sim":
                 targets = [node.module] if node.module != "sim" else [f"sim.{alias.name}" for alias in node.names]
@@ -98,10 +95,67 @@ def test_sim_parts_import_only_from_the_layers_below() -> None:
             else:
                 continue
             for target in targets:
-                there = sim_part(target)
-                if there != here and rank[there] >= rank[here]:
-                    wrong.append(f"{module} imports {target}")
-    assert wrong == []
+                yield module, target
+
+
+def upward_imports(
+    folder: Path, layers: tuple[tuple[str, ...], ...], part_of: Callable[[str], str | None]
+) -> list[str]:
+    """The imports under `folder` from a part in the same layer or a layer above (`part_of` names a module's part;
+    None: outside the layers)."""
+    rank = {part: level for level, parts in enumerate(layers) for part in parts}
+    wrong = []
+    for module, target in sim_imports(folder):
+        here, there = part_of(module), part_of(target)
+        if there is not None and there != here and rank[there] >= rank[here]:
+            wrong.append(f"{module} imports {target}")
+    return wrong
+
+
+def parts_on_disk(folder: Path) -> set[str]:
+    return {path.parent.name for path in folder.glob("*/__init__.py")} | {
+        path.stem for path in folder.glob("*.py") if path.stem != "__init__"
+    }
+
+
+def test_sim_parts_import_only_from_the_layers_below() -> None:
+    assert parts_on_disk(REPO / "sim") == {part for parts in SIM_LAYERS for part in parts}, "every part has a layer"
+    assert upward_imports(REPO / "sim", SIM_LAYERS, sim_part) == []
+
+
+# sim.study's own parts, from the inputs to the sample size: a session is planned (design), run (run), answered by
+# simulated participants or shown (participants, views) and analysed (analysis); power and the end-to-end simulation
+# use all of those. The protocol that the runner and its answerers speak is in run/, below everyone who answers it.
+STUDY_LAYERS = (
+    ("errors",),
+    ("checks",),
+    ("design",),
+    ("run",),
+    ("participants", "analysis", "views"),
+    ("power", "simulation"),
+    ("__main__",),
+)
+
+
+def study_part(module: str) -> str | None:
+    parts = module.split(".")
+    return parts[2] if parts[:2] == ["sim", "study"] and len(parts) > 2 else None
+
+
+def test_the_study_parts_import_only_from_the_layers_below() -> None:
+    study = REPO / "sim" / "study"
+    assert parts_on_disk(study) == {part for parts in STUDY_LAYERS for part in parts}, "every part has a layer"
+    assert upward_imports(study, STUDY_LAYERS, study_part) == []
+
+
+def test_every_study_part_says_what_it_holds_and_has_its_own_error_type() -> None:
+    study = REPO / "sim" / "study"
+    for package in sorted(path.parent for path in study.glob("*/__init__.py")):
+        assert ast.get_docstring(ast.parse((package / "__init__.py").read_text())), package
+        errors = ast.parse((package / "errors.py").read_text()) if (package / "errors.py").is_file() else None
+        assert errors is not None, f"{package} has no errors.py"
+        classes = [node for node in errors.body if isinstance(node, ast.ClassDef)]
+        assert len(classes) == 1, f"{package}/errors.py declares {len(classes)} error types"
 
 
 def test_only_the_bridges_ros_modules_touch_rospy() -> None:

@@ -1,0 +1,80 @@
+"""`python -m sim.study plan` (a participant's session plan) and `check` (every combination of the design planned
+and checked)."""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+import yaml
+
+from sim.entry import EXIT_OK
+from sim.study.checks import check_positive
+from sim.study.design.errors import DesignError
+from sim.study.design.options import add_design_option, add_scene_options, robot_from_args
+from sim.study.design.plan import make_plan, plan_to_data, printable
+from sim.study.design.scene import load_scene
+from sim.study.design.spec import load_design
+
+__all__ = ["register"]
+
+
+def register(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    plan = commands.add_parser("plan", help="a participant's session plan")
+    plan.add_argument("--participant", type=int, required=True)
+    plan.add_argument("--seed", type=int, required=True)
+    add_design_option(plan)
+    plan.add_argument("--out", type=Path, help="write the plan here (default: print it as YAML)")
+    plan.add_argument("--print", action="store_true", help="print the observer's table instead of YAML")
+    plan.set_defaults(handler=plan_command)
+
+    check = commands.add_parser("check", help="plan and check every combination of the design")
+    add_design_option(check)
+    add_scene_options(check)
+    check.set_defaults(handler=check_command)
+
+
+def plan_command(args: argparse.Namespace) -> int:
+    plan = make_plan(load_design(args.design), args.participant, args.seed)
+    text = printable(plan) if args.print else yaml.safe_dump(plan_to_data(plan), sort_keys=False)
+    if args.out is None:
+        print(text, end="")
+    else:
+        args.out.parent.mkdir(parents=True, exist_ok=True)
+        args.out.write_text(text)
+        print(
+            f"plan of participant {plan.participant}: {len(plan.trials)} trials, {' then '.join(plan.conditions)}"
+            f" -> {args.out}"
+        )
+    return EXIT_OK
+
+
+def check_command(args: argparse.Namespace) -> int:
+    from sim.study.design.feasibility import plan_combinations
+
+    check_positive(args.dt, "--dt")
+    design, scene = load_design(args.design), load_scene(args.scene)
+    robot = robot_from_args(scene, args)
+    plan = make_plan(design, 1, 0)
+    started = time.monotonic()
+    approaches = plan_combinations(robot, scene, [(t.path, t.standoff, t.peak_speed) for t in plan.trials], args.dt)
+    elapsed = time.monotonic() - started
+    print("| path | stand-off | peak speed | samples | duration | clearance table / hand | verdict |")
+    print("|---|---|---|---|---|---|---|")
+    for (path, standoff, speed), planned in approaches.items():
+        clearance = planned.min_clearance
+        verdict = "feasible" if planned.feasible else "; ".join(planned.problems)
+        print(
+            f"| {path} | {standoff:.3f} m | {speed:.2f} m/s | {len(planned.path.times)} | "
+            f"{planned.path.duration:.2f} s | {clearance['table'] * 1000:.0f} / {clearance['hand'] * 1000:.0f} mm | "
+            f"{verdict} |"
+        )
+    print(f"{len(approaches)} combinations planned in {elapsed:.1f} s")
+    infeasible = [key for key, planned in approaches.items() if not planned.feasible]
+    if infeasible:
+        raise DesignError(
+            f"{len(infeasible)} combination(s) of the design are not feasible: "
+            f"{', '.join(f'{p} to {s} m at {v} m/s' for p, s, v in infeasible)}"
+        )
+    return EXIT_OK

@@ -1,0 +1,158 @@
+"""A participant's session plan from the design, the participant number and a seed. Pure logic.
+
+As the proposal has it (thesis §2.3): every participant does both conditions, half start with VR (odd participant
+numbers) and half with reality (even ones). In each condition test 1 comes first: its combinations of path and
+stopping distance (the same in both conditions), each in an order of its own. Then test 2: one group of three
+trials per speed set, each group's paths in random order, the groups in random order; after each group the
+participant says which approach they preferred. The random orders come from numpy's generator seeded with
+(seed, participant): the same inputs give the same plan.
+
+The plan is written as YAML (`plan_to_data`), which the runner executes and the observer can print (`printable`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+from typing import Any
+
+import numpy as np
+
+from sim.study.design.errors import DesignError
+from sim.study.design.paths import MAX_STANDOFF, MIN_STANDOFF, ON_TOP, PATH_NAMES
+from sim.study.design.spec import CONDITIONS, Design
+
+__all__ = ["PlannedTrial", "SessionPlan", "condition_order", "make_plan", "plan_to_data", "plan_from_data", "printable"]
+
+
+@dataclass(frozen=True)
+class PlannedTrial:
+    index: int  # 1-based, in the order they are run
+    condition: str  # "vr" | "reality"
+    test: int  # 1 (distance perception) | 2 (comfort distance)
+    path: str
+    standoff: float  # m: test 1's stopping distance; test 2's end on top of the hand (ON_TOP)
+    peak_speed: float  # m/s
+    speed_set: str = ""  # test 2
+    group: int = 0  # test 2: 1.. within the condition; a preference is asked after each group
+
+
+@dataclass(frozen=True)
+class SessionPlan:
+    participant: int
+    seed: int
+    conditions: tuple[str, ...]  # in the order they are run
+    trials: tuple[PlannedTrial, ...]
+
+    def groups(self, condition: str) -> list[list[PlannedTrial]]:
+        """Test 2's groups of `condition`, in order."""
+        found: dict[int, list[PlannedTrial]] = {}
+        for trial in self.trials:
+            if trial.condition == condition and trial.test == 2:
+                found.setdefault(trial.group, []).append(trial)
+        return [found[group] for group in sorted(found)]
+
+
+def condition_order(participant: int) -> tuple[str, ...]:
+    """Odd participants start with VR, even ones with reality."""
+    return CONDITIONS if participant % 2 == 1 else CONDITIONS[::-1]
+
+
+def make_plan(design: Design, participant: int, seed: int) -> SessionPlan:
+    if not (isinstance(participant, int) and participant >= 1):
+        raise DesignError(f"the participant number must be an integer >= 1, got {participant!r}")
+    if not (isinstance(seed, int) and seed >= 0):
+        raise DesignError(f"the seed must be an integer >= 0, got {seed!r}")
+    rng = np.random.default_rng([seed, participant])
+    combinations = [(path, standoff) for path in design.test1_paths for standoff in design.test1_standoffs]
+    trials: list[PlannedTrial] = []
+    conditions = condition_order(participant)
+    for condition in conditions:
+        for k in rng.permutation(len(combinations)):
+            path, standoff = combinations[k]
+            trials.append(PlannedTrial(len(trials) + 1, condition, 1, path, standoff, design.test1_peak_speed))
+        for group, s in enumerate(rng.permutation(len(design.test2_speed_sets)), start=1):
+            name, speed = design.test2_speed_sets[s]
+            for k in rng.permutation(len(design.test2_paths)):
+                trials.append(
+                    PlannedTrial(len(trials) + 1, condition, 2, design.test2_paths[k], ON_TOP, speed, name, group)
+                )
+    return SessionPlan(participant, seed, conditions, tuple(trials))
+
+
+def plan_to_data(plan: SessionPlan) -> dict[str, Any]:
+    return {
+        "participant": plan.participant,
+        "seed": plan.seed,
+        "conditions": list(plan.conditions),
+        "trials": [asdict(trial) for trial in plan.trials],
+    }
+
+
+_TRIAL_KEYS = ("index", "condition", "test", "path", "standoff", "peak_speed", "speed_set", "group")
+
+
+def _trial(entry: object, number: int, source: str) -> PlannedTrial:
+    where = f"{source}: trial {number}"
+    if not isinstance(entry, dict) or sorted(entry) != sorted(_TRIAL_KEYS):
+        raise DesignError(f"{where} must have exactly {', '.join(_TRIAL_KEYS)}, got {entry!r}")
+    checks = [
+        (entry["index"] == number, f"index {entry['index']!r} where {number} comes"),
+        (entry["condition"] in CONDITIONS, f"condition {entry['condition']!r} is not one of {', '.join(CONDITIONS)}"),
+        (entry["test"] in (1, 2), f"test {entry['test']!r} is not 1 or 2"),
+        (entry["path"] in PATH_NAMES, f"path {entry['path']!r} is not one of {', '.join(PATH_NAMES)}"),
+        (
+            isinstance(entry["standoff"], float) and MIN_STANDOFF <= entry["standoff"] <= MAX_STANDOFF,
+            f"stand-off {entry['standoff']!r} is not {MIN_STANDOFF}..{MAX_STANDOFF} m",
+        ),
+        (
+            isinstance(entry["peak_speed"], float) and 0.0 < entry["peak_speed"] <= 1.0,
+            f"peak speed {entry['peak_speed']!r} is not in (0, 1] m/s",
+        ),
+        (
+            isinstance(entry["speed_set"], str)
+            and isinstance(entry["group"], int)
+            and not isinstance(entry["group"], bool),
+            f"speed_set {entry['speed_set']!r} / group {entry['group']!r} are malformed",
+        ),
+    ]
+    for ok, problem in checks:
+        if not ok:
+            raise DesignError(f"{where}: {problem}")
+    return PlannedTrial(**entry)
+
+
+def plan_from_data(data: object, source: str = "plan") -> SessionPlan:
+    """A plan as written by `plan_to_data`, checked; DesignError names what is malformed."""
+    keys = ("participant", "seed", "conditions", "trials")
+    if not isinstance(data, dict) or sorted(data) != sorted(keys):
+        raise DesignError(f"{source} must have exactly {', '.join(keys)}")
+    if not (isinstance(data["participant"], int) and data["participant"] >= 1):
+        raise DesignError(f"{source}: participant must be an integer >= 1, got {data['participant']!r}")
+    if not (isinstance(data["seed"], int) and data["seed"] >= 0):
+        raise DesignError(f"{source}: seed must be an integer >= 0, got {data['seed']!r}")
+    if not isinstance(data["conditions"], list) or sorted(data["conditions"]) != sorted(CONDITIONS):
+        raise DesignError(f"{source}: conditions must be {' and '.join(CONDITIONS)} in the order run")
+    if not isinstance(data["trials"], list) or not data["trials"]:
+        raise DesignError(f"{source}: trials must be a non-empty list")
+    trials = tuple(_trial(entry, number, source) for number, entry in enumerate(data["trials"], start=1))
+    return SessionPlan(data["participant"], data["seed"], tuple(data["conditions"]), trials)
+
+
+def printable(plan: SessionPlan) -> str:
+    """The plan as the observer prints it: a markdown table with room for the responses."""
+    lines = [
+        f"# Session plan: participant {plan.participant} (seed {plan.seed})",
+        "",
+        f"Conditions in this order: {' then '.join(plan.conditions)}.",
+        "",
+        "| # | condition | test | path | stop at | peak speed | group | response |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for trial in plan.trials:
+        stop = "on the hand" if trial.test == 2 else f"{trial.standoff * 100:.0f} cm"
+        group = f"{trial.speed_set} ({trial.group})" if trial.test == 2 else ""
+        lines.append(
+            f"| {trial.index} | {trial.condition} | {trial.test} | {trial.path} | {stop} | "
+            f"{trial.peak_speed:.2f} m/s | {group} | |"
+        )
+    return "\n".join(lines) + "\n"

@@ -1,0 +1,174 @@
+"""The study's scene as data: where the robot, the table, the hand and the participant are (a small YAML, see
+scene.yaml beside this file). Pure logic, but for reading the YAML in `load_scene`."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from sim.geometry.frames import rpy_to_matrix
+from sim.robots import RobotError, RobotSpec, load_robot
+from sim.study.design.errors import DesignError
+from sim.study.design.yamlfile import read_yaml
+
+if TYPE_CHECKING:
+    from sim.geometry.kinematics import KinematicChain
+
+__all__ = ["DEFAULT_SCENE", "Box", "Scene", "parse_scene", "scene_robot", "load_scene"]
+
+DEFAULT_SCENE = Path(__file__).resolve().parent / "scene.yaml"
+_KEYS = ("robot", "ee_link", "base", "table", "hand", "seat")
+_REQUIRED = ("robot", "base", "table", "hand", "seat")
+
+
+@dataclass(frozen=True)
+class Box:
+    """An axis-aligned box turned by `yaw` about z: the table, the hand."""
+
+    size: np.ndarray  # (3,) full lengths along its own x, y, z
+    position: np.ndarray  # (3,) its centre in the world
+    yaw: float = 0.0
+
+    @property
+    def rotation(self) -> np.ndarray:
+        return rpy_to_matrix(0.0, 0.0, self.yaw)
+
+    @property
+    def top(self) -> np.ndarray:
+        """The centre of its top face."""
+        return self.position + np.array([0.0, 0.0, self.size[2] / 2.0])
+
+    def nearest_point(self, point: np.ndarray) -> np.ndarray:
+        """The box's point (world) nearest to `point`; `point` itself inside."""
+        rotation = self.rotation
+        local = rotation.T @ (np.asarray(point, dtype=float) - self.position)
+        return self.position + rotation @ np.clip(local, -self.size / 2.0, self.size / 2.0)
+
+    def distance(self, point: np.ndarray) -> float:
+        """Distance from `point` (world) to the box's nearest point; 0 inside."""
+        return float(np.linalg.norm(np.asarray(point, dtype=float) - self.nearest_point(point)))
+
+
+@dataclass(frozen=True)
+class Scene:
+    robot: str  # what --robot takes: a bundled name or a URDF / robot YAML path
+    ee_link: str | None  # the point that approaches the hand (e.g. between the gripper's fingertips); None: the robot's
+    base_position: np.ndarray  # the robot's base link in the world
+    base_rpy: np.ndarray
+    table: Box
+    hand: Box
+    seat: np.ndarray  # the participant's eyes
+
+    @property
+    def base_pose(self) -> np.ndarray:
+        """4x4 world ← base link."""
+        pose = np.eye(4)
+        pose[:3, :3] = rpy_to_matrix(*self.base_rpy)
+        pose[:3, 3] = self.base_position
+        return pose
+
+    def to_base(self, world_points: np.ndarray) -> np.ndarray:
+        """World points (…, 3) in the robot's base frame, where its kinematics work."""
+        pose = self.base_pose
+        return (np.asarray(world_points, dtype=float) - pose[:3, 3]) @ pose[:3, :3]
+
+    def to_world(self, base_points: np.ndarray) -> np.ndarray:
+        pose = self.base_pose
+        return np.asarray(base_points, dtype=float) @ pose[:3, :3].T + pose[:3, 3]
+
+    def end_effector(self, chain: KinematicChain, positions: np.ndarray) -> np.ndarray:
+        """The chain's end effector in the world at joint positions `positions` (FK, then the base pose)."""
+        return self.to_world(chain.fk(positions)[:3, 3][None])[0]
+
+
+def _vector(value: object, size: int, what: str) -> np.ndarray:
+    if not (
+        isinstance(value, list)
+        and len(value) == size
+        and all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in value)
+    ):
+        raise DesignError(f"{what} must be {size} finite numbers, got {value!r}")
+    return np.array(value, dtype=float)
+
+
+def _mapping(data: Mapping[str, Any], key: str, allowed: tuple[str, ...], source: str) -> Mapping[str, Any]:
+    value = data.get(key)
+    if not isinstance(value, dict):
+        raise DesignError(f"{source}: {key} must be a mapping with {', '.join(allowed)}, got {value!r}")
+    unknown = [k for k in value if k not in allowed]
+    if unknown:
+        raise DesignError(f"{source}: {key} has unknown key(s) {unknown}; known: {', '.join(allowed)}")
+    return value
+
+
+def _box(data: Mapping[str, Any], key: str, source: str) -> Box:
+    entry = _mapping(data, key, ("size", "xyz", "yaw"), source)
+    size = _vector(entry.get("size"), 3, f"{source}: {key}.size")
+    if np.any(size <= 0):
+        raise DesignError(f"{source}: {key}.size must be > 0, got {size.tolist()}")
+    yaw = entry.get("yaw", 0.0)
+    if not (isinstance(yaw, (int, float)) and not isinstance(yaw, bool) and math.isfinite(yaw)):
+        raise DesignError(f"{source}: {key}.yaw must be a finite number, got {yaw!r}")
+    return Box(size, _vector(entry.get("xyz"), 3, f"{source}: {key}.xyz"), float(yaw))
+
+
+def parse_scene(data: object, source: str = "scene") -> Scene:
+    """A Scene from the YAML's data; DesignError names the key and the value."""
+    if not isinstance(data, dict):
+        raise DesignError(f"{source} must be a mapping of {', '.join(_KEYS)}")
+    unknown = [key for key in data if key not in _KEYS]
+    missing = [key for key in _REQUIRED if key not in data]
+    if unknown or missing:
+        raise DesignError(
+            f"{source}: unknown key(s) {unknown}, missing key(s) {missing}; a scene has {', '.join(_KEYS)}"
+        )
+    robot = data["robot"]
+    if not isinstance(robot, str) or not robot:
+        raise DesignError(f"{source}: robot must be a robot name or a URDF path, got {robot!r}")
+    base = _mapping(data, "base", ("xyz", "rpy"), source)
+    seat = _mapping(data, "seat", ("xyz",), source)
+    ee_link = data.get("ee_link")
+    if ee_link is not None and (not isinstance(ee_link, str) or not ee_link):
+        raise DesignError(f"{source}: ee_link must be a link name, got {ee_link!r}")
+    scene = Scene(
+        robot,
+        ee_link,
+        _vector(base.get("xyz"), 3, f"{source}: base.xyz"),
+        _vector(base.get("rpy", [0.0, 0.0, 0.0]), 3, f"{source}: base.rpy"),
+        _box(data, "table", source),
+        _box(data, "hand", source),
+        _vector(seat.get("xyz"), 3, f"{source}: seat.xyz"),
+    )
+    table_top = scene.table.position[2] + scene.table.size[2] / 2.0
+    hand_bottom = scene.hand.position[2] - scene.hand.size[2] / 2.0
+    if abs(hand_bottom - table_top) > 0.005:
+        raise DesignError(
+            f"{source}: the hand must rest on the table: its underside is at z = {hand_bottom:.4f} m, "
+            f"the table top at z = {table_top:.4f} m"
+        )
+    return scene
+
+
+def scene_robot(scene: Scene, robot: str | None = None, overrides: Mapping[str, Any] | None = None) -> RobotSpec:
+    """The scene's robot, its end effector the scene's `ee_link` where one is given; or `robot` (a command line's
+    --robot), which the scene's `ee_link` does not apply to since it names a link of the scene's robot. `overrides`
+    (load_robot's keywords from the command line) win over both."""
+    keywords = dict(overrides or {})
+    if not robot and scene.ee_link:
+        keywords.setdefault("ee_link", scene.ee_link)
+    try:
+        return load_robot(robot or scene.robot, **keywords)
+    except RobotError as error:
+        whose = "the given robot" if robot else "the scene's robot"
+        raise DesignError(f"{whose}: {error}") from None
+
+
+def load_scene(path: Path | None = None) -> Scene:
+    """The scene in `path` (default: the bundled scene.yaml)."""
+    path = DEFAULT_SCENE if path is None else Path(path)
+    return parse_scene(read_yaml(path, "scene"), str(path))

@@ -1,0 +1,72 @@
+"""`python -m sim.study participant`: a simulated participant, a TCP client of the endpoint without rospy; and the
+options of the simulated participants' known truths, which `simulate` takes too."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from sim.entry import EXIT_FAILED, EXIT_NO_CONNECTION, EXIT_OK, fail
+from sim.study.checks import check_positive
+from sim.study.design.options import add_scene_options, robot_from_args
+from sim.study.design.scene import load_scene
+from sim.study.participants.model import KNOWN_TRUTHS, Population
+
+__all__ = ["register", "add_population_options", "population_from_args"]
+
+
+def add_population_options(command: argparse.ArgumentParser) -> None:
+    truths = command.add_argument_group("the simulated participants' known truths")
+    for name, meaning in KNOWN_TRUTHS.items():
+        default = getattr(Population(), name)
+        truths.add_argument(f"--{name.replace('_', '-')}", type=float, default=default, help=f"{meaning} ({default})")
+
+
+def population_from_args(args: argparse.Namespace) -> Population:
+    return Population(**{name: getattr(args, name) for name in KNOWN_TRUTHS})
+
+
+def register(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    participant = commands.add_parser("participant", help="a simulated participant (TCP client of the endpoint)")
+    participant.add_argument("--participant", type=int, required=True)
+    participant.add_argument("--seed", type=int, required=True)
+    participant.add_argument("--host", default="127.0.0.1", help="endpoint address")
+    participant.add_argument("--port", type=int, default=10000, help="endpoint port")
+    add_scene_options(participant)
+    add_population_options(participant)
+    participant.add_argument("--timeout", type=float, default=1800.0, help="give up after this many s")
+    participant.set_defaults(handler=participant_command)
+
+
+def participant_command(args: argparse.Namespace) -> int:
+    from bridge.client import ClientError, TcpClient
+    from sim.study.participants.model import draw_traits
+    from sim.study.participants.simulated import SimulatedParticipant
+
+    check_positive(args.timeout, "--timeout")
+    check_positive(args.dt, "--dt")
+    scene = load_scene(args.scene)
+    robot = robot_from_args(scene, args)
+    traits = draw_traits(population_from_args(args), args.participant, args.seed)
+    client = TcpClient(args.host, args.port)
+    participant = SimulatedParticipant(client, robot, scene, traits, args.seed, args.dt)
+    participant.attach()
+    try:
+        client.connect(timeout=30)
+    except ClientError as error:
+        return fail(
+            "sim.study participant",
+            f"cannot reach the endpoint at {args.host}:{args.port}: {error}",
+            EXIT_NO_CONNECTION,
+        )
+    print(f"participant {args.participant}: connected; {participant.traits_note}", flush=True)
+    try:
+        finished = participant.done.wait(args.timeout)
+    finally:
+        client.close()
+    for problem in participant.problems:
+        print(f"sim.study participant: {problem}", file=sys.stderr)
+    if not finished:
+        return fail("sim.study participant", f"the session did not end within {args.timeout:g} s", EXIT_NO_CONNECTION)
+    print(f"participant {args.participant}: session done, {participant.presses} presses")
+    return EXIT_OK if not participant.problems else EXIT_FAILED

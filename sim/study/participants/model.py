@@ -1,0 +1,194 @@
+"""A simulated participant's behaviour, with known truths so that the analysis can be checked against them. Pure
+logic. The simulated participant (a TCP client of the endpoint, like a Unity scene) acts on it one trial at a time,
+and `power` draws whole studies from it at once: both through the same functions, so what `power` plans for is
+what `simulate` runs.
+
+A Population gives the distributions; each participant's traits are drawn from it once, seeded by
+(seed, participant):
+  distance perception   test 1's measure, perceived / actual distance: in reality a bias of the participant's own
+                        (mean 1: unbiased on average), in VR that bias plus a VR − reality difference of the
+                        participant's own (mean `vr_distance_shift`, SD `distance_shift_sd`); each judgement is
+                        multiplied by a log-normal factor of mean 1;
+  comfort distance      test 2's measure, where the robot is when the press lands: the participant's own in reality,
+                        plus a VR − reality difference of their own (mean `vr_comfort_shift`, SD `comfort_shift_sd`);
+                        each trial's varies by `comfort_noise`;
+  the press             the participant anticipates: knowing the approach, they press so that the press lands when
+                        the robot reaches their comfort distance;
+  preference            ranks a group's paths by their order in the participant's own ranking of all paths.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from sim.study.design.paths import ON_TOP, PATH_NAMES
+from sim.study.participants.errors import ParticipantError
+
+__all__ = [
+    "MIN_COMFORT",
+    "KNOWN_TRUTHS",
+    "Population",
+    "Traits",
+    "draw_traits",
+    "judged_ratios",
+    "comfort_distances",
+    "perceived_distance",
+    "comfort_at_press",
+    "arrival_time",
+    "study_measures",
+    "preferred_path",
+]
+
+MIN_COMFORT = ON_TOP + 0.01  # m: a press must land before the approach's end, on top of the hand
+# what `participant` and `simulate` take from the command line (--vr-distance-shift ...): the truths to recover
+KNOWN_TRUTHS = {
+    "vr_distance_shift": "VR - reality of perceived / actual distance, the population's mean",
+    "distance_shift_sd": "SD of the participants' own VR - reality differences of perceived / actual",
+    "vr_comfort_shift": "VR - reality of the distance at the press (m), the population's mean",
+    "comfort_shift_sd": "SD of the participants' own VR - reality differences of the distance at the press (m)",
+}
+
+
+@dataclass(frozen=True)
+class Population:
+    distance_bias_sd: float = 0.08  # SD of the participants' perceived / actual in reality (mean 1)
+    vr_distance_shift: float = -0.15  # VR − reality of perceived / actual: a 15 % underestimate in VR
+    distance_shift_sd: float = 0.06  # SD of the participants' own VR − reality differences
+    perception_noise: float = 0.05  # log-SD of a single judgement
+    comfort_mean: float = 0.12  # m, in reality
+    comfort_sd: float = 0.03
+    vr_comfort_shift: float = -0.02  # m: closer in VR
+    comfort_shift_sd: float = 0.02  # m
+    comfort_noise: float = 0.01  # m: one trial's, around the participant's own
+
+    def __post_init__(self) -> None:
+        spreads = {
+            "distance_bias_sd": self.distance_bias_sd,
+            "distance_shift_sd": self.distance_shift_sd,
+            "perception_noise": self.perception_noise,
+            "comfort_sd": self.comfort_sd,
+            "comfort_shift_sd": self.comfort_shift_sd,
+            "comfort_noise": self.comfort_noise,
+        }
+        bad = [f"{name} {value!r}" for name, value in spreads.items() if not (math.isfinite(value) and value >= 0.0)]
+        if bad:
+            raise ParticipantError(f"a population's spreads must be >= 0: {', '.join(bad)}")
+        if not (math.isfinite(self.vr_distance_shift) and -0.9 < self.vr_distance_shift < 2.0):
+            raise ParticipantError(
+                f"the VR distance shift must be > -0.9 and < 2 (of the ratio), got {self.vr_distance_shift}"
+            )
+        if not (math.isfinite(self.vr_comfort_shift) and abs(self.vr_comfort_shift) < 0.2):
+            raise ParticipantError(f"the VR comfort shift must be within ±0.2 m, got {self.vr_comfort_shift}")
+
+    def draws(self, rng: np.random.Generator, participants: int) -> dict[str, np.ndarray]:
+        """Each trait for `participants` participants, one array each. Perceived / actual stays above 0.1 and the
+        comfort distance above MIN_COMFORT, as people's do."""
+        ratio = np.maximum(rng.normal(1.0, self.distance_bias_sd, participants), 0.1)
+        ratio_vr = np.maximum(ratio + rng.normal(self.vr_distance_shift, self.distance_shift_sd, participants), 0.1)
+        comfort = np.maximum(rng.normal(self.comfort_mean, self.comfort_sd, participants), MIN_COMFORT)
+        comfort_vr = comfort + rng.normal(self.vr_comfort_shift, self.comfort_shift_sd, participants)
+        return {
+            "ratio_reality": ratio,
+            "ratio_vr": ratio_vr,
+            "comfort_reality": comfort,
+            "comfort_vr": np.maximum(comfort_vr, MIN_COMFORT),
+        }
+
+
+@dataclass(frozen=True)
+class Traits:
+    participant: int
+    distance_ratio: dict[str, float]  # per condition: perceived / actual, the participant's mean
+    perception_noise: float
+    comfort_distance: dict[str, float]  # per condition, m: where the robot is at the press, the participant's mean
+    comfort_noise: float
+    ranking: tuple[str, ...]  # every path, most preferred first
+
+
+def draw_traits(population: Population, participant: int, seed: int) -> Traits:
+    if participant < 1 or seed < 0:
+        raise ParticipantError(f"participant must be >= 1 and seed >= 0, got {participant} and {seed}")
+    rng = np.random.default_rng([seed, participant, 1])  # a stream apart from the plan's
+    drawn = {name: float(values[0]) for name, values in population.draws(rng, 1).items()}
+    ranking = tuple(PATH_NAMES[k] for k in rng.permutation(len(PATH_NAMES)))
+    return Traits(
+        participant,
+        {"vr": drawn["ratio_vr"], "reality": drawn["ratio_reality"]},
+        population.perception_noise,
+        {"vr": drawn["comfort_vr"], "reality": drawn["comfort_reality"]},
+        population.comfort_noise,
+        ranking,
+    )
+
+
+def judged_ratios(ratio: np.ndarray, noise: float, rng: np.random.Generator) -> np.ndarray:
+    """Perceived / actual of single judgements around each participant's `ratio` (log-normal, mean 1)."""
+    return ratio * np.exp(rng.normal(-(noise**2) / 2.0, noise, np.shape(ratio)))
+
+
+def comfort_distances(comfort: np.ndarray, noise: float, rng: np.random.Generator) -> np.ndarray:
+    """Single trials' comfort distances (m) around each participant's `comfort`."""
+    return np.maximum(comfort + rng.normal(0.0, noise, np.shape(comfort)), MIN_COMFORT)
+
+
+def _condition(traits: Traits, condition: str) -> None:
+    if condition not in traits.distance_ratio:
+        raise ParticipantError(f"unknown condition {condition!r}; known: {', '.join(traits.distance_ratio)}")
+
+
+def perceived_distance(traits: Traits, condition: str, actual: float, rng: np.random.Generator) -> float:
+    """What the participant shows for an actual distance (m)."""
+    _condition(traits, condition)
+    if not (math.isfinite(actual) and actual >= 0.0):
+        raise ParticipantError(f"an actual distance must be >= 0 m, got {actual!r}")
+    ratio = judged_ratios(np.array([traits.distance_ratio[condition]]), traits.perception_noise, rng)
+    return float(actual * ratio[0])
+
+
+def comfort_at_press(traits: Traits, condition: str, rng: np.random.Generator) -> float:
+    """Where (m from the hand) this trial's press is to land."""
+    _condition(traits, condition)
+    return float(comfort_distances(np.array([traits.comfort_distance[condition]]), traits.comfort_noise, rng)[0])
+
+
+def arrival_time(times: np.ndarray, distances: np.ndarray, target: float) -> float:
+    """When (s) an approach with these distances to the hand first comes within `target`, interpolated between
+    samples; ParticipantError when it never does."""
+    inside = np.flatnonzero(distances <= target)
+    if inside.size == 0:
+        raise ParticipantError(
+            f"the approach never comes within {target:.3f} m of the hand (it ends {distances[-1]:.3f} m)"
+        )
+    k = int(inside[0])
+    if k == 0:
+        return float(times[0])
+    before, after = float(distances[k - 1]), float(distances[k])
+    fraction = (before - target) / (before - after)
+    return float(times[k - 1] + fraction * (times[k] - times[k - 1]))
+
+
+def study_measures(
+    population: Population, test: int, participant: np.ndarray, vr: np.ndarray, rng: np.random.Generator
+) -> np.ndarray:
+    """A whole study's measures at once, one per trial (its participant's index from 0, and whether it was in VR),
+    each participant drawn afresh: test 1 perceived / actual, test 2 the distance at the press (m)."""
+    drawn = population.draws(rng, int(participant.max()) + 1)
+    if test == 1:
+        ratio = np.where(vr, drawn["ratio_vr"][participant], drawn["ratio_reality"][participant])
+        return judged_ratios(ratio, population.perception_noise, rng)
+    if test == 2:
+        comfort = np.where(vr, drawn["comfort_vr"][participant], drawn["comfort_reality"][participant])
+        return comfort_distances(comfort, population.comfort_noise, rng)
+    raise ParticipantError(f"test must be 1 or 2, got {test!r}")
+
+
+def preferred_path(traits: Traits, paths: Sequence[str]) -> str:
+    """The group's path the participant prefers: the first of them in their ranking."""
+    unknown = [path for path in paths if path not in traits.ranking]
+    if not paths or unknown:
+        raise ParticipantError(f"cannot rank paths {list(paths)}; known: {', '.join(traits.ranking)}")
+    return min(paths, key=traits.ranking.index)

@@ -1,0 +1,139 @@
+"""A simulated participant: a TCP client of the endpoint without rospy, as a Unity scene would be
+(`python -m sim.study participant --port P --participant N --seed S`).
+
+It follows the runner's `/study/trial` and the robot's joint states, and acts by its traits (sim.study.
+participants.model), which stand for both the participant and the observer:
+  ready       test 2: draws where this trial's press is to land (its comfort distance) and finds how long after
+              the start the planned approach gets there; then says go (`/study/go`), as the observer would;
+  moving      test 2: presses stop (`/study/stop`) at once, stamped when the press is to land: it anticipates the
+              robot, as people do, and the runner applies a press at its stamp.
+  distance    test 1: reports its perceived distance of the robot at rest (`/study/perceived_distance`);
+  preference  names its preferred path of the group (`/study/preference`);
+  done        (for its participant number) ends.
+
+Why at once, and planned before go: a lockstep runs some 15 times faster than real time on a busy machine, so
+whatever the participant does after the approach starts races the robot. Pressing on the joint state one human
+reaction time ahead (some 15 ms of wall time there) came late in three studies of seven; planning on `moving` (5 ms,
+sometimes 140 ms on a starved CPU) still did now and then. While the runner waits for go nothing moves.
+"""
+
+from __future__ import annotations
+
+import threading
+from typing import Any
+
+import numpy as np
+
+from bridge.client import TcpClient
+from sim.geometry.kinematics import chain_for
+from sim.robots import RobotSpec
+from sim.study.design.paths import approach_path
+from sim.study.design.scene import Scene
+from sim.study.errors import StudyError
+from sim.study.participants.model import (
+    Traits,
+    arrival_time,
+    comfort_at_press,
+    perceived_distance,
+    preferred_path,
+)
+from sim.study.run.protocol import (
+    DISTANCE_TOPIC,
+    GO_TOPIC,
+    PREFERENCE_TOPIC,
+    STATUS_TOPIC,
+    STOP_TOPIC,
+    TOPIC_TYPES,
+    TrialStatus,
+    status_from_json,
+)
+from sim.wire.contract import STEP_S
+from sim.wire.rosmsgs import JOINT_STATE, decode_joint_state, deserialize, encode_message, time_msg
+
+__all__ = ["SimulatedParticipant"]
+
+
+def _encode(topic: str, **fields: Any) -> bytes:
+    return encode_message(TOPIC_TYPES[topic], **fields)
+
+
+class SimulatedParticipant:
+    def __init__(
+        self, client: TcpClient, robot: RobotSpec, scene: Scene, traits: Traits, seed: int, dt: float = STEP_S
+    ) -> None:
+        self.client, self.robot, self.scene, self.traits, self.dt = client, robot, scene, traits, dt
+        self.rng = np.random.default_rng([seed, traits.participant, 2])  # the judgements' noise
+        self.done = threading.Event()
+        self.presses = 0
+        self.problems: list[str] = []
+        self._chain = chain_for(robot)
+        self._status: TrialStatus | None = None
+        self._press_after: float | None = None  # test 2: s after the approach starts at which this trial's press lands
+        self._latest: tuple[float, np.ndarray] | None = None
+
+    def attach(self) -> None:
+        for topic in (GO_TOPIC, STOP_TOPIC, DISTANCE_TOPIC, PREFERENCE_TOPIC):
+            self.client.register_publisher(topic, TOPIC_TYPES[topic])
+        self.client.subscribe(self.robot.joint_states_topic, JOINT_STATE, self._on_joint_state)
+        self.client.subscribe(STATUS_TOPIC, TOPIC_TYPES[STATUS_TOPIC], self._on_status)
+
+    def hand_distance(self, positions: np.ndarray) -> float:
+        return self.scene.hand.distance(self.scene.end_effector(self._chain, positions))
+
+    def _on_joint_state(self, payload: bytes) -> None:
+        sample = decode_joint_state(payload, self.robot.joint_names)
+        self._latest = (sample.stamp_s, sample.positions)
+
+    def _plan_press(self, status: TrialStatus) -> float:
+        """How long after the start (s) the planned approach reaches this trial's comfort distance."""
+        path = approach_path(self.scene, status.path, status.standoff, status.peak_speed, self.dt)
+        distances = np.array([self.scene.hand.distance(point) for point in path.positions])
+        return arrival_time(path.times, distances, comfort_at_press(self.traits, status.condition, self.rng))
+
+    def _press(self, status: TrialStatus, after: float) -> None:
+        source = "vr_trigger" if status.condition == "vr" else "button"
+        stamp = time_msg(status.motion_start + after)
+        self.presses += 1
+        self.client.publish(STOP_TOPIC, _encode(STOP_TOPIC, seq=0, stamp=stamp, frame_id=source))
+
+    def _on_status(self, payload: bytes) -> None:
+        message: Any = deserialize(payload, TOPIC_TYPES[STATUS_TOPIC])
+        try:
+            status = status_from_json(message.data)
+        except StudyError as error:
+            self.problems.append(str(error))
+            return
+        if status.participant != self.traits.participant:
+            return  # another session's (a latched status from before)
+        self._status = status
+        if status.phase == "ready":
+            self._press_after = None
+            if status.test == 2:
+                try:
+                    self._press_after = self._plan_press(status)
+                except StudyError as error:
+                    self.problems.append(f"trial {status.index}: {error}")
+            self.client.publish(GO_TOPIC, _encode(GO_TOPIC))
+        elif status.phase == "moving" and self._press_after is not None:
+            self._press(status, self._press_after)
+            self._press_after = None
+        elif status.phase == "distance":
+            if self._latest is None:
+                self.problems.append(f"trial {status.index}: asked for a distance before any joint state")
+                return
+            actual = self.hand_distance(self._latest[1])
+            answer = perceived_distance(self.traits, status.condition, actual, self.rng)
+            self.client.publish(DISTANCE_TOPIC, _encode(DISTANCE_TOPIC, data=answer))
+        elif status.phase == "preference":
+            choice = preferred_path(self.traits, status.group_paths)
+            self.client.publish(PREFERENCE_TOPIC, _encode(PREFERENCE_TOPIC, data=choice))
+        elif status.phase == "done":
+            self.done.set()
+
+    @property
+    def traits_note(self) -> str:
+        ratio, comfort = self.traits.distance_ratio, self.traits.comfort_distance
+        return (
+            f"comfort {comfort['reality']:.3f} m (VR {comfort['vr']:.3f} m), "
+            f"perceived / actual {ratio['reality']:.2f} (VR {ratio['vr']:.2f})"
+        )

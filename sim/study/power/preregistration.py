@@ -1,0 +1,135 @@
+"""The pre-registration summary, written from the design file (`python -m sim.study preregister`): hypotheses,
+measures, the SESOIs with their reasoning, the planned sample and its power, the models and the decision rules. Pure
+logic: what is analysed is what the design declares, and the summary names the file and its SHA-256 so that a
+reader can check the analysis used that very file."""
+
+from __future__ import annotations
+
+from sim.study.analysis.contrasts import FACTOR_NAMES, MEASURES
+from sim.study.design.spec import TESTS, Design
+from sim.study.power.sample_size import PlannedSample
+
+__all__ = ["preregistration"]
+
+_UNITS = {1: "", 2: " m"}
+_HYPOTHESES = {
+    1: "People perceive the robot's distance from their hand the same in VR as in reality",
+    2: "People stop an approaching robot at the same distance from their hand in VR as in reality",
+}
+
+
+def _factors(design: Design, test: int) -> str:
+    if test == 1:
+        standoffs = ", ".join(f"{s:g}" for s in design.test1_standoffs)
+        return (
+            f"paths {', '.join(design.test1_paths)} × stand-offs {standoffs} m, at a peak speed of "
+            f"{design.test1_peak_speed:g} m/s"
+        )
+    speeds = ", ".join(f"{name} ({speed:g} m/s)" for name, speed in design.test2_speed_sets)
+    return f"paths {', '.join(design.test2_paths)} × speed sets {speeds}; after each speed set's group, a preference"
+
+
+def _power_table(sample: PlannedSample, test: int) -> list[str]:
+    lines = ["| participants | P(equivalent) | P(different) |", "|---|---|---|"]
+    lines += [f"| {r.participants} | {r.p_equivalent:.3f} | {r.p_different:.3f} |" for r in sample.rows[test]]
+    return lines
+
+
+def preregistration(design: Design, source: str, digest: str, sample: PlannedSample) -> str:
+    """The Markdown summary of `design` (read from `source`, whose SHA-256 is `digest`) with its planned sample."""
+    planning = design.planning
+    assert planning is not None  # plan_sample refuses a design without one
+    lines = [
+        "# Pre-registration: VR against reality",
+        "",
+        f"Written by `python -m sim.study preregister` from `{source}` (SHA-256 `{digest}`). The analysis "
+        "(`python -m sim.study analyse --design` with this file) judges by exactly what is declared here.",
+        "",
+        "## Hypotheses",
+        "",
+    ]
+    for test in TESTS:
+        lines.append(
+            f"- **Test {test}.** {_HYPOTHESES[test]}: the VR − reality difference in {MEASURES[test]} lies within "
+            f"±{design.sesoi[test]:g}{_UNITS[test]} (equivalence). The alternative: it lies outside, or is not 0."
+        )
+    lines += [
+        "",
+        "## Design",
+        "",
+        "Within participants: every participant does both conditions, VR and reality; odd participant numbers start "
+        "with VR, even ones with reality. In each condition test 1 comes first, then test 2, each trial's order "
+        "drawn from a seed per participant.",
+        "",
+    ]
+    lines += [f"- Test {test}: {_factors(design, test)}." for test in TESTS]
+    lines += [
+        f"- {design.trials_per_participant} trials per participant.",
+        "",
+        "## Measures",
+        "",
+        "- Test 1: perceived / actual distance. The participant shows the distance between the end effector and "
+        "their hand; the actual one is the end effector's distance to the hand's surface with the robot at rest, "
+        "from forward kinematics of the recorded joint states.",
+        "- Test 2: the end effector's distance to the hand's surface when the participant's stop press lands, from "
+        "forward kinematics of the recorded joint state nearest the press. A trial without a press has no measure.",
+        "",
+        "## Smallest effects of interest",
+        "",
+        "| test | SESOI | why |",
+        "|---|---|---|",
+    ]
+    for test in TESTS:
+        reason = design.sesoi_reason.get(test, "(the design gives no reasoning)")
+        lines.append(f"| {test} | ±{design.sesoi[test]:g}{_UNITS[test]} | {reason} |")
+    lines += ["", "## Planned sample and its power", ""]
+    assumed = "; ".join(
+        f"test {test}: true VR − reality {planning.expected_difference[test]:+g}{_UNITS[test]}, SD of the "
+        f"participants' own differences {planning.sd_between[test]:g}{_UNITS[test]}"
+        for test in TESTS
+    )
+    lines.append(
+        f"Simulated from the participant model ({sample.simulations} studies per size, seed {sample.seed}), each "
+        f"analysed as the real study will be. Assumed: {assumed}. Wanted: P(equivalent) ≥ {planning.power:g} in "
+        "both tests."
+    )
+    lines.append("")
+    if sample.participants is not None:
+        lines.append(f"**Planned: {sample.participants} participants.**")
+    else:
+        tried = max(r.participants for r in sample.rows[1])
+        lines.append(f"**No size tried reaches the power wanted: more than {tried} participants are needed.**")
+    for test in TESTS:
+        lines += ["", f"Test {test}:", ""] + _power_table(sample, test)
+    lines += [
+        "",
+        "## Models",
+        "",
+        "A linear mixed model per test (statsmodels MixedLM, REML), fitted to every trial with a measure:",
+        "",
+    ]
+    for test in TESTS:
+        lines.append(
+            f"- Test {test}: {MEASURES[test]} ~ condition × {FACTOR_NAMES[test]} × path + order + condition × order."
+        )
+    lines += [
+        "- Random effects: an intercept and a condition slope per participant (fitted without the slope only if no "
+        "optimiser converges, which the report then says).",
+        "- Condition (VR +½, reality −½) and order (VR first +½) are coded ±½, the factors sum-to-zero: the "
+        "condition's coefficient is the VR − reality difference averaged over the design's cells.",
+        "- Intervals: Student's t with participants − 2 degrees of freedom.",
+        "",
+        "## Decision rules",
+        "",
+        "For each test, on the condition's coefficient:",
+        "",
+        "- **equivalent** when its 90 % confidence interval lies inside ±SESOI (two one-sided tests at α = 0.05);",
+        "- **different** when its 95 % confidence interval excludes 0;",
+        "- **inconclusive** otherwise. A coefficient both equivalent and non-zero is reported as equivalent, and as "
+        "non-zero.",
+        "",
+        "Secondary, reported beside the verdicts: the paired TOST on each participant's mean per condition against "
+        "the same SESOI, and Bland–Altman agreement (bias and 95 % limits). No verdict is drawn from fewer than 3 "
+        "participants with both conditions.",
+    ]
+    return "\n".join(lines) + "\n"

@@ -1,0 +1,71 @@
+"""`python -m sim.study run`: the runner node executes a participant's plan (ROS)."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from sim.study.checks import check_positive
+from sim.study.design.options import add_scene_options, robot_from_args
+from sim.study.design.plan import plan_from_data
+from sim.study.design.scene import load_scene
+from sim.study.design.yamlfile import read_yaml
+from sim.study.run.errors import RunError
+
+__all__ = ["register"]
+
+
+def register(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    run = commands.add_parser("run", help="the runner node: execute a plan")
+    run.add_argument("--plan", type=Path, required=True)
+    run.add_argument("--out", type=Path, required=True, help="the participant's CSV, bag and logs go here")
+    add_scene_options(run)
+    run.add_argument("--realtime", action="store_true", help="pace by the wall clock (VR headset, real robot)")
+    run.add_argument("--auto-go", action="store_true", help="start each approach at once, without waiting for go")
+    run.add_argument(
+        "--keyboard",
+        action="store_true",
+        help="the observer types here: Enter = go, s = stop, distances and preferences when asked",
+    )
+    run.add_argument("--no-record", action="store_true", help="no rosbag record")
+    run.add_argument("--settle", type=float, default=0.5, help="s held after each motion before it is at rest")
+    run.add_argument("--deceleration", type=float, default=1.0, help="braking on a press, m/s² along the path")
+    run.add_argument(
+        "--response-timeout",
+        type=float,
+        default=300.0,
+        help="longest wait for go or an answer in s; then the trial goes on without it (default 300)",
+    )
+    run.add_argument("--step-timeout", type=float, default=10.0, help="lockstep: longest wait for a joint state")
+    run.add_argument("--connect-timeout", type=float, default=60.0, help="longest wait for the engine at start")
+    run.set_defaults(handler=run_command)
+
+
+def run_command(args: argparse.Namespace) -> int:
+    from sim.control.stepper import Pacing
+    from sim.study.design.feasibility import plan_combinations
+    from sim.study.run.runner import RunnerOptions, run_node
+
+    for option in ("dt", "settle", "deceleration", "response_timeout", "step_timeout", "connect_timeout"):
+        check_positive(getattr(args, option), f"--{option.replace('_', '-')}")
+    plan = plan_from_data(read_yaml(args.plan, "plan"), str(args.plan))
+    scene = load_scene(args.scene)
+    robot = robot_from_args(scene, args)
+    approaches = plan_combinations(robot, scene, [(t.path, t.standoff, t.peak_speed) for t in plan.trials], args.dt)
+    infeasible = {key: planned.problems for key, planned in approaches.items() if not planned.feasible}
+    if infeasible:
+        raise RunError(
+            "the plan has combinations that are not feasible (none was run): "
+            + "; ".join(f"{p} to {s} m at {v} m/s: {', '.join(problems)}" for (p, s, v), problems in infeasible.items())
+        )
+    options = RunnerOptions(
+        Pacing(args.dt, args.realtime, step_timeout=args.step_timeout),
+        args.auto_go,
+        args.keyboard,
+        args.settle,
+        args.response_timeout,
+        args.deceleration,
+    )
+    return run_node(
+        robot, scene, plan, approaches, options, args.out.resolve(), not args.no_record, args.connect_timeout
+    )

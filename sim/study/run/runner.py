@@ -1,0 +1,478 @@
+"""The study runner: a rospy node that executes a participant's session plan trial by trial
+(`python -m sim.study run --plan PLAN --out DIR`).
+
+Per trial: move to the path's start (a quintic in joint space), wait for go (`/study/go`, the observer's keyboard,
+or at once with --auto-go), run the approach sample by sample (sim.study.run.trial), stopping along the path when a
+press comes (`/study/stop`), rest, then ask for test 1's perceived distance, and after each group of test 2 for the
+preference. The trial's phase goes out on `/study/trial` (sim.study.run.protocol has the whole interface). Every row is
+written to the participant's CSV as soon as its trial ends, and `rosbag record` (started and stopped here) records
+the robot's topics, /clock and every /study topic.
+
+It is a controller (sim.control): it drives the robot on the commander's topics, through the same controller node
+and stepper, so the engine stand-in, Unity, or a real robot's controller take the same stream. Lockstep (default):
+the runner owns /clock and the engine steps once per value, so a session takes seconds of wall time; while the
+runner waits for go or an answer, the clock stands still. --realtime: /clock and the commands are paced by the wall
+clock (a VR headset, a real robot), and the robot is held at its target while the runner waits.
+
+A press's time is its stamp on ROS time (a zero stamp: when it arrives); a press whose stamp has already passed is
+applied at once, and how late it was is logged. Presses before the approach starts are ignored.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import signal
+import sys
+import threading
+import time
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any, Callable, Iterable
+
+import numpy as np
+
+from sim.control.controller_node import ControllerError, ControllerNode
+from sim.control.scenarios import approach
+from sim.control.stepper import Pacing, Stepper
+from sim.processes import ManagedProcess, ProcessError, start_recorder, stop_recorder
+from sim.robots import RobotSpec
+from sim.study.design.feasibility import Combination, PlannedApproach
+from sim.study.design.plan import PlannedTrial, SessionPlan
+from sim.study.design.scene import Scene
+from sim.study.errors import StudyError
+from sim.study.run.protocol import (
+    DISTANCE_TOPIC,
+    GO_TOPIC,
+    PREFERENCE_TOPIC,
+    STATUS_TOPIC,
+    STOP_TOPIC,
+    TrialStatus,
+    checked_distance,
+    chosen_path,
+    observer_input,
+    status_to_json,
+)
+from sim.study.run.records import TrialRecord, write_records
+from sim.study.run.trial import TrialRun
+
+__all__ = [
+    "EXIT_OK",
+    "EXIT_ROS",
+    "EXIT_INTERRUPTED",
+    "RunnerOptions",
+    "Press",
+    "Inputs",
+    "StudyRunner",
+    "recorder_topics",
+    "record_session",
+    "run_node",
+]
+
+
+EXIT_OK, EXIT_ROS, EXIT_INTERRUPTED = 0, 4, 130
+
+
+@dataclass(frozen=True)
+class RunnerOptions:
+    pacing: Pacing = Pacing(step_timeout=10.0)
+    auto_go: bool = False
+    keyboard: bool = False  # the observer types at this terminal: go, stop, distances, preferences
+    settle: float = 0.5  # s held after the motion ends, before it counts as at rest
+    response_timeout: float = 300.0  # the longest wait for go or an answer; then the trial goes on without it
+    deceleration: float = 1.0  # m/s² along the path on a press
+
+
+_PROMPTS = {
+    "ready": "Enter to start the approach",
+    "moving": "s + Enter to stop",
+    "distance": "the perceived distance (0.12, 0.12 m or 12 cm)?",
+    "preference": "preferred approach: {paths}?",
+}
+
+
+@dataclass(frozen=True)
+class Press:
+    stamp: float  # s of ROS time; 0: when it arrived
+    source: str
+
+
+class Inputs:
+    """What comes in from the participant and the observer, kept until the runner takes it; thread-safe."""
+
+    def __init__(self) -> None:
+        self._changed = threading.Condition()
+        self._go = False
+        self._presses: list[Press] = []
+        self._distances: list[float] = []
+        self._preferences: list[str] = []
+        self.rejected: list[str] = []
+
+    def go(self) -> None:
+        with self._changed:
+            self._go = True
+            self._changed.notify_all()
+
+    def press(self, stamp: float, source: str) -> None:
+        with self._changed:
+            self._presses.append(Press(stamp, source))
+            self._changed.notify_all()
+
+    def distance(self, value: float) -> None:
+        with self._changed:
+            try:
+                self._distances.append(checked_distance(value))
+            except StudyError as error:
+                self.rejected.append(str(error))
+            self._changed.notify_all()
+
+    def preference(self, text: str) -> None:
+        with self._changed:
+            self._preferences.append(text)
+            self._changed.notify_all()
+
+    def clear(self) -> None:
+        """Forget whatever came before the phase that asks for it."""
+        with self._changed:
+            self._go = False
+            self._presses.clear()
+            self._distances.clear()
+            self._preferences.clear()
+
+    def take_press(self, until: float) -> Press | None:
+        """The first press stamped at or before `until` (or unstamped), if one came."""
+        with self._changed:
+            for k, press in enumerate(self._presses):
+                if press.stamp <= until:
+                    return self._presses.pop(k)
+        return None
+
+    def wait(self, what: str, timeout: float, stop: threading.Event) -> Any:
+        """Wait for go (True), a distance (float) or a preference (str); None after `timeout` s or when stopped."""
+        taken: dict[str, Callable[[], Any]] = {
+            "go": lambda: True if self._go else None,
+            "distance": lambda: self._distances.pop(0) if self._distances else None,
+            "preference": lambda: self._preferences.pop(0) if self._preferences else None,
+        }
+        deadline = time.monotonic() + timeout
+        with self._changed:
+            while not stop.is_set():
+                value = taken[what]()
+                if value is not None:
+                    return value
+                remaining = deadline - time.monotonic()
+                if remaining <= 0:
+                    return None
+                self._changed.wait(min(remaining, 0.1))
+        return None
+
+
+def recorder_topics(robot: RobotSpec) -> list[str]:
+    return [
+        robot.command_topic,
+        robot.joint_states_topic,
+        "/clock",
+        STATUS_TOPIC,
+        GO_TOPIC,
+        STOP_TOPIC,
+        DISTANCE_TOPIC,
+        PREFERENCE_TOPIC,
+    ]
+
+
+class StudyRunner(ControllerNode):
+    def __init__(
+        self,
+        robot: RobotSpec,
+        scene: Scene,
+        plan: SessionPlan,
+        approaches: dict[Combination, PlannedApproach],
+        options: RunnerOptions,
+        stop: threading.Event,
+    ) -> None:
+        super().__init__(robot, stop)
+        from std_msgs.msg import Empty, Float32, Header, String
+
+        self._string_type = String
+        self.scene, self.plan, self.approaches, self.options = scene, plan, approaches, options
+        self.inputs = Inputs()
+        self.stepper = Stepper(self, options.pacing)
+        self.phase = ""  # of the last status published
+        self._target = (robot.home.copy(), np.zeros(robot.dof))
+        self.status_pub = self.rospy.Publisher(STATUS_TOPIC, String, queue_size=10, latch=True)
+        self.watched_publishers.append((STATUS_TOPIC, self.status_pub))
+        self._subscribers = [
+            self.rospy.Subscriber(GO_TOPIC, Empty, lambda _: self.inputs.go()),
+            self.rospy.Subscriber(STOP_TOPIC, Header, self._on_press, tcp_nodelay=True),
+            self.rospy.Subscriber(DISTANCE_TOPIC, Float32, lambda message: self.inputs.distance(message.data)),
+            self.rospy.Subscriber(PREFERENCE_TOPIC, String, lambda message: self.inputs.preference(message.data)),
+        ]
+
+    def _on_press(self, message: Any) -> None:
+        self.inputs.press(message.stamp.to_sec(), message.frame_id or "unnamed")
+
+    def publish_status(self, status: TrialStatus) -> None:
+        self.phase = status.phase
+        self.status_pub.publish(self._string_type(data=status_to_json(status)))
+        if self.options.keyboard and status.phase in _PROMPTS:
+            print(
+                f"trial {status.index}/{status.total} ({status.condition}, test {status.test}, {status.path}): "
+                + _PROMPTS[status.phase].format(
+                    paths=", ".join(f"{k} {p}" for k, p in enumerate(status.group_paths, start=1))
+                ),
+                file=sys.stderr,
+                flush=True,
+            )
+
+    def read_keyboard(self, lines: Iterable[str]) -> None:
+        """The observer's lines (sim.study.run.protocol.observer_input), read in the phase they come in."""
+        for line in lines:
+            typed = observer_input(line, self.phase)
+            if typed.kind == "go":
+                self.inputs.go()
+            elif typed.kind == "stop":
+                self.inputs.press(0.0, "keyboard")
+            elif typed.kind == "distance":
+                self.inputs.distance(typed.distance)
+            elif typed.kind == "preference":
+                self.inputs.preference(typed.text)
+            else:
+                print(f"sim.study run: {typed.text}", file=sys.stderr, flush=True)
+
+    # --- time -----------------------------------------------------------------------------------------------
+    @property
+    def clock(self) -> float:
+        """The controller's ROS time: the last step's end."""
+        return self.stepper.clock
+
+    def start(self) -> np.ndarray:
+        """/clock 0 and the engine's answer (lockstep), or its first joint state (realtime): where the robot is."""
+        state = self.stepper.start(self.options.pacing.step_timeout)
+        if state is None:  # cannot happen: a state was asked for
+            raise ControllerError(f"no {self.robot.joint_states_topic} message received")
+        self._target = (state.positions.copy(), np.zeros(self.robot.dof))
+        return state.positions
+
+    def step(self, positions: np.ndarray, velocities: np.ndarray) -> np.ndarray:
+        """Command the target for the end of the next step and let the step happen; the achieved positions."""
+        self._target = (positions, velocities)
+        state = self.stepper.step(positions, velocities)
+        if state is None:
+            raise ControllerError(f"no {self.robot.joint_states_topic} message received")
+        return state.positions
+
+    def wait_for_input(self, what: str) -> Any:
+        """Go or an answer, waited for at most --response-timeout s. In real time the robot holds its target
+        meanwhile (the controller keeps streaming); in lockstep the clock stands still."""
+        if not self.options.pacing.realtime:
+            return self.inputs.wait(what, self.options.response_timeout, self.stop)
+        deadline = time.monotonic() + self.options.response_timeout
+        while time.monotonic() < deadline and not self.stop.is_set():
+            value = self.inputs.wait(what, 0.0, self.stop)
+            if value is not None:
+                return value
+            self.step(self._target[0], np.zeros(self.robot.dof))
+        return None
+
+    # --- trials ---------------------------------------------------------------------------------------------
+    def status(self, trial: PlannedTrial, phase: str, **extra: Any) -> TrialStatus:
+        return TrialStatus(
+            self.plan.participant,
+            trial.index,
+            len(self.plan.trials),
+            phase,
+            trial.condition,
+            trial.test,
+            trial.path,
+            trial.standoff,
+            trial.peak_speed,
+            trial.speed_set,
+            trial.group,
+            **extra,
+        )
+
+    def run_session(self, records_path: Path, log: Callable[[str], None]) -> list[TrialRecord]:
+        positions = self.start()
+        records: list[TrialRecord] = []
+        for trial in self.plan.trials:
+            record, positions = self.run_trial(trial, positions, log)
+            records.append(record)
+            group = self._group_of(trial)
+            if group and group[-1] is trial:  # the group's last trial: which approach was preferred?
+                preferred = self._ask_preference(trial, tuple(t.path for t in group), log)
+                indices = {t.index for t in group}
+                records = [replace(r, preferred_path=preferred) if r.index in indices else r for r in records]
+            write_records(records_path, records)  # after every trial: a crash loses at most the one running
+        self.publish_status(TrialStatus(self.plan.participant, 0, len(self.plan.trials), "done"))
+        return records
+
+    def _group_of(self, trial: PlannedTrial) -> list[PlannedTrial]:
+        """Test 2's group that `trial` belongs to, in the order run; empty for test 1."""
+        if trial.test != 2:
+            return []
+        return [
+            t for t in self.plan.trials if t.test == 2 and t.condition == trial.condition and t.group == trial.group
+        ]
+
+    def _ask_preference(self, trial: PlannedTrial, paths: tuple[str, ...], log: Callable[[str], None]) -> str:
+        self.inputs.clear()
+        self.publish_status(self.status(trial, "preference", group_paths=paths))
+        while True:
+            answer = self.wait_for_input("preference")
+            if answer is None:
+                log(f"trial {trial.index}: no preference within {self.options.response_timeout:g} s; left empty")
+                return ""
+            try:
+                return chosen_path(answer, paths)
+            except StudyError as error:
+                log(f"trial {trial.index}: {error}; asking again")
+
+    def run_trial(
+        self, trial: PlannedTrial, positions: np.ndarray, log: Callable[[str], None]
+    ) -> tuple[TrialRecord, np.ndarray]:
+        """One trial from wherever the robot is; its record (preference still empty) and where the robot ends."""
+        planned = self.approaches[(trial.path, trial.standoff, trial.peak_speed)]
+        dt = self.options.pacing.dt
+        self.publish_status(self.status(trial, "to_start"))
+        to_start, speeds = approach(self.robot, positions, planned.positions[0], dt)
+        for k in range(1, len(to_start)):
+            positions = self.step(to_start[k], speeds[k])
+        self.inputs.clear()
+        self.publish_status(self.status(trial, "ready"))
+        if not self.options.auto_go and self.wait_for_input("go") is None:
+            log(f"trial {trial.index}: no go within {self.options.response_timeout:g} s; starting anyway")
+        run = TrialRun(self.robot, self.scene, planned, self.options.deceleration)
+        start = self.clock
+        self.inputs.clear()
+        self.publish_status(self.status(trial, "moving", motion_start=start))
+        run.record_state(0.0, positions)
+        settle = int(round(self.options.settle / dt))
+        late, source, k = 0.0, "", 0
+        while k < run.steps - 1 + settle:
+            k += 1
+            if run.stopped is None:
+                press = self.inputs.take_press(until=start + k * dt)
+                if press is not None:
+                    when = press.stamp if press.stamp > 0 else self.clock
+                    applied = max(when, start + (k - 1) * dt)  # never before the last sample commanded
+                    late, source = applied - when, press.source
+                    run.press(applied - start)
+            target, velocity = run.target(k)
+            positions = self.step(target, velocity)
+            run.record_state(k * dt, positions)
+        self.publish_status(self.status(trial, "at_rest", motion_start=start))
+        measures = run.measures()
+        perceived = math.nan
+        if trial.test == 1:
+            self.inputs.clear()
+            self.publish_status(self.status(trial, "distance", motion_start=start))
+            answer = self.wait_for_input("distance")
+            if answer is None:
+                log(
+                    f"trial {trial.index}: no perceived distance within {self.options.response_timeout:g} s; left empty"
+                )
+            else:
+                perceived = float(answer)
+            for problem in self.inputs.rejected:
+                log(f"trial {trial.index}: an answer was refused: {problem}")
+            self.inputs.rejected.clear()
+        position = self.plan.conditions.index(trial.condition) + 1
+        record = TrialRecord(
+            self.plan.participant,
+            trial.index,
+            trial.condition,
+            position,
+            trial.test,
+            trial.path,
+            trial.standoff,
+            trial.peak_speed,
+            trial.speed_set,
+            trial.group,
+            start,
+            measures.pressed,
+            measures.press_time,
+            source,
+            late,
+            measures.distance_at_press,
+            measures.distance_at_rest,
+            measures.distance_extrapolated,
+            measures.braking_distance,
+            perceived,
+            "",
+        )
+        return record, positions
+
+    def close(self) -> None:
+        for subscriber in self._subscribers:
+            subscriber.unregister()
+        super().close()
+
+
+def record_session(robot: RobotSpec, bag: Path, node: str, logs: Path, sim_time: bool) -> ManagedProcess:
+    """`rosbag record` of the session's topics into `bag` (in this process's ROS environment), once it records; or,
+    under /use_sim_time (`sim_time`), once it has subscribed to them all: it then opens the bag only when /clock has
+    moved past 0, and /clock is the runner's to publish (wait_for_partner waits for the recorder's links)."""
+    topics = recorder_topics(robot)
+    recorder = start_recorder(bag, topics, node, dict(os.environ), logs)
+    try:
+        recorder.wait_for_output(f"Subscribing to {topics[-1]}" if sim_time else "Recording to", timeout=30)
+    except (ProcessError, TimeoutError):
+        stop_recorder(recorder, bag)
+        raise
+    return recorder
+
+
+def _log(text: str) -> None:
+    print(f"sim.study run: {text}", file=sys.stderr, flush=True)
+
+
+def run_node(
+    robot: RobotSpec,
+    scene: Scene,
+    plan: SessionPlan,
+    approaches: dict[Combination, PlannedApproach],
+    options: RunnerOptions,
+    out: Path,
+    record: bool = True,
+    connect_timeout: float = 60.0,
+) -> int:
+    """The runner as a ROS node (rospy.init_node: once per process): the session, its CSV and its bag in `out`."""
+    import rospy
+
+    stop = threading.Event()
+    rospy.init_node("study_runner", disable_signals=True)
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(signum, lambda *_: stop.set())
+    stem = f"participant_{plan.participant:02d}"
+    bag, records_path = out / "bags" / f"{stem}.bag", out / f"{stem}.csv"
+    recorder_node = f"study_recorder_{plan.participant}"
+    sim_time = bool(rospy.get_param("/use_sim_time", False))
+    recorder = record_session(robot, bag, recorder_node, out / "logs", sim_time) if record else None
+    runner = StudyRunner(robot, scene, plan, approaches, options, stop)
+    if options.keyboard:
+        threading.Thread(target=runner.read_keyboard, args=(sys.stdin,), name="keyboard", daemon=True).start()
+    started = time.monotonic()
+    try:
+        partner = runner.wait_for_partner(connect_timeout, [recorder_node] if recorder else [])
+        _log(
+            f"engine {partner} connected; participant {plan.participant}, {len(plan.trials)} trials, conditions "
+            f"{' then '.join(plan.conditions)}"
+        )
+        records = runner.run_session(records_path, _log)
+    except ControllerError as error:
+        _log(f"error: {error}")
+        return EXIT_INTERRUPTED if stop.is_set() else EXIT_ROS
+    finally:
+        runner.close()
+        if recorder is not None:
+            stop_recorder(recorder, bag)
+        rospy.signal_shutdown("study session done")
+    presses = sum(record.pressed for record in records)
+    print(
+        f"participant {plan.participant}: {len(records)} trials ({presses} stopped by a press) in "
+        f"{time.monotonic() - started:.1f} s of wall time, {runner.clock:.1f} s of ROS time"
+    )
+    print(f"records: {records_path}")
+    if recorder is not None:
+        print(f"bag:     {bag}")
+    return EXIT_OK

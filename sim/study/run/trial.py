@@ -1,0 +1,107 @@
+"""One study trial as it runs, without I/O: what to command at each step, what a press changes, and what the trial
+measured. The runner node feeds it the clock, the presses and the achieved joint states, and streams its targets.
+
+  before the press   the planned approach, sample by sample
+  a press at t_p     the stop (sim.study.run.stop): braking along the path, then holding at rest
+  measured           the press time; the end effector's distance to the hand at the press and at rest, both by FK
+                     of the achieved joint states (the state nearest the press, and the last one); and the thesis's
+                     estimate, the distance the plan has at the press time (its extrapolation from time)
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from sim.geometry.kinematics import chain_for
+from sim.robots import RobotSpec
+from sim.study.design.feasibility import PlannedApproach
+from sim.study.design.scene import Scene
+from sim.study.run.errors import RunError
+from sim.study.run.stop import STOP_DECELERATION, StoppedMotion, stop_motion
+
+__all__ = ["TrialMeasures", "TrialRun"]
+
+
+@dataclass(frozen=True)
+class TrialMeasures:
+    pressed: bool
+    press_time: float  # s from the motion's start; NaN without a press
+    distance_at_press: float  # m, FK of the achieved state at the press; NaN without a press
+    distance_at_rest: float  # m, FK of the last achieved state
+    distance_extrapolated: float  # m, the plan's distance at the press time (the thesis's method); NaN without
+    braking_distance: float  # m along the path, planned; 0 without a press
+
+
+class TrialRun:
+    def __init__(
+        self, robot: RobotSpec, scene: Scene, planned: PlannedApproach, deceleration: float = STOP_DECELERATION
+    ) -> None:
+        if not planned.feasible:
+            raise RunError(
+                f"the {planned.path.name} path to {planned.path.standoff} m is not feasible: "
+                f"{'; '.join(planned.problems)}"
+            )
+        self.robot, self.scene, self.planned = robot, scene, planned
+        self.deceleration = deceleration
+        self.stopped: StoppedMotion | None = None
+        self._chain = chain_for(robot)
+        self._states: list[tuple[float, np.ndarray]] = []
+
+    @property
+    def dt(self) -> float:
+        return self.planned.path.dt
+
+    @property
+    def steps(self) -> int:
+        """Samples the motion has, the first being its start (at rest)."""
+        return len(self.stopped.times) if self.stopped is not None else len(self.planned.path.times)
+
+    def target(self, k: int) -> tuple[np.ndarray, np.ndarray]:
+        """(positions, velocities) for sample k (at t = k·dt); past the end, the last sample at rest."""
+        if k < 0:
+            raise RunError(f"sample {k} is before the motion's start")
+        if self.stopped is not None:
+            joints = self.stopped.joint_positions
+            k = min(k, len(joints) - 1)
+            velocity = (joints[k] - joints[k - 1]) / self.dt if 0 < k < len(joints) - 1 else np.zeros(self.robot.dof)
+            return joints[k].copy(), velocity
+        k = min(k, len(self.planned.positions) - 1)
+        return self.planned.positions[k].copy(), self.planned.velocities[k].copy()
+
+    def press(self, time_s: float) -> None:
+        """The participant pressed at `time_s` (s from the motion's start). Only the first press counts."""
+        if self.stopped is None:
+            self.stopped = stop_motion(self.planned.path, self.planned.positions, time_s, self.deceleration)
+
+    def record_state(self, time_s: float, positions: np.ndarray) -> None:
+        """An achieved joint state, `time_s` from the motion's start."""
+        positions = np.asarray(positions, dtype=float)
+        if positions.shape != (self.robot.dof,) or not np.all(np.isfinite(positions)):
+            raise RunError(f"a joint state needs {self.robot.dof} finite positions, got {positions.tolist()}")
+        self._states.append((float(time_s), positions))
+
+    def hand_distance(self, positions: np.ndarray) -> float:
+        """The end effector's distance to the hand at joint positions `positions` (FK)."""
+        return self.scene.hand.distance(self.scene.end_effector(self._chain, positions))
+
+    def measures(self) -> TrialMeasures:
+        if not self._states:
+            raise RunError("no joint state was recorded in this trial")
+        rest = self.hand_distance(self._states[-1][1])
+        if self.stopped is None:
+            return TrialMeasures(False, math.nan, math.nan, rest, math.nan, 0.0)
+        press = self.stopped.press_time
+        nearest = min(self._states, key=lambda state: abs(state[0] - press))
+        path = self.planned.path
+        planned_point = np.array([np.interp(press, path.times, path.positions[:, axis]) for axis in range(3)])
+        return TrialMeasures(
+            True,
+            press,
+            self.hand_distance(nearest[1]),
+            rest,
+            self.scene.hand.distance(planned_point),
+            self.stopped.braking_distance,
+        )

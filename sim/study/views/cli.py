@@ -1,0 +1,139 @@
+"""`python -m sim.study view` (the experimenter's live 3-D view, a viser page) and `vr` (the VR condition's page for
+a WebXR headset, over HTTPS)."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from sim.entry import EXIT_NO_CONNECTION, EXIT_OK, fail
+from sim.study.checks import check_port, check_positive
+from sim.study.design.options import add_robot_options, add_scene_options, robot_from_args
+from sim.study.design.scene import load_scene
+from sim.study.views.errors import ViewError
+
+__all__ = ["register"]
+
+
+def register(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    view = commands.add_parser("view", help="the experimenter's live 3-D view, a web page (viser)")
+    view.add_argument("--host", default="127.0.0.1", help="endpoint address")
+    view.add_argument("--port", type=int, default=10000, help="endpoint port")
+    view.add_argument("--http-host", default="127.0.0.1", help="the page's address (0.0.0.0: every interface)")
+    view.add_argument("--http-port", type=int, default=8080, help="the page's port (default 8080)")
+    view.add_argument("--rate", type=float, default=20.0, help="page updates per second at most (default 20)")
+    add_scene_options(view)
+    view.set_defaults(handler=view_command)
+
+    vr = commands.add_parser("vr", help="the VR condition's page for a WebXR headset (docs/study.md)")
+    vr.add_argument("--endpoint-host", default="127.0.0.1", help="the endpoint's address")
+    vr.add_argument("--websocket-port", type=int, default=9090, help="the endpoint's --websocket-port (default 9090)")
+    vr.add_argument("--host", default="0.0.0.0", help="the page's address (default 0.0.0.0: every interface)")
+    vr.add_argument("--port", type=int, default=8443, help="the page's port (default 8443; 0 picks a free one)")
+    vr.add_argument(
+        "--plain-http",
+        action="store_true",
+        help="HTTP without TLS: only for a browser on this machine or behind `adb reverse` (localhost is secure)",
+    )
+    vr.add_argument("--certificate", type=Path, help="your own TLS certificate (PEM), with --key")
+    vr.add_argument("--key", type=Path, help="the key of --certificate (PEM)")
+    vr.add_argument(
+        "--certificate-dir",
+        type=Path,
+        help="where the self-signed certificate is made once and kept (default ~/.ros/sim_study_vr)",
+    )
+    vr.add_argument(
+        "--emulate-headset",
+        action="store_true",
+        help="load an emulated Quest 3 (IWER) in the page: for tests and for trying the page without a headset",
+    )
+    add_robot_options(vr)
+    vr.set_defaults(handler=vr_command)
+
+
+def view_command(args: argparse.Namespace) -> int:
+    import signal
+    import threading
+
+    import viser
+
+    from bridge.client import ClientError, TcpClient
+    from sim.study.views.live import LiveView
+
+    check_positive(args.rate, "--rate")
+    check_positive(args.dt, "--dt")
+    check_port(args.http_port, "--http-port")
+    scene = load_scene(args.scene)
+    robot = robot_from_args(scene, args)
+    server = viser.ViserServer(host=args.http_host, port=args.http_port, verbose=False)
+    view = LiveView(server, robot, scene, args.dt, args.rate)
+    client = TcpClient(args.host, args.port)
+    view.attach(client)
+    stop = threading.Event()
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(signum, lambda *_: stop.set())
+    try:
+        client.connect(timeout=30)
+    except ClientError as error:
+        server.stop()
+        return fail(
+            "sim.study view", f"cannot reach the endpoint at {args.host}:{args.port}: {error}", EXIT_NO_CONNECTION
+        )
+    print(f"view: http://{args.http_host}:{server.get_port()} (the endpoint at {args.host}:{args.port})", flush=True)
+    stop.wait()
+    client.close()
+    server.stop()
+    return EXIT_OK
+
+
+def vr_command(args: argparse.Namespace) -> int:
+    import ssl
+
+    from sim.robots import find_ros_package
+    from sim.study.views.vr.certificate import DEFAULT_CERTIFICATE_DIR, ensure_certificate, machine_addresses
+    from sim.study.views.vr.server import PageServer, serve
+    from sim.study.views.vr.site import WEB_DIR, make_site
+
+    check_port(args.websocket_port, "--websocket-port")
+    check_port(args.port, "--port", zero=True)
+    if (args.certificate is None) != (args.key is None):
+        raise ViewError("--certificate and --key go together")
+    if args.plain_http and args.certificate is not None:
+        raise ViewError("--plain-http serves no TLS: leave out --certificate and --key")
+    if not (WEB_DIR / "node_modules" / "three").is_dir():
+        raise ViewError(f"the page's libraries are not in {WEB_DIR / 'node_modules'}: run launch_scripts/setup.sh")
+    scene = load_scene(args.scene)
+    robot = robot_from_args(scene, args)
+    site = make_site(robot, scene, robot.urdf_path.read_text(), find_ros_package, emulation=args.emulate_headset)
+    addresses = machine_addresses()
+    tls = None
+    if not args.plain_http:
+        if args.certificate is not None:
+            certificate, key = args.certificate, args.key
+        else:
+            certificate, key = ensure_certificate(args.certificate_dir or DEFAULT_CERTIFICATE_DIR, addresses)
+        tls = ssl.create_default_context(ssl.Purpose.CLIENT_AUTH)
+        try:
+            tls.load_cert_chain(certificate, key)
+        except (OSError, ssl.SSLError) as error:
+            raise ViewError(f"cannot use the certificate {certificate} with the key {key}: {error}") from None
+    server = PageServer(site, (args.endpoint_host, args.websocket_port), args.host, args.port, tls)
+
+    def ready(port: int) -> None:
+        scheme = "http" if tls is None else "https"
+        hosts = ["localhost"] if args.host in ("127.0.0.1", "localhost") else ["localhost", *addresses]
+        if args.host not in ("0.0.0.0", "127.0.0.1", "localhost"):
+            hosts = [args.host]
+        for host in hosts:
+            print(f"vr: the page: {scheme}://{host}:{port}/", flush=True)
+        print(
+            f"vr: its WebSocket /ros goes to the endpoint's ws://{args.endpoint_host}:{args.websocket_port}/"
+            + ("" if tls is None else "; the certificate is self-signed: accept it once in the headset's browser"),
+            flush=True,
+        )
+
+    try:
+        serve(server, ready)
+    except OSError as error:
+        raise ViewError(f"cannot serve the page on {args.host}:{args.port}: {error}") from None
+    return EXIT_OK

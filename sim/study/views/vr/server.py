@@ -1,0 +1,245 @@
+"""The VR page's web server: HTTPS (or plain HTTP for localhost) serving the page, the robot's meshes and the
+settings, and `/ros`, a WebSocket passed through byte for byte to the endpoint's WebSocket port.
+
+A headset's browser reaches the machine by a LAN address, and WebXR needs a secure context: an https:// page, whose
+WebSocket must then be wss:// too. The endpoint speaks plain ws://, so this server ends TLS and hands the WebSocket
+on: the page and its WebSocket share one origin and one certificate, and the endpoint sees one more WebSocket
+client, which does the whole ROS-TCP conversation itself.
+
+Only this server's own page may open /ros: a browser sends the page's origin with the upgrade, and any other page
+the headset's (or the lab machine's) browser has open gets HTTP 403. The request goes on without its Origin (the
+endpoint serves a client without one, having no origins of its own to allow) and with the browser's address in
+X-Forwarded-For, which the endpoint believes from a trusted proxy (its --trusted-proxy, 127.0.0.1 by default) for
+its per-address limits, back-off and /diagnostics.
+
+asyncio, so one thread serves every connection, TLS included; h11 parses the requests.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import base64
+import contextlib
+import hashlib
+import json
+import re
+import signal
+import ssl
+from collections.abc import Callable
+from urllib.parse import unquote
+
+import h11
+
+from sim.study.views.vr.site import ROS_PATH, Site, content_type
+
+__all__ = ["PageServer", "serve"]
+
+MAX_HEAD_BYTES = 16 * 1024  # a request's line and headers
+HEAD_TIMEOUT_S = 30.0  # for a request to arrive on an open connection (browsers keep idle connections a while)
+CHUNK = 64 * 1024
+_REASONS = {200: b"OK", 404: b"Not Found", 405: b"Method Not Allowed"}
+# Headers the endpoint is told afresh, never passed on as a client wrote them
+_REPLACED_HEADERS = (b"origin", b"x-forwarded-for", b"forwarded")
+
+
+class PageServer:
+    """Serves `site` on (host, port) until `stop()`; the WebSocket at /ros goes to the endpoint at `endpoint`."""
+
+    def __init__(
+        self,
+        site: Site,
+        endpoint: tuple[str, int],
+        host: str,
+        port: int,
+        tls: ssl.SSLContext | None,
+        log: Callable[[str], None] = print,
+    ) -> None:
+        self.site, self.endpoint, self.host, self.port, self.tls, self.log = site, endpoint, host, port, tls, log
+        self._server: asyncio.AbstractServer | None = None
+        self._policy = _content_security_policy((site.web_dir / "index.html").read_text())
+
+    async def start(self) -> int:
+        """Listen; the port (the one picked, for port 0)."""
+        self._server = await asyncio.start_server(self._connection, self.host, self.port, ssl=self.tls)
+        return int(self._server.sockets[0].getsockname()[1])
+
+    async def serve_until(self, stopped: asyncio.Event) -> None:
+        await stopped.wait()
+        if self._server is not None:
+            self._server.close()
+            await self._server.wait_closed()
+
+    async def _connection(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
+        http = h11.Connection(h11.SERVER, max_incomplete_event_size=MAX_HEAD_BYTES)
+        try:
+            while True:
+                request = await _read_request(http, reader)
+                if request is None:
+                    return
+                path = unquote(request.target.decode("ascii", "replace").split("?", 1)[0])
+                if path == ROS_PATH and _header(request, b"upgrade").lower() == b"websocket":
+                    await self._pass_through(request, http.trailing_data[0], reader, writer)
+                    return
+                await self._respond(http, writer, request, path)
+                if http.our_state is h11.MUST_CLOSE:
+                    return
+                http.start_next_cycle()
+        except h11.RemoteProtocolError as error:  # not HTTP, or too long a head: say so, and end this connection
+            with contextlib.suppress(ConnectionError, OSError, ssl.SSLError):
+                body = f"bad request: {error}\n".encode()
+                writer.write(
+                    f"HTTP/1.1 {error.error_status_hint} Bad Request\r\nConnection: close\r\n"
+                    f"Content-Type: text/plain; charset=utf-8\r\nContent-Length: {len(body)}\r\n\r\n".encode()
+                    + body
+                )
+                await writer.drain()
+        except (ConnectionError, asyncio.TimeoutError, ssl.SSLError, OSError):
+            return  # a client that went away or stalled: only its connection ends
+        finally:
+            writer.close()
+
+    async def _respond(
+        self, http: h11.Connection, writer: asyncio.StreamWriter, request: h11.Request, path: str
+    ) -> None:
+        if request.method not in (b"GET", b"HEAD"):
+            status, body, kind = 405, b"only GET and HEAD\n", "text/plain; charset=utf-8"
+        else:
+            status, body, kind = await self._content(path)
+        headers = [
+            ("Content-Type", kind),
+            ("Content-Length", str(len(body))),
+            ("Cache-Control", "no-cache"),
+            ("Content-Security-Policy", self._policy),
+            ("X-Content-Type-Options", "nosniff"),
+        ]
+        writer.write(http.send(h11.Response(status_code=status, headers=headers, reason=_REASONS[status])))
+        if request.method != b"HEAD":
+            writer.write(http.send(h11.Data(data=body)))
+        writer.write(http.send(h11.EndOfMessage()))
+        await writer.drain()
+
+    async def _content(self, path: str) -> tuple[int, bytes, str]:
+        if path == "/settings.json":
+            return 200, json.dumps(self.site.settings).encode(), "application/json"
+        if path == "/robot.urdf":
+            return 200, self.site.urdf.encode(), "application/xml; charset=utf-8"
+        file = self.site.file_for(path)
+        if file is None or not file.is_file():
+            return 404, f"nothing at {path}\n".encode(), "text/plain; charset=utf-8"
+        data = await asyncio.get_running_loop().run_in_executor(None, file.read_bytes)
+        if file.name == "index.html":
+            data = self._with_emulation(data)
+        return 200, data, content_type(file)
+
+    def _with_emulation(self, page: bytes) -> bytes:
+        """The page, with the emulated headset's module loaded first when this server was asked for it."""
+        tag = b'<script type="module" src="/app/emulation.js"></script>' if self.site.emulation else b""
+        return page.replace(b"<!-- emulation -->", tag)
+
+    async def _pass_through(
+        self, request: h11.Request, rest: bytes, reader: asyncio.StreamReader, writer: asyncio.StreamWriter
+    ) -> None:
+        origin = _header(request, b"origin").decode("latin-1")
+        own = f"{'https' if self.tls else 'http'}://{_header(request, b'host').decode('latin-1')}"
+        if origin and origin.lower() != own.lower():
+            self.log(f"vr: refused a WebSocket from the page {origin}: only {own}'s own page may open /ros")
+            _refuse(writer, "403 Forbidden", f"only this server's page ({own}) may open {ROS_PATH}, not {origin}")
+            await writer.drain()
+            return
+        host, port = self.endpoint
+        try:
+            upstream_reader, upstream_writer = await asyncio.open_connection(host, port)
+        except OSError as error:
+            self.log(f"vr: a page's WebSocket could not reach the endpoint at ws://{host}:{port}/: {error}")
+            _refuse(writer, "502 Bad Gateway", f"the endpoint's WebSocket port {host}:{port} is not reachable: {error}")
+            await writer.drain()
+            return
+        browser = str(writer.get_extra_info("peername")[0])
+        upstream_writer.write(_request_head(request, browser) + rest)
+        copies = [
+            asyncio.ensure_future(_copy(reader, upstream_writer)),
+            asyncio.ensure_future(_copy(upstream_reader, writer)),
+        ]
+        try:
+            await asyncio.wait(copies, return_when=asyncio.FIRST_COMPLETED)
+        finally:
+            for copy in copies:
+                copy.cancel()
+            upstream_writer.close()
+
+
+async def _read_request(http: h11.Connection, reader: asyncio.StreamReader) -> h11.Request | None:
+    """The next request, read through the end of its body (a GET has none); None once the client has closed."""
+    request: h11.Request | None = None
+    while True:
+        event = http.next_event()
+        if event is h11.NEED_DATA:
+            http.receive_data(await asyncio.wait_for(reader.read(CHUNK), HEAD_TIMEOUT_S))
+        elif isinstance(event, h11.Request):
+            request = event
+        elif isinstance(event, h11.EndOfMessage):
+            return request
+        elif not isinstance(event, h11.Data):  # ConnectionClosed, or PAUSED between requests
+            return None
+
+
+def _content_security_policy(index_html: str) -> str:
+    """The page may run only what this server serves (no CDN), and open its WebSocket only to this origin. The
+    import map is the one inline script; it is allowed by its hash."""
+    found = re.search(r'<script type="importmap">(.*?)</script>', index_html, re.DOTALL)
+    allowed = ""
+    if found:
+        digest = base64.b64encode(hashlib.sha256(found.group(1).encode()).digest()).decode()
+        allowed = f" 'sha256-{digest}'"
+    return (
+        f"default-src 'self'; script-src 'self'{allowed}; style-src 'self'; connect-src 'self'; "
+        "img-src 'self' blob: data:"
+    )
+
+
+def serve(server: PageServer, ready: Callable[[int], None]) -> None:
+    """Run `server` until SIGINT or SIGTERM; `ready(port)` once it listens."""
+
+    async def main() -> None:
+        stopped = asyncio.Event()
+        loop = asyncio.get_running_loop()
+        for signum in (signal.SIGINT, signal.SIGTERM):
+            loop.add_signal_handler(signum, stopped.set)
+        ready(await server.start())
+        await server.serve_until(stopped)
+
+    asyncio.run(main())
+
+
+def _header(request: h11.Request, name: bytes) -> bytes:
+    return next((value for key, value in request.headers if key == name), b"")
+
+
+def _request_head(request: h11.Request, browser: str) -> bytes:
+    """The request for the endpoint's WebSocket upgrade: as it came (names in their own case), but without the
+    page's Origin (checked here) and with the browser's address as this proxy saw it."""
+    lines = [request.method + b" " + request.target + b" HTTP/1.1"]
+    lines += [
+        name + b": " + value for name, value in request.headers.raw_items() if name.lower() not in _REPLACED_HEADERS
+    ]
+    lines.append(b"X-Forwarded-For: " + browser.encode("ascii"))
+    return b"\r\n".join(lines) + b"\r\n\r\n"
+
+
+def _refuse(writer: asyncio.StreamWriter, status: str, reason: str) -> None:
+    body = f"{reason}\n".encode()
+    writer.write(
+        f"HTTP/1.1 {status}\r\nContent-Type: text/plain; charset=utf-8\r\nConnection: close\r\n".encode()
+        + f"Content-Length: {len(body)}\r\n\r\n".encode()
+        + body
+    )
+
+
+async def _copy(reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
+    with contextlib.suppress(ConnectionError, OSError, ssl.SSLError):
+        while True:
+            data = await reader.read(CHUNK)
+            if not data:
+                return
+            writer.write(data)
+            await writer.drain()

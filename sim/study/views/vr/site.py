@@ -1,0 +1,163 @@
+"""What the VR page's server serves, as data: the robot's URDF with its meshes renamed to URLs, the page's settings
+(scene, topics, joints) and which file a URL names. Pure logic: no socket, and no file is read here.
+
+A URL names a file only through a fixed table: the page's own files, the parts of the npm packages the page
+imports, and the folders that hold the robot's meshes (a mesh's .mtl and textures sit beside it). Nothing else on
+the machine can be reached, whatever the path says.
+"""
+
+from __future__ import annotations
+
+import mimetypes
+import xml.etree.ElementTree as ET
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from sim.geometry.frames import matrix_to_quat
+from sim.robots import RobotSpec
+from sim.robots.meshes import resolve_shapes
+from sim.robots.urdf_model import urdf_root
+from sim.study.design.scene import Box, Scene
+from sim.study.run.protocol import (
+    DISTANCE_TOPIC,
+    GO_TOPIC,
+    PREFERENCE_TOPIC,
+    STATUS_TOPIC,
+    STOP_TOPIC,
+    TOPIC_TYPES,
+)
+from sim.study.views.live import COLOURS
+from sim.wire.rosmsgs import JOINT_STATE
+
+__all__ = ["WEB_DIR", "ROS_PATH", "PAGE_FILES", "Site", "make_site", "page_settings", "content_type"]
+
+WEB_DIR = Path(__file__).resolve().parent / "web"
+ROS_PATH = "/ros"  # the WebSocket that is passed through to the endpoint
+PAGE_FILES = (
+    "index.html",
+    "page.css",
+    "page.js",
+    "rostcp.js",
+    "study.js",
+    "connection.js",
+    "clock.js",
+    "emulation.js",
+)
+# URL prefix -> folder under the npm packages (node_modules): what the page imports, and only that
+_VENDOR = {
+    "/vendor/three/build/": "three/build",
+    "/vendor/three/examples/jsm/": "three/examples/jsm",
+    "/vendor/urdf-loader/src/": "urdf-loader/src",
+}
+_EMULATION_VENDOR = {"/vendor/iwer/build/": "iwer/build"}  # the emulated headset, only when asked for
+_ROBOT_PREFIX = "/robot/"
+
+
+@dataclass(frozen=True)
+class Site:
+    urdf: str  # the robot's URDF, every mesh and texture a URL under /robot/<folder>/
+    mesh_folders: tuple[Path, ...]  # /robot/<k>/ is mesh_folders[k]
+    settings: dict[str, Any]  # the page's /settings.json
+    web_dir: Path = WEB_DIR
+    emulation: bool = False  # serve the emulated headset (IWER) and load it in the page: tests and demos only
+
+    def file_for(self, url_path: str) -> Path | None:
+        """The file a request's path names, or None when it names nothing the page may have."""
+        if url_path in ("/", "/index.html"):
+            return self.web_dir / "index.html"
+        if url_path.startswith("/app/"):
+            name = url_path[len("/app/") :]
+            return self.web_dir / name if name in PAGE_FILES else None
+        vendor = dict(_VENDOR, **(_EMULATION_VENDOR if self.emulation else {}))
+        for prefix, folder in vendor.items():
+            if url_path.startswith(prefix):
+                return _inside(self.web_dir / "node_modules" / folder, url_path[len(prefix) :])
+        if url_path.startswith(_ROBOT_PREFIX):
+            index, _, rest = url_path[len(_ROBOT_PREFIX) :].partition("/")
+            if index.isdigit() and int(index) < len(self.mesh_folders):
+                return _inside(self.mesh_folders[int(index)], rest)
+        return None
+
+
+def _inside(folder: Path, relative: str) -> Path | None:
+    """folder/relative when `relative` is plain: names joined by single slashes, none of them `.` or `..`, no
+    backslash."""
+    parts = relative.split("/")
+    if "\\" in relative or any(part in ("", ".", "..") for part in parts):
+        return None
+    return folder.joinpath(*parts)
+
+
+def _urls_for_meshes(urdf_text: str) -> tuple[str, tuple[Path, ...]]:
+    """The URDF (filenames already absolute) with each mesh and texture as `robot/<k>/<name>`, relative to the
+    page's root as urdf-loader resolves them; and the folders, k in order."""
+    root = urdf_root(urdf_text)
+    folders: list[Path] = []
+    for element in list(root.iter("mesh")) + list(root.iter("texture")):
+        filename = element.get("filename")
+        if not filename:
+            continue
+        path = Path(filename)
+        if path.parent not in folders:
+            folders.append(path.parent)
+        element.set("filename", f"{_ROBOT_PREFIX[1:]}{folders.index(path.parent)}/{path.name}")
+    return ET.tostring(root, encoding="unicode"), tuple(folders)
+
+
+def _box(box: Box) -> dict[str, Any]:
+    return {"size": box.size.tolist(), "xyz": box.position.tolist(), "yaw": box.yaw}
+
+
+def page_settings(robot: RobotSpec, scene: Scene) -> dict[str, Any]:
+    """What the page needs to know beyond the URDF: the scene in the world frame (ROS: x forward, z up), the
+    robot's base pose, the joints it is sent, and the study's topics with their types."""
+    x, y, z, w = matrix_to_quat(scene.base_pose[:3, :3])
+    return {
+        "robot": {
+            "urdf": "/robot.urdf",
+            "joint_names": list(robot.joint_names),
+            "base": {"xyz": scene.base_position.tolist(), "quaternion_xyzw": [x, y, z, w]},
+        },
+        "table": _box(scene.table),
+        "hand": _box(scene.hand),
+        "seat": scene.seat.tolist(),
+        "topics": {
+            "joint_states": [robot.joint_states_topic, JOINT_STATE],
+            "trial": [STATUS_TOPIC, TOPIC_TYPES[STATUS_TOPIC]],
+            "go": [GO_TOPIC, TOPIC_TYPES[GO_TOPIC]],
+            "stop": [STOP_TOPIC, TOPIC_TYPES[STOP_TOPIC]],
+            "distance": [DISTANCE_TOPIC, TOPIC_TYPES[DISTANCE_TOPIC]],
+            "preference": [PREFERENCE_TOPIC, TOPIC_TYPES[PREFERENCE_TOPIC]],
+        },
+        "ros_path": ROS_PATH,
+        "colours": {name: list(COLOURS[name]) for name in ("table", "hand")},
+    }
+
+
+def make_site(
+    robot: RobotSpec,
+    scene: Scene,
+    urdf_text: str,
+    find_package: Callable[[str], Path | None],
+    emulation: bool = False,
+    web_dir: Path = WEB_DIR,
+) -> Site:
+    """The site for `robot` (its URDF text given) in `scene`; a mesh that is nowhere is left out of the picture,
+    as in the physics (sim.robots.meshes)."""
+    resolved, _missing = resolve_shapes(urdf_text, robot.urdf_path.parent, find_package)
+    urdf, folders = _urls_for_meshes(resolved)
+    settings = page_settings(robot, scene)
+    settings["emulation"] = emulation
+    return Site(urdf, folders, settings, web_dir, emulation)
+
+
+def content_type(path: Path) -> str:
+    """The Content-Type a browser needs (modules must be JavaScript; .obj/.mtl are text)."""
+    suffix = path.suffix.lower()
+    known = {".js": "text/javascript", ".mjs": "text/javascript", ".obj": "text/plain", ".mtl": "text/plain"}
+    if suffix in known:
+        return known[suffix] + "; charset=utf-8"
+    guessed, _ = mimetypes.guess_type(path.name)
+    return guessed or "application/octet-stream"

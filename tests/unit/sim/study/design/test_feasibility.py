@@ -1,0 +1,73 @@
+"""sim.study.design.feasibility: every path of the library is made joint motion that follows it, keeps the limits,
+touches nothing and reaches its stand-off in the bundled scene; a combination that cannot be run says why."""
+
+from __future__ import annotations
+
+import copy
+
+import numpy as np
+import pytest
+import yaml
+
+from sim.geometry.kinematics import chain_for
+from sim.study.design.feasibility import CONTACT_MARGIN, SceneWorld, plan_approach
+from sim.study.design.paths import ON_TOP, PATH_NAMES, approach_path
+from sim.study.design.scene import DEFAULT_SCENE, load_scene, parse_scene, scene_robot
+
+SCENE = load_scene()
+ROBOT = scene_robot(SCENE)
+
+
+@pytest.fixture(scope="module")
+def world():
+    with SceneWorld(ROBOT, SCENE) as made:
+        yield made
+
+
+def variant(**changes) -> tuple:
+    data = copy.deepcopy(yaml.safe_load(DEFAULT_SCENE.read_text()))
+    for key, value in changes.items():
+        data[key].update(value)
+    scene = parse_scene(data)
+    return scene, SceneWorld(scene_robot(scene), scene)
+
+
+def test_the_study_robot_approaches_with_the_point_between_its_fingertips():
+    assert ROBOT.name == "panda" and ROBOT.ee_link == "panda_grasptarget" and ROBOT.dof == 7
+
+
+@pytest.mark.parametrize("name", PATH_NAMES)
+@pytest.mark.parametrize("standoff", [ON_TOP, 0.15])
+def test_every_path_is_feasible_in_the_bundled_scene_and_followed_exactly(world, name, standoff):
+    path = approach_path(SCENE, name, standoff, peak_speed=0.25)
+    planned = plan_approach(ROBOT, SCENE, path, world)
+    assert planned.feasible, planned.problems
+    assert planned.reached_standoff == pytest.approx(standoff, abs=1e-4)
+    chain = chain_for(ROBOT)
+    reached = SCENE.to_world(np.array([chain.fk(q)[:3, 3] for q in planned.positions]))
+    assert np.abs(reached - path.positions).max() < 1e-5  # IK of every sample
+    assert min(planned.min_clearance.values()) >= CONTACT_MARGIN
+    assert np.all(np.abs(planned.velocities) <= ROBOT.max_velocity)
+
+
+def test_a_hand_out_of_reach_is_reported_not_run():
+    scene, world = variant(hand={"xyz": [1.25, 0.0, 0.0175]})
+    with world:
+        planned = plan_approach(ROBOT, scene, approach_path(scene, "vertical", 0.1, 0.2), world)
+    assert not planned.feasible
+    assert any(problem.startswith("IK failed at") for problem in planned.problems)
+    assert any("not the stand-off 0.1 m" in problem for problem in planned.problems)
+
+
+def test_a_robot_mounted_below_the_table_top_is_reported_touching_it():
+    scene, world = variant(base={"xyz": [0.0, 0.0, -0.25]})
+    with world:
+        planned = plan_approach(ROBOT, scene, approach_path(scene, "straight", 0.1, 0.2), world)
+    assert "the robot comes within 0.0 mm of the table" in planned.problems
+
+
+def test_a_path_too_fast_for_the_joints_is_reported():
+    path = approach_path(SCENE, "lateral_arc", 0.05, peak_speed=1.0)
+    with SceneWorld(ROBOT, SCENE) as world:
+        planned = plan_approach(ROBOT, SCENE, path, world)
+    assert any("exceeds its velocity limit" in problem for problem in planned.problems), planned.problems

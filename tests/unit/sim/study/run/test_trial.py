@@ -1,0 +1,83 @@
+"""sim.study.run.trial driven against the physics in lockstep, as the runner node will drive it: without a press the
+robot rests at the planned stand-off; a press brakes it along the path, and the distances at the press, at rest and
+by the thesis's extrapolation are what the motion shows."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from sim.engine.physics import Mode, PhysicsWorld
+from sim.study.design.feasibility import SceneWorld, plan_approach
+from sim.study.design.paths import ON_TOP, approach_path
+from sim.study.design.scene import load_scene, scene_robot
+from sim.study.errors import StudyError
+from sim.study.run.stop import STOP_DECELERATION
+from sim.study.run.trial import TrialRun
+
+SCENE = load_scene()
+ROBOT = scene_robot(SCENE)
+
+
+@pytest.fixture(scope="module")
+def planned():
+    with SceneWorld(ROBOT, SCENE) as world:
+        return plan_approach(ROBOT, SCENE, approach_path(SCENE, "vertical", ON_TOP, 0.2), world)
+
+
+def run(planned, press_below: float | None = None, mode: Mode = Mode.PHYSICS, hold_s: float = 1.0) -> TrialRun:
+    """Step the physics along the trial; press once the achieved distance is below `press_below`."""
+    trial = TrialRun(ROBOT, SCENE, planned)
+    with PhysicsWorld(ROBOT, mode=mode, dt=trial.dt, q0=planned.positions[0]) as world:
+        trial.record_state(0.0, world.state().positions)
+        k = 0
+        while k < trial.steps + round(hold_s / trial.dt):
+            k += 1
+            world.set_targets(*trial.target(k))
+            state = world.step()
+            trial.record_state(k * trial.dt, state.positions)
+            if press_below is not None and trial.stopped is None and trial.hand_distance(state.positions) < press_below:
+                trial.press(k * trial.dt)
+    return trial
+
+
+def test_without_a_press_the_robot_rests_at_the_planned_standoff(planned):
+    measures = run(planned).measures()
+    assert not measures.pressed and math.isnan(measures.distance_at_press)
+    assert measures.distance_at_rest == pytest.approx(ON_TOP, abs=5e-4)
+
+
+def test_a_press_brakes_along_the_path_and_the_distances_tell_it(planned):
+    trial = run(planned, press_below=0.15)
+    measures = trial.measures()
+    assert measures.pressed and 0.14 < measures.distance_at_press < 0.15
+    # straight down onto the hand: the distance shrinks by exactly the braking distance, v² / (2a)
+    assert measures.distance_at_press - measures.distance_at_rest == pytest.approx(measures.braking_distance, abs=1e-3)
+    assert measures.braking_distance <= 0.2**2 / (2 * STOP_DECELERATION) + 1e-9
+    assert measures.distance_at_rest > ON_TOP + 0.1  # stopped well before the plan's end
+    assert measures.distance_extrapolated == pytest.approx(measures.distance_at_press, abs=1e-3)
+
+
+def test_only_the_first_press_counts_and_targets_hold_at_rest(planned):
+    trial = TrialRun(ROBOT, SCENE, planned)
+    trial.press(1.0)
+    first = trial.stopped
+    trial.press(0.5)
+    assert trial.stopped is first
+    positions, velocities = trial.target(10_000)
+    np.testing.assert_array_equal(positions, first.joint_positions[-1])
+    assert not velocities.any()
+
+
+def test_bad_trials_and_states_are_named(planned):
+    with SceneWorld(ROBOT, SCENE) as world:
+        fast = plan_approach(ROBOT, SCENE, approach_path(SCENE, "lateral_arc", 0.05, 1.0), world)
+    with pytest.raises(StudyError, match="is not feasible: .*velocity limit"):
+        TrialRun(ROBOT, SCENE, fast)
+    trial = TrialRun(ROBOT, SCENE, planned)
+    with pytest.raises(StudyError, match="no joint state was recorded"):
+        trial.measures()
+    with pytest.raises(StudyError, match="needs 7 finite positions"):
+        trial.record_state(0.0, [0.0] * 6)

@@ -1,0 +1,61 @@
+"""The VR page's JavaScript without a browser: node runs its unit tests (tests/js), and its ROS-TCP frames and ROS 1
+messages are checked byte for byte against Python's (rosbags, and the endpoint's own framing)."""
+
+from __future__ import annotations
+
+import json
+import re
+import shutil
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from bridge.framing import FrameDecoder, encode_frame, encode_syscommand
+from sim.wire.rosmsgs import deserialize, encode_joint_state, encode_message, time_msg
+
+JS_TESTS = Path(__file__).resolve().parents[4] / "js"
+NODE = shutil.which("node") or "/usr/bin/node"
+
+
+def test_the_page_logic_passes_its_node_tests() -> None:
+    done = subprocess.run([NODE, "--test", str(JS_TESTS)], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-2000:]
+    declared = sum(len(re.findall(r"^test\(", test.read_text(), re.M)) for test in JS_TESTS.glob("*.test.mjs"))
+    assert declared > 0 and "# fail 0" in done.stdout and f"# pass {declared}\n" in done.stdout, done.stdout[-1000:]
+
+
+def test_the_page_reads_and_writes_what_ros_does() -> None:
+    names = ["panda_joint1", "panda_joint2", "jöint_ü"]
+    positions, velocities = np.array([0.1, -1.25, 3.5]), np.array([0.0, 2.0, -0.5])
+    joint_state = encode_joint_state(7, 12.345678901, names, positions, velocities, np.zeros(3))
+    frames = encode_frame("/panda/joint_states", joint_state) + encode_frame("", b"") + encode_syscommand("__ping", {})
+    given = {
+        "joint_state": joint_state.hex(),
+        "frames": frames.hex(),
+        "header": {"seq": 4, "stamp": 1.16, "frame_id": "webxr_trigger"},
+        "float32": 0.12,
+        "string": "lateral_arc",
+        "frame": ["/study/stop", "0102"],
+    }
+    done = subprocess.run(
+        [NODE, str(JS_TESTS / "codec_cli.mjs")], input=json.dumps(given), capture_output=True, text=True, timeout=60
+    )
+    assert done.returncode == 0, done.stderr
+    out = json.loads(done.stdout)
+    state = out["joint_state"]
+    assert state["names"] == names and state["stamp"] == pytest.approx(12.345678901, abs=1e-9)
+    assert state["positions"] == positions.tolist() and state["velocities"] == velocities.tolist()
+    assert out["frames"] == [["/panda/joint_states", joint_state.hex()], ["", ""], ["__ping", b"{}".hex()]]
+    header = deserialize(bytes.fromhex(out["header"]), "std_msgs/Header")
+    assert (header.seq, header.stamp.sec, header.stamp.nanosec, header.frame_id) == (4, 1, 160_000_000, "webxr_trigger")
+    assert bytes.fromhex(out["header"]) == encode_message(
+        "std_msgs/Header", seq=4, stamp=time_msg(1.16), frame_id="webxr_trigger"
+    )
+    assert deserialize(bytes.fromhex(out["float32"]), "std_msgs/Float32").data == pytest.approx(0.12, abs=1e-7)
+    assert bytes.fromhex(out["string"]) == encode_message("std_msgs/String", data="lateral_arc")
+    assert bytes.fromhex(out["frame"]) == encode_frame("/study/stop", b"\x01\x02")
+    (command,), failure = FrameDecoder().feed_raw(bytes.fromhex(out["command"]))  # as the endpoint frames it
+    assert failure is None and bytes(command[0]) == b"__subscribe"
+    assert json.loads(bytes(command[1])) == {"topic": "/study/trial", "message_name": "std_msgs/String"}

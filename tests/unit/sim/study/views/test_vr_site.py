@@ -1,0 +1,87 @@
+"""What the VR page's server may serve (sim.study.views.vr.site): URLs name only the page's files, the npm packages'
+parts the page imports and the robot's mesh folders; the URDF's meshes become those URLs; the settings carry the
+scene."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from sim.robots import find_ros_package
+from sim.study.design.scene import load_scene, scene_robot
+from sim.study.views.vr.site import WEB_DIR, Site, content_type, make_site
+
+
+@pytest.fixture(scope="module")
+def site() -> Site:
+    scene = load_scene()
+    robot = scene_robot(scene)
+    return make_site(robot, scene, robot.urdf_path.read_text(), find_ros_package)
+
+
+def test_every_mesh_of_the_urdf_is_a_url_under_a_served_folder(site: Site) -> None:
+    import xml.etree.ElementTree as ET
+
+    meshes = [element.get("filename", "") for element in ET.fromstring(site.urdf).iter("mesh")]
+    assert meshes and all(name.startswith("robot/") for name in meshes)
+    for name in meshes:  # urdf-loader asks for the filename relative to /robot.urdf
+        served = site.file_for("/" + name)
+        assert served is not None and served.is_file(), name
+    assert {path.name for path in site.mesh_folders} == {"collision", "visual"}  # the Panda's two folders
+
+
+@pytest.mark.parametrize(
+    "path",
+    [
+        "/robot/0/../../../../etc/passwd",
+        "/robot/0/..",
+        "/robot/0/./link1.obj",
+        "/robot/0//etc/passwd",
+        "/robot/0/a\\..\\b",
+        "/robot/99/link1.obj",
+        "/robot/x/link1.obj",
+        "/robot/0/",
+        "/app/../site.py",
+        "/app/certificate.py",
+        "/vendor/three/package.json",
+        "/vendor/three/build/../../../etc/passwd",
+        "/vendor/iwer/build/iwer.module.js",  # only with the emulated headset
+        "/etc/passwd",
+        "",
+    ],
+)
+def test_nothing_else_on_the_machine_is_reachable(site: Site, path: str) -> None:
+    assert site.file_for(path) is None
+
+
+def test_the_page_its_files_and_the_libraries_it_imports(site: Site) -> None:
+    assert site.file_for("/") == WEB_DIR / "index.html"
+    assert site.file_for("/app/page.js") == WEB_DIR / "page.js"
+    assert site.file_for("/vendor/three/build/three.module.js") == WEB_DIR / "node_modules/three/build/three.module.js"
+    loader = site.file_for("/vendor/three/examples/jsm/loaders/OBJLoader.js")
+    assert loader == WEB_DIR / "node_modules/three/examples/jsm/loaders/OBJLoader.js"
+    emulated = Site(site.urdf, site.mesh_folders, site.settings, emulation=True)
+    assert emulated.file_for("/vendor/iwer/build/iwer.module.js") == WEB_DIR / "node_modules/iwer/build/iwer.module.js"
+
+
+def test_the_settings_carry_the_scene_the_joints_and_the_topics(site: Site) -> None:
+    settings = site.settings
+    assert settings["seat"] == [0.55, -0.65, 0.45] and settings["hand"]["xyz"] == [0.55, 0.0, 0.0175]
+    assert settings["robot"]["joint_names"][0] == "panda_joint1" and len(settings["robot"]["joint_names"]) == 7
+    assert settings["topics"]["stop"] == ["/study/stop", "std_msgs/Header"]
+    assert settings["topics"]["joint_states"] == ["/panda/joint_states", "sensor_msgs/JointState"]
+    assert settings["ros_path"] == "/ros" and settings["emulation"] is False
+
+
+@pytest.mark.parametrize(
+    ("name", "kind"),
+    [
+        ("page.js", "text/javascript"),
+        ("link1.obj", "text/plain"),
+        ("colors.png", "image/png"),
+        ("x.bin", "application"),
+    ],
+)
+def test_content_types(name: str, kind: str) -> None:
+    assert content_type(Path(name)).startswith(kind)
