@@ -17,6 +17,7 @@ setup(
         "sim": ["py.typed"],
         "sim.robots": ["*.yaml", "urdf/*.urdf"],
         "sim.study.design": ["*.yaml"],
+        "sim.study.run": ["protocol.json"],
         # the VR page, and the npm packages setup.sh fetched beside it (node_modules)
         "sim.study.views.vr": ["web/*.html", "web/*.css", "web/*.js", "web/*.json", "web/node_modules/**/*"],
     },

@@ -234,7 +234,7 @@ def test_an_emulated_quest_enters_the_session_and_answers_the_runner(tmp_path: P
 
     first, second, third = read_csv(out / f"participant_{PARTICIPANT:02d}.csv")
     assert float(first["perceived_distance"]) == pytest.approx(CONTROLLERS_APART, abs=0.001)
-    assert second["pressed"] == "true" and second["press_source"] == "webxr_trigger"
+    assert second["pressed"] == "true" and second["press_source"] == "vr_trigger"
     assert third["pressed"] == "false"
     assert second["preferred_path"] == third["preferred_path"] == "vertical"
     # the stop's distance is the FK of the joints the robot achieved: its last state before trial 3 began (recorded)

@@ -1,10 +1,14 @@
 // The page's study rules (sim/study/views/vr/web/study.js) and ROS-TCP frames (rostcp.js), run by node's test runner
 // (tests/unit/sim/study/views/test_vr_page_js.py runs this file and cross-checks the bytes against Python).
 import assert from 'node:assert/strict';
+import { readFileSync } from 'node:fs';
 import { test } from 'node:test';
 
 import { FrameError, KEEPALIVE, command, commandFields, frame, framesIn, rosTime } from '../../sim/study/views/vr/web/rostcp.js';
-import { ControllerEdges, Participant, STOP_SOURCE } from '../../sim/study/views/vr/web/study.js';
+import { ControllerEdges, Participant } from '../../sim/study/views/vr/web/study.js';
+
+// the trial protocol's table, as the page gets it in its settings
+const PROTOCOL = JSON.parse(readFileSync(new URL('../../sim/study/run/protocol.json', import.meta.url)));
 
 function status(phase, extra = {}) {
   return { participant: 3, index: 2, total: 4, phase, condition: 'vr', test: 2, path: 'straight', standoff: 0,
@@ -12,18 +16,17 @@ function status(phase, extra = {}) {
 }
 
 test('the trigger stops only while the robot moves, stamped on the runner clock or zero', () => {
-  const participant = new Participant();
+  const participant = new Participant(PROTOCOL);
   participant.onStatus(status('ready'));
   assert.equal(participant.onTrigger(12.0), null);
   participant.onStatus(status('moving', { motion_start: 10.0 }));
   assert.deepEqual(participant.onTrigger(12.5), ['stop', 12.5]);
   assert.deepEqual(participant.onTrigger(null), ['stop', 0]); // no clock offset yet
   assert.deepEqual(participant.onTrigger(1.79e9), ['stop', 0]); // the wall clock, not the runner's /clock
-  assert.equal(STOP_SOURCE, 'webxr_trigger');
 });
 
 test('A says go once per ready phase', () => {
-  const participant = new Participant();
+  const participant = new Participant(PROTOCOL);
   participant.onStatus(status('ready'));
   assert.deepEqual(participant.onConfirm(null), ['go']);
   assert.equal(participant.onConfirm(null), null);
@@ -32,24 +35,36 @@ test('A says go once per ready phase', () => {
 });
 
 test('the distance is the controllers\' when both are tracked and within reach', () => {
-  const participant = new Participant();
+  const participant = new Participant(PROTOCOL);
   participant.onStatus(status('distance', { test: 1 }));
   assert.equal(participant.onConfirm(null), null);
+  assert.match(participant.instructions()[1][0], /distance between the robot and the hand/);
   assert.match(participant.instructions()[1].at(-1), /both controllers/);
-  assert.equal(participant.onConfirm(2.5), null);
+  assert.equal(participant.onConfirm(2.5), null); // beyond the table's limit
+  assert.match(participant.notice, /within 2 m/);
   assert.deepEqual(participant.onConfirm(0.12), ['distance', 0.12]);
   assert.equal(participant.onConfirm(0.2), null); // answered once
   assert.deepEqual(participant.instructions()[1], ['Thank you.']);
 });
 
 test('the thumbstick walks the group\'s paths and A chooses the one shown', () => {
-  const participant = new Participant();
+  const participant = new Participant(PROTOCOL);
   participant.onStatus(status('preference', { group_paths: ['straight', 'vertical', 'lateral_arc'] }));
   participant.onChoose(-1);
   assert.match(participant.instructions()[1][1], /3: lateral_arc/);
   participant.onChoose(+1);
   participant.onChoose(+1);
   assert.deepEqual(participant.onConfirm(null), ['preference', 'vertical']);
+});
+
+test('every phase of the table has its words on the panel', () => {
+  const participant = new Participant(PROTOCOL);
+  for (const phase of PROTOCOL.phases) {
+    participant.onStatus(status(phase.name, { index: 5, group_paths: ['straight'] }));
+    const [title, lines] = participant.instructions();
+    assert.equal(title, phase.panel.title || 'Trial 5 of 4');
+    assert.deepEqual(lines, phase.panel.lines.map((line) => line.replace('{choice}', '1').replace('{path}', 'straight')));
+  }
 });
 
 test('button and thumbstick edges', () => {

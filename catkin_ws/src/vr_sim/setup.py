@@ -14,6 +14,11 @@ setup(
         packages=["sim"] + ["sim." + name for name in subpackages],
         package_dir={"sim": SOURCE},
         # the data files of the repository's setup.py: the bundled robots and the study's defaults
-        package_data={"sim": ["py.typed"], "sim.robots": ["*.yaml", "urdf/*.urdf"], "sim.study.design": ["*.yaml"]},
+        package_data={
+            "sim": ["py.typed"],
+            "sim.robots": ["*.yaml", "urdf/*.urdf"],
+            "sim.study.design": ["*.yaml"],
+            "sim.study.run": ["protocol.json"],
+        },
     )
 )

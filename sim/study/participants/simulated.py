@@ -2,14 +2,15 @@
 (`python -m sim.study participant --port P --participant N --seed S`).
 
 It follows the runner's `/study/trial` and the robot's joint states, and acts by its traits (sim.study.
-participants.model), which stand for both the participant and the observer:
-  ready       test 2: draws where this trial's press is to land (its comfort distance) and finds how long after
+participants.model), which stand for both the participant and the observer, on what each phase accepts (the
+protocol's table, sim.study.run.protocol):
+  go          test 2: draws where this trial's press is to land (its comfort distance) and finds how long after
               the start the planned approach gets there; then says go (`/study/go`), as the observer would;
-  moving      test 2: presses stop (`/study/stop`) at once, stamped when the press is to land: it anticipates the
+  stop        test 2: presses stop (`/study/stop`) at once, stamped when the press is to land: it anticipates the
               robot, as people do, and the runner applies a press at its stamp.
   distance    test 1: reports its perceived distance of the robot at rest (`/study/perceived_distance`);
   preference  names its preferred path of the group (`/study/preference`);
-  done        (for its participant number) ends.
+  done        (the last phase; for its participant number) ends.
 
 Why at once, and planned before go: a lockstep runs some 15 times faster than real time on a busy machine, so
 whatever the participant does after the approach starts races the robot. Pressing on the joint state one human
@@ -40,7 +41,9 @@ from sim.study.participants.model import (
 from sim.study.run.protocol import (
     DISTANCE_TOPIC,
     GO_TOPIC,
+    PHASES,
     PREFERENCE_TOPIC,
+    PROTOCOL,
     STATUS_TOPIC,
     STOP_TOPIC,
     TOPIC_TYPES,
@@ -91,7 +94,7 @@ class SimulatedParticipant:
         return arrival_time(path.times, distances, comfort_at_press(self.traits, status.condition, self.rng))
 
     def _press(self, status: TrialStatus, after: float) -> None:
-        source = "vr_trigger" if status.condition == "vr" else "button"
+        source = PROTOCOL.stop_source(status.condition)
         stamp = time_msg(status.motion_start + after)
         self.presses += 1
         self.client.publish(STOP_TOPIC, _encode(STOP_TOPIC, seq=0, stamp=stamp, frame_id=source))
@@ -106,7 +109,8 @@ class SimulatedParticipant:
         if status.participant != self.traits.participant:
             return  # another session's (a latched status from before)
         self._status = status
-        if status.phase == "ready":
+        accepted = PROTOCOL.accepts(status.phase)
+        if accepted == "go":
             self._press_after = None
             if status.test == 2:
                 try:
@@ -114,20 +118,20 @@ class SimulatedParticipant:
                 except StudyError as error:
                     self.problems.append(f"trial {status.index}: {error}")
             self.client.publish(GO_TOPIC, _encode(GO_TOPIC))
-        elif status.phase == "moving" and self._press_after is not None:
+        elif accepted == "stop" and self._press_after is not None:
             self._press(status, self._press_after)
             self._press_after = None
-        elif status.phase == "distance":
+        elif accepted == "distance":
             if self._latest is None:
                 self.problems.append(f"trial {status.index}: asked for a distance before any joint state")
                 return
             actual = self.hand_distance(self._latest[1])
             answer = perceived_distance(self.traits, status.condition, actual, self.rng)
             self.client.publish(DISTANCE_TOPIC, _encode(DISTANCE_TOPIC, data=answer))
-        elif status.phase == "preference":
+        elif accepted == "preference":
             choice = preferred_path(self.traits, status.group_paths)
             self.client.publish(PREFERENCE_TOPIC, _encode(PREFERENCE_TOPIC, data=choice))
-        elif status.phase == "done":
+        elif status.phase == PHASES[-1]:  # the session is over
             self.done.set()
 
     @property

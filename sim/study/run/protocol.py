@@ -1,19 +1,22 @@
-"""The study's ROS interface: what the runner and a VR client (any Unity scene, through the endpoint) or the
-observer's tools say to each other. Pure logic: names, types, and the trial status as JSON.
+"""The trial protocol: what the runner and whoever answers it (a VR page, any Unity scene through the endpoint, a
+simulated participant, the observer's keyboard) say to each other. The protocol itself is data, one table
+(protocol.json beside this file) that the runner, the simulated participant and the VR page all read; this module
+checks it and gives it to Python. Pure logic, but for reading that file once.
 
   /study/trial              std_msgs/String, latched, from the runner: the trial and its phase as JSON (TrialStatus)
   /study/go                 std_msgs/Empty, to the runner: start the approach (the observer, or the VR scene)
   /study/stop               std_msgs/Header, to the runner: the participant pressed stop. stamp = when, on ROS time
-                            (the runner's /clock); a zero stamp means "when it arrives". frame_id = where it came
-                            from (e.g. "vr_trigger", "button", "keyboard"), logged with the press
+                            (the runner's /clock); a zero stamp means "when it arrives". frame_id = the stop source
+                            (the table's stop_sources: vr_trigger, button, keyboard), logged with the press
   /study/perceived_distance std_msgs/Float32, to the runner: test 1's answer in metres (the VR scene reports its two
                             controllers' distance; in reality the observer enters the measured one)
   /study/preference         std_msgs/String, to the runner: after a group of test 2, the preferred approach, as the
                             path's name or its place in the group (1, 2, 3)
 
-Phases of a trial, in order: to_start (moving to the path's start), ready (waiting for go), moving (presses count),
-at_rest (the motion has ended or stopped), distance (test 1: waiting for the perceived distance), preference (after
-a group of test 2: waiting for the preference); then the next trial, and finally done.
+Phases of a trial, in order: to_start (moving to the path's start), ready (accepts go), moving (accepts a stop),
+at_rest (the motion has ended or stopped), distance (test 1: accepts the perceived distance), preference (after a
+group of test 2: accepts the preference); then the next trial, and finally done. Each phase accepts at most one
+input; what comes in another phase is not kept.
 """
 
 from __future__ import annotations
@@ -21,10 +24,18 @@ from __future__ import annotations
 import json
 import math
 from dataclasses import asdict, dataclass, fields
+from pathlib import Path
+from typing import Any
 
 from sim.study.run.errors import RunError
 
 __all__ = [
+    "PROTOCOL_FILE",
+    "INPUTS",
+    "Phase",
+    "Protocol",
+    "PROTOCOL",
+    "load_protocol",
     "STATUS_TOPIC",
     "GO_TOPIC",
     "STOP_TOPIC",
@@ -42,20 +53,95 @@ __all__ = [
     "observer_input",
 ]
 
-STATUS_TOPIC = "/study/trial"
-GO_TOPIC = "/study/go"
-STOP_TOPIC = "/study/stop"
-DISTANCE_TOPIC = "/study/perceived_distance"
-PREFERENCE_TOPIC = "/study/preference"
-TOPIC_TYPES = {
-    STATUS_TOPIC: "std_msgs/String",
-    GO_TOPIC: "std_msgs/Empty",
-    STOP_TOPIC: "std_msgs/Header",
-    DISTANCE_TOPIC: "std_msgs/Float32",
-    PREFERENCE_TOPIC: "std_msgs/String",
-}
-PHASES = ("to_start", "ready", "moving", "at_rest", "distance", "preference", "done")
-MAX_PERCEIVED_DISTANCE = 2.0  # m: an answer beyond this is a typing or tracking error, not a judgement
+PROTOCOL_FILE = Path(__file__).resolve().parent / "protocol.json"
+INPUTS = ("go", "stop", "distance", "preference")  # the table's inputs, each answered by the runner in its own way
+
+
+@dataclass(frozen=True)
+class Phase:
+    name: str
+    accepts: str | None  # the one input that counts in this phase (one of INPUTS), or None
+    meaning: str
+
+
+@dataclass(frozen=True)
+class Protocol:
+    """The table, checked: topics as (name, type), phases in order, stop sources by name with the condition each
+    belongs to, the limits; `data` is the table as read (what the VR page gets)."""
+
+    status: tuple[str, str]
+    inputs: dict[str, tuple[str, str]]
+    phases: tuple[Phase, ...]
+    stop_sources: dict[str, str | None]
+    max_perceived_distance: float  # m: an answer beyond this is a typing or tracking error, not a judgement
+    stamp_window: tuple[float, float]  # s around motion_start: a press stamped outside it is on another clock
+    data: dict[str, Any]
+
+    def phase(self, name: str) -> Phase:
+        for phase in self.phases:
+            if phase.name == name:
+                return phase
+        raise RunError(f"unknown trial phase {name!r}; known: {', '.join(p.name for p in self.phases)}")
+
+    def accepts(self, phase: str) -> str | None:
+        """The input that counts in `phase`, if any."""
+        return self.phase(phase).accepts
+
+    def stop_source(self, condition: str) -> str:
+        """The stop source of a participant's own press in `condition` (vr or reality)."""
+        for name, belongs in self.stop_sources.items():
+            if belongs == condition:
+                return name
+        raise RunError(f"no stop source for the condition {condition!r}")
+
+
+def _topic(entry: Any, where: str) -> tuple[str, str]:
+    if not (isinstance(entry, dict) and isinstance(entry.get("topic"), str) and isinstance(entry.get("type"), str)):
+        raise RunError(f"{where}: needs a topic and a type, got {entry!r}")
+    return entry["topic"], entry["type"]
+
+
+def load_protocol(path: Path = PROTOCOL_FILE) -> Protocol:
+    """The protocol table in `path`, checked; RunError names what is wrong."""
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError) as error:
+        raise RunError(f"cannot read the trial protocol {path}: {error}") from None
+    try:
+        inputs = {name: _topic(data["inputs"][name], f"input {name}") for name in INPUTS}
+        if sorted(data["inputs"]) != sorted(INPUTS):
+            raise RunError(f"the inputs must be exactly {', '.join(INPUTS)}, got {', '.join(data['inputs'])}")
+        phases = tuple(Phase(entry["name"], entry["accepts"], entry["meaning"]) for entry in data["phases"])
+        for phase in phases:
+            if phase.accepts is not None and phase.accepts not in INPUTS:
+                raise RunError(f"phase {phase.name} accepts {phase.accepts!r}, which is no input")
+            if not isinstance(data["phases"][phases.index(phase)].get("panel", {}).get("lines"), list):
+                raise RunError(f"phase {phase.name} says nothing on the VR panel (panel.lines)")
+        stop_sources = {name: entry["condition"] for name, entry in data["stop_sources"].items()}
+        low, high = (float(value) for value in data["limits"]["stamp_window_s"])
+        protocol = Protocol(
+            status=_topic(data["status"], "status"),
+            inputs=inputs,
+            phases=phases,
+            stop_sources=stop_sources,
+            max_perceived_distance=float(data["limits"]["max_perceived_distance_m"]),
+            stamp_window=(low, high),
+            data=data,
+        )
+    except (KeyError, TypeError, ValueError) as error:
+        raise RunError(f"the trial protocol {path} is malformed: {error!r}") from None
+    names = [phase.name for phase in phases]
+    if len(set(names)) != len(names) or names[-1] != "done":
+        raise RunError(f"the phases must have unique names and end with done, got {', '.join(names)}")
+    return protocol
+
+
+PROTOCOL = load_protocol()
+STATUS_TOPIC = PROTOCOL.status[0]
+GO_TOPIC, STOP_TOPIC, DISTANCE_TOPIC, PREFERENCE_TOPIC = (PROTOCOL.inputs[name][0] for name in INPUTS)
+TOPIC_TYPES = {topic: kind for topic, kind in (PROTOCOL.status, *PROTOCOL.inputs.values())}
+PHASES = tuple(phase.name for phase in PROTOCOL.phases)
+MAX_PERCEIVED_DISTANCE = PROTOCOL.max_perceived_distance
 
 
 @dataclass(frozen=True)
@@ -92,8 +178,7 @@ def status_from_json(text: str) -> TrialStatus:
     names = [field.name for field in fields(TrialStatus)]
     if not isinstance(data, dict) or sorted(data) != sorted(names):
         raise RunError(f"a trial status must have exactly {', '.join(names)}, got {text[:200]!r}")
-    if data["phase"] not in PHASES:
-        raise RunError(f"unknown trial phase {data['phase']!r}; known: {', '.join(PHASES)}")
+    PROTOCOL.phase(data["phase"])  # RunError when it is none of the table's
     for key in ("standoff", "peak_speed", "motion_start"):
         data[key] = math.nan if data[key] is None else float(data[key])
     data["group_paths"] = tuple(data["group_paths"])
@@ -141,11 +226,12 @@ def observer_input(line: str, phase: str) -> ObserverInput:
         return ObserverInput("go")
     if text.lower() in ("s", "stop"):
         return ObserverInput("stop")
-    if phase == "distance":
+    accepted = PROTOCOL.accepts(phase) if phase in PHASES else None
+    if accepted == "distance":
         try:
             return ObserverInput("distance", _metres(text.lower()))
         except ValueError:
             return ObserverInput("unknown", text=f"{text!r} is not a distance (e.g. 0.12, 0.12 m or 12 cm)")
-    if phase == "preference":
+    if accepted == "preference":
         return ObserverInput("preference", text=text)
     return ObserverInput("unknown", text=f"{text!r} means nothing in phase {phase} (Enter = go, s = stop)")

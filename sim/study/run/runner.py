@@ -45,6 +45,7 @@ from sim.study.run.protocol import (
     DISTANCE_TOPIC,
     GO_TOPIC,
     PREFERENCE_TOPIC,
+    PROTOCOL,
     STATUS_TOPIC,
     STOP_TOPIC,
     TrialStatus,
@@ -83,9 +84,10 @@ class RunnerOptions:
     deceleration: float = 1.0  # m/s² along the path on a press
 
 
+# what the observer is told at the terminal (--keyboard), by the input the phase accepts
 _PROMPTS = {
-    "ready": "Enter to start the approach",
-    "moving": "s + Enter to stop",
+    "go": "Enter to start the approach",
+    "stop": "s + Enter to stop",
     "distance": "the perceived distance (0.12, 0.12 m or 12 cm)?",
     "preference": "preferred approach: {paths}?",
 }
@@ -98,28 +100,44 @@ class Press:
 
 
 class Inputs:
-    """What comes in from the participant and the observer, kept until the runner takes it; thread-safe."""
+    """What comes in from the participant and the observer, kept until the runner takes it; thread-safe. Only the
+    input that the current phase accepts (the protocol's table) is kept: a go, a press, a distance or a
+    preference that comes in another phase is not."""
 
     def __init__(self) -> None:
         self._changed = threading.Condition()
+        self._accepting: str | None = None
         self._go = False
         self._presses: list[Press] = []
         self._distances: list[float] = []
         self._preferences: list[str] = []
         self.rejected: list[str] = []
 
+    def enter(self, phase: str) -> None:
+        """A new phase: forget what came before it; from now on keep what `phase` accepts."""
+        with self._changed:
+            self._accepting = PROTOCOL.accepts(phase)
+            self._go = False
+            self._presses.clear()
+            self._distances.clear()
+            self._preferences.clear()
+
     def go(self) -> None:
         with self._changed:
-            self._go = True
-            self._changed.notify_all()
+            if self._accepting == "go":
+                self._go = True
+                self._changed.notify_all()
 
     def press(self, stamp: float, source: str) -> None:
         with self._changed:
-            self._presses.append(Press(stamp, source))
-            self._changed.notify_all()
+            if self._accepting == "stop":
+                self._presses.append(Press(stamp, source))
+                self._changed.notify_all()
 
     def distance(self, value: float) -> None:
         with self._changed:
+            if self._accepting != "distance":
+                return
             try:
                 self._distances.append(checked_distance(value))
             except StudyError as error:
@@ -128,16 +146,9 @@ class Inputs:
 
     def preference(self, text: str) -> None:
         with self._changed:
-            self._preferences.append(text)
-            self._changed.notify_all()
-
-    def clear(self) -> None:
-        """Forget whatever came before the phase that asks for it."""
-        with self._changed:
-            self._go = False
-            self._presses.clear()
-            self._distances.clear()
-            self._preferences.clear()
+            if self._accepting == "preference":
+                self._preferences.append(text)
+                self._changed.notify_all()
 
     def take_press(self, until: float) -> Press | None:
         """The first press stamped at or before `until` (or unstamped), if one came."""
@@ -212,12 +223,15 @@ class StudyRunner(ControllerNode):
         self.inputs.press(message.stamp.to_sec(), message.frame_id or "unnamed")
 
     def publish_status(self, status: TrialStatus) -> None:
+        """Enter the status's phase (what it accepts from now on), then say so."""
+        self.inputs.enter(status.phase)
         self.phase = status.phase
         self.status_pub.publish(self._string_type(data=status_to_json(status)))
-        if self.options.keyboard and status.phase in _PROMPTS:
+        accepted = PROTOCOL.accepts(status.phase)
+        if self.options.keyboard and accepted is not None:
             print(
                 f"trial {status.index}/{status.total} ({status.condition}, test {status.test}, {status.path}): "
-                + _PROMPTS[status.phase].format(
+                + _PROMPTS[accepted].format(
                     paths=", ".join(f"{k} {p}" for k, p in enumerate(status.group_paths, start=1))
                 ),
                 file=sys.stderr,
@@ -315,7 +329,6 @@ class StudyRunner(ControllerNode):
         ]
 
     def _ask_preference(self, trial: PlannedTrial, paths: tuple[str, ...], log: Callable[[str], None]) -> str:
-        self.inputs.clear()
         self.publish_status(self.status(trial, "preference", group_paths=paths))
         while True:
             answer = self.wait_for_input("preference")
@@ -337,13 +350,11 @@ class StudyRunner(ControllerNode):
         to_start, speeds = approach(self.robot, positions, planned.positions[0], dt)
         for k in range(1, len(to_start)):
             positions = self.step(to_start[k], speeds[k])
-        self.inputs.clear()
         self.publish_status(self.status(trial, "ready"))
         if not self.options.auto_go and self.wait_for_input("go") is None:
             log(f"trial {trial.index}: no go within {self.options.response_timeout:g} s; starting anyway")
         run = TrialRun(self.robot, self.scene, planned, self.options.deceleration)
         start = self.clock
-        self.inputs.clear()
         self.publish_status(self.status(trial, "moving", motion_start=start))
         run.record_state(0.0, positions)
         settle = int(round(self.options.settle / dt))
@@ -364,7 +375,6 @@ class StudyRunner(ControllerNode):
         measures = run.measures()
         perceived = math.nan
         if trial.test == 1:
-            self.inputs.clear()
             self.publish_status(self.status(trial, "distance", motion_start=start))
             answer = self.wait_for_input("distance")
             if answer is None:

@@ -20,14 +20,7 @@ from sim.robots import RobotSpec
 from sim.robots.meshes import resolve_shapes
 from sim.robots.urdf_model import urdf_root
 from sim.study.design.scene import Box, Scene
-from sim.study.run.protocol import (
-    DISTANCE_TOPIC,
-    GO_TOPIC,
-    PREFERENCE_TOPIC,
-    STATUS_TOPIC,
-    STOP_TOPIC,
-    TOPIC_TYPES,
-)
+from sim.study.run.protocol import INPUTS, PROTOCOL
 from sim.study.views.live import COLOURS
 from sim.wire.rosmsgs import JOINT_STATE
 
@@ -112,7 +105,7 @@ def _box(box: Box) -> dict[str, Any]:
 
 def page_settings(robot: RobotSpec, scene: Scene) -> dict[str, Any]:
     """What the page needs to know beyond the URDF: the scene in the world frame (ROS: x forward, z up), the
-    robot's base pose, the joints it is sent, and the study's topics with their types."""
+    robot's base pose, the joints it is sent, the study's topics with their types and the trial protocol's table."""
     x, y, z, w = matrix_to_quat(scene.base_pose[:3, :3])
     return {
         "robot": {
@@ -125,12 +118,11 @@ def page_settings(robot: RobotSpec, scene: Scene) -> dict[str, Any]:
         "seat": scene.seat.tolist(),
         "topics": {
             "joint_states": [robot.joint_states_topic, JOINT_STATE],
-            "trial": [STATUS_TOPIC, TOPIC_TYPES[STATUS_TOPIC]],
-            "go": [GO_TOPIC, TOPIC_TYPES[GO_TOPIC]],
-            "stop": [STOP_TOPIC, TOPIC_TYPES[STOP_TOPIC]],
-            "distance": [DISTANCE_TOPIC, TOPIC_TYPES[DISTANCE_TOPIC]],
-            "preference": [PREFERENCE_TOPIC, TOPIC_TYPES[PREFERENCE_TOPIC]],
+            "trial": list(PROTOCOL.status),
+            **{name: list(PROTOCOL.inputs[name]) for name in INPUTS},
         },
+        "protocol": PROTOCOL.data,  # the trial protocol's table, as the runner reads it
+        "stop_source": PROTOCOL.stop_source("vr"),  # what the page's presses are named
         "ros_path": ROS_PATH,
         "colours": {name: list(COLOURS[name]) for name in ("table", "hand")},
     }

@@ -9,7 +9,7 @@ import { OBJLoader } from 'three/examples/jsm/loaders/OBJLoader.js';
 import URDFLoader from 'urdf-loader/URDFLoader.js';
 import { RosConnection } from './connection.js';
 import { EMPTY, decodeJointState, decodeString, encodeFloat32, encodeHeader, encodeString, rosTime } from './rostcp.js';
-import { ControllerEdges, Participant, STOP_SOURCE } from './study.js';
+import { ControllerEdges, Participant } from './study.js';
 
 const FRAMES_KEPT = 600;
 
@@ -21,7 +21,7 @@ const enterButton = document.getElementById('enter');
 const page = {
   connection: null,
   renderer: null,
-  participant: new Participant(),
+  participant: new Participant(settings.protocol),
   robotLoaded: false,
   meshesLoaded: false,
   inSession: false,
@@ -195,7 +195,7 @@ connection.subscribe(topics.joint_states[0], topics.joint_states[1], (payload) =
 connection.subscribe(topics.trial[0], topics.trial[1], (payload) => {
   page.participant.onStatus(JSON.parse(decodeString(payload)));
 });
-for (const name of ['go', 'stop', 'distance', 'preference']) connection.advertise(...topics[name]);
+for (const name of Object.keys(settings.protocol.inputs)) connection.advertise(...topics[name]);
 connection.open();
 
 let stopSeq = 0;
@@ -204,7 +204,7 @@ function act(action) {
   const [what, value] = action;
   const payload = {
     go: () => EMPTY,
-    stop: () => encodeHeader(stopSeq++, rosTime(value), STOP_SOURCE),
+    stop: () => encodeHeader(stopSeq++, rosTime(value), settings.stop_source),
     distance: () => encodeFloat32(value),
     preference: () => encodeString(value),
   }[what]();

@@ -1,21 +1,21 @@
 // What the participant's controls mean in each phase of a trial, and what the page says to them: the study's
-// rules for the headset, without three.js or a socket, so node runs them for the tests. The runner's phases and
-// topics are those of sim/study/run/protocol.py.
+// rules for the headset, without three.js or a socket, so node runs them for the tests. The phases, the input each
+// accepts, the panel's words and the limits are the trial protocol's table (sim/study/run/protocol.json), which the
+// page gets with its settings: nothing of it is typed here.
 //
-//   trigger (either hand)         stop the robot, while it moves
-//   A or X                        ready: start the approach; distance: give the distance between the controllers'
-//                                 tips; preference: choose the path shown
-//   thumbstick left / right       preference: show the previous / next path of the group
+//   trigger (either hand)         the phase's stop, when it accepts one
+//   A or X                        the phase's go, distance (between the controllers' tips) or preference (the path
+//                                 shown), whichever it accepts
+//   thumbstick left / right       while a preference is asked: show the previous / next path of the group
 
-export const STOP_SOURCE = 'webxr_trigger';
-export const MAX_PERCEIVED_DISTANCE = 2.0; // m, as the runner checks it
-const LONGEST_MOTION_S = 120; // a stamp further from the motion's start than this is on another clock
-
-// An action is [what, value]: ['stop', stamp s or 0], ['go'], ['distance', m], ['preference', path name].
+// An action is [input, value]: ['stop', stamp s or 0], ['go'], ['distance', m], ['preference', path name], named by
+// the table's inputs.
 export class Participant {
-  constructor() {
+  constructor(protocol) {
+    this.protocol = protocol;
+    this.phases = new Map(protocol.phases.map((phase) => [phase.name, phase]));
     this.status = null;
-    this.choice = 0; // the group's path shown in the preference phase
+    this.choice = 0; // the group's path shown while a preference is asked
     this.answered = false; // this phase's answer has been sent
     this.notice = ''; // why the last confirm did nothing
   }
@@ -26,7 +26,7 @@ export class Participant {
     if (!samePhase) {
       this.answered = false;
       this.notice = '';
-      if (status.phase === 'preference') this.choice = 0;
+      if (this.accepts === 'preference') this.choice = 0;
     }
   }
 
@@ -34,42 +34,51 @@ export class Participant {
     return this.status ? this.status.phase : 'waiting';
   }
 
+  // The input the current phase accepts (the table's), or null.
+  get accepts() {
+    const phase = this.status ? this.phases.get(this.status.phase) : undefined;
+    return phase ? phase.accepts : null;
+  }
+
   // The trigger was pressed; rosNow is ROS time by the measured clock offset (s), or null without one.
   onTrigger(rosNow) {
-    if (this.phase !== 'moving') return null;
+    if (this.accepts !== 'stop') return null;
     return ['stop', this.stampFor(rosNow)];
   }
 
-  // A press's stamp: ROS time when the clock offset is known and agrees with the runner's clock, else 0
-  // ("when it arrives"). An endpoint without /use_sim_time answers pings with the wall clock, not the runner's.
+  // A press's stamp: ROS time when the clock offset is known and agrees with the runner's clock (within the table's
+  // stamp window around the motion's start), else 0 ("when it arrives"). An endpoint without /use_sim_time answers
+  // pings with the wall clock, not the runner's.
   stampFor(rosNow) {
     const start = this.status ? this.status.motion_start : null;
     if (rosNow === null || typeof start !== 'number') return 0;
-    return rosNow >= start - 1 && rosNow <= start + LONGEST_MOTION_S ? rosNow : 0;
+    const [before, after] = this.protocol.limits.stamp_window_s;
+    return rosNow >= start + before && rosNow <= start + after ? rosNow : 0;
   }
 
   // A or X was pressed; controllersDistance: between the two controllers' tips (m), or null when not both tracked.
   onConfirm(controllersDistance) {
     if (this.answered) return null;
-    const phase = this.phase;
-    if (phase === 'ready') {
+    const accepts = this.accepts;
+    if (accepts === 'go') {
       this.answered = true;
       return ['go'];
     }
-    if (phase === 'distance') {
+    if (accepts === 'distance') {
+      const most = this.protocol.limits.max_perceived_distance_m;
       if (controllersDistance === null) {
         this.notice = 'Hold both controllers where you see them';
         return null;
       }
-      if (!(controllersDistance >= 0 && controllersDistance <= MAX_PERCEIVED_DISTANCE)) {
-        this.notice = `Keep the controllers within ${MAX_PERCEIVED_DISTANCE} m of each other`;
+      if (!(controllersDistance >= 0 && controllersDistance <= most)) {
+        this.notice = `Keep the controllers within ${most} m of each other`;
         return null;
       }
       this.answered = true;
       this.notice = '';
       return ['distance', controllersDistance];
     }
-    if (phase === 'preference') {
+    if (accepts === 'preference') {
       const paths = this.status.group_paths;
       if (paths.length === 0) return null;
       this.answered = true;
@@ -80,33 +89,23 @@ export class Participant {
 
   // The thumbstick was pushed left (-1) or right (+1).
   onChoose(step) {
-    if (this.phase !== 'preference' || this.answered) return;
+    if (this.accepts !== 'preference' || this.answered) return;
     const count = this.status.group_paths.length;
     if (count > 0) this.choice = (this.choice + step + count) % count;
   }
 
-  // What the panel in view says: a title and lines.
+  // What the panel in view says: a title and lines, the phase's words from the table ({choice} and {path}: the
+  // group's path shown).
   instructions() {
     const status = this.status;
     if (!status) return ['Waiting for the study', ['The experimenter starts the session.']];
-    if (status.phase === 'done') return ['Thank you', ['The session is over. You may take off the headset.']];
-    const title = `Trial ${status.index} of ${status.total}`;
-    const lines = {
-      to_start: ['The robot moves to its start.'],
-      ready: ['Press A (or X) when you are ready.'],
-      moving: ['Press the trigger to stop the robot', 'when you want it to stop.'],
-      at_rest: ['The robot has stopped.'],
-      distance: this.answered
-        ? ['Thank you.']
-        : ['Show the distance between the robot and the hand', 'with the tips of your two controllers,', 'then press A (or X).'],
-      preference: this.answered
-        ? ['Thank you.']
-        : [
-            'Which approach did you prefer?',
-            `< ${this.choice + 1}: ${status.group_paths[this.choice] || ''} >`,
-            'Thumbstick to change, A (or X) to choose.',
-          ],
-    }[status.phase] || [status.phase];
+    const phase = this.phases.get(status.phase);
+    if (!phase) return [`Trial ${status.index} of ${status.total}`, [status.phase]];
+    const panel = phase.panel;
+    const title = panel.title || `Trial ${status.index} of ${status.total}`;
+    const words = this.answered && panel.answered ? panel.answered : panel.lines;
+    const path = status.group_paths[this.choice] || '';
+    const lines = words.map((line) => line.replace('{choice}', String(this.choice + 1)).replace('{path}', path));
     return [title, this.notice ? [...lines, this.notice] : lines];
   }
 }

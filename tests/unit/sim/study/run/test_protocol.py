@@ -1,17 +1,23 @@
-"""sim.study.run.protocol: the trial status a VR client reads, and the answers it may give."""
+"""sim.study.run.protocol: the table (protocol.json) as read and checked, the trial status a VR client reads, and
+the answers it may give."""
 
 from __future__ import annotations
 
 import json
 import math
+from pathlib import Path
 
 import pytest
 
 from sim.study.errors import StudyError
+from sim.study.run.errors import RunError
 from sim.study.run.protocol import (
+    PROTOCOL,
+    PROTOCOL_FILE,
     TrialStatus,
     checked_distance,
     chosen_path,
+    load_protocol,
     observer_input,
     status_from_json,
     status_to_json,
@@ -90,3 +96,44 @@ def test_the_observers_keyboard_lines_are_read_in_their_phase(line: str, phase: 
         assert typed.distance == pytest.approx(value)
     elif value is not None:
         assert value in typed.text
+
+
+# --- the table ----------------------------------------------------------------------------------------------------
+
+
+def test_the_table_gives_each_phase_at_most_one_input_and_each_condition_its_stop_source() -> None:
+    assert [(phase.name, phase.accepts) for phase in PROTOCOL.phases] == [
+        ("to_start", None),
+        ("ready", "go"),
+        ("moving", "stop"),
+        ("at_rest", None),
+        ("distance", "distance"),
+        ("preference", "preference"),
+        ("done", None),
+    ]
+    assert (PROTOCOL.stop_source("vr"), PROTOCOL.stop_source("reality")) == ("vr_trigger", "button")
+    assert "keyboard" in PROTOCOL.stop_sources and PROTOCOL.max_perceived_distance == 2.0
+
+
+def broken_table(tmp_path, change) -> Path:
+    data = json.loads(PROTOCOL_FILE.read_text())
+    change(data)
+    path = tmp_path / "protocol.json"
+    path.write_text(json.dumps(data))
+    return path
+
+
+@pytest.mark.parametrize(
+    "change, said",
+    [
+        (lambda d: d["phases"][1].update(accepts="wave"), "accepts 'wave', which is no input"),
+        (lambda d: d["inputs"].pop("go"), "malformed"),
+        (lambda d: d["phases"].pop(), "end with done"),
+        (lambda d: d["phases"][2].pop("panel"), "says nothing on the VR panel"),
+        (lambda d: d["limits"].pop("stamp_window_s"), "malformed"),
+        (lambda d: d["status"].pop("type"), "needs a topic and a type"),
+    ],
+)
+def test_a_malformed_table_is_one_error_that_says_what(tmp_path, change, said) -> None:
+    with pytest.raises(RunError, match=said):
+        load_protocol(broken_table(tmp_path, change))

@@ -1,14 +1,24 @@
-"""The runner's inputs (sim.study.run.runner.Inputs): presses by their stamps, answers in order, waits bounded."""
+"""The runner's inputs (sim.study.run.runner.Inputs): only what the phase accepts (the protocol's table) is kept,
+presses by their stamps, answers in order, waits bounded."""
 
 from __future__ import annotations
 
 import threading
 
+import pytest
+
+from sim.study.run.protocol import PHASES, PROTOCOL
 from sim.study.run.runner import Inputs
 
 
-def test_presses_are_taken_when_their_time_has_come_and_unstamped_ones_at_once() -> None:
+def entered(phase: str) -> Inputs:
     inputs = Inputs()
+    inputs.enter(phase)
+    return inputs
+
+
+def test_presses_are_taken_when_their_time_has_come_and_unstamped_ones_at_once() -> None:
+    inputs = entered("moving")
     inputs.press(12.40, "vr_trigger")  # sent ahead, stamped when it is to land
     assert inputs.take_press(until=12.38) is None
     taken = inputs.take_press(until=12.40)
@@ -18,30 +28,47 @@ def test_presses_are_taken_when_their_time_has_come_and_unstamped_ones_at_once()
     assert taken is not None and taken.stamp == 0.0 and inputs.take_press(until=1e9) is None
 
 
-def test_clear_forgets_what_came_before_the_phase() -> None:
-    inputs, stop = Inputs(), threading.Event()
+def give_everything(inputs: Inputs) -> None:
     inputs.go()
     inputs.press(1.0, "button")
     inputs.distance(0.2)
     inputs.preference("1")
-    inputs.clear()
+
+
+def kept(inputs: Inputs) -> set[str]:
+    stop = threading.Event()
+    found = {what for what in ("go", "distance", "preference") if inputs.wait(what, 0.0, stop) is not None}
+    return found | ({"stop"} if inputs.take_press(until=1e9) is not None else set())
+
+
+@pytest.mark.parametrize("phase", PHASES)
+def test_a_phase_keeps_only_the_input_it_accepts(phase: str) -> None:
+    inputs = entered(phase)
+    give_everything(inputs)
+    accepted = PROTOCOL.accepts(phase)
+    assert kept(inputs) == (set() if accepted is None else {accepted})
+
+
+def test_entering_a_phase_forgets_what_came_before_it() -> None:
+    inputs = entered("moving")
+    inputs.press(1.0, "button")
+    inputs.enter("moving")  # the next trial's approach
     assert inputs.take_press(until=1e9) is None
-    for what in ("go", "distance", "preference"):
-        assert inputs.wait(what, 0.01, stop) is None
 
 
 def test_answers_come_in_order_and_impossible_distances_are_refused() -> None:
-    inputs, stop = Inputs(), threading.Event()
+    inputs, stop = entered("distance"), threading.Event()
     inputs.distance(-0.3)
     inputs.distance(0.14)
-    inputs.preference("lateral_arc")
     assert inputs.wait("distance", 1.0, stop) == 0.14
     assert inputs.rejected and "perceived distance" in inputs.rejected[0]
+    inputs.enter("preference")
+    inputs.preference("lateral_arc")
     assert inputs.wait("preference", 1.0, stop) == "lateral_arc"
 
 
 def test_a_wait_ends_when_the_answer_comes_from_another_thread_or_on_stop() -> None:
-    inputs, stop = Inputs(), threading.Event()
+    inputs, stop = entered("ready"), threading.Event()
     threading.Timer(0.05, inputs.go).start()
     assert inputs.wait("go", 10.0, stop) is True
     threading.Timer(0.05, stop.set).start()

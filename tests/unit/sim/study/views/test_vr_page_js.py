@@ -16,6 +16,7 @@ from bridge.framing import FrameDecoder, encode_frame, encode_syscommand
 from sim.wire.rosmsgs import deserialize, encode_joint_state, encode_message, time_msg
 
 JS_TESTS = Path(__file__).resolve().parents[4] / "js"
+WEB = Path(__file__).resolve().parents[5] / "sim" / "study" / "views" / "vr" / "web"
 NODE = shutil.which("node") or "/usr/bin/node"
 
 
@@ -26,6 +27,26 @@ def test_the_page_logic_passes_its_node_tests() -> None:
     assert declared > 0 and "# fail 0" in done.stdout and f"# pass {declared}\n" in done.stdout, done.stdout[-1000:]
 
 
+def test_the_page_types_no_rule_of_the_trial_protocol() -> None:
+    """The phases, the stop sources, the topics and the limits are the protocol's table (sim/study/run/protocol.json),
+    which the page gets with its settings: none of them is written into the page's own scripts."""
+    from sim.study.run.protocol import INPUTS, PROTOCOL
+
+    # the inputs' names are the table's keys, by which the page reads it; a phase may share its input's name
+    names = ({phase.name for phase in PROTOCOL.phases} - set(INPUTS)) | set(PROTOCOL.stop_sources)
+    names |= {part for topic in (PROTOCOL.status, *PROTOCOL.inputs.values()) for part in topic}
+    limits = {name.upper() for name in PROTOCOL.data["limits"]} | {"MAX_PERCEIVED_DISTANCE", "LONGEST_MOTION_S"}
+    typed = {}
+    for script in sorted(WEB.glob("*.js")):
+        text = re.sub(r"(?m)(^|\s)//.*$", "", script.read_text())  # comments: their apostrophes pair no quotes
+        strings = set(re.findall(r"'([^'\\]*)'", text)) | set(re.findall(r'"([^"\\]*)"', text))
+        found = sorted(strings & names) + sorted(name for name in limits if name in text)
+        if found:
+            typed[script.name] = found
+    assert typed == {}
+    assert "protocol" in (WEB / "study.js").read_text()
+
+
 def test_the_page_reads_and_writes_what_ros_does() -> None:
     names = ["panda_joint1", "panda_joint2", "jöint_ü"]
     positions, velocities = np.array([0.1, -1.25, 3.5]), np.array([0.0, 2.0, -0.5])
@@ -34,7 +55,7 @@ def test_the_page_reads_and_writes_what_ros_does() -> None:
     given = {
         "joint_state": joint_state.hex(),
         "frames": frames.hex(),
-        "header": {"seq": 4, "stamp": 1.16, "frame_id": "webxr_trigger"},
+        "header": {"seq": 4, "stamp": 1.16, "frame_id": "vr_trigger"},
         "float32": 0.12,
         "string": "lateral_arc",
         "frame": ["/study/stop", "0102"],
@@ -49,9 +70,9 @@ def test_the_page_reads_and_writes_what_ros_does() -> None:
     assert state["positions"] == positions.tolist() and state["velocities"] == velocities.tolist()
     assert out["frames"] == [["/panda/joint_states", joint_state.hex()], ["", ""], ["__ping", b"{}".hex()]]
     header = deserialize(bytes.fromhex(out["header"]), "std_msgs/Header")
-    assert (header.seq, header.stamp.sec, header.stamp.nanosec, header.frame_id) == (4, 1, 160_000_000, "webxr_trigger")
+    assert (header.seq, header.stamp.sec, header.stamp.nanosec, header.frame_id) == (4, 1, 160_000_000, "vr_trigger")
     assert bytes.fromhex(out["header"]) == encode_message(
-        "std_msgs/Header", seq=4, stamp=time_msg(1.16), frame_id="webxr_trigger"
+        "std_msgs/Header", seq=4, stamp=time_msg(1.16), frame_id="vr_trigger"
     )
     assert deserialize(bytes.fromhex(out["float32"]), "std_msgs/Float32").data == pytest.approx(0.12, abs=1e-7)
     assert bytes.fromhex(out["string"]) == encode_message("std_msgs/String", data="lateral_arc")
