@@ -396,7 +396,8 @@ def test_the_sim_is_importable_from_devel_and_install_space_with_the_bundled_rob
         assert script.read_text().splitlines()[0] in ("#!/usr/bin/python3", "#!/usr/bin/env python3")
     # The install space is a copy, data files included: it works without the sources.
     installed = workspace / "install" / "lib" / "python3" / "dist-packages" / "sim"
-    assert (installed / "robots" / "igt.yaml").is_file() and (installed / "study" / "design.yaml").is_file()
+    assert (installed / "robots" / "igt.yaml").is_file() and (installed / "study" / "design" / "design.yaml").is_file()
+    assert (installed / "study" / "run" / "protocol.json").is_file()
 
 
 def test_roslaunch_vr_sim_demo_records_a_trial_with_the_system_python(workspace: Path, tmp_path: Path) -> None:

@@ -69,7 +69,7 @@ def test_a_difference_of_twice_the_sesoi_is_found_more_often_with_more_participa
 
 def test_the_designs_planning_gives_the_defaults_and_bad_input_is_one_line(tmp_path):
     design = tmp_path / "design.yaml"
-    design.write_text((REPO / "sim" / "study" / "design.yaml").read_text().split("planning:")[0])
+    design.write_text((REPO / "sim" / "study" / "design" / "design.yaml").read_text().split("planning:")[0])
     for args, fragment in (
         (["--test", "2", "--design", str(design)], "--difference, --sd-between, --participants, --simulations, --seed"),
         (["--test", "2", "--participants", "8,x"], "--participants must be whole numbers"),
@@ -93,7 +93,7 @@ def test_preregister_writes_the_summary_of_the_design_it_read(tmp_path):
     )
     assert result.returncode == 0, result.stderr
     text = out.read_text()
-    bundled = REPO / "sim" / "study" / "design.yaml"
+    bundled = REPO / "sim" / "study" / "design" / "design.yaml"
     assert f"SHA-256 `{hashlib.sha256(bundled.read_bytes()).hexdigest()}`" in text
     assert text.startswith("# Pre-registration: VR against reality") and "## Decision rules" in text
     planned = "(planned: none of the sizes tried)" if "No size tried" in text else "(planned: "

@@ -82,7 +82,7 @@ def test_bad_input_is_one_line_and_exit_2(tmp_path: Path, case: str) -> None:
         )
         one_error_line(result, "zigzag")
     elif case == "infeasible stand-off":
-        scene = yaml.safe_load((REPO / "sim" / "study" / "scene.yaml").read_text())
+        scene = yaml.safe_load((REPO / "sim" / "study" / "design" / "scene.yaml").read_text())
         scene["hand"]["xyz"] = [1.05, 0.0, 0.0175]  # beyond the Panda's reach
         result = study(
             "simulate",
