@@ -112,10 +112,10 @@ def load_protocol(path: Path = PROTOCOL_FILE) -> Protocol:
         if sorted(data["inputs"]) != sorted(INPUTS):
             raise RunError(f"the inputs must be exactly {', '.join(INPUTS)}, got {', '.join(data['inputs'])}")
         phases = tuple(Phase(entry["name"], entry["accepts"], entry["meaning"]) for entry in data["phases"])
-        for phase in phases:
+        for phase, entry in zip(phases, data["phases"]):
             if phase.accepts is not None and phase.accepts not in INPUTS:
                 raise RunError(f"phase {phase.name} accepts {phase.accepts!r}, which is no input")
-            if not isinstance(data["phases"][phases.index(phase)].get("panel", {}).get("lines"), list):
+            if not isinstance(entry.get("panel", {}).get("lines"), list):
                 raise RunError(f"phase {phase.name} says nothing on the VR panel (panel.lines)")
         stop_sources = {name: entry["condition"] for name, entry in data["stop_sources"].items()}
         low, high = (float(value) for value in data["limits"]["stamp_window_s"])
