@@ -1,30 +1,16 @@
-"""The endpoint's settings, checked before it listens: EndpointConfig and the ConfigError a bad one raises."""
+"""The endpoint's settings, checked before it listens: EndpointConfig (the defaults; bridge.settings says how each
+is given, checked and shown) and the ConfigError a bad one raises."""
 
 from __future__ import annotations
 
 import fnmatch
-import math
 from dataclasses import dataclass
 
-from bridge.errors import BridgeError
 from bridge.framing import LARGE_PAYLOAD_BYTES
 from bridge.protocol import DEFAULT_MAX_PAYLOAD_BYTES, MAX_DESTINATION_BYTES
-from bridge.web_clients import is_address
+from bridge.settings import MAX_FRAME_LENGTH, SETTINGS, ConfigError
 
 __all__ = ["ConfigError", "EndpointConfig", "MAX_FRAME_LENGTH"]
-
-
-class ConfigError(BridgeError, ValueError):
-    """A setting the endpoint cannot serve clients with; `setting` is the EndpointConfig field concerned."""
-
-    def __init__(self, setting: str, problem: str) -> None:
-        super().__init__(f"{setting}: {problem}")
-        self.setting = setting
-        self.problem = problem
-
-
-# Unity's client reads frame lengths as signed 32-bit integers: nothing longer can be framed.
-MAX_FRAME_LENGTH = 2**31 - 1
 
 
 @dataclass
@@ -79,36 +65,10 @@ class EndpointConfig:
 
     def __post_init__(self) -> None:
         """Refuse, before anything starts, settings that would fail later: at bind, or at every client's connect."""
-        if not isinstance(self.tcp_ip, str) or not self.tcp_ip:
-            raise ConfigError("tcp_ip", f"must be an address or host name, got {self.tcp_ip!r}")
-        _check_whole("tcp_port", self.tcp_port, 0, 65535)
-        if self.websocket_port is not None:
-            _check_whole("websocket_port", self.websocket_port, 0, 65535)
-            if self.websocket_port == self.tcp_port and self.tcp_port != 0:
-                raise ConfigError("websocket_port", f"must differ from tcp_port, both are {self.tcp_port}")
-        for pattern in self.websocket_origins:
-            if not isinstance(pattern, str) or not pattern.strip():
-                raise ConfigError("websocket_origins", f"each must be an origin or a pattern, got {pattern!r}")
-        for proxy in self.trusted_proxies:
-            if not isinstance(proxy, str) or not is_address(proxy):
-                raise ConfigError("trusted_proxies", f"each must be an IP address, got {proxy!r}")
-        _check_whole("max_payload_bytes", self.max_payload_bytes, 1, MAX_FRAME_LENGTH)
-        _check_whole("max_destination_bytes", self.max_destination_bytes, 1, MAX_FRAME_LENGTH)
-        _check_whole("client_queue_frames", self.client_queue_frames, 1)
-        _check_whole("client_queue_bytes", self.client_queue_bytes, 1)
-        _check_whole("client_call_workers", self.client_call_workers, 1)
-        _check_whole("client_max_pending_calls", self.client_max_pending_calls, 1)
-        _check_whole("max_clients", self.max_clients, 1)
-        _check_whole("max_clients_per_address", self.max_clients_per_address, 1)
-        _check_whole("max_registrations_per_client", self.max_registrations_per_client, 1)
-        _check_whole("max_registrations", self.max_registrations, 1)
-        _check_whole("max_partial_frame_bytes", self.max_partial_frame_bytes, 1)
-        _check_whole("latest_only_bytes", self.latest_only_bytes, 0)
-        _check_seconds("frame_timeout_s", self.frame_timeout_s)
-        _check_seconds("auth_timeout_s", self.auth_timeout_s)
-        _check_seconds("dead_peer_timeout_s", self.dead_peer_timeout_s)
-        _check_seconds("service_timeout_s", self.service_timeout_s)
-        _check_seconds("publisher_grace_s", self.publisher_grace_s, zero_allowed=True)
+        for setting in SETTINGS:
+            setting.check(getattr(self, setting.name))
+        if self.websocket_port is not None and self.websocket_port == self.tcp_port and self.tcp_port != 0:
+            raise ConfigError("websocket_port", f"must differ from tcp_port, both are {self.tcp_port}")
 
     def latest_only(self, resolved_name: str) -> bool:
         """Whether a client behind on this topic gets only its newest message, whatever the messages' size."""
@@ -120,17 +80,3 @@ class EndpointConfig:
         return not self.allow_topics or any(
             fnmatch.fnmatchcase(resolved_name, pattern) for pattern in self.allow_topics
         )
-
-
-def _check_seconds(setting: str, value: object, zero_allowed: bool = False) -> None:
-    number = isinstance(value, (int, float)) and not isinstance(value, bool)
-    if not number or not (0 <= value < math.inf) or (value == 0 and not zero_allowed):  # type: ignore[operator]
-        kind = "a number of seconds of at least 0" if zero_allowed else "a positive number of seconds"
-        raise ConfigError(setting, f"must be {kind}, got {value!r}")
-
-
-def _check_whole(setting: str, value: object, lowest: int, highest: int | None = None) -> None:
-    in_range = value >= lowest and (highest is None or value <= highest) if isinstance(value, int) else False
-    if isinstance(value, bool) or not in_range:
-        allowed = f"from {lowest} to {highest}" if highest is not None else f"of at least {lowest}"
-        raise ConfigError(setting, f"must be a whole number {allowed}, got {value!r}")

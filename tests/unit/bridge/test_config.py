@@ -2,13 +2,19 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
+from pathlib import Path
 from typing import Any
+from xml.etree import ElementTree
 
 import pytest
 
 from bridge.__main__ import _parser, build_config
 from bridge.config import ConfigError, EndpointConfig
+from bridge.settings import KINDS, SETTINGS, markdown_table, parse_size
+
+REPO = Path(__file__).resolve().parents[3]
 
 
 class Params:
@@ -137,3 +143,56 @@ def test_the_websocket_port_is_off_unless_given_and_zero_means_any_free_port() -
     assert config([], websocket_port=9090).websocket_port == 9090
     assert config(["--websocket-port", "0"], websocket_port=9090).websocket_port == 0
     assert EndpointConfig(tcp_port=0, websocket_port=0).websocket_port == 0  # two free ports, both picked at bind
+
+
+def test_every_setting_is_declared_once_in_the_table() -> None:
+    fields = [field.name for field in dataclasses.fields(EndpointConfig)]
+    assert sorted(setting.name for setting in SETTINGS) == sorted(fields)
+    for attribute in ("option", "param"):
+        spelled = [getattr(setting, attribute) for setting in SETTINGS]
+        assert len(set(spelled)) == len(spelled), f"two settings share an {attribute}"
+    assert all(setting.kind in KINDS for setting in SETTINGS)
+
+
+def test_help_shows_sizes_as_sizes_and_every_settings_rosparam_and_default() -> None:
+    shown = " ".join(_parser().format_help().split())  # argparse wraps lines
+    assert "e+" not in shown and "default 256 MiB" in shown and "default 64 MiB" in shown
+    assert "default 4 MiB" in shown and "default 64 KiB" in shown and "default 30 s" in shown
+    for setting in SETTINGS:
+        assert setting.option in shown and f"rosparam {setting.param};" in shown
+
+
+def test_sizes_are_read_in_bytes_or_binary_units() -> None:
+    assert parse_size("s", "1048576") == parse_size("s", "1MiB") == parse_size("s", " 1 mib ") == 2**20
+    assert parse_size("s", "1.5 KiB") == 1536 and parse_size("s", "2GiB") == 2**31
+    assert config(["--max-payload-bytes", "128MiB"], queue_bytes="8 MiB").client_queue_bytes == 8 * 2**20
+    assert config(["--max-payload-bytes", "128MiB"]).max_payload_bytes == 128 * 2**20
+    for text, problem in (("12 MB", "is not a size"), ("0.3 KiB", "not a whole number of bytes"), ("", "not a size")):
+        with pytest.raises(ConfigError, match=problem):
+            parse_size("s", text)
+    with pytest.raises(ConfigError, match="from 1 to 2147483647, got 2147483648"):
+        config(["--max-payload-bytes", "2GiB"])
+
+
+def test_a_bad_value_on_the_command_line_is_named_like_a_bad_rosparam() -> None:
+    with pytest.raises(ConfigError) as error:
+        config(["--tcp-port", "abc"])
+    assert (error.value.setting, error.value.problem) == ("tcp_port", "'abc' is not a whole number")
+
+
+def test_the_readme_table_is_the_settings_table() -> None:
+    readme = (REPO / "README.md").read_text(encoding="utf-8")
+    start = readme.index("<!-- settings: python -m bridge.settings -->\n")
+    copy = readme[readme.index("\n", start) + 1 : readme.index("<!-- /settings -->")]
+    assert copy.strip() == markdown_table(EndpointConfig()), "run `python -m bridge.settings` and paste its table"
+
+
+def test_the_launch_files_parameters_are_settings_of_their_kind() -> None:
+    by_param = {setting.param.lstrip("~"): setting for setting in SETTINGS}
+    launch = ElementTree.parse(REPO / "catkin_ws/src/ros_tcp_endpoint/launch/endpoint.launch").getroot()
+    params = launch.findall("./node/param")
+    assert params
+    kinds = {"string": ("address", "text", "patterns", "ips"), "int": ("port", "count", "bytes"), "bool": ("switch",)}
+    for param in params:
+        setting = by_param[param.get("name")]  # a KeyError is a parameter the endpoint does not read
+        assert setting.kind in kinds.get(param.get("type"), ("seconds",)), param.get("name")
