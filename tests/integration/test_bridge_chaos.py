@@ -144,4 +144,4 @@ def test_mutated_streams_beside_a_good_client_cost_it_nothing_and_leave_nothing(
         endpoint.stop()
 
 
-pytestmark = pytest.mark.timeout(240)
+pytestmark = [pytest.mark.lane("endpoint", on=("noetic",)), pytest.mark.timeout(240)]

@@ -24,6 +24,8 @@ from tests.integration.bridge_helpers import (
 )
 from tests.rosenv import PYTHON, REPO, ManagedProcess, free_port, wait_for
 
+pytestmark = pytest.mark.lane("endpoint", on=("noetic",))
+
 TOKEN = "s3cret-token"
 
 

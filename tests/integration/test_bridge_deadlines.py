@@ -127,4 +127,4 @@ def first_closed(connections: list[RawConnection], timeout: float) -> RawConnect
     raise TimeoutError(f"none of the connections was closed within {timeout} s")
 
 
-pytestmark = pytest.mark.timeout(120)
+pytestmark = [pytest.mark.lane("endpoint", on=("noetic",)), pytest.mark.timeout(120)]

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import pytest
 from std_msgs.msg import String
 
 from tests.integration.bridge_helpers import (
@@ -16,6 +17,8 @@ from tests.integration.bridge_helpers import (
     wait_subscribers,
 )
 from tests.rosenv import wait_for
+
+pytestmark = pytest.mark.lane("endpoint", on=("noetic",))
 
 
 def test_diagnostics_show_each_client_and_topic(roscore, ros_node, tmp_path) -> None:

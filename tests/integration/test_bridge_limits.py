@@ -238,4 +238,4 @@ def test_a_client_that_never_reads_its_answers_costs_a_bounded_amount(roscore, r
         endpoint.stop()
 
 
-pytestmark = pytest.mark.timeout(180)
+pytestmark = [pytest.mark.lane("endpoint", on=("noetic",)), pytest.mark.timeout(180)]

@@ -22,6 +22,8 @@ from bridge.client import ClientError, TcpClient
 from tests.integration.bridge_helpers import Inbox, RawConnection, serialize, start_endpoint, tcp_client, unique
 from tests.rosenv import EndpointProcess, ManagedProcess, RosCore, wait_for
 
+pytestmark = pytest.mark.lane("endpoint", on=("noetic",))
+
 
 def trigger_response(message: str) -> bytes:
     """std_srvs/Trigger's response, serialized: success, message."""

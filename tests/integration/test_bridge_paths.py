@@ -12,6 +12,7 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
+import pytest
 from std_msgs.msg import String
 from std_srvs.srv import Trigger, TriggerResponse
 
@@ -25,6 +26,8 @@ from tests.integration.bridge_helpers import (
     unique,
 )
 from tests.rosenv import PYTHON, ManagedProcess, wait_for
+
+pytestmark = pytest.mark.lane("endpoint", on=("noetic",))
 
 
 @contextmanager

@@ -27,6 +27,8 @@ from tests.integration.bridge_helpers import (
 )
 from tests.rosenv import free_port, wait_for
 
+pytestmark = pytest.mark.lane("endpoint", on=("noetic",))
+
 _observer_messages = itertools.count()
 
 

@@ -18,6 +18,8 @@ from bridge.framing import LARGE_PAYLOAD_BYTES
 from bridge.ros_reader import FLOOD_READ_BYTES, SUBSCRIBER_READ_BYTES, next_read_size, read_raw_messages
 from bridge.ros_types import RawMessage
 
+pytestmark = pytest.mark.lane("endpoint", on=("noetic",))
+
 SIZES = [0, 1, 321, LARGE_PAYLOAD_BYTES - 1, LARGE_PAYLOAD_BYTES, 5, 2_764_800, 17, 1 << 20]
 
 

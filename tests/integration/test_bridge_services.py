@@ -26,6 +26,8 @@ from tests.integration.bridge_helpers import (
 )
 from tests.rosenv import wait_for
 
+pytestmark = pytest.mark.lane("endpoint", on=("noetic",))
+
 
 def set_bool_service(rospy, name: str, calls: list | None = None):
     def handle(request: SetBoolRequest) -> SetBoolResponse:

@@ -114,4 +114,4 @@ def test_over_a_slow_link_control_messages_overtake_images_and_the_newest_image_
         endpoint.stop()
 
 
-pytestmark = pytest.mark.timeout(120)
+pytestmark = [pytest.mark.lane("endpoint", on=("noetic",)), pytest.mark.timeout(120)]

@@ -25,6 +25,8 @@ from bridge.sockets import (
     unsent_bytes,
 )
 
+pytestmark = pytest.mark.lane("endpoint", on=("noetic",))
+
 DATA = bytes(range(256)) * (32 * 1024)  # 8 MiB: more than loopback's socket buffers hold
 STALL_S = 1.0  # as the endpoint uses (bridge.ros_publisher.SUBSCRIBER_STALL_S)
 

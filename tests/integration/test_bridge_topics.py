@@ -30,6 +30,8 @@ from tests.integration.bridge_helpers import (
 )
 from tests.rosenv import wait_for
 
+pytestmark = pytest.mark.lane("endpoint", on=("noetic",))
+
 JOINTS = [f"joint_{index}" for index in range(1, 8)]
 
 

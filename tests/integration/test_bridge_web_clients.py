@@ -15,6 +15,8 @@ from tests.integration.bridge_helpers import (
 )
 from tests.rosenv import EndpointProcess, RosCore, wait_for
 
+pytestmark = pytest.mark.lane("endpoint", on=("noetic",))
+
 ATTACKER = (("Origin", "https://attacker.example"),)
 
 

@@ -33,6 +33,8 @@ from tests.integration.bridge_helpers import (
 )
 from tests.rosenv import EndpointProcess, RosCore, wait_for
 
+pytestmark = pytest.mark.lane("endpoint", on=("noetic",))
+
 
 @pytest.fixture(scope="module")
 def bridge(roscore: RosCore, ros_node, tmp_path_factory) -> Iterator[EndpointProcess]:

@@ -17,6 +17,8 @@ from tests.integration.sim_helpers import mean_of, report_rows, run_campaign
 from tests.robot_files import LIFT_ARM, PANDA_WITH_HAND, THIRD_PARTY_URDFS, write_gripper_arm
 from tests.rosenv import PYTHON, REPO
 
+pytestmark = pytest.mark.lane("alone", on=("project",))
+
 ENTRY_POINTS = {
     "sim.robots": [],
     "sim.engine": ["--csv", "desired.csv"],

@@ -29,6 +29,8 @@ from sim.campaign import analysis
 from sim.robots import load_robot
 from tests.rosenv import PYTHON, REPO, ManagedProcess, RosCore, free_port, wait_for
 
+pytestmark = pytest.mark.lane("alone", on=("project",))
+
 # What a ROS user's shell has: the system Python first, no venv, nothing of this repository on the path, and
 # their `pip install --user` packages.
 USER_PATH = "/usr/local/sbin:/usr/local/bin:/usr/sbin:/usr/bin:/sbin:/bin"

@@ -21,6 +21,8 @@ from sim.geometry.kinematics import chain_for
 from sim.robots import load_robot
 from tests.rosenv import PYTHON, REPO, ManagedProcess, wait_for
 
+pytestmark = pytest.mark.lane("alone", on=("noetic",))
+
 DT = 0.02
 
 

@@ -20,6 +20,8 @@ from sim.robots import RobotSpec, load_robot
 from tests.robot_files import THIRD_PARTY_URDFS
 from tests.rosenv import PYTHON, REPO, ManagedProcess, wait_for
 
+pytestmark = pytest.mark.lane("beside", on=("noetic",))
+
 WORKSPACE_SETUP = REPO / "catkin_ws" / "devel" / "setup.bash"
 
 

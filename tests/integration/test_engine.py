@@ -17,6 +17,8 @@ from sim.robots import load_robot
 from tests.integration.sim_helpers import DT, Controller, reference_run, sine_motion, start_engine
 from tests.rosenv import EndpointProcess, ManagedProcess, free_port, wait_for
 
+pytestmark = pytest.mark.lane("alone", on=("noetic", "jammy"))
+
 PANDA = load_robot("panda")
 IGT = load_robot("igt")
 PRIMING = 3

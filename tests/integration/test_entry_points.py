@@ -9,6 +9,8 @@ import pytest
 
 from tests.rosenv import PYTHON, REPO
 
+pytestmark = pytest.mark.lane("beside", on=("project",))
+
 COMMANDS = [
     ("sim.commander", ["--scenario", "sweep"]),
     ("sim.engine", []),

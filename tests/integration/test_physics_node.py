@@ -15,6 +15,8 @@ from sim.robots import load_robot
 from tests.integration.sim_helpers import DT, Controller, reference_run, sine_motion, start_physics_node
 from tests.rosenv import ManagedProcess, wait_for
 
+pytestmark = pytest.mark.lane("alone", on=("noetic",))
+
 PANDA = load_robot("panda")
 IGT = load_robot("igt")
 PRIMING = 3

@@ -13,6 +13,8 @@ import pytest
 
 from sim.processes import PYTHON, REPO, plain_env
 
+pytestmark = pytest.mark.lane("beside", on=("project",))
+
 
 def power(tmp_path: Path, *args: str) -> dict:
     out = tmp_path / "power.json"

@@ -9,9 +9,13 @@ import shutil
 import threading
 from pathlib import Path
 
+import pytest
+
 from sim.control import controller_node
 from sim.processes import RosCore, wait_for, writes_to
 from sim.robots import load_robot
+
+pytestmark = pytest.mark.lane("beside", on=("project",))
 
 
 def test_a_roscore_removes_its_own_temp_dir_unless_its_logs_are_kept() -> None:

@@ -180,6 +180,8 @@ def test_a_vr_scene_stops_the_robot_and_answers_through_the_endpoint(roscore, en
     assert to_seconds(last.header.stamp) > 0
 
 
+# On Noetic's Python: runner, participants, rosbag and report as a ROS Noetic user runs them
+@pytest.mark.lane("alone", on=("noetic",))
 def test_simulated_participants_run_the_study_and_the_analysis_recovers_their_biases(tmp_path: Path) -> None:
     """Four simulated participants through the whole study: roscore, endpoint, engine, the runner, participants over
     TCP, rosbag record, the report and its plots. launch_scripts/test.sh runs it on ROS Noetic's Python 3.8, where
@@ -222,7 +224,7 @@ def test_simulated_participants_run_the_study_and_the_analysis_recovers_their_bi
         assert derived in log.read_text(), log
 
 
-pytestmark = pytest.mark.timeout(400)
+pytestmark = [pytest.mark.lane("alone", on=("project",)), pytest.mark.timeout(400)]
 
 
 def test_the_observer_drives_a_reality_trial_from_the_runners_keyboard(roscore, endpoint, tmp_path: Path) -> None:

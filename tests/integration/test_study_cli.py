@@ -13,6 +13,8 @@ from sim.processes import PYTHON, REPO, plain_env
 from sim.study.design.plan import plan_from_data
 from tests.robot_files import PANDA_WITH_HAND
 
+pytestmark = pytest.mark.lane("beside", on=("project",))
+
 
 def study(*args: str, timeout: float = 120) -> subprocess.CompletedProcess:
     return subprocess.run(

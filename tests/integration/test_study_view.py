@@ -96,4 +96,4 @@ def test_the_live_view_shows_the_scene_the_plan_the_trail_and_the_stop(
         engine.stop()
 
 
-pytestmark = pytest.mark.timeout(300)
+pytestmark = [pytest.mark.lane("alone", on=("project",)), pytest.mark.timeout(300)]

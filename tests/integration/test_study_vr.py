@@ -256,7 +256,7 @@ def test_an_emulated_quest_enters_the_session_and_answers_the_runner(tmp_path: P
     assert float(second["press_time"]) == pytest.approx(stamp - motion_start + late, abs=0.01)
 
 
-pytestmark = pytest.mark.timeout(400)
+pytestmark = [pytest.mark.lane("alone", on=("project",)), pytest.mark.timeout(400)]
 
 
 def test_the_pages_server_passes_only_its_own_page_on_with_the_browsers_address(roscore, ros_node, tmp_path) -> None:

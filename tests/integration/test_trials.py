@@ -18,6 +18,8 @@ from sim.campaign.analysis import scenario_start
 from sim.robots import load_robot
 from tests.integration.sim_helpers import mean_of, report_rows, run_campaign
 
+pytestmark = pytest.mark.lane("alone", on=("project",))
+
 ROBOTS = ("panda", "igt")
 USE_CASES = ("auto_simulate_off", "no_ros")
 TRIALS = 2
@@ -109,6 +111,8 @@ def test_no_ros_use_case_compares_the_engines_csv_log_with_its_input(campaign) -
         assert max_error < 1e-3
 
 
+# On Noetic's Python: the campaign's nodes as a ROS Noetic user runs them (the other campaigns run on the project's)
+@pytest.mark.lane("alone", on=("noetic",))
 def test_the_base_case_tracks_the_sweep_and_loses_nothing(tmp_path: Path, roscore) -> None:
     """The thesis's base case (endpoint + TCP engine, physics, auto-simulate at the default time scale), one trial
     of the Panda: every moving joint within the issue's 0.05 % MAPE, no message lost. launch_scripts/test.sh also runs
