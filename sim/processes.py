@@ -34,6 +34,8 @@ __all__ = [
     "kill_process",
     "ros_environment",
     "ManagedProcess",
+    "OUTPUT_TAIL_CHARS",
+    "output_tail",
     "RosCore",
     "EndpointProcess",
     "endpoint_ports",
@@ -99,6 +101,14 @@ def ros_environment(master_uri: str, home: Path, host: str = "127.0.0.1") -> dic
     return env
 
 
+# How much of a failed process's output an error shows: its last lines, where the reason usually is.
+OUTPUT_TAIL_CHARS = 3000
+
+
+def output_tail(process: ManagedProcess) -> str:
+    return process.output()[-OUTPUT_TAIL_CHARS:]
+
+
 class ManagedProcess:
     """A subprocess in its own process group, output captured to a log file."""
 
@@ -138,7 +148,7 @@ class ManagedProcess:
                 return True
             if self.process.poll() is not None:
                 raise ProcessError(
-                    f"{self.name} exited ({self.process.returncode}) before printing {text!r}:\n{output[-3000:]}"
+                    f"{self.name} exited ({self.process.returncode}) before printing {text!r}:\n{output_tail(self)}"
                 )
             return False
 
@@ -149,7 +159,7 @@ class ManagedProcess:
         try:
             return self.process.wait(timeout)
         except subprocess.TimeoutExpired:
-            raise ProcessError(f"{self.name} still running after {timeout} s:\n{self.output()[-3000:]}") from None
+            raise ProcessError(f"{self.name} still running after {timeout} s:\n{output_tail(self)}") from None
 
     def stop(self, timeout: float = 5.0) -> int | None:
         kill_process(self.process, timeout)

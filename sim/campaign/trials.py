@@ -35,15 +35,8 @@ from sim.control.scenarios import ScenarioConfig, build_motion
 from sim.engine.physics import Mode
 from sim.entry import EXIT_BAD_INPUT, EXIT_FAILED, EXIT_OK, fail, log_to_stderr
 from sim.errors import SimError
-from sim.processes import (
-    PYTHON,
-    EndpointProcess,
-    ManagedProcess,
-    RosCore,
-    plain_env,
-    start_recorder,
-    stop_recorder,
-)
+from sim.launchers import Commander, Engine, finish, start
+from sim.processes import EndpointProcess, RosCore, plain_env, start_recorder, stop_recorder
 from sim.robots import ROBOT_NAMES, RobotError, RobotSpec, add_robot_overrides, load_robot, overrides_from_args
 from sim.wire.contract import STEP_S
 
@@ -259,45 +252,10 @@ class Campaign:
 
     def _run_csv(self, robot: RobotSpec, case: UseCase, paths: TrialPaths) -> analysis.TrialSeries:
         logs = paths.process_logs
-        commander = ManagedProcess(
-            [
-                PYTHON,
-                "-m",
-                "sim.commander",
-                *robot.cli_args,
-                "--scenario",
-                "sweep",
-                "--dt",
-                str(STEP_S),
-                "--export-csv",
-                str(paths.desired_csv),
-                "--export-only",
-            ],
-            plain_env(),
-            logs,
-            "commander",
-        )
-        _expect_success(commander, self.timeout_s)
-        engine = ManagedProcess(
-            [
-                PYTHON,
-                "-m",
-                "sim.engine",
-                *robot.cli_args,
-                "--mode",
-                case.mode.value,
-                "--dt",
-                str(STEP_S),
-                "--csv",
-                str(paths.desired_csv),
-                "--log",
-                str(paths.achieved_csv),
-            ],
-            plain_env(),
-            logs,
-            "engine",
-        )
-        _expect_success(engine, self.timeout_s)
+        export = Commander(robot.cli_args, ["sweep"], STEP_S, export_csv=paths.desired_csv, export_only=True)
+        finish(start(export, plain_env(), logs, "commander"), self.timeout_s)
+        replay = Engine(robot.cli_args, STEP_S, mode=case.mode.value, csv=paths.desired_csv, log=paths.achieved_csv)
+        finish(start(replay, plain_env(), logs, "engine"), self.timeout_s)
         return analysis.read_csv_pair(paths.desired_csv, paths.achieved_csv, robot)
 
     def _run_ros(
@@ -305,60 +263,38 @@ class Campaign:
     ) -> None:
         logs = paths.process_logs
         topics = [robot.command_topic, robot.joint_states_topic, "/clock", robot.pose_topic]
+        wall_clock = self.time_scale if case.auto_simulate else None
         with ExitStack() as running:
             endpoint = EndpointProcess(where.bridge_env, logs, host=where.endpoint_host, prefix=where.bridge_prefix)
             running.callback(endpoint.stop)
-            port = endpoint.port
-            engine_args = [
-                PYTHON,
-                "-m",
-                "sim.engine",
-                *robot.cli_args,
-                "--host",
-                where.endpoint_host,
-                "--port",
-                str(port),
-                "--mode",
-                case.mode.value,
-                "--dt",
-                str(STEP_S),
-            ]
-            engine_args += ["--time-scale", str(self.time_scale)] if case.auto_simulate else ["--no-auto-simulate"]
-            engine = ManagedProcess(engine_args, plain_env(), logs, "engine", where.engine_prefix)
-            running.callback(engine.stop)
             recorder = start_recorder(paths.bag, topics, "trial_recorder", where.ros_env, logs, where.ros_prefix)
             running.callback(lambda: stop_recorder(recorder, paths.bag))
-            engine.wait_for_output("connected to", timeout=60)
+            engine = Engine(
+                robot.cli_args,
+                STEP_S,
+                port=endpoint.port,
+                host=where.endpoint_host,
+                mode=case.mode.value,
+                auto_simulate=case.auto_simulate,
+                time_scale=wall_clock,
+            )
+            running.callback(start(engine, plain_env(), logs, "engine", where.engine_prefix).stop)
             recorder.wait_for_output("Recording to", timeout=30)
-            commander_args = [
-                PYTHON,
-                "-m",
-                "sim.commander",
-                *robot.cli_args,
-                "--scenario",
-                *scenario,
-                "--dt",
-                str(STEP_S),
-                "--log",
-                str(paths.commander_log),
-                "--wait-for",
-                "trial_recorder",
-                "--timeout",
-                "30",
-            ]
-            if case.auto_simulate:
-                commander_args += ["--realtime", "--time-scale", str(self.time_scale)]
-            commander = ManagedProcess(commander_args, where.ros_env, logs, "commander", where.ros_prefix)
-            running.callback(commander.stop)
-            _expect_success(commander, self.timeout_s)
+            commander = Commander(
+                robot.cli_args,
+                scenario,
+                STEP_S,
+                log=paths.commander_log,
+                wait_for=("trial_recorder",),
+                timeout=30,
+                realtime=case.auto_simulate,
+                time_scale=wall_clock,
+            )
+            process = start(commander, where.ros_env, logs, "commander", where.ros_prefix)
+            running.callback(process.stop)
+            finish(process, self.timeout_s)
         if not paths.bag.exists():
             raise TrialError(f"rosbag record left no {paths.bag}; see {recorder.log_path}")
-
-
-def _expect_success(process: ManagedProcess, timeout_s: float) -> None:
-    code = process.wait(timeout_s)
-    if code != 0:
-        raise TrialError(f"{process.name} exited with {code}:\n{process.output()[-3000:]}")
 
 
 # --- campaign --------------------------------------------------------------------------------------------------

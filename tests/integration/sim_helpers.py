@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from sim.engine.physics import Mode, PhysicsWorld
+from sim.launchers import Engine, PhysicsNode, start
 from sim.processes import writes_to
 from sim.robots import RobotSpec
 from sim.wire.contract import STAMP_TOLERANCE_S, STEP_S
@@ -30,27 +31,11 @@ def start_engine(
     roscore: RosCore, log_dir: Path, robot: str, port: int, *extra: str, name: str = "engine"
 ) -> ManagedProcess:
     """`python -m sim.engine --robot R --port P ...`, returned once it reports the connection to the endpoint."""
-    process = ManagedProcess(
-        [PYTHON, "-m", "sim.engine", "--robot", robot, "--port", str(port), *extra], roscore.env, log_dir, name
-    )
-    try:
-        process.wait_for_output("connected to", timeout=30)
-    except BaseException:
-        process.stop()
-        raise
-    return process
+    return start(Engine(("--robot", robot), port=port, extra=extra), roscore.env, log_dir, name, timeout=30)
 
 
 def start_physics_node(roscore: RosCore, log_dir: Path, robot: str, *extra: str) -> ManagedProcess:
-    process = ManagedProcess(
-        [PYTHON, "-m", "sim.physics_node", "--robot", robot, *extra], roscore.env, log_dir, f"{robot}_physics"
-    )
-    try:
-        process.wait_for_output("physics node:", timeout=30)
-    except BaseException:
-        process.stop()
-        raise
-    return process
+    return start(PhysicsNode(("--robot", robot), extra=extra), roscore.env, log_dir, f"{robot}_physics", timeout=30)
 
 
 def ros_time(rospy, seconds: float):

@@ -18,8 +18,9 @@ import pytest
 from sim.control.scenarios import ScenarioConfig, build_motion, pose_errors
 from sim.geometry.frames import matrix_to_quat
 from sim.geometry.kinematics import chain_for
+from sim.launchers import PhysicsNode, start, wait_ready
 from sim.robots import load_robot
-from tests.rosenv import PYTHON, REPO, ManagedProcess, wait_for
+from tests.rosenv import PYTHON, REPO, wait_for
 
 pytestmark = pytest.mark.lane("alone", on=("noetic",))
 
@@ -68,18 +69,11 @@ class Probe:
 def engines(roscore, ros_node, tmp_path_factory):
     """One /clock-driven physics node per robot (commander runs reuse them: /clock restarting at 0 re-anchors)."""
     log_dir = tmp_path_factory.mktemp("engines")
-    nodes = {
-        name: ManagedProcess(
-            [PYTHON, "-m", "sim.physics_node", "--robot", name, "--no-auto-simulate"],
-            roscore.env,
-            log_dir,
-            f"physics_{name}",
-        )
-        for name in ("panda", "igt")
-    }
+    launchers = {name: PhysicsNode(("--robot", name), auto_simulate=False) for name in ("panda", "igt")}
+    nodes = {name: start(node, roscore.env, log_dir, f"physics_{name}", wait=False) for name, node in launchers.items()}
     try:
-        for node in nodes.values():
-            node.wait_for_output("physics node:", timeout=30)
+        for name, node in nodes.items():
+            wait_ready(node, launchers[name], timeout=30)
         yield nodes
     finally:
         for node in nodes.values():

@@ -18,6 +18,7 @@ from rosbags.rosbag1 import Reader
 
 from bridge.client import TcpClient
 from sim.geometry.kinematics import chain_for
+from sim.launchers import Runner, finish, start
 from sim.processes import plain_env
 from sim.study.design.paths import ON_TOP
 from sim.study.design.scene import load_scene, scene_robot
@@ -128,14 +129,9 @@ def test_a_vr_scene_stops_the_robot_and_answers_through_the_endpoint(roscore, en
     engine = start_engine(roscore, tmp_path, "panda", endpoint.port, "--no-auto-simulate")
     scene = ScriptedVrScene(endpoint.port)
     scene.client.connect(timeout=30)
-    runner = ManagedProcess(
-        [PYTHON, "-m", "sim.study", "run", "--plan", str(plan), "--out", str(tmp_path / "out")],
-        roscore.env,
-        tmp_path,
-        "runner",
-    )
+    runner = start(Runner(plan, tmp_path / "out"), roscore.env, tmp_path, "runner")
     try:
-        assert runner.wait(120) == 0, runner.output()[-3000:]
+        finish(runner, 120)
         assert scene.done.wait(10)
     finally:
         runner.stop()

@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
+from sim.launchers import LiveView, Participant, Runner, finish, start, wait_ready
 from sim.processes import plain_env
 from sim.study.design.paths import ON_TOP
 from sim.study.views.live import COLOURS
@@ -19,7 +20,7 @@ from tests.integration import browser_helpers
 from tests.integration.browser_helpers import chromium
 from tests.integration.sim_helpers import start_engine
 from tests.integration.study_helpers import trial, write_plan
-from tests.rosenv import PYTHON, ManagedProcess, free_port, wait_for
+from tests.rosenv import free_port, wait_for
 
 
 @pytest.fixture
@@ -58,34 +59,19 @@ def test_the_live_view_shows_the_scene_the_plan_the_trail_and_the_stop(
 ) -> None:
     engine = start_engine(roscore, tmp_path, "panda", endpoint.port, "--no-auto-simulate")
     http = free_port()
-    view = ManagedProcess(
-        [PYTHON, "-m", "sim.study", "view", "--port", str(endpoint.port), "--http-port", str(http)],
-        plain_env(),
-        tmp_path,
-        "view",
-    )
-    participant = ManagedProcess(
-        [PYTHON, "-m", "sim.study", "participant", "--participant", "5", "--seed", "2", "--port", str(endpoint.port)],
-        plain_env(),
-        tmp_path,
-        "participant",
-    )
+    view = start(LiveView(endpoint.port, http), plain_env(), tmp_path, "view", wait=False)
+    participant = start(Participant(5, 2, endpoint.port), plain_env(), tmp_path, "participant", wait=False)
     try:
-        view.wait_for_output("view: http", timeout=60)
-        participant.wait_for_output("connected", timeout=60)
+        wait_ready(view, LiveView(endpoint.port, http))
+        wait_ready(participant, Participant(5, 2, endpoint.port))
         browser.get(f"http://127.0.0.1:{http}")
         before = settled_screenshot(browser, tmp_path / "before.png", "/hand")
         assert pixels_like(before, COLOURS["hand"]) > 300 and pixels_like(before, COLOURS["table"]) > 20_000
         for part in ("path", "trail", "stop"):
             assert pixels_like(before, COLOURS[part]) < 20, part
         plan = write_plan(tmp_path / "plan.yaml", 5, "vr", [trial(1, "vr", 2, "straight", ON_TOP, 0.3, "fast", 1)])
-        runner = ManagedProcess(
-            [PYTHON, "-m", "sim.study", "run", "--plan", str(plan), "--out", str(tmp_path / "out"), "--no-record"],
-            roscore.env,
-            tmp_path,
-            "runner",
-        )
-        assert runner.wait(120) == 0, runner.output()[-2000:]
+        runner = start(Runner(plan, tmp_path / "out", record=False), roscore.env, tmp_path, "runner")
+        finish(runner, 120)
         after = settled_screenshot(browser, tmp_path / "after.png", "/stop_distance")
         counts = {part: pixels_like(after, COLOURS[part]) for part in ("hand", "path", "trail", "stop")}
         assert counts["hand"] > 300 and counts["path"] > 200 and counts["trail"] > 50 and counts["stop"] > 20, counts

@@ -68,6 +68,7 @@ def test_the_client_and_the_engine_stand_in_import_no_ros(module: str) -> None:
 SIM_LAYERS = (
     ("errors", "entry"),
     ("cli_values", "processes"),
+    ("launchers",),
     ("robots",),
     ("geometry",),
     ("wire",),

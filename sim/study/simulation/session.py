@@ -14,7 +14,8 @@ from typing import Any, Callable, Mapping
 
 import yaml
 
-from sim.processes import PYTHON, EndpointProcess, ManagedProcess, ProcessError, RosCore, plain_env
+from sim.launchers import Engine, Participant, Runner, finish, start, wait_ready
+from sim.processes import EndpointProcess, ManagedProcess, ProcessError, RosCore, plain_env
 from sim.study.analysis.report import load_study, write_report
 from sim.study.design.feasibility import plan_combinations
 from sim.study.design.plan import make_plan, plan_to_data
@@ -42,16 +43,11 @@ class Simulation:
     robot_overrides: Mapping[str, Any] = field(default_factory=dict)  # load_robot's keywords from the command line
 
 
-def _expect(process: ManagedProcess, timeout: float) -> str:
+def _finish(process: ManagedProcess, timeout: float) -> str:
     try:
-        code = process.wait(timeout)
+        return finish(process, timeout)
     except ProcessError as error:
         raise SimulationError(str(error)) from None
-    if code != 0:
-        raise SimulationError(
-            f"{process.name} exited with {code}; its log: {process.log_path}\n{process.output()[-2000:]}"
-        )
-    return process.output()
 
 
 def simulate(settings: Simulation, log: Callable[[str], None]) -> Path:
@@ -93,69 +89,20 @@ def simulate(settings: Simulation, log: Callable[[str], None]) -> Path:
             plan_path = out / "plans" / f"participant_{number:02d}.yaml"
             plan_path.parent.mkdir(parents=True, exist_ok=True)
             plan_path.write_text(yaml.safe_dump(plan_to_data(plan), sort_keys=False))
-            with ExitStack() as session:
-                engine = ManagedProcess(
-                    [
-                        PYTHON,
-                        "-m",
-                        "sim.engine",
-                        *robot.cli_args,
-                        "--port",
-                        str(port),
-                        "--no-auto-simulate",
-                        "--dt",
-                        str(settings.dt),
-                    ],
-                    plain_env(),
-                    logs,
-                    "engine",
-                )
-                session.callback(engine.stop)
-                participant = ManagedProcess(
-                    [
-                        PYTHON,
-                        "-m",
-                        "sim.study",
-                        "participant",
-                        "--participant",
-                        str(number),
-                        "--seed",
-                        str(settings.seed),
-                        "--port",
-                        str(port),
-                        "--dt",
-                        str(settings.dt),
-                        *truths,
-                        *scene_and_robot,
-                    ],
-                    plain_env(),
-                    logs,
-                    f"participant_{number:02d}",
-                )
-                session.callback(participant.stop)
-                engine.wait_for_output("connected to", timeout=60)
-                participant.wait_for_output("connected", timeout=60)
-                runner = ManagedProcess(
-                    [
-                        PYTHON,
-                        "-m",
-                        "sim.study",
-                        "run",
-                        "--plan",
-                        str(plan_path),
-                        "--out",
-                        str(out),
-                        "--dt",
-                        str(settings.dt),
-                        *scene_and_robot,
-                    ],
-                    core.env,
-                    logs,
-                    f"runner_{number:02d}",
-                )
-                session.callback(runner.stop)
-                summary = _expect(runner, settings.timeout)
-                _expect(participant, 60)
+            with ExitStack() as session:  # the engine and the participant start side by side
+                engine = Engine(robot.cli_args, settings.dt, port=port, auto_simulate=False)
+                participant = Participant(number, settings.seed, port, scene_and_robot, settings.dt, truths)
+                engine_process = start(engine, plain_env(), logs, "engine", wait=False)
+                session.callback(engine_process.stop)
+                answering = start(participant, plain_env(), logs, f"participant_{number:02d}", wait=False)
+                session.callback(answering.stop)
+                wait_ready(engine_process, engine)
+                wait_ready(answering, participant)
+                runner = Runner(plan_path, out, scene_and_robot, settings.dt)
+                running_session = start(runner, core.env, logs, f"runner_{number:02d}")
+                session.callback(running_session.stop)
+                summary = _finish(running_session, settings.timeout)
+                _finish(answering, 60)
             line = next((line for line in summary.splitlines() if line.startswith(f"participant {number}:")), "")
             log(line or f"participant {number}: done")
     records = load_study(out)
