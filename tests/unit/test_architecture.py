@@ -52,6 +52,7 @@ def test_pure_bridge_modules_import_neither_sockets_nor_ros(module: str) -> None
         "sim.robots",
         "sim.control.scenarios",
         "sim.study.design.paths",
+        "sim.study.design.tool",
         "sim.study.run.protocol",
         "sim.study.analysis.summary",
         "sim.study.participants.simulated",

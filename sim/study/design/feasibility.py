@@ -1,10 +1,11 @@
 """An approach path made joint motion and checked before it is ever run: IK of every sample
 (sim.geometry.kinematics), joint position and velocity limits, no contact with the table, the hand or the robot
-itself (pybullet's collision shapes), and the stand-off actually reached (FK of the planned end). An infeasible
+itself (pybullet's collision shapes; of its own link pairs only those that can really meet, see
+sim.engine.self_contact), and the stand-off actually reached (FK of the planned end). An infeasible
 combination is reported with every reason, never run.
 
-The end effector keeps the orientation it has at home throughout (the Panda's flange points down), on the axes
-its chain controls (sim.control.scenarios.defaults).
+The end effector keeps one orientation throughout, on the axes its chain controls (sim.control.scenarios.defaults):
+its tool pointing straight down, turned the least from home (sim.study.design.tool; the Panda's is its home's).
 """
 
 from __future__ import annotations
@@ -19,12 +20,14 @@ import pybullet as p
 
 from sim.control.scenarios.defaults import controllable_weights
 from sim.engine.physics import load_urdf_text
+from sim.engine.self_contact import CONTACT_MARGIN, link_names, self_contact  # closer than the margin is contact
 from sim.geometry.frames import matrix_to_quat, rpy_to_matrix
 from sim.geometry.kinematics import chain_for, solve_ik, solve_path_ik
 from sim.robots import RobotSpec, find_ros_package
 from sim.robots.meshes import resolve_shapes
 from sim.study.design.paths import ApproachPath, approach_path
 from sim.study.design.scene import Box, Scene
+from sim.study.design.tool import approach_rotation
 
 __all__ = [
     "CONTACT_MARGIN",
@@ -36,7 +39,6 @@ __all__ = [
     "plan_combinations",
 ]
 
-CONTACT_MARGIN = 0.005  # m: closer than this to the table, the hand or itself counts as contact
 STANDOFF_TOLERANCE = 0.002  # m: FK of the planned end vs the path's stand-off
 _IK_RESTARTS = 20
 
@@ -92,9 +94,16 @@ class SceneWorld:
             j for j in range(p.getNumJoints(self._body, physicsClientId=cid)) if self._below(j, self._joints[0])
         }
         self._obstacles = {"table": self._box(scene.table), "hand": self._box(scene.hand)}
-        # Link pairs that touch at every configuration (neighbours through fixed joints, e.g. the Panda's hand and
-        # link 7) are no collision: measured once at home and left out.
-        self._resting = {pair for pair, _ in self._self_distances(self.robot.home)}
+        # Only link pairs that can really collide are checked against each other (adjacent ones, those that touch
+        # by construction and those that never meet are not): decided once per robot, as MoveIt decides it.
+        names = link_names(self._body, cid)
+        verdict = self_contact(self.robot)
+        self._checked = {
+            (a, b)
+            for a in range(-1, len(names) - 1)
+            for b in range(a + 1, len(names) - 1)
+            if verdict.checks(names[a + 1], names[b + 1])
+        }
 
     def _below(self, link: int, joint: int) -> bool:
         """Whether pybullet link `link` (= its joint's index) is `joint`'s child or below it."""
@@ -135,7 +144,7 @@ class SceneWorld:
         for name, body in self._obstacles.items():
             points = p.getClosestPoints(self._body, body, reach, physicsClientId=self._client)
             result[name] = min((float(c[8]) for c in points if c[3] in self._moving), default=math.inf)
-        touching = [distance for pair, distance in self._self_distances(q) if pair not in self._resting]
+        touching = [distance for pair, distance in self._self_distances(q) if pair in self._checked]
         result["self"] = min(touching, default=math.inf)
         return result
 
@@ -157,6 +166,7 @@ def plan_approach(robot: RobotSpec, scene: Scene, path: ApproachPath, world: Sce
     home_pose = chain.fk(robot.home)
     weights = controllable_weights(chain, robot.home)
     targets = np.tile(home_pose, (len(path.times), 1, 1))
+    targets[:, :3, :3] = approach_rotation(chain, robot.home, scene.to_base_direction(np.array([0.0, 0.0, -1.0])))
     targets[:, :3, 3] = scene.to_base(path.positions)
     problems: list[str] = []
     first = solve_ik(chain, targets[0], robot.home, weights=weights, restarts=_IK_RESTARTS, rng=0)

@@ -77,6 +77,10 @@ class Scene:
         pose = self.base_pose
         return (np.asarray(world_points, dtype=float) - pose[:3, 3]) @ pose[:3, :3]
 
+    def to_base_direction(self, world_direction: np.ndarray) -> np.ndarray:
+        """A world direction in the robot's base frame."""
+        return rpy_to_matrix(*self.base_rpy).T @ np.asarray(world_direction, dtype=float)
+
     def to_world(self, base_points: np.ndarray) -> np.ndarray:
         pose = self.base_pose
         return np.asarray(base_points, dtype=float) @ pose[:3, :3].T + pose[:3, 3]
