@@ -17,11 +17,11 @@ import yaml
 from rosbags.rosbag1 import Reader
 
 from bridge.client import TcpClient
-from sim.geometry.kinematics import chain_for
 from sim.launchers import Runner, finish, start
 from sim.processes import plain_env
 from sim.study.design.paths import ON_TOP
 from sim.study.design.scene import load_scene, scene_robot
+from sim.study.design.world import SceneWorld
 from sim.study.run.protocol import (
     DISTANCE_TOPIC,
     GO_TOPIC,
@@ -171,8 +171,8 @@ def test_a_vr_scene_stops_the_robot_and_answers_through_the_endpoint(roscore, en
     states = bag_messages(bag, ROBOT.joint_states_topic)
     last = states[-1]
     positions = np.array([last.position[list(last.name).index(name)] for name in ROBOT.joint_names])
-    point = SCENE.to_world(chain_for(ROBOT).fk(positions)[:3, 3][None])[0]
-    assert SCENE.hand.distance(point) == pytest.approx(float(unpressed["distance_at_rest"]), abs=1e-4)
+    with SceneWorld(ROBOT, SCENE) as world:  # the robot's nearest surface, the scene's definition of the distance
+        assert world.hand_distance(positions) == pytest.approx(float(unpressed["distance_at_rest"]), abs=1e-4)
     assert to_seconds(last.header.stamp) > 0
 
 

@@ -2,7 +2,8 @@
 (sim.geometry.kinematics), joint position and velocity limits, no contact with the table, the hand or the robot
 itself (pybullet's collision shapes; of its own link pairs only those that can really meet, see
 sim.engine.self_contact), and the stand-off actually reached (FK of the planned end). An infeasible
-combination is reported with every reason, never run.
+combination is reported with every reason, never run. Distances to the hand are the scene's (Scene.distance):
+by default from the robot's collision geometry, so a path's end is where its nearest surface is the stand-off.
 
 The end effector keeps one orientation throughout, on the axes its chain controls (sim.control.scenarios.defaults):
 its tool pointing straight down, turned the least from home (sim.study.design.tool; the Panda's is its home's).
@@ -16,31 +17,31 @@ from dataclasses import dataclass, field
 from typing import Tuple
 
 import numpy as np
-import pybullet as p
 
 from sim.control.scenarios.defaults import controllable_weights
-from sim.engine.physics import load_urdf_text
-from sim.engine.self_contact import CONTACT_MARGIN, link_names, self_contact  # closer than the margin is contact
-from sim.geometry.frames import matrix_to_quat, rpy_to_matrix
 from sim.geometry.kinematics import chain_for, solve_ik, solve_path_ik
-from sim.robots import RobotSpec, find_ros_package
-from sim.robots.meshes import resolve_shapes
+from sim.robots import RobotSpec
+from sim.study.design.errors import DesignError
 from sim.study.design.paths import ApproachPath, approach_path
-from sim.study.design.scene import Box, Scene
+from sim.study.design.scene import Scene
 from sim.study.design.tool import approach_rotation
+from sim.study.design.world import CONTACT_MARGIN, SceneWorld
 
 __all__ = [
+    "Approaches",
     "CONTACT_MARGIN",
     "STANDOFF_TOLERANCE",
     "Combination",
     "PlannedApproach",
     "SceneWorld",
     "plan_approach",
+    "plan_combination",
     "plan_combinations",
 ]
 
 STANDOFF_TOLERANCE = 0.002  # m: FK of the planned end vs the path's stand-off
 _IK_RESTARTS = 20
+_STANDOFF_ROUNDS = 4
 
 # path name, stand-off (m), peak speed (m/s); typing.Tuple, as an alias is evaluated at run time (3.8 has no tuple[])
 Combination = Tuple[str, float, float]
@@ -51,113 +52,15 @@ class PlannedApproach:
     path: ApproachPath
     positions: np.ndarray  # (N, dof) joint positions, rad or m
     velocities: np.ndarray  # (N, dof)
-    reached_standoff: float  # m: FK of the last sample to the hand
+    reached_standoff: float  # m: the robot's distance to the hand at the last sample (the scene's definition)
     min_clearance: dict[str, float]  # smallest distance over the path: "table", "hand", "self"
+    distances: np.ndarray  # (N,) m: the robot's distance to the hand at every sample (the scene's definition)
     problems: list[str] = field(default_factory=list)
+    unreachable: int = 0  # samples IK could not reach
 
     @property
     def feasible(self) -> bool:
         return not self.problems
-
-
-class SceneWorld:
-    """The robot (with its collision shapes), the table and the hand in a pybullet DIRECT client of their own, for
-    distance queries at given joint positions. Nothing is simulated."""
-
-    def __init__(self, robot: RobotSpec, scene: Scene) -> None:
-        self.robot = robot
-        self._client = p.connect(p.DIRECT)
-        try:
-            self._load(scene)
-        except Exception:
-            p.disconnect(physicsClientId=self._client)
-            raise
-
-    def _load(self, scene: Scene) -> None:
-        cid, urdf = self._client, self.robot.urdf_path
-        text, _ = resolve_shapes(urdf.read_text(encoding="utf-8"), urdf.parent, find_ros_package)
-        self._body = load_urdf_text(
-            text,
-            urdf.name,
-            cid,
-            scene.base_position.tolist(),
-            matrix_to_quat(rpy_to_matrix(*scene.base_rpy)).tolist(),
-            flags=p.URDF_USE_SELF_COLLISION | p.URDF_USE_SELF_COLLISION_EXCLUDE_ALL_PARENTS,
-        )
-        index = {
-            p.getJointInfo(self._body, j, physicsClientId=cid)[1].decode(): j
-            for j in range(p.getNumJoints(self._body, physicsClientId=cid))
-        }
-        self._joints = [index[name] for name in self.robot.joint_names]
-        # Links that move: below the first controlled joint. The others (the base, bolted to the table) may touch it.
-        self._moving = {
-            j for j in range(p.getNumJoints(self._body, physicsClientId=cid)) if self._below(j, self._joints[0])
-        }
-        self._obstacles = {"table": self._box(scene.table), "hand": self._box(scene.hand)}
-        # Only link pairs that can really collide are checked against each other (adjacent ones, those that touch
-        # by construction and those that never meet are not): decided once per robot, as MoveIt decides it.
-        names = link_names(self._body, cid)
-        verdict = self_contact(self.robot)
-        self._checked = {
-            (a, b)
-            for a in range(-1, len(names) - 1)
-            for b in range(a + 1, len(names) - 1)
-            if verdict.checks(names[a + 1], names[b + 1])
-        }
-
-    def _below(self, link: int, joint: int) -> bool:
-        """Whether pybullet link `link` (= its joint's index) is `joint`'s child or below it."""
-        while link >= 0:
-            if link == joint:
-                return True
-            link = p.getJointInfo(self._body, link, physicsClientId=self._client)[16]  # the parent link's index
-        return False
-
-    def _box(self, box: Box) -> int:
-        cid = self._client
-        shape = p.createCollisionShape(p.GEOM_BOX, halfExtents=(box.size / 2).tolist(), physicsClientId=cid)
-        return int(
-            p.createMultiBody(
-                0.0,
-                shape,
-                -1,
-                box.position.tolist(),
-                matrix_to_quat(rpy_to_matrix(0.0, 0.0, box.yaw)).tolist(),
-                physicsClientId=cid,
-            )
-        )
-
-    def _set(self, q: np.ndarray) -> None:
-        for joint, value in zip(self._joints, q):
-            p.resetJointState(self._body, joint, float(value), physicsClientId=self._client)
-
-    def _self_distances(self, q: np.ndarray) -> list[tuple[tuple[int, int], float]]:
-        self._set(q)
-        points = p.getClosestPoints(self._body, self._body, CONTACT_MARGIN, physicsClientId=self._client)
-        return [((min(c[3], c[4]), max(c[3], c[4])), float(c[8])) for c in points if c[3] != c[4]]
-
-    def clearance(self, q: np.ndarray, reach: float = 0.5) -> dict[str, float]:
-        """Smallest distance (m) from the robot to the table, to the hand, and between its own links (within
-        CONTACT_MARGIN, else inf), at joint positions q; `reach` bounds the search."""
-        self._set(q)
-        result = {}
-        for name, body in self._obstacles.items():
-            points = p.getClosestPoints(self._body, body, reach, physicsClientId=self._client)
-            result[name] = min((float(c[8]) for c in points if c[3] in self._moving), default=math.inf)
-        touching = [distance for pair, distance in self._self_distances(q) if pair in self._checked]
-        result["self"] = min(touching, default=math.inf)
-        return result
-
-    def close(self) -> None:
-        if self._client is not None:
-            p.disconnect(physicsClientId=self._client)
-            self._client = None
-
-    def __enter__(self) -> SceneWorld:
-        return self
-
-    def __exit__(self, *_exc: object) -> None:
-        self.close()
 
 
 def plan_approach(robot: RobotSpec, scene: Scene, path: ApproachPath, world: SceneWorld) -> PlannedApproach:
@@ -173,8 +76,11 @@ def plan_approach(robot: RobotSpec, scene: Scene, path: ApproachPath, world: Sce
     solved = solve_path_ik(chain, targets, first.q, weights=weights)
     if not solved.all_succeeded:
         failed = np.flatnonzero(~solved.success)
+        where = path.positions[failed[0]]
+        reach = float(np.linalg.norm(scene.to_base(where)))
         problems.append(
-            f"IK failed at {failed.size} of {len(path.times)} samples, first at t = {path.times[failed[0]]:.2f} s"
+            f"IK failed at {failed.size} of {len(path.times)} samples, first at t = {path.times[failed[0]]:.2f} s "
+            f"at ({where[0]:.3f}, {where[1]:.3f}, {where[2]:.3f}) m in the world, {reach:.3f} m from the robot's base"
         )
     positions = solved.q
     velocities = np.gradient(positions, path.dt, axis=0)
@@ -203,19 +109,72 @@ def plan_approach(robot: RobotSpec, scene: Scene, path: ApproachPath, world: Sce
                 f"the robot comes within {max(distance, 0.0) * 1000:.1f} mm of "
                 f"{'itself' if what == 'self' else 'the ' + what}"
             )
-    end = scene.end_effector(chain, positions[-1])
-    reached = scene.hand.distance(end)
+    distances = np.array([world.hand_distance(q) for q in positions])
+    reached = float(distances[-1])
     if abs(reached - path.standoff) > STANDOFF_TOLERANCE:
         problems.append(f"the planned end is {reached:.4f} m from the hand, not the stand-off {path.standoff} m")
-    return PlannedApproach(path, positions, velocities, reached, lowest, problems)
+    unreachable = int((~solved.success).sum())
+    return PlannedApproach(path, positions, velocities, reached, lowest, distances, problems, unreachable)
+
+
+def plan_combination(
+    robot: RobotSpec, scene: Scene, combination: Combination, dt: float, world: SceneWorld
+) -> PlannedApproach:
+    """The combination's path planned and checked. Where the robot's distance is its surface's, the path's end (an
+    end-effector point) is moved along the approach until that surface, not the point, ends at the stand-off: each
+    round moves it by the last round's miss, which shrinks fast since near the end the two differ by about the
+    tool's reach beyond the point."""
+    name, standoff, peak_speed = combination
+    planned = plan_approach(robot, scene, approach_path(scene, name, standoff, peak_speed, dt), world)
+    point_standoff = standoff
+    for _ in range(_STANDOFF_ROUNDS):
+        miss = planned.reached_standoff - standoff
+        if scene.distance == "ee_point" or planned.unreachable or abs(miss) <= STANDOFF_TOLERANCE / 4:
+            break  # (where IK fails, the distances say nothing about the path's end)
+        point_standoff -= miss
+        try:
+            path = approach_path(scene, name, standoff, peak_speed, dt, point_standoff)
+        except DesignError:
+            break  # the end moved out too far for the path's start: the last plan says it misses its stand-off
+        planned = plan_approach(robot, scene, path, world)
+    return planned
+
+
+class Approaches:
+    """The combinations of one robot in one scene, each planned when first asked for and kept, and the robot's
+    distance to the hand by the scene's definition: what the runner, the simulated participant and the live view
+    share. It holds a SceneWorld (a pybullet client): close it."""
+
+    def __init__(self, robot: RobotSpec, scene: Scene, dt: float) -> None:
+        self.robot, self.scene, self.dt = robot, scene, dt
+        self.world = SceneWorld(robot, scene)
+        self._planned: dict[Combination, PlannedApproach] = {}
+
+    def plan(self, combination: Combination) -> PlannedApproach:
+        if combination not in self._planned:
+            self._planned[combination] = plan_combination(self.robot, self.scene, combination, self.dt, self.world)
+        return self._planned[combination]
+
+    def plan_all(self, combinations: Iterable[Combination]) -> dict[Combination, PlannedApproach]:
+        """Each distinct combination planned and checked once, in order."""
+        return {combination: self.plan(combination) for combination in dict.fromkeys(combinations)}
+
+    def hand_distance(self, q: np.ndarray) -> float:
+        return self.world.hand_distance(q)
+
+    def close(self) -> None:
+        self.world.close()
+
+    def __enter__(self) -> Approaches:
+        return self
+
+    def __exit__(self, *_exc: object) -> None:
+        self.close()
 
 
 def plan_combinations(
     robot: RobotSpec, scene: Scene, combinations: Iterable[Combination], dt: float
 ) -> dict[Combination, PlannedApproach]:
     """Each distinct combination planned and checked once, in one scene world."""
-    with SceneWorld(robot, scene) as world:
-        return {
-            combination: plan_approach(robot, scene, approach_path(scene, *combination, dt=dt), world)
-            for combination in dict.fromkeys(combinations)
-        }
+    with Approaches(robot, scene, dt) as approaches:
+        return approaches.plan_all(combinations)

@@ -148,8 +148,12 @@ def _curve(start: np.ndarray, via: np.ndarray | None, end: np.ndarray, u: np.nda
     return (1.0 - u) ** 2 * start + 2.0 * u * (1.0 - u) * control + u**2 * end
 
 
-def approach_path(scene: Scene, name: str, standoff: float, peak_speed: float, dt: float = STEP_S) -> ApproachPath:
-    """Path `name` of SHAPES to `standoff` (m) from the hand, timed to peak at most at `peak_speed` (m/s)."""
+def approach_path(
+    scene: Scene, name: str, standoff: float, peak_speed: float, dt: float = STEP_S, ee_standoff: float | None = None
+) -> ApproachPath:
+    """Path `name` of SHAPES to `standoff` (m) from the hand, timed to peak at most at `peak_speed` (m/s). The path
+    is the end-effector point's; `ee_standoff` is that point's own stand-off where the robot's nearest surface is
+    not that point (sim.study.design.feasibility finds it), else the stand-off itself."""
     shape = SHAPES.get(name)
     if shape is None:
         raise DesignError(f"unknown path {name!r}; known paths: {', '.join(PATH_NAMES)}")
@@ -163,11 +167,12 @@ def approach_path(scene: Scene, name: str, standoff: float, peak_speed: float, d
     top = scene.hand.top
     start = top + frame @ np.array(shape.start)
     via = None if shape.via is None else top + frame @ np.array(shape.via)
-    end = end_point(scene.hand, frame @ np.array(shape.approach), standoff)
-    if scene.hand.distance(start) < standoff + MIN_TRAVEL:
+    point_standoff = standoff if ee_standoff is None else ee_standoff
+    end = end_point(scene.hand, frame @ np.array(shape.approach), point_standoff)
+    if scene.hand.distance(start) < point_standoff + MIN_TRAVEL:
         raise DesignError(
             f"path {name}: its start is {scene.hand.distance(start):.3f} m from the hand, not "
-            f"{MIN_TRAVEL} m farther than the stand-off {standoff} m"
+            f"{MIN_TRAVEL} m farther than the end effector's stand-off {point_standoff:.3f} m"
         )
 
     dense_u = np.linspace(0.0, 1.0, _DENSE)

@@ -19,10 +19,13 @@ from sim.study.design.yamlfile import read_yaml
 if TYPE_CHECKING:
     from sim.geometry.kinematics import KinematicChain
 
-__all__ = ["DEFAULT_SCENE", "Box", "Scene", "parse_scene", "scene_robot", "load_scene"]
+__all__ = ["DEFAULT_SCENE", "DISTANCES", "Box", "Scene", "parse_scene", "scene_robot", "load_scene"]
 
 DEFAULT_SCENE = Path(__file__).resolve().parent / "scene.yaml"
-_KEYS = ("robot", "ee_link", "base", "table", "hand", "seat")
+_KEYS = ("robot", "ee_link", "base", "table", "hand", "seat", "distance")
+# How the robot's distance to the hand is measured: from its collision geometry's nearest point to the hand's
+# surface, or (the thesis's) from the end-effector point, e.g. the point between a gripper's fingertips.
+DISTANCES = ("surface", "ee_point")
 _REQUIRED = ("robot", "base", "table", "hand", "seat")
 
 
@@ -63,6 +66,7 @@ class Scene:
     table: Box
     hand: Box
     seat: np.ndarray  # the participant's eyes
+    distance: str = "surface"  # one of DISTANCES
 
     @property
     def base_pose(self) -> np.ndarray:
@@ -139,6 +143,9 @@ def parse_scene(data: object, source: str = "scene") -> Scene:
     ee_link = data.get("ee_link")
     if ee_link is not None and (not isinstance(ee_link, str) or not ee_link):
         raise DesignError(f"{source}: ee_link must be a link name, got {ee_link!r}")
+    distance = data.get("distance", "surface")
+    if distance not in DISTANCES:
+        raise DesignError(f"{source}: distance must be one of {', '.join(DISTANCES)}, got {distance!r}")
     scene = Scene(
         robot,
         ee_link,
@@ -147,6 +154,7 @@ def parse_scene(data: object, source: str = "scene") -> Scene:
         _box(data, "table", source),
         _box(data, "hand", source),
         _vector(seat.get("xyz"), 3, f"{source}: seat.xyz"),
+        distance,
     )
     table_top = scene.table.position[2] + scene.table.size[2] / 2.0
     hand_bottom = scene.hand.position[2] - scene.hand.size[2] / 2.0

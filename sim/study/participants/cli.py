@@ -54,6 +54,7 @@ def participant_command(args: argparse.Namespace) -> int:
     try:
         client.connect(timeout=30)
     except ClientError as error:
+        participant.close()
         return fail(
             "sim.study participant",
             f"cannot reach the endpoint at {args.host}:{args.port}: {error}",
@@ -64,6 +65,7 @@ def participant_command(args: argparse.Namespace) -> int:
         finished = participant.done.wait(args.timeout)
     finally:
         client.close()
+        participant.close()
     for problem in participant.problems:
         print(f"sim.study participant: {problem}", file=sys.stderr)
     if not finished:

@@ -26,9 +26,8 @@ from typing import Any
 import numpy as np
 
 from bridge.client import TcpClient
-from sim.geometry.kinematics import chain_for
 from sim.robots import RobotSpec
-from sim.study.design.paths import approach_path
+from sim.study.design.feasibility import Approaches
 from sim.study.design.scene import Scene
 from sim.study.errors import StudyError
 from sim.study.participants.model import (
@@ -69,7 +68,7 @@ class SimulatedParticipant:
         self.done = threading.Event()
         self.presses = 0
         self.problems: list[str] = []
-        self._chain = chain_for(robot)
+        self.approaches = Approaches(robot, scene, dt)  # the runner's plans, and the robot's distance to the hand
         self._status: TrialStatus | None = None
         self._press_after: float | None = None  # test 2: s after the approach starts at which this trial's press lands
         self._latest: tuple[float, np.ndarray] | None = None
@@ -81,7 +80,10 @@ class SimulatedParticipant:
         self.client.subscribe(STATUS_TOPIC, TOPIC_TYPES[STATUS_TOPIC], self._on_status)
 
     def hand_distance(self, positions: np.ndarray) -> float:
-        return self.scene.hand.distance(self.scene.end_effector(self._chain, positions))
+        return self.approaches.hand_distance(positions)
+
+    def close(self) -> None:
+        self.approaches.close()
 
     def _on_joint_state(self, payload: bytes) -> None:
         sample = decode_joint_state(payload, self.robot.joint_names)
@@ -89,9 +91,9 @@ class SimulatedParticipant:
 
     def _plan_press(self, status: TrialStatus) -> float:
         """How long after the start (s) the planned approach reaches this trial's comfort distance."""
-        path = approach_path(self.scene, status.path, status.standoff, status.peak_speed, self.dt)
-        distances = np.array([self.scene.hand.distance(point) for point in path.positions])
-        return arrival_time(path.times, distances, comfort_at_press(self.traits, status.condition, self.rng))
+        planned = self.approaches.plan((status.path, status.standoff, status.peak_speed))
+        comfort = comfort_at_press(self.traits, status.condition, self.rng)
+        return arrival_time(planned.path.times, planned.distances, comfort)
 
     def _press(self, status: TrialStatus, after: float) -> None:
         source = PROTOCOL.stop_source(status.condition)

@@ -43,7 +43,7 @@ def register(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> N
 
 def run_command(args: argparse.Namespace) -> int:
     from sim.control.stepper import Pacing
-    from sim.study.design.feasibility import plan_combinations
+    from sim.study.design.feasibility import Approaches
     from sim.study.run.runner import RunnerOptions, run_node
 
     for option in ("dt", "settle", "deceleration", "response_timeout", "step_timeout", "connect_timeout"):
@@ -51,13 +51,6 @@ def run_command(args: argparse.Namespace) -> int:
     plan = plan_from_data(read_yaml(args.plan, "plan"), str(args.plan))
     scene = load_scene(args.scene)
     robot = robot_from_args(scene, args)
-    approaches = plan_combinations(robot, scene, [(t.path, t.standoff, t.peak_speed) for t in plan.trials], args.dt)
-    infeasible = {key: planned.problems for key, planned in approaches.items() if not planned.feasible}
-    if infeasible:
-        raise RunError(
-            "the plan has combinations that are not feasible (none was run): "
-            + "; ".join(f"{p} to {s} m at {v} m/s: {', '.join(problems)}" for (p, s, v), problems in infeasible.items())
-        )
     options = RunnerOptions(
         Pacing(args.dt, args.realtime, step_timeout=args.step_timeout),
         args.auto_go,
@@ -66,6 +59,14 @@ def run_command(args: argparse.Namespace) -> int:
         args.response_timeout,
         args.deceleration,
     )
-    return run_node(
-        robot, scene, plan, approaches, options, args.out.resolve(), not args.no_record, args.connect_timeout
-    )
+    with Approaches(robot, scene, args.dt) as approaches:
+        planned = approaches.plan_all((t.path, t.standoff, t.peak_speed) for t in plan.trials)
+        infeasible = {key: approach.problems for key, approach in planned.items() if not approach.feasible}
+        if infeasible:
+            raise RunError(
+                "the plan has combinations that are not feasible (none was run): "
+                + "; ".join(f"{p} to {s} m at {v} m/s: {', '.join(why)}" for (p, s, v), why in infeasible.items())
+            )
+        return run_node(
+            robot, scene, plan, approaches, options, args.out.resolve(), not args.no_record, args.connect_timeout
+        )

@@ -37,7 +37,7 @@ from sim.control.scenarios import approach
 from sim.control.stepper import Pacing, Stepper
 from sim.processes import ManagedProcess, ProcessError, start_recorder, stop_recorder
 from sim.robots import RobotSpec
-from sim.study.design.feasibility import Combination, PlannedApproach
+from sim.study.design.feasibility import Approaches
 from sim.study.design.plan import PlannedTrial, SessionPlan
 from sim.study.design.scene import Scene
 from sim.study.errors import StudyError
@@ -197,7 +197,7 @@ class StudyRunner(ControllerNode):
         robot: RobotSpec,
         scene: Scene,
         plan: SessionPlan,
-        approaches: dict[Combination, PlannedApproach],
+        approaches: Approaches,
         options: RunnerOptions,
         stop: threading.Event,
     ) -> None:
@@ -344,7 +344,7 @@ class StudyRunner(ControllerNode):
         self, trial: PlannedTrial, positions: np.ndarray, log: Callable[[str], None]
     ) -> tuple[TrialRecord, np.ndarray]:
         """One trial from wherever the robot is; its record (preference still empty) and where the robot ends."""
-        planned = self.approaches[(trial.path, trial.standoff, trial.peak_speed)]
+        planned = self.approaches.plan((trial.path, trial.standoff, trial.peak_speed))
         dt = self.options.pacing.dt
         self.publish_status(self.status(trial, "to_start"))
         to_start, speeds = approach(self.robot, positions, planned.positions[0], dt)
@@ -353,7 +353,7 @@ class StudyRunner(ControllerNode):
         self.publish_status(self.status(trial, "ready"))
         if not self.options.auto_go and self.wait_for_input("go") is None:
             log(f"trial {trial.index}: no go within {self.options.response_timeout:g} s; starting anyway")
-        run = TrialRun(self.robot, self.scene, planned, self.options.deceleration)
+        run = TrialRun(self.robot, planned, self.approaches.hand_distance, self.options.deceleration)
         start = self.clock
         self.publish_status(self.status(trial, "moving", motion_start=start))
         run.record_state(0.0, positions)
@@ -440,7 +440,7 @@ def run_node(
     robot: RobotSpec,
     scene: Scene,
     plan: SessionPlan,
-    approaches: dict[Combination, PlannedApproach],
+    approaches: Approaches,
     options: RunnerOptions,
     out: Path,
     record: bool = True,

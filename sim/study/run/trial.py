@@ -3,22 +3,22 @@ measured. The runner node feeds it the clock, the presses and the achieved joint
 
   before the press   the planned approach, sample by sample
   a press at t_p     the stop (sim.study.run.stop): braking along the path, then holding at rest
-  measured           the press time; the end effector's distance to the hand at the press and at rest, both by FK
-                     of the achieved joint states (the state nearest the press, and the last one); and the thesis's
-                     estimate, the distance the plan has at the press time (its extrapolation from time)
+  measured           the press time; the robot's distance to the hand at the press and at rest, both of the
+                     achieved joint states (the state nearest the press, and the last one) by the scene's definition
+                     of the distance (the world's, given); and the thesis's estimate, the distance the plan has at
+                     the press time (its extrapolation from time)
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 
-from sim.geometry.kinematics import chain_for
 from sim.robots import RobotSpec
 from sim.study.design.feasibility import PlannedApproach
-from sim.study.design.scene import Scene
 from sim.study.run.errors import RunError
 from sim.study.run.stop import STOP_DECELERATION, StoppedMotion, stop_motion
 
@@ -29,25 +29,28 @@ __all__ = ["TrialMeasures", "TrialRun"]
 class TrialMeasures:
     pressed: bool
     press_time: float  # s from the motion's start; NaN without a press
-    distance_at_press: float  # m, FK of the achieved state at the press; NaN without a press
-    distance_at_rest: float  # m, FK of the last achieved state
+    distance_at_press: float  # m, of the achieved state at the press; NaN without a press
+    distance_at_rest: float  # m, of the last achieved state
     distance_extrapolated: float  # m, the plan's distance at the press time (the thesis's method); NaN without
     braking_distance: float  # m along the path, planned; 0 without a press
 
 
 class TrialRun:
     def __init__(
-        self, robot: RobotSpec, scene: Scene, planned: PlannedApproach, deceleration: float = STOP_DECELERATION
+        self,
+        robot: RobotSpec,
+        planned: PlannedApproach,
+        hand_distance: Callable[[np.ndarray], float],
+        deceleration: float = STOP_DECELERATION,
     ) -> None:
         if not planned.feasible:
             raise RunError(
                 f"the {planned.path.name} path to {planned.path.standoff} m is not feasible: "
                 f"{'; '.join(planned.problems)}"
             )
-        self.robot, self.scene, self.planned = robot, scene, planned
-        self.deceleration = deceleration
+        self.robot, self.planned, self.deceleration = robot, planned, deceleration
         self.stopped: StoppedMotion | None = None
-        self._chain = chain_for(robot)
+        self._hand_distance = hand_distance
         self._states: list[tuple[float, np.ndarray]] = []
 
     @property
@@ -84,8 +87,8 @@ class TrialRun:
         self._states.append((float(time_s), positions))
 
     def hand_distance(self, positions: np.ndarray) -> float:
-        """The end effector's distance to the hand at joint positions `positions` (FK)."""
-        return self.scene.hand.distance(self.scene.end_effector(self._chain, positions))
+        """The robot's distance to the hand at joint positions `positions`."""
+        return self._hand_distance(positions)
 
     def measures(self) -> TrialMeasures:
         if not self._states:
@@ -95,13 +98,7 @@ class TrialRun:
             return TrialMeasures(False, math.nan, math.nan, rest, math.nan, 0.0)
         press = self.stopped.press_time
         nearest = min(self._states, key=lambda state: abs(state[0] - press))
-        path = self.planned.path
-        planned_point = np.array([np.interp(press, path.times, path.positions[:, axis]) for axis in range(3)])
+        planned_distance = float(np.interp(press, self.planned.path.times, self.planned.distances))
         return TrialMeasures(
-            True,
-            press,
-            self.hand_distance(nearest[1]),
-            rest,
-            self.scene.hand.distance(planned_point),
-            self.stopped.braking_distance,
+            True, press, self.hand_distance(nearest[1]), rest, planned_distance, self.stopped.braking_distance
         )

@@ -76,12 +76,14 @@ def view_command(args: argparse.Namespace) -> int:
         client.connect(timeout=30)
     except ClientError as error:
         server.stop()
+        view.approaches.close()
         return fail(
             "sim.study view", f"cannot reach the endpoint at {args.host}:{args.port}: {error}", EXIT_NO_CONNECTION
         )
     print(f"view: http://{args.http_host}:{server.get_port()} (the endpoint at {args.host}:{args.port})", flush=True)
     stop.wait()
     client.close()
+    view.approaches.close()
     server.stop()
     return EXIT_OK
 

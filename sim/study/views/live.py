@@ -20,7 +20,7 @@ from sim.geometry.frames import matrix_to_quat
 from sim.geometry.kinematics import chain_for
 from sim.robots import RobotSpec, find_ros_package
 from sim.robots.meshes import resolve_filename
-from sim.study.design.paths import approach_path
+from sim.study.design.feasibility import Approaches
 from sim.study.design.scene import Box, Scene
 from sim.study.errors import StudyError
 from sim.study.run.protocol import STATUS_TOPIC, STOP_TOPIC, TOPIC_TYPES, TrialStatus, status_from_json
@@ -56,7 +56,9 @@ class LiveView:
         self._status: TrialStatus | None = None
         self._trial = 0
         self._latest: tuple[float, np.ndarray] | None = None
-        self._trail: list[tuple[float, np.ndarray]] = []  # (stamp, end effector in the world) of the trial running
+        # (stamp, end effector in the world, joint positions) of the trial running
+        self._trail: list[tuple[float, np.ndarray, np.ndarray]] = []
+        self.approaches = Approaches(robot, scene, dt)  # the runner's plans, and the robot's distance to the hand
         self._last_drawn = 0.0
         self._press_stamp: float | None = None  # a press stamped later than the joint states seen so far
         self.updates = 0
@@ -108,14 +110,14 @@ class LiveView:
         self._last_drawn = now
         self._draw_robot(self._latest[1])
         if len(self._trail) >= 2:
-            points = np.array([point for _, point in self._trail])
+            points = np.array([point for _, point, _ in self._trail])
             segments = np.stack([points[:-1], points[1:]], axis=1)
             self.server.scene.add_line_segments("/trail", segments, COLOURS["trail"], thickness=0.005)
         self.updates += 1
 
     def _draw_plan(self, status: TrialStatus) -> None:
         try:
-            path = approach_path(self.scene, status.path, status.standoff, status.peak_speed, self.dt)
+            path = self.approaches.plan((status.path, status.standoff, status.peak_speed)).path
         except StudyError:
             return  # a path this view cannot draw (another scene's); the robot and the trail still show
         points = path.positions[:: max(1, len(path.positions) // 60)]
@@ -133,9 +135,9 @@ class LiveView:
             self._latest = (stamp, positions)
             status = self._status
             if status is not None and status.phase in ("moving", "at_rest") and stamp >= status.motion_start:
-                self._trail.append((stamp, self.end_effector(positions)))
+                self._trail.append((stamp, self.end_effector(positions), positions))
                 if self._press_stamp is not None and stamp >= self._press_stamp - STAMP_TOLERANCE_S:
-                    self._mark_stop(self._trail[-1][1])
+                    self._mark_stop(self._trail[-1][2])
             self._draw()
 
     def _on_status(self, payload: bytes) -> None:
@@ -166,16 +168,17 @@ class LiveView:
             elif self._trail:
                 # where the end effector was at the press (a zero stamp: when it came)
                 self._mark_stop(
-                    min(self._trail, key=lambda entry: abs(entry[0] - stamp))[1] if stamp > 0 else self._trail[-1][1]
+                    min(self._trail, key=lambda entry: abs(entry[0] - stamp))[2] if stamp > 0 else self._trail[-1][2]
                 )
 
-    def _mark_stop(self, point: np.ndarray) -> None:
-        """The end effector at the press, and its distance to the hand then, drawn as a dimension line beside the
-        robot (towards the participant's seat), where the gripper that stopped there does not hide it."""
+    def _mark_stop(self, positions: np.ndarray) -> None:
+        """The robot's point nearest the hand at the press, and its distance to the hand then (the scene's), drawn
+        as a dimension line beside the robot (towards the participant's seat), where the gripper that stopped there
+        does not hide it."""
         self._press_stamp = None
+        point, nearest = self.approaches.world.nearest_points(positions)
         self.server.scene.add_icosphere("/stop", radius=0.01, color=COLOURS["stop"], position=tuple(point))
         towards_seat = (self.scene.seat - point) * np.array([1.0, 1.0, 0.0])
         offset = 0.05 * towards_seat / max(float(np.linalg.norm(towards_seat)), 1e-9)
-        nearest = self.scene.hand.nearest_point(point)
         segments = np.array([[point, point + offset], [point + offset, nearest + offset], [nearest + offset, nearest]])
         self.server.scene.add_line_segments("/stop_distance", segments, COLOURS["stop"], thickness=0.005)

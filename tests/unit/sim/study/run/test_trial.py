@@ -10,26 +10,36 @@ import numpy as np
 import pytest
 
 from sim.engine.physics import Mode, PhysicsWorld
-from sim.study.design.feasibility import SceneWorld, plan_approach
+from sim.study.design.feasibility import SceneWorld, plan_approach, plan_combination
 from sim.study.design.paths import ON_TOP, approach_path
 from sim.study.design.scene import load_scene, scene_robot
 from sim.study.errors import StudyError
 from sim.study.run.stop import STOP_DECELERATION
 from sim.study.run.trial import TrialRun
+from sim.wire.contract import STEP_S
 
 SCENE = load_scene()
 ROBOT = scene_robot(SCENE)
 
 
 @pytest.fixture(scope="module")
-def planned():
-    with SceneWorld(ROBOT, SCENE) as world:
-        return plan_approach(ROBOT, SCENE, approach_path(SCENE, "vertical", ON_TOP, 0.2), world)
+def world():
+    with SceneWorld(ROBOT, SCENE) as made:
+        yield made
 
 
-def run(planned, press_below: float | None = None, mode: Mode = Mode.PHYSICS, hold_s: float = 1.0) -> TrialRun:
+@pytest.fixture(scope="module")
+def planned(world):
+    return plan_combination(ROBOT, SCENE, ("vertical", ON_TOP, 0.2), STEP_S, world)
+
+
+def trial_of(planned, world) -> TrialRun:
+    return TrialRun(ROBOT, planned, world.hand_distance)
+
+
+def run(planned, world, press_below: float | None = None, mode: Mode = Mode.PHYSICS, hold_s: float = 1.0) -> TrialRun:
     """Step the physics along the trial; press once the achieved distance is below `press_below`."""
-    trial = TrialRun(ROBOT, SCENE, planned)
+    trial = trial_of(planned, world)
     with PhysicsWorld(ROBOT, mode=mode, dt=trial.dt, q0=planned.positions[0]) as world:
         trial.record_state(0.0, world.state().positions)
         k = 0
@@ -43,14 +53,14 @@ def run(planned, press_below: float | None = None, mode: Mode = Mode.PHYSICS, ho
     return trial
 
 
-def test_without_a_press_the_robot_rests_at_the_planned_standoff(planned):
-    measures = run(planned).measures()
+def test_without_a_press_the_robot_rests_at_the_planned_standoff(planned, world):
+    measures = run(planned, world).measures()
     assert not measures.pressed and math.isnan(measures.distance_at_press)
     assert measures.distance_at_rest == pytest.approx(ON_TOP, abs=5e-4)
 
 
-def test_a_press_brakes_along_the_path_and_the_distances_tell_it(planned):
-    trial = run(planned, press_below=0.15)
+def test_a_press_brakes_along_the_path_and_the_distances_tell_it(planned, world):
+    trial = run(planned, world, press_below=0.15)
     measures = trial.measures()
     assert measures.pressed and 0.14 < measures.distance_at_press < 0.15
     # straight down onto the hand: the distance shrinks by exactly the braking distance, v² / (2a)
@@ -60,8 +70,8 @@ def test_a_press_brakes_along_the_path_and_the_distances_tell_it(planned):
     assert measures.distance_extrapolated == pytest.approx(measures.distance_at_press, abs=1e-3)
 
 
-def test_only_the_first_press_counts_and_targets_hold_at_rest(planned):
-    trial = TrialRun(ROBOT, SCENE, planned)
+def test_only_the_first_press_counts_and_targets_hold_at_rest(planned, world):
+    trial = trial_of(planned, world)
     trial.press(1.0)
     first = trial.stopped
     trial.press(0.5)
@@ -71,12 +81,11 @@ def test_only_the_first_press_counts_and_targets_hold_at_rest(planned):
     assert not velocities.any()
 
 
-def test_bad_trials_and_states_are_named(planned):
-    with SceneWorld(ROBOT, SCENE) as world:
-        fast = plan_approach(ROBOT, SCENE, approach_path(SCENE, "lateral_arc", 0.05, 1.0), world)
+def test_bad_trials_and_states_are_named(planned, world):
+    fast = plan_approach(ROBOT, SCENE, approach_path(SCENE, "lateral_arc", 0.05, 1.0), world)
     with pytest.raises(StudyError, match="is not feasible: .*velocity limit"):
-        TrialRun(ROBOT, SCENE, fast)
-    trial = TrialRun(ROBOT, SCENE, planned)
+        trial_of(fast, world)
+    trial = trial_of(planned, world)
     with pytest.raises(StudyError, match="no joint state was recorded"):
         trial.measures()
     with pytest.raises(StudyError, match="needs 7 finite positions"):

@@ -1,0 +1,148 @@
+"""The scene in pybullet: the robot with its collision shapes, the table and the hand, in a DIRECT client of their
+own, for distance queries at given joint positions (nothing is simulated). The robot's distance to the hand is the
+scene's definition of it (Scene.distance): its collision geometry's nearest point to the hand's surface, or the
+thesis's, the end-effector point's.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pybullet as p
+
+from sim.engine.physics import load_urdf_text
+from sim.engine.self_contact import CONTACT_MARGIN, link_names, self_contact
+from sim.geometry.frames import matrix_to_quat, rpy_to_matrix
+from sim.geometry.kinematics import chain_for
+from sim.robots import RobotSpec, find_ros_package
+from sim.robots.meshes import resolve_shapes
+from sim.study.design.scene import Box, Scene
+
+__all__ = ["CONTACT_MARGIN", "FAR", "SceneWorld"]
+
+FAR = 2.0  # m: how far distance queries look; the scene is smaller than this
+
+
+class SceneWorld:
+    """The robot (with its collision shapes), the table and the hand in a pybullet DIRECT client of their own, for
+    distance queries at given joint positions. Nothing is simulated."""
+
+    def __init__(self, robot: RobotSpec, scene: Scene) -> None:
+        self.robot, self.scene = robot, scene
+        self._chain = chain_for(robot)
+        self._client = p.connect(p.DIRECT)
+        try:
+            self._load(scene)
+        except Exception:
+            p.disconnect(physicsClientId=self._client)
+            raise
+
+    def _load(self, scene: Scene) -> None:
+        cid, urdf = self._client, self.robot.urdf_path
+        text, _ = resolve_shapes(urdf.read_text(encoding="utf-8"), urdf.parent, find_ros_package)
+        self._body = load_urdf_text(
+            text,
+            urdf.name,
+            cid,
+            scene.base_position.tolist(),
+            matrix_to_quat(rpy_to_matrix(*scene.base_rpy)).tolist(),
+            flags=p.URDF_USE_SELF_COLLISION | p.URDF_USE_SELF_COLLISION_EXCLUDE_ALL_PARENTS,
+        )
+        index = {
+            p.getJointInfo(self._body, j, physicsClientId=cid)[1].decode(): j
+            for j in range(p.getNumJoints(self._body, physicsClientId=cid))
+        }
+        self._joints = [index[name] for name in self.robot.joint_names]
+        # Links that move: below the first controlled joint. The others (the base, bolted to the table) may touch it.
+        self._moving = {
+            j for j in range(p.getNumJoints(self._body, physicsClientId=cid)) if self._below(j, self._joints[0])
+        }
+        self._obstacles = {"table": self._box(scene.table), "hand": self._box(scene.hand)}
+        # Only link pairs that can really collide are checked against each other (adjacent ones, those that touch
+        # by construction and those that never meet are not): decided once per robot, as MoveIt decides it.
+        names = link_names(self._body, cid)
+        verdict = self_contact(self.robot)
+        self._checked = {
+            (a, b)
+            for a in range(-1, len(names) - 1)
+            for b in range(a + 1, len(names) - 1)
+            if verdict.checks(names[a + 1], names[b + 1])
+        }
+
+    def _below(self, link: int, joint: int) -> bool:
+        """Whether pybullet link `link` (= its joint's index) is `joint`'s child or below it."""
+        while link >= 0:
+            if link == joint:
+                return True
+            link = p.getJointInfo(self._body, link, physicsClientId=self._client)[16]  # the parent link's index
+        return False
+
+    def _box(self, box: Box) -> int:
+        cid = self._client
+        shape = p.createCollisionShape(p.GEOM_BOX, halfExtents=(box.size / 2).tolist(), physicsClientId=cid)
+        return int(
+            p.createMultiBody(
+                0.0,
+                shape,
+                -1,
+                box.position.tolist(),
+                matrix_to_quat(rpy_to_matrix(0.0, 0.0, box.yaw)).tolist(),
+                physicsClientId=cid,
+            )
+        )
+
+    def _set(self, q: np.ndarray) -> None:
+        for joint, value in zip(self._joints, q):
+            p.resetJointState(self._body, joint, float(value), physicsClientId=self._client)
+
+    def _self_distances(self, q: np.ndarray) -> list[tuple[tuple[int, int], float]]:
+        self._set(q)
+        points = p.getClosestPoints(self._body, self._body, CONTACT_MARGIN, physicsClientId=self._client)
+        return [((min(c[3], c[4]), max(c[3], c[4])), float(c[8])) for c in points if c[3] != c[4]]
+
+    def clearance(self, q: np.ndarray, reach: float = 0.5) -> dict[str, float]:
+        """Smallest distance (m) from the robot to the table, to the hand, and between its own links (within
+        CONTACT_MARGIN, else inf), at joint positions q; `reach` bounds the search."""
+        self._set(q)
+        result = {}
+        for name, body in self._obstacles.items():
+            points = p.getClosestPoints(self._body, body, reach, physicsClientId=self._client)
+            result[name] = min((float(c[8]) for c in points if c[3] in self._moving), default=math.inf)
+        touching = [distance for pair, distance in self._self_distances(q) if pair in self._checked]
+        result["self"] = min(touching, default=math.inf)
+        return result
+
+    def hand_distance(self, q: np.ndarray) -> float:
+        """The robot's distance (m) to the hand at joint positions q, by the scene's definition: from its collision
+        geometry's nearest point (negative when it is inside the hand), or from the end-effector point."""
+        if self.scene.distance == "ee_point":
+            return self.scene.hand.distance(self.scene.end_effector(self._chain, q))
+        self._set(q)
+        points = p.getClosestPoints(self._body, self._obstacles["hand"], FAR, physicsClientId=self._client)
+        return min((float(c[8]) for c in points if c[3] in self._moving), default=math.inf)
+
+    def nearest_points(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(the robot's point, the hand's point) between which hand_distance is measured, in the world."""
+        if self.scene.distance == "ee_point":
+            point = self.scene.end_effector(self._chain, q)
+            return point, self.scene.hand.nearest_point(point)
+        self._set(q)
+        points = p.getClosestPoints(self._body, self._obstacles["hand"], FAR, physicsClientId=self._client)
+        nearest = min((c for c in points if c[3] in self._moving), key=lambda c: c[8])
+        return np.array(nearest[5]), np.array(nearest[6])
+
+    def end_effector_distance(self, q: np.ndarray) -> float:
+        """The end-effector point's distance (m) to the hand at joint positions q, whatever the definition."""
+        return self.scene.hand.distance(self.scene.end_effector(self._chain, q))
+
+    def close(self) -> None:
+        if self._client is not None:
+            p.disconnect(physicsClientId=self._client)
+            self._client = None
+
+    def __enter__(self) -> SceneWorld:
+        return self
+
+    def __exit__(self, *_exc: object) -> None:
+        self.close()
