@@ -2,6 +2,7 @@
 
   plan --participant N --seed S [--out PLAN.yaml] [--print]   a participant's session plan (counterbalanced)
   check                                                       every combination of the design planned and checked
+  scene --robot URDF [--out SCENE.yaml]                       a scene that fits the robot, proposed and checked
   run --plan PLAN.yaml --out DIR [--realtime] [--auto-go]     the runner node: executes the plan (ROS)
   participant --port P --participant N --seed S               a simulated participant (a TCP client, no rospy)
   view --port P [--http-port 8080]                            the experimenter's live 3-D view (a web page)

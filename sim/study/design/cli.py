@@ -1,5 +1,5 @@
-"""`python -m sim.study plan` (a participant's session plan) and `check` (every combination of the design planned
-and checked)."""
+"""`python -m sim.study plan` (a participant's session plan), `check` (every combination of the design planned
+and checked) and `scene` (a scene proposed for the robot)."""
 
 from __future__ import annotations
 
@@ -10,11 +10,12 @@ from pathlib import Path
 import yaml
 
 from sim.entry import EXIT_OK
+from sim.robots import overrides_from_args
 from sim.study.checks import check_positive
 from sim.study.design.errors import DesignError
-from sim.study.design.options import add_design_option, add_scene_options, robot_from_args
+from sim.study.design.options import add_design_option, add_scene_options, scene_and_robot
 from sim.study.design.plan import make_plan, plan_to_data, printable
-from sim.study.design.scene import load_scene
+from sim.study.design.scene import load_scene, scene_robot
 from sim.study.design.spec import load_design
 
 __all__ = ["register"]
@@ -33,6 +34,12 @@ def register(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> N
     add_design_option(check)
     add_scene_options(check)
     check.set_defaults(handler=check_command)
+
+    scene = commands.add_parser("scene", help="propose a scene that fits the robot, checked like check")
+    add_design_option(scene)
+    add_scene_options(scene)
+    scene.add_argument("--out", type=Path, help="write the scene here (default: print it as YAML)")
+    scene.set_defaults(handler=scene_command)
 
 
 def plan_command(args: argparse.Namespace) -> int:
@@ -54,8 +61,8 @@ def check_command(args: argparse.Namespace) -> int:
     from sim.study.design.feasibility import plan_combinations
 
     check_positive(args.dt, "--dt")
-    design, scene = load_design(args.design), load_scene(args.scene)
-    robot = robot_from_args(scene, args)
+    design = load_design(args.design)
+    scene, robot = scene_and_robot(args)
     plan = make_plan(design, 1, 0)
     started = time.monotonic()
     approaches = plan_combinations(robot, scene, [(t.path, t.standoff, t.peak_speed) for t in plan.trials], args.dt)
@@ -77,4 +84,31 @@ def check_command(args: argparse.Namespace) -> int:
             f"{len(infeasible)} combination(s) of the design are not feasible: "
             f"{', '.join(f'{p} to {s} m at {v} m/s' for p, s, v in infeasible)}"
         )
+    return EXIT_OK
+
+
+def scene_command(args: argparse.Namespace) -> int:
+    """The first candidate scene that fits (sim.study.design.fit), each tried printed with why not."""
+    from sim.study.design.fit import design_combinations, fit_scene, no_fit_message, scene_to_data
+
+    check_positive(args.dt, "--dt")
+    template = load_scene(args.scene)
+    robot = scene_robot(template, args.robot, overrides_from_args(args))
+    combinations = design_combinations(load_design(args.design))
+    fit = fit_scene(robot, template, combinations, args.dt, progress=lambda line: print(f"tried {line}", flush=True))
+    if fit.scene is None:
+        raise DesignError(no_fit_message(robot, fit))
+    chosen = fit.tried[-1]
+    header = (
+        f"# The study's scene for {robot.name}, proposed by python -m sim.study scene: its reach is "
+        f"{fit.proportions.reach:.2f} m from its shoulder, {fit.proportions.shoulder[2]:.2f} m above its base;\n"
+        f"# {chosen.label}. Every combination of the design ({len(combinations)}) was planned and checked in it.\n"
+    )
+    text = header + yaml.safe_dump(scene_to_data(fit.scene), sort_keys=False)
+    if args.out is None:
+        print(text, end="")
+    else:
+        args.out.parent.mkdir(parents=True, exist_ok=True)
+        args.out.write_text(text)
+        print(f"scene for {robot.name}: {chosen.label} -> {args.out}")
     return EXIT_OK

@@ -5,7 +5,8 @@ Every path is a curve from a start point to an end point that lies `standoff` fr
 end-effector point to the hand's nearest point, as the participant judges it): test 1 uses stand-offs of a few
 centimetres to decimetres, test 2 ends on top of the hand (ON_TOP, 2 cm). The curve passes through a via point
 half-way (a quadratic Bézier through it; a straight line where there is none). Shapes are given in the hand frame:
-origin at the centre of the hand's top face, x the horizontal direction from the robot's base towards the hand, z up.
+origin at the centre of the hand's top face, x the horizontal direction from the robot's base towards the hand, z up;
+a scene may scale them (its approach_scale) for an arm that cannot reach the thesis's starts.
 
   straight      from above and in front (the robot's side), a straight line
   vertical      from high above the hand, straight down
@@ -165,16 +166,15 @@ def approach_path(
         raise DesignError(f"dt must be > 0 s, got {dt!r}")
     frame = hand_frame(scene)
     top = scene.hand.top
-    start = top + frame @ np.array(shape.start)
-    via = None if shape.via is None else top + frame @ np.array(shape.via)
+    start = top + frame @ (scene.approach_scale * np.array(shape.start))
+    via = None if shape.via is None else top + frame @ (scene.approach_scale * np.array(shape.via))
     point_standoff = standoff if ee_standoff is None else ee_standoff
     end = end_point(scene.hand, frame @ np.array(shape.approach), point_standoff)
+    # A start too near the hand for this stand-off (a large one, on small shapes or with a tool that reaches far
+    # beyond the end-effector point) moves out from the hand along its own direction: every path travels at least
+    # MIN_TRAVEL. The thesis's shapes at their size never need it.
     if scene.hand.distance(start) < point_standoff + MIN_TRAVEL:
-        raise DesignError(
-            f"path {name}: its start is {scene.hand.distance(start):.3f} m from the hand, not "
-            f"{MIN_TRAVEL} m farther than the end effector's stand-off {point_standoff:.3f} m"
-        )
-
+        start = end_point(scene.hand, start - top, point_standoff + MIN_TRAVEL)
     dense_u = np.linspace(0.0, 1.0, _DENSE)
     dense = _curve(start, via, end, dense_u)
     arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(dense, axis=0), axis=1))])

@@ -22,7 +22,7 @@ if TYPE_CHECKING:
 __all__ = ["DEFAULT_SCENE", "DISTANCES", "Box", "Scene", "parse_scene", "scene_robot", "load_scene"]
 
 DEFAULT_SCENE = Path(__file__).resolve().parent / "scene.yaml"
-_KEYS = ("robot", "ee_link", "base", "table", "hand", "seat", "distance")
+_KEYS = ("robot", "ee_link", "base", "table", "hand", "seat", "distance", "approach_scale")
 # How the robot's distance to the hand is measured: from its collision geometry's nearest point to the hand's
 # surface, or (the thesis's) from the end-effector point, e.g. the point between a gripper's fingertips.
 DISTANCES = ("surface", "ee_point")
@@ -67,6 +67,9 @@ class Scene:
     hand: Box
     seat: np.ndarray  # the participant's eyes
     distance: str = "surface"  # one of DISTANCES
+    # The approach paths' shapes (their starts and via points, from the hand) scaled by this, for an arm that cannot
+    # reach the thesis's; stand-offs and speeds are the design's whatever it is
+    approach_scale: float = 1.0
 
     @property
     def base_pose(self) -> np.ndarray:
@@ -146,6 +149,9 @@ def parse_scene(data: object, source: str = "scene") -> Scene:
     distance = data.get("distance", "surface")
     if distance not in DISTANCES:
         raise DesignError(f"{source}: distance must be one of {', '.join(DISTANCES)}, got {distance!r}")
+    scale = data.get("approach_scale", 1.0)
+    if not (isinstance(scale, (int, float)) and not isinstance(scale, bool) and 0.5 <= scale <= 2.0):
+        raise DesignError(f"{source}: approach_scale must be a number from 0.5 to 2, got {scale!r}")
     scene = Scene(
         robot,
         ee_link,
@@ -155,6 +161,7 @@ def parse_scene(data: object, source: str = "scene") -> Scene:
         _box(data, "hand", source),
         _vector(seat.get("xyz"), 3, f"{source}: seat.xyz"),
         distance,
+        float(scale),
     )
     table_top = scene.table.position[2] + scene.table.size[2] / 2.0
     hand_bottom = scene.hand.position[2] - scene.hand.size[2] / 2.0

@@ -120,6 +120,12 @@ class SceneWorld:
         result["self"] = self._self_clearance()
         return result
 
+    def base_bottom(self) -> float:
+        """The lowest point (world z) of the robot's base link, where it is mounted; its origin's without shapes."""
+        if not p.getCollisionShapeData(self._body, -1, physicsClientId=self._client):
+            return float(self.scene.base_position[2])
+        return float(p.getAABB(self._body, -1, physicsClientId=self._client)[0][2])
+
     def hand_distance(self, q: np.ndarray) -> float:
         """The robot's distance (m) to the hand at joint positions q, by the scene's definition: from its collision
         geometry's nearest point (negative when it is inside the hand), or from the end-effector point."""

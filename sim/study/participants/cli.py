@@ -8,8 +8,7 @@ import sys
 
 from sim.entry import EXIT_FAILED, EXIT_NO_CONNECTION, EXIT_OK, fail
 from sim.study.checks import check_positive
-from sim.study.design.options import add_scene_options, robot_from_args
-from sim.study.design.scene import load_scene
+from sim.study.design.options import add_scene_options, scene_and_robot
 from sim.study.participants.model import KNOWN_TRUTHS, Population
 
 __all__ = ["register", "add_population_options", "population_from_args"]
@@ -45,8 +44,7 @@ def participant_command(args: argparse.Namespace) -> int:
 
     check_positive(args.timeout, "--timeout")
     check_positive(args.dt, "--dt")
-    scene = load_scene(args.scene)
-    robot = robot_from_args(scene, args)
+    scene, robot = scene_and_robot(args)
     traits = draw_traits(population_from_args(args), args.participant, args.seed)
     client = TcpClient(args.host, args.port)
     participant = SimulatedParticipant(client, robot, scene, traits, args.seed, args.dt)

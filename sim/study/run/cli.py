@@ -6,9 +6,8 @@ import argparse
 from pathlib import Path
 
 from sim.study.checks import check_positive
-from sim.study.design.options import add_scene_options, robot_from_args
+from sim.study.design.options import add_scene_options, scene_and_robot
 from sim.study.design.plan import plan_from_data
-from sim.study.design.scene import load_scene
 from sim.study.design.yamlfile import read_yaml
 from sim.study.run.errors import RunError
 
@@ -49,8 +48,7 @@ def run_command(args: argparse.Namespace) -> int:
     for option in ("dt", "settle", "deceleration", "response_timeout", "step_timeout", "connect_timeout"):
         check_positive(getattr(args, option), f"--{option.replace('_', '-')}")
     plan = plan_from_data(read_yaml(args.plan, "plan"), str(args.plan))
-    scene = load_scene(args.scene)
-    robot = robot_from_args(scene, args)
+    scene, robot = scene_and_robot(args)
     options = RunnerOptions(
         Pacing(args.dt, args.realtime, step_timeout=args.step_timeout),
         args.auto_go,

@@ -8,8 +8,7 @@ from pathlib import Path
 
 from sim.entry import EXIT_NO_CONNECTION, EXIT_OK, fail
 from sim.study.checks import check_port, check_positive
-from sim.study.design.options import add_robot_options, add_scene_options, robot_from_args
-from sim.study.design.scene import load_scene
+from sim.study.design.options import add_robot_options, add_scene_options, scene_and_robot
 from sim.study.views.errors import ViewError
 
 __all__ = ["register"]
@@ -63,8 +62,7 @@ def view_command(args: argparse.Namespace) -> int:
     check_positive(args.rate, "--rate")
     check_positive(args.dt, "--dt")
     check_port(args.http_port, "--http-port")
-    scene = load_scene(args.scene)
-    robot = robot_from_args(scene, args)
+    scene, robot = scene_and_robot(args)
     server = viser.ViserServer(host=args.http_host, port=args.http_port, verbose=False)
     view = LiveView(server, robot, scene, args.dt, args.rate)
     client = TcpClient(args.host, args.port)
@@ -104,8 +102,7 @@ def vr_command(args: argparse.Namespace) -> int:
         raise ViewError("--plain-http serves no TLS: leave out --certificate and --key")
     if not (WEB_DIR / "node_modules" / "three").is_dir():
         raise ViewError(f"the page's libraries are not in {WEB_DIR / 'node_modules'}: run launch_scripts/setup.sh")
-    scene = load_scene(args.scene)
-    robot = robot_from_args(scene, args)
+    scene, robot = scene_and_robot(args)
     site = make_site(robot, scene, robot.urdf_path.read_text(), find_ros_package, emulation=args.emulate_headset)
     addresses = machine_addresses()
     tls = None

@@ -1,0 +1,285 @@
+"""A scene that fits the robot: where the table and the hand go for this arm's reach and shoulder height, so that
+every combination of the design can be run. `python -m sim.study scene --robot X --out scene.yaml` proposes one;
+a study command given --robot and no --scene uses the same proposal (computed once per robot and design, kept in
+the cache beside the self-contact verdicts).
+
+How. The bundled scene (the thesis's Panda) is tried first, with this robot on its base. Then the hand goes out
+from the base along x at a fraction of the arm's reach (from its shoulder, the first joint about a horizontal
+axis), on a table whose top is at the robot's mounting (the bottom of its base link) or a fraction of the reach
+lower, in the order of how close each candidate is to the Panda's
+own proportions; and only if none fits, the same with the paths' shapes made smaller (their starts and via points;
+stand-offs and speeds stay the design's). The table keeps its size beyond the base and the hand, and the
+participant's seat keeps its place beside the hand. A candidate is first screened (IK of each approach's start
+and end, cheap), then checked like `check` (every sample planned, limits, contacts, stand-offs); the first that
+passes is the proposal. The robot's base stays at the origin: it is the URDF's mounting, high or low.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import logging
+import os
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+
+from sim.control.scenarios.defaults import controllable_weights
+from sim.engine.self_contact import cache_dir
+from sim.geometry.kinematics import KinematicChain, chain_for, solve_ik
+from sim.robots import RobotSpec
+from sim.study.design.errors import DesignError
+from sim.study.design.feasibility import Approaches, Combination
+from sim.study.design.paths import approach_path
+from sim.study.design.plan import make_plan
+from sim.study.design.scene import DEFAULT_SCENE, Box, Scene, load_scene, parse_scene, scene_robot
+from sim.study.design.spec import Design, load_design
+from sim.study.design.tool import approach_rotation
+from sim.study.design.world import SceneWorld
+from sim.wire.contract import STEP_S
+
+__all__ = [
+    "Candidate",
+    "Fit",
+    "Proportions",
+    "design_combinations",
+    "fit_scene",
+    "fitted_scene",
+    "proportions",
+    "scene_for",
+    "scene_to_data",
+]
+
+log = logging.getLogger(__name__)
+_VERSION = 1  # of the proposal; a cached scene of another version is proposed again
+
+# The hand's distance from the base, as fractions of the reach, the Panda's first (its bundled scene has about
+# this), then ever farther from it; the table top at the robot's mounting (the bottom of its base link: the robot
+# stands on the table, as the Panda does) or lower, never higher (the table would cut through the base)
+_HAND_FRACTIONS = (0.6, 0.65, 0.55, 0.7, 0.5, 0.75, 0.45, 0.8, 0.4)
+_TABLE_DROPS = (0.0, 0.1, 0.2, 0.3, 0.4)  # below the robot's mounting, as fractions of the reach
+_REACH_SAMPLES = 400
+# the paths' shapes at the thesis's size first; smaller only when nothing fits at it
+_APPROACH_SCALES = (1.0, 0.85, 0.7)
+
+
+@dataclass(frozen=True)
+class Proportions:
+    """What the proposal scales by: the shoulder's position and the arm's reach from it (m, base frame)."""
+
+    shoulder: np.ndarray
+    reach: float
+
+
+@dataclass(frozen=True)
+class Candidate:
+    label: str
+    scene: Scene
+    verdict: str  # "fits", or why not
+
+
+@dataclass(frozen=True)
+class Fit:
+    scene: Scene | None  # None: none of the candidates fits
+    proportions: Proportions
+    tried: list[Candidate]
+
+
+def proportions(robot: RobotSpec, chain: KinematicChain) -> Proportions:
+    """The shoulder (the first joint about a horizontal axis, at home; else the second joint) and the reach: the
+    farthest the end effector gets from it over random joint states (deterministic)."""
+    frames = chain.fk_link_frames(robot.home)
+    jacobian = chain.jacobian(robot.home)
+    horizontal = [k for k in range(chain.dof) if abs(jacobian[5, k]) < 0.5 and np.linalg.norm(jacobian[3:, k]) > 0.5]
+    index = horizontal[0] if horizontal else min(1, chain.dof - 1)
+    shoulder = frames[index][:3, 3].copy()
+    rng = np.random.default_rng(0)
+    lower, upper = np.maximum(robot.lower, -np.pi), np.minimum(robot.upper, np.pi)
+    samples = rng.uniform(lower, upper, size=(_REACH_SAMPLES, chain.dof))
+    reach = max(float(np.linalg.norm(chain.fk(q)[:3, 3] - shoulder)) for q in samples)
+    return Proportions(shoulder, reach)
+
+
+def candidate_scene(
+    template: Scene, robot: RobotSpec, hand_distance: float, table_top: float, approach_scale: float = 1.0
+) -> Scene:
+    """`template` with the hand `hand_distance` out along x on a table whose top is at `table_top` (world z, the
+    base at the origin): the table as far behind the base and beyond the hand as the template's, the seat as far
+    beside the hand."""
+    behind = template.table.position[0] - template.table.size[0] / 2.0  # the table's near edge, behind the base
+    beyond = template.table.position[0] + template.table.size[0] / 2.0 - template.hand.position[0]
+    length = hand_distance + beyond - behind
+    table = Box(
+        np.array([length, template.table.size[1], template.table.size[2]]),
+        np.array([behind + length / 2.0, template.table.position[1], table_top - template.table.size[2] / 2.0]),
+        template.table.yaw,
+    )
+    hand = Box(
+        template.hand.size,
+        np.array([hand_distance, template.hand.position[1], table_top + template.hand.size[2] / 2.0]),
+        template.hand.yaw,
+    )
+    seat = hand.top + (template.seat - template.hand.top)
+    return dataclasses.replace(
+        template,
+        robot=str(robot.cli_args[1]) if len(robot.cli_args) > 1 else robot.name,
+        ee_link=robot.ee_link,
+        base_position=np.zeros(3),
+        base_rpy=np.zeros(3),
+        table=table,
+        hand=hand,
+        seat=seat,
+        approach_scale=approach_scale,
+    )
+
+
+def _screen(
+    robot: RobotSpec, chain: KinematicChain, scene: Scene, combinations: Sequence[Combination], dt: float
+) -> str:
+    """Why a candidate cannot fit, from IK of each approach's start and end alone; "" when nothing is found."""
+    weights = controllable_weights(chain, robot.home)
+    target = np.eye(4)
+    target[:3, :3] = approach_rotation(chain, robot.home, scene.to_base_direction(np.array([0.0, 0.0, -1.0])))
+    for name, standoff, speed in dict.fromkeys(combinations):
+        try:
+            path = approach_path(scene, name, standoff, speed, dt)
+        except DesignError as error:
+            return str(error)
+        for label, point in (("start", path.start), ("end", path.end)):
+            target[:3, 3] = scene.to_base(point)
+            if not solve_ik(chain, target, robot.home, weights=weights, restarts=8, rng=0).success:
+                return f"the {name} path's {label} is out of reach"
+    return ""
+
+
+def fit_scene(
+    robot: RobotSpec,
+    template: Scene,
+    combinations: Sequence[Combination],
+    dt: float,
+    progress: Callable[[str], None] = lambda _line: None,
+) -> Fit:
+    """The first candidate that fits (module docstring), with every candidate tried and why it did not."""
+    chain = chain_for(robot)
+    found = proportions(robot, chain)
+    candidates = [("the bundled scene", dataclasses.replace(template, ee_link=robot.ee_link))]
+    with SceneWorld(robot, template) as world:
+        mount = world.base_bottom()
+    pairs = sorted(
+        ((hand, drop) for hand in _HAND_FRACTIONS for drop in _TABLE_DROPS),
+        key=lambda pair: abs(pair[0] - _HAND_FRACTIONS[0]) + pair[1],
+    )
+    for scale in _APPROACH_SCALES:
+        for hand, drop in pairs:
+            distance, top = hand * found.reach, mount - drop * found.reach
+            label = f"the hand {distance:.2f} m out, the table top {round(top, 2) + 0.0:+.2f} m" + (
+                f", the paths' shapes × {scale:g}" if scale != 1.0 else ""
+            )
+            candidates.append((label, candidate_scene(template, robot, distance, top, scale)))
+    tried = []
+    for label, scene in candidates:
+        reason = _screen(robot, chain, scene, combinations, dt)
+        if not reason:
+            with Approaches(robot, scene, dt) as approaches:
+                planned = approaches.plan_all(combinations)
+            failed = [(key, approach) for key, approach in planned.items() if not approach.feasible]
+            if failed:
+                (name, standoff, speed), approach = failed[0]
+                reason = (
+                    f"{len(failed)} of {len(planned)} combinations fail, e.g. {name} to {standoff} m at {speed} m/s: "
+                    f"{approach.problems[0]}"
+                )
+        tried.append(Candidate(label, scene, reason or "fits"))
+        progress(f"{label}: {reason or 'fits'}")
+        if not reason:
+            return Fit(scene, found, tried)
+    return Fit(None, found, tried)
+
+
+def scene_to_data(scene: Scene) -> dict:
+    """The scene as its YAML's data (parse_scene reads it back)."""
+
+    def box(value: Box) -> dict:
+        return {"size": _rounded(value.size), "xyz": _rounded(value.position), "yaw": round(float(value.yaw), 6)}
+
+    data = {
+        "robot": scene.robot,
+        "ee_link": scene.ee_link,
+        "base": {"xyz": _rounded(scene.base_position), "rpy": _rounded(scene.base_rpy)},
+        "table": box(scene.table),
+        "hand": box(scene.hand),
+        "seat": {"xyz": _rounded(scene.seat)},
+        "distance": scene.distance,
+        "approach_scale": scene.approach_scale,
+    }
+    return {key: value for key, value in data.items() if value is not None}
+
+
+def _rounded(values: np.ndarray) -> list[float]:
+    return [round(float(v), 6) for v in values]
+
+
+def fitted_scene(
+    robot: RobotSpec, template: Scene, template_text: str, combinations: Sequence[Combination], dt: float
+) -> Scene:
+    """The proposal for `robot`, from the cache when this robot, template and design were fitted before;
+    DesignError, in one line, when nothing fits."""
+    identity = json.dumps(
+        [
+            _VERSION,
+            robot.urdf_path.read_text(encoding="utf-8"),
+            list(robot.cli_args),
+            template_text,
+            sorted(set(combinations)),
+            dt,
+        ]
+    )
+    path = cache_dir() / "scenes" / f"{hashlib.sha256(identity.encode()).hexdigest()}.yaml"
+    try:
+        return parse_scene(yaml.safe_load(path.read_text(encoding="utf-8")), str(path))
+    except (OSError, yaml.YAMLError, DesignError):
+        pass  # not fitted yet, or unreadable: fitted again
+    fit = fit_scene(robot, template, combinations, dt)
+    if fit.scene is None:
+        raise DesignError(no_fit_message(robot, fit))
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        partial = path.with_suffix(f".{os.getpid()}.tmp")
+        partial.write_text(yaml.safe_dump(scene_to_data(fit.scene), sort_keys=False), encoding="utf-8")
+        partial.replace(path)
+    except OSError as error:  # the scene stands; only the next command fits it again
+        log.warning("cannot cache the fitted scene in %s: %s", path.parent, error)
+    return fit.scene
+
+
+def no_fit_message(robot: RobotSpec, fit: Fit) -> str:
+    nearest = fit.tried[1] if len(fit.tried) > 1 else fit.tried[0]
+    return (
+        f"no scene fits {robot.name} (reach {fit.proportions.reach:.2f} m from its shoulder at "
+        f"{fit.proportions.shoulder[2]:.2f} m): with {nearest.label}, {nearest.verdict}; give a scene of your own "
+        "with --scene (python -m sim.study scene writes one to start from), or a design with other stand-offs or speeds"
+    )
+
+
+def design_combinations(design: Design) -> list[Combination]:
+    """Every combination a session of `design` runs (each participant's plan holds them all)."""
+    return list(dict.fromkeys((t.path, t.standoff, t.peak_speed) for t in make_plan(design, 1, 0).trials))
+
+
+def scene_for(
+    scene_path: Path | None, robot: str | None, overrides: Mapping[str, Any] | None = None
+) -> tuple[Scene, RobotSpec]:
+    """A study command's scene and robot: the given scene file's; else the bundled scene with its robot; else, for
+    another robot (--robot), the scene proposed for it and the bundled design (fitted_scene, at the default step)."""
+    if scene_path is not None or not robot or robot == load_scene().robot:
+        scene = load_scene(scene_path)
+        return scene, scene_robot(scene, robot, overrides)
+    template = load_scene()
+    spec = scene_robot(template, robot, overrides)
+    text = DEFAULT_SCENE.read_text(encoding="utf-8")
+    return fitted_scene(spec, template, text, design_combinations(load_design()), STEP_S), spec
