@@ -1,10 +1,16 @@
-"""Helpers for the study's integration tests: plans written by hand, trial by trial."""
+"""Helpers for the study's integration tests: plans written by hand, trial by trial, and a small design."""
 
 from __future__ import annotations
 
 from pathlib import Path
 
 import yaml
+
+# A study of 14 trials per participant: quick to simulate, and enough to recover the biases put in
+SMALL_DESIGN = {
+    "test1": {"paths": ["straight"], "standoffs": [0.08, 0.14, 0.2], "peak_speed": 0.15, "sesoi": 0.05},
+    "test2": {"paths": ["straight", "vertical"], "speed_sets": {"slow": 0.2, "fast": 0.3}, "sesoi": 0.02},
+}
 
 
 def trial(

@@ -34,16 +34,12 @@ from sim.study.run.protocol import (
 from sim.study.run.stop import STOP_DECELERATION
 from sim.wire.rosmsgs import JOINT_STATE, TYPESTORE, deserialize, encode_message, time_msg, to_seconds
 from tests.integration.sim_helpers import start_engine
-from tests.integration.study_helpers import trial, write_plan
+from tests.integration.study_helpers import SMALL_DESIGN, trial, write_plan
 from tests.robot_files import PANDA_WITH_HAND
 from tests.rosenv import PYTHON, REPO, ManagedProcess, kill_process
 
 SCENE = load_scene()
 ROBOT = scene_robot(SCENE)
-SMALL_DESIGN = {
-    "test1": {"paths": ["straight"], "standoffs": [0.08, 0.14, 0.2], "peak_speed": 0.15, "sesoi": 0.05},
-    "test2": {"paths": ["straight", "vertical"], "speed_sets": {"slow": 0.2, "fast": 0.3}, "sesoi": 0.02},
-}
 
 
 def simulate_small_study(tmp_path: Path, participants: int, seed: int | None = None, extra: Sequence[str] = ()) -> Path:

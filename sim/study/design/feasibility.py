@@ -129,8 +129,8 @@ def plan_combination(
     point_standoff = standoff
     for _ in range(_STANDOFF_ROUNDS):
         miss = planned.reached_standoff - standoff
-        if scene.distance == "ee_point" or planned.unreachable or abs(miss) <= STANDOFF_TOLERANCE / 4:
-            break  # (where IK fails, the distances say nothing about the path's end)
+        if scene.distance == "ee_point" or planned.unreachable or not abs(miss) > STANDOFF_TOLERANCE / 4:
+            break  # (where IK fails, the distances say nothing about the path's end; NaN or inf: no surface)
         point_standoff -= miss
         try:
             path = approach_path(scene, name, standoff, peak_speed, dt, point_standoff)

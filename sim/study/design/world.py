@@ -59,6 +59,8 @@ class SceneWorld:
             j for j in range(p.getNumJoints(self._body, physicsClientId=cid)) if self._below(j, self._joints[0])
         }
         self._obstacles = {"table": self._box(scene.table), "hand": self._box(scene.hand)}
+        # A robot whose moving links have no collision shapes is measured from its end-effector point
+        self._solid = any(p.getCollisionShapeData(self._body, link, physicsClientId=cid) for link in self._moving)
         # Only link pairs that can really collide are checked against each other (adjacent ones, those that touch
         # by construction and those that never meet are not): decided once per robot, as MoveIt decides it.
         names = link_names(self._body, cid)
@@ -129,7 +131,7 @@ class SceneWorld:
     def hand_distance(self, q: np.ndarray) -> float:
         """The robot's distance (m) to the hand at joint positions q, by the scene's definition: from its collision
         geometry's nearest point (negative when it is inside the hand), or from the end-effector point."""
-        if self.scene.distance == "ee_point":
+        if self.scene.distance == "ee_point" or not self._solid:
             return self.scene.hand.distance(self.scene.end_effector(self._chain, q))
         self._set(q)
         points = p.getClosestPoints(self._body, self._obstacles["hand"], FAR, physicsClientId=self._client)
@@ -137,7 +139,7 @@ class SceneWorld:
 
     def nearest_points(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(the robot's point, the hand's point) between which hand_distance is measured, in the world."""
-        if self.scene.distance == "ee_point":
+        if self.scene.distance == "ee_point" or not self._solid:
             point = self.scene.end_effector(self._chain, q)
             return point, self.scene.hand.nearest_point(point)
         self._set(q)

@@ -18,8 +18,8 @@ from sim.launchers import Engine, Participant, Runner, finish, start, wait_ready
 from sim.processes import EndpointProcess, ManagedProcess, ProcessError, RosCore, plain_env
 from sim.study.analysis.report import load_study, write_report
 from sim.study.design.feasibility import plan_combinations
+from sim.study.design.fit import scene_for, scene_to_data
 from sim.study.design.plan import make_plan, plan_to_data
-from sim.study.design.scene import load_scene, scene_robot
 from sim.study.design.spec import load_design
 from sim.study.errors import StudyError
 from sim.study.participants.model import KNOWN_TRUTHS, Population
@@ -59,8 +59,8 @@ def simulate(settings: Simulation, log: Callable[[str], None]) -> Path:
         raise StudyError(
             f"{settings.out} already holds participant records ({earlier[0].name}, ...): choose a new directory"
         )
-    design, scene = load_design(settings.design), load_scene(settings.scene)
-    robot = scene_robot(scene, settings.robot, settings.robot_overrides)
+    design = load_design(settings.design)
+    scene, robot = scene_for(settings.scene, settings.robot, settings.robot_overrides)
     plans = [make_plan(design, participant, settings.seed) for participant in range(1, settings.participants + 1)]
     started = time.monotonic()
     approaches = plan_combinations(
@@ -74,7 +74,11 @@ def simulate(settings: Simulation, log: Callable[[str], None]) -> Path:
     log(f"{len(approaches)} combinations of the design planned and checked in {time.monotonic() - started:.1f} s")
     out = settings.out.resolve()
     logs = out / "logs"
-    scene_and_robot = ["--scene", str(Path(settings.scene).resolve())] if settings.scene is not None else []
+    # Every process of the study is handed the scene as chosen here (given, bundled or proposed for the robot)
+    scene_path = out / "scene.yaml"
+    scene_path.parent.mkdir(parents=True, exist_ok=True)
+    scene_path.write_text(yaml.safe_dump(scene_to_data(scene), sort_keys=False))
+    scene_and_robot = ["--scene", str(scene_path)]
     truths = [f"--{name.replace('_', '-')}={getattr(settings.population, name)!r}" for name in KNOWN_TRUTHS]
     scene_and_robot += robot.cli_args  # every process of the study takes the robot, with its overrides, as chosen here
     with ExitStack() as running:

@@ -1,0 +1,183 @@
+"""Arms the project does not bundle, written by the tests for the study: different sizes and joint counts (6 and 7),
+one with a two-finger gripper and a fixed tool frame, one whose links' meshes overlap at the joints (STL collision
+meshes, OBJ and COLLADA visuals), one mounted high on a pedestal. Each is a URDF with its meshes beside it, like a
+lab's own robot package, and nothing else: no YAML."""
+
+from __future__ import annotations
+
+import struct
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["STUDY_ARMS", "ArmDesign", "write_arm"]
+
+
+@dataclass(frozen=True)
+class ArmDesign:
+    name: str
+    joints: int  # 6 or 7
+    scale: float  # lengths, against a Panda-sized arm at 1
+    gripper: bool = False  # a hand with two prismatic fingers and a fixed tool frame between their tips
+    overlapping_meshes: bool = False  # links as meshes that reach past their joints into their neighbours
+    pedestal: float = 0.0  # m of column under the arm, part of its base link (mounted high)
+
+
+STUDY_ARMS = (
+    ArmDesign("small_gripper_arm", 6, 0.85, gripper=True),
+    ArmDesign("meshed_arm7", 7, 1.0, overlapping_meshes=True),
+    ArmDesign("pedestal_arm", 6, 1.1, pedestal=0.4),
+)
+
+
+def _inertial(mass: float, length: float) -> str:
+    inertia = mass * length**2 / 12 + 1e-4
+    return (
+        f'<inertial><origin xyz="0 0 {length / 2:.4f}"/><mass value="{mass:.3f}"/>'
+        f'<inertia ixx="{inertia:.6f}" ixy="0" ixz="0" iyy="{inertia:.6f}" iyz="0" izz="{inertia:.6f}"/></inertial>'
+    )
+
+
+def _box_triangles(low: np.ndarray, high: np.ndarray) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    corners = np.array([[x, y, z] for x in (low[0], high[0]) for y in (low[1], high[1]) for z in (low[2], high[2])])
+    faces = [(0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3)]  # outward
+    triangles = []
+    for a, b, c, d in faces:
+        triangles += [(corners[a], corners[b], corners[c]), (corners[a], corners[c], corners[d])]
+    return triangles
+
+
+def _write_stl(path: Path, low: np.ndarray, high: np.ndarray) -> None:
+    """A binary STL (what pybullet reads; it skips ASCII ones)."""
+    triangles = _box_triangles(low, high)
+    data = bytearray(b"box".ljust(80, b" ")) + struct.pack("<I", len(triangles))
+    for a, b, c in triangles:
+        normal = np.cross(b - a, c - a)
+        data += struct.pack("<12fH", *(normal / np.linalg.norm(normal)), *a, *b, *c, 0)
+    path.write_bytes(bytes(data))
+
+
+def _write_obj(path: Path, low: np.ndarray, high: np.ndarray) -> None:
+    triangles = _box_triangles(low, high)
+    lines = [f"v {v[0]:.6f} {v[1]:.6f} {v[2]:.6f}" for triangle in triangles for v in triangle]
+    lines += [f"f {3 * k + 1} {3 * k + 2} {3 * k + 3}" for k in range(len(triangles))]
+    path.write_text("\n".join(lines) + "\n")
+
+
+def _write_dae(path: Path, low: np.ndarray, high: np.ndarray) -> None:
+    triangles = _box_triangles(low, high)
+    positions = " ".join(f"{c:.6f}" for triangle in triangles for v in triangle for c in v)
+    indices = " ".join(str(k) for k in range(3 * len(triangles)))
+    path.write_text(
+        '<?xml version="1.0" encoding="utf-8"?>\n'
+        '<COLLADA xmlns="http://www.collada.org/2005/11/COLLADASchema" version="1.4.1">'
+        '<asset><unit meter="1"/><up_axis>Z_UP</up_axis></asset>'
+        '<library_geometries><geometry id="box"><mesh>'
+        f'<source id="box-pos"><float_array id="box-pos-array" count="{9 * len(triangles)}">{positions}</float_array>'
+        f'<technique_common><accessor source="#box-pos-array" count="{3 * len(triangles)}" stride="3">'
+        '<param name="X" type="float"/><param name="Y" type="float"/><param name="Z" type="float"/>'
+        "</accessor></technique_common></source>"
+        '<vertices id="box-vtx"><input semantic="POSITION" source="#box-pos"/></vertices>'
+        f'<triangles count="{len(triangles)}"><input semantic="VERTEX" source="#box-vtx" offset="0"/>'
+        f"<p>{indices}</p></triangles></mesh></geometry></library_geometries>"
+        '<library_visual_scenes><visual_scene id="scene"><node id="box-node">'
+        '<instance_geometry url="#box"/></node></visual_scene></library_visual_scenes>'
+        '<scene><instance_visual_scene url="#scene"/></scene></COLLADA>\n'
+    )
+
+
+def _shapes(design: ArmDesign, folder: Path, link: str, length: float, radius: float, index: int) -> str:
+    """The link's visual and collision: a cylinder along its z from 0 to `length`; or, with overlapping meshes, a
+    box mesh reaching `radius` past both ends (STL collision; OBJ or COLLADA visual, in turn)."""
+    if not design.overlapping_meshes:
+        cylinder = (
+            f'<origin xyz="0 0 {length / 2:.4f}"/>'
+            f'<geometry><cylinder radius="{radius:.4f}" length="{length:.4f}"/></geometry>'
+        )
+        return f"<visual>{cylinder}</visual><collision>{cylinder}</collision>"
+    low, high = np.array([-radius, -radius, -radius]), np.array([radius, radius, length + radius])
+    (folder / "meshes").mkdir(exist_ok=True)
+    _write_stl(folder / "meshes" / f"{link}.stl", low, high)
+    visual = f"{link}.{'dae' if index % 2 else 'obj'}"
+    (_write_dae if index % 2 else _write_obj)(folder / "meshes" / visual, low, high)
+    return (
+        f'<visual><geometry><mesh filename="meshes/{visual}"/></geometry></visual>'
+        f'<collision><geometry><mesh filename="meshes/{link}.stl"/></geometry></collision>'
+    )
+
+
+def _joint(name: str, kind: str, parent: str, child: str, z: float, axis: str, limit: str = "") -> str:
+    return (
+        f'<joint name="{name}" type="{kind}"><parent link="{parent}"/><child link="{child}"/>'
+        f'<origin xyz="0 0 {z:.4f}" rpy="0 0 0"/><axis xyz="{axis}"/>{limit}</joint>'
+    )
+
+
+def arm_urdf(design: ArmDesign, folder: Path) -> str:
+    """The URDF of `design`, its meshes (if any) written into `folder`/meshes."""
+    s = design.scale
+    # (axis, length of the link after the joint, radius, joint range): the elbow and the wrist's pitch bend one way
+    # far, like a Panda's; the rolls and the shoulder turn either way
+    if design.joints == 6:
+        chain = [("0 0 1", 0.15), ("0 1 0", 0.40), ("0 1 0", 0.20), ("0 0 1", 0.15), ("0 1 0", 0.08), ("0 0 1", 0.04)]
+    else:
+        chain = [
+            ("0 0 1", 0.15),
+            ("0 1 0", 0.20),
+            ("0 0 1", 0.20),
+            ("0 1 0", 0.20),
+            ("0 0 1", 0.15),
+            ("0 1 0", 0.08),
+            ("0 0 1", 0.04),
+        ]
+    base_height = 0.10 * s + design.pedestal
+    links = [
+        f'<link name="base_link">{_inertial(5.0, base_height)}'
+        f"{_shapes(design, folder, 'base_link', base_height, 0.09 * s, 0)}</link>"
+    ]
+    joints = []
+    parent, offset = "base_link", base_height
+    pitch_joints = 0
+    for k, (axis, length) in enumerate(chain, start=1):
+        child = f"link{k}"
+        radius = (0.06 if k < 4 else 0.045) * s
+        links.append(
+            f'<link name="{child}">{_inertial(3.0 if k < 4 else 1.0, length * s)}'
+            f"{_shapes(design, folder, child, length * s, radius, k)}</link>"
+        )
+        if axis == "0 1 0":
+            pitch_joints += 1
+            lower, upper = (-2.0, 2.0) if pitch_joints == 1 else (-2.8, 2.8)
+        else:
+            lower, upper = -2.9, 2.9
+        limit = f'<limit lower="{lower}" upper="{upper}" velocity="2.0" effort="150"/>'
+        joints.append(_joint(f"joint{k}", "revolute", parent, child, offset, axis, limit))
+        parent, offset = child, length * s
+    if design.gripper:
+        hand = _shapes(design, folder, "hand", 0.06 * s, 0.05 * s, 8)
+        links.append(f'<link name="hand">{_inertial(0.6, 0.06 * s)}{hand}</link>')
+        joints.append(_joint("flange_to_hand", "fixed", parent, "hand", offset, "0 0 1"))
+        finger = '<limit lower="0.0" upper="0.04" velocity="0.2" effort="20"/>'
+        for side, sign in (("left", 1), ("right", -1)):
+            size = f"{0.015 * s:.4f} {0.01 * s:.4f} {0.05 * s:.4f}"
+            box = f'<origin xyz="0 0 {0.025 * s:.4f}"/><geometry><box size="{size}"/></geometry>'
+            shapes = f"<visual>{box}</visual><collision>{box}</collision>"
+            links.append(f'<link name="{side}_finger">{_inertial(0.05, 0.05 * s)}{shapes}</link>')
+            joints.append(
+                f'<joint name="{side}_finger_joint" type="prismatic"><parent link="hand"/><child link="{side}_finger"/>'
+                f'<origin xyz="0 {sign * 0.02 * s:.4f} {0.06 * s:.4f}"/><axis xyz="0 {sign} 0"/>{finger}</joint>'
+            )
+        links.append('<link name="tool0"/>')
+        joints.append(_joint("hand_to_tool0", "fixed", "hand", "tool0", 0.105 * s, "0 0 1"))
+    body = "\n  ".join(links + joints)
+    return f'<?xml version="1.0"?>\n<robot name="{design.name}">\n  {body}\n</robot>\n'
+
+
+def write_arm(directory: Path, design: ArmDesign) -> Path:
+    """`design` as directory/<name>/<name>.urdf with its meshes beside it; the URDF's path."""
+    folder = directory / design.name
+    folder.mkdir(parents=True, exist_ok=True)
+    path = folder / f"{design.name}.urdf"
+    path.write_text(arm_urdf(design, folder))
+    return path
