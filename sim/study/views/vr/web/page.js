@@ -102,7 +102,9 @@ function loadMesh(path, loadingManager, material, done) {
           materials.preload();
           objLoader.setMaterials(materials);
         } catch (error) {
-          console.warn(`${path}: its material library ${library[1].trim()} did not load (${error}); the URDF's colour is used`);
+          console.warn(
+            `${path}: its material library ${library[1].trim()} did not load (${error}); the URDF's colour is used`,
+          );
         }
       }
       const object = objLoader.parse(text);
@@ -288,5 +290,5 @@ enterButton.addEventListener('click', () => {
 if (navigator.xr && (await navigator.xr.isSessionSupported('immersive-vr'))) {
   enterButton.disabled = false;
 } else {
-  statusLine.textContent = 'This browser has no WebXR: open this page in the headset\'s browser.';
+  statusLine.textContent = "This browser has no WebXR: open this page in the headset's browser.";
 }
