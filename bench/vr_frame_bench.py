@@ -4,12 +4,13 @@ the immersive session with the Panda's meshes, beside the 72-90 Hz a headset nee
     .venv/bin/python bench/vr_frame_bench.py [--seconds 20] [--size 800,600]
 
 Method. Its own roscore, an endpoint with its WebSocket port, and the page's server with the emulated Meta Quest 3
-(IWER, --emulate-headset), opened in Debian's headless Chromium. The robot moves the whole time: this process
-publishes the Panda's joint states at 100 Hz through the endpoint's TCP port (each joint on a slow sine), and the
-page applies the latest at every frame. Once in the session, the page's own figures are read (window.vrPage):
+(IWER, --emulate-headset, which loads the tests' probe window.vrPage too) and the frame-time instrument (--frame-time,
+window.vrFrameTime), opened in Debian's headless Chromium. The robot moves the whole time: this process publishes the
+Panda's joint states at 100 Hz through the endpoint's TCP port (each joint on a slow sine), and the page applies the
+latest at every frame. Once in the session, the page's own figures are read:
 - the work of each frame: applying the joints, reading the controllers, the panel, and rendering both eyes;
-- pass `rendered` loads the page with ?frametime, so each frame waits for its rendering to end (it reads one pixel
-  back) and the figure includes the rendering itself; pass `submitted` does not wait, so it is what the page's
+- pass `rendered` sets the instrument's waitForRendering, so each frame waits for its rendering to end (it reads one
+  pixel back) and the figure includes the rendering itself; pass `submitted` does not wait, so it is what the page's
   JavaScript and three.js cost before the GPU works;
 - the interval between frames, as the emulated headset's frame loop scheduled them.
 
@@ -73,26 +74,28 @@ def publish_joint_states(port: int, stop: threading.Event) -> None:
 
 def page_figures(browser: Any) -> dict[str, Any]:
     return browser.execute_script(
-        "const p = window.vrPage; const r = p.renderer; const layer = r.xr.getSession()?.renderState.baseLayer;"
-        "return {work: p.frameWork.slice(), intervals: p.frameIntervals.slice(), frames: p.frames,"
-        " jointStates: p.jointStates, triangles: r.info.render.triangles,"
-        " framebuffer: layer ? [layer.framebufferWidth, layer.framebufferHeight] : null, error: p.error};"
+        "const s = window.vrPage.state(); const t = window.vrFrameTime;"
+        "const r = window.vrPage.page.view.renderer; const layer = r.xr.getSession()?.renderState.baseLayer;"
+        "return {work: t.work.slice(), intervals: t.intervals.slice(), frames: s.frames, jointStates: s.jointStates,"
+        " triangles: r.info.render.triangles,"
+        " framebuffer: layer ? [layer.framebufferWidth, layer.framebufferHeight] : null, error: s.error};"
     )
 
 
-def measure(browser: Any, url: str, seconds: float) -> dict[str, Any]:
+def measure(browser: Any, url: str, wait_for_rendering: bool, seconds: float) -> dict[str, Any]:
     """Load the page at `url`, enter the session, and read its figures over `seconds` (after SETTLE_S)."""
     browser.get(url)
     wait_for(
         lambda: browser.execute_script(
-            "const p = window.vrPage; return !!p && p.meshesLoaded && !!p.connection && p.connection.connected"
-            " && !document.getElementById('enter').disabled;"
+            "const s = window.vrPage ? window.vrPage.state() : null;"
+            "return !!s && !!window.vrFrameTime && s.meshes && s.connected && s.enterable;"
         ),
         120,
         "the page to load the Panda's meshes and connect",
     )
+    browser.execute_script(f"window.vrFrameTime.waitForRendering = {str(wait_for_rendering).lower()};")
     browser.find_element("id", "enter").click()
-    wait_for(lambda: browser.execute_script("return window.vrPage.inSession;"), 60, "the immersive session")
+    wait_for(lambda: browser.execute_script("return window.vrPage.state().inSession;"), 60, "the immersive session")
     time.sleep(SETTLE_S)
     before = page_figures(browser)
     time.sleep(seconds)
@@ -139,14 +142,14 @@ def main() -> int:
     try:
         endpoint = EndpointProcess(core.env, tmp, extra=["--websocket-port", "0"])
         processes.append(endpoint)
-        vr, url = start_vr_page(endpoint.websocket_port, tmp)
+        vr, url = start_vr_page(endpoint.websocket_port, tmp, frame_time=True)
         processes.append(vr)
         publisher = threading.Thread(target=publish_joint_states, args=(endpoint.port, stop), daemon=True)
         publisher.start()
-        for name, query in (("rendered", "?frametime"), ("submitted", "")):
+        for name, wait_for_rendering in (("rendered", True), ("submitted", False)):
             with chromium(tmp / f"chromium-{name}", accept_insecure_certs=True, size=args.size) as browser:
                 print(f"vr_frame_bench: pass {name} ({args.seconds:g} s) ...", file=sys.stderr, flush=True)
-                results[name] = measure(browser, url + query, args.seconds)
+                results[name] = measure(browser, url, wait_for_rendering, args.seconds)
     finally:
         stop.set()
         for process in reversed(processes):

@@ -50,15 +50,16 @@ if ! PYTHONUSERBASE="$user_base" /usr/bin/python3 -c "import numpy, scipy, matpl
     numpy scipy matplotlib pybullet rosbags
 fi
 
-# The VR page's libraries (three.js, urdf-loader; IWER for the tests' emulated headset) from the npm registry, at the
-# versions and hashes of package-lock.json, into the package's web folder: served from there, never from a CDN.
+# The VR page's libraries (three.js, urdf-loader; IWER for the tests' emulated headset) and its linter and formatter
+# (ESLint, Prettier) from the npm registry, at the versions and hashes of package-lock.json, into the package's web
+# folder: the page's libraries are served from there, never from a CDN.
 web=sim/study/views/vr/web
 if [ ! -f "$web/node_modules/.package-lock.json" ] || [ "$web/package-lock.json" -nt "$web/node_modules/.package-lock.json" ]; then
   if ! command -v npm >/dev/null; then  # Debian's npm is its own package; NodeSource's nodejs carries one
     echo "setup: installing Debian's npm"
     $( [ "$(id -u)" -eq 0 ] || echo sudo ) apt-get install -y -qq npm >/dev/null
   fi
-  echo "setup: npm ci (the VR page's three.js, urdf-loader, iwer)"
+  echo "setup: npm ci (the VR page's three.js, urdf-loader, iwer; eslint, prettier)"
   (cd "$web" && npm ci --ignore-scripts --no-audit --no-fund --loglevel=error >/dev/null)
 fi
 

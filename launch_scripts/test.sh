@@ -22,6 +22,11 @@ export OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 MKL_NUM_THREADS=1
 # Lint and format first (pyproject.toml): a finding fails the run before any test starts.
 .venv/bin/ruff check .
 .venv/bin/ruff format --check .
+# The same for the VR page's JavaScript and its node tests: ESLint and Prettier, at the versions of the page's
+# package-lock.json (set-up's npm ci), their configurations beside it.
+web=sim/study/views/vr/web
+"$web/node_modules/.bin/eslint" --config "$web/eslint.config.js" "$web" tests/js
+"$web/node_modules/.bin/prettier" --config "$web/.prettierrc.json" --check "$web/*.js" "tests/js/*.mjs"
 
 python310=""
 [ -x .venv310/bin/python ] && python310=.venv310/bin/python

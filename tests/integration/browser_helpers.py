@@ -16,8 +16,9 @@ from sim.processes import PYTHON, ManagedProcess, plain_env
 CHROMIUM, CHROMEDRIVER = "/usr/bin/chromium", "/usr/bin/chromedriver"
 
 
-def start_vr_page(websocket_port: int, log_dir: Path) -> tuple[ManagedProcess, str]:
-    """`python -m sim.study vr` with the emulated headset on a free port of localhost, passing its WebSocket to the
+def start_vr_page(websocket_port: int, log_dir: Path, frame_time: bool = False) -> tuple[ManagedProcess, str]:
+    """`python -m sim.study vr` with the emulated headset and the tests' probe (window.vrPage), and with `frame_time`
+    the frame-time instrument (window.vrFrameTime), on a free port of localhost, passing its WebSocket to the
     endpoint's `websocket_port`, its certificate made in log_dir/certificate; returned once it serves, with the
     page's URL."""
     vr = ManagedProcess(
@@ -25,6 +26,7 @@ def start_vr_page(websocket_port: int, log_dir: Path) -> tuple[ManagedProcess, s
             *(PYTHON, "-m", "sim.study", "vr", "--websocket-port", str(websocket_port)),
             *("--port", "0", "--host", "127.0.0.1", "--certificate-dir", str(log_dir / "certificate")),
             "--emulate-headset",
+            *(["--frame-time"] if frame_time else []),
         ],
         plain_env(),
         log_dir,

@@ -40,15 +40,10 @@ DELIVERY_S = 0.3  # a press from the page to the runner, on a quiet machine
 STALL_S = 90
 
 
-def page_state(browser: Any) -> dict[str, Any]:
-    return browser.execute_script(
-        "const p = window.vrPage; if (!p) return null;"
-        "const s = p.participant.status;"
-        "return {connected: !!(p.connection && p.connection.connected), robot: p.robotLoaded, meshes: p.meshesLoaded,"
-        " inSession: p.inSession, frames: p.frames, triggers: p.triggers, error: p.error, actions: p.actions,"
-        " index: s ? s.index : null, phase: s ? s.phase : null,"
-        " enterable: !document.getElementById('enter').disabled};"
-    )
+def page_state(browser: Any) -> dict[str, Any] | None:
+    """The page's state as its probe (window.vrPage, loaded with --emulate-headset) tells it; None before the page
+    has started."""
+    return browser.execute_script("return window.vrPage ? window.vrPage.state() : null;")
 
 
 def over_frames(browser: Any, now: str = "", then: str = "", frames: int = 2) -> None:
@@ -56,7 +51,7 @@ def over_frames(browser: Any, now: str = "", then: str = "", frames: int = 2) ->
     headset reads its input once a frame), in one call: in the session each call to the browser takes ~0.7 s here,
     as software rendering keeps it busy."""
     browser.execute_async_script(
-        "const done = arguments[arguments.length - 1]; const session = window.vrPage.renderer.xr.getSession();"
+        "const done = arguments[arguments.length - 1]; const session = window.vrPage.session();"
         f"{now}; let left = {frames};"
         "const next = () => session.requestAnimationFrame(() => {"
         f" if (--left > 0) {{ next(); }} else {{ {then}; done(); }} }});"
@@ -77,14 +72,15 @@ def press_once_moving(browser: Any, index: int, hand: str, button: str) -> None:
     burners, more than the approach lasts. Keeps the round trip of the ping that the press's stamp rests on
     (window.pressClockRoundTripMs)."""
     browser.execute_script(
-        "const page = window.vrPage; const session = page.renderer.xr.getSession();"
+        "const page = window.vrPage.page; const session = window.vrPage.session();"
         f"const controller = window.emulatedHeadset.controllers.{hand}; let releaseAfter = null;"
         "const watch = () => session.requestAnimationFrame(() => {"
         " const status = page.participant.status;"
         f" if (releaseAfter === null && status && status.index === {index} && status.phase === 'moving') {{"
-        f"  controller.updateButtonValue('{button}', 1); releaseAfter = page.frames + 2;"
-        "  window.pressClockRoundTripMs = page.connection.clock.best()[0]; }"
-        f" if (releaseAfter !== null && page.frames >= releaseAfter) {{ controller.updateButtonValue('{button}', 0); }}"
+        f"  controller.updateButtonValue('{button}', 1); releaseAfter = page.loop.frames + 2;"
+        "  window.pressClockRoundTripMs = page.topics.connection.clock.best()[0]; }"
+        f" if (releaseAfter !== null && page.loop.frames >= releaseAfter) {{"
+        f" controller.updateButtonValue('{button}', 0); }}"
         " else { watch(); } });"
         "watch();"
     )
@@ -103,7 +99,7 @@ def assert_page_knows_ros_time(browser: Any, endpoint_port: int) -> None:
     with one that this test measures by its own ping, within the two round trips' uncertainty. ROS time is not compared
     with the latest joint state's stamp: the page handles messages between frames, which software rendering makes
     slow (the stamp lagged the page's ROS time by 0.27 s, and by 1.36 s beside two CPU burners)."""
-    round_trip_ms, page_offset = browser.execute_script("return window.vrPage.connection.clock.best();")
+    round_trip_ms, page_offset = browser.execute_script("return window.vrPage.page.topics.connection.clock.best();")
     with tcp_client(endpoint_port) as client:
         ping = client.ping(timeout=10)
     assert ping.ros_clock_offset_s is not None

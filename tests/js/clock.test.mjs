@@ -4,7 +4,7 @@ import { test } from 'node:test';
 
 import { ClockOffset } from '../../sim/study/views/vr/web/clock.js';
 
-test('the offset is the quickest round trip\'s, taken at its middle', () => {
+test("the offset is the quickest round trip's, taken at its middle", () => {
   const clock = new ClockOffset();
   assert.equal(clock.offset, null);
   clock.add(10_000, 10_100, 110.2); // ROS time 110.2 at browser 10.05 s: 100.15 s ahead, within 0.05 s

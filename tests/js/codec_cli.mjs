@@ -2,18 +2,34 @@
 // Python wrote, and the bytes it writes, as JSON on stdout. Input: JSON on stdin.
 import { readFileSync } from 'node:fs';
 
-import { command, decodeJointState, encodeFloat32, encodeHeader, encodeString, frame, framesIn, rosTime } from '../../sim/study/views/vr/web/rostcp.js';
+import {
+  command,
+  decodeJointState,
+  encodeFloat32,
+  encodeHeader,
+  encodeString,
+  frame,
+  framesIn,
+  rosTime,
+} from '../../sim/study/views/vr/web/rostcp.js';
 
 const input = JSON.parse(readFileSync(0, 'utf-8'));
 const hex = (bytes) => Buffer.from(bytes).toString('hex');
 const state = decodeJointState(Buffer.from(input.joint_state, 'hex'));
 const frames = framesIn(Buffer.from(input.frames, 'hex'));
-console.log(JSON.stringify({
-  joint_state: { stamp: state.stamp, names: state.names, positions: [...state.positions], velocities: [...state.velocities] },
-  frames: frames.map(([name, payload]) => [name, hex(payload)]),
-  header: hex(encodeHeader(input.header.seq, rosTime(input.header.stamp), input.header.frame_id)),
-  float32: hex(encodeFloat32(input.float32)),
-  string: hex(encodeString(input.string)),
-  frame: hex(frame(input.frame[0], Buffer.from(input.frame[1], 'hex'))),
-  command: hex(command('__subscribe', { topic: '/study/trial', message_name: 'std_msgs/String' })),
-}));
+console.log(
+  JSON.stringify({
+    joint_state: {
+      stamp: state.stamp,
+      names: state.names,
+      positions: [...state.positions],
+      velocities: [...state.velocities],
+    },
+    frames: frames.map(([name, payload]) => [name, hex(payload)]),
+    header: hex(encodeHeader(input.header.seq, rosTime(input.header.stamp), input.header.frame_id)),
+    float32: hex(encodeFloat32(input.float32)),
+    string: hex(encodeString(input.string)),
+    frame: hex(frame(input.frame[0], Buffer.from(input.frame[1], 'hex'))),
+    command: hex(command('__subscribe', { topic: '/study/trial', message_name: 'std_msgs/String' })),
+  }),
+);

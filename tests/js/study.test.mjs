@@ -4,15 +4,37 @@ import assert from 'node:assert/strict';
 import { readFileSync } from 'node:fs';
 import { test } from 'node:test';
 
-import { FrameError, KEEPALIVE, command, commandFields, frame, framesIn, rosTime } from '../../sim/study/views/vr/web/rostcp.js';
+import {
+  FrameError,
+  KEEPALIVE,
+  command,
+  commandFields,
+  frame,
+  framesIn,
+  rosTime,
+} from '../../sim/study/views/vr/web/rostcp.js';
 import { ControllerEdges, Participant } from '../../sim/study/views/vr/web/study.js';
 
 // the trial protocol's table, as the page gets it in its settings
 const PROTOCOL = JSON.parse(readFileSync(new URL('../../sim/study/run/protocol.json', import.meta.url)));
 
 function status(phase, extra = {}) {
-  return { participant: 3, index: 2, total: 4, phase, condition: 'vr', test: 2, path: 'straight', standoff: 0,
-    peak_speed: 0.3, speed_set: 'fast', group: 1, motion_start: null, group_paths: [], ...extra };
+  return {
+    participant: 3,
+    index: 2,
+    total: 4,
+    phase,
+    condition: 'vr',
+    test: 2,
+    path: 'straight',
+    standoff: 0,
+    peak_speed: 0.3,
+    speed_set: 'fast',
+    group: 1,
+    motion_start: null,
+    group_paths: [],
+    ...extra,
+  };
 }
 
 test('the trigger stops only while the robot moves, stamped on the runner clock or zero', () => {
@@ -34,7 +56,7 @@ test('A says go once per ready phase', () => {
   assert.deepEqual(participant.onConfirm(null), ['go']);
 });
 
-test('the distance is the controllers\' when both are tracked and within reach', () => {
+test("the distance is the controllers' when both are tracked and within reach", () => {
   const participant = new Participant(PROTOCOL);
   participant.onStatus(status('distance', { test: 1 }));
   assert.equal(participant.onConfirm(null), null);
@@ -47,7 +69,7 @@ test('the distance is the controllers\' when both are tracked and within reach',
   assert.deepEqual(participant.instructions()[1], ['Thank you.']);
 });
 
-test('the thumbstick walks the group\'s paths and A chooses the one shown', () => {
+test("the thumbstick walks the group's paths and A chooses the one shown", () => {
   const participant = new Participant(PROTOCOL);
   participant.onStatus(status('preference', { group_paths: ['straight', 'vertical', 'lateral_arc'] }));
   participant.onChoose(-1);
@@ -63,7 +85,10 @@ test('every phase of the table has its words on the panel', () => {
     participant.onStatus(status(phase.name, { index: 5, group_paths: ['straight'] }));
     const [title, lines] = participant.instructions();
     assert.equal(title, phase.panel.title || 'Trial 5 of 4');
-    assert.deepEqual(lines, phase.panel.lines.map((line) => line.replace('{choice}', '1').replace('{path}', 'straight')));
+    assert.deepEqual(
+      lines,
+      phase.panel.lines.map((line) => line.replace('{choice}', '1').replace('{path}', 'straight')),
+    );
   }
 });
 
@@ -78,9 +103,16 @@ test('button and thumbstick edges', () => {
 });
 
 test('frames: several in one message, and a message that ends inside one', () => {
-  const message = new Uint8Array([...frame('/t', new Uint8Array([1, 2, 3])), ...KEEPALIVE, ...command('__ping', { a: 1 })]);
+  const message = new Uint8Array([
+    ...frame('/t', new Uint8Array([1, 2, 3])),
+    ...KEEPALIVE,
+    ...command('__ping', { a: 1 }),
+  ]);
   const frames = framesIn(message);
-  assert.deepEqual(frames.map(([name]) => name), ['/t', '', '__ping']);
+  assert.deepEqual(
+    frames.map(([name]) => name),
+    ['/t', '', '__ping'],
+  );
   assert.deepEqual([...frames[0][1]], [1, 2, 3]);
   assert.deepEqual(commandFields(frames[2][1]), { a: 1 });
   for (const cut of [2, 5, 9, message.length - 1]) assert.throws(() => framesIn(message.subarray(0, cut)), FrameError);

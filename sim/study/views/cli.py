@@ -44,7 +44,13 @@ def register(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> N
     vr.add_argument(
         "--emulate-headset",
         action="store_true",
-        help="load an emulated Quest 3 (IWER) in the page: for tests and for trying the page without a headset",
+        help="load an emulated Quest 3 (IWER) in the page, and the tests' probe (window.vrPage): for tests and for "
+        "trying the page without a headset",
+    )
+    vr.add_argument(
+        "--frame-time",
+        action="store_true",
+        help="load the frame-time instrument (window.vrFrameTime) in the page: for bench/vr_frame_bench.py",
     )
     add_robot_options(vr)
     vr.set_defaults(handler=vr_command)
@@ -103,7 +109,14 @@ def vr_command(args: argparse.Namespace) -> int:
     if not (WEB_DIR / "node_modules" / "three").is_dir():
         raise ViewError(f"the page's libraries are not in {WEB_DIR / 'node_modules'}: run launch_scripts/setup.sh")
     scene, robot = scene_and_robot(args)
-    site = make_site(robot, scene, robot.urdf_path.read_text(), find_ros_package, emulation=args.emulate_headset)
+    site = make_site(
+        robot,
+        scene,
+        robot.urdf_path.read_text(),
+        find_ros_package,
+        emulation=args.emulate_headset,
+        frame_time=args.frame_time,
+    )
     addresses = machine_addresses()
     tls = None
     if not args.plain_http:

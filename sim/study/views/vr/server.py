@@ -128,13 +128,14 @@ class PageServer:
             return 404, f"nothing at {path}\n".encode(), "text/plain; charset=utf-8"
         data = await asyncio.get_running_loop().run_in_executor(None, file.read_bytes)
         if file.name == "index.html":
-            data = self._with_emulation(data)
+            data = self._with_instruments(data)
         return 200, data, content_type(file)
 
-    def _with_emulation(self, page: bytes) -> bytes:
-        """The page, with the emulated headset's module loaded first when this server was asked for it."""
-        tag = b'<script type="module" src="/app/emulation.js"></script>' if self.site.emulation else b""
-        return page.replace(b"<!-- emulation -->", tag)
+    def _with_instruments(self, page: bytes) -> bytes:
+        """The page, with the modules this server was asked for (the emulated headset, the tests' probe, the
+        frame-time instrument) loaded before the page's own: without them, not a word of them is in the page."""
+        tags = "".join(f'<script type="module" src="/app/{name}"></script>' for name in self.site.instruments)
+        return page.replace(b"<!-- instruments -->", tags.encode())
 
     async def _pass_through(
         self, request: h11.Request, rest: bytes, reader: asyncio.StreamReader, writer: asyncio.StreamWriter

@@ -24,7 +24,17 @@ from sim.study.run.protocol import INPUTS, PROTOCOL
 from sim.study.views.live import COLOURS
 from sim.wire.rosmsgs import JOINT_STATE
 
-__all__ = ["WEB_DIR", "ROS_PATH", "PAGE_FILES", "Site", "make_site", "page_settings", "content_type"]
+__all__ = [
+    "WEB_DIR",
+    "ROS_PATH",
+    "PAGE_FILES",
+    "EMULATION_FILES",
+    "FRAME_TIME_FILES",
+    "Site",
+    "make_site",
+    "page_settings",
+    "content_type",
+]
 
 WEB_DIR = Path(__file__).resolve().parent / "web"
 ROS_PATH = "/ros"  # the WebSocket that is passed through to the endpoint
@@ -32,12 +42,22 @@ PAGE_FILES = (
     "index.html",
     "page.css",
     "page.js",
-    "rostcp.js",
-    "study.js",
+    "scene.js",
+    "robot.js",
+    "panel.js",
+    "controllers.js",
+    "headset.js",
+    "frameloop.js",
+    "topics.js",
     "connection.js",
+    "rostcp.js",
     "clock.js",
-    "emulation.js",
+    "study.js",
 )
+# Modules served and loaded only when the server is started for them, in the order the page loads them: the emulated
+# headset before the page asks for WebXR, then the tests' probe (window.vrPage); the bench's frame-time instrument.
+EMULATION_FILES = ("emulation.js", "probe.js")
+FRAME_TIME_FILES = ("frametime.js",)
 # URL prefix -> folder under the npm packages (node_modules): what the page imports, and only that
 _VENDOR = {
     "/vendor/three/build/": "three/build",
@@ -54,7 +74,13 @@ class Site:
     mesh_folders: tuple[Path, ...]  # /robot/<k>/ is mesh_folders[k]
     settings: dict[str, Any]  # the page's /settings.json
     web_dir: Path = WEB_DIR
-    emulation: bool = False  # serve the emulated headset (IWER) and load it in the page: tests and demos only
+    emulation: bool = False  # serve the emulated headset (IWER) and the tests' probe, and load them: tests and demos
+    frame_time: bool = False  # serve the frame-time instrument and load it: bench/vr_frame_bench.py
+
+    @property
+    def instruments(self) -> tuple[str, ...]:
+        """The page's modules beyond PAGE_FILES that this site serves and the page loads, in that order."""
+        return (EMULATION_FILES if self.emulation else ()) + (FRAME_TIME_FILES if self.frame_time else ())
 
     def file_for(self, url_path: str) -> Path | None:
         """The file a request's path names, or None when it names nothing the page may have."""
@@ -62,7 +88,7 @@ class Site:
             return self.web_dir / "index.html"
         if url_path.startswith("/app/"):
             name = url_path[len("/app/") :]
-            return self.web_dir / name if name in PAGE_FILES else None
+            return self.web_dir / name if name in PAGE_FILES or name in self.instruments else None
         vendor = dict(_VENDOR, **(_EMULATION_VENDOR if self.emulation else {}))
         for prefix, folder in vendor.items():
             if url_path.startswith(prefix):
@@ -135,6 +161,7 @@ def make_site(
     find_package: Callable[[str], Path | None],
     emulation: bool = False,
     web_dir: Path = WEB_DIR,
+    frame_time: bool = False,
 ) -> Site:
     """The site for `robot` (its URDF text given) in `scene`; a mesh that is nowhere is left out of the picture,
     as in the physics (sim.robots.meshes)."""
@@ -142,7 +169,7 @@ def make_site(
     urdf, folders = _urls_for_meshes(resolved)
     settings = page_settings(robot, scene)
     settings["emulation"] = emulation
-    return Site(urdf, folders, settings, web_dir, emulation)
+    return Site(urdf, folders, settings, web_dir, emulation, frame_time)
 
 
 def content_type(path: Path) -> str:

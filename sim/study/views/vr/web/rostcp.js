@@ -64,8 +64,12 @@ class Writer {
     this.length += size;
   }
 
-  uint32(value) { this._push(4, (view) => view.setUint32(0, value, true)); }
-  float32(value) { this._push(4, (view) => view.setFloat32(0, value, true)); }
+  uint32(value) {
+    this._push(4, (view) => view.setUint32(0, value, true));
+  }
+  float32(value) {
+    this._push(4, (view) => view.setFloat32(0, value, true));
+  }
 
   string(text) {
     const bytes = encoder.encode(text);
@@ -99,7 +103,9 @@ class Reader {
     return at;
   }
 
-  uint32() { return this.view.getUint32(this._take(4), true); }
+  uint32() {
+    return this.view.getUint32(this._take(4), true);
+  }
 
   string() {
     const length = this.uint32();

@@ -47,6 +47,11 @@ def test_every_mesh_of_the_urdf_is_a_url_under_a_served_folder(site: Site) -> No
         "/vendor/three/package.json",
         "/vendor/three/build/../../../etc/passwd",
         "/vendor/iwer/build/iwer.module.js",  # only with the emulated headset
+        "/app/emulation.js",
+        "/app/probe.js",  # the tests' probe: only with the emulated headset
+        "/app/frametime.js",  # only with --frame-time
+        "/app/eslint.config.js",
+        "/app/package.json",
         "/etc/passwd",
         "",
     ],
@@ -63,6 +68,18 @@ def test_the_page_its_files_and_the_libraries_it_imports(site: Site) -> None:
     assert loader == WEB_DIR / "node_modules/three/examples/jsm/loaders/OBJLoader.js"
     emulated = Site(site.urdf, site.mesh_folders, site.settings, emulation=True)
     assert emulated.file_for("/vendor/iwer/build/iwer.module.js") == WEB_DIR / "node_modules/iwer/build/iwer.module.js"
+    assert emulated.file_for("/app/probe.js") == WEB_DIR / "probe.js"
+    assert emulated.file_for("/app/frametime.js") is None
+    benched = Site(site.urdf, site.mesh_folders, site.settings, frame_time=True)
+    assert benched.file_for("/app/frametime.js") == WEB_DIR / "frametime.js"
+    assert benched.file_for("/app/probe.js") is None
+
+
+def test_every_module_of_the_page_is_a_file_of_the_web_folder() -> None:
+    from sim.study.views.vr.site import EMULATION_FILES, FRAME_TIME_FILES, PAGE_FILES
+
+    listed = {name for name in PAGE_FILES + EMULATION_FILES + FRAME_TIME_FILES if name.endswith(".js")}
+    assert listed == {path.name for path in WEB_DIR.glob("*.js")} - {"eslint.config.js"}
 
 
 def test_the_settings_carry_the_scene_the_joints_and_the_topics(site: Site) -> None:

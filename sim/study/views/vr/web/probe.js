@@ -1,0 +1,30 @@
+// The tests' view into the page (window.vrPage): served and loaded only with the page server's --emulate-headset,
+// never in a participant's headset.
+import { page } from './page.js';
+
+window.vrPage = {
+  page, // every part, for what the tests drive (the session, the connection's clock)
+
+  session() {
+    return page.view.renderer.xr.getSession();
+  },
+
+  // What the tests wait on and check, as plain data.
+  state() {
+    const status = page.participant.status;
+    return {
+      connected: page.topics.connected,
+      robot: page.robot.loaded,
+      meshes: page.robot.meshesLoaded,
+      jointStates: page.robot.received,
+      inSession: page.headset.inSession,
+      enterable: !page.headset.button.disabled,
+      frames: page.loop.frames,
+      triggers: page.headset.triggers,
+      actions: page.topics.sent,
+      index: status ? status.index : null,
+      phase: status ? status.phase : null,
+      error: page.robot.error || page.headset.error,
+    };
+  },
+};

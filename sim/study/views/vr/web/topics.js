@@ -1,0 +1,51 @@
+// The page's side of the study over ROS, through the endpoint's client (connection.js): the robot's joint states and
+// the trial's status in, the participant's answers out, on the topics of the settings.
+import { RosConnection } from './connection.js';
+import { EMPTY, decodeJointState, decodeString, encodeFloat32, encodeHeader, encodeString, rosTime } from './rostcp.js';
+
+export class StudyTopics {
+  // url: the endpoint's WebSocket (through this page's server); onJoints(jointState), onStatus(trial status object).
+  constructor(settings, url, { onJoints, onStatus }) {
+    this.settings = settings;
+    this.state = 'connecting'; // what the connection is doing, for the panel
+    this.connection = new RosConnection(url, (state) => {
+      this.state = state;
+    });
+    this.sent = []; // the answers published: [input, value], oldest first
+    this.stopSeq = 0;
+    const topics = settings.topics;
+    this.connection.subscribe(topics.joint_states[0], topics.joint_states[1], (payload) => {
+      onJoints(decodeJointState(payload));
+    });
+    this.connection.subscribe(topics.trial[0], topics.trial[1], (payload) => {
+      onStatus(JSON.parse(decodeString(payload)));
+    });
+    for (const name of Object.keys(settings.protocol.inputs)) this.connection.advertise(...topics[name]);
+  }
+
+  open() {
+    this.connection.open();
+  }
+
+  get connected() {
+    return this.connection.connected;
+  }
+
+  // Now in ROS time (s), or null before the endpoint has answered a ping.
+  rosNow() {
+    return this.connection.rosNow();
+  }
+
+  // Publish a participant's answer ([input, value], study.js), if any, on its input's topic.
+  send(action) {
+    if (!action) return;
+    const [what, value] = action;
+    const payload = {
+      go: () => EMPTY,
+      stop: () => encodeHeader(this.stopSeq++, rosTime(value), this.settings.stop_source),
+      distance: () => encodeFloat32(value),
+      preference: () => encodeString(value),
+    }[what]();
+    if (this.connection.publish(this.settings.topics[what][0], payload)) this.sent.push([what, value]);
+  }
+}
