@@ -199,7 +199,8 @@ class VrServer:
     port: int = 0
     host: str = "127.0.0.1"
     certificate_dir: Path | None = None
-    emulate_headset: bool = False
+    emulate_headset: bool = False  # and the tests' probe
+    frame_time: bool = False  # the frame-time instrument, for the bench
     robot: Sequence[str] = ()
     extra: Sequence[str] = ()
     ready = "its WebSocket /ros goes to"
@@ -210,6 +211,7 @@ class VrServer:
             *("--port", str(self.port), "--host", self.host),
             *_option("--certificate-dir", self.certificate_dir),
             *_flag("--emulate-headset", self.emulate_headset),
+            *_flag("--frame-time", self.frame_time),
             *self.robot,
             *self.extra,
         ]

@@ -11,7 +11,8 @@ from typing import Any
 
 import numpy as np
 
-from sim.processes import PYTHON, ManagedProcess, plain_env
+from sim.launchers import VrServer, start
+from sim.processes import ManagedProcess, plain_env
 
 CHROMIUM, CHROMEDRIVER = "/usr/bin/chromium", "/usr/bin/chromedriver"
 
@@ -21,23 +22,11 @@ def start_vr_page(websocket_port: int, log_dir: Path, frame_time: bool = False) 
     the frame-time instrument (window.vrFrameTime), on a free port of localhost, passing its WebSocket to the
     endpoint's `websocket_port`, its certificate made in log_dir/certificate; returned once it serves, with the
     page's URL."""
-    vr = ManagedProcess(
-        [
-            *(PYTHON, "-m", "sim.study", "vr", "--websocket-port", str(websocket_port)),
-            *("--port", "0", "--host", "127.0.0.1", "--certificate-dir", str(log_dir / "certificate")),
-            "--emulate-headset",
-            *(["--frame-time"] if frame_time else []),
-        ],
-        plain_env(),
-        log_dir,
-        "vr",
+    server = VrServer(
+        websocket_port, certificate_dir=log_dir / "certificate", emulate_headset=True, frame_time=frame_time
     )
-    try:
-        lines = vr.wait_for_output("its WebSocket /ros goes to", timeout=60).splitlines()
-    except BaseException:
-        vr.stop()
-        raise
-    return vr, next(line.split("the page: ")[1] for line in lines if "the page: " in line)
+    vr = start(server, plain_env(), log_dir, "vr")
+    return vr, server.page_url(vr.output())
 
 
 @contextmanager

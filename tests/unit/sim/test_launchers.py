@@ -66,7 +66,7 @@ def test_the_commander_with_its_recorder_and_wall_clock() -> None:
         (Runner(Path("p.yaml"), Path("out"), ROBOT, 0.02, realtime=True, record=False), {"realtime": True}),
         (Participant(3, 7, 10001, ("--scene", "s.yaml"), 0.02, ("--vr-distance-shift=0.05",)), {"seed": 7}),
         (LiveView(10001, 8080, ROBOT), {"http_port": 8080}),
-        (VrServer(9090, certificate_dir=Path("certs"), emulate_headset=True), {"emulate_headset": True}),
+        (VrServer(9090, certificate_dir=Path("certs"), emulate_headset=True, frame_time=True), {"frame_time": True}),
     ],
 )
 def test_the_studys_programs(launcher: Runner | Participant | LiveView | VrServer, expected: dict[str, object]) -> None:
