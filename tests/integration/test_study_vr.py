@@ -18,11 +18,12 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from sim.geometry.kinematics import chain_for
-from sim.study.design.paths import ON_TOP, approach_path
+from sim.study.design.feasibility import Approaches
+from sim.study.design.paths import ON_TOP
 from sim.study.design.scene import load_scene, scene_robot
 from sim.study.run.protocol import STATUS_TOPIC, status_from_json
 from sim.study.views.live import COLOURS
+from sim.wire.contract import STEP_S
 from sim.wire.rosmsgs import decode_joint_state, deserialize
 from tests.integration.bridge_helpers import DiagnosticsInbox, start_endpoint, tcp_client
 from tests.integration.browser_helpers import chromium, pixels_like, start_vr_page
@@ -233,17 +234,18 @@ def test_an_emulated_quest_enters_the_session_and_answers_the_runner(tmp_path: P
     assert second["pressed"] == "true" and second["press_source"] == "vr_trigger"
     assert third["pressed"] == "false"
     assert second["preferred_path"] == third["preferred_path"] == "vertical"
-    # the stop's distance is the FK of the joints the robot achieved: its last state before trial 3 began (recorded)
+    # the stop's distance is the robot's (its nearest surface's) at the joints it achieved: its last state before
+    # trial 3 began (recorded)
     scene = load_scene()
     robot = scene_robot(scene)
     at_rest = joints_before_trial(out / "bags" / f"participant_{PARTICIPANT:02d}.bag", robot, 3)
-    tip = scene.end_effector(chain_for(robot), at_rest)
-    assert float(second["distance_at_rest"]) == pytest.approx(scene.hand.distance(tip), abs=0.001)
+    with Approaches(robot, scene, STEP_S) as approaches:
+        assert float(second["distance_at_rest"]) == pytest.approx(approaches.hand_distance(at_rest), abs=0.001)
+        approach = approaches.plan(("straight", ON_TOP, 0.1)).path.duration
     assert float(second["distance_at_rest"]) > 0.02  # stopped before reaching the hand
     # The press is stamped on the runner's clock (from the page's pings) and applied at its stamp, or just after
     stamp = next(value for what, value in actions if what == "stop")
     motion_start = float(second["motion_start"])
-    approach = approach_path(scene, "straight", ON_TOP, 0.1).duration
     assert motion_start < stamp < motion_start + approach, (stamp, motion_start)
     # Late by the delivery (page, endpoint, runner) and by the error of the page's clock offset, which is at most
     # half its ping's round trip (2 ms here when quiet; 1.3 s beside two CPU burners, where a press came 0.45 s late)
