@@ -3,7 +3,7 @@
 Run: `.venv/bin/python bench/chaos_bench.py [--quick] [--only PHASE ...] [--fuzz-s S]` from the repository root.
 
 Each phase starts its own roscore (free port, private ROS_HOME) and endpoint, and prints the endpoint's threads,
-descriptors and RSS (tests.chaos.figures) before, at the worst moment and after, plus what a well-behaved client
+descriptors and RSS (measuring.procfs.figures) before, at the worst moment and after, plus what a well-behaved client
 saw beside the abuse. The short, asserting variants of the same abuse are tests (tests/integration/test_bridge_*):
 this script measures; it judges nothing.
 
@@ -37,8 +37,9 @@ sys.path[:0] = [str(REPO)]
 
 from bridge import protocol  # noqa: E402
 from bridge.client import TcpClient  # noqa: E402
-from tests.chaos import LOOPBACK, FuzzStats, ProcessFigures, churn, figures, fuzz_client  # noqa: E402
-from tests.frames import feed  # noqa: E402
+from measuring.abuse import LOOPBACK, FuzzStats, churn, fuzz_client  # noqa: E402
+from measuring.frames import feed  # noqa: E402
+from measuring.procfs import ProcessFigures, figures  # noqa: E402
 from tests.integration.bridge_helpers import settled  # noqa: E402
 from tests.rosenv import EndpointProcess, ManagedProcess, RosCore, wait_for  # noqa: E402
 

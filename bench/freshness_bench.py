@@ -3,7 +3,7 @@ Wi-Fi-like link, and that ROS gets from it, per topic, over a minute.
 
 Run: `.venv/bin/python bench/freshness_bench.py [--quick] [--seconds S] [--ab REVISION] [--original DIR]`.
 
-The link (tests.slow_link.SlowLink): 100 Mbit/s, 8 ms each way, a 64 KiB queue, between the client (this process,
+The link (measuring.link.SlowLink): 100 Mbit/s, 8 ms each way, a 64 KiB queue, between the client (this process,
 bridge.client.TcpClient, the Python twin of Unity's client) and the endpoint; roscore and the rospy nodes
 (bench/endpoint_rosnode.py) are local to the endpoint, as on a robot's computer.
 
@@ -44,8 +44,8 @@ from endpoint_bench import start_endpoint, stop_core, worktree_of  # noqa: E402
 from endpoint_common import HEADER_OFFSETS, MESSAGE_KINDS, paced, percentile, read_stamp, stamped  # noqa: E402
 
 from bridge.client import TcpClient  # noqa: E402
+from measuring.link import SlowLink  # noqa: E402
 from tests.rosenv import PYTHON, ManagedProcess, RosCore, free_port, kill_process  # noqa: E402
-from tests.slow_link import SlowLink  # noqa: E402
 
 ROSNODE = str(BENCH / "endpoint_rosnode.py")
 LINK_RATE_BPS = 100e6

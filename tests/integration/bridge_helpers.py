@@ -21,8 +21,8 @@ import pytest
 from bridge import protocol
 from bridge.client import TcpClient
 from bridge.protocol import FrameDecoder
+from measuring.frames import BadFrame, Frame, feed
 from sim.processes import subscribers_written, writes_to
-from tests.frames import BadFrame, Frame, feed
 from tests.rosenv import EndpointProcess, RosCore, wait_for
 
 LOOPBACK = "127.0.0.1"

@@ -12,7 +12,7 @@ from std_srvs.srv import SetBool, SetBoolRequest, SetBoolResponse, Trigger, Trig
 
 from bridge import protocol
 from bridge.client import ClientError
-from tests.chaos import figures
+from measuring.procfs import figures
 from tests.integration.bridge_helpers import (
     RawConnection,
     RosInbox,
