@@ -47,12 +47,6 @@ def start_endpoint(roscore: RosCore, log_dir: Path, *extra: str, name: str | Non
     return EndpointProcess(roscore.env, log_dir, name=name or f"bridge_test_{os.getpid()}_{next(_names)}", extra=extra)
 
 
-def settled(roscore: RosCore, node: str) -> None:
-    """Until the endpoint `node` has all its own threads started (the last, /diagnostics' publisher, comes with its
-    first tick): the baseline for counting threads and descriptors."""
-    wait_for(lambda: node in roscore.publishers("/diagnostics"), 10, "/diagnostics")
-
-
 @pytest.fixture(scope="module")
 def bridge(roscore: RosCore, ros_node, tmp_path_factory) -> Iterator[EndpointProcess]:
     """One endpoint shared by a test module (tests use unique names); short service timeout for failure tests."""

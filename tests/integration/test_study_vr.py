@@ -18,6 +18,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
+from measuring.browser import chromium, start_vr_page
 from sim.geometry.kinematics import chain_for
 from sim.study.design.paths import ON_TOP, approach_path
 from sim.study.design.scene import load_scene, scene_robot
@@ -25,7 +26,7 @@ from sim.study.run.protocol import STATUS_TOPIC, status_from_json
 from sim.study.views.live import COLOURS
 from sim.wire.rosmsgs import decode_joint_state, deserialize
 from tests.integration.bridge_helpers import DiagnosticsInbox, start_endpoint, tcp_client
-from tests.integration.browser_helpers import chromium, pixels_like, start_vr_page
+from tests.integration.pixels import pixels_like
 from tests.integration.sim_helpers import start_engine
 from tests.integration.study_helpers import trial, write_plan
 from tests.rosenv import PYTHON, EndpointProcess, ManagedProcess, RosCore, wait_for

@@ -303,7 +303,7 @@ def test_the_measuring_package_says_what_it_holds_and_has_its_own_error_type() -
     assert [node.name for node in classes] == ["MeasuringError"]
 
 
-@pytest.mark.parametrize("package", ["bridge", "sim", "measuring"])
+@pytest.mark.parametrize("package", ["bridge", "sim", "measuring", "bench"])
 def test_every_package_type_checks(package: str) -> None:
     """Fully typed: every def annotated, and mypy finds nothing (rospy, genpy and pybullet have no type
     information, hence Any there)."""
