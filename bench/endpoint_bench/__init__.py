@@ -53,11 +53,11 @@ one roscore, and prints both tables and a comparison with the ratios.
 Percentiles are measuring.stats.percentile (numpy's linear interpolation; until the benches shared it, this bench
 took the nearest rank, which differs from it by at most one sample's spacing).
 
-The modules, one concern each: settings (the run's knobs), harness (the endpoint under test, its client and node
-processes, the rows), flows (one throughput flow each way and its references), throughput, large, latency (round
-trips, fan-out), mix (the Unity-typical mix), hardening (the 4 GiB prefix, the never-reading client), websocket,
-tables (the table and the A/B comparison), driver (the phases for one or two endpoints on one roscore, the A/B
-worktree) and __main__ (the command line).
+The modules, one concern each: settings (the run's knobs), records (a row, a client's arrivals, a flow), harness
+(the endpoint under test, its client and node processes), flows (one throughput flow each way and its references),
+throughput, large, latency (round trips, fan-out), mix (the Unity-typical mix), hardening (the 4 GiB prefix, the
+never-reading client), websocket, tables (the table and the A/B comparison), driver (the phases for one or two
+endpoints on one roscore, the A/B worktree) and __main__ (the command line).
 
 Everything is loopback; every loop is bounded in count and time; every process is stopped by PID.
 """

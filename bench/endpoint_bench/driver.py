@@ -15,7 +15,8 @@ from dataclasses import replace
 from pathlib import Path
 
 from bench.endpoint_bench import hardening, large, latency, mix, throughput, websocket
-from bench.endpoint_bench.harness import Harness, Row
+from bench.endpoint_bench.harness import Harness
+from bench.endpoint_bench.records import Row
 from bench.endpoint_bench.settings import Settings
 from bench.endpoint_bench.tables import compare_tables, print_table
 from bench.messages import MESSAGE_NAME

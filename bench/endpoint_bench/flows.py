@@ -5,7 +5,8 @@ from __future__ import annotations
 
 import time
 
-from bench.endpoint_bench.harness import Arrivals, Flow, Harness, rate_of
+from bench.endpoint_bench.harness import Harness
+from bench.endpoint_bench.records import Arrivals, Flow, rate_of
 from bench.endpoint_bench.settings import PUBLISH_QUEUE
 from bench.messages import MESSAGE_KINDS
 from bridge import protocol

@@ -7,7 +7,8 @@ import socket
 import struct
 import time
 
-from bench.endpoint_bench.harness import Arrivals, Harness, Row
+from bench.endpoint_bench.harness import Harness
+from bench.endpoint_bench.records import Arrivals, Row
 from bench.messages import MESSAGE_NAME
 from bridge import protocol
 from measuring.procfs import MiB, RssSampler

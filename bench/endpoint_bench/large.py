@@ -6,7 +6,8 @@ from __future__ import annotations
 import time
 
 from bench.endpoint_bench.flows import ros_to_tcp, rospy_to_raw_reader, rospy_to_rospy, tcp_to_ros
-from bench.endpoint_bench.harness import Flow, Harness, Row, median_flow, rate_range
+from bench.endpoint_bench.harness import Harness
+from bench.endpoint_bench.records import Flow, Row, median_flow, rate_range
 from bench.endpoint_bench.settings import LARGE_ROS_QUEUE
 from bench.messages import MESSAGE_KINDS, paced, read_stamp, stamped
 from measuring.procfs import MiB

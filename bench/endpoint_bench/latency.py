@@ -5,7 +5,8 @@ from __future__ import annotations
 
 import time
 
-from bench.endpoint_bench.harness import Arrivals, Harness, Row
+from bench.endpoint_bench.harness import Harness
+from bench.endpoint_bench.records import Arrivals, Row
 from bench.endpoint_bench.settings import PUBLISH_QUEUE
 from bench.messages import MESSAGE_NAME, paced, read_stamp, stamped
 from measuring.procfs import cpu_seconds

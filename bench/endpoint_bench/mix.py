@@ -5,7 +5,8 @@ from __future__ import annotations
 
 import time
 
-from bench.endpoint_bench.harness import Harness, Row
+from bench.endpoint_bench.harness import Harness
+from bench.endpoint_bench.records import Row
 from bench.messages import HEADER_OFFSETS, MESSAGE_KINDS, paced, read_stamp, stamped
 from measuring.stats import percentile
 

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from bench.endpoint_bench.harness import Row
+from bench.endpoint_bench.records import Row
 
 
 def print_table(rows: list[Row], header: str) -> None:

@@ -3,7 +3,8 @@
 from __future__ import annotations
 
 from bench.endpoint_bench.flows import ros_to_tcp, rospy_to_rospy, tcp_to_ros
-from bench.endpoint_bench.harness import Flow, Harness, Row, median_flow
+from bench.endpoint_bench.harness import Harness
+from bench.endpoint_bench.records import Flow, Row, median_flow
 from bench.endpoint_bench.settings import PUBLISH_QUEUE
 
 

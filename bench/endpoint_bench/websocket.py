@@ -4,7 +4,8 @@
 from __future__ import annotations
 
 from bench.endpoint_bench.flows import ros_to_tcp, tcp_to_ros
-from bench.endpoint_bench.harness import Flow, Harness, Row, median_flow, start_endpoint
+from bench.endpoint_bench.harness import Harness, start_endpoint
+from bench.endpoint_bench.records import Flow, Row, median_flow
 from bench.endpoint_bench.settings import LARGE_ROS_QUEUE
 from sim.processes import REPO, kill_process
 
