@@ -12,6 +12,7 @@ from std_srvs.srv import SetBool, SetBoolRequest, SetBoolResponse, Trigger, Trig
 
 from bridge import protocol
 from bridge.client import ClientError
+from measuring.endpoint import settled
 from measuring.procfs import figures
 from tests.integration.bridge_helpers import (
     RawConnection,
@@ -19,7 +20,6 @@ from tests.integration.bridge_helpers import (
     bridge,  # noqa: F401 - module-scoped endpoint fixture (service timeout 2 s)
     serialize,
     service_exists,
-    settled,
     start_endpoint,
     tcp_client,
     unique,
