@@ -1,9 +1,10 @@
 """The endpoint in a hostile world, at length: what abusive clients and a failing master cost it, in figures.
 
-Run: `.venv/bin/python bench/chaos_bench.py [--quick] [--only PHASE ...] [--fuzz-s S]` from the repository root.
+Run: `.venv/bin/python -m bench.chaos_bench [--quick] [--only PHASE ...] [--fuzz-s S] [--seconds S]` from the
+repository root.
 
 Each phase starts its own roscore (free port, private ROS_HOME) and endpoint, and prints the endpoint's threads,
-descriptors and RSS (tests.chaos.figures) before, at the worst moment and after, plus what a well-behaved client
+descriptors and RSS (measuring.procfs.figures) before, at the worst moment and after, plus what a well-behaved client
 saw beside the abuse. The short, asserting variants of the same abuse are tests (tests/integration/test_bridge_*):
 this script measures; it judges nothing.
 
@@ -30,17 +31,17 @@ import time
 import xmlrpc.client
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
-from pathlib import Path
+from typing import Any
 
-REPO = Path(__file__).resolve().parents[1]
-sys.path[:0] = [str(REPO)]
-
-from bridge import protocol  # noqa: E402
-from bridge.client import TcpClient  # noqa: E402
-from tests.chaos import LOOPBACK, FuzzStats, ProcessFigures, churn, figures, fuzz_client  # noqa: E402
-from tests.frames import feed  # noqa: E402
-from tests.integration.bridge_helpers import settled  # noqa: E402
-from tests.rosenv import EndpointProcess, ManagedProcess, RosCore, wait_for  # noqa: E402
+from bridge import protocol
+from bridge.client import TcpClient
+from measuring.abuse import LOOPBACK, FuzzStats, churn, fuzz_client
+from measuring.endpoint import settled
+from measuring.errors import MeasuringError
+from measuring.frames import Frame, feed
+from measuring.procfs import ProcessFigures, figures
+from measuring.stats import percentile
+from sim.processes import EndpointProcess, ManagedProcess, RosCore, wait_for
 
 PHASES = ("churn", "flood", "unread", "slow", "tokens", "master", "fuzz")
 STRING = "std_msgs/String"
@@ -64,6 +65,12 @@ def endpoint_on_own_core(*options: str, name: str = "chaos_endpoint") -> Iterato
         if endpoint is not None:
             endpoint.stop()
         core.stop()
+
+
+def system_state(master_uri: str) -> Any:
+    """The master's publishers, subscribers and services, each a list of [name, [node, ...]] (untyped XML-RPC)."""
+    master: Any = xmlrpc.client.ServerProxy(master_uri)
+    return master.getSystemState("/bench")[2]
 
 
 def settle(pid: int, baseline: ProcessFigures, timeout: float = 30.0) -> ProcessFigures:
@@ -97,7 +104,7 @@ class Worst:
         while not self._stop.wait(0.2):
             try:
                 now = figures(self.pid)
-            except (OSError, StopIteration):  # the process has gone
+            except MeasuringError:  # the process has gone
                 return
             self.figures = ProcessFigures(
                 max(now.threads, self.figures.threads),
@@ -114,7 +121,7 @@ class Worst:
 # --- phases ------------------------------------------------------------------------------------------------------
 
 
-def phase_churn(quick: bool) -> None:
+def phase_churn(quick: bool, limit_s: float) -> None:
     count = 300 if quick else 2000
     with endpoint_on_own_core("--publisher-grace", "0") as (core, endpoint):
         received: list[bytes] = []
@@ -124,7 +131,9 @@ def phase_churn(quick: bool) -> None:
         steady.topic_list()
         before = figures(endpoint.pid)
         worst = Worst(endpoint.pid)
-        churner = threading.Thread(target=churn, args=(endpoint.port, count, 1, time.monotonic() + 300))
+        made: list[int] = []  # how many resets churn made (fewer than `count` when cut short)
+        deadline = time.monotonic() + min(300, limit_s)
+        churner = threading.Thread(target=lambda: made.append(churn(endpoint.port, count, 1, deadline)))
         started = time.monotonic()
         churner.start()
         sent = 0
@@ -141,7 +150,7 @@ def phase_churn(quick: bool) -> None:
             before,
             worst.stop(),
             after,
-            f"{count} resets in {took:.1f} s ({count / took:.0f}/s); steady client: {sent} published, "
+            f"{made[0]} resets in {took:.1f} s ({made[0] / took:.0f}/s); steady client: {sent} published, "
             f"{steady.connections} connection(s), {len(steady.errors)} errors",
         )
 
@@ -163,7 +172,7 @@ def phase_flood(quick: bool) -> None:
         took = time.monotonic() - started
 
         def registered() -> int:  # the master link registers in the background: count once it is done
-            state = xmlrpc.client.ServerProxy(core.uri).getSystemState("/bench")[2]
+            state = system_state(core.uri)
             return sum(
                 1
                 for part in state[:2]
@@ -187,8 +196,8 @@ def phase_flood(quick: bool) -> None:
         )
 
 
-def phase_unread(quick: bool) -> None:
-    duration = 8 if quick else 30
+def phase_unread(quick: bool, limit_s: float) -> None:
+    duration = min(8 if quick else 30, limit_s)
     with endpoint_on_own_core() as (core, endpoint):
         helper = TcpClient(LOOPBACK, endpoint.port, reconnect=False).connect(10)
         for index in range(200):  # a graph whose topic list is some 40 kB
@@ -231,7 +240,7 @@ def phase_unread(quick: bool) -> None:
         )
 
 
-def phase_slow(quick: bool) -> None:
+def phase_slow(quick: bool, limit_s: float) -> None:
     count = 50 if quick else 200
     with endpoint_on_own_core("--frame-timeout", "10") as (core, endpoint):
         before = figures(endpoint.pid)
@@ -252,7 +261,7 @@ def phase_slow(quick: bool) -> None:
         position = 0
         held_figures: ProcessFigures | None = None
         probes = served = 0
-        while alive and time.monotonic() - started < 45 and position < len(frame) - 1:
+        while alive and time.monotonic() - started < min(45, limit_s) and position < len(frame) - 1:
             alive = 0
             for sock in sockets:  # one byte a second each, never the last one
                 try:
@@ -304,13 +313,13 @@ def fresh_client_served(port: int, source: str) -> bool:
                     return False
                 frames = feed(decoder, data)
                 if frames:
-                    return frames[0].destination == "__handshake"
+                    return isinstance(frames[0], Frame) and frames[0].destination == "__handshake"
         except OSError:
             return False
 
 
-def phase_tokens(quick: bool) -> None:
-    duration = 10 if quick else 30
+def phase_tokens(quick: bool, limit_s: float) -> None:
+    duration = min(10 if quick else 30, limit_s)
     with endpoint_on_own_core("--auth-token", TOKEN) as (core, endpoint):
         before = figures(endpoint.pid)
         verdicts = 0
@@ -360,7 +369,7 @@ def phase_master(quick: bool) -> None:
             started = time.monotonic()
 
             def registered(core: RosCore = core) -> bool:
-                state = xmlrpc.client.ServerProxy(core.uri).getSystemState("/bench")[2]
+                state = system_state(core.uri)
                 publishers = {name for name, nodes in state[0] if "/master_endpoint" in nodes}
                 subscribers = {name for name, nodes in state[1] if "/master_endpoint" in nodes}
                 services = {name for name, nodes in state[2] if "/master_endpoint" in nodes}
@@ -418,8 +427,7 @@ def phase_fuzz(quick: bool, duration: float) -> None:
             fuzzer.join(30)
         seen = arrivals[first:]
         gap = max(b - a for a, b in zip(seen, seen[1:])) if len(seen) > 1 else float("nan")
-        round_trips.sort()
-        p99 = round_trips[int(len(round_trips) * 0.99) - 1] if round_trips else float("nan")
+        p99 = percentile(round_trips, 99) if round_trips else float("nan")
         during = worst.stop()
         good.close()
         stream.stop()
@@ -454,15 +462,23 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--quick", action="store_true", help="smoke run: smaller counts, shorter windows")
     parser.add_argument("--only", nargs="+", choices=PHASES, help="run only these phases")
     parser.add_argument("--fuzz-s", type=float, default=120.0, help="seconds of mutated streams (default 120)")
+    parser.add_argument(
+        "--seconds",
+        type=float,
+        help="cut churn, unread, slow and tokens short after this long (a smoke run; their figures then cover less)",
+    )
     args = parser.parse_args(argv)
+    if args.seconds is not None and args.seconds <= 0:
+        parser.error(f"--seconds must be positive, got {args.seconds}")
+    limit_s = args.seconds or float("inf")
     if args.fuzz_s <= 0:
         parser.error(f"--fuzz-s must be positive, got {args.fuzz_s}")
     runs: dict[str, Callable[[], None]] = {
-        "churn": lambda: phase_churn(args.quick),
+        "churn": lambda: phase_churn(args.quick, limit_s),
         "flood": lambda: phase_flood(args.quick),
-        "unread": lambda: phase_unread(args.quick),
-        "slow": lambda: phase_slow(args.quick),
-        "tokens": lambda: phase_tokens(args.quick),
+        "unread": lambda: phase_unread(args.quick, limit_s),
+        "slow": lambda: phase_slow(args.quick, limit_s),
+        "tokens": lambda: phase_tokens(args.quick, limit_s),
         "master": lambda: phase_master(args.quick),
         "fuzz": lambda: phase_fuzz(args.quick, args.fuzz_s),
     }

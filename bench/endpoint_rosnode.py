@@ -1,4 +1,6 @@
-"""Plain rospy nodes for the endpoint benchmark, one role per process (so no two roles share a GIL).
+"""Plain rospy nodes for the endpoint benchmark, one role per process (so no two roles share a GIL). Run from the
+repository root as `python -m bench.endpoint_rosnode ROLE ...` (on Noetic's Python 3.8 too: standard library,
+rospy and bench.messages only).
 
 Roles (first argument):
   count  - subscribe to a topic, count messages until idle; print CONNECTED once a publisher is connected.
@@ -8,10 +10,10 @@ Roles (first argument):
   ping   - pure rospy round trip through `relay`: publish stamped pings, time the pongs.
   stream - publish several stamped topics at their own rates (KIND:TOPIC:HZ each), bounded in time.
   ages   - subscribe to several topics (KIND:TOPIC each) and record every message's arrival and age (arrival time
-           minus its header stamp, both CLOCK_MONOTONIC) for a given time.
+           minus its header stamp, both CLOCK_MONOTONIC) for a given time, or until the messages stop (--idle).
 
 Every node uses a raw message class: it carries the message type's name/md5/definition (JointState unless `--kind`
-names another of endpoint_common.MESSAGE_KINDS), so rospy negotiates exactly as for the generated class, but it
+names another of bench.messages.MESSAGE_KINDS), so rospy negotiates exactly as for the generated class, but it
 serializes stored bytes and deserializes by keeping them (the same bytes-only path the endpoint uses), so the rospy
 figures are a transport ceiling, not a (de)serialization benchmark.
 Results go to stdout as one line `RESULT <json>`.
@@ -22,17 +24,14 @@ from __future__ import annotations
 import argparse
 import gc
 import json
-import sys
 import time
-from pathlib import Path
 from typing import Any
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+import genpy
+import roslib.message
+import rospy
 
-import genpy  # noqa: E402
-import roslib.message  # noqa: E402
-import rospy  # noqa: E402
-from endpoint_common import HEADER_OFFSETS, MESSAGE_KINDS, paced, read_stamp, stamped  # noqa: E402
+from bench.messages import HEADER_OFFSETS, MESSAGE_KINDS, paced, read_stamp, stamped
 
 
 class RawMessage(genpy.Message):
@@ -208,6 +207,7 @@ def run_stream(args: argparse.Namespace) -> None:
 
 def run_ages(args: argparse.Namespace) -> None:
     records: dict[str, list[tuple[int, int]]] = {}
+    last_ns = [0]  # the latest arrival on any topic
     subscribers = []
     for spec in args.listen:
         kind, topic = spec.split(":")
@@ -217,6 +217,7 @@ def run_ages(args: argparse.Namespace) -> None:
         def on_message(message: RawMessage, arrivals: list = arrivals, offset: int = offset) -> None:
             now = time.monotonic_ns()
             arrivals.append((now, now - read_stamp(message._buff, offset)[1]))
+            last_ns[0] = now
 
         subscribers.append(
             rospy.Subscriber(topic, raw_class(MESSAGE_KINDS[kind][0]), on_message, tcp_nodelay=True, buff_size=1 << 22)
@@ -226,6 +227,8 @@ def run_ages(args: argparse.Namespace) -> None:
     deadline = time.monotonic() + args.seconds
     while time.monotonic() < deadline and not rospy.is_shutdown():
         time.sleep(0.05)
+        if args.idle and last_ns[0] and time.monotonic_ns() - last_ns[0] > args.idle * 1e9:
+            break  # the sender is done: its last message is this long ago
     emit("RESULT", arrivals={topic: [list(pair) for pair in pairs] for topic, pairs in records.items()})
 
 
@@ -264,7 +267,8 @@ def main() -> None:
     stream.add_argument("--delay", type=float, default=0.5)
     ages = roles.add_parser("ages")
     ages.add_argument("--listen", action="append", required=True, metavar="KIND:TOPIC")
-    ages.add_argument("--seconds", type=float, default=60.0)
+    ages.add_argument("--seconds", type=float, default=60.0, help="listen this long at most")
+    ages.add_argument("--idle", type=float, default=0.0, help="stop this long after the last message (0: never)")
     for role in (count, flood, rate, relay, ping, stream, ages):
         role.add_argument("--kind", choices=sorted(MESSAGE_KINDS), default="joint_state", help="message kind")
     args = parser.parse_args(rospy.myargv()[1:])

@@ -1,11 +1,11 @@
 """Freshness over a slow link: how old the messages are that a Unity-like client gets through the endpoint over a
 Wi-Fi-like link, and that ROS gets from it, per topic, over a minute.
 
-Run: `.venv/bin/python bench/freshness_bench.py [--quick] [--seconds S] [--ab REVISION] [--original DIR]`.
+Run: `.venv/bin/python -m bench.freshness_bench [--quick] [--seconds S] [--ab REVISION] [--original DIR]`.
 
-The link (tests.slow_link.SlowLink): 100 Mbit/s, 8 ms each way, a 64 KiB queue, between the client (this process,
+The link (measuring.link.SlowLink): 100 Mbit/s, 8 ms each way, a 64 KiB queue, between the client (this process,
 bridge.client.TcpClient, the Python twin of Unity's client) and the endpoint; roscore and the rospy nodes
-(bench/endpoint_rosnode.py) are local to the endpoint, as on a robot's computer.
+(bench.endpoint_rosnode) are local to the endpoint, as on a robot's computer.
 
   down  a rospy node publishes 640x480 RGB images at 30 Hz (more than the link carries), a 7-joint JointState at
         100 Hz and an 8-transform TF at 100 Hz; the client subscribes to all three through the link.
@@ -36,23 +36,20 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-REPO = Path(__file__).resolve().parents[1]
-BENCH = Path(__file__).resolve().parent
-sys.path[:0] = [str(REPO), str(BENCH)]
+from bench.endpoint_bench.driver import stop_core, worktree_of
+from bench.endpoint_bench.harness import ROSNODE, start_endpoint
+from bench.messages import HEADER_OFFSETS, MESSAGE_KINDS, paced, read_stamp, stamped
+from bridge.client import TcpClient
+from measuring.link import SlowLink
+from measuring.stats import percentile
+from sim.processes import ManagedProcess, RosCore, free_port, kill_process
 
-from endpoint_bench import start_endpoint, stop_core, worktree_of  # noqa: E402
-from endpoint_common import HEADER_OFFSETS, MESSAGE_KINDS, paced, percentile, read_stamp, stamped  # noqa: E402
-
-from bridge.client import TcpClient  # noqa: E402
-from tests.rosenv import PYTHON, ManagedProcess, RosCore, free_port, kill_process  # noqa: E402
-from tests.slow_link import SlowLink  # noqa: E402
-
-ROSNODE = str(BENCH / "endpoint_rosnode.py")
 LINK_RATE_BPS = 100e6
 LINK_DELAY_S = 0.008
 LINK_BUFFER_BYTES = 64 * 1024
 IMAGE_HZ, SMALL_HZ = 30, 100
 WINDOW_S = 10.0  # the first and last windows compared for creep
+AGES_IDLE_S = 3.0  # the receiving node stops this long after the last message: the client has stopped sending
 DOWN = (
     ("vga_image", "/fresh/image", IMAGE_HZ),
     ("joint_state", "/fresh/joint_states", SMALL_HZ),
@@ -136,7 +133,7 @@ class Run:
         self.core, self.log_dir, self.endpoint, self.duration_s = core, log_dir, endpoint, duration_s
 
     def node(self, name: str, *args: str) -> ManagedProcess:
-        return ManagedProcess([PYTHON, ROSNODE, *args], self.core.env, self.log_dir, name)
+        return ManagedProcess([*ROSNODE, *args], self.core.env, self.log_dir, name)
 
     def _link(self) -> SlowLink:
         """The Wi-Fi-like link between the client and the endpoint, the same both ways."""
@@ -183,6 +180,8 @@ class Run:
             "ages",
             "--seconds",
             str(self.duration_s + 8),
+            "--idle",
+            str(AGES_IDLE_S),
             *[arg for kind, topic, _ in UP for arg in ("--listen", f"{kind}:{topic}")],
         )
         received = {topic: Received(kind) for kind, topic, _ in UP}

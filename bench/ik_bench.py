@@ -1,6 +1,6 @@
 """IK benchmark: success rate and solve times of sim.geometry.kinematics on the Panda and the igt, against the targets.
 
-Run: .venv/bin/python bench/ik_bench.py [--targets 500] [--seed 0] [--robots path/to/arm.urdf ...]
+Run: .venv/bin/python -m bench.ik_bench [--targets 500] [--path-points 250] [--seed 0] [--robots path/to/arm.urdf ...]
 Every case solves IK for FK poses of random configurations within the datasheet limits, so all are reachable.
 `--robots` adds a near-seed case per robot, on the axes its chain controls (sim.control.scenarios.defaults).
 """
@@ -13,15 +13,13 @@ import sys
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-
-from sim.control.scenarios.defaults import controllable_weights, describe_axes  # noqa: E402
-from sim.geometry.kinematics import PLANAR_WEIGHTS, IKResult, chain_for, planar_pose, solve_ik, solve_path_ik  # noqa: E402
-from sim.robots import RobotSpec, load_robot  # noqa: E402
+from measuring.stats import percentile
+from sim.control.scenarios.defaults import controllable_weights, describe_axes
+from sim.geometry.kinematics import PLANAR_WEIGHTS, IKResult, chain_for, planar_pose, solve_ik, solve_path_ik
+from sim.robots import RobotSpec, load_robot
 
 NEAR_SEED_NOISE = 0.1  # rad (m for the rail): how far the warm start is from a solution
 RESTARTS = 20  # for cold starts
@@ -68,7 +66,7 @@ def _run_case(
         name,
         successes / n,
         float(np.median(times_ms)),
-        float(np.percentile(times_ms, 95)),
+        percentile(times_ms.tolist(), 95),
         success_target,
         median_target_ms,
     )

@@ -1,6 +1,6 @@
 """Benchmark of sim.engine.physics: speed (real-time factor) and tracking accuracy on the thesis's joint-space test.
 
-    .venv/bin/python bench/physics_bench.py [--steps 1000]
+    .venv/bin/python -m bench.physics_bench [--steps 1000] [--robots ROBOT ...]
 
 1. Real-time factor = sim seconds per wall second, per robot and mode, at dt = 0.02 s, stepping towards a moving
    target (so the drive works every step). Target: >= 100 for the implicit drive (physics mode).
@@ -24,16 +24,13 @@ from __future__ import annotations
 import argparse
 import sys
 import time
-from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-
-from sim.control.metrics import DEFAULT_MAPE_FLOOR, tracking_metrics  # noqa: E402
-from sim.engine.physics import Mode, PhysicsWorld  # noqa: E402
-from sim.geometry.trajectory import PolynomialTrajectory  # noqa: E402
-from sim.robots import ROBOT_NAMES, RobotSpec, load_robot  # noqa: E402
+from sim.control.metrics import DEFAULT_MAPE_FLOOR, tracking_metrics
+from sim.engine.physics import Mode, PhysicsWorld
+from sim.geometry.trajectory import PolynomialTrajectory
+from sim.robots import ROBOT_NAMES, RobotSpec, load_robot
 
 DT = 0.02
 RTF_TARGET = 100.0

@@ -1,8 +1,8 @@
 """What any relay adds to a 1 MiB round trip on this machine: the floor under the endpoint's round-trip figure.
 
-Run: `.venv/bin/python bench/relay_floor.py [--samples N] [--rounds R]`.
+Run: `.venv/bin/python -m bench.relay_floor [--samples N] [--rounds R]`.
 
-The endpoint's 1 MiB round trip (bench/endpoint_bench.py, `large`) moves the message four times over loopback
+The endpoint's 1 MiB round trip (bench.endpoint_bench, `large`) moves the message four times over loopback
 (client -> endpoint -> echo node -> endpoint -> client) where rospy alone moves it twice (node -> echo node -> node).
 This bench measures the same shape with bare sockets, no ROS, no framing work, so that the cost of the two extra
 moves is seen alone:
@@ -26,6 +26,8 @@ import struct
 import time
 from multiprocessing.queues import Queue
 from typing import Any
+
+from measuring.stats import percentile
 
 MESSAGE_BYTES = 1 << 20
 _LENGTH = struct.Struct("<I")
@@ -134,10 +136,6 @@ def one_round(samples: int) -> tuple[list[float], list[float]]:
         for process in processes:
             process.terminate()
             process.join(timeout=5)
-
-
-def percentile(values: list[float], q: float) -> float:
-    return statistics.quantiles(values, n=100)[int(q) - 1]
 
 
 def main() -> None:

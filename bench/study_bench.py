@@ -1,7 +1,7 @@
 """Benchmark of the perception study (sim.study): planning time per approach path, and the wall time of a whole
 38-test session with a simulated participant in lockstep.
 
-    .venv/bin/python bench/study_bench.py [--participants 2] [--repeats 3]
+    .venv/bin/python -m bench.study_bench [--participants 2] [--repeats 3] [--design DESIGN.yaml]
 
 1. Planning: every combination of the bundled design (path x stand-off or speed), each planned and checked
    `--repeats` times (the path, IK of every sample, limits, collisions in pybullet, the stand-off reached); the
@@ -9,6 +9,7 @@
 2. Sessions: `simulate` end to end (its own roscore, endpoint, engine stand-in in physics mode, a simulated
    participant and the runner with rosbag record) for `--participants` participants of the bundled design; the
    runner's wall time per 38-test session. Target: under a minute per session.
+`--design` plans and simulates another design file in the bundled one's place (the smoke test's is a small one).
 """
 
 from __future__ import annotations
@@ -21,25 +22,23 @@ import tempfile
 import time
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-
-from sim.study.design.feasibility import SceneWorld, plan_approach  # noqa: E402
-from sim.study.design.paths import approach_path  # noqa: E402
-from sim.study.design.plan import make_plan  # noqa: E402
-from sim.study.design.scene import load_scene, scene_robot  # noqa: E402
-from sim.study.design.spec import load_design  # noqa: E402
-from sim.study.simulation.session import Simulation, simulate  # noqa: E402
+from sim.study.design.feasibility import SceneWorld, plan_approach
+from sim.study.design.paths import approach_path
+from sim.study.design.plan import make_plan
+from sim.study.design.scene import load_scene, scene_robot
+from sim.study.design.spec import load_design
+from sim.study.simulation.session import Simulation, simulate
 
 SESSION_TARGET_S = 60.0
 DT = 0.02
 
 
-def bench_planning(repeats: int) -> None:
+def bench_planning(repeats: int, design: Path | None) -> None:
     scene = load_scene()
     robot = scene_robot(scene)
-    plan = make_plan(load_design(), 1, 0)
+    plan = make_plan(load_design(design), 1, 0)
     combinations = list(dict.fromkeys((t.path, t.standoff, t.peak_speed) for t in plan.trials))
-    print(f"Planning, {len(combinations)} combinations of the bundled design, median of {repeats}")
+    print(f"Planning, {len(combinations)} combinations of {design or 'the bundled design'}, median of {repeats}")
     print(f"{'path':<14}{'stand-off m':>12}{'speed m/s':>11}{'samples':>9}{'ms':>9}{'ms/sample':>11}  verdict")
     per_path: dict[str, list[float]] = {}
     with SceneWorld(robot, scene) as world:
@@ -60,13 +59,15 @@ def bench_planning(repeats: int) -> None:
     print("median per path: " + ", ".join(f"{name} {statistics.median(ms):.0f} ms" for name, ms in per_path.items()))
 
 
-def bench_sessions(participants: int) -> None:
+def bench_sessions(participants: int, design: Path | None) -> None:
     lines: list[str] = []
     with tempfile.TemporaryDirectory(prefix="study-bench-") as out:
         started = time.monotonic()
-        simulate(Simulation(participants, 1, Path(out)), lines.append)
+        simulate(Simulation(participants, 1, Path(out), design=design), lines.append)
         total = time.monotonic() - started
-    print(f"\nSessions: {participants} simulated participants, bundled design, lockstep, physics mode")
+    print(
+        f"\nSessions: {participants} simulated participants, {design or 'the bundled design'}, lockstep, physics mode"
+    )
     walls = []
     for line in lines:
         found = re.match(r"participant (\d+): (\d+) trials .* in ([\d.]+) s of wall time, ([\d.]+) s of ROS time", line)
@@ -89,9 +90,10 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--participants", type=int, default=2)
     parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--design", type=Path, help="a design file in the bundled design's place")
     args = parser.parse_args()
-    bench_planning(args.repeats)
-    bench_sessions(args.participants)
+    bench_planning(args.repeats, args.design)
+    bench_sessions(args.participants, args.design)
     return 0
 
 

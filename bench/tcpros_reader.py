@@ -6,7 +6,7 @@ publishers (registerSubscriber), a publisher for its TCPROS address (requestTopi
 itself (rosgraph's header encoding), and then reads each length-prefixed message straight into one reused buffer
 with recv_into, counting them. It never looks at the bytes.
 
-Run: tcpros_reader.py --topic TOPIC [--kind KIND] [--max-seconds S] [--idle S] [--count N]
+Run: python -m bench.tcpros_reader --topic TOPIC [--kind KIND] [--max-seconds S] [--idle S] [--count N]
 Prints CONNECTED after the handshake, then one line `RESULT <json>` (count, first and last arrival [monotonic ns],
 bytes) once the publisher closes the connection, nothing came for --idle seconds, or --count / --max-seconds is
 reached.
@@ -19,19 +19,17 @@ import json
 import os
 import socket
 import struct
-import sys
 import threading
 import time
 import xmlrpc.client
-from pathlib import Path
+from typing import Any
 from xmlrpc.server import SimpleXMLRPCServer
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+import rosgraph
+import rosgraph.network
+import roslib.message
 
-import rosgraph  # noqa: E402
-import rosgraph.network  # noqa: E402
-import roslib.message  # noqa: E402
-from endpoint_common import MESSAGE_KINDS  # noqa: E402
+from bench.messages import MESSAGE_KINDS
 
 _U32 = struct.Struct("<I")
 
@@ -68,7 +66,7 @@ def serve_slave_api() -> tuple[str, SimpleXMLRPCServer]:
 
 def connect(caller_id: str, topic: str, message_name: str, md5sum: str, timeout_s: float) -> socket.socket:
     """Register as subscriber, wait (bounded) for a publisher, and open its TCPROS connection with the handshake."""
-    master = xmlrpc.client.ServerProxy(rosgraph.get_master_uri())
+    master: Any = xmlrpc.client.ServerProxy(rosgraph.get_master_uri())  # XML-RPC answers: untyped
     caller_api, server = serve_slave_api()
     deadline = time.monotonic() + timeout_s
     try:
@@ -81,7 +79,8 @@ def connect(caller_id: str, topic: str, message_name: str, md5sum: str, timeout_
             if time.monotonic() > deadline:
                 raise SystemExit(f"tcpros_reader: no publisher of {topic} within {timeout_s:g} s")
             time.sleep(0.02)
-        code, message, protocol = xmlrpc.client.ServerProxy(publishers[0]).requestTopic(caller_id, topic, [["TCPROS"]])
+        publisher: Any = xmlrpc.client.ServerProxy(publishers[0])
+        code, message, protocol = publisher.requestTopic(caller_id, topic, [["TCPROS"]])
         if code != 1 or not protocol or protocol[0] != "TCPROS":
             raise SystemExit(f"tcpros_reader: requestTopic failed: {message} {protocol}")
         sock = socket.create_connection((protocol[1], protocol[2]), timeout=10.0)

@@ -1,7 +1,7 @@
 """Benchmark of the VR page's frame time (`python -m sim.study vr`): how long the page takes to draw one frame of
 the immersive session with the Panda's meshes, beside the 72-90 Hz a headset needs (13.9-11.1 ms per frame).
 
-    .venv/bin/python bench/vr_frame_bench.py [--seconds 20] [--size 800,600]
+    .venv/bin/python -m bench.vr_frame_bench [--seconds 20] [--size 800,600] [--only rendered|submitted]
 
 Method. Its own roscore, an endpoint with its WebSocket port, and the page's server with the emulated Meta Quest 3
 (IWER, --emulate-headset, which loads the tests' probe window.vrPage too) and the frame-time instrument (--frame-time,
@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import shutil
 import statistics
 import sys
 import tempfile
@@ -34,16 +35,16 @@ from typing import Any
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-
-from bridge.client import TcpClient  # noqa: E402
-from sim.processes import EndpointProcess, ManagedProcess, RosCore, wait_for  # noqa: E402
-from sim.study.design.scene import load_scene, scene_robot  # noqa: E402
-from sim.wire.rosmsgs import JOINT_STATE, encode_joint_state  # noqa: E402
-from tests.integration.browser_helpers import chromium, start_vr_page  # noqa: E402
+from bridge.client import TcpClient
+from measuring.browser import chromium, start_vr_page
+from measuring.stats import percentile
+from sim.processes import EndpointProcess, ManagedProcess, RosCore, wait_for
+from sim.study.design.scene import load_scene, scene_robot
+from sim.wire.rosmsgs import JOINT_STATE, encode_joint_state
 
 HEADSET_RATES_HZ = (72, 90)
 PUBLISH_HZ = 100.0
+PASSES = ("rendered", "submitted")  # the frame's work with its rendering waited for, and without
 SETTLE_S = 3.0  # after entering the session, before the frames counted (shaders compiled, meshes uploaded)
 
 
@@ -111,16 +112,13 @@ def measure(browser: Any, url: str, wait_for_rendering: bool, seconds: float) ->
     }
 
 
-def percentile(values: list[float], q: float) -> float:
-    return float(np.percentile(values, q)) if values else math.nan
-
-
 def report(name: str, figures: dict[str, Any]) -> str:
     work, intervals = figures["work"], figures["intervals"]
     median = statistics.median(work) if work else math.nan
+    p95 = percentile(work, 95) if work else math.nan
     within = {hz: sum(1 for w in work if w <= 1000.0 / hz) / len(work) if work else math.nan for hz in HEADSET_RATES_HZ}
     return (
-        f"| {name} | {len(work)} | {median:.2f} | {percentile(work, 95):.2f} | {max(work, default=math.nan):.2f} | "
+        f"| {name} | {len(work)} | {median:.2f} | {p95:.2f} | {max(work, default=math.nan):.2f} | "
         f"{1000.0 / median:.0f} | {100 * within[72]:.0f} % | {100 * within[90]:.0f} % | "
         f"{statistics.median(intervals) if intervals else math.nan:.2f} | {figures['joint_states_per_s']:.0f} |"
     )
@@ -130,6 +128,7 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--seconds", type=float, default=20.0, help="frames counted per pass (default 20 s)")
     parser.add_argument("--size", default="800,600", help="the browser window (default 800,600)")
+    parser.add_argument("--only", choices=PASSES, help="one pass only (default both)")
     args = parser.parse_args()
     if not 1 <= args.seconds <= 300:
         parser.error("--seconds must be between 1 and 300")
@@ -142,11 +141,13 @@ def main() -> int:
     try:
         endpoint = EndpointProcess(core.env, tmp, extra=["--websocket-port", "0"])
         processes.append(endpoint)
+        assert endpoint.websocket_port is not None  # asked for with --websocket-port
         vr, url = start_vr_page(endpoint.websocket_port, tmp, frame_time=True)
         processes.append(vr)
         publisher = threading.Thread(target=publish_joint_states, args=(endpoint.port, stop), daemon=True)
         publisher.start()
-        for name, wait_for_rendering in (("rendered", True), ("submitted", False)):
+        for name in (args.only,) if args.only else PASSES:
+            wait_for_rendering = name == "rendered"
             with chromium(tmp / f"chromium-{name}", accept_insecure_certs=True, size=args.size) as browser:
                 print(f"vr_frame_bench: pass {name} ({args.seconds:g} s) ...", file=sys.stderr, flush=True)
                 results[name] = measure(browser, url, wait_for_rendering, args.seconds)
@@ -155,8 +156,9 @@ def main() -> int:
         for process in reversed(processes):
             process.stop()
         core.stop()
+        shutil.rmtree(tmp, ignore_errors=True)  # the browsers' profiles, the certificate, the logs
 
-    first = results["rendered"]
+    first = next(iter(results.values()))
     width, height = first["framebuffer"] or (0, 0)
     print(
         f"VR page frame time: the Panda with its meshes ({first['triangles']} triangles a frame, both eyes), "

@@ -28,6 +28,7 @@ PYTHONS = ("project", "noetic", "jammy")
 # Unit tests by folder, the most specific first: which Pythons run them.
 _UNIT_FOLDERS = (
     ("tests/unit/bridge", ("project", "noetic")),
+    ("tests/unit/measuring", ("project", "noetic")),
     ("tests/unit/sim", ("project", "noetic", "jammy")),
     ("tests/unit", ("project",)),
 )

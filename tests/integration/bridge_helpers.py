@@ -21,8 +21,8 @@ import pytest
 from bridge import protocol
 from bridge.client import TcpClient
 from bridge.protocol import FrameDecoder
+from measuring.frames import BadFrame, Frame, feed
 from sim.processes import subscribers_written, writes_to
-from tests.frames import BadFrame, Frame, feed
 from tests.rosenv import EndpointProcess, RosCore, wait_for
 
 LOOPBACK = "127.0.0.1"
@@ -45,12 +45,6 @@ def serialize(message) -> bytes:
 
 def start_endpoint(roscore: RosCore, log_dir: Path, *extra: str, name: str | None = None) -> EndpointProcess:
     return EndpointProcess(roscore.env, log_dir, name=name or f"bridge_test_{os.getpid()}_{next(_names)}", extra=extra)
-
-
-def settled(roscore: RosCore, node: str) -> None:
-    """Until the endpoint `node` has all its own threads started (the last, /diagnostics' publisher, comes with its
-    first tick): the baseline for counting threads and descriptors."""
-    wait_for(lambda: node in roscore.publishers("/diagnostics"), 10, "/diagnostics")
 
 
 @pytest.fixture(scope="module")

@@ -12,12 +12,13 @@ from pathlib import Path
 import pytest
 from std_msgs.msg import String
 
-from tests.chaos import FuzzStats, churn, figures, fuzz_client
+from measuring.abuse import FuzzStats, churn, fuzz_client
+from measuring.endpoint import settled
+from measuring.procfs import figures
 from tests.integration.bridge_helpers import (
     Inbox,
     RosInbox,
     serialize,
-    settled,
     start_endpoint,
     tcp_client,
     unique,

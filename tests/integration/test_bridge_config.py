@@ -11,6 +11,7 @@ from pathlib import Path
 import pytest
 from std_msgs.msg import String
 
+from measuring.procfs import listening_addresses
 from tests.integration.bridge_helpers import (
     Inbox,
     RawConnection,
@@ -134,23 +135,9 @@ def test_allow_list_with_deny_exception(roscore, ros_node, tmp_path: Path) -> No
         endpoint.stop()
 
 
-def _listening_addresses(port: int) -> set[str]:
-    """Local addresses (hex, as in /proc/net/tcp) of sockets listening on `port`."""
-    found = set()
-    for table in ("/proc/net/tcp", "/proc/net/tcp6"):
-        if not os.path.exists(table):
-            continue
-        for line in Path(table).read_text().splitlines()[1:]:
-            fields = line.split()
-            address, port_hex = fields[1].rsplit(":", 1)
-            if int(port_hex, 16) == port and fields[3] == "0A":  # 0A = LISTEN
-                found.add(address)
-    return found
-
-
 def test_default_bind_is_loopback(endpoint) -> None:
     assert f"listening on 127.0.0.1:{endpoint.port}" in endpoint.output()
-    assert _listening_addresses(endpoint.port) == {"0100007F"}  # 127.0.0.1, little-endian hex
+    assert listening_addresses(endpoint.port) == {"0100007F"}  # 127.0.0.1, little-endian hex
 
 
 def test_sigterm_stops_the_endpoint_cleanly(roscore, ros_node, tmp_path: Path) -> None:

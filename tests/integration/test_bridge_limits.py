@@ -15,9 +15,10 @@ import pytest
 from bridge import protocol
 from bridge.admission import FRAME_GRACE_S
 from bridge.protocol import FrameDecoder
-from tests.chaos import figures
-from tests.frames import Frame, feed
-from tests.integration.bridge_helpers import LOOPBACK, RawConnection, settled, start_endpoint, unique
+from measuring.endpoint import settled
+from measuring.frames import Frame, feed
+from measuring.procfs import figures
+from tests.integration.bridge_helpers import LOOPBACK, RawConnection, start_endpoint, unique
 from tests.rosenv import wait_for
 
 

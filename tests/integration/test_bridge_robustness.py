@@ -13,6 +13,7 @@ from std_msgs.msg import String
 
 from bridge import protocol
 from bridge.protocol import encode_frame
+from measuring.procfs import MiB, rss_bytes
 from tests.integration.bridge_helpers import (
     Inbox,
     RawConnection,
@@ -252,9 +253,8 @@ def test_slow_reader_loses_old_messages_and_others_stay_served(roscore, ros_node
         side_publisher.publish(String("side"))
         side_inbox.wait_count(1)
         fast.topic_list(timeout=5)
-        status = Path(f"/proc/{endpoint.process.pid}/status").read_text()
-        rss_kib = int(next(line.split()[1] for line in status.splitlines() if line.startswith("VmRSS:")))
-        assert rss_kib < 400 * 1024, f"endpoint RSS {rss_kib} KiB with a stalled client"
+        rss = rss_bytes(endpoint.process.pid)
+        assert rss < 400 * MiB, f"endpoint RSS {rss / MiB:.0f} MiB with a stalled client"
         # Now the slow client reads: it is told how many messages it lost, and the newest one was kept.
         warning = slow.wait_command("__warn", timeout=30)["text"]
         assert "dropped" in warning and "too slowly" in warning
@@ -402,11 +402,6 @@ def test_a_lingering_topic_can_be_registered_with_another_type_once_unused(bridg
     inbox.close()
 
 
-def _rss_kib(pid: int) -> int:
-    status = Path(f"/proc/{pid}/status").read_text()
-    return int(next(line.split()[1] for line in status.splitlines() if line.startswith("VmRSS:")))
-
-
 def test_a_client_flooding_bad_frames_without_reading_is_bounded_and_not_logged_per_frame(
     roscore, ros_node, tmp_path: Path
 ) -> None:
@@ -416,7 +411,7 @@ def test_a_client_flooding_bad_frames_without_reading_is_bounded_and_not_logged_
         flooder = RawConnection(endpoint.port, rcvbuf=4096)
         watcher = tcp_client(endpoint.port, reconnect=False)
         watcher.topic_list()
-        rss_before = _rss_kib(endpoint.process.pid)
+        rss_before = rss_bytes(endpoint.process.pid)
         bad = b"".join(encode_frame("/never_registered", b"x") for _ in range(1000))
         for _ in range(flood // 1000):  # bounded: 100 writes
             flooder.send(bad)
@@ -425,7 +420,7 @@ def test_a_client_flooding_bad_frames_without_reading_is_bounded_and_not_logged_
         flooder.wait_command("__topic_list", timeout=60)
         errors = sum(1 for frame in flooder.received if frame.destination == "__error")
         assert errors < flood, "every error was kept for a client that did not read"
-        assert _rss_kib(endpoint.process.pid) - rss_before < 8 * 1024, "the errors for the flood were all kept"
+        assert rss_bytes(endpoint.process.pid) - rss_before < 8 * MiB, "the errors for the flood were all kept"
         logged = endpoint.output().count("which this client has not registered with __publish")
         assert 1 <= logged < 100, f"{logged} log lines for {flood} bad frames"
         assert watcher.errors == [] and watcher.connections == 1

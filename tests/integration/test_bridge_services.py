@@ -12,14 +12,14 @@ from std_srvs.srv import SetBool, SetBoolRequest, SetBoolResponse, Trigger, Trig
 
 from bridge import protocol
 from bridge.client import ClientError
-from tests.chaos import figures
+from measuring.endpoint import settled
+from measuring.procfs import figures
 from tests.integration.bridge_helpers import (
     RawConnection,
     RosInbox,
     bridge,  # noqa: F401 - module-scoped endpoint fixture (service timeout 2 s)
     serialize,
     service_exists,
-    settled,
     start_endpoint,
     tcp_client,
     unique,

@@ -1,4 +1,4 @@
-"""A client over a slow link (tests.slow_link: rate, delay, small buffers): small messages do not wait behind queued
+"""A client over a slow link (measuring.link: rate, delay, small buffers): small messages do not wait behind queued
 camera images, a client that cannot keep up with the images gets the newest one, and /diagnostics says how long a
 topic's messages waited in the endpoint."""
 
@@ -14,6 +14,7 @@ from diagnostic_msgs.msg import DiagnosticArray
 from sensor_msgs.msg import Image, JointState
 from std_msgs.msg import Header
 
+from measuring.link import SlowLink
 from tests.integration.bridge_helpers import (
     LOOPBACK,
     start_endpoint,
@@ -23,7 +24,6 @@ from tests.integration.bridge_helpers import (
     wait_subscribers,
 )
 from tests.rosenv import wait_for
-from tests.slow_link import SlowLink
 
 IMAGE_BYTES = 640 * 480 * 3  # 0.74 s each on the 10 Mbit/s link below
 

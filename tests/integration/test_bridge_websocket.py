@@ -16,6 +16,7 @@ from std_msgs.msg import String
 from std_srvs.srv import SetBool, SetBoolRequest, SetBoolResponse, Trigger, TriggerResponse
 
 from bridge import protocol
+from measuring.procfs import rss_bytes
 from sim.processes import PYTHON, REPO, ManagedProcess
 from tests.integration.bridge_helpers import (
     DiagnosticsInbox,
@@ -219,11 +220,6 @@ def _dropped_for_client(diagnostics: DiagnosticsInbox, address: str) -> int:
 # --- answers are bounded ------------------------------------------------------------------------------------------
 
 
-def endpoint_rss(endpoint: EndpointProcess) -> int:
-    with open(f"/proc/{endpoint.pid}/status") as status:
-        return next(int(line.split()[1]) * 1024 for line in status if line.startswith("VmRSS:"))
-
-
 def test_a_flood_of_pings_gets_one_pong_per_read_and_does_not_grow_the_endpoint(bridge) -> None:
     """200,000 WebSocket pings (26 MB) from a client that reads nothing meanwhile: the endpoint answers only the
     newest of each read (RFC 6455 allows it). Answering each would have queued 200,000 pongs (25 MB and more)."""
@@ -231,13 +227,13 @@ def test_a_flood_of_pings_gets_one_pong_per_read_and_does_not_grow_the_endpoint(
 
     with RawWebSocket(bridge.websocket_port) as ws:
         ws.sync()
-        before = endpoint_rss(bridge)
+        before = rss_bytes(bridge.pid)
         pings = b"".join(ws.ws.send(Ping(b"%0125d" % n)) for n in range(1000))
         for _ in range(200):
             ws.send_bytes(pings)
         ws.sync()  # everything before it has been read and answered
         assert 1 <= ws.pongs < 20_000, ws.pongs
-        assert endpoint_rss(bridge) - before < 8 * 1024 * 1024
+        assert rss_bytes(bridge.pid) - before < 8 * 1024 * 1024
         pong_before = ws.pongs
         ws.send_event(Ping(b"still answered"))
         ws.sync()

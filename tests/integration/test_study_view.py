@@ -12,12 +12,12 @@ import numpy as np
 import pytest
 from PIL import Image
 
+from measuring.browser import chromium
 from sim.launchers import LiveView, Participant, Runner, finish, start, wait_ready
 from sim.processes import plain_env
 from sim.study.design.paths import ON_TOP
 from sim.study.views.live import COLOURS
-from tests.integration import browser_helpers
-from tests.integration.browser_helpers import chromium
+from tests.integration import pixels
 from tests.integration.sim_helpers import start_engine
 from tests.integration.study_helpers import trial, write_plan
 from tests.rosenv import free_port, wait_for
@@ -51,7 +51,7 @@ def settled_screenshot(driver: Any, path: Path, listed: str, timeout: float = 60
 def pixels_like(image: np.ndarray, colour: tuple[int, int, int], tolerance: int = 60) -> int:
     """Pixels of about that colour in the 3-D scene: between the notice on the left and viser's panel on the right,
     whose buttons are blue."""
-    return browser_helpers.pixels_like(image[:, 330:850], colour, tolerance)
+    return pixels.pixels_like(image[:, 330:850], colour, tolerance)
 
 
 def test_the_live_view_shows_the_scene_the_plan_the_trail_and_the_stop(

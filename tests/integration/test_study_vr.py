@@ -18,6 +18,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
+from measuring.browser import chromium, start_vr_page
 from sim.study.design.feasibility import Approaches
 from sim.study.design.paths import ON_TOP
 from sim.study.design.scene import load_scene, scene_robot
@@ -26,7 +27,7 @@ from sim.study.views.live import COLOURS
 from sim.wire.contract import STEP_S
 from sim.wire.rosmsgs import decode_joint_state, deserialize
 from tests.integration.bridge_helpers import DiagnosticsInbox, start_endpoint, tcp_client
-from tests.integration.browser_helpers import chromium, pixels_like, start_vr_page
+from tests.integration.pixels import pixels_like
 from tests.integration.sim_helpers import start_engine
 from tests.integration.study_helpers import trial, write_plan
 from tests.rosenv import PYTHON, EndpointProcess, ManagedProcess, RosCore, wait_for

@@ -181,10 +181,10 @@ def test_only_the_bridges_ros_modules_touch_rospy() -> None:
 ROS_PYTHON_PACKAGES = {"rospy", "rosgraph", "genpy", "genmsg", "rospkg", "roslib", "diagnostic_msgs", "std_msgs"}
 
 
-def foreign_imports(package: str, ours: set[str]) -> dict[str, list[str]]:
-    """The top-level packages `package`'s modules import (every import, even in functions) that are neither the
-    standard library nor `ours`, each with the files importing it."""
-    foreign: dict[str, list[str]] = {}
+def top_level_imports(package: str) -> dict[str, set[str]]:
+    """Every top-level package that `package`'s modules import (even in functions; relative imports are its own),
+    each with the files importing it."""
+    imported: dict[str, set[str]] = {}
     for path in sorted((REPO / package).rglob("*.py")):
         for node in ast.walk(ast.parse(path.read_text())):
             if isinstance(node, ast.Import):
@@ -194,9 +194,18 @@ def foreign_imports(package: str, ours: set[str]) -> dict[str, list[str]]:
             else:
                 continue
             for top in tops:
-                if top not in sys.stdlib_module_names and top not in ours:
-                    foreign.setdefault(top, []).append(str(path.relative_to(REPO)))
-    return foreign
+                imported.setdefault(top, set()).add(str(path.relative_to(REPO)))
+    return imported
+
+
+def foreign_imports(package: str, ours: set[str]) -> dict[str, list[str]]:
+    """The top-level packages `package`'s modules import (every import, even in functions) that are neither the
+    standard library nor `ours`, each with the files importing it."""
+    return {
+        top: sorted(files)
+        for top, files in top_level_imports(package).items()
+        if top not in sys.stdlib_module_names and top not in ours
+    }
 
 
 def test_the_bridge_needs_only_python_and_ros() -> None:
@@ -263,7 +272,40 @@ def test_sim_uses_no_bridge_internals_but_the_client() -> None:
     assert imported == {"bridge.client"}
 
 
-@pytest.mark.parametrize("package", ["bridge", "sim"])
+# What the project ships stands apart from how it is measured: bridge/ and sim/ never import the measuring package,
+# the benchmarks or the tests; measuring/ (which both tests/ and bench/ import) never imports either of them.
+NEVER_IMPORTED = {
+    "bridge": {"measuring", "bench", "tests"},
+    "sim": {"measuring", "bench", "tests"},
+    "measuring": {"bench", "tests"},
+}
+
+
+@pytest.mark.parametrize("package", sorted(NEVER_IMPORTED))
+def test_shipped_code_never_imports_what_measures_it(package: str) -> None:
+    imported = top_level_imports(package)
+    wrong = {top: sorted(files) for top, files in imported.items() if top in NEVER_IMPORTED[package]}
+    assert wrong == {}
+
+
+def test_the_measuring_package_is_not_installed_for_users() -> None:
+    """setup.py's packages and the catkin packages' are bridge and sim alone; measuring and bench stay in the
+    repository (the tests and benchmarks import them from its root)."""
+    setup = (REPO / "setup.py").read_text()
+    assert 'find_packages(include=["bridge", "bridge.*", "sim", "sim.*"])' in setup
+    for catkin_setup in sorted((REPO / "catkin_ws" / "src").glob("*/setup.py")):
+        text = catkin_setup.read_text()
+        assert "measuring" not in text and "bench" not in text, catkin_setup
+
+
+def test_the_measuring_package_says_what_it_holds_and_has_its_own_error_type() -> None:
+    measuring = REPO / "measuring"
+    assert ast.get_docstring(ast.parse((measuring / "__init__.py").read_text()))
+    classes = [node for node in ast.parse((measuring / "errors.py").read_text()).body if isinstance(node, ast.ClassDef)]
+    assert [node.name for node in classes] == ["MeasuringError"]
+
+
+@pytest.mark.parametrize("package", ["bridge", "sim", "measuring", "bench"])
 def test_every_package_type_checks(package: str) -> None:
     """Fully typed: every def annotated, and mypy finds nothing (rospy, genpy and pybullet have no type
     information, hence Any there)."""
@@ -286,7 +328,14 @@ def test_every_package_type_checks(package: str) -> None:
     assert result.returncode == 0, result.stdout + result.stderr
 
 
-@pytest.mark.parametrize("package, root", [("bridge", "bridge.errors.BridgeError"), ("sim", "sim.errors.SimError")])
+@pytest.mark.parametrize(
+    "package, root",
+    [
+        ("bridge", "bridge.errors.BridgeError"),
+        ("sim", "sim.errors.SimError"),
+        ("measuring", "measuring.errors.MeasuringError"),
+    ],
+)
 def test_every_error_a_package_defines_is_under_its_root(package: str, root: str) -> None:
     """One error root per package: `except BridgeError` / `except SimError` catches every error raised on purpose
     (private control-flow signals, named with a leading underscore, aside)."""

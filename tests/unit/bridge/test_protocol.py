@@ -50,7 +50,7 @@ from bridge.protocol import (
     encode,
     encode_frame,
 )
-from tests.frames import BadFrame, Frame, feed
+from measuring.frames import BadFrame, Frame, feed
 
 
 def u32(value: int) -> bytes:

@@ -135,6 +135,7 @@ class SlowLink:
         self.port: int = self._listener.getsockname()[1]
         self._sockets: list[socket.socket] = []
         self._accepting: threading.Thread | None = None
+        self._deadline = threading.Timer(max_seconds, self.stop)
 
     @property
     def buffer_time_s(self) -> float:
@@ -147,11 +148,14 @@ class SlowLink:
     def start(self) -> SlowLink:
         self._accepting = threading.Thread(target=self._accept, daemon=True)
         self._accepting.start()
-        threading.Timer(self.max_seconds, self.stop).start()  # bounded in time whatever the caller does
+        # bounded in time whatever the caller does; a daemon, cancelled by stop(), so it never holds up an exit
+        self._deadline.daemon = True
+        self._deadline.start()
         return self
 
     def stop(self) -> None:
         self._stopped.set()
+        self._deadline.cancel()
         for sock in [self._listener, *self._sockets]:
             try:
                 sock.shutdown(socket.SHUT_RDWR)

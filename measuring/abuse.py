@@ -1,11 +1,9 @@
-"""Abuse for the endpoint, shared by the chaos tests (short, bounded) and bench/chaos_bench.py (minutes long):
-connections reset mid-way, mutated streams of valid frames, and the figures of a process (threads, descriptors,
-memory) to hold the endpoint to. Every loop here is bounded by a count or a deadline."""
+"""Abuse for the endpoint, shared by the chaos tests (short, bounded) and bench.chaos_bench (minutes long):
+connections reset mid-way and mutated streams of valid frames (the endpoint's figures meanwhile: measuring.procfs).
+Every loop here is bounded by a count or a deadline."""
 
 from __future__ import annotations
 
-import json
-import os
 import random
 import socket
 import struct
@@ -17,22 +15,6 @@ from bridge import protocol
 
 LOOPBACK = "127.0.0.1"
 _LINGER_RESET = struct.pack("ii", 1, 0)  # SO_LINGER on, 0 s: close() sends RST, as a crashed client's kernel does
-
-
-@dataclass(frozen=True)
-class ProcessFigures:
-    threads: int
-    descriptors: int
-    rss_mib: float
-
-    def __str__(self) -> str:
-        return f"{self.threads} threads, {self.descriptors} descriptors, {self.rss_mib:.1f} MiB RSS"
-
-
-def figures(pid: int) -> ProcessFigures:
-    with open(f"/proc/{pid}/status") as status:
-        rss_kib = next(int(line.split()[1]) for line in status if line.startswith("VmRSS:"))
-    return ProcessFigures(len(os.listdir(f"/proc/{pid}/task")), len(os.listdir(f"/proc/{pid}/fd")), rss_kib / 1024)
 
 
 # --- connections that end abruptly ---------------------------------------------------------------------------------
@@ -156,7 +138,3 @@ def fuzz_client(port: int, seed: int, stop: threading.Event, stats: FuzzStats) -
                         pass
         except OSError:
             pass  # closed by the endpoint (framing lost, a limit): a new connection
-
-
-def error_texts(frames: list[protocol.Frame]) -> list[str]:
-    return [json.loads(frame.payload)["text"] for frame in frames if frame.destination == "__error"]

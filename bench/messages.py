@@ -1,6 +1,6 @@
-"""Shared pieces of the endpoint benchmark: the test messages, their stamp/sequence fields, pacing and statistics.
+"""The benchmarks' ROS messages: the test messages, their stamp/sequence fields, and pacing.
 
-The benchmark's messages are serialized ROS 1 messages of three kinds (MESSAGE_KINDS): a 7-joint
+The messages are serialized ROS 1 messages of the kinds in MESSAGE_KINDS, among them a 7-joint
 sensor_msgs/JointState (small control traffic), a 1280x720 RGB sensor_msgs/Image (2.7 MB, a camera) and a 1 MiB
 sensor_msgs/PointCloud2 (a depth sensor). The first 12 bytes of a ROS 1 serialized message with a Header are
 `u32 seq, u32 secs, u32 nsecs`; the benchmark writes a sequence number and a CLOCK_MONOTONIC time stamp there
@@ -11,7 +11,6 @@ round-trip time from the bytes alone, without deserializing.
 from __future__ import annotations
 
 import io
-import math
 import struct
 import time
 from collections.abc import Callable, Iterator
@@ -151,10 +150,3 @@ def paced(rate_hz: float, count: int, max_seconds: float) -> Iterator[int]:
         if target > now:
             time.sleep(target - now)
         yield index
-
-
-def percentile(values: list[float], q: float) -> float:
-    """Nearest-rank percentile (q in 0..100) of a non-empty list."""
-    ordered = sorted(values)
-    rank = min(len(ordered) - 1, max(0, math.ceil(q / 100.0 * len(ordered)) - 1))
-    return ordered[rank]

@@ -1,5 +1,5 @@
-"""Frames as tests read them: the decoder's raw frames with their destinations decoded (the endpoint itself never
-needs more than bridge.framing.FrameDecoder.feed_raw)."""
+"""Frames as a raw client (a test, a bench) reads them: the decoder's raw frames with their destinations decoded
+(the endpoint itself never needs more than bridge.framing.FrameDecoder.feed_raw)."""
 
 from __future__ import annotations
 

@@ -1,6 +1,6 @@
-"""Debian's Chromium, headless with WebGL in software, driven by Debian's chromedriver (no download); and the pixels
-of a colour in a screenshot; the VR page's server with its emulated headset. For the web pages' tests (the live view,
-the VR page) and the VR page's frame-time bench."""
+"""Debian's Chromium, headless with WebGL in software, driven by Debian's chromedriver (no download), and the VR
+page's server with its emulated headset: for the web pages' tests (the live view, the VR page) and the VR page's
+frame-time bench."""
 
 from __future__ import annotations
 
@@ -8,8 +8,6 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
-
-import numpy as np
 
 from sim.launchers import VrServer, start
 from sim.processes import ManagedProcess, plain_env
@@ -55,13 +53,3 @@ def chromium(profile: Path, accept_insecure_certs: bool = False, size: str = "12
         yield driver
     finally:
         driver.quit()
-
-
-def pixels_like(image: np.ndarray, colour: tuple[int, int, int], tolerance: int = 60) -> int:
-    """Pixels of about that colour, lit or shaded: the same hue, within `tolerance` per channel once the brightness
-    is matched, and saturated (white, grey and black are not colours)."""
-    reference = np.array(colour, dtype=float)
-    brightness = image.sum(axis=2, keepdims=True) / max(reference.sum(), 1.0)
-    matched = np.abs(image - brightness * reference).max(axis=2) < tolerance
-    saturated = image.max(axis=2) - image.min(axis=2) > 60
-    return int((matched & saturated).sum())
