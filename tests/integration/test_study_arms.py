@@ -32,7 +32,8 @@ def arm(tmp_path: Path, name: str) -> Path:
     return write_arm(tmp_path / "arms", next(design for design in STUDY_ARMS if design.name == name))
 
 
-@pytest.mark.parametrize("name", [*(design.name for design in STUDY_ARMS), "lbr_iiwa", "xarm6"])
+# (the LBR iiwa's proposal is made and checked in the next test)
+@pytest.mark.parametrize("name", [*(design.name for design in STUDY_ARMS), "xarm6"])
 def test_every_combination_checks_on_the_arm_from_its_urdf_alone(tmp_path: Path, name: str) -> None:
     done = study(["check", "--robot", str(arm(tmp_path, name))], tmp_path / "cache")
     assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
