@@ -4,7 +4,7 @@ frame-time bench."""
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
@@ -15,13 +15,19 @@ from sim.processes import ManagedProcess, plain_env
 CHROMIUM, CHROMEDRIVER = "/usr/bin/chromium", "/usr/bin/chromedriver"
 
 
-def start_vr_page(websocket_port: int, log_dir: Path, frame_time: bool = False) -> tuple[ManagedProcess, str]:
+def start_vr_page(
+    websocket_port: int, log_dir: Path, frame_time: bool = False, robot: Sequence[str] = ()
+) -> tuple[ManagedProcess, str]:
     """`python -m sim.study vr` with the emulated headset and the tests' probe (window.vrPage), and with `frame_time`
     the frame-time instrument (window.vrFrameTime), on a free port of localhost, passing its WebSocket to the
-    endpoint's `websocket_port`, its certificate made in log_dir/certificate; returned once it serves, with the
-    page's URL."""
+    endpoint's `websocket_port`, its certificate made in log_dir/certificate; `robot`: its --robot options (default:
+    the scene's). Returned once it serves, with the page's URL."""
     server = VrServer(
-        websocket_port, certificate_dir=log_dir / "certificate", emulate_headset=True, frame_time=frame_time
+        websocket_port,
+        certificate_dir=log_dir / "certificate",
+        emulate_headset=True,
+        frame_time=frame_time,
+        robot=robot,
     )
     vr = start(server, plain_env(), log_dir, "vr")
     return vr, server.page_url(vr.output())

@@ -97,7 +97,7 @@ def test_bad_input_is_one_line_and_exit_2(tmp_path: Path, case: str) -> None:
             "--scene",
             str(write(tmp_path / "s.yaml", scene)),
         )
-        one_error_line(result, "not feasible", "straight to 0.1 m")
+        one_error_line(result, "not feasible", "straight to 0.1 m", "to change: the hand within the arm's reach")
         assert not (tmp_path / "out").exists()  # nothing was started
     elif case == "malformed plan":
         plan = tmp_path / "plan.yaml"

@@ -30,7 +30,9 @@ from tests.integration.bridge_helpers import DiagnosticsInbox, start_endpoint, t
 from tests.integration.pixels import pixels_like
 from tests.integration.sim_helpers import start_engine
 from tests.integration.study_helpers import trial, write_plan
+from tests.robot_files import THIRD_PARTY_URDFS
 from tests.rosenv import PYTHON, EndpointProcess, ManagedProcess, RosCore, wait_for
+from tests.study_arms import STUDY_ARMS, write_arm
 
 PARTICIPANT = 4
 CONTROLLERS_APART = 0.12  # m
@@ -256,6 +258,37 @@ def test_an_emulated_quest_enters_the_session_and_answers_the_runner(tmp_path: P
 
 
 pytestmark = [pytest.mark.lane("alone", on=("project",)), pytest.mark.timeout(400)]
+
+
+MESH_COUNT = """const counted = {meshes: 0, triangles: 0};
+window.vrPage.page.robot.model.traverse((child) => {
+  if (child.isMesh && child.geometry.attributes.position.count > 0) {
+    counted.meshes += 1; counted.triangles += child.geometry.attributes.position.count / 3; } });
+return counted;"""
+
+
+@pytest.mark.parametrize(
+    ("name", "visual_meshes"),
+    [("meshed_arm7", 8), ("xarm6", 7)],  # OBJ and COLLADA visuals; STL ones, named by package:// URLs
+)
+def test_the_page_shows_another_arm_with_its_meshes(roscore, tmp_path: Path, name: str, visual_meshes: int) -> None:
+    urdf = THIRD_PARTY_URDFS.get(name) or write_arm(tmp_path, next(arm for arm in STUDY_ARMS if arm.name == name))
+    endpoint = EndpointProcess(roscore.env, tmp_path, extra=["--websocket-port", "0"])
+    try:
+        vr, url = start_vr_page(endpoint.websocket_port, tmp_path, robot=("--robot", str(urdf)))
+        try:
+            with chromium(tmp_path / "chromium", accept_insecure_certs=True, size="800,600") as browser:
+                browser.get(url)
+                wait_for(
+                    lambda: (s := page_state(browser)) and (s["meshes"] or s["error"]), 60, "the page to load the arm"
+                )
+                assert page_state(browser)["error"] == ""
+                counted = browser.execute_script(MESH_COUNT)
+                assert counted["meshes"] >= visual_meshes and counted["triangles"] >= 12 * visual_meshes, counted
+        finally:
+            vr.stop()
+    finally:
+        endpoint.stop()
 
 
 def test_the_pages_server_passes_only_its_own_page_on_with_the_browsers_address(roscore, ros_node, tmp_path) -> None:

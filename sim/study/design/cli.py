@@ -58,7 +58,7 @@ def plan_command(args: argparse.Namespace) -> int:
 
 
 def check_command(args: argparse.Namespace) -> int:
-    from sim.study.design.feasibility import plan_combinations
+    from sim.study.design.feasibility import plan_combinations, remedies
 
     check_positive(args.dt, "--dt")
     design = load_design(args.design)
@@ -82,7 +82,8 @@ def check_command(args: argparse.Namespace) -> int:
     if infeasible:
         raise DesignError(
             f"{len(infeasible)} combination(s) of the design are not feasible: "
-            f"{', '.join(f'{p} to {s} m at {v} m/s' for p, s, v in infeasible)}"
+            f"{', '.join(f'{p} to {s} m at {v} m/s' for p, s, v in infeasible)}; to change: "
+            + remedies(approaches[key] for key in infeasible)
         )
     return EXIT_OK
 

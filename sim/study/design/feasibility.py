@@ -28,6 +28,8 @@ from sim.study.design.tool import approach_rotation
 from sim.study.design.world import CONTACT_MARGIN, SceneWorld
 
 __all__ = [
+    "REMEDIES",
+    "remedies",
     "Approaches",
     "CONTACT_MARGIN",
     "STANDOFF_TOLERANCE",
@@ -57,10 +59,28 @@ class PlannedApproach:
     distances: np.ndarray  # (N,) m: the robot's distance to the hand at every sample (the scene's definition)
     problems: list[str] = field(default_factory=list)
     unreachable: int = 0  # samples IK could not reach
+    remedies: list[str] = field(default_factory=list)  # what to change, one per kind of problem (REMEDIES)
 
     @property
     def feasible(self) -> bool:
         return not self.problems
+
+
+# What to change, by the kind of problem: said with the combinations that are not feasible
+REMEDIES = {
+    "reach": "the hand within the arm's reach (the scene's hand.xyz), or the scene `sim.study scene` proposes",
+    "limits": "another path, or the hand placed elsewhere",
+    "speed": "a lower peak speed",
+    "table": "a larger stand-off, or the table lower",
+    "hand": "a larger stand-off, or another path",
+    "self": "another path, or the hand placed elsewhere",
+    "standoff": "another stand-off, or the hand placed elsewhere",
+}
+
+
+def remedies(approaches: Iterable[PlannedApproach]) -> str:
+    """What to change for these approaches, each remedy once: "" when all are feasible."""
+    return "; ".join(dict.fromkeys(remedy for approach in approaches for remedy in approach.remedies))
 
 
 def plan_approach(robot: RobotSpec, scene: Scene, path: ApproachPath, world: SceneWorld) -> PlannedApproach:
@@ -72,6 +92,7 @@ def plan_approach(robot: RobotSpec, scene: Scene, path: ApproachPath, world: Sce
     targets[:, :3, :3] = approach_rotation(chain, robot.home, scene.to_base_direction(np.array([0.0, 0.0, -1.0])))
     targets[:, :3, 3] = scene.to_base(path.positions)
     problems: list[str] = []
+    kinds: list[str] = []
     first = solve_ik(chain, targets[0], robot.home, weights=weights, restarts=_IK_RESTARTS, rng=0)
     solved = solve_path_ik(chain, targets, first.q, weights=weights)
     if not solved.all_succeeded:
@@ -82,6 +103,7 @@ def plan_approach(robot: RobotSpec, scene: Scene, path: ApproachPath, world: Sce
             f"IK failed at {failed.size} of {len(path.times)} samples, first at t = {path.times[failed[0]]:.2f} s "
             f"at ({where[0]:.3f}, {where[1]:.3f}, {where[2]:.3f}) m in the world, {reach:.3f} m from the robot's base"
         )
+        kinds.append("reach")
     positions = solved.q
     velocities = np.gradient(positions, path.dt, axis=0)
     velocities[0] = velocities[-1] = 0.0
@@ -91,6 +113,7 @@ def plan_approach(robot: RobotSpec, scene: Scene, path: ApproachPath, world: Sce
         problems.append(
             f"{robot.joint_names[j]} leaves its limits ({positions[k, j]:.3f} at t = {path.times[k]:.2f} s)"
         )
+        kinds.append("limits")
     too_fast = np.abs(velocities) > robot.max_velocity
     if too_fast.any():
         k, j = np.argwhere(too_fast)[0]
@@ -98,6 +121,7 @@ def plan_approach(robot: RobotSpec, scene: Scene, path: ApproachPath, world: Sce
             f"{robot.joint_names[j]} exceeds its velocity limit ({abs(velocities[k, j]):.3f} > "
             f"{robot.max_velocity[j]:.3f} at t = {path.times[k]:.2f} s)"
         )
+        kinds.append("speed")
     lowest = {"table": math.inf, "hand": math.inf, "self": math.inf}
     for k in range(len(path.times)):
         for what, distance in world.clearance(positions[k]).items():
@@ -109,12 +133,15 @@ def plan_approach(robot: RobotSpec, scene: Scene, path: ApproachPath, world: Sce
                 f"the robot comes within {max(distance, 0.0) * 1000:.1f} mm of "
                 f"{'itself' if what == 'self' else 'the ' + what}"
             )
+            kinds.append(what)
     distances = np.array([world.hand_distance(q) for q in positions])
     reached = float(distances[-1])
     if abs(reached - path.standoff) > STANDOFF_TOLERANCE:
         problems.append(f"the planned end is {reached:.4f} m from the hand, not the stand-off {path.standoff} m")
+        kinds.append("standoff")
     unreachable = int((~solved.success).sum())
-    return PlannedApproach(path, positions, velocities, reached, lowest, distances, problems, unreachable)
+    fixes = [REMEDIES[kind] for kind in dict.fromkeys(kinds)]
+    return PlannedApproach(path, positions, velocities, reached, lowest, distances, problems, unreachable, fixes)
 
 
 def plan_combination(

@@ -42,7 +42,7 @@ def register(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> N
 
 def run_command(args: argparse.Namespace) -> int:
     from sim.control.stepper import Pacing
-    from sim.study.design.feasibility import Approaches
+    from sim.study.design.feasibility import Approaches, remedies
     from sim.study.run.runner import RunnerOptions, run_node
 
     for option in ("dt", "settle", "deceleration", "response_timeout", "step_timeout", "connect_timeout"):
@@ -64,6 +64,7 @@ def run_command(args: argparse.Namespace) -> int:
             raise RunError(
                 "the plan has combinations that are not feasible (none was run): "
                 + "; ".join(f"{p} to {s} m at {v} m/s: {', '.join(why)}" for (p, s, v), why in infeasible.items())
+                + f"; to change: {remedies(planned[key] for key in infeasible)}"
             )
         return run_node(
             robot, scene, plan, approaches, options, args.out.resolve(), not args.no_record, args.connect_timeout

@@ -17,7 +17,7 @@ import yaml
 from sim.launchers import Engine, Participant, Runner, finish, start, wait_ready
 from sim.processes import EndpointProcess, ManagedProcess, ProcessError, RosCore, plain_env
 from sim.study.analysis.report import load_study, write_report
-from sim.study.design.feasibility import plan_combinations
+from sim.study.design.feasibility import plan_combinations, remedies
 from sim.study.design.fit import scene_for, scene_to_data
 from sim.study.design.plan import make_plan, plan_to_data
 from sim.study.design.spec import load_design
@@ -70,7 +70,10 @@ def simulate(settings: Simulation, log: Callable[[str], None]) -> Path:
         f"{p} to {s} m at {v} m/s: {'; '.join(a.problems)}" for (p, s, v), a in approaches.items() if not a.feasible
     ]
     if infeasible:
-        raise StudyError(f"the design has combinations that are not feasible: {' | '.join(infeasible)}")
+        fixes = remedies(approach for approach in approaches.values() if not approach.feasible)
+        raise StudyError(
+            f"the design has combinations that are not feasible: {' | '.join(infeasible)}; to change: {fixes}"
+        )
     log(f"{len(approaches)} combinations of the design planned and checked in {time.monotonic() - started:.1f} s")
     out = settings.out.resolve()
     logs = out / "logs"

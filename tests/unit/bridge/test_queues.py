@@ -250,9 +250,12 @@ def test_put_many_waits_once_then_drops_oldest_without_waiting_again() -> None:
 
 
 def test_put_many_stops_when_the_queue_closes() -> None:
+    # Full before put_many begins, so that whether the close comes before it or while it waits for room, it must
+    # stop at once, dropping and adding nothing (the timer may fire before put_many starts on a loaded machine)
     queue = OutgoingQueue(max_frames=1, max_bytes=1 << 20)
+    queue.put(b"a")
     threading.Timer(0.05, queue.close).start()
-    assert queue.put_many([b"a", b"b", b"c"], wait_s=5.0) == 0
+    assert queue.put_many([b"b", b"c"], wait_s=5.0) == 0  # a wait that ran out would have dropped b"a"
     assert queue.take_all(timeout=0) == [b"a"]
 
 

@@ -13,10 +13,12 @@ import yaml
 from sim.geometry.kinematics import chain_for
 from sim.study.design.feasibility import (
     CONTACT_MARGIN,
+    REMEDIES,
     STANDOFF_TOLERANCE,
     SceneWorld,
     plan_approach,
     plan_combination,
+    remedies,
 )
 from sim.study.design.paths import ON_TOP, PATH_NAMES, approach_path
 from sim.study.design.scene import DEFAULT_SCENE, load_scene, parse_scene, scene_robot
@@ -67,6 +69,7 @@ def test_a_hand_out_of_reach_is_reported_not_run():
     assert not planned.feasible
     assert any(problem.startswith("IK failed at") for problem in planned.problems)
     assert any("not the stand-off 0.1 m" in problem for problem in planned.problems)
+    assert planned.remedies[0] == REMEDIES["reach"] and REMEDIES["standoff"] in planned.remedies
 
 
 def test_a_robot_mounted_below_the_table_top_is_reported_touching_it():
@@ -81,6 +84,7 @@ def test_a_path_too_fast_for_the_joints_is_reported():
     with SceneWorld(ROBOT, SCENE) as world:
         planned = plan_approach(ROBOT, SCENE, path, world)
     assert any("exceeds its velocity limit" in problem for problem in planned.problems), planned.problems
+    assert "a lower peak speed" in remedies([planned, planned]).split("; ")  # each remedy said once
 
 
 def test_the_surface_ends_at_the_stand_off_and_the_theses_point_definition_is_kept(world):
