@@ -51,18 +51,19 @@ run() {  # run PYTHON ROLE LANE... -- PYTEST_ARGS...: the tests of those lanes t
 # connections).
 
 # The endpoint's lane (in the background, its output shown after the foreground's) on 3.8, then the unit lane on
-# 3.10, which it has time for while the foreground runs the unit and beside lanes on the project's Python and 3.8.
+# 3.10 and the unit and beside lanes on 3.8, which it has time for while the foreground runs the unit and beside
+# lanes on the project's Python (the longest: the benches' smoke tests and the study's command lines are there).
 endpoint_log="$(mktemp)"
 trap 'rm -f "$endpoint_log"' EXIT
 (
   status=0
   run .venv38/bin/python noetic endpoint -- "$@"
   if [ -n "$python310" ]; then run "$python310" jammy unit -- "$@"; fi
+  run .venv38/bin/python noetic unit beside -- "$@"
   exit "$status"
 ) >"$endpoint_log" 2>&1 &
 endpoint_lane=$!
 run .venv/bin/python project unit beside -- "$@"
-run .venv38/bin/python noetic unit beside -- "$@"
 endpoint_status=0
 wait "$endpoint_lane" || endpoint_status=$?
 cat "$endpoint_log"

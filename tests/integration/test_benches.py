@@ -12,7 +12,8 @@ import yaml
 
 from sim.processes import PYTHON, ManagedProcess, plain_env
 
-pytestmark = pytest.mark.lane("alone", on=("project",))
+# Beside the endpoint's tests: a bench here runs for a second or so and only its table is checked, not its figures
+pytestmark = pytest.mark.lane("beside", on=("project",))
 
 TIMEOUT_S = 120  # a bound on a hung bench; each takes seconds
 

@@ -64,8 +64,10 @@ def test_an_arm_that_cannot_reach_over_a_table_is_told_why_in_one_line(tmp_path:
     assert "give a scene of your own with --scene" in lines[0]
 
 
+# The LBR iiwa: its scene proposed with the paths' shapes made smaller (a gripper arm's study: the Panda with its
+# hand, in test_study.py)
 @pytest.mark.lane("alone", on=("project",))
-@pytest.mark.parametrize("name", ["small_gripper_arm", "lbr_iiwa"])
+@pytest.mark.parametrize("name", ["lbr_iiwa"])
 def test_a_simulated_study_with_the_arm_recovers_its_biases(tmp_path: Path, name: str) -> None:
     design = tmp_path / "design.yaml"
     design.write_text(yaml.safe_dump(SMALL_DESIGN))
