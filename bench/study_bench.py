@@ -22,8 +22,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from sim.study.design.feasibility import SceneWorld, plan_approach
-from sim.study.design.paths import approach_path
+from sim.study.design.feasibility import SceneWorld, plan_combination
 from sim.study.design.plan import make_plan
 from sim.study.design.scene import load_scene, scene_robot
 from sim.study.design.spec import load_design
@@ -46,7 +45,7 @@ def bench_planning(repeats: int, design: Path | None) -> None:
             times, planned = [], None
             for _ in range(repeats):
                 started = time.perf_counter()
-                planned = plan_approach(robot, scene, approach_path(scene, name, standoff, speed, DT), world)
+                planned = plan_combination(robot, scene, (name, standoff, speed), DT, world)
                 times.append((time.perf_counter() - started) * 1000)
             assert planned is not None
             median = statistics.median(times)
