@@ -19,6 +19,10 @@ cd "$repo"
 # tests/unit/sim/study/power/test_sample_size.py (mixed models fitted in the test process) took over 150 s with OpenBLAS's default
 # threads, 3 of its tests passing pytest's 300 s timeout in a full run, and 22 s with one thread.
 export OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 MKL_NUM_THREADS=1
+# The study's cache (self-contact verdicts, scenes proposed for other arms) is this run's own: every run computes
+# them afresh, once, and the user's ~/.cache/vr_sim is left alone.
+VR_SIM_CACHE="$(mktemp -d)"
+export VR_SIM_CACHE
 # Lint and format first (pyproject.toml): a finding fails the run before any test starts.
 .venv/bin/ruff check .
 .venv/bin/ruff format --check .
@@ -54,7 +58,7 @@ run() {  # run PYTHON ROLE LANE... -- PYTEST_ARGS...: the tests of those lanes t
 # 3.10 and the unit and beside lanes on 3.8, which it has time for while the foreground runs the unit and beside
 # lanes on the project's Python (the longest: the benches' smoke tests and the study's command lines are there).
 endpoint_log="$(mktemp)"
-trap 'rm -f "$endpoint_log"' EXIT
+trap 'rm -rf "$endpoint_log" "$VR_SIM_CACHE"' EXIT
 (
   status=0
   run .venv38/bin/python noetic endpoint -- "$@"

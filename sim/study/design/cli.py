@@ -15,7 +15,7 @@ from sim.study.checks import check_positive
 from sim.study.design.errors import DesignError
 from sim.study.design.options import add_design_option, add_scene_options, scene_and_robot
 from sim.study.design.plan import make_plan, plan_to_data, printable
-from sim.study.design.scene import load_scene, scene_robot
+from sim.study.design.scene import DEFAULT_SCENE, load_scene, scene_robot
 from sim.study.design.spec import load_design
 
 __all__ = ["register"]
@@ -90,7 +90,7 @@ def check_command(args: argparse.Namespace) -> int:
 
 def scene_command(args: argparse.Namespace) -> int:
     """The first candidate scene that fits (sim.study.design.fit), each tried printed with why not."""
-    from sim.study.design.fit import design_combinations, fit_scene, no_fit_message, scene_to_data
+    from sim.study.design.fit import design_combinations, fit_scene, keep, no_fit_message, scene_to_data
 
     check_positive(args.dt, "--dt")
     template = load_scene(args.scene)
@@ -99,6 +99,8 @@ def scene_command(args: argparse.Namespace) -> int:
     fit = fit_scene(robot, template, combinations, args.dt, progress=lambda line: print(f"tried {line}", flush=True))
     if fit.scene is None:
         raise DesignError(no_fit_message(robot, fit))
+    template_text = (args.scene or DEFAULT_SCENE).read_text(encoding="utf-8")
+    keep(fit.scene, robot, template_text, combinations, args.dt)  # what a command given this --robot then uses
     chosen = fit.tried[-1]
     header = (
         f"# The study's scene for {robot.name}, proposed by python -m sim.study scene: its reach is "

@@ -50,6 +50,7 @@ __all__ = [
     "design_combinations",
     "fit_scene",
     "fitted_scene",
+    "keep",
     "proportions",
     "scene_for",
     "scene_to_data",
@@ -224,11 +225,8 @@ def _rounded(values: np.ndarray) -> list[float]:
     return [round(float(v), 6) for v in values]
 
 
-def fitted_scene(
-    robot: RobotSpec, template: Scene, template_text: str, combinations: Sequence[Combination], dt: float
-) -> Scene:
-    """The proposal for `robot`, from the cache when this robot, template and design were fitted before;
-    DesignError, in one line, when nothing fits."""
+def _cache_path(robot: RobotSpec, template_text: str, combinations: Sequence[Combination], dt: float) -> Path:
+    """Where the proposal for this robot, template, design and step is kept."""
     identity = json.dumps(
         [
             _VERSION,
@@ -239,7 +237,27 @@ def fitted_scene(
             dt,
         ]
     )
-    path = cache_dir() / "scenes" / f"{hashlib.sha256(identity.encode()).hexdigest()}.yaml"
+    return cache_dir() / "scenes" / f"{hashlib.sha256(identity.encode()).hexdigest()}.yaml"
+
+
+def keep(scene: Scene, robot: RobotSpec, template_text: str, combinations: Sequence[Combination], dt: float) -> None:
+    """Keep a proposal in the cache, whole or not at all, where fitted_scene finds it."""
+    path = _cache_path(robot, template_text, combinations, dt)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        partial = path.with_suffix(f".{os.getpid()}.tmp")
+        partial.write_text(yaml.safe_dump(scene_to_data(scene), sort_keys=False), encoding="utf-8")
+        partial.replace(path)
+    except OSError as error:  # the scene stands; only the next command fits it again
+        log.warning("cannot cache the fitted scene in %s: %s", path.parent, error)
+
+
+def fitted_scene(
+    robot: RobotSpec, template: Scene, template_text: str, combinations: Sequence[Combination], dt: float
+) -> Scene:
+    """The proposal for `robot`, from the cache when this robot, template and design were fitted before;
+    DesignError, in one line, when nothing fits."""
+    path = _cache_path(robot, template_text, combinations, dt)
     try:
         return parse_scene(yaml.safe_load(path.read_text(encoding="utf-8")), str(path))
     except (OSError, yaml.YAMLError, DesignError):
@@ -247,13 +265,7 @@ def fitted_scene(
     fit = fit_scene(robot, template, combinations, dt)
     if fit.scene is None:
         raise DesignError(no_fit_message(robot, fit))
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        partial = path.with_suffix(f".{os.getpid()}.tmp")
-        partial.write_text(yaml.safe_dump(scene_to_data(fit.scene), sort_keys=False), encoding="utf-8")
-        partial.replace(path)
-    except OSError as error:  # the scene stands; only the next command fits it again
-        log.warning("cannot cache the fitted scene in %s: %s", path.parent, error)
+    keep(fit.scene, robot, template_text, combinations, dt)
     return fit.scene
 
 
