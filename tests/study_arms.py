@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["STUDY_ARMS", "ArmDesign", "write_arm"]
+__all__ = ["STUDY_ARMS", "ArmDesign", "study_arm", "write_arm"]
 
 
 @dataclass(frozen=True)
@@ -181,3 +181,13 @@ def write_arm(directory: Path, design: ArmDesign) -> Path:
     path = folder / f"{design.name}.urdf"
     path.write_text(arm_urdf(design, folder))
     return path
+
+
+def study_arm(directory: Path, name: str) -> Path:
+    """The URDF of an arm the study tests run on, by name: one of STUDY_ARMS (written into `directory`) or a
+    third-party one (tests.robot_files.THIRD_PARTY_URDFS)."""
+    from tests.robot_files import THIRD_PARTY_URDFS
+
+    if name in THIRD_PARTY_URDFS:
+        return THIRD_PARTY_URDFS[name]
+    return write_arm(directory, next(design for design in STUDY_ARMS if design.name == name))

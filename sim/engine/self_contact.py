@@ -10,18 +10,15 @@ the URDF's text (with its meshes' paths resolved), so each robot pays for the sa
 
 from __future__ import annotations
 
-import hashlib
 import json
-import logging
-import os
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Tuple
 
 import numpy as np
 import pybullet as p
 
+from sim.cache import entry_path, keep
 from sim.engine.physics import load_urdf_text
 from sim.robots import RobotSpec, find_ros_package
 from sim.robots.meshes import resolve_shapes
@@ -40,7 +37,6 @@ __all__ = [
 CONTACT_MARGIN = 0.005  # m: links closer than this touch
 SAMPLES = 2000  # random joint states (MoveIt's assistant defaults to 10000; the verdicts agree well before)
 ALWAYS_FRACTION = 0.95  # MoveIt's "min collision fraction": touching this often is by construction
-log = logging.getLogger(__name__)
 _VERSION = 1  # of the decision; a cached verdict of another version is computed again
 
 Pair = Tuple[str, str]  # two link names, sorted (typing.Tuple: an alias is evaluated at run time, 3.8 has no tuple[])
@@ -165,19 +161,12 @@ def sample(robot: RobotSpec, urdf_text: str, samples: int = SAMPLES, seed: int =
         p.disconnect(physicsClientId=client)
 
 
-def cache_dir() -> Path:
-    """Where verdicts are kept: $VR_SIM_CACHE, else $XDG_CACHE_HOME/vr_sim, else ~/.cache/vr_sim."""
-    if os.environ.get("VR_SIM_CACHE"):
-        return Path(os.environ["VR_SIM_CACHE"])
-    return Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "vr_sim"
-
-
 def self_contact(robot: RobotSpec, samples: int = SAMPLES) -> SelfContact:
     """`robot`'s verdict, from the cache when this URDF (and the robot's default pose) was sampled before."""
     urdf = robot.urdf_path
     text, _ = resolve_shapes(urdf.read_text(encoding="utf-8"), urdf.parent, find_ros_package)
     identity = json.dumps([_VERSION, samples, CONTACT_MARGIN, text, list(robot.joint_names), robot.home.tolist()])
-    path = cache_dir() / "self_contact" / f"{hashlib.sha256(identity.encode()).hexdigest()}.json"
+    path = entry_path("self_contact", identity, ".json")
     try:
         data = json.loads(path.read_text(encoding="utf-8"))
         return SelfContact(
@@ -187,16 +176,10 @@ def self_contact(robot: RobotSpec, samples: int = SAMPLES) -> SelfContact:
     except (OSError, ValueError, KeyError, TypeError):
         pass  # not cached yet, or unreadable: computed again
     verdict = sample(robot, text, samples)
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        data = {
-            "robot": robot.name,
-            "checked": sorted(verdict.checked),
-            "ignored": sorted([a, b, reason] for (a, b), reason in verdict.ignored.items()),
-        }
-        partial = path.with_suffix(f".{os.getpid()}.tmp")
-        partial.write_text(json.dumps(data, indent=1), encoding="utf-8")
-        partial.replace(path)  # whole or not at all, for a concurrent reader
-    except OSError as error:  # the verdict stands; only the next run pays again
-        log.warning("cannot cache the self-contact verdict in %s: %s", path.parent, error)
+    data = {
+        "robot": robot.name,
+        "checked": sorted(verdict.checked),
+        "ignored": sorted([a, b, reason] for (a, b), reason in verdict.ignored.items()),
+    }
+    keep(path, json.dumps(data, indent=1))
     return verdict

@@ -17,7 +17,7 @@ import yaml
 from sim.processes import PYTHON, REPO, plain_env
 from tests.integration.study_helpers import SMALL_DESIGN
 from tests.robot_files import THIRD_PARTY_URDFS
-from tests.study_arms import STUDY_ARMS, ArmDesign, write_arm
+from tests.study_arms import STUDY_ARMS, ArmDesign, study_arm, write_arm
 
 pytestmark = [pytest.mark.lane("beside", on=("project",)), pytest.mark.timeout(300)]
 
@@ -35,9 +35,7 @@ def run_cache(tmp_path: Path) -> Path:
 
 
 def arm(tmp_path: Path, name: str) -> Path:
-    if name in THIRD_PARTY_URDFS:
-        return THIRD_PARTY_URDFS[name]
-    return write_arm(tmp_path / "arms", next(design for design in STUDY_ARMS if design.name == name))
+    return study_arm(tmp_path / "arms", name)
 
 
 # (the LBR iiwa's proposal is made and checked in the next test)

@@ -30,9 +30,8 @@ from tests.integration.bridge_helpers import DiagnosticsInbox, start_endpoint, t
 from tests.integration.pixels import pixels_like
 from tests.integration.sim_helpers import start_engine
 from tests.integration.study_helpers import trial, write_plan
-from tests.robot_files import THIRD_PARTY_URDFS
 from tests.rosenv import PYTHON, EndpointProcess, ManagedProcess, RosCore, wait_for
-from tests.study_arms import STUDY_ARMS, write_arm
+from tests.study_arms import study_arm
 
 PARTICIPANT = 4
 CONTROLLERS_APART = 0.12  # m
@@ -272,7 +271,7 @@ return counted;"""
     [("meshed_arm7", 8), ("xarm6", 7)],  # OBJ and COLLADA visuals; STL ones, named by package:// URLs
 )
 def test_the_page_shows_another_arm_with_its_meshes(roscore, tmp_path: Path, name: str, visual_meshes: int) -> None:
-    urdf = THIRD_PARTY_URDFS.get(name) or write_arm(tmp_path, next(arm for arm in STUDY_ARMS if arm.name == name))
+    urdf = study_arm(tmp_path, name)
     endpoint = EndpointProcess(roscore.env, tmp_path, extra=["--websocket-port", "0"])
     try:
         vr, url = start_vr_page(endpoint.websocket_port, tmp_path, robot=("--robot", str(urdf)))

@@ -67,7 +67,7 @@ def test_the_client_and_the_engine_stand_in_import_no_ros(module: str) -> None:
 # sim/'s parts from the bottom up: each may import from the layers below it and from itself, never from a layer above
 # or a neighbour in its own layer (docs/architecture.md). The top layer is the commands kept under their names.
 SIM_LAYERS = (
-    ("errors", "entry"),
+    ("errors", "entry", "cache"),
     ("cli_values", "processes"),
     ("launchers",),
     ("robots",),

@@ -17,10 +17,7 @@ passes is the proposal. The robot's base stays at the origin: it is the URDF's m
 from __future__ import annotations
 
 import dataclasses
-import hashlib
 import json
-import logging
-import os
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -29,8 +26,9 @@ from typing import Any
 import numpy as np
 import yaml
 
+from sim import cache
+from sim.cache import entry_path
 from sim.control.scenarios.defaults import controllable_weights
-from sim.engine.self_contact import cache_dir
 from sim.geometry.kinematics import KinematicChain, chain_for, solve_ik
 from sim.robots import RobotSpec
 from sim.study.design.errors import DesignError
@@ -56,7 +54,6 @@ __all__ = [
     "scene_to_data",
 ]
 
-log = logging.getLogger(__name__)
 _VERSION = 1  # of the proposal; a cached scene of another version is proposed again
 
 # The hand's distance from the base, as fractions of the reach, the Panda's first (its bundled scene has about
@@ -237,19 +234,14 @@ def _cache_path(robot: RobotSpec, template_text: str, combinations: Sequence[Com
             dt,
         ]
     )
-    return cache_dir() / "scenes" / f"{hashlib.sha256(identity.encode()).hexdigest()}.yaml"
+    return entry_path("scenes", identity, ".yaml")
 
 
 def keep(scene: Scene, robot: RobotSpec, template_text: str, combinations: Sequence[Combination], dt: float) -> None:
     """Keep a proposal in the cache, whole or not at all, where fitted_scene finds it."""
-    path = _cache_path(robot, template_text, combinations, dt)
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        partial = path.with_suffix(f".{os.getpid()}.tmp")
-        partial.write_text(yaml.safe_dump(scene_to_data(scene), sort_keys=False), encoding="utf-8")
-        partial.replace(path)
-    except OSError as error:  # the scene stands; only the next command fits it again
-        log.warning("cannot cache the fitted scene in %s: %s", path.parent, error)
+    cache.keep(
+        _cache_path(robot, template_text, combinations, dt), yaml.safe_dump(scene_to_data(scene), sort_keys=False)
+    )
 
 
 def fitted_scene(

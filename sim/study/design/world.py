@@ -131,21 +131,31 @@ class SceneWorld:
     def hand_distance(self, q: np.ndarray) -> float:
         """The robot's distance (m) to the hand at joint positions q, by the scene's definition: from its collision
         geometry's nearest point (negative when it is inside the hand), or from the end-effector point."""
-        if self.scene.distance == "ee_point" or not self._solid:
+        if self._measured_from_point:
             return self.scene.hand.distance(self.scene.end_effector(self._chain, q))
-        self._set(q)
-        points = p.getClosestPoints(self._body, self._obstacles["hand"], FAR, physicsClientId=self._client)
-        return min((float(c[8]) for c in points if c[3] in self._moving), default=math.inf)
+        nearest = self._nearest_to_hand(q)
+        return math.inf if nearest is None else float(nearest[8])
 
     def nearest_points(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(the robot's point, the hand's point) between which hand_distance is measured, in the world."""
-        if self.scene.distance == "ee_point" or not self._solid:
+        if self._measured_from_point:
             point = self.scene.end_effector(self._chain, q)
             return point, self.scene.hand.nearest_point(point)
+        nearest = self._nearest_to_hand(q)
+        if nearest is None:
+            raise ValueError(f"no link of the robot is within {FAR} m of the hand")
+        return np.array(nearest[5]), np.array(nearest[6])
+
+    @property
+    def _measured_from_point(self) -> bool:
+        """The thesis's definition, or a robot whose moving links have no collision shapes."""
+        return self.scene.distance == "ee_point" or not self._solid
+
+    def _nearest_to_hand(self, q: np.ndarray) -> tuple | None:
+        """pybullet's closest-point record of the robot's moving links to the hand at q, within FAR; None beyond."""
         self._set(q)
         points = p.getClosestPoints(self._body, self._obstacles["hand"], FAR, physicsClientId=self._client)
-        nearest = min((c for c in points if c[3] in self._moving), key=lambda c: c[8])
-        return np.array(nearest[5]), np.array(nearest[6])
+        return min((c for c in points if c[3] in self._moving), key=lambda c: c[8], default=None)
 
     def end_effector_distance(self, q: np.ndarray) -> float:
         """The end-effector point's distance (m) to the hand at joint positions q, whatever the definition."""
