@@ -357,8 +357,10 @@ def main(argv: list[str] | None = None) -> int:
 def _run_node(robot: RobotSpec, motion: Motion, options: CommanderOptions) -> int:
     import rospy
 
+    from sim.wire.rosnode import init_node
+
     stop = threading.Event()
-    rospy.init_node(options.node_name or f"{robot.name}_commander", disable_signals=True)
+    init_node(options.node_name or f"{robot.name}_commander")
     for signum in (signal.SIGINT, signal.SIGTERM):
         signal.signal(signum, lambda *_: stop.set())
     commander = Commander(robot, motion, options, stop)

@@ -32,6 +32,7 @@ from sim.errors import SimError
 from sim.robots import RobotSpec, add_robot_arguments, robot_from_args
 from sim.robots.urdf_model import parse_urdf
 from sim.wire.contract import MessageError, PoseConvention, add_pose_convention_argument
+from sim.wire.rosnode import init_node
 
 __all__ = ["WORLD_FRAME", "target_frame", "locked_joints", "DescriptionNode", "main"]
 
@@ -141,7 +142,7 @@ def main(argv: list[str] | None = None) -> int:
         robot = robot_from_args(args)
     except SimError as error:
         return fail("sim.description_node", error, EXIT_BAD_INPUT)
-    rospy.init_node(f"{robot.name}_description", disable_signals=True)
+    init_node(f"{robot.name}_description")
     stop = threading.Event()
     for signum in (signal.SIGINT, signal.SIGTERM):
         signal.signal(signum, lambda *_: stop.set())

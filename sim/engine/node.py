@@ -18,6 +18,7 @@ from sim.engine.stand_in import EngineStandIn, argument_parser, options_from_arg
 from sim.entry import EXIT_BAD_INPUT, EXIT_OK, fail, without_ros_arguments
 from sim.errors import SimError
 from sim.robots import robot_from_args
+from sim.wire.rosnode import init_node
 
 __all__ = ["RospyTransport", "main"]
 
@@ -77,7 +78,7 @@ def main(argv: list[str] | None = None) -> int:
         options = options_from_args(args)
     except (SimError, ValueError) as error:
         return fail("sim.physics_node", error, EXIT_BAD_INPUT)
-    rospy.init_node(f"{robot.name}_physics", disable_signals=True)
+    init_node(f"{robot.name}_physics")
     _log_to_screen()
     transport = RospyTransport()
     engine = EngineStandIn(robot, transport, options)  # type: ignore[arg-type]

@@ -449,8 +449,10 @@ def run_node(
     """The runner as a ROS node (rospy.init_node: once per process): the session, its CSV and its bag in `out`."""
     import rospy
 
+    from sim.wire.rosnode import init_node
+
     stop = threading.Event()
-    rospy.init_node("study_runner", disable_signals=True)
+    init_node("study_runner")
     for signum in (signal.SIGINT, signal.SIGTERM):
         signal.signal(signum, lambda *_: stop.set())
     stem = f"participant_{plan.participant:02d}"
