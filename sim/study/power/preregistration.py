@@ -110,9 +110,7 @@ def preregistration(design: Design, source: str, digest: str, sample: PlannedSam
         "",
     ]
     for test in TESTS:
-        lines.append(
-            f"- Test {test}: {formula(MEASURES[test], FACTOR_NAMES[test])}."
-        )
+        lines.append(f"- Test {test}: {formula(MEASURES[test], FACTOR_NAMES[test])}.")
     lines += [
         "- Random effects: an intercept and a condition slope per participant (fitted without the slope only if no "
         "optimiser converges, which the report then says).",
