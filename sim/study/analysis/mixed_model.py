@@ -2,19 +2,27 @@
 
 A trial's measure is explained by:
   fixed effects   condition (VR or reality) × the test's two design factors (test 2: speed set and path; test 1:
-                  stand-off and path), with every interaction; the order of the conditions (VR first or second);
-                  condition × order, the carry-over;
+                  stand-off and path), with every interaction; the period (the participant's first block of trials
+                  or second) and the sequence (VR first or reality first);
   random effects  an intercept and a condition slope per participant, by the first of lbfgs, bfgs and powell to
                   converge; a slope variance on its boundary (near 0) is kept and said. Only when no optimiser
                   converges is the slope left out, and the fit says why: without it, the contrast would be judged
                   against the trials' noise rather than the participants' own differences.
 
+The crossover's terms (CROSSOVER_TERMS): with two conditions in two periods, the period is condition × sequence,
+so a period effect (practice, fatigue, growing used to the robot) is estimated within participants beside the
+VR − reality contrast and does not bias it. Carry-over cannot be estimated: an unequal carry-over (VR changing the
+reality block after it more than reality changes a VR block) is aliased with the sequence term and with
+condition × period, and the sequence term is estimated between participants only. Such a carry-over would bias the
+contrast, and no model of these trials can take it out: only the design can (a break between the blocks).
+
 Coding, so that the condition's coefficient is the VR − reality contrast averaged over the design's cells:
   condition   +1/2 in VR, −1/2 in reality;
-  order       +1/2 for participants who did VR first, −1/2 for the others;
+  period      +1/2 in the first block, −1/2 in the second: its coefficient is first − second;
+  sequence    +1/2 for participants who did VR first, −1/2 for the others;
   factors     sum-to-zero: a level's column is +1 on its trials, −1 on the last level's, 0 elsewhere.
 
-Intervals use Student's t with (participants − order groups) degrees of freedom, as in the classic two-period
+Intervals use Student's t with (participants − sequences) degrees of freedom, as in the classic two-period
 crossover analysis: the contrast is judged against how much the participants' own VR − reality differences vary,
 and statsmodels' normal (Wald) intervals are too narrow with a dozen participants. The measure is scaled to unit
 variance for the fit (the optimiser reports false boundary solutions on values of a few centimetres) and the
@@ -33,9 +41,31 @@ from scipy import stats
 
 from sim.study.analysis.errors import AnalysisError
 
-__all__ = ["Trials", "ModelDesign", "Coefficient", "ModelFit", "CONTRAST", "model_design", "fit_model"]
+__all__ = [
+    "CONTRAST",
+    "CROSSOVER_TERMS",
+    "PERIOD",
+    "SEQUENCE",
+    "Coefficient",
+    "ModelDesign",
+    "ModelFit",
+    "Trials",
+    "fit_model",
+    "formula",
+    "model_design",
+]
 
 CONTRAST = "VR − reality"
+PERIOD = "period: first − second"
+SEQUENCE = "sequence: VR first"
+# What the two-period crossover can and cannot tell, for the report and the pre-registration
+CROSSOVER_TERMS = (
+    "Period (first block − second) is condition × sequence in a two-condition crossover: practice or fatigue is "
+    "estimated within participants, beside the VR − reality contrast, and does not bias it.",
+    "Carry-over cannot be estimated: an unequal carry-over between the conditions is aliased with the sequence "
+    "term (estimated between participants only) and with condition × period. It would bias the contrast, and only "
+    "the design guards against it (a break between the blocks).",
+)
 _INTERCEPT_ONLY = "an intercept per participant"
 _WITH_SLOPE = "an intercept and a condition slope per participant"
 _OPTIMISERS = ("lbfgs", "bfgs", "powell")
@@ -68,12 +98,12 @@ class ModelDesign:
     exog_re: np.ndarray  # intercept and condition
     groups: np.ndarray
     participants: int
-    order_groups: int
+    sequences: int  # with participants in them: 1 or 2
     left_out: tuple[str, ...]  # terms the data cannot estimate (an empty cell), left out of exog
 
     @property
     def df(self) -> int:
-        return self.participants - self.order_groups
+        return self.participants - self.sequences
 
 
 @dataclass(frozen=True)
@@ -100,6 +130,11 @@ class ModelFit:
     def with_slope(self) -> bool:
         """The random condition slope was fitted (not left out for want of convergence)."""
         return self.random_effects == _WITH_SLOPE
+
+
+def formula(measure: str, factor_name: str) -> str:
+    """The model of a test's measure, as the report and the pre-registration write it."""
+    return f"{measure} ~ condition × {factor_name} × path + period + sequence"
 
 
 def _sum_coded(labels: np.ndarray, name: str) -> list[tuple[str, np.ndarray]]:
@@ -139,12 +174,12 @@ def model_design(trials: Trials, factor_name: str) -> ModelDesign:
     columns += _products(condition, factor) + _products(condition, path)
     factor_path = _products(factor, path)
     columns += factor_path + _products(condition, factor_path)
-    order_groups = len(set(trials.vr_first.tolist()))
-    if order_groups == 2:  # with one order only, order is the intercept
-        order = [("VR first", np.where(trials.vr_first, 0.5, -0.5))]
-        columns += order + _products(condition, order)
-    if participants - order_groups < 2:
-        raise AnalysisError(f"{participants} participants in {order_groups} order groups leave too few to compare")
+    sequences = len(set(trials.vr_first.tolist()))
+    if sequences == 2:  # with one sequence only, the sequence is the intercept and the period the condition
+        first_block = trials.vr == trials.vr_first
+        columns += [(PERIOD, np.where(first_block, 0.5, -0.5)), (SEQUENCE, np.where(trials.vr_first, 0.5, -0.5))]
+    if participants - sequences < 2:
+        raise AnalysisError(f"{participants} participants in {sequences} sequences leave too few to compare")
     kept: list[tuple[str, np.ndarray]] = []
     left_out = []
     for name, column in columns:  # terms of cells without data add nothing the others do not
@@ -161,7 +196,7 @@ def model_design(trials: Trials, factor_name: str) -> ModelDesign:
         exog_re=np.column_stack([np.ones(trials.value.shape[0]), condition[0][1]]),
         groups=np.asarray(trials.participant),
         participants=participants,
-        order_groups=order_groups,
+        sequences=sequences,
         left_out=tuple(left_out),
     )
 

@@ -12,6 +12,7 @@ import numpy as np
 
 from sim.study.analysis.contrasts import FACTOR_NAMES, MEASURES, TestContrast
 from sim.study.analysis.errors import AnalysisError
+from sim.study.analysis.mixed_model import CROSSOVER_TERMS, formula
 from sim.study.analysis.statistics import Estimate, PairedComparison
 from sim.study.analysis.summary import StudySummary, cell, per_participant, perceived_ratio, summarise
 from sim.study.design.spec import CONDITIONS
@@ -96,10 +97,12 @@ def _verdict_lines(contrasts: Mapping[int, TestContrast]) -> list[str]:
         lines += [
             f"### Test {test}: the mixed model",
             "",
-            f"{MEASURES[test]} ~ condition × {FACTOR_NAMES[test]} × path + order + "
-            f"condition × order; random effects: {fit.random_effects}. REML (statsmodels MixedLM), "
-            f"{fit.participants} participants, {fit.trials} trials; 95 % CIs from Student's t with {fit.df} df "
-            "(participants − order groups). Condition and order are coded ±½, the factors sum-to-zero.",
+            f"{formula(MEASURES[test], FACTOR_NAMES[test])}; random effects: {fit.random_effects}. REML "
+            f"(statsmodels MixedLM), {fit.participants} participants, {fit.trials} trials; 95 % CIs from Student's t "
+            f"with {fit.df} df (participants − sequences). Condition, period and sequence are coded ±½, the factors "
+            "sum-to-zero.",
+            "",
+            *(f"- {line}" for line in CROSSOVER_TERMS),
             "",
         ]
         lines += [f"- {note}" for note in fit.notes] + ([""] if fit.notes else [])

@@ -6,6 +6,7 @@ reader can check the analysis used that very file."""
 from __future__ import annotations
 
 from sim.study.analysis.contrasts import FACTOR_NAMES, MEASURES
+from sim.study.analysis.mixed_model import CROSSOVER_TERMS, formula
 from sim.study.design.spec import TESTS, Design
 from sim.study.power.sample_size import PlannedSample
 
@@ -109,14 +110,14 @@ def preregistration(design: Design, source: str, digest: str, sample: PlannedSam
         "",
     ]
     for test in TESTS:
-        lines.append(
-            f"- Test {test}: {MEASURES[test]} ~ condition × {FACTOR_NAMES[test]} × path + order + condition × order."
-        )
+        lines.append(f"- Test {test}: {formula(MEASURES[test], FACTOR_NAMES[test])}.")
     lines += [
         "- Random effects: an intercept and a condition slope per participant (fitted without the slope only if no "
         "optimiser converges, which the report then says).",
-        "- Condition (VR +½, reality −½) and order (VR first +½) are coded ±½, the factors sum-to-zero: the "
-        "condition's coefficient is the VR − reality difference averaged over the design's cells.",
+        "- Condition (VR +½, reality −½), period (first block +½) and sequence (VR first +½) are coded ±½, the "
+        "factors sum-to-zero: the condition's coefficient is the VR − reality difference averaged over the design's "
+        "cells.",
+        *(f"- {line}" for line in CROSSOVER_TERMS),
         "- Intervals: Student's t with participants − 2 degrees of freedom.",
         "",
         "## Decision rules",

@@ -1,5 +1,6 @@
 """sim.study.analysis.mixed_model: on complete data the VR − reality contrast is the classic two-period crossover
-analysis's (estimate and standard error); the carry-over term finds a carry-over; a random slope that is not there is
+analysis's (estimate and standard error); a period effect (the second block unlike the first) is found by the period
+term and leaves the contrast alone; a random slope that is not there is
 kept on its boundary and said; a cell without data leaves its terms out, by name; data that cannot be modelled is one
 clear error."""
 
@@ -8,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from sim.study.analysis.mixed_model import CONTRAST, Trials, fit_model, model_design
+from sim.study.analysis.mixed_model import CONTRAST, PERIOD, SEQUENCE, Trials, fit_model, model_design
 from sim.study.errors import StudyError
 
 
@@ -16,13 +17,13 @@ def crossover(
     participants: int = 10,
     vr_first: int = 4,
     slope_sd: float = 0.02,
-    carry_over: float = 0.0,
+    period: float = 0.0,
     seed: int = 5,
     noise: float = 0.01,
 ) -> Trials:
     """Test 2's shape: 2 speed sets × 3 paths per condition; a participant's VR − reality difference drawn around
-    −1 cm; VR 1 cm farther on the fast speed set in reality and VR alike; `carry_over` added to VR for those who did
-    VR first."""
+    −1 cm; VR 1 cm farther on the fast speed set in reality and VR alike; `period` added to the first block's trials,
+    whichever condition it was."""
     rng = np.random.default_rng(seed)
     rows = []
     for p in range(1, participants + 1):
@@ -33,7 +34,9 @@ def crossover(
                 for path in ("a", "b", "c"):
                     value = comfort + 0.01 * (speed_set == "fast") + rng.normal(0.0, noise)
                     if vr:
-                        value += difference + (carry_over if first else 0.0)
+                        value += difference
+                    if vr == first:  # the participant's first block
+                        value += period
                     rows.append((p, vr, first, speed_set, path, value))
     columns = list(zip(*rows))
     return Trials(*(np.array(column) for column in columns))
@@ -71,11 +74,18 @@ def test_on_complete_data_the_contrast_is_the_crossover_analysis():
     assert speed.estimate == pytest.approx(0.005, abs=0.002)
 
 
-def test_the_carry_over_term_finds_a_carry_over():
-    trials = crossover(participants=20, vr_first=10, carry_over=0.03, slope_sd=0.005)
+def test_the_period_term_finds_a_period_effect_and_the_contrast_is_left_alone():
+    """A 2×2 crossover's period effect is condition × sequence: fitted as the period, within participants."""
+    trials = crossover(participants=20, vr_first=10, period=0.03, slope_sd=0.005)
     fit = fit_model(model_design(trials, "speed set"), trials.value)
-    carry = {k.name: k for k in fit.coefficients}[f"{CONTRAST} × VR first"]
-    assert carry.ci_low < 0.03 < carry.ci_high and carry.ci_low > 0  # ±½ coding: the full gap between the orders
+    terms = {k.name: k for k in fit.coefficients}
+    assert terms[PERIOD].ci_low < 0.03 < terms[PERIOD].ci_high and terms[PERIOD].ci_low > 0  # first − second
+    alone = crossover(participants=20, vr_first=10, slope_sd=0.005)  # the same participants, no period effect
+    without = fit_model(model_design(alone, "speed set"), alone.value)
+    assert fit.contrast.estimate == pytest.approx(without.contrast.estimate, abs=1e-9)
+    assert fit.contrast.se == pytest.approx(without.contrast.se, rel=2e-3)
+    sequence = terms[SEQUENCE]  # between participants: where an unequal carry-over would hide, none put in
+    assert sequence.ci_low < 0.0 < sequence.ci_high
 
 
 def test_a_random_slope_that_is_not_there_is_kept_on_its_boundary_and_said():
