@@ -96,7 +96,7 @@ def test_a_malformed_plan_is_one_clear_error(change, message):
         (lambda d: d["test1"].update(paths=["straight", "spiral"]), r"unknown path\(s\) \['spiral'\]"),
         (lambda d: d["test1"].update(standoffs=[0.1, 0.1]), "distinct stand-offs"),
         (lambda d: d["test2"]["speed_sets"].update(slow=0.0), "speed_sets.slow must be a speed in"),
-        (lambda d: d.update(test3={}), "must have exactly test1, test2 and optionally planning"),
+        (lambda d: d.update(test3={}), r"unknown \['test3'\]; it has test1, test2 and optionally planning"),
         (lambda d: d["test2"].pop("paths"), "test2 must have exactly paths, speed_sets, sesoi"),
         (lambda d: d["test2"].pop("sesoi"), "test2 must have exactly paths, speed_sets, sesoi"),
         (lambda d: d["test1"].update(sesoi=0), r"test1.sesoi \(perceived / actual\) must be a number in \(0, 1\]"),
