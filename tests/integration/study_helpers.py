@@ -38,5 +38,7 @@ def trial(
 
 def write_plan(path: Path, participant: int, first_condition: str, trials: list[dict]) -> Path:
     conditions = ["vr", "reality"] if first_condition == "vr" else ["reality", "vr"]
-    path.write_text(yaml.safe_dump({"participant": participant, "seed": 0, "conditions": conditions, "trials": trials}))
+    # no questionnaires: these plans are for the trials
+    plan = {"participant": participant, "seed": 0, "conditions": conditions, "trials": trials}
+    path.write_text(yaml.safe_dump({**plan, "questionnaires": [], "items": {}}))
     return path

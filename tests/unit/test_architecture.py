@@ -54,6 +54,7 @@ def test_pure_bridge_modules_import_neither_sockets_nor_ros(module: str) -> None
         "sim.study.design.paths",
         "sim.study.design.tool",
         "sim.study.run.protocol",
+        "sim.study.questionnaires.scoring",
         "sim.study.analysis.summary",
         "sim.study.participants.simulated",
     ],
@@ -128,9 +129,11 @@ def test_sim_parts_import_only_from_the_layers_below() -> None:
 # sim.study's own parts, from the inputs to the sample size: a session is planned (design), run (run), answered by
 # simulated participants or shown (participants, views) and analysed (analysis); power and the end-to-end simulation
 # use all of those. The protocol that the runner and its answerers speak is in run/, below everyone who answers it.
+# The questionnaires (instruments and their scoring) are below the design, which says when each is asked.
 STUDY_LAYERS = (
     ("errors",),
     ("checks",),
+    ("questionnaires",),
     ("design",),
     ("run",),
     ("participants", "analysis", "views"),

@@ -1,6 +1,7 @@
 """The study's design as data (design.yaml beside this file): test 1's paths and stand-offs, test 2's paths and
-speed sets, the two conditions (VR and reality), each test's smallest effect size of interest (SESOI) and what the
-sample size is planned on. Pure logic, but for reading the YAML in `load_design`."""
+speed sets, the two conditions (VR and reality), each test's smallest effect size of interest (SESOI), what the
+sample size is planned on, and the questionnaires asked before or after each condition's block. Pure logic, but for
+reading the YAML in `load_design`."""
 
 from __future__ import annotations
 
@@ -11,12 +12,31 @@ from pathlib import Path
 from sim.study.design.errors import DesignError
 from sim.study.design.paths import MAX_STANDOFF, MIN_STANDOFF, PATH_NAMES
 from sim.study.design.yamlfile import read_yaml
+from sim.study.questionnaires.errors import QuestionnaireError
+from sim.study.questionnaires.instruments import STANDARD, Instrument, single_item, standard_instrument
 
-__all__ = ["DEFAULT_DESIGN", "CONDITIONS", "TESTS", "Design", "Planning", "parse_design", "load_design"]
+__all__ = [
+    "DEFAULT_DESIGN",
+    "CONDITIONS",
+    "TESTS",
+    "POSITIONS",
+    "WHEN",
+    "Design",
+    "Planning",
+    "DeclaredQuestionnaire",
+    "parse_design",
+    "load_design",
+]
 
 DEFAULT_DESIGN = Path(__file__).resolve().parent / "design.yaml"
 CONDITIONS = ("vr", "reality")
 TESTS = (1, 2)
+POSITIONS = ("before", "after")  # a questionnaire is asked before or after a condition's block of trials
+# design.yaml's `when` words and the (condition, position) of each asking they stand for
+WHEN: dict[str, tuple[tuple[str, str], ...]] = {
+    **{f"{position}_{condition}": ((condition, position),) for position in POSITIONS for condition in CONDITIONS},
+    **{f"{position}_each": tuple((condition, position) for condition in CONDITIONS) for position in POSITIONS},
+}
 
 
 @dataclass(frozen=True)
@@ -33,6 +53,19 @@ class Planning:
 
 
 @dataclass(frozen=True)
+class DeclaredQuestionnaire:
+    """A questionnaire the design asks, and when: a standard instrument or a single item of the lab's own."""
+
+    instrument: Instrument
+    when: tuple[str, ...]  # as design.yaml says it: keys of WHEN
+
+    @property
+    def placements(self) -> tuple[tuple[str, str], ...]:
+        """(condition, position) of each asking."""
+        return tuple(placement for word in self.when for placement in WHEN[word])
+
+
+@dataclass(frozen=True)
 class Design:
     test1_paths: tuple[str, ...]
     test1_standoffs: tuple[float, ...]
@@ -42,6 +75,7 @@ class Design:
     sesoi: dict[int, float]  # per test, in its measure's units: test 1 the ratio, test 2 metres
     planning: Planning | None = None
     sesoi_reason: dict[int, str] = field(default_factory=dict)  # per test, why that SESOI (for the pre-registration)
+    questionnaires: tuple[DeclaredQuestionnaire, ...] = ()  # in the order asked where several share a point
 
     @property
     def trials_per_participant(self) -> int:
@@ -123,9 +157,65 @@ def _planning(data: object, source: str) -> Planning:
     )
 
 
+def _when(value: object, name: str, instrument: Instrument, where: str) -> tuple[str, ...]:
+    if not (isinstance(value, list) and value):
+        raise DesignError(f"{where}.when must be a non-empty list of {', '.join(WHEN)}, got {value!r}")
+    unknown = [word for word in value if word not in WHEN]
+    if unknown:
+        raise DesignError(f"{where}.when: unknown {unknown}; known: {', '.join(WHEN)}")
+    placements = [placement for word in value for placement in WHEN[word]]
+    if len(set(placements)) != len(placements):
+        raise DesignError(f"{where}.when asks {name} twice at the same point: {value}")
+    elsewhere = sorted({condition for condition, _ in placements} - set(instrument.conditions or CONDITIONS))
+    if elsewhere:
+        # the IPQ's items speak of the virtual world: in reality they would have nothing to refer to
+        raise DesignError(
+            f"{where}.when asks {name} in {', '.join(elsewhere)}; it is for {', '.join(instrument.conditions)} only"
+        )
+    return tuple(value)
+
+
+def _questionnaires(data: object, source: str) -> tuple[DeclaredQuestionnaire, ...]:
+    """design.yaml's questionnaires: {ssq: {when}, ipq: {when}, items: {name: {text, scale, labels, when}}}, any of
+    them, in the order asked where several share a point."""
+    where = f"{source}: questionnaires"
+    known = (*STANDARD, "items")
+    if not isinstance(data, dict):
+        raise DesignError(f"{where} must map {', '.join(known)} to when they are asked, got {data!r}")
+    unknown = [key for key in data if key not in known]
+    if unknown:
+        raise DesignError(f"{where}: unknown {unknown}; known: {', '.join(known)}")
+    declared = []
+    for name, entry in data.items():
+        if name == "items":
+            if not isinstance(entry, dict):
+                raise DesignError(f"{where}.items must map item names to their text, scale, labels and when")
+            for item, definition in entry.items():
+                there = f"{where}.items.{item}"
+                if not (isinstance(definition, dict) and "when" in definition):
+                    raise DesignError(f"{there} must have text, scale, labels and when, got {definition!r}")
+                try:
+                    instrument = single_item(
+                        item, {key: value for key, value in definition.items() if key != "when"}, f"{where}.items"
+                    )
+                except QuestionnaireError as error:
+                    raise DesignError(str(error)) from None
+                declared.append(DeclaredQuestionnaire(instrument, _when(definition["when"], item, instrument, there)))
+            continue
+        if not (isinstance(entry, dict) and sorted(entry) == ["when"]):
+            raise DesignError(f"{where}.{name} must have exactly when, got {entry!r}")
+        instrument = standard_instrument(name)
+        declared.append(DeclaredQuestionnaire(instrument, _when(entry["when"], name, instrument, f"{where}.{name}")))
+    return tuple(declared)
+
+
 def parse_design(data: object, source: str = "design") -> Design:
-    if not isinstance(data, dict) or sorted(data) not in (["test1", "test2"], ["planning", "test1", "test2"]):
-        raise DesignError(f"{source} must have exactly test1, test2 and optionally planning")
+    required, optional = ("test1", "test2"), ("planning", "questionnaires")
+    if not isinstance(data, dict) or not all(key in data for key in required):
+        raise DesignError(f"{source} must have test1, test2 and optionally {', '.join(optional)}")
+    unknown = [key for key in data if key not in required + optional]
+    if unknown:
+        raise DesignError(f"{source}: unknown {unknown}; it has test1, test2 and optionally {', '.join(optional)}")
     test1 = _section(data, "test1", ("paths", "standoffs", "peak_speed", "sesoi"), source)
     test2 = _section(data, "test2", ("paths", "speed_sets", "sesoi"), source)
     standoffs = test1["standoffs"]
@@ -163,6 +253,7 @@ def parse_design(data: object, source: str = "design") -> Design:
             for test, section in ((1, test1), (2, test2))
             if section.get("sesoi_reason")
         },
+        questionnaires=_questionnaires(data["questionnaires"], source) if "questionnaires" in data else (),
     )
 
 

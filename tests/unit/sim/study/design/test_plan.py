@@ -1,19 +1,28 @@
 """sim.study.design.spec and sim.study.design.plan: the session plan has the proposal's 38 trials, balanced and
-randomised as it says, reproducible from the seed, round-trips through YAML; bad designs and malformed plans are one
-DesignError."""
+randomised as it says, reproducible from the seed, with the design's questionnaires before and after the blocks,
+round-trips through YAML; bad designs and malformed plans are one DesignError."""
 
 from __future__ import annotations
 
 import copy
 from collections import Counter
+from dataclasses import replace
 
 import pytest
 import yaml
 
 from sim.study.design.paths import ON_TOP
-from sim.study.design.plan import condition_order, make_plan, plan_from_data, plan_to_data, printable
+from sim.study.design.plan import (
+    PlannedQuestionnaire,
+    condition_order,
+    make_plan,
+    plan_from_data,
+    plan_to_data,
+    printable,
+)
 from sim.study.design.spec import DEFAULT_DESIGN, load_design, parse_design
 from sim.study.errors import StudyError
+from sim.study.questionnaires.instruments import standard_instrument
 
 DESIGN = load_design()
 
@@ -58,12 +67,89 @@ def test_orders_are_random_per_condition_and_participant_and_reproducible_from_t
     assert make_plan(DESIGN, 4, 5) != make_plan(DESIGN, 4, 6)
 
 
-def test_the_plan_round_trips_through_yaml_and_prints_every_trial():
+def test_questionnaires_add_no_draws_so_trial_orders_stay_those_of_earlier_plans():
+    # participant 2, seed 7, as plans made before there were questionnaires had it
+    plan = make_plan(DESIGN, 2, 7)
+    assert [(t.path, t.standoff) for t in plan.trials if t.test == 1][:10] == [
+        ("straight", 0.1),
+        ("vertical", 0.05),
+        ("straight", 0.2),
+        ("straight", 0.25),
+        ("vertical", 0.1),
+        ("vertical", 0.25),
+        ("straight", 0.05),
+        ("vertical", 0.2),
+        ("straight", 0.15),
+        ("vertical", 0.15),
+    ]
+    assert [(t.path, t.speed_set) for t in plan.trials if t.test == 2][:3] == [
+        ("straight", "medium"),
+        ("over_the_top", "medium"),
+        ("lateral_arc", "medium"),
+    ]
+    assert plan.trials == make_plan(replace(DESIGN, questionnaires=()), 2, 7).trials
+
+
+def test_the_questionnaires_are_placed_before_and_after_the_blocks_in_the_order_run():
+    def placed(participant):
+        return [(q.administration, q.after_trial) for q in make_plan(DESIGN, participant, 1).questionnaires]
+
+    # VR first: its block is trials 1..19, reality's 20..38
+    assert placed(1) == [
+        ("ssq_before_vr", 0),
+        ("ssq_after_vr", 19),
+        ("ipq_after_vr", 19),
+        ("perceived_safety_after_vr", 19),
+        ("perceived_safety_after_reality", 38),
+    ]
+    # reality first: what follows its block comes before what precedes VR's
+    assert placed(2) == [
+        ("perceived_safety_after_reality", 19),
+        ("ssq_before_vr", 19),
+        ("ssq_after_vr", 38),
+        ("ipq_after_vr", 38),
+        ("perceived_safety_after_vr", 38),
+    ]
+    plan = make_plan(DESIGN, 2, 1)
+    assert plan.questionnaires[1] == PlannedQuestionnaire(2, "ssq", "ssq_before_vr", "vr", "before", 19)
+    assert [q.index for q in plan.questionnaires] == [1, 2, 3, 4, 5]
+    # the plan carries the lab's own items, so it alone says what to ask
+    assert [item.name for item in plan.items] == ["perceived_safety"]
+    assert plan.instrument("perceived_safety").items[0].label(7) == "completely safe"
+    assert plan.instrument("ipq") == standard_instrument("ipq")
+    with pytest.raises(StudyError, match="the plan asks no questionnaire 'sus'; known: ssq, ipq, perceived_safety"):
+        plan.instrument("sus")
+
+
+def test_before_each_asks_at_the_start_of_both_blocks_and_no_questionnaires_is_none():
+    data = copy.deepcopy(yaml.safe_load(DEFAULT_DESIGN.read_text()))
+    data["questionnaires"] = {"ssq": {"when": ["before_each", "after_each"]}}
+    plan = make_plan(parse_design(data), 1, 1)
+    assert [(q.administration, q.after_trial) for q in plan.questionnaires] == [
+        ("ssq_before_vr", 0),
+        ("ssq_after_vr", 19),
+        ("ssq_before_reality", 19),
+        ("ssq_after_reality", 38),
+    ]
+    assert "2. ssq_after_vr: Simulator Sickness Questionnaire, 16 items, after trial 19" in printable(plan)
+    assert "3. ssq_before_reality: Simulator Sickness Questionnaire, 16 items, before trial 20" in printable(plan)
+    assert plan.items == ()
+    bare = make_plan(replace(DESIGN, questionnaires=()), 1, 1)
+    assert bare.questionnaires == () and bare.items == () and "Questionnaires" not in printable(bare)
+    assert plan_from_data(plan_to_data(bare)) == bare
+
+
+def test_the_plan_round_trips_through_yaml_and_prints_every_trial_and_questionnaire():
     plan = make_plan(DESIGN, 5, 9)
     assert plan_from_data(yaml.safe_load(yaml.safe_dump(plan_to_data(plan)))) == plan
+    assert len(plan.questionnaires) == 5 and len(plan.items) == 1
     text = printable(plan)
     assert "participant 5 (seed 9)" in text and text.count("\n| ") == 38 + 1  # header + one row per trial
     assert "on the hand" in text and "5 cm" in text
+    assert text.index("| 38 |") < text.index(
+        "1. ssq_before_vr: Simulator Sickness Questionnaire, 16 items, before trial 1"
+    )
+    assert "4. perceived_safety_after_vr: How safe did you feel near the robot?, 1 item, after trial 19" in text
 
 
 def malformed(change):
@@ -75,7 +161,41 @@ def malformed(change):
 @pytest.mark.parametrize(
     "change, message",
     [
-        (lambda d: d.pop("seed"), "must have exactly participant, seed, conditions, trials"),
+        (lambda d: d.pop("seed"), "must have exactly participant, seed, conditions, trials, questionnaires, items"),
+        (lambda d: [d.pop("questionnaires"), d.pop("items")], "has no questionnaires: it was written before they"),
+        (lambda d: d.update(questionnaires=None), "questionnaires must be a list"),
+        (lambda d: d["questionnaires"][0].pop("after_trial"), "questionnaire 1 must have exactly index, name"),
+        (lambda d: d["questionnaires"][1].update(index=5), "questionnaire 2: index 5 where 2 comes"),
+        (lambda d: d["questionnaires"][1].update(name="sus"), "questionnaire 2: name 'sus' is none of ssq, ipq"),
+        (lambda d: d["questionnaires"][1].update(condition="VR"), "questionnaire 2: condition 'VR' is not one of"),
+        (lambda d: d["questionnaires"][1].update(position="during"), "position 'during' is not one of before, after"),
+        (
+            lambda d: d["questionnaires"][1].update(administration="ssq_pre"),
+            "questionnaire 2: administration 'ssq_pre' is not ssq_before_vr",
+        ),
+        (
+            lambda d: d["questionnaires"][1].update(after_trial=0),
+            "questionnaire 2: after_trial 0 is not where the vr block's before is",
+        ),
+        (
+            lambda d: d["questionnaires"][3].update(
+                condition="reality", administration="ipq_after_reality", after_trial=19
+            ),
+            "questionnaire 4: ipq is for vr only, not reality",
+        ),
+        (
+            lambda d: d.update(questionnaires=[dict(q, index=n) for n, q in enumerate(d["questionnaires"][::-1], 1)]),
+            "the questionnaires are not in the order the session reaches them",
+        ),
+        (
+            lambda d: (
+                d["questionnaires"].insert(3, dict(d["questionnaires"][3], index=4))
+                or [q.update(index=n) for n, q in enumerate(d["questionnaires"], 1)]
+            ),
+            "ipq_after_vr asked more than once",
+        ),
+        (lambda d: d.update(items=[]), "items must map the lab's own item names"),
+        (lambda d: d["items"]["perceived_safety"].update(scale=[1, 70]), "perceived_safety.scale must have 2..11"),
         (lambda d: d["trials"][3].update(path="zigzag"), "trial 4: path 'zigzag' is not one of"),
         (lambda d: d["trials"][0].update(index=7), "trial 1: index 7 where 1 comes"),
         (lambda d: d["trials"][5].update(condition="VR"), "trial 6: condition 'VR' is not one of vr, reality"),
@@ -96,7 +216,7 @@ def test_a_malformed_plan_is_one_clear_error(change, message):
         (lambda d: d["test1"].update(paths=["straight", "spiral"]), r"unknown path\(s\) \['spiral'\]"),
         (lambda d: d["test1"].update(standoffs=[0.1, 0.1]), "distinct stand-offs"),
         (lambda d: d["test2"]["speed_sets"].update(slow=0.0), "speed_sets.slow must be a speed in"),
-        (lambda d: d.update(test3={}), "must have exactly test1, test2 and optionally planning"),
+        (lambda d: d.update(test3={}), r"unknown \['test3'\]; it has test1, test2 and optionally planning"),
         (lambda d: d["test2"].pop("paths"), "test2 must have exactly paths, speed_sets, sesoi"),
         (lambda d: d["test2"].pop("sesoi"), "test2 must have exactly paths, speed_sets, sesoi"),
         (lambda d: d["test1"].update(sesoi=0), r"test1.sesoi \(perceived / actual\) must be a number in \(0, 1\]"),
