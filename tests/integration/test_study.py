@@ -172,8 +172,9 @@ def test_a_vr_scene_stops_the_robot_and_answers_through_the_endpoint(roscore, en
     assert to_seconds(last.header.stamp) > 0
 
 
-# On Noetic's Python: runner, participants, rosbag and report as a ROS Noetic user runs them
-@pytest.mark.lane("alone", on=("noetic",))
+# On Noetic's Python: runner, participants, rosbag and report as a ROS Noetic user runs them. In lockstep the
+# study's processes wait for each other, not for the clock: beside other work.
+@pytest.mark.lane("beside", on=("noetic",))
 def test_simulated_participants_run_the_study_and_the_analysis_recovers_their_biases(tmp_path: Path) -> None:
     """Four simulated participants through the whole study: roscore, endpoint, engine, the runner, participants over
     TCP, rosbag record, the report and its plots. launch_scripts/test.sh runs it on ROS Noetic's Python 3.8, where

@@ -1,9 +1,11 @@
 """The study with arms the project does not bundle, from their URDF alone (issue: a lab's own robot): every
 combination of the bundled design checks, in the bundled scene or the one proposed for the arm; the proposal is
-written and read back; an arm that cannot do the study is told why in one line; a simulated study runs end to end
-and recovers the biases it was given. The checks have caches of their own, so their proposals are made, not read;
-`scene` always proposes: the LBR iiwa's is kept in the run's cache (test.sh's $VR_SIM_CACHE), where its simulated
-study finds it."""
+written and read back; an arm that cannot do the study is told why in one line; a simulated study with each arm runs
+end to end and recovers the biases it was given.
+
+What the checks and `scene` work out (self-contact verdicts, scene proposals) is kept in the run's cache (test.sh's
+$VR_SIM_CACHE, new for every run; a test's own without it): a check computes its arm's, the first in the run to ask,
+and that arm's simulated study reads them."""
 
 from __future__ import annotations
 
@@ -42,7 +44,7 @@ def arm(tmp_path: Path, name: str) -> Path:
 # (the LBR iiwa's proposal is made and checked in the next test)
 @pytest.mark.parametrize("name", [*(design.name for design in STUDY_ARMS), "xarm6"])
 def test_every_combination_checks_on_the_arm_from_its_urdf_alone(tmp_path: Path, name: str) -> None:
-    done = study(["check", "--robot", str(arm(tmp_path, name))], tmp_path / "cache")
+    done = study(["check", "--robot", str(arm(tmp_path, name))], run_cache(tmp_path))
     assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
     assert "19 combinations planned" in done.stdout and "not feasible" not in done.stdout
 
@@ -71,10 +73,9 @@ def test_an_arm_that_cannot_reach_over_a_table_is_told_why_in_one_line(tmp_path:
     assert "give a scene of your own with --scene" in lines[0]
 
 
-# The LBR iiwa: its scene proposed with the paths' shapes made smaller (a gripper arm's study: the Panda with its
-# hand, in test_study.py)
-@pytest.mark.lane("alone", on=("project",))
-@pytest.mark.parametrize("name", ["lbr_iiwa"])
+# In lockstep, the study's processes wait for each other, not for the clock: beside other work, as the checks.
+# The LBR iiwa's scene is proposed with the paths' shapes made smaller.
+@pytest.mark.parametrize("name", [*(design.name for design in STUDY_ARMS), "lbr_iiwa"])
 def test_a_simulated_study_with_the_arm_recovers_its_biases(tmp_path: Path, name: str) -> None:
     design = tmp_path / "design.yaml"
     design.write_text(yaml.safe_dump(SMALL_DESIGN))

@@ -21,6 +21,7 @@ from tests.integration import pixels
 from tests.integration.sim_helpers import start_engine
 from tests.integration.study_helpers import trial, write_plan
 from tests.rosenv import free_port, wait_for
+from tests.study_arms import study_arm
 
 
 @pytest.fixture
@@ -54,23 +55,29 @@ def pixels_like(image: np.ndarray, colour: tuple[int, int, int], tolerance: int 
     return pixels.pixels_like(image[:, 330:850], colour, tolerance)
 
 
+# The bundled scene's Panda in lockstep; an arm from its URDF alone (the scene proposed for it), run in real time
+@pytest.mark.parametrize(("arm", "realtime"), [("panda", False), ("small_gripper_arm", True)])
 def test_the_live_view_shows_the_scene_the_plan_the_trail_and_the_stop(
-    roscore, endpoint, browser, tmp_path: Path
+    roscore, endpoint, browser, tmp_path: Path, arm: str, realtime: bool
 ) -> None:
-    engine = start_engine(roscore, tmp_path, "panda", endpoint.port, "--no-auto-simulate")
+    robot = "panda" if arm == "panda" else str(study_arm(tmp_path / "arms", arm))
+    robot_args = () if arm == "panda" else ("--robot", robot)  # the study's processes: the scene's robot otherwise
+    engine = start_engine(roscore, tmp_path, robot, endpoint.port, "--no-auto-simulate")
     http = free_port()
-    view = start(LiveView(endpoint.port, http), plain_env(), tmp_path, "view", wait=False)
-    participant = start(Participant(5, 2, endpoint.port), plain_env(), tmp_path, "participant", wait=False)
+    live_view, simulated = LiveView(endpoint.port, http, robot_args), Participant(5, 2, endpoint.port, robot_args)
+    view = start(live_view, plain_env(), tmp_path, "view", wait=False)
+    participant = start(simulated, plain_env(), tmp_path, "participant", wait=False)
     try:
-        wait_ready(view, LiveView(endpoint.port, http))
-        wait_ready(participant, Participant(5, 2, endpoint.port))
+        wait_ready(view, live_view)
+        wait_ready(participant, simulated)
         browser.get(f"http://127.0.0.1:{http}")
         before = settled_screenshot(browser, tmp_path / "before.png", "/hand")
         assert pixels_like(before, COLOURS["hand"]) > 300 and pixels_like(before, COLOURS["table"]) > 20_000
         for part in ("path", "trail", "stop"):
             assert pixels_like(before, COLOURS[part]) < 20, part
         plan = write_plan(tmp_path / "plan.yaml", 5, "vr", [trial(1, "vr", 2, "straight", ON_TOP, 0.3, "fast", 1)])
-        runner = start(Runner(plan, tmp_path / "out", record=False), roscore.env, tmp_path, "runner")
+        session = Runner(plan, tmp_path / "out", robot_args, realtime=realtime, record=False)
+        runner = start(session, roscore.env, tmp_path, "runner")
         finish(runner, 120)
         after = settled_screenshot(browser, tmp_path / "after.png", "/stop_distance")
         counts = {part: pixels_like(after, COLOURS[part]) for part in ("hand", "path", "trail", "stop")}

@@ -31,7 +31,7 @@ from tests.integration.pixels import pixels_like
 from tests.integration.sim_helpers import start_engine
 from tests.integration.study_helpers import trial, write_plan
 from tests.rosenv import PYTHON, EndpointProcess, ManagedProcess, RosCore, wait_for
-from tests.study_arms import study_arm
+from tests.study_arms import STUDY_ARMS, study_arm
 
 PARTICIPANT = 4
 CONTROLLERS_APART = 0.12  # m
@@ -266,12 +266,11 @@ window.vrPage.page.robot.model.traverse((child) => {
 return counted;"""
 
 
-@pytest.mark.parametrize(
-    ("name", "visual_meshes"),
-    [("meshed_arm7", 8), ("xarm6", 7)],  # OBJ and COLLADA visuals; STL ones, named by package:// URLs
-)
-def test_the_page_shows_another_arm_with_its_meshes(roscore, tmp_path: Path, name: str, visual_meshes: int) -> None:
+# The test arms (primitives; OBJ and COLLADA visuals) and the xArm6 (STL visuals, named by package:// URLs)
+@pytest.mark.parametrize("name", [*(design.name for design in STUDY_ARMS), "xarm6"])
+def test_the_page_shows_another_arm_with_its_meshes(roscore, tmp_path: Path, name: str) -> None:
     urdf = study_arm(tmp_path, name)
+    visual_meshes = urdf.read_text().count("<visual")  # each a mesh on the page, a primitive or a mesh file's
     endpoint = EndpointProcess(roscore.env, tmp_path, extra=["--websocket-port", "0"])
     try:
         vr, url = start_vr_page(endpoint.websocket_port, tmp_path, robot=("--robot", str(urdf)))
