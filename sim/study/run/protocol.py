@@ -12,17 +12,24 @@ checks it and gives it to Python. Pure logic, but for reading that file once.
                             controllers' distance; in reality the observer enters the measured one)
   /study/preference         std_msgs/String, to the runner: after a group of test 2, the preferred approach, as the
                             path's name or its place in the group (1, 2, 3)
+  /study/answer             std_msgs/String, to the runner: a questionnaire item's answer as JSON (Answer:
+                            administration, item, answer), naming the item so that a late answer to one item is never
+                            taken for the next one's
 
 Phases of a trial, in order: to_start (moving to the path's start), ready (accepts go), moving (accepts a stop),
 at_rest (the motion has ended or stopped), distance (test 1: accepts the perceived distance), preference (after a
-group of test 2: accepts the preference); then the next trial, and finally done. Each phase accepts at most one
-input; what comes in another phase is not kept.
+group of test 2: accepts the preference); then the next trial, and finally done. Between trials, where the plan
+places a questionnaire, the phase questionnaire asks one item at a time (accepts its answer); its status carries
+the item (text, scale, labels, k of n). Each phase accepts at most one input; what comes in another phase is not
+kept. A phase's panel lines are templates: {name} is the status's field of that name, {choice} / {path} and
+{answer} / {label} what the answerer has chosen so far.
 """
 
 from __future__ import annotations
 
 import json
 import math
+import re
 from dataclasses import asdict, dataclass, fields
 from pathlib import Path
 from typing import Any
@@ -41,6 +48,7 @@ __all__ = [
     "STOP_TOPIC",
     "DISTANCE_TOPIC",
     "PREFERENCE_TOPIC",
+    "ANSWER_TOPIC",
     "TOPIC_TYPES",
     "PHASES",
     "MAX_PERCEIVED_DISTANCE",
@@ -49,12 +57,25 @@ __all__ = [
     "status_from_json",
     "checked_distance",
     "chosen_path",
+    "Answer",
+    "answer_to_json",
+    "answer_from_json",
+    "checked_answer",
+    "item_prompt",
     "ObserverInput",
     "observer_input",
 ]
 
 PROTOCOL_FILE = Path(__file__).resolve().parent / "protocol.json"
-INPUTS = ("go", "stop", "distance", "preference")  # the table's inputs, each answered by the runner in its own way
+INPUTS = ("go", "stop", "distance", "preference", "answer")  # the table's inputs, each read in its own way
+# the message type each input must have: the runner subscribes with these, and the participants encode them
+INPUT_TYPES = {
+    "go": "std_msgs/Empty",
+    "stop": "std_msgs/Header",
+    "distance": "std_msgs/Float32",
+    "preference": "std_msgs/String",
+    "answer": "std_msgs/String",
+}
 
 
 @dataclass(frozen=True)
@@ -111,6 +132,9 @@ def load_protocol(path: Path = PROTOCOL_FILE) -> Protocol:
         inputs = {name: _topic(data["inputs"][name], f"input {name}") for name in INPUTS}
         if sorted(data["inputs"]) != sorted(INPUTS):
             raise RunError(f"the inputs must be exactly {', '.join(INPUTS)}, got {', '.join(data['inputs'])}")
+        for name, (_, kind) in inputs.items():
+            if kind != INPUT_TYPES[name]:
+                raise RunError(f"input {name} must be a {INPUT_TYPES[name]}, got {kind!r}")
         phases = tuple(Phase(entry["name"], entry["accepts"], entry["meaning"]) for entry in data["phases"])
         for phase, entry in zip(phases, data["phases"]):
             if phase.accepts is not None and phase.accepts not in INPUTS:
@@ -138,7 +162,7 @@ def load_protocol(path: Path = PROTOCOL_FILE) -> Protocol:
 
 PROTOCOL = load_protocol()
 STATUS_TOPIC = PROTOCOL.status[0]
-GO_TOPIC, STOP_TOPIC, DISTANCE_TOPIC, PREFERENCE_TOPIC = (PROTOCOL.inputs[name][0] for name in INPUTS)
+GO_TOPIC, STOP_TOPIC, DISTANCE_TOPIC, PREFERENCE_TOPIC, ANSWER_TOPIC = (PROTOCOL.inputs[name][0] for name in INPUTS)
 TOPIC_TYPES = {topic: kind for topic, kind in (PROTOCOL.status, *PROTOCOL.inputs.values())}
 PHASES = tuple(phase.name for phase in PROTOCOL.phases)
 MAX_PERCEIVED_DISTANCE = PROTOCOL.max_perceived_distance
@@ -159,11 +183,22 @@ class TrialStatus:
     group: int = 0
     motion_start: float = math.nan  # s of ROS time when the approach started (phase moving and later)
     group_paths: tuple[str, ...] = ()  # phase preference: the group's paths in the order they were run
+    # phase questionnaire: the item asked, with all an answerer needs (condition: the block it is asked around)
+    administration: str = ""  # e.g. ssq_after_vr
+    questionnaire: str = ""  # the instrument's name, e.g. ssq
+    item: str = ""  # the item's id
+    item_text: str = ""
+    item_number: int = 0  # k of item_count, 1-based
+    item_count: int = 0
+    scale_low: int = 0  # the lowest answer
+    scale_high: int = 0  # the highest answer
+    scale_labels: tuple[str, ...] = ()  # one per answer from scale_low to scale_high; "" where the scale has none
 
 
 def status_to_json(status: TrialStatus) -> str:
     data = asdict(status)
     data["group_paths"] = list(status.group_paths)
+    data["scale_labels"] = list(status.scale_labels)
     # NaN is not JSON: absent values are null, which Unity's JsonUtility and every JSON parser take
     return json.dumps(
         {key: (None if isinstance(value, float) and math.isnan(value) else value) for key, value in data.items()}
@@ -182,6 +217,7 @@ def status_from_json(text: str) -> TrialStatus:
     for key in ("standoff", "peak_speed", "motion_start"):
         data[key] = math.nan if data[key] is None else float(data[key])
     data["group_paths"] = tuple(data["group_paths"])
+    data["scale_labels"] = tuple(data["scale_labels"])
     return TrialStatus(**data)
 
 
@@ -203,10 +239,74 @@ def chosen_path(answer: str, group_paths: tuple[str, ...]) -> str:
 
 
 @dataclass(frozen=True)
+class Answer:
+    """A questionnaire item's answer, as it comes on the answer topic."""
+
+    administration: str
+    item: str
+    answer: int
+
+
+def answer_to_json(answer: Answer) -> str:
+    return json.dumps(asdict(answer))
+
+
+def answer_from_json(text: str) -> Answer:
+    """An answer as sent; RunError when it is not one (the scale is checked against the item asked: checked_answer)."""
+    try:
+        data = json.loads(text)
+    except json.JSONDecodeError as error:
+        raise RunError(f"an answer is not JSON: {error}") from None
+    names = [field.name for field in fields(Answer)]
+    if not isinstance(data, dict) or sorted(data) != sorted(names):
+        raise RunError(f"an answer must have exactly {', '.join(names)}, got {text[:200]!r}")
+    value = data["answer"]
+    if not (isinstance(data["administration"], str) and isinstance(data["item"], str)):
+        raise RunError(f"an answer's administration and item must be texts, got {text[:200]!r}")
+    # a scale's points are whole numbers: 2.0 is a client's rounding, 2.5 is no point of any scale
+    if isinstance(value, float) and value.is_integer():
+        value = int(value)
+    if not (isinstance(value, int) and not isinstance(value, bool)):
+        raise RunError(f"an answer must be a whole number, got {data['answer']!r}")
+    return Answer(data["administration"], data["item"], value)
+
+
+def checked_answer(answer: Answer, status: TrialStatus) -> int:
+    """The answer to the item `status` asks; RunError when it answers another item or is off the item's scale."""
+    if status.phase != "questionnaire":
+        raise RunError(f"no questionnaire item is asked in phase {status.phase}, got an answer to {answer.item}")
+    if (answer.administration, answer.item) != (status.administration, status.item):
+        raise RunError(
+            f"an answer to {answer.administration} item {answer.item!r} while {status.administration} item "
+            f"{status.item!r} is asked"
+        )
+    if not status.scale_low <= answer.answer <= status.scale_high:
+        raise RunError(
+            f"{status.administration} item {status.item}: the answer {answer.answer} is not one of "
+            f"{status.scale_low}..{status.scale_high}"
+        )
+    return answer.answer
+
+
+def item_prompt(status: TrialStatus) -> str:
+    """What the observer reads at the terminal while an item is asked: the item and its scale's labelled
+    answers."""
+    points = [
+        f"{answer} {label}" if label else str(answer)
+        for answer, label in zip(range(status.scale_low, status.scale_high + 1), status.scale_labels)
+    ]
+    return (
+        f"{status.administration}, item {status.item_number} of {status.item_count} ({status.item}): "
+        f"{status.item_text} [{', '.join(points)}]?"
+    )
+
+
+@dataclass(frozen=True)
 class ObserverInput:
-    kind: str  # "go" | "stop" | "distance" | "preference" | "unknown"
+    kind: str  # "go" | "stop" | "distance" | "preference" | "answer" | "unknown"
     distance: float = math.nan  # m
     text: str = ""  # the preference as typed, or why the line means nothing now
+    answer: int = 0  # a questionnaire item's answer
 
 
 def _metres(text: str) -> float:
@@ -217,10 +317,14 @@ def _metres(text: str) -> float:
     return float(text)
 
 
+_WHOLE = re.compile(r"-?[0-9]+\Z")
+
+
 def observer_input(line: str, phase: str) -> ObserverInput:
     """A line the observer typed at the runner's terminal (--keyboard), read in the trial's phase: Enter alone =
     go, "s" = stop; while a distance is asked, a distance ("0.12" in metres, "0.12 m" or "12 cm"); while a
-    preference is asked, the path's name or its place in the group."""
+    preference is asked, the path's name or its place in the group; while a questionnaire's item is asked, the
+    answer as a whole number (checked against the item's scale by the runner)."""
     text = line.strip()
     if not text:
         return ObserverInput("go")
@@ -234,4 +338,8 @@ def observer_input(line: str, phase: str) -> ObserverInput:
             return ObserverInput("unknown", text=f"{text!r} is not a distance (e.g. 0.12, 0.12 m or 12 cm)")
     if accepted == "preference":
         return ObserverInput("preference", text=text)
+    if accepted == "answer":
+        if _WHOLE.match(text):
+            return ObserverInput("answer", answer=int(text))
+        return ObserverInput("unknown", text=f"{text!r} is not an answer (a whole number on the item's scale)")
     return ObserverInput("unknown", text=f"{text!r} means nothing in phase {phase} (Enter = go, s = stop)")

@@ -14,9 +14,14 @@ from sim.study.run.errors import RunError
 from sim.study.run.protocol import (
     PROTOCOL,
     PROTOCOL_FILE,
+    Answer,
     TrialStatus,
+    answer_from_json,
+    answer_to_json,
+    checked_answer,
     checked_distance,
     chosen_path,
+    item_prompt,
     load_protocol,
     observer_input,
     status_from_json,
@@ -87,6 +92,10 @@ def test_answers_are_checked() -> None:
         ("lateral_arc", "preference", "preference", "lateral_arc"),
         ("near", "distance", "unknown", "not a distance"),
         ("2", "moving", "unknown", "means nothing in phase moving"),
+        (" 3\n", "questionnaire", "answer", 3),
+        ("-1", "questionnaire", "answer", -1),
+        ("2.5", "questionnaire", "unknown", "not an answer"),
+        ("severe", "questionnaire", "unknown", "not an answer"),
     ],
 )
 def test_the_observers_keyboard_lines_are_read_in_their_phase(line: str, phase: str, kind: str, value) -> None:
@@ -94,6 +103,8 @@ def test_the_observers_keyboard_lines_are_read_in_their_phase(line: str, phase: 
     assert typed.kind == kind
     if kind == "distance":
         assert typed.distance == pytest.approx(value)
+    elif kind == "answer":
+        assert typed.answer == value
     elif value is not None:
         assert value in typed.text
 
@@ -109,6 +120,7 @@ def test_the_table_gives_each_phase_at_most_one_input_and_each_condition_its_sto
         ("at_rest", None),
         ("distance", "distance"),
         ("preference", "preference"),
+        ("questionnaire", "answer"),
         ("done", None),
     ]
     assert (PROTOCOL.stop_source("vr"), PROTOCOL.stop_source("reality")) == ("vr_trigger", "button")
@@ -132,8 +144,71 @@ def broken_table(tmp_path, change) -> Path:
         (lambda d: d["phases"][2].pop("panel"), "says nothing on the VR panel"),
         (lambda d: d["limits"].pop("stamp_window_s"), "malformed"),
         (lambda d: d["status"].pop("type"), "needs a topic and a type"),
+        (lambda d: d["inputs"]["answer"].update(type="std_msgs/Int32"), "input answer must be a std_msgs/String"),
     ],
 )
 def test_a_malformed_table_is_one_error_that_says_what(tmp_path, change, said) -> None:
     with pytest.raises(RunError, match=said):
         load_protocol(broken_table(tmp_path, change))
+
+
+# --- questionnaires ------------------------------------------------------------------------------------------------
+
+ITEM = TrialStatus(
+    5,
+    0,
+    38,
+    "questionnaire",
+    "vr",
+    administration="ssq_before_vr",
+    questionnaire="ssq",
+    item="nausea",
+    item_text="Nausea",
+    item_number=4,
+    item_count=16,
+    scale_low=0,
+    scale_high=3,
+    scale_labels=("none", "slight", "moderate", "severe"),
+)
+
+
+def test_an_items_status_carries_what_an_answerer_needs() -> None:
+    assert status_from_json(status_to_json(ITEM)) == ITEM
+    data = json.loads(status_to_json(ITEM))
+    assert data["scale_labels"] == ["none", "slight", "moderate", "severe"] and data["item_text"] == "Nausea"
+    assert item_prompt(ITEM) == "ssq_before_vr, item 4 of 16 (nausea): Nausea [0 none, 1 slight, 2 moderate, 3 severe]?"
+    unlabelled = TrialStatus(
+        5, 38, 38, "questionnaire", "vr", item_text="Safe?", scale_low=1, scale_high=3, scale_labels=("no", "", "yes")
+    )
+    assert item_prompt(unlabelled).endswith("Safe? [1 no, 2, 3 yes]?")
+
+
+def test_an_answer_survives_json_and_must_be_a_whole_number() -> None:
+    answer = Answer("ssq_before_vr", "nausea", 2)
+    assert answer_from_json(answer_to_json(answer)) == answer
+    assert answer_from_json('{"administration": "a_x", "item": "G1", "answer": 3.0}').answer == 3
+    for text, said in [
+        ("[", "not JSON"),
+        ('{"administration": "a", "item": "b"}', "exactly"),
+        ('{"administration": "a", "item": 1, "answer": 1}', "must be texts"),
+        ('{"administration": "a", "item": "b", "answer": 2.5}', "whole number, got 2.5"),
+        ('{"administration": "a", "item": "b", "answer": true}', "whole number, got True"),
+        ('{"administration": "a", "item": "b", "answer": "2"}', "whole number, got '2'"),
+    ]:
+        with pytest.raises(RunError, match=said):
+            answer_from_json(text)
+
+
+def test_an_answer_counts_for_the_item_asked_and_on_its_scale() -> None:
+    assert checked_answer(Answer("ssq_before_vr", "nausea", 3), ITEM) == 3
+    assert checked_answer(Answer("ssq_before_vr", "nausea", 0), ITEM) == 0
+    for answer, said in [
+        (Answer("ssq_before_vr", "nausea", 4), "the answer 4 is not one of 0..3"),
+        (Answer("ssq_before_vr", "nausea", -1), "the answer -1 is not one of 0..3"),
+        (Answer("ssq_before_vr", "vertigo", 1), "an answer to ssq_before_vr item 'vertigo' while"),
+        (Answer("ssq_after_vr", "nausea", 1), "an answer to ssq_after_vr"),
+    ]:
+        with pytest.raises(RunError, match=said):
+            checked_answer(answer, ITEM)
+    with pytest.raises(RunError, match="no questionnaire item is asked in phase ready"):
+        checked_answer(Answer("ssq_before_vr", "nausea", 1), TrialStatus(5, 1, 38, "ready"))
