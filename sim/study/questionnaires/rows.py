@@ -1,7 +1,7 @@
 """Answers and scores as tidy rows, one value per row, ready for a CSV per questionnaire: the answers as given
 (participant, questionnaire, administration, item, answer) and the scores made of them (participant, questionnaire,
 administration, subscale, score). An administration names one asking of a questionnaire in a session, e.g.
-ssq_before_vr. Pure logic, but for `write_rows`."""
+ssq_before_vr. Pure logic, but for `write_rows` and the readers."""
 
 from __future__ import annotations
 
@@ -13,9 +13,18 @@ from typing import Union
 
 from sim.study.questionnaires.errors import QuestionnaireError
 from sim.study.questionnaires.instruments import Instrument, is_name
-from sim.study.questionnaires.scoring import checked_answers, scores
+from sim.study.questionnaires.scoring import checked_answer, checked_answers, scores
 
-__all__ = ["AnswerRow", "ScoreRow", "answer_rows", "score_rows", "write_rows"]
+__all__ = [
+    "AnswerRow",
+    "ScoreRow",
+    "answer_rows",
+    "asked_rows",
+    "score_rows",
+    "write_rows",
+    "read_answers",
+    "read_scores",
+]
 
 
 @dataclass(frozen=True)
@@ -24,7 +33,7 @@ class AnswerRow:
     questionnaire: str
     administration: str
     item: str
-    answer: int  # as given, before any reversal
+    answer: int | None  # as given, before any reversal; None (an empty cell): asked and not answered
 
 
 @dataclass(frozen=True)
@@ -56,6 +65,26 @@ def answer_rows(
     return [AnswerRow(participant, instrument.name, administration, item, answer) for item, answer in checked.items()]
 
 
+def asked_rows(
+    participant: int, instrument: Instrument, administration: str, answers: Mapping[str, int | None]
+) -> list[AnswerRow]:
+    """One row per item, in the instrument's order, as a session asked them: an item without an answer (absent or
+    None) is a row without one, so that the record shows what was asked and missed, and nothing is made up for it.
+    Every answer given is checked as scoring checks it."""
+    _check(participant, instrument, administration)
+    unknown = [key for key in answers if key not in instrument.item_ids]
+    if unknown:
+        raise QuestionnaireError(
+            f"{instrument.name}: answers to no item {unknown}; its items: {', '.join(instrument.item_ids)}"
+        )
+    rows = []
+    for item in instrument.items:
+        given = answers.get(item.id)
+        answer = None if given is None else checked_answer(instrument, item, given)
+        rows.append(AnswerRow(participant, instrument.name, administration, item.id, answer))
+    return rows
+
+
 def score_rows(
     participant: int, instrument: Instrument, administration: str, answers: Mapping[str, object]
 ) -> list[ScoreRow]:
@@ -72,7 +101,9 @@ Row = Union[AnswerRow, ScoreRow]
 
 def _text(value: object) -> str:
     # a score to six decimals: the weights have two and answers are whole, so nothing real is lost, and
-    # 3 x 9.54 reads 28.62, not 28.619999999999997
+    # 3 x 9.54 reads 28.62, not 28.619999999999997; a missing answer is an empty cell
+    if value is None:
+        return ""
     return repr(round(value, 6)) if isinstance(value, float) else str(value)
 
 
@@ -91,3 +122,43 @@ def write_rows(path: Path, rows: Sequence[Row]) -> None:
         for row in rows:
             writer.writerow([_text(value) for value in astuple(row)])
     partial.replace(path)
+
+
+def _read(path: Path, kind: type) -> list[list[str]]:
+    """The rows of a CSV that `write_rows` wrote of `kind`, as texts; QuestionnaireError when it is not one."""
+    names = [field.name for field in fields(kind)]
+    try:
+        with open(path, newline="") as source:
+            lines = list(csv.reader(source))
+    except OSError as error:
+        raise QuestionnaireError(f"cannot read {path}: {error.strerror}") from None
+    if not lines or lines[0] != names:
+        raise QuestionnaireError(f"{path}: the header must be {','.join(names)}, got {lines[0] if lines else []}")
+    for number, line in enumerate(lines[1:], start=2):
+        if len(line) != len(names):
+            raise QuestionnaireError(f"{path}: line {number} has {len(line)} cells, not {len(names)}")
+    return lines[1:]
+
+
+def read_answers(path: Path) -> list[AnswerRow]:
+    """An answers CSV as written; an empty answer is None (asked and not answered)."""
+    rows = []
+    for number, (participant, questionnaire, administration, item, answer) in enumerate(_read(path, AnswerRow), 2):
+        try:
+            rows.append(
+                AnswerRow(int(participant), questionnaire, administration, item, int(answer) if answer else None)
+            )
+        except ValueError:
+            raise QuestionnaireError(f"{path}: line {number}: {participant!r} / {answer!r} are not numbers") from None
+    return rows
+
+
+def read_scores(path: Path) -> list[ScoreRow]:
+    """A scores CSV as written."""
+    rows = []
+    for number, (participant, questionnaire, administration, subscale, score) in enumerate(_read(path, ScoreRow), 2):
+        try:
+            rows.append(ScoreRow(int(participant), questionnaire, administration, subscale, float(score)))
+        except ValueError:
+            raise QuestionnaireError(f"{path}: line {number}: {participant!r} / {score!r} are not numbers") from None
+    return rows

@@ -18,7 +18,7 @@ from collections.abc import Mapping
 from sim.study.questionnaires.errors import QuestionnaireError
 from sim.study.questionnaires.instruments import Instrument, Item
 
-__all__ = ["checked_answers", "item_score", "raw_sums", "scores"]
+__all__ = ["checked_answers", "checked_answer", "item_score", "raw_sums", "scores"]
 
 
 def checked_answers(instrument: Instrument, answers: Mapping[str, object]) -> dict[str, int]:
@@ -33,14 +33,17 @@ def checked_answers(instrument: Instrument, answers: Mapping[str, object]) -> di
     for item in instrument.items:
         if item.id not in answers:
             raise QuestionnaireError(f"{instrument.name}: item {item.id} has no answer")
-        answer = answers[item.id]
-        if not (isinstance(answer, int) and not isinstance(answer, bool) and item.low <= answer <= item.high):
-            raise QuestionnaireError(
-                f"{instrument.name}: item {item.id}: the answer {answer!r} is not a whole number of "
-                f"{item.low}..{item.high}"
-            )
-        checked[item.id] = answer
+        checked[item.id] = checked_answer(instrument, item, answers[item.id])
     return checked
+
+
+def checked_answer(instrument: Instrument, item: Item, answer: object) -> int:
+    """One item's answer; QuestionnaireError when it is not a whole number on the item's scale."""
+    if not (isinstance(answer, int) and not isinstance(answer, bool) and item.low <= answer <= item.high):
+        raise QuestionnaireError(
+            f"{instrument.name}: item {item.id}: the answer {answer!r} is not a whole number of {item.low}..{item.high}"
+        )
+    return answer
 
 
 def item_score(item: Item, answer: int) -> int:

@@ -8,6 +8,11 @@ preference. The trial's phase goes out on `/study/trial` (sim.study.run.protocol
 written to the participant's CSV as soon as its trial ends, and `rosbag record` (started and stopped here) records
 the robot's topics, /clock and every /study topic.
 
+The plan's questionnaires are asked at their places, before the first trial or after the trial they follow, one
+item at a time (phase questionnaire, answers on `/study/answer`); an item without an answer within the response
+timeout is recorded as missing. Their answers and scores are written as soon as each administration ends
+(sim.study.run.questionnaires).
+
 It is a controller (sim.control): it drives the robot on the commander's topics, through the same controller node
 and stepper, so the engine stand-in, Unity, or a real robot's controller take the same stream. Lockstep (default):
 the runner owns /clock and the engine steps once per value, so a session takes seconds of wall time; while the
@@ -42,18 +47,25 @@ from sim.study.design.plan import PlannedTrial, SessionPlan
 from sim.study.design.scene import Scene
 from sim.study.errors import StudyError
 from sim.study.run.protocol import (
+    ANSWER_TOPIC,
     DISTANCE_TOPIC,
     GO_TOPIC,
     PREFERENCE_TOPIC,
     PROTOCOL,
     STATUS_TOPIC,
     STOP_TOPIC,
+    Answer,
     TrialStatus,
+    answer_from_json,
+    checked_answer,
     checked_distance,
     chosen_path,
+    item_prompt,
     observer_input,
     status_to_json,
 )
+from sim.study.run.questionnaires import FOLDER as QUESTIONNAIRES
+from sim.study.run.questionnaires import asked_after, item_status, write_questionnaire
 from sim.study.run.records import TrialRecord, write_records
 from sim.study.run.trial import TrialRun
 
@@ -78,7 +90,7 @@ EXIT_OK, EXIT_ROS, EXIT_INTERRUPTED = 0, 4, 130
 class RunnerOptions:
     pacing: Pacing = Pacing(step_timeout=10.0)
     auto_go: bool = False
-    keyboard: bool = False  # the observer types at this terminal: go, stop, distances, preferences
+    keyboard: bool = False  # the observer types at this terminal: go, stop, distances, preferences, answers
     settle: float = 0.5  # s held after the motion ends, before it counts as at rest
     response_timeout: float = 300.0  # the longest wait for go or an answer; then the trial goes on without it
     deceleration: float = 1.0  # m/s² along the path on a press
@@ -101,8 +113,8 @@ class Press:
 
 class Inputs:
     """What comes in from the participant and the observer, kept until the runner takes it; thread-safe. Only the
-    input that the current phase accepts (the protocol's table) is kept: a go, a press, a distance or a
-    preference that comes in another phase is not."""
+    input that the current phase accepts (the protocol's table) is kept: a go, a press, a distance, a
+    preference or a questionnaire's answer that comes in another phase is not."""
 
     def __init__(self) -> None:
         self._changed = threading.Condition()
@@ -111,6 +123,7 @@ class Inputs:
         self._presses: list[Press] = []
         self._distances: list[float] = []
         self._preferences: list[str] = []
+        self._answers: list[Answer] = []
         self.rejected: list[str] = []
 
     def enter(self, phase: str) -> None:
@@ -121,6 +134,7 @@ class Inputs:
             self._presses.clear()
             self._distances.clear()
             self._preferences.clear()
+            self._answers.clear()
 
     def go(self) -> None:
         with self._changed:
@@ -150,6 +164,25 @@ class Inputs:
                 self._preferences.append(text)
                 self._changed.notify_all()
 
+    def answer(self, answer: Answer) -> None:
+        """A questionnaire item's answer, kept as given: which item it answers, and whether on its scale, is the
+        runner's to check against the item it asks."""
+        with self._changed:
+            if self._accepting == "answer":
+                self._answers.append(answer)
+                self._changed.notify_all()
+
+    def answer_json(self, text: str) -> None:
+        """An answer as it comes on the answer topic; one that is no answer at all is refused here."""
+        try:
+            answer = answer_from_json(text)
+        except StudyError as error:
+            with self._changed:
+                if self._accepting == "answer":
+                    self.rejected.append(str(error))
+            return
+        self.answer(answer)
+
     def take_press(self, until: float) -> Press | None:
         """The first press stamped at or before `until` (or unstamped), if one came."""
         with self._changed:
@@ -159,11 +192,13 @@ class Inputs:
         return None
 
     def wait(self, what: str, timeout: float, stop: threading.Event) -> Any:
-        """Wait for go (True), a distance (float) or a preference (str); None after `timeout` s or when stopped."""
+        """Wait for go (True), a distance (float), a preference (str) or an answer (Answer); None after `timeout` s
+        or when stopped."""
         taken: dict[str, Callable[[], Any]] = {
             "go": lambda: True if self._go else None,
             "distance": lambda: self._distances.pop(0) if self._distances else None,
             "preference": lambda: self._preferences.pop(0) if self._preferences else None,
+            "answer": lambda: self._answers.pop(0) if self._answers else None,
         }
         deadline = time.monotonic() + timeout
         with self._changed:
@@ -188,6 +223,7 @@ def recorder_topics(robot: RobotSpec) -> list[str]:
         STOP_TOPIC,
         DISTANCE_TOPIC,
         PREFERENCE_TOPIC,
+        ANSWER_TOPIC,
     ]
 
 
@@ -209,6 +245,9 @@ class StudyRunner(ControllerNode):
         self.inputs = Inputs()
         self.stepper = Stepper(self, options.pacing)
         self.phase = ""  # of the last status published
+        self.asked: TrialStatus | None = None  # the last status published: the item asked, in phase questionnaire
+        # per questionnaire, its administrations so far: each item's answer (None: not answered)
+        self.given: dict[str, dict[str, dict[str, int | None]]] = {}
         self._target = (robot.home.copy(), np.zeros(robot.dof))
         self.status_pub = self.rospy.Publisher(STATUS_TOPIC, String, queue_size=10, latch=True)
         self.watched_publishers.append((STATUS_TOPIC, self.status_pub))
@@ -217,6 +256,7 @@ class StudyRunner(ControllerNode):
             self.rospy.Subscriber(STOP_TOPIC, Header, self._on_press, tcp_nodelay=True),
             self.rospy.Subscriber(DISTANCE_TOPIC, Float32, lambda message: self.inputs.distance(message.data)),
             self.rospy.Subscriber(PREFERENCE_TOPIC, String, lambda message: self.inputs.preference(message.data)),
+            self.rospy.Subscriber(ANSWER_TOPIC, String, lambda message: self.inputs.answer_json(message.data)),
         ]
 
     def _on_press(self, message: Any) -> None:
@@ -225,10 +265,12 @@ class StudyRunner(ControllerNode):
     def publish_status(self, status: TrialStatus) -> None:
         """Enter the status's phase (what it accepts from now on), then say so."""
         self.inputs.enter(status.phase)
-        self.phase = status.phase
+        self.phase, self.asked = status.phase, status
         self.status_pub.publish(self._string_type(data=status_to_json(status)))
         accepted = PROTOCOL.accepts(status.phase)
-        if self.options.keyboard and accepted is not None:
+        if self.options.keyboard and accepted == "answer":
+            print(item_prompt(status), file=sys.stderr, flush=True)
+        elif self.options.keyboard and accepted is not None:
             print(
                 f"trial {status.index}/{status.total} ({status.condition}, test {status.test}, {status.path}): "
                 + _PROMPTS[accepted].format(
@@ -250,6 +292,9 @@ class StudyRunner(ControllerNode):
                 self.inputs.distance(typed.distance)
             elif typed.kind == "preference":
                 self.inputs.preference(typed.text)
+            elif typed.kind == "answer" and self.asked is not None:
+                # the observer answers the item asked now: the typed number names no item of its own
+                self.inputs.answer(Answer(self.asked.administration, self.asked.item, typed.answer))
             else:
                 print(f"sim.study run: {typed.text}", file=sys.stderr, flush=True)
 
@@ -306,8 +351,10 @@ class StudyRunner(ControllerNode):
         )
 
     def run_session(self, records_path: Path, log: Callable[[str], None]) -> list[TrialRecord]:
+        """The session: the trials' records in `records_path`, the questionnaires' beside it (in its folder)."""
         positions = self.start()
         records: list[TrialRecord] = []
+        self._administer(0, records_path.parent, log)
         for trial in self.plan.trials:
             record, positions = self.run_trial(trial, positions, log)
             records.append(record)
@@ -317,8 +364,44 @@ class StudyRunner(ControllerNode):
                 indices = {t.index for t in group}
                 records = [replace(r, preferred_path=preferred) if r.index in indices else r for r in records]
             write_records(records_path, records)  # after every trial: a crash loses at most the one running
+            self._administer(trial.index, records_path.parent, log)
         self.publish_status(TrialStatus(self.plan.participant, 0, len(self.plan.trials), "done"))
         return records
+
+    def _administer(self, after_trial: int, out: Path, log: Callable[[str], None]) -> None:
+        """Ask the questionnaires placed after trial `after_trial` (0: before the first), item by item; write each
+        one's records as soon as it has been asked."""
+        for planned in asked_after(self.plan, after_trial):
+            instrument = self.plan.instrument(planned.name)
+            answers: dict[str, int | None] = {}
+            for number in range(1, len(instrument.items) + 1):
+                status = item_status(self.plan, planned, number)
+                answers[status.item] = self._ask_item(status, log)
+            given = self.given.setdefault(planned.name, {})
+            given[planned.administration] = answers
+            for note in write_questionnaire(out, self.plan.participant, instrument, given):
+                if note.startswith(f"{planned.administration} "):  # an earlier administration's was logged then
+                    log(note)
+            answered = sum(answer is not None for answer in answers.values())
+            log(f"{planned.administration}: {answered} of {len(answers)} items answered")
+
+    def _ask_item(self, status: TrialStatus, log: Callable[[str], None]) -> int | None:
+        """The item's answer, or None when none on its scale came within the response timeout (an answer off the
+        scale, or to another item, is refused and logged, and the item waits on)."""
+        self.publish_status(status)
+        where = f"{status.administration} item {status.item}"
+        while True:
+            answer = self.wait_for_input("answer")
+            for problem in self.inputs.rejected:
+                log(f"{where}: an answer was refused: {problem}")
+            self.inputs.rejected.clear()
+            if answer is None:
+                log(f"{where}: no answer within {self.options.response_timeout:g} s; left missing")
+                return None
+            try:
+                return checked_answer(answer, status)
+            except StudyError as error:
+                log(f"{where}: an answer was refused: {error}; waiting on")
 
     def _group_of(self, trial: PlannedTrial) -> list[PlannedTrial]:
         """Test 2's group that `trial` belongs to, in the order run; empty for test 1."""
@@ -485,6 +568,8 @@ def run_node(
         f"{time.monotonic() - started:.1f} s of wall time, {runner.clock:.1f} s of ROS time"
     )
     print(f"records: {records_path}")
+    if plan.questionnaires:
+        print(f"questionnaires: {out / QUESTIONNAIRES}")
     if recorder is not None:
         print(f"bag:     {bag}")
     return EXIT_OK

@@ -9,7 +9,16 @@ import pytest
 
 from sim.study.questionnaires.errors import QuestionnaireError
 from sim.study.questionnaires.instruments import single_item, standard_instrument
-from sim.study.questionnaires.rows import AnswerRow, ScoreRow, answer_rows, score_rows, write_rows
+from sim.study.questionnaires.rows import (
+    AnswerRow,
+    ScoreRow,
+    answer_rows,
+    asked_rows,
+    read_answers,
+    read_scores,
+    score_rows,
+    write_rows,
+)
 
 SSQ = standard_instrument("ssq")
 SAFETY = single_item("perceived_safety", {"text": "Safe?", "scale": [1, 7], "labels": ["no", "yes"]})
@@ -88,3 +97,37 @@ def test_rows_of_two_kinds_or_none_are_not_written(tmp_path: Path) -> None:
         with pytest.raises(QuestionnaireError, match="rows must be all answers or all scores"):
             write_rows(tmp_path / "rows.csv", rows)
     assert not (tmp_path / "rows.csv").exists()
+
+
+def test_a_session_records_an_item_asked_and_not_answered_as_an_empty_cell(tmp_path: Path) -> None:
+    answers = {**ssq_answers(), "vertigo": None}
+    del answers["burping"]
+    rows = asked_rows(6, SSQ, "ssq_after_vr", answers)  # type: ignore[arg-type]
+    assert [row.item for row in rows] == list(SSQ.item_ids)
+    assert {row.item for row in rows if row.answer is None} == {"vertigo", "burping"}
+    assert rows[7].answer == 3
+    path = tmp_path / "ssq_participant_06.csv"
+    write_rows(path, rows)
+    assert ["6", "ssq", "ssq_after_vr", "vertigo", ""] in read(path)
+    assert read_answers(path) == rows
+    scored = score_rows(6, SSQ, "ssq_after_vr", ssq_answers())
+    write_rows(tmp_path / "scores.csv", scored)
+    assert read_scores(tmp_path / "scores.csv") == [
+        ScoreRow(6, "ssq", "ssq_after_vr", row.subscale, pytest.approx(row.score)) for row in scored
+    ]
+    with pytest.raises(QuestionnaireError, match="item vertigo: the answer 4"):
+        asked_rows(6, SSQ, "ssq_after_vr", {"vertigo": 4})
+    with pytest.raises(QuestionnaireError, match="answers to no item"):
+        asked_rows(6, SSQ, "ssq_after_vr", {"wellbeing": 1})
+
+
+def test_a_csv_that_is_not_rows_of_its_kind_is_one_error(tmp_path: Path) -> None:
+    path = tmp_path / "rows.csv"
+    write_rows(path, score_rows(3, SSQ, "ssq_before_vr", ssq_answers()))
+    with pytest.raises(QuestionnaireError, match="the header must be participant,questionnaire,administration,item"):
+        read_answers(path)
+    path.write_text(path.read_text().replace("28.62", "lots"))
+    with pytest.raises(QuestionnaireError, match="line 2: '3' / 'lots' are not numbers"):
+        read_scores(path)
+    with pytest.raises(QuestionnaireError, match="cannot read"):
+        read_scores(tmp_path / "none.csv")

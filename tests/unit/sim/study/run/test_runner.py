@@ -7,7 +7,7 @@ import threading
 
 import pytest
 
-from sim.study.run.protocol import PHASES, PROTOCOL
+from sim.study.run.protocol import PHASES, PROTOCOL, Answer, answer_to_json
 from sim.study.run.runner import Inputs
 
 
@@ -33,11 +33,12 @@ def give_everything(inputs: Inputs) -> None:
     inputs.press(1.0, "button")
     inputs.distance(0.2)
     inputs.preference("1")
+    inputs.answer_json(answer_to_json(Answer("ssq_before_vr", "nausea", 1)))
 
 
 def kept(inputs: Inputs) -> set[str]:
     stop = threading.Event()
-    found = {what for what in ("go", "distance", "preference") if inputs.wait(what, 0.0, stop) is not None}
+    found = {what for what in ("go", "distance", "preference", "answer") if inputs.wait(what, 0.0, stop) is not None}
     return found | ({"stop"} if inputs.take_press(until=1e9) is not None else set())
 
 
@@ -73,3 +74,16 @@ def test_a_wait_ends_when_the_answer_comes_from_another_thread_or_on_stop() -> N
     assert inputs.wait("go", 10.0, stop) is True
     threading.Timer(0.05, stop.set).start()
     assert inputs.wait("distance", 10.0, stop) is None
+
+
+def test_answers_are_kept_as_given_and_what_is_no_answer_is_refused() -> None:
+    inputs, stop = entered("questionnaire"), threading.Event()
+    inputs.answer_json('{"administration": "ssq_before_vr", "item": "nausea"}')
+    inputs.answer_json(answer_to_json(Answer("ssq_before_vr", "nausea", 7)))  # off the scale: the runner's to refuse
+    inputs.answer(Answer("ssq_before_vr", "nausea", 2))
+    assert inputs.wait("answer", 1.0, stop) == Answer("ssq_before_vr", "nausea", 7)
+    assert inputs.wait("answer", 1.0, stop) == Answer("ssq_before_vr", "nausea", 2)
+    assert len(inputs.rejected) == 1 and "an answer must have exactly" in inputs.rejected[0]
+    inputs.enter("ready")
+    inputs.answer_json("nonsense")  # not asked for now: not kept, not even refused
+    assert len(inputs.rejected) == 1
