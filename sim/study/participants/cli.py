@@ -68,5 +68,8 @@ def participant_command(args: argparse.Namespace) -> int:
         print(f"sim.study participant: {problem}", file=sys.stderr)
     if not finished:
         return fail("sim.study participant", f"the session did not end within {args.timeout:g} s", EXIT_NO_CONNECTION)
-    print(f"participant {args.participant}: session done, {participant.presses} presses")
+    print(
+        f"participant {args.participant}: session done, {participant.presses} presses, "
+        f"{participant.answers} questionnaire items answered"
+    )
     return EXIT_OK if not participant.problems else EXIT_FAILED

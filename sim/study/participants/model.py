@@ -14,7 +14,20 @@ A Population gives the distributions; each participant's traits are drawn from i
                         each trial's varies by `comfort_noise`;
   the press             the participant anticipates: knowing the approach, they press so that the press lands when
                         the robot reaches their comfort distance;
-  preference            ranks a group's paths by their order in the participant's own ranking of all paths.
+  preference            ranks a group's paths by their order in the participant's own ranking of all paths;
+  questionnaires        each answer is the item's lowest plus a binomial count of its scale's steps, so that its
+                        mean is exactly the level put in, without the bias that rounding and clipping a normal draw
+                        would add at the scale's ends:
+                        - SSQ: each symptom's mean rating is `ssq_level` (0..3) before the participant has been in
+                          VR and `ssq_level + vr_ssq_rise` after, times a susceptibility of the participant's own
+                          (gamma, mean 1, CV `symptom_spread`): the SSQ total's mean rises by 3.74 x 21 x rise
+                          (21: the symptoms' memberships in the three clusters);
+                        - IPQ: each item's score (a reversed item's answer mirrored) has the mean `ipq_level`
+                          (0..6), which is then every subscale's; the participant's own level is a beta draw around
+                          it (concentration `answer_concentration`);
+                        - the lab's own items: the mean answer lies `item_level` of the way from the scale's lowest
+                          to its highest answer, the participant's own drawn likewise.
+  Questionnaire traits and answers are drawn from streams of their own: the trials' draws are those of before.
 """
 
 from __future__ import annotations
@@ -27,6 +40,7 @@ import numpy as np
 
 from sim.study.design.paths import ON_TOP, PATH_NAMES
 from sim.study.participants.errors import ParticipantError
+from sim.study.questionnaires.instruments import standard_instrument
 
 __all__ = [
     "MIN_COMFORT",
@@ -41,6 +55,7 @@ __all__ = [
     "arrival_time",
     "study_measures",
     "preferred_path",
+    "questionnaire_answer",
 ]
 
 MIN_COMFORT = ON_TOP + 0.01  # m: a press must land before the approach's end, on top of the hand
@@ -50,6 +65,10 @@ KNOWN_TRUTHS = {
     "distance_shift_sd": "SD of the participants' own VR - reality differences of perceived / actual",
     "vr_comfort_shift": "VR - reality of the distance at the press (m), the population's mean",
     "comfort_shift_sd": "SD of the participants' own VR - reality differences of the distance at the press (m)",
+    "ssq_level": "SSQ: each symptom's mean rating (0..3) before the participant has been in VR",
+    "vr_ssq_rise": "SSQ: how much each symptom's mean rating rises once the participant has been in VR",
+    "ipq_level": "IPQ: every subscale's mean score (0..6)",
+    "item_level": "the lab's own items: the mean answer, as the fraction of the way from the lowest to the highest",
 }
 
 
@@ -64,6 +83,12 @@ class Population:
     vr_comfort_shift: float = -0.02  # m: closer in VR
     comfort_shift_sd: float = 0.02  # m
     comfort_noise: float = 0.01  # m: one trial's, around the participant's own
+    ssq_level: float = 0.1  # SSQ: a symptom's mean rating before VR (0..3): total 7.9 on average
+    vr_ssq_rise: float = 0.2  # SSQ: a symptom's mean rating after VR, more: total 23.6 on average
+    symptom_spread: float = 0.5  # SSQ: the CV of the participants' susceptibility
+    ipq_level: float = 3.5  # IPQ: every subscale's mean score (0..6)
+    item_level: float = 0.7  # the lab's own items: the mean answer, from lowest (0) to highest (1)
+    answer_concentration: float = 10.0  # how closely participants' own IPQ and item levels follow the population's
 
     def __post_init__(self) -> None:
         spreads = {
@@ -83,6 +108,22 @@ class Population:
             )
         if not (math.isfinite(self.vr_comfort_shift) and abs(self.vr_comfort_shift) < 0.2):
             raise ParticipantError(f"the VR comfort shift must be within ±0.2 m, got {self.vr_comfort_shift}")
+        ssq, ipq = _scale("ssq"), _scale("ipq")
+        after = self.ssq_level + self.vr_ssq_rise
+        if not (math.isfinite(after) and ssq[0] <= self.ssq_level <= ssq[1] and ssq[0] <= after <= ssq[1]):
+            raise ParticipantError(
+                f"the SSQ level before VR ({self.ssq_level}) and after (+ rise {self.vr_ssq_rise}) must be within "
+                f"{ssq[0]}..{ssq[1]}"
+            )
+        if not (ipq[0] < self.ipq_level < ipq[1]):
+            raise ParticipantError(f"the IPQ level must be inside {ipq[0]}..{ipq[1]}, got {self.ipq_level}")
+        if not (0.0 < self.item_level < 1.0):
+            raise ParticipantError(f"the items' level must be inside 0..1 (of their scale), got {self.item_level}")
+        if not (math.isfinite(self.symptom_spread) and self.symptom_spread > 0.0 and self.answer_concentration > 0.0):
+            raise ParticipantError(
+                f"the symptom spread and the answers' concentration must be > 0, got {self.symptom_spread} and "
+                f"{self.answer_concentration}"
+            )
 
     def draws(self, rng: np.random.Generator, participants: int) -> dict[str, np.ndarray]:
         """Each trait for `participants` participants, one array each. Perceived / actual stays above 0.1 and the
@@ -107,6 +148,19 @@ class Traits:
     comfort_distance: dict[str, float]  # per condition, m: where the robot is at the press, the participant's mean
     comfort_noise: float
     ranking: tuple[str, ...]  # every path, most preferred first
+    symptoms: dict[str, float]  # SSQ: a symptom's mean rating, before (False) and after (True) having been in VR
+    presence: float  # IPQ: the mean item score as a fraction of the scale (0..1)
+    item_level: float  # the lab's own items: the mean answer as a fraction of the scale (0..1)
+
+
+def _scale(name: str) -> tuple[int, int]:
+    """The lowest and highest answer of a standard instrument (each has one scale for all its items)."""
+    item = standard_instrument(name).items[0]
+    return item.low, item.high
+
+
+def _beta(rng: np.random.Generator, mean: float, concentration: float) -> float:
+    return float(rng.beta(mean * concentration, (1.0 - mean) * concentration))
 
 
 def draw_traits(population: Population, participant: int, seed: int) -> Traits:
@@ -115,6 +169,10 @@ def draw_traits(population: Population, participant: int, seed: int) -> Traits:
     rng = np.random.default_rng([seed, participant, 1])  # a stream apart from the plan's
     drawn = {name: float(values[0]) for name, values in population.draws(rng, 1).items()}
     ranking = tuple(PATH_NAMES[k] for k in rng.permutation(len(PATH_NAMES)))
+    answering = np.random.default_rng([seed, participant, 3])  # apart: the trials' traits are those of before
+    shape = 1.0 / population.symptom_spread**2  # a gamma of mean 1 and this CV
+    susceptibility = float(answering.gamma(shape, 1.0 / shape))
+    low, high = _scale("ipq")
     return Traits(
         participant,
         {"vr": drawn["ratio_vr"], "reality": drawn["ratio_reality"]},
@@ -122,6 +180,12 @@ def draw_traits(population: Population, participant: int, seed: int) -> Traits:
         {"vr": drawn["comfort_vr"], "reality": drawn["comfort_reality"]},
         population.comfort_noise,
         ranking,
+        {
+            "before_vr": susceptibility * population.ssq_level,
+            "after_vr": susceptibility * (population.ssq_level + population.vr_ssq_rise),
+        },
+        _beta(answering, (population.ipq_level - low) / (high - low), population.answer_concentration),
+        _beta(answering, population.item_level, population.answer_concentration),
     )
 
 
@@ -192,3 +256,29 @@ def preferred_path(traits: Traits, paths: Sequence[str]) -> str:
     if not paths or unknown:
         raise ParticipantError(f"cannot rank paths {list(paths)}; known: {', '.join(traits.ranking)}")
     return min(paths, key=traits.ranking.index)
+
+
+def questionnaire_answer(
+    traits: Traits,
+    questionnaire: str,
+    low: int,
+    high: int,
+    reversed_: bool,
+    been_in_vr: bool,
+    rng: np.random.Generator,
+) -> int:
+    """The participant's answer to an item on the scale low..high of `questionnaire` (ssq, ipq, or one of the lab's
+    own): the lowest plus a binomial count of the scale's steps, its mean the participant's level; a reversed item's
+    answer mirrored, so that its score has that mean."""
+    if not (isinstance(low, int) and isinstance(high, int) and low < high):
+        raise ParticipantError(f"an item's scale must be lowest < highest, got {low}..{high}")
+    steps = high - low
+    if questionnaire == "ssq":
+        # the level is a mean rating: capped where every symptom would be rated at the top
+        chance = min(traits.symptoms["after_vr" if been_in_vr else "before_vr"] / steps, 1.0)
+    elif questionnaire == "ipq":
+        chance = traits.presence
+    else:
+        chance = traits.item_level
+    scored = low + int(rng.binomial(steps, chance))
+    return low + high - scored if reversed_ else scored

@@ -10,6 +10,9 @@ protocol's table, sim.study.run.protocol):
               robot, as people do, and the runner applies a press at its stamp.
   distance    test 1: reports its perceived distance of the robot at rest (`/study/perceived_distance`);
   preference  names its preferred path of the group (`/study/preference`);
+  answer      answers the questionnaire item asked (`/study/answer`), by its traits: the SSQ's symptoms as they are
+              before or after it has been in VR (any trial of the VR block), the IPQ's and the lab's own items around
+              its own levels;
   done        (the last phase; for its participant number) ends.
 
 Why at once, and planned before go: a lockstep runs some 15 times faster than real time on a busy machine, so
@@ -36,8 +39,11 @@ from sim.study.participants.model import (
     comfort_at_press,
     perceived_distance,
     preferred_path,
+    questionnaire_answer,
 )
+from sim.study.questionnaires.instruments import STANDARD, standard_instrument
 from sim.study.run.protocol import (
+    ANSWER_TOPIC,
     DISTANCE_TOPIC,
     GO_TOPIC,
     PHASES,
@@ -46,7 +52,9 @@ from sim.study.run.protocol import (
     STATUS_TOPIC,
     STOP_TOPIC,
     TOPIC_TYPES,
+    Answer,
     TrialStatus,
+    answer_to_json,
     status_from_json,
 )
 from sim.wire.contract import STEP_S
@@ -65,6 +73,10 @@ class SimulatedParticipant:
     ) -> None:
         self.client, self.robot, self.scene, self.traits, self.dt = client, robot, scene, traits, dt
         self.rng = np.random.default_rng([seed, traits.participant, 2])  # the judgements' noise
+        # the questionnaires' answers: a stream apart, so that the judgements are those of a study without them
+        self.answer_rng = np.random.default_rng([seed, traits.participant, 4])
+        self.been_in_vr = False  # whether any trial of the VR block has been run: the SSQ's symptoms rise after
+        self.answers = 0
         self.done = threading.Event()
         self.presses = 0
         self.problems: list[str] = []
@@ -74,7 +86,7 @@ class SimulatedParticipant:
         self._latest: tuple[float, np.ndarray] | None = None
 
     def attach(self) -> None:
-        for topic in (GO_TOPIC, STOP_TOPIC, DISTANCE_TOPIC, PREFERENCE_TOPIC):
+        for topic in (GO_TOPIC, STOP_TOPIC, DISTANCE_TOPIC, PREFERENCE_TOPIC, ANSWER_TOPIC):
             self.client.register_publisher(topic, TOPIC_TYPES[topic])
         self.client.subscribe(self.robot.joint_states_topic, JOINT_STATE, self._on_joint_state)
         self.client.subscribe(STATUS_TOPIC, TOPIC_TYPES[STATUS_TOPIC], self._on_status)
@@ -111,6 +123,8 @@ class SimulatedParticipant:
         if status.participant != self.traits.participant:
             return  # another session's (a latched status from before)
         self._status = status
+        if status.condition == "vr" and status.test > 0:  # a trial's status (a questionnaire's has test 0)
+            self.been_in_vr = True
         accepted = PROTOCOL.accepts(status.phase)
         if accepted == "go":
             self._press_after = None
@@ -133,13 +147,34 @@ class SimulatedParticipant:
         elif accepted == "preference":
             choice = preferred_path(self.traits, status.group_paths)
             self.client.publish(PREFERENCE_TOPIC, _encode(PREFERENCE_TOPIC, data=choice))
+        elif accepted == "answer":
+            self._answer(status)
         elif status.phase == PHASES[-1]:  # the session is over
             self.done.set()
+
+    def _answer(self, status: TrialStatus) -> None:
+        # a standard instrument's reversed items are in its file; the lab's own items are never reversed
+        reversed_ = (
+            status.questionnaire in STANDARD and standard_instrument(status.questionnaire).item(status.item).reversed
+        )
+        value = questionnaire_answer(
+            self.traits,
+            status.questionnaire,
+            status.scale_low,
+            status.scale_high,
+            reversed_,
+            self.been_in_vr,
+            self.answer_rng,
+        )
+        answer = Answer(status.administration, status.item, value)
+        self.answers += 1
+        self.client.publish(ANSWER_TOPIC, _encode(ANSWER_TOPIC, data=answer_to_json(answer)))
 
     @property
     def traits_note(self) -> str:
         ratio, comfort = self.traits.distance_ratio, self.traits.comfort_distance
         return (
             f"comfort {comfort['reality']:.3f} m (VR {comfort['vr']:.3f} m), "
-            f"perceived / actual {ratio['reality']:.2f} (VR {ratio['vr']:.2f})"
+            f"perceived / actual {ratio['reality']:.2f} (VR {ratio['vr']:.2f}), SSQ symptom rating "
+            f"{self.traits.symptoms['before_vr']:.2f} (after VR {self.traits.symptoms['after_vr']:.2f})"
         )

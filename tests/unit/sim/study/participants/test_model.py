@@ -1,15 +1,20 @@
 """sim.study.participants.model: traits are reproducible and spread as the population says; judgements and presses
 carry the known VR − reality differences; a whole study drawn at once has the same truths; the press lands where
-the participant means it to; the preference follows the ranking."""
+the participant means it to; the preference follows the ranking; the questionnaires' answers have the levels put
+in."""
 
 from __future__ import annotations
+
+from dataclasses import replace
 
 import numpy as np
 import pytest
 
 from sim.study.design.paths import PATH_NAMES
 from sim.study.errors import StudyError
+from sim.study.participants.errors import ParticipantError
 from sim.study.participants.model import (
+    KNOWN_TRUTHS,
     MIN_COMFORT,
     Population,
     arrival_time,
@@ -17,8 +22,11 @@ from sim.study.participants.model import (
     draw_traits,
     perceived_distance,
     preferred_path,
+    questionnaire_answer,
     study_measures,
 )
+from sim.study.questionnaires.instruments import standard_instrument
+from sim.study.questionnaires.scoring import scores
 
 POPULATION = Population()
 
@@ -98,3 +106,70 @@ def test_bad_inputs_are_named():
         Population(comfort_noise=-0.01)
     with pytest.raises(StudyError, match="VR comfort shift must be within"):
         Population(vr_comfort_shift=0.5)
+
+
+# --- questionnaires ------------------------------------------------------------------------------------------------
+
+SSQ, IPQ = standard_instrument("ssq"), standard_instrument("ipq")
+
+
+def answered(traits, instrument, been_in_vr: bool, rng) -> dict:
+    return {
+        item.id: questionnaire_answer(traits, instrument.name, item.low, item.high, item.reversed, been_in_vr, rng)
+        for item in instrument.items
+    }
+
+
+def test_the_questionnaires_answers_have_the_levels_put_in():
+    """Over many simulated participants the scores come out as declared: the SSQ total's mean before VR is
+    3.74 x 21 x ssq_level, its rise 3.74 x 21 x vr_ssq_rise; every IPQ subscale's mean is ipq_level; a lab item's
+    mean answer lies item_level of the way up its scale."""
+    population = Population(ssq_level=0.3, vr_ssq_rise=0.4, ipq_level=4.2, item_level=0.25)
+    rng = np.random.default_rng(5)
+    before, after, presence, safety = [], [], [], []
+    for participant in range(1, 2001):
+        traits = draw_traits(population, participant, 9)
+        before.append(scores(SSQ, answered(traits, SSQ, False, rng))["total"])
+        after.append(scores(SSQ, answered(traits, SSQ, True, rng))["total"])
+        presence.append(list(scores(IPQ, answered(traits, IPQ, True, rng)).values()))
+        safety.append(questionnaire_answer(traits, "perceived_safety", 1, 7, False, True, rng))
+    assert np.mean(before) == pytest.approx(3.74 * 21 * 0.3, rel=0.04)
+    assert np.mean(np.array(after) - before) == pytest.approx(3.74 * 21 * 0.4, rel=0.04)
+    assert np.mean(presence, axis=0) == pytest.approx([4.2] * 4, abs=0.06)
+    assert np.mean(safety) == pytest.approx(1 + 0.25 * 6, abs=0.05)
+    assert np.std(after) > 10  # participants differ in their susceptibility, not only their answers' noise
+
+
+def test_a_reversed_item_is_answered_mirrored_and_every_answer_is_on_its_scale():
+    traits = draw_traits(Population(ipq_level=5.5), 2, 3)
+    straight = [questionnaire_answer(traits, "ipq", 0, 6, False, True, np.random.default_rng(k)) for k in range(50)]
+    mirrored = [questionnaire_answer(traits, "ipq", 0, 6, True, True, np.random.default_rng(k)) for k in range(50)]
+    assert [6 - answer for answer in straight] == mirrored and np.mean(straight) > 4
+    for been_in_vr in (False, True):
+        answers = answered(traits, SSQ, been_in_vr, np.random.default_rng(1))
+        assert all(0 <= answer <= 3 and isinstance(answer, int) for answer in answers.values())
+    with pytest.raises(ParticipantError, match="lowest < highest, got 3..3"):
+        questionnaire_answer(traits, "ssq", 3, 3, False, True, np.random.default_rng(1))
+
+
+def test_the_questionnaire_truths_leave_the_trials_traits_as_they_were():
+    plain = draw_traits(POPULATION, 4, 2)
+    other = draw_traits(Population(ssq_level=1.0, vr_ssq_rise=1.5, ipq_level=1.0, item_level=0.9), 4, 2)
+    assert replace(other, symptoms=plain.symptoms, presence=plain.presence, item_level=plain.item_level) == plain
+    assert other.symptoms["after_vr"] > plain.symptoms["after_vr"] and other.presence < plain.presence
+    assert {"ssq_level", "vr_ssq_rise", "ipq_level", "item_level"} <= set(KNOWN_TRUTHS)
+
+
+@pytest.mark.parametrize(
+    "truths, said",
+    [
+        ({"ssq_level": -0.1}, "SSQ level before VR"),
+        ({"ssq_level": 2.0, "vr_ssq_rise": 1.5}, "must be within 0..3"),
+        ({"ipq_level": 6.0}, "IPQ level must be inside 0..6, got 6.0"),
+        ({"item_level": 0.0}, "items' level must be inside 0..1"),
+        ({"symptom_spread": 0.0}, "symptom spread"),
+    ],
+)
+def test_impossible_questionnaire_truths_are_named(truths, said):
+    with pytest.raises(ParticipantError, match=said):
+        Population(**truths)
