@@ -1,4 +1,5 @@
-"""`python -m sim.study analyse DIR`: the report (verdicts, models, plots) over every participant's CSV in DIR."""
+"""`python -m sim.study analyse DIR`: the report (verdicts, models, questionnaires, plots) over every participant's
+CSV in DIR (and their questionnaires' scores in DIR/questionnaires/scores)."""
 
 from __future__ import annotations
 
@@ -21,10 +22,14 @@ def register(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> N
 
 
 def analyse_command(args: argparse.Namespace) -> int:
+    from sim.study.analysis.questionnaires import load_questionnaires, summarise_questionnaires
     from sim.study.analysis.report import load_study, write_report
 
     sesoi = load_design(args.design).sesoi
-    report = write_report(load_study(args.directory), args.out or args.directory, sesoi=sesoi)
+    questionnaires = summarise_questionnaires(load_questionnaires(args.directory))
+    report = write_report(
+        load_study(args.directory), args.out or args.directory, sesoi=sesoi, questionnaires=questionnaires
+    )
     print(report.read_text(), end="")
     print(f"report: {report}")
     return EXIT_OK

@@ -1,6 +1,7 @@
 """The study's report: every participant's CSV in a directory, summarised (sim.study.analysis.summary) into `report.md`
 with its plots beside it (`python -m sim.study analyse DIR`): the verdicts on VR against reality first, then each
-test's mixed model, the paired comparisons, and the plots (Bland–Altman among them)."""
+test's mixed model, the paired comparisons, the questionnaires' scores (sim.study.analysis.questionnaires), and the
+plots (Bland–Altman among them)."""
 
 from __future__ import annotations
 
@@ -13,6 +14,7 @@ import numpy as np
 from sim.study.analysis.contrasts import FACTOR_NAMES, MEASURES, TestContrast
 from sim.study.analysis.errors import AnalysisError
 from sim.study.analysis.mixed_model import CROSSOVER_TERMS, formula
+from sim.study.analysis.questionnaires import QuestionnaireSummary, questionnaire_lines
 from sim.study.analysis.statistics import Estimate, PairedComparison
 from sim.study.analysis.summary import StudySummary, cell, per_participant, perceived_ratio, summarise
 from sim.study.design.spec import CONDITIONS
@@ -119,7 +121,7 @@ def _verdict_lines(contrasts: Mapping[int, TestContrast]) -> list[str]:
     return lines
 
 
-def _markdown(summary: StudySummary, plots: list[Path], title: str) -> str:
+def _markdown(summary: StudySummary, plots: list[Path], title: str, questionnaires: QuestionnaireSummary | None) -> str:
     lines = [
         f"# {title}",
         "",
@@ -185,6 +187,8 @@ def _markdown(summary: StudySummary, plots: list[Path], title: str) -> str:
     ]
     if summary.notes:
         lines += ["Notes:", ""] + [f"- {note}" for note in summary.notes] + [""]
+    if questionnaires is not None:
+        lines += questionnaire_lines(questionnaires)
     lines += ["## Plots", ""] + [f"![{plot.stem}]({plot.name})" for plot in plots]
     return "\n".join(lines) + "\n"
 
@@ -293,9 +297,11 @@ def write_report(
     out: Path,
     title: str = "Perception study",
     sesoi: Mapping[int, float] | None = None,
+    questionnaires: QuestionnaireSummary | None = None,
 ) -> Path:
     """report.md and its plots in `out`; with `sesoi` (per test, the design's), the verdicts, mixed models and
-    Bland–Altman plot too. AnalysisError when the records cannot be analysed."""
+    Bland–Altman plot too; with `questionnaires`, their section. AnalysisError when the records cannot be
+    analysed."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -308,5 +314,5 @@ def write_report(
     if summary.contrasts:
         plots.append(_plot_agreement(summary.contrasts, out / "agreement_bland_altman.png"))
     report = out / "report.md"
-    report.write_text(_markdown(summary, plots, title))
+    report.write_text(_markdown(summary, plots, title, questionnaires))
     return report

@@ -16,6 +16,7 @@ import yaml
 
 from sim.launchers import Engine, Participant, Runner, finish, start, wait_ready
 from sim.processes import EndpointProcess, ManagedProcess, ProcessError, RosCore, plain_env
+from sim.study.analysis.questionnaires import load_questionnaires, summarise_questionnaires
 from sim.study.analysis.report import load_study, write_report
 from sim.study.design.feasibility import plan_combinations, remedies
 from sim.study.design.fit import scene_for, scene_to_data
@@ -118,4 +119,5 @@ def simulate(settings: Simulation, log: Callable[[str], None]) -> Path:
         out,
         f"Perception study, {settings.participants} simulated participants (seed {settings.seed})",
         design.sesoi,
+        summarise_questionnaires(load_questionnaires(out)),
     )
