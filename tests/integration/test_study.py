@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import csv
 import math
+import re
 import subprocess
 import threading
 from collections.abc import Sequence
@@ -42,12 +43,19 @@ SCENE = load_scene()
 ROBOT = scene_robot(SCENE)
 
 
-def simulate_small_study(tmp_path: Path, participants: int, seed: int | None = None, extra: Sequence[str] = ()) -> Path:
-    """`python -m sim.study simulate` of SMALL_DESIGN with simulated participants; the folder it wrote."""
-    design = tmp_path / "design.yaml"
-    design.write_text(yaml.safe_dump(SMALL_DESIGN))
+def simulate_small_study(
+    tmp_path: Path,
+    participants: int,
+    seed: int | None = None,
+    extra: Sequence[str] = (),
+    design: dict | None = None,
+) -> Path:
+    """`python -m sim.study simulate` of SMALL_DESIGN (or `design`) with simulated participants; the folder it
+    wrote."""
+    design_path = tmp_path / "design.yaml"
+    design_path.write_text(yaml.safe_dump(SMALL_DESIGN if design is None else design))
     out = tmp_path / "study"
-    command = [PYTHON, "-m", "sim.study", "simulate", "--participants", str(participants), "--design", str(design)]
+    command = [PYTHON, "-m", "sim.study", "simulate", "--participants", str(participants), "--design", str(design_path)]
     command += ["--out", str(out)] + ([] if seed is None else ["--seed", str(seed)]) + list(extra)
     process = ManagedProcess(command, plain_env(), tmp_path, "simulate")
     try:
@@ -215,6 +223,76 @@ def test_simulated_participants_run_the_study_and_the_analysis_recovers_their_bi
     derived = "robot panda: end effector 'panda_grasptarget': the tool frame of 'panda_hand'"
     for log in [*(out / "logs").glob("runner_*.log"), *(out / "logs").glob("participant_*.log")]:
         assert derived in log.read_text(), log
+
+
+# In lockstep, as the simulated study above: beside other work
+@pytest.mark.lane("beside", on=("project",))
+def test_simulated_participants_answer_the_planned_questionnaires_and_the_report_scores_them(tmp_path: Path) -> None:
+    """Two simulated participants (one starts with VR, one with reality) through a study whose design asks the SSQ
+    before and after VR, the IPQ after VR and a lab item after each condition, as the bundled design does. No
+    symptom before VR (--ssq-level 0), so every SSQ before VR scores 0 whichever block came first, and one after.
+    Every item is answered, once, on the answer topic, into the bag; the scores are those of the answers; the
+    report has their section."""
+    from sim.study.design.plan import plan_from_data
+    from sim.study.questionnaires.rows import read_answers, read_scores
+    from sim.study.questionnaires.scoring import scores
+    from sim.study.run.protocol import ANSWER_TOPIC, answer_from_json
+
+    questionnaires = {
+        "ssq": {"when": ["before_vr", "after_vr"]},
+        "ipq": {"when": ["after_vr"]},
+        "items": {
+            "perceived_safety": {
+                "text": "How safe did you feel near the robot?",
+                "scale": [1, 7],
+                "labels": ["not at all safe", "completely safe"],
+                "when": ["after_each"],
+            }
+        },
+    }
+    design = {**SMALL_DESIGN, "questionnaires": questionnaires}
+    truths = ["--ssq-level", "0", "--vr-ssq-rise", "1.0"]
+    out = simulate_small_study(tmp_path, participants=2, seed=5, extra=truths, design=design)
+    plan = plan_from_data(yaml.safe_load((out / "plans" / "participant_01.yaml").read_text()))
+    instruments = {name: plan.instrument(name) for name in ("ssq", "ipq", "perceived_safety")}
+    assert instruments["perceived_safety"].items[0].text == "How safe did you feel near the robot?"
+    administrations = {
+        "ssq": ["ssq_before_vr", "ssq_after_vr"],
+        "ipq": ["ipq_after_vr"],
+        "perceived_safety": ["perceived_safety_after_vr", "perceived_safety_after_reality"],
+    }
+    for number in (1, 2):
+        stem = f"participant_{number:02d}.csv"
+        asked = {}
+        for name, instrument in instruments.items():
+            answers = read_answers(out / "questionnaires" / "answers" / f"{name}_{stem}")
+            assert sorted({row.administration for row in answers}) == sorted(administrations[name])
+            assert len(answers) == len(instrument.items) * len(administrations[name])
+            assert all(row.answer is not None and row.participant == number for row in answers)
+            given = {}
+            for row in answers:
+                given.setdefault(row.administration, {})[row.item] = row.answer
+                asked[(row.administration, row.item)] = row.answer
+            scored = read_scores(out / "questionnaires" / "scores" / f"{name}_{stem}")
+            for administration, items in given.items():
+                expected = scores(instrument, items)
+                found = {r.subscale: r.score for r in scored if r.administration == administration}
+                assert found == pytest.approx(expected), administration
+            if name == "ssq":
+                assert all(answer == 0 for (a, _), answer in asked.items() if a == "ssq_before_vr")
+                assert sum(answer for (a, _), answer in asked.items() if a == "ssq_after_vr") > 0
+        # the bag holds every answer as sent, one per item asked, and the CSV has them as the bag does
+        bag = out / "bags" / f"participant_{number:02d}.bag"
+        sent = [answer_from_json(m.data) for m in bag_messages(bag, ANSWER_TOPIC)]
+        assert {(a.administration, a.item): a.answer for a in sent} == asked and len(sent) == len(asked)
+        phases = [status_from_json(m.data) for m in bag_messages(bag, STATUS_TOPIC)]
+        items = [(s.administration, s.item) for s in phases if s.phase == "questionnaire"]
+        assert sorted(items) == sorted(asked) and len(items) == len(asked)
+    report = (out / "report.md").read_text()
+    assert "## Questionnaires" in report and "| ssq_after_vr | total | 2 |" in report
+    assert "| ipq_after_vr | spatial_presence | 2 |" in report
+    assert re.search(r"^\| 1 \| 0\.0 \| [0-9.]+ \| \+[0-9.]+ \|", report, re.M)
+    assert "**VR data suspect** when the SSQ total after VR is above 20" in report
 
 
 pytestmark = [pytest.mark.lane("alone", on=("project",)), pytest.mark.timeout(400)]

@@ -35,7 +35,7 @@ __all__ = [
 
 SSQ_SUSPECT_TOTAL = 20.0  # an SSQ total after VR above this: the participant's VR data are suspect
 SSQ_SUSPECT_SOURCE = (
-    "the grading of SSQ totals after Kennedy and colleagues (e.g. Stanney, Kennedy & Drexler 1997) reads a total "
+    "The grading of SSQ totals after Kennedy and colleagues (e.g. Stanney, Kennedy & Drexler 1997) reads a total "
     'above 20 as a "bad" simulator; that grade is for a simulator\'s mean, and applying it to one participant is '
     "this study's convention, not a clinical cut-off"
 )
@@ -64,7 +64,7 @@ class SicknessChange:
 
 @dataclass(frozen=True)
 class QuestionnaireSummary:
-    scores: tuple[ScoreSummary, ...]  # by questionnaire, then when asked (before, after; VR, reality), subscale
+    scores: tuple[ScoreSummary, ...]  # by when asked (before, after; VR, reality), questionnaire, subscale
     ssq: tuple[SicknessChange, ...]  # per participant with an SSQ total before or after VR
     suspect: tuple[int, ...]  # the participants whose SSQ total after VR is above the threshold
     threshold: float
@@ -102,7 +102,8 @@ def summarise_questionnaires(rows: list[ScoreRow], threshold: float = SSQ_SUSPEC
     for row in rows:
         groups.setdefault((row.questionnaire, row.administration, row.subscale), []).append(row.score)
     subscales = list(dict.fromkeys(row.subscale for row in rows))  # each instrument's in its own order
-    order = sorted(groups, key=lambda k: (names.index(k[0]), _when(k[1]), k[1], subscales.index(k[2])))
+    # when asked first (before, after; VR, reality), so that a questionnaire before a block comes before one after
+    order = sorted(groups, key=lambda k: (_when(k[1]), names.index(k[0]), k[1], subscales.index(k[2])))
     scores = tuple(
         ScoreSummary(
             *key,
