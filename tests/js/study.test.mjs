@@ -69,6 +69,24 @@ test("the distance is the controllers' when both are tracked and within reach", 
   assert.deepEqual(participant.instructions()[1], ['Thank you.']);
 });
 
+test("a questionnaire's item is shown from its status, each item afresh", () => {
+  const participant = new Participant(PROTOCOL);
+  const item = { test: 0, administration: 'ssq_before_vr', scale_low: 0, scale_high: 3 };
+  participant.onStatus(status('questionnaire', { ...item, item: 'nausea', item_text: 'Nausea', item_number: 8 }));
+  const [title, lines] = participant.instructions();
+  assert.equal(title, 'Question 8 of {item_count}'); // a field the status lacks stays as written
+  assert.equal(lines[0], 'Nausea');
+  assert.equal(participant.onConfirm(null), null); // answering in the headset is not the page's yet
+  participant.answered = true;
+  const next = { ...item, item: 'vertigo', item_text: 'Vertigo', item_number: 9, item_count: 16 };
+  participant.onStatus(status('questionnaire', next));
+  assert.equal(participant.answered, false);
+  assert.deepEqual(participant.instructions(), [
+    'Question 9 of 16',
+    ['Vertigo', '< {answer}: {label} >', 'Thumbstick to change, A (or X) to choose.'],
+  ]);
+});
+
 test("the thumbstick walks the group's paths and A chooses the one shown", () => {
   const participant = new Participant(PROTOCOL);
   participant.onStatus(status('preference', { group_paths: ['straight', 'vertical', 'lateral_arc'] }));

@@ -21,7 +21,12 @@ export class Participant {
   }
 
   onStatus(status) {
-    const samePhase = this.status && this.status.index === status.index && this.status.phase === status.phase;
+    // a questionnaire asks item after item in one phase: each item is a phase of its own for the answer
+    const samePhase =
+      this.status &&
+      this.status.index === status.index &&
+      this.status.phase === status.phase &&
+      this.status.item === status.item;
     this.status = status;
     if (!samePhase) {
       this.answered = false;
@@ -95,17 +100,23 @@ export class Participant {
   }
 
   // What the panel in view says: a title and lines, the phase's words from the table ({choice} and {path}: the
-  // group's path shown).
+  // group's path shown; any other {name}: the status's field of that name, e.g. a questionnaire's item_text).
+  // Placeholders of what the page cannot fill yet stay as they are.
   instructions() {
     const status = this.status;
     if (!status) return ['Waiting for the study', ['The experimenter starts the session.']];
     const phase = this.phases.get(status.phase);
     if (!phase) return [`Trial ${status.index} of ${status.total}`, [status.phase]];
     const panel = phase.panel;
-    const title = panel.title || `Trial ${status.index} of ${status.total}`;
     const words = this.answered && panel.answered ? panel.answered : panel.lines;
     const path = status.group_paths[this.choice] || '';
-    const lines = words.map((line) => line.replace('{choice}', String(this.choice + 1)).replace('{path}', path));
+    const fill = (line) =>
+      line
+        .replace('{choice}', String(this.choice + 1))
+        .replace('{path}', path)
+        .replace(/\{(\w+)\}/g, (whole, key) => (status[key] == null ? whole : String(status[key])));
+    const title = panel.title ? fill(panel.title) : `Trial ${status.index} of ${status.total}`;
+    const lines = words.map(fill);
     return [title, this.notice ? [...lines, this.notice] : lines];
   }
 }
