@@ -66,3 +66,18 @@ test('outside the session no controller is read and no frame counted; the panel 
   assert.equal(lines.at(-1), '(connecting to wss://here/ros)');
   assert.equal(loop.frames, 0);
 });
+
+test("a questionnaire's answer: pushes walk the scale frame by frame, then a confirm sends the point shown", () => {
+  const input = { distance: null, presses: [{ confirm: false, choose: 1 }] };
+  const { loop, calls, participant } = loopWith(input);
+  const item = { administration: 'ssq_after_vr', item: 'fatigue', scale_low: 0, scale_high: 3 };
+  participant.onStatus(status('questionnaire', { ...item, scale_labels: ['none', 'slight', 'moderate', 'severe'] }));
+  loop.step(0, {});
+  loop.step(1, {});
+  input.presses = [{ confirm: true, choose: 0 }];
+  loop.step(2, {});
+  assert.deepEqual(
+    calls.filter((call) => call[0] === 'answer'),
+    [['answer', { administration: 'ssq_after_vr', item: 'fatigue', answer: 3 }]],
+  );
+});

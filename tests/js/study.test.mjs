@@ -13,7 +13,7 @@ import {
   framesIn,
   rosTime,
 } from '../../sim/study/views/vr/web/rostcp.js';
-import { ControllerEdges, Participant } from '../../sim/study/views/vr/web/study.js';
+import { ControllerEdges, Participant, answerLabel, firstAnswer } from '../../sim/study/views/vr/web/study.js';
 
 // the trial protocol's table, as the page gets it in its settings
 const PROTOCOL = JSON.parse(readFileSync(new URL('../../sim/study/run/protocol.json', import.meta.url)));
@@ -69,22 +69,95 @@ test("the distance is the controllers' when both are tracked and within reach", 
   assert.deepEqual(participant.instructions()[1], ['Thank you.']);
 });
 
+// an SSQ item's status, as the runner's item_status makes it
+const SYMPTOM = {
+  test: 0,
+  administration: 'ssq_before_vr',
+  scale_low: 0,
+  scale_high: 3,
+  scale_labels: ['none', 'slight', 'moderate', 'severe'],
+};
+
 test("a questionnaire's item is shown from its status, each item afresh", () => {
   const participant = new Participant(PROTOCOL);
-  const item = { test: 0, administration: 'ssq_before_vr', scale_low: 0, scale_high: 3 };
-  participant.onStatus(status('questionnaire', { ...item, item: 'nausea', item_text: 'Nausea', item_number: 8 }));
+  participant.onStatus(status('questionnaire', { ...SYMPTOM, item: 'nausea', item_text: 'Nausea', item_number: 8 }));
   const [title, lines] = participant.instructions();
   assert.equal(title, 'Question 8 of {item_count}'); // a field the status lacks stays as written
-  assert.equal(lines[0], 'Nausea');
-  assert.equal(participant.onConfirm(null), null); // answering in the headset is not the page's yet
-  participant.answered = true;
-  const next = { ...item, item: 'vertigo', item_text: 'Vertigo', item_number: 9, item_count: 16 };
+  assert.deepEqual(lines.slice(0, 2), ['Nausea', '< 1: slight >']);
+  participant.onChoose(-1);
+  assert.deepEqual(participant.onConfirm(null), [
+    'answer',
+    { administration: 'ssq_before_vr', item: 'nausea', answer: 0 },
+  ]);
+  assert.equal(participant.onConfirm(null), null); // answered once
+  assert.deepEqual(participant.instructions()[1], ['Thank you.']);
+  const next = { ...SYMPTOM, item: 'vertigo', item_text: 'Vertigo', item_number: 9, item_count: 16 };
   participant.onStatus(status('questionnaire', next));
   assert.equal(participant.answered, false);
   assert.deepEqual(participant.instructions(), [
     'Question 9 of 16',
-    ['Vertigo', '< {answer}: {label} >', 'Thumbstick to change, A (or X) to choose.'],
+    ['Vertigo', '< 1: slight >', 'Thumbstick to change, A (or X) to choose.'],
   ]);
+});
+
+// the fields by which an answer names its item
+function pick({ administration, item }) {
+  return { administration, item };
+}
+
+test("the thumbstick walks an item's scale from its middle, one point a push, and stops at its ends", () => {
+  const participant = new Participant(PROTOCOL);
+  const safety = {
+    administration: 'perceived_safety_after_vr',
+    item: 'perceived_safety',
+    scale_low: 1,
+    scale_high: 7,
+    scale_labels: ['not at all safe', '', '', '', '', '', 'completely safe'],
+  };
+  participant.onStatus(status('questionnaire', safety));
+  assert.equal(participant.answer, 4);
+  assert.equal(participant.instructions()[1][1], '< 4: between not at all safe and completely safe >');
+  for (let push = 0; push < 5; push += 1) participant.onChoose(+1);
+  assert.equal(participant.instructions()[1][1], '< 7: completely safe >');
+  participant.onChoose(-1);
+  assert.deepEqual(participant.onConfirm(null), ['answer', { ...pick(safety), answer: 6 }]);
+  participant.onChoose(-1); // answered: the thumbstick changes nothing
+  assert.equal(participant.answer, 6);
+  for (let push = 0; push < 9; push += 1) participant.onChoose(-1);
+  assert.equal(participant.answer, 6);
+});
+
+test('the middle of each scale, and the labels of points between labelled ones', () => {
+  assert.equal(firstAnswer({ scale_low: 0, scale_high: 3 }), 1);
+  assert.equal(firstAnswer({ scale_low: 0, scale_high: 6 }), 3);
+  assert.equal(firstAnswer({ scale_low: 1, scale_high: 5 }), 3);
+  const aware = {
+    scale_low: 0,
+    scale_labels: ['extremely aware', '', '', 'moderately aware', '', '', 'not aware at all'],
+  };
+  assert.equal(answerLabel(aware, 3), 'moderately aware');
+  assert.equal(answerLabel(aware, 1), 'between extremely aware and moderately aware');
+  assert.equal(answerLabel(aware, 5), 'between moderately aware and not aware at all');
+  assert.equal(answerLabel({ scale_low: 1, scale_labels: ['', '', ''] }, 2), '');
+});
+
+test('an item said again after its answer was refused is asked again, from the point shown', () => {
+  const participant = new Participant(PROTOCOL);
+  const nausea = status('questionnaire', { ...SYMPTOM, item: 'nausea', item_text: 'Nausea' });
+  participant.onStatus(nausea);
+  participant.onChoose(+1);
+  assert.deepEqual(participant.onConfirm(null)[1].answer, 2);
+  participant.onStatus({ ...nausea }); // the runner refused it and says the item again
+  assert.equal(participant.answered, false);
+  assert.equal(participant.instructions()[1][1], '< 2: moderate >');
+  assert.match(participant.instructions()[1].at(-1), /not taken/);
+  assert.deepEqual(participant.onConfirm(null)[1].answer, 2);
+  assert.equal(participant.notice, '');
+  // a preference's status said again is not a question asked again
+  participant.onStatus(status('preference', { group_paths: ['straight'] }));
+  assert.deepEqual(participant.onConfirm(null), ['preference', 'straight']);
+  participant.onStatus(status('preference', { group_paths: ['straight'] }));
+  assert.equal(participant.onConfirm(null), null);
 });
 
 test("the thumbstick walks the group's paths and A chooses the one shown", () => {
@@ -100,12 +173,13 @@ test("the thumbstick walks the group's paths and A chooses the one shown", () =>
 test('every phase of the table has its words on the panel', () => {
   const participant = new Participant(PROTOCOL);
   for (const phase of PROTOCOL.phases) {
-    participant.onStatus(status(phase.name, { index: 5, group_paths: ['straight'] }));
+    participant.onStatus(status(phase.name, { index: 5, group_paths: ['straight'], ...SYMPTOM }));
     const [title, lines] = participant.instructions();
     assert.equal(title, phase.panel.title || 'Trial 5 of 4');
+    const filled = { '{choice}': '1', '{path}': 'straight', '{answer}': '1', '{label}': 'slight' };
     assert.deepEqual(
       lines,
-      phase.panel.lines.map((line) => line.replace('{choice}', '1').replace('{path}', 'straight')),
+      phase.panel.lines.map((line) => line.replace(/\{\w+\}/g, (key) => filled[key] || key)),
     );
   }
 });

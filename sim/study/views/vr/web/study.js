@@ -4,18 +4,20 @@
 // page gets with its settings: nothing of it is typed here.
 //
 //   trigger (either hand)         the phase's stop, when it accepts one
-//   A or X                        the phase's go, distance (between the controllers' tips) or preference (the path
-//                                 shown), whichever it accepts
-//   thumbstick left / right       while a preference is asked: show the previous / next path of the group
+//   A or X                        the phase's go, distance (between the controllers' tips), preference (the path
+//                                 shown) or answer (the point of the item's scale shown), whichever it accepts
+//   thumbstick left / right       while a preference is asked: show the previous / next path of the group; while a
+//                                 questionnaire's item is asked: one point down / up its scale, stopping at its ends
 
-// An action is [input, value]: ['stop', stamp s or 0], ['go'], ['distance', m], ['preference', path name], named by
-// the table's inputs.
+// An action is [input, value]: ['stop', stamp s or 0], ['go'], ['distance', m], ['preference', path name],
+// ['answer', {administration, item, answer}], named by the table's inputs.
 export class Participant {
   constructor(protocol) {
     this.protocol = protocol;
     this.phases = new Map(protocol.phases.map((phase) => [phase.name, phase]));
     this.status = null;
     this.choice = 0; // the group's path shown while a preference is asked
+    this.answer = null; // the point of the item's scale shown while a questionnaire's item is asked
     this.answered = false; // this phase's answer has been sent
     this.notice = ''; // why the last confirm did nothing
   }
@@ -32,6 +34,12 @@ export class Participant {
       this.answered = false;
       this.notice = '';
       if (this.accepts === 'preference') this.choice = 0;
+      if (this.accepts === 'answer') this.answer = firstAnswer(status);
+    } else if (this.accepts === 'answer' && this.answered) {
+      // the runner says an item again only when it refused the answer it got (off the scale, or to another item):
+      // it still waits, so the page asks again, from the point last shown
+      this.answered = false;
+      this.notice = 'That answer was not taken: please answer again.';
     }
   }
 
@@ -89,19 +97,34 @@ export class Participant {
       this.answered = true;
       return ['preference', paths[this.choice]];
     }
+    if (accepts === 'answer') {
+      this.answered = true;
+      this.notice = '';
+      // the answer names its item, so that the runner never takes a late one for the next item's
+      const { administration, item } = this.status;
+      return ['answer', { administration, item, answer: this.answer }];
+    }
     return null;
   }
 
-  // The thumbstick was pushed left (-1) or right (+1).
+  // The thumbstick was pushed left (-1) or right (+1): one step per push (ControllerEdges gives a held push once).
   onChoose(step) {
-    if (this.accepts !== 'preference' || this.answered) return;
-    const count = this.status.group_paths.length;
-    if (count > 0) this.choice = (this.choice + step + count) % count;
+    if (this.answered) return;
+    if (this.accepts === 'preference') {
+      const count = this.status.group_paths.length;
+      if (count > 0) this.choice = (this.choice + step + count) % count;
+    } else if (this.accepts === 'answer') {
+      // a scale stops at its ends, unlike the group's paths, which go round: from "severe" one more push is not
+      // "none"
+      const { scale_low: low, scale_high: high } = this.status;
+      this.answer = Math.min(high, Math.max(low, this.answer + step));
+    }
   }
 
   // What the panel in view says: a title and lines, the phase's words from the table ({choice} and {path}: the
-  // group's path shown; any other {name}: the status's field of that name, e.g. a questionnaire's item_text).
-  // Placeholders of what the page cannot fill yet stay as they are.
+  // group's path shown; {answer} and {label}: the point of the item's scale shown and its label; any other {name}:
+  // the status's field of that name, e.g. a questionnaire's item_text). Placeholders of what the status lacks stay
+  // as they are.
   instructions() {
     const status = this.status;
     if (!status) return ['Waiting for the study', ['The experimenter starts the session.']];
@@ -110,15 +133,39 @@ export class Participant {
     const panel = phase.panel;
     const words = this.answered && panel.answered ? panel.answered : panel.lines;
     const path = status.group_paths[this.choice] || '';
+    const answering = this.accepts === 'answer';
     const fill = (line) =>
       line
         .replace('{choice}', String(this.choice + 1))
         .replace('{path}', path)
+        .replace('{answer}', answering ? String(this.answer) : '{answer}')
+        .replace('{label}', answering ? answerLabel(status, this.answer) : '{label}')
         .replace(/\{(\w+)\}/g, (whole, key) => (status[key] == null ? whole : String(status[key])));
     const title = panel.title ? fill(panel.title) : `Trial ${status.index} of ${status.total}`;
     const lines = words.map(fill);
     return [title, this.notice ? [...lines, this.notice] : lines];
   }
+}
+
+// Where the walk over an item's scale starts: its middle (rounded down: 1 of the SSQ's 0..3, 3 of the IPQ's 0..6, 4
+// of a 1..7 item). The same rule for every scale, so that the page needs to know no instrument, and no end is
+// offered ready to take: on a symptom scale a hurried press then says "slight", not "none", erring towards a
+// symptom reported (the SSQ is asked to flag a participant's VR data) rather than one hidden.
+export function firstAnswer(status) {
+  return Math.floor((status.scale_low + status.scale_high) / 2);
+}
+
+// What the panel says of a point of the item's scale: its label, or, for a point without one (the IPQ labels only
+// its ends), where it lies between the labelled points on either side.
+export function answerLabel(status, answer) {
+  const { scale_low: low, scale_labels: labels } = status;
+  const label = (point) => labels[point - low] || '';
+  if (label(answer)) return label(answer);
+  const points = labels.map((_, k) => low + k).filter((point) => label(point));
+  const below = points.filter((point) => point < answer).at(-1);
+  const above = points.find((point) => point > answer);
+  if (below === undefined || above === undefined) return '';
+  return `between ${label(below)} and ${label(above)}`;
 }
 
 // Button indices of the xr-standard gamepad mapping (Quest Touch: 4 is A on the right hand, X on the left).

@@ -45,6 +45,7 @@ export class StudyTopics {
       stop: () => encodeHeader(this.stopSeq++, rosTime(value), this.settings.stop_source),
       distance: () => encodeFloat32(value),
       preference: () => encodeString(value),
+      answer: () => encodeString(JSON.stringify(value)), // {administration, item, answer}, as the runner reads it
     }[what]();
     if (this.connection.publish(this.settings.topics[what][0], payload)) this.sent.push([what, value]);
   }
