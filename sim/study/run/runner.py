@@ -10,8 +10,9 @@ the robot's topics, /clock and every /study topic.
 
 The plan's questionnaires are asked at their places, before the first trial or after the trial they follow, one
 item at a time (phase questionnaire, answers on `/study/answer`); an item without an answer within the response
-timeout is recorded as missing. Their answers and scores are written as soon as each administration ends
-(sim.study.run.questionnaires).
+timeout is recorded as missing, and an answer refused (off the item's scale, or to another item) has the item's
+status published again, so that a client which took its answer as given asks again. Their answers and scores are
+written as soon as each administration ends (sim.study.run.questionnaires).
 
 It is a controller (sim.control): it drives the robot on the commander's topics, through the same controller node
 and stepper, so the engine stand-in, Unity, or a real robot's controller take the same stream. Lockstep (default):
@@ -76,6 +77,7 @@ __all__ = [
     "RunnerOptions",
     "Press",
     "Inputs",
+    "answer_item",
     "StudyRunner",
     "recorder_topics",
     "record_session",
@@ -213,6 +215,34 @@ class Inputs:
         return None
 
 
+def answer_item(
+    status: TrialStatus,
+    inputs: Inputs,
+    wait: Callable[[], Any],
+    say_again: Callable[[], None],
+    log: Callable[[str], None],
+    timeout: float,
+) -> int | None:
+    """The answer to the item `status` asks, taken from `inputs` by `wait()` (an Answer, or None after `timeout` s),
+    or None when none on its scale came in time. An answer off the scale, or to another item, is refused and logged,
+    and the item is said again (`say_again()`): the client that sent it has shown its participant that the answer
+    was taken, and without a new status would wait on with them until the timeout."""
+    where = f"{status.administration} item {status.item}"
+    while True:
+        answer = wait()
+        for problem in inputs.rejected:
+            log(f"{where}: an answer was refused: {problem}")
+        inputs.rejected.clear()
+        if answer is None:
+            log(f"{where}: no answer within {timeout:g} s; left missing")
+            return None
+        try:
+            return checked_answer(answer, status)
+        except StudyError as error:
+            log(f"{where}: an answer was refused: {error}; asking again")
+            say_again()
+
+
 def recorder_topics(robot: RobotSpec) -> list[str]:
     return [
         robot.command_topic,
@@ -266,6 +296,11 @@ class StudyRunner(ControllerNode):
         """Enter the status's phase (what it accepts from now on), then say so."""
         self.inputs.enter(status.phase)
         self.phase, self.asked = status.phase, status
+        self.say(status)
+
+    def say(self, status: TrialStatus) -> None:
+        """Publish the status (and prompt the observer) without entering its phase again: said again, it keeps what
+        has come in since it was entered."""
         self.status_pub.publish(self._string_type(data=status_to_json(status)))
         accepted = PROTOCOL.accepts(status.phase)
         if self.options.keyboard and accepted == "answer":
@@ -386,22 +421,16 @@ class StudyRunner(ControllerNode):
             log(f"{planned.administration}: {answered} of {len(answers)} items answered")
 
     def _ask_item(self, status: TrialStatus, log: Callable[[str], None]) -> int | None:
-        """The item's answer, or None when none on its scale came within the response timeout (an answer off the
-        scale, or to another item, is refused and logged, and the item waits on)."""
+        """The item's answer, or None when none on its scale came within the response timeout (`answer_item`)."""
         self.publish_status(status)
-        where = f"{status.administration} item {status.item}"
-        while True:
-            answer = self.wait_for_input("answer")
-            for problem in self.inputs.rejected:
-                log(f"{where}: an answer was refused: {problem}")
-            self.inputs.rejected.clear()
-            if answer is None:
-                log(f"{where}: no answer within {self.options.response_timeout:g} s; left missing")
-                return None
-            try:
-                return checked_answer(answer, status)
-            except StudyError as error:
-                log(f"{where}: an answer was refused: {error}; waiting on")
+        return answer_item(
+            status,
+            self.inputs,
+            lambda: self.wait_for_input("answer"),
+            lambda: self.say(status),
+            log,
+            self.options.response_timeout,
+        )
 
     def _group_of(self, trial: PlannedTrial) -> list[PlannedTrial]:
         """Test 2's group that `trial` belongs to, in the order run; empty for test 1."""

@@ -1,5 +1,6 @@
 """The runner's inputs (sim.study.run.runner.Inputs): only what the phase accepts (the protocol's table) is kept,
-presses by their stamps, answers in order, waits bounded."""
+presses by their stamps, answers in order, waits bounded; a questionnaire item's answer checked, and the item said
+again on a refused one (answer_item)."""
 
 from __future__ import annotations
 
@@ -7,8 +8,11 @@ import threading
 
 import pytest
 
+from sim.study.design.plan import make_plan
+from sim.study.design.spec import load_design
 from sim.study.run.protocol import PHASES, PROTOCOL, Answer, answer_to_json
-from sim.study.run.runner import Inputs
+from sim.study.run.questionnaires import item_status
+from sim.study.run.runner import Inputs, answer_item
 
 
 def entered(phase: str) -> Inputs:
@@ -87,3 +91,33 @@ def test_answers_are_kept_as_given_and_what_is_no_answer_is_refused() -> None:
     inputs.enter("ready")
     inputs.answer_json("nonsense")  # not asked for now: not kept, not even refused
     assert len(inputs.rejected) == 1
+
+
+def test_a_refused_answer_has_the_item_said_again_and_the_next_answer_is_taken() -> None:
+    plan = make_plan(load_design(), 3, 1)
+    status = item_status(plan, plan.questionnaires[0], 8)  # ssq_before_vr's nausea, 0..3
+    inputs, stop = entered("questionnaire"), threading.Event()
+    said: list[str] = []  # the item said again, by the answer refused just before
+    logged: list[str] = []
+
+    def say_again() -> None:
+        said.append(logged[-1])
+
+    inputs.answer(Answer("ssq_before_vr", "fatigue", 1))  # late, to the item before
+    inputs.answer(Answer("ssq_before_vr", "nausea", 4))  # off the scale
+    inputs.answer_json("{}")  # no answer at all: refused as it came
+    inputs.answer(Answer("ssq_before_vr", "nausea", 2))
+    taken = answer_item(status, inputs, lambda: inputs.wait("answer", 0.0, stop), say_again, logged.append, 9.0)
+    assert taken == 2
+    # said again after each answer it refused; what was no answer at all was refused as it came, without one
+    assert said == [
+        "ssq_before_vr item nausea: an answer was refused: an answer to ssq_before_vr item 'fatigue' while "
+        "ssq_before_vr item 'nausea' is asked; asking again",
+        "ssq_before_vr item nausea: an answer was refused: ssq_before_vr item nausea: the answer 4 is not one of 0..3"
+        "; asking again",
+    ]
+    assert len(logged) == 3 and "an answer must have exactly" in logged[0] and not inputs.rejected
+
+    logged.clear()
+    assert answer_item(status, inputs, lambda: inputs.wait("answer", 0.0, stop), say_again, logged.append, 9.0) is None
+    assert logged == ["ssq_before_vr item nausea: no answer within 9 s; left missing"] and len(said) == 2
