@@ -7,10 +7,10 @@ trials per speed set, each group's paths in random order, the groups in random o
 participant says which approach they preferred. The random orders come from numpy's generator seeded with
 (seed, participant): the same inputs give the same plan.
 
-The design's questionnaires are placed before or after a condition's block of trials, as design.yaml says, in the
-design's order where several share a point; placing them draws nothing, so the trials' orders are those of plans
-made before there were questionnaires. The plan carries the lab's own single items, so that it alone says what to
-ask (the standard instruments are the bundled ones, by name).
+The design's questionnaires are placed before or after a condition's block of trials, as design.yaml says, the SSQ
+first and the others in the design's order where several share a point; placing them draws nothing, so the trials'
+orders are those of plans made before there were questionnaires. The plan carries the lab's own single items, so
+that it alone says what to ask (the standard instruments are the bundled ones, by name).
 
 The plan is written as YAML (`plan_to_data`), which the runner executes and the observer can print (`printable`).
 """
@@ -25,7 +25,7 @@ import numpy as np
 
 from sim.study.design.errors import DesignError
 from sim.study.design.paths import MAX_STANDOFF, MIN_STANDOFF, ON_TOP, PATH_NAMES
-from sim.study.design.spec import CONDITIONS, POSITIONS, Design
+from sim.study.design.spec import CONDITIONS, POSITIONS, DeclaredQuestionnaire, Design
 from sim.study.questionnaires.errors import QuestionnaireError
 from sim.study.questionnaires.instruments import (
     STANDARD,
@@ -45,6 +45,8 @@ __all__ = [
     "plan_from_data",
     "printable",
 ]
+
+SSQ = "ssq"  # the Simulator Sickness Questionnaire's name among the standard instruments
 
 
 @dataclass(frozen=True)
@@ -142,6 +144,14 @@ def _block(trials: Sequence[PlannedTrial], condition: str) -> dict[str, int]:
     return {"before": indices[0] - 1, "after": indices[-1]} if indices else {}
 
 
+def _asking_order(design: Design) -> list[DeclaredQuestionnaire]:
+    """The design's questionnaires in the order asked where several share a point: the SSQ first, then the others
+    as declared. Simulator sickness fades within minutes of leaving the headset, so the SSQ after VR is asked before
+    the IPQ or any other questionnaire takes that time, whatever order a design declares them in (before a block it
+    costs nothing, and one rule for every point is simpler to state)."""
+    return sorted(design.questionnaires, key=lambda declared: declared.instrument.name != SSQ)  # stable
+
+
 def _placed(
     design: Design, conditions: tuple[str, ...], trials: list[PlannedTrial]
 ) -> tuple[PlannedQuestionnaire, ...]:
@@ -149,7 +159,7 @@ def _placed(
     for condition in conditions:
         block = _block(trials, condition)
         for position in POSITIONS:
-            for declared in design.questionnaires:
+            for declared in _asking_order(design):
                 if (condition, position) in declared.placements:
                     name = declared.instrument.name
                     placed.append(

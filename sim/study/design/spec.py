@@ -75,7 +75,7 @@ class Design:
     sesoi: dict[int, float]  # per test, in its measure's units: test 1 the ratio, test 2 metres
     planning: Planning | None = None
     sesoi_reason: dict[int, str] = field(default_factory=dict)  # per test, why that SESOI (for the pre-registration)
-    questionnaires: tuple[DeclaredQuestionnaire, ...] = ()  # in the order asked where several share a point
+    questionnaires: tuple[DeclaredQuestionnaire, ...] = ()  # as declared: the plan asks them in this order, SSQ first
 
     @property
     def trials_per_participant(self) -> int:
@@ -177,7 +177,7 @@ def _when(value: object, name: str, instrument: Instrument, where: str) -> tuple
 
 def _questionnaires(data: object, source: str) -> tuple[DeclaredQuestionnaire, ...]:
     """design.yaml's questionnaires: {ssq: {when}, ipq: {when}, items: {name: {text, scale, labels, when}}}, any of
-    them, in the order asked where several share a point."""
+    them, in the order declared (the plan asks the SSQ first where several share a point)."""
     where = f"{source}: questionnaires"
     known = (*STANDARD, "items")
     if not isinstance(data, dict):

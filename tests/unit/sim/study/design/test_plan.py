@@ -121,6 +121,27 @@ def test_the_questionnaires_are_placed_before_and_after_the_blocks_in_the_order_
         plan.instrument("sus")
 
 
+def test_the_ssq_is_asked_first_where_several_share_a_point_whatever_the_declared_order():
+    """Simulator sickness fades within minutes of leaving the headset: the SSQ after VR comes before the IPQ and the
+    lab's items even where a design declares it last; the others keep the declared order."""
+    data = copy.deepcopy(yaml.safe_load(DEFAULT_DESIGN.read_text()))
+    bundled = data["questionnaires"]
+    data["questionnaires"] = {"items": bundled["items"], "ipq": bundled["ipq"], "ssq": bundled["ssq"]}
+    design = parse_design(data)
+    assert [q.instrument.name for q in design.questionnaires] == ["perceived_safety", "ipq", "ssq"]
+    plan = make_plan(design, 1, 1)
+    assert [(q.administration, q.after_trial) for q in plan.questionnaires] == [
+        ("ssq_before_vr", 0),
+        ("ssq_after_vr", 19),
+        ("perceived_safety_after_vr", 19),
+        ("ipq_after_vr", 19),
+        ("perceived_safety_after_reality", 38),
+    ]
+    assert [q.index for q in plan.questionnaires] == [1, 2, 3, 4, 5]
+    assert plan.trials == make_plan(DESIGN, 1, 1).trials  # placing draws nothing
+    assert plan_from_data(plan_to_data(plan)) == plan
+
+
 def test_before_each_asks_at_the_start_of_both_blocks_and_no_questionnaires_is_none():
     data = copy.deepcopy(yaml.safe_load(DEFAULT_DESIGN.read_text()))
     data["questionnaires"] = {"ssq": {"when": ["before_each", "after_each"]}}
