@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 import yaml
@@ -36,9 +37,30 @@ def trial(
     }
 
 
-def write_plan(path: Path, participant: int, first_condition: str, trials: list[dict]) -> Path:
+def questionnaire(index: int, name: str, condition: str, position: str, after_trial: int) -> dict:
+    """One questionnaire of a plan file, as sim.study.design.plan writes it: `name` asked `position` (before or
+    after) `condition`'s block, once trial `after_trial` has ended (0: before the first)."""
+    return {
+        "index": index,
+        "name": name,
+        "administration": f"{name}_{position}_{condition}",
+        "condition": condition,
+        "position": position,
+        "after_trial": after_trial,
+    }
+
+
+def write_plan(
+    path: Path,
+    participant: int,
+    first_condition: str,
+    trials: list[dict],
+    questionnaires: Sequence[dict] = (),
+    items: Mapping[str, dict] | None = None,
+) -> Path:
+    """A plan file of `trials`, and of `questionnaires` (none by default: most of these plans are for the trials),
+    with the lab's own `items` that they name ({name: {text, scale, labels}})."""
     conditions = ["vr", "reality"] if first_condition == "vr" else ["reality", "vr"]
-    # no questionnaires: these plans are for the trials
     plan = {"participant": participant, "seed": 0, "conditions": conditions, "trials": trials}
-    path.write_text(yaml.safe_dump({**plan, "questionnaires": [], "items": {}}))
+    path.write_text(yaml.safe_dump({**plan, "questionnaires": list(questionnaires), "items": dict(items or {})}))
     return path

@@ -2,7 +2,8 @@
 software), with an emulated Meta Quest 3 (IWER, loaded only with --emulate-headset) as the participant's headset:
 over HTTPS with the page's self-signed certificate, its WebSocket passed through to the endpoint's, it enters the
 immersive session, shows the robot and the hand, and answers a short session of the runner (--realtime) with the
-trigger, the controllers and the buttons, as the participant would."""
+trigger, the controllers, the thumbstick and the buttons, as the participant would: go, a stop, a distance, a
+preference and a questionnaire's item."""
 
 from __future__ import annotations
 
@@ -29,7 +30,7 @@ from sim.wire.rosmsgs import decode_joint_state, deserialize
 from tests.integration.bridge_helpers import DiagnosticsInbox, start_endpoint, tcp_client
 from tests.integration.pixels import pixels_like
 from tests.integration.sim_helpers import start_engine
-from tests.integration.study_helpers import trial, write_plan
+from tests.integration.study_helpers import questionnaire, trial, write_plan
 from tests.rosenv import PYTHON, EndpointProcess, ManagedProcess, RosCore, wait_for
 from tests.study_arms import STUDY_ARMS, study_arm
 
@@ -41,6 +42,8 @@ DELIVERY_S = 0.3  # a press from the page to the runner, on a quiet machine
 # ~25 s; beside two CPU burners, where the software-rendered page drew a frame every 1.5 s, the longest wait for the
 # next phase was 36 s (the press, the approach, the rest and the way back to the start).
 STALL_S = 90
+# the lab's own item asked after the VR block, as a design declares it: a 1..5 scale labelled at its ends
+COMFORT = {"text": "How comfortable were you near the robot?", "scale": [1, 5], "labels": ["not at all", "fully"]}
 
 
 def page_state(browser: Any) -> dict[str, Any] | None:
@@ -177,6 +180,8 @@ def test_an_emulated_quest_enters_the_session_and_answers_the_runner(tmp_path: P
                     trial(2, "vr", 2, "straight", ON_TOP, 0.1, "slow", 1),  # seconds for the page's slow frames
                     trial(3, "vr", 2, "vertical", ON_TOP, 0.1, "slow", 1),
                 ],
+                [questionnaire(1, "comfort", "vr", "after", 3)],
+                {"comfort": COMFORT},
             )
             runner = ManagedProcess(
                 [PYTHON, "-m", "sim.study", "run", "--plan", str(plan), "--out", str(out), "--realtime"],
@@ -218,6 +223,10 @@ def test_an_emulated_quest_enters_the_session_and_answers_the_runner(tmp_path: P
                 elif key == (3, "preference"):
                     push_thumbstick(browser, "right", 0.9)  # the second of the group: vertical
                     press(browser, "right", "a-button")
+                elif key == (3, "questionnaire"):
+                    push_thumbstick(browser, "left", -0.9)  # one point down from the middle of 1..5
+                    assert "< 2: between not at all and fully >" in page_state(browser)["panel"]
+                    press(browser, "left", "x-button")
             if not ended:
                 pytest.fail(
                     f"the session stalled for {STALL_S} s; the page showed {seen}, did {page_state(browser)['actions']}"
@@ -225,12 +234,18 @@ def test_an_emulated_quest_enters_the_session_and_answers_the_runner(tmp_path: P
             assert runner.wait(60) == 0, runner.output()[-3000:]  # the page may see "done" before the runner exits
             actions = page_state(browser)["actions"]
             press_round_trip_s = browser.execute_script("return window.pressClockRoundTripMs;") / 1000
-        assert [what for what, _ in actions] == ["go", "distance", "go", "stop", "go", "preference"], (actions, seen)
+        assert [what for what, _ in actions] == ["go", "distance", "go", "stop", "go", "preference", "answer"], (
+            actions,
+            seen,
+        )
+        assert actions[-1][1] == {"administration": "comfort_after_vr", "item": "comfort", "answer": 2}
     finally:
         for process in reversed(processes):
             process.stop()
         core.stop()
 
+    (answered,) = read_csv(out / "questionnaires" / "answers" / f"comfort_participant_{PARTICIPANT:02d}.csv")
+    assert (answered["administration"], answered["item"], answered["answer"]) == ("comfort_after_vr", "comfort", "2")
     first, second, third = read_csv(out / f"participant_{PARTICIPANT:02d}.csv")
     assert float(first["perceived_distance"]) == pytest.approx(CONTROLLERS_APART, abs=0.001)
     assert second["pressed"] == "true" and second["press_source"] == "vr_trigger"

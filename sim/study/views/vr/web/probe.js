@@ -24,6 +24,8 @@ window.vrPage = {
       actions: page.topics.sent,
       index: status ? status.index : null,
       phase: status ? status.phase : null,
+      item: status && status.item ? status.item : null, // a questionnaire's
+      panel: page.panel.text, // the panel's title and lines
       error: page.robot.error || page.headset.error,
     };
   },
