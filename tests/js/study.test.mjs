@@ -13,7 +13,7 @@ import {
   framesIn,
   rosTime,
 } from '../../sim/study/views/vr/web/rostcp.js';
-import { ControllerEdges, Participant, answerLabel, firstAnswer } from '../../sim/study/views/vr/web/study.js';
+import { ControllerEdges, Participant, answerLabel, firstAnswer, wrapped } from '../../sim/study/views/vr/web/study.js';
 
 // the trial protocol's table, as the page gets it in its settings
 const PROTOCOL = JSON.parse(readFileSync(new URL('../../sim/study/run/protocol.json', import.meta.url)));
@@ -192,6 +192,21 @@ test('button and thumbstick edges', () => {
   assert.deepEqual(edges.update([], [0, 0, 0.95, 0]), { confirm: false, choose: 0 }); // still pushed
   assert.deepEqual(edges.update([], [0, 0, 0.1, 0]), { confirm: false, choose: 0 });
   assert.deepEqual(edges.update([], [0, 0, -0.7, 0]), { confirm: false, choose: -1 });
+});
+
+// the panel's lines measured by characters
+const measure = (text) => text.length;
+
+test('panel lines: long ones break at spaces to fit; short and empty ones stay as they are', () => {
+  assert.deepEqual(wrapped(['I felt present in the virtual space.', '', 'Thank you.'], 16, measure), [
+    'I felt present',
+    'in the virtual',
+    'space.',
+    '',
+    'Thank you.',
+  ]);
+  assert.deepEqual(wrapped(['< 3: slight >'], 13, measure), ['< 3: slight >']); // exactly the width
+  assert.deepEqual(wrapped(['a indistinguishable b'], 8, measure), ['a', 'indistinguishable', 'b']);
 });
 
 test('frames: several in one message, and a message that ends inside one', () => {

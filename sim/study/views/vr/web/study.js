@@ -168,6 +168,28 @@ export function answerLabel(status, answer) {
   return `between ${label(below)} and ${label(above)}`;
 }
 
+// The panel's lines broken at spaces to fit its width, as the canvas measures them (a questionnaire's item may run to
+// 140 characters, three times what one line of the panel holds); here rather than in panel.js, which needs three.js,
+// so that node runs it for the tests.
+// lines: the text's lines; width: the most a line may measure; measure(text): what the text measures.
+export function wrapped(lines, width, measure) {
+  const out = [];
+  for (const line of lines) {
+    let current = '';
+    for (const word of line.split(' ')) {
+      const longer = current ? `${current} ${word}` : word;
+      if (current && measure(longer) > width) {
+        out.push(current);
+        current = word; // a word longer than the line stands alone, and the canvas cuts it
+      } else {
+        current = longer;
+      }
+    }
+    out.push(current);
+  }
+  return out;
+}
+
 // Button indices of the xr-standard gamepad mapping (Quest Touch: 4 is A on the right hand, X on the left).
 export const TRIGGER = 0;
 export const PRIMARY_BUTTON = 4;
