@@ -3,12 +3,13 @@ presses by their stamps, answers in order, waits bounded."""
 
 from __future__ import annotations
 
+import math
 import threading
 
 import pytest
 
 from sim.study.run.protocol import PHASES, PROTOCOL, Answer, answer_to_json
-from sim.study.run.runner import Inputs
+from sim.study.run.runner import Inputs, Press
 
 
 def entered(phase: str) -> Inputs:
@@ -87,3 +88,14 @@ def test_answers_are_kept_as_given_and_what_is_no_answer_is_refused() -> None:
     inputs.enter("ready")
     inputs.answer_json("nonsense")  # not asked for now: not kept, not even refused
     assert len(inputs.rejected) == 1
+
+
+def test_a_press_keeps_its_latency_the_arrival_delay_only_when_it_is_stamped() -> None:
+    inputs = entered("moving")
+    inputs.press(12.40, "button", 0.0083, 12.4321)
+    inputs.press(0.0, "keyboard")  # the observer's: nothing measured
+    stamped, unstamped = inputs.take_press(until=1e9), inputs.take_press(until=1e9)
+    assert stamped is not None and unstamped is not None
+    assert stamped.input_delay == 0.0083 and stamped.arrival_delay == pytest.approx(0.0321)
+    assert math.isnan(unstamped.input_delay) and math.isnan(unstamped.arrival_delay)
+    assert math.isnan(Press(0.0, "vr_trigger", 0.01, 12.0).arrival_delay)  # its time is its arrival, by definition
