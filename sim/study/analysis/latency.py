@@ -154,6 +154,11 @@ def latency_lines(summary: LatencySummary) -> list[str]:
             f"No difference between the paths: presses from both {summary.reality_source} and "
             f"{summary.vr_source} are needed."
         )
+    if any(p.arrival_delay.median < 0 for p in summary.paths):
+        lines.append(
+            "A negative arrival delay is a press sent ahead of its stamp: a client that anticipates the robot, as "
+            "the simulated participant does; it is applied at its stamp."
+        )
     lines.append("")
     flag = keyboard_flag(summary)
     if flag:
