@@ -9,7 +9,7 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
-from sim.launchers import VrServer, start
+from sim.launchers import ButtonServer, VrServer, start
 from sim.processes import ManagedProcess, plain_env
 
 CHROMIUM, CHROMEDRIVER = "/usr/bin/chromium", "/usr/bin/chromedriver"
@@ -31,6 +31,14 @@ def start_vr_page(
     )
     vr = start(server, plain_env(), log_dir, "vr")
     return vr, server.page_url(vr.output())
+
+
+def start_button_page(websocket_port: int, log_dir: Path) -> tuple[ManagedProcess, str]:
+    """`python -m sim.study button` with the emulated gamepad and the tests' probe (window.buttonPage), as
+    start_vr_page starts the VR page. Returned once it serves, with the page's URL."""
+    server = ButtonServer(websocket_port, certificate_dir=log_dir / "certificate", emulate_gamepad=True)
+    button = start(server, plain_env(), log_dir, "button")
+    return button, server.page_url(button.output())
 
 
 @contextmanager

@@ -18,6 +18,7 @@ from typing import Protocol
 from sim.processes import PYTHON, ManagedProcess, ProcessError, output_tail
 
 __all__ = [
+    "ButtonServer",
     "Commander",
     "Engine",
     "Launcher",
@@ -220,6 +221,31 @@ class VrServer:
     def page_url(output: str) -> str:
         """The page's address, from the server's output once it is ready."""
         return next(line.split("the page: ")[1] for line in output.splitlines() if "the page: " in line)
+
+
+@dataclass(frozen=True)
+class ButtonServer:
+    """`python -m sim.study button`: the stop button's page on `host`:`port` (0: a free one), served like the VR
+    page's; `emulate_gamepad` loads the emulated gamepad and the tests' probe."""
+
+    websocket_port: int
+    port: int = 0
+    host: str = "127.0.0.1"
+    certificate_dir: Path | None = None
+    emulate_gamepad: bool = False
+    extra: Sequence[str] = ()
+    ready = "its WebSocket /ros goes to"
+
+    def argv(self) -> list[str]:
+        return [
+            *(PYTHON, "-m", "sim.study", "button", "--websocket-port", str(self.websocket_port)),
+            *("--port", str(self.port), "--host", self.host),
+            *_option("--certificate-dir", self.certificate_dir),
+            *_flag("--emulate-gamepad", self.emulate_gamepad),
+            *self.extra,
+        ]
+
+    page_url = staticmethod(VrServer.page_url)
 
 
 def start(

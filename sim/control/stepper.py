@@ -40,6 +40,7 @@ class Stepper:
         self.pacing = pacing
         self.clock = 0.0
         self._wall_start = 0.0
+        self._started = False
 
     def start(self, timeout: float, need_state: bool = True) -> ReceivedJointState | None:
         """Publish /clock 0 and tell where the robot is (waited for at most `timeout` s).
@@ -52,6 +53,7 @@ class Stepper:
         """
         self.clock = 0.0
         self._wall_start = time.monotonic()
+        self._started = True
         self.node.publish_clock(0.0)
         if not self.pacing.realtime:
             return self.node.state_or_fail(0.0, timeout, self.pacing.dt)
@@ -92,6 +94,16 @@ class Stepper:
         if self.pacing.realtime and self.clock > 0:
             self._wait_until(self.clock)
             self.node.publish_clock(self.clock)
+
+    def now(self) -> float:
+        """The controller's time now, from any thread (NaN before the start). Lockstep: the clock, which stands still
+        between steps. Realtime: the wall clock's time since the start, scaled, which /clock follows step by step
+        (each value is published when its time comes)."""
+        if not self._started:
+            return math.nan
+        if not self.pacing.realtime:
+            return self.clock
+        return (time.monotonic() - self._wall_start) * self.pacing.time_scale
 
     def _next_end(self) -> float:
         return round(self.clock + self.pacing.dt, 9)

@@ -23,6 +23,7 @@ from sim.processes import plain_env
 from sim.study.design.paths import ON_TOP
 from sim.study.design.scene import load_scene, scene_robot
 from sim.study.design.world import SceneWorld
+from sim.study.participants.model import INPUT_FRAME_S
 from sim.study.run.protocol import (
     DISTANCE_TOPIC,
     GO_TOPIC,
@@ -33,6 +34,7 @@ from sim.study.run.protocol import (
     status_from_json,
 )
 from sim.study.run.stop import STOP_DECELERATION
+from sim.wire.contract import STEP_S
 from sim.wire.rosmsgs import JOINT_STATE, TYPESTORE, deserialize, encode_message, time_msg, to_seconds
 from tests.integration.sim_helpers import start_engine
 from tests.integration.study_helpers import SMALL_DESIGN, trial, write_plan
@@ -208,7 +210,16 @@ def test_simulated_participants_run_the_study_and_the_analysis_recovers_their_bi
     )
     # Each press is sent when its approach starts, stamped where it is to land: none comes late, however far the
     # participant's joint states lag behind the lockstep
-    assert all(r.press_late == 0.0 for r in records if r.test == 2)
+    assert all(r.press_late == 0.0 for r in records if r.test == 2), [
+        (r.participant, r.index, r.press_late, r.press_arrival_delay) for r in records if r.press_late
+    ]
+    # Each with the modelled input delay of its condition's page (within one frame) in the Header's seq, and the
+    # arrival delay the runner measured: sent ahead, each arrived at or before its stamp (in lockstep, within a step)
+    for r in records:
+        if r.test == 2:
+            assert 0 < r.press_input_delay <= INPUT_FRAME_S[r.condition] + 1e-6, r
+            assert r.press_arrival_delay <= STEP_S + 1e-9, r
+    assert "| vr_trigger | 16 |" in report and "| button | 16 |" in report and "The button path minus" in report
     assert all(math.isfinite(r.perceived_distance) for r in records if r.test == 1)
     summary = summarise(records)
     ratio = summary.distance_ratio_vr_vs_reality  # the 15 % underestimate put in

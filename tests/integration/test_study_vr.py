@@ -269,6 +269,13 @@ def test_an_emulated_quest_enters_the_session_and_answers_the_runner(tmp_path: P
     late = float(second["press_late"])
     assert 0 <= late < DELIVERY_S + press_round_trip_s / 2, (late, press_round_trip_s)
     assert float(second["press_time"]) == pytest.approx(stamp - motion_start + late, abs=0.01)
+    # Its latency: the input delay, the time since the session's latest frame (XR input events carry no time), at
+    # most a frame of software rendering (1.5 s apart beside two CPU burners); the arrival delay as the lateness above,
+    # and a step more (the page's clock is the endpoint's latest /clock, a step behind the runner's at most)
+    assert 0 <= float(second["press_input_delay"]) < 2.0, second
+    assert (
+        -press_round_trip_s / 2 <= float(second["press_arrival_delay"]) < DELIVERY_S + press_round_trip_s / 2 + STEP_S
+    )
 
 
 pytestmark = [pytest.mark.lane("alone", on=("project",)), pytest.mark.timeout(400)]

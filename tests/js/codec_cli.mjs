@@ -12,6 +12,7 @@ import {
   framesIn,
   rosTime,
 } from '../../sim/study/views/vr/web/rostcp.js';
+import { stopPayload } from '../../sim/study/views/vr/web/presses.js';
 
 const input = JSON.parse(readFileSync(0, 'utf-8'));
 const hex = (bytes) => Buffer.from(bytes).toString('hex');
@@ -27,6 +28,7 @@ console.log(
     },
     frames: frames.map(([name, payload]) => [name, hex(payload)]),
     header: hex(encodeHeader(input.header.seq, rosTime(input.header.stamp), input.header.frame_id)),
+    stop: hex(stopPayload(input.stop.stamp, input.stop.input_delay, input.stop.frame_id)),
     float32: hex(encodeFloat32(input.float32)),
     string: hex(encodeString(input.string)),
     frame: hex(frame(input.frame[0], Buffer.from(input.frame[1], 'hex'))),

@@ -1,6 +1,7 @@
 """The study's report: every participant's CSV in a directory, summarised (sim.study.analysis.summary) into `report.md`
 with its plots beside it (`python -m sim.study analyse DIR`): the verdicts on VR against reality first, then each
-test's mixed model, the paired comparisons, the questionnaires' scores (sim.study.analysis.questionnaires), and the
+test's mixed model, the paired comparisons, the stop presses' latency per path (sim.study.analysis.latency), the
+questionnaires' scores (sim.study.analysis.questionnaires), and the
 plots (Bland–Altman among them)."""
 
 from __future__ import annotations
@@ -13,6 +14,7 @@ import numpy as np
 
 from sim.study.analysis.contrasts import FACTOR_NAMES, MEASURES, TestContrast
 from sim.study.analysis.errors import AnalysisError
+from sim.study.analysis.latency import LatencySummary, keyboard_flag, latency_lines, summarise_latency
 from sim.study.analysis.mixed_model import CROSSOVER_TERMS, formula
 from sim.study.analysis.questionnaires import QuestionnaireSummary, questionnaire_lines
 from sim.study.analysis.statistics import Estimate, PairedComparison
@@ -121,10 +123,18 @@ def _verdict_lines(contrasts: Mapping[int, TestContrast]) -> list[str]:
     return lines
 
 
-def _markdown(summary: StudySummary, plots: list[Path], title: str, questionnaires: QuestionnaireSummary | None) -> str:
+def _markdown(
+    summary: StudySummary,
+    latency: LatencySummary,
+    plots: list[Path],
+    title: str,
+    questionnaires: QuestionnaireSummary | None,
+) -> str:
+    flag = keyboard_flag(latency)  # first, as it biases the contrast
     lines = [
         f"# {title}",
         "",
+        *([flag, ""] if flag else []),
         *_verdict_lines(summary.contrasts),
         f"{len(summary.participants)} participants, {summary.trials} trials. Within subjects: each participant's "
         "trials are averaged per cell, then VR and reality are compared in pairs (paired t-test with Cohen's "
@@ -184,6 +194,7 @@ def _markdown(summary: StudySummary, plots: list[Path], title: str, questionnair
         f"The thesis's estimate (the planned distance at the press time) differs from the measured distance "
         f"at the press by {_estimate_cell(error, 1000.0, 1)} mm on average.",
         "",
+        *latency_lines(latency),
     ]
     if summary.notes:
         lines += ["Notes:", ""] + [f"- {note}" for note in summary.notes] + [""]
@@ -314,5 +325,5 @@ def write_report(
     if summary.contrasts:
         plots.append(_plot_agreement(summary.contrasts, out / "agreement_bland_altman.png"))
     report = out / "report.md"
-    report.write_text(_markdown(summary, plots, title, questionnaires))
+    report.write_text(_markdown(summary, summarise_latency(records), plots, title, questionnaires))
     return report

@@ -27,6 +27,10 @@ A Population gives the distributions; each participant's traits are drawn from i
                           it (concentration `answer_concentration`);
                         - the lab's own items: the mean answer lies `item_level` of the way from the scale's lowest
                           to its highest answer, the participant's own drawn likewise.
+  the input delay        what a page that reads the input once a frame would report for a press: uniform over one
+                        frame (the VR page's at the Quest browser's 72 Hz, the button page's at a 60 Hz display).
+                        It is reported with the press, not added to its stamp: where the press lands stays the
+                        comfort distance put in.
   Questionnaire traits and answers are drawn from streams of their own: the trials' draws are those of before.
 """
 
@@ -56,6 +60,8 @@ __all__ = [
     "study_measures",
     "preferred_path",
     "questionnaire_answer",
+    "INPUT_FRAME_S",
+    "input_delay",
 ]
 
 MIN_COMFORT = ON_TOP + 0.01  # m: a press must land before the approach's end, on top of the hand
@@ -217,6 +223,17 @@ def comfort_at_press(traits: Traits, condition: str, rng: np.random.Generator) -
     """Where (m from the hand) this trial's press is to land."""
     _condition(traits, condition)
     return float(comfort_distances(np.array([traits.comfort_distance[condition]]), traits.comfort_noise, rng)[0])
+
+
+# s, one frame of the page that reads the participant's input, by condition (see the module's docstring)
+INPUT_FRAME_S = {"vr": 1 / 72, "reality": 1 / 60}
+
+
+def input_delay(condition: str, rng: np.random.Generator) -> float:
+    """A press's input delay (s) as a page reading the input once a frame would measure it."""
+    if condition not in INPUT_FRAME_S:
+        raise ParticipantError(f"no input delay for the condition {condition!r}; known: {', '.join(INPUT_FRAME_S)}")
+    return float(rng.uniform(0.0, INPUT_FRAME_S[condition]))
 
 
 def arrival_time(times: np.ndarray, distances: np.ndarray, target: float) -> float:

@@ -7,7 +7,9 @@ protocol's table, sim.study.run.protocol):
   go          test 2: draws where this trial's press is to land (its comfort distance) and finds how long after
               the start the planned approach gets there; then says go (`/study/go`), as the observer would;
   stop        test 2: presses stop (`/study/stop`) at once, stamped when the press is to land: it anticipates the
-              robot, as people do, and the runner applies a press at its stamp.
+              robot, as people do, and the runner applies a press at its stamp. It reports a modelled input delay
+              (the model's input_delay) in the Header's seq, as the pages do; its arrival delay is negative, as it
+              sends the press ahead of its stamp.
   distance    test 1: reports its perceived distance of the robot at rest (`/study/perceived_distance`);
   preference  names its preferred path of the group (`/study/preference`);
   answer      answers the questionnaire item asked (`/study/answer`), by its traits: the SSQ's symptoms as they are
@@ -37,6 +39,7 @@ from sim.study.participants.model import (
     Traits,
     arrival_time,
     comfort_at_press,
+    input_delay,
     perceived_distance,
     preferred_path,
     questionnaire_answer,
@@ -55,6 +58,7 @@ from sim.study.run.protocol import (
     Answer,
     TrialStatus,
     answer_to_json,
+    input_delay_seq,
     status_from_json,
 )
 from sim.wire.contract import STEP_S
@@ -75,6 +79,7 @@ class SimulatedParticipant:
         self.rng = np.random.default_rng([seed, traits.participant, 2])  # the judgements' noise
         # the questionnaires' answers: a stream apart, so that the judgements are those of a study without them
         self.answer_rng = np.random.default_rng([seed, traits.participant, 4])
+        self.delay_rng = np.random.default_rng([seed, traits.participant, 5])  # the input delays: apart, likewise
         self.been_in_vr = False  # whether any trial of the VR block has been run: the SSQ's symptoms rise after
         self.answers = 0
         self.done = threading.Event()
@@ -111,7 +116,8 @@ class SimulatedParticipant:
         source = PROTOCOL.stop_source(status.condition)
         stamp = time_msg(status.motion_start + after)
         self.presses += 1
-        self.client.publish(STOP_TOPIC, _encode(STOP_TOPIC, seq=0, stamp=stamp, frame_id=source))
+        seq = input_delay_seq(input_delay(status.condition, self.delay_rng))
+        self.client.publish(STOP_TOPIC, _encode(STOP_TOPIC, seq=seq, stamp=stamp, frame_id=source))
 
     def _on_status(self, payload: bytes) -> None:
         message: Any = deserialize(payload, TOPIC_TYPES[STATUS_TOPIC])

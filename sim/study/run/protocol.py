@@ -7,7 +7,10 @@ checks it and gives it to Python. Pure logic, but for reading that file once.
   /study/go                 std_msgs/Empty, to the runner: start the approach (the observer, or the VR scene)
   /study/stop               std_msgs/Header, to the runner: the participant pressed stop. stamp = when, on ROS time
                             (the runner's /clock); a zero stamp means "when it arrives". frame_id = the stop source
-                            (the table's stop_sources: vr_trigger, button, keyboard), logged with the press
+                            (the table's stop_sources: vr_trigger, button, keyboard), logged with the press.
+                            seq = the press's input delay (from the input's change to its stamp) in microseconds,
+                            0 when not measured: std_msgs/Header has no other field for it, and its seq is otherwise
+                            unused (rospy numbers only a message's header, not a Header sent as the message itself)
   /study/perceived_distance std_msgs/Float32, to the runner: test 1's answer in metres (the VR scene reports its two
                             controllers' distance; in reality the observer enters the measured one)
   /study/preference         std_msgs/String, to the runner: after a group of test 2, the preferred approach, as the
@@ -55,6 +58,9 @@ __all__ = [
     "TrialStatus",
     "status_to_json",
     "status_from_json",
+    "MAX_SEQ",
+    "input_delay_seq",
+    "input_delay_from_seq",
     "checked_distance",
     "chosen_path",
     "Answer",
@@ -219,6 +225,25 @@ def status_from_json(text: str) -> TrialStatus:
     data["group_paths"] = tuple(data["group_paths"])
     data["scale_labels"] = tuple(data["scale_labels"])
     return TrialStatus(**data)
+
+
+MAX_SEQ = 2**32 - 1  # a Header's seq is a uint32: some 71 minutes in microseconds
+_SEQ_UNIT_S = 1e-6
+
+
+def input_delay_seq(delay_s: float) -> int:
+    """A stop's input delay (s) as its Header's seq: whole microseconds, at least 1 (0 is "not measured"); a delay
+    that is not a number >= 0 was not measured."""
+    if not (math.isfinite(delay_s) and delay_s >= 0.0):
+        return 0
+    return int(min(max(round(delay_s / _SEQ_UNIT_S), 1), MAX_SEQ))
+
+
+def input_delay_from_seq(seq: int) -> float:
+    """A stop's input delay (s) from its Header's seq; NaN when it was not measured (0)."""
+    if not 0 <= seq <= MAX_SEQ:
+        raise RunError(f"a Header's seq must be 0..{MAX_SEQ}, got {seq!r}")
+    return math.nan if seq == 0 else seq * _SEQ_UNIT_S
 
 
 def checked_distance(value: float) -> float:

@@ -1,7 +1,8 @@
 """The tidy per-participant CSV: one row per trial, what was planned, measured and answered. Reading checks every
 column, so the analysis never works on a half-written or edited-by-hand file without saying so.
 
-Distances are the end effector's (its FK from the achieved joint states) to the hand's surface, in metres.
+Distances are the end effector's (its FK from the achieved joint states) to the hand's surface, in metres. The
+press's latency columns came last, so a file written before them is still read (with them NaN).
 """
 
 from __future__ import annotations
@@ -39,9 +40,14 @@ class TrialRecord:
     braking_distance: float  # m along the path
     perceived_distance: float  # m, test 1's answer; NaN otherwise
     preferred_path: str  # test 2: the group's preferred path, on each of its rows; "" otherwise
+    # The press's latency in two parts (NaN where it was not measured: the keyboard's, a client that does not say):
+    press_input_delay: float = math.nan  # s from the input's change to its stamp, as the pressing client measured it
+    press_arrival_delay: float = math.nan  # s from its stamp to its arrival at the runner (ROS time); NaN unstamped
 
 
 _FIELDS = fields(TrialRecord)
+# Columns a file written before they were recorded lacks: it is read with them NaN
+_ADDED_LATER = ("press_input_delay", "press_arrival_delay")
 
 
 def write_records(path: Path, records: list[TrialRecord]) -> None:
@@ -86,13 +92,15 @@ def read_records(path: Path) -> list[TrialRecord]:
     except OSError as error:
         raise RunError(f"cannot read {path}: {error.strerror}") from None
     names = [field.name for field in _FIELDS]
-    if not rows or rows[0] != names:
+    earlier = [name for name in names if name not in _ADDED_LATER]
+    if not rows or rows[0] not in (names, earlier):
         raise RunError(f"{path} is not a study record file: its header must be {','.join(names)}")
+    columns = _FIELDS[: len(rows[0])]
     records = []
     for number, row in enumerate(rows[1:], start=2):
         where = f"{path}:{number}"
-        if len(row) != len(names):
-            raise RunError(f"{where}: {len(row)} columns where {len(names)} belong")
-        values = [_value(text, field.type, field.name, where) for text, field in zip(row, _FIELDS)]
+        if len(row) != len(columns):
+            raise RunError(f"{where}: {len(row)} columns where {len(columns)} belong")
+        values = [_value(text, field.type, field.name, where) for text, field in zip(row, columns)]
         records.append(TrialRecord(*values))  # type: ignore[arg-type]
     return records

@@ -21,7 +21,9 @@ runner waits for go or an answer, the clock stands still. --realtime: /clock and
 clock (a VR headset, a real robot), and the robot is held at its target while the runner waits.
 
 A press's time is its stamp on ROS time (a zero stamp: when it arrives); a press whose stamp has already passed is
-applied at once, and how late it was is logged. Presses before the approach starts are ignored.
+applied at once, and how late it was is logged. Presses before the approach starts are ignored. Each press's latency
+is recorded in two parts: its input delay (the client's, in the Header's seq) and its arrival delay (the runner's ROS
+time when it came, minus its stamp).
 """
 
 from __future__ import annotations
@@ -61,6 +63,7 @@ from sim.study.run.protocol import (
     checked_answer,
     checked_distance,
     chosen_path,
+    input_delay_from_seq,
     item_prompt,
     observer_input,
     status_to_json,
@@ -111,6 +114,13 @@ _PROMPTS = {
 class Press:
     stamp: float  # s of ROS time; 0: when it arrived
     source: str
+    input_delay: float = math.nan  # s from the input's change to the stamp, as the client measured it; NaN: unsaid
+    arrival: float = math.nan  # s of ROS time when it reached the runner; NaN: not a message (the keyboard)
+
+    @property
+    def arrival_delay(self) -> float:
+        """s from the stamp to the arrival; NaN for an unstamped press, whose time is its arrival by definition."""
+        return self.arrival - self.stamp if self.stamp > 0 else math.nan
 
 
 class Inputs:
@@ -144,10 +154,10 @@ class Inputs:
                 self._go = True
                 self._changed.notify_all()
 
-    def press(self, stamp: float, source: str) -> None:
+    def press(self, stamp: float, source: str, input_delay: float = math.nan, arrival: float = math.nan) -> None:
         with self._changed:
             if self._accepting == "stop":
-                self._presses.append(Press(stamp, source))
+                self._presses.append(Press(stamp, source, input_delay, arrival))
                 self._changed.notify_all()
 
     def distance(self, value: float) -> None:
@@ -290,7 +300,10 @@ class StudyRunner(ControllerNode):
         ]
 
     def _on_press(self, message: Any) -> None:
-        self.inputs.press(message.stamp.to_sec(), message.frame_id or "unnamed")
+        arrival = self.stepper.now()  # first: the press's latency ends here
+        self.inputs.press(
+            message.stamp.to_sec(), message.frame_id or "unnamed", input_delay_from_seq(message.seq), arrival
+        )
 
     def publish_status(self, status: TrialStatus) -> None:
         """Enter the status's phase (what it accepts from now on), then say so."""
@@ -471,6 +484,7 @@ class StudyRunner(ControllerNode):
         run.record_state(0.0, positions)
         settle = int(round(self.options.settle / dt))
         late, source, k = 0.0, "", 0
+        input_delay = arrival_delay = math.nan
         while k < run.steps - 1 + settle:
             k += 1
             if run.stopped is None:
@@ -479,6 +493,7 @@ class StudyRunner(ControllerNode):
                     when = press.stamp if press.stamp > 0 else self.clock
                     applied = max(when, start + (k - 1) * dt)  # never before the last sample commanded
                     late, source = applied - when, press.source
+                    input_delay, arrival_delay = press.input_delay, press.arrival_delay
                     run.press(applied - start)
             target, velocity = run.target(k)
             positions = self.step(target, velocity)
@@ -521,6 +536,8 @@ class StudyRunner(ControllerNode):
             measures.braking_distance,
             perceived,
             "",
+            input_delay,
+            arrival_delay,
         )
         return record, positions
 

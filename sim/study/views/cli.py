@@ -1,15 +1,20 @@
-"""`python -m sim.study view` (the experimenter's live 3-D view, a viser page) and `vr` (the VR condition's page for
-a WebXR headset, over HTTPS)."""
+"""`python -m sim.study view` (the experimenter's live 3-D view, a viser page), `vr` (the VR condition's page for
+a WebXR headset, over HTTPS) and `button` (the reality condition's stop button page: a USB button, foot pedal or
+gamepad read by the browser's Gamepad API, served by the VR page's server)."""
 
 from __future__ import annotations
 
 import argparse
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from sim.entry import EXIT_NO_CONNECTION, EXIT_OK, fail
 from sim.study.checks import check_port, check_positive
 from sim.study.design.options import add_robot_options, add_scene_options, scene_and_robot
 from sim.study.views.errors import ViewError
+
+if TYPE_CHECKING:
+    from sim.study.views.vr.site import Site
 
 __all__ = ["register"]
 
@@ -25,22 +30,7 @@ def register(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> N
     view.set_defaults(handler=view_command)
 
     vr = commands.add_parser("vr", help="the VR condition's page for a WebXR headset (docs/study.md)")
-    vr.add_argument("--endpoint-host", default="127.0.0.1", help="the endpoint's address")
-    vr.add_argument("--websocket-port", type=int, default=9090, help="the endpoint's --websocket-port (default 9090)")
-    vr.add_argument("--host", default="0.0.0.0", help="the page's address (default 0.0.0.0: every interface)")
-    vr.add_argument("--port", type=int, default=8443, help="the page's port (default 8443; 0 picks a free one)")
-    vr.add_argument(
-        "--plain-http",
-        action="store_true",
-        help="HTTP without TLS: only for a browser on this machine or behind `adb reverse` (localhost is secure)",
-    )
-    vr.add_argument("--certificate", type=Path, help="your own TLS certificate (PEM), with --key")
-    vr.add_argument("--key", type=Path, help="the key of --certificate (PEM)")
-    vr.add_argument(
-        "--certificate-dir",
-        type=Path,
-        help="where the self-signed certificate is made once and kept (default ~/.ros/sim_study_vr)",
-    )
+    _add_server_options(vr, 8443)
     vr.add_argument(
         "--emulate-headset",
         action="store_true",
@@ -54,6 +44,40 @@ def register(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> N
     )
     add_robot_options(vr)
     vr.set_defaults(handler=vr_command)
+
+    button = commands.add_parser(
+        "button", help="the reality condition's stop button page: a USB button, pedal or gamepad (docs/study.md)"
+    )
+    _add_server_options(button, 8444)
+    button.add_argument(
+        "--emulate-gamepad",
+        action="store_true",
+        help="load an emulated gamepad in the page (window.emulatedGamepad) and the tests' probe (window.buttonPage): "
+        "for tests and for trying the page without a pedal",
+    )
+    button.set_defaults(handler=button_command)
+
+
+def _add_server_options(parser: argparse.ArgumentParser, port: int) -> None:
+    """The page server's options, the same for every page it serves."""
+    parser.add_argument("--endpoint-host", default="127.0.0.1", help="the endpoint's address")
+    parser.add_argument(
+        "--websocket-port", type=int, default=9090, help="the endpoint's --websocket-port (default 9090)"
+    )
+    parser.add_argument("--host", default="0.0.0.0", help="the page's address (default 0.0.0.0: every interface)")
+    parser.add_argument("--port", type=int, default=port, help=f"the page's port (default {port}; 0 picks a free one)")
+    parser.add_argument(
+        "--plain-http",
+        action="store_true",
+        help="HTTP without TLS: only for a browser on this machine or behind `adb reverse` (localhost is secure)",
+    )
+    parser.add_argument("--certificate", type=Path, help="your own TLS certificate (PEM), with --key")
+    parser.add_argument("--key", type=Path, help="the key of --certificate (PEM)")
+    parser.add_argument(
+        "--certificate-dir",
+        type=Path,
+        help="where the self-signed certificate is made once and kept (default ~/.ros/sim_study_vr)",
+    )
 
 
 def view_command(args: argparse.Namespace) -> int:
@@ -92,31 +116,23 @@ def view_command(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-def vr_command(args: argparse.Namespace) -> int:
-    import ssl
-
-    from sim.robots import find_ros_package
-    from sim.study.views.vr.certificate import DEFAULT_CERTIFICATE_DIR, ensure_certificate, machine_addresses
-    from sim.study.views.vr.server import PageServer, serve
-    from sim.study.views.vr.site import WEB_DIR, make_site
-
+def _check_server_options(args: argparse.Namespace) -> None:
     check_port(args.websocket_port, "--websocket-port")
     check_port(args.port, "--port", zero=True)
     if (args.certificate is None) != (args.key is None):
         raise ViewError("--certificate and --key go together")
     if args.plain_http and args.certificate is not None:
         raise ViewError("--plain-http serves no TLS: leave out --certificate and --key")
-    if not (WEB_DIR / "node_modules" / "three").is_dir():
-        raise ViewError(f"the page's libraries are not in {WEB_DIR / 'node_modules'}: run launch_scripts/setup.sh")
-    scene, robot = scene_and_robot(args)
-    site = make_site(
-        robot,
-        scene,
-        robot.urdf_path.read_text(),
-        find_ros_package,
-        emulation=args.emulate_headset,
-        frame_time=args.frame_time,
-    )
+
+
+def _serve_page(args: argparse.Namespace, site: Site, name: str) -> int:
+    """Serve `site` as the options say (TLS with the given or a self-signed certificate, or plain HTTP) until
+    SIGINT or SIGTERM; `name` prefixes what it prints."""
+    import ssl
+
+    from sim.study.views.vr.certificate import DEFAULT_CERTIFICATE_DIR, ensure_certificate, machine_addresses
+    from sim.study.views.vr.server import PageServer, serve
+
     addresses = machine_addresses()
     tls = None
     if not args.plain_http:
@@ -137,10 +153,10 @@ def vr_command(args: argparse.Namespace) -> int:
         if args.host not in ("0.0.0.0", "127.0.0.1", "localhost"):
             hosts = [args.host]
         for host in hosts:
-            print(f"vr: the page: {scheme}://{host}:{port}/", flush=True)
+            print(f"{name}: the page: {scheme}://{host}:{port}/", flush=True)
         print(
-            f"vr: its WebSocket /ros goes to the endpoint's ws://{args.endpoint_host}:{args.websocket_port}/"
-            + ("" if tls is None else "; the certificate is self-signed: accept it once in the headset's browser"),
+            f"{name}: its WebSocket /ros goes to the endpoint's ws://{args.endpoint_host}:{args.websocket_port}/"
+            + ("" if tls is None else "; the certificate is self-signed: accept it once in the page's browser"),
             flush=True,
         )
 
@@ -149,3 +165,29 @@ def vr_command(args: argparse.Namespace) -> int:
     except OSError as error:
         raise ViewError(f"cannot serve the page on {args.host}:{args.port}: {error}") from None
     return EXIT_OK
+
+
+def vr_command(args: argparse.Namespace) -> int:
+    from sim.robots import find_ros_package
+    from sim.study.views.vr.site import WEB_DIR, make_site
+
+    _check_server_options(args)
+    if not (WEB_DIR / "node_modules" / "three").is_dir():
+        raise ViewError(f"the page's libraries are not in {WEB_DIR / 'node_modules'}: run launch_scripts/setup.sh")
+    scene, robot = scene_and_robot(args)
+    site = make_site(
+        robot,
+        scene,
+        robot.urdf_path.read_text(),
+        find_ros_package,
+        emulation=args.emulate_headset,
+        frame_time=args.frame_time,
+    )
+    return _serve_page(args, site, "vr")
+
+
+def button_command(args: argparse.Namespace) -> int:
+    from sim.study.views.vr.site import make_button_site
+
+    _check_server_options(args)
+    return _serve_page(args, make_button_site(emulation=args.emulate_gamepad), "button")

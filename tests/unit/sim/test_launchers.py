@@ -8,7 +8,7 @@ import pytest
 
 from sim.control.commander import _parser as commander_parser
 from sim.engine.stand_in import argument_parser as engine_parser
-from sim.launchers import Commander, Engine, LiveView, Participant, PhysicsNode, Runner, VrServer
+from sim.launchers import ButtonServer, Commander, Engine, LiveView, Participant, PhysicsNode, Runner, VrServer
 from sim.processes import PYTHON
 from sim.study.__main__ import parser as study_parser
 
@@ -67,9 +67,12 @@ def test_the_commander_with_its_recorder_and_wall_clock() -> None:
         (Participant(3, 7, 10001, ("--scene", "s.yaml"), 0.02, ("--vr-distance-shift=0.05",)), {"seed": 7}),
         (LiveView(10001, 8080, ROBOT), {"http_port": 8080}),
         (VrServer(9090, certificate_dir=Path("certs"), emulate_headset=True, frame_time=True), {"frame_time": True}),
+        (ButtonServer(9091, certificate_dir=Path("c"), emulate_gamepad=True), {"emulate_gamepad": True, "port": 0}),
     ],
 )
-def test_the_studys_programs(launcher: Runner | Participant | LiveView | VrServer, expected: dict[str, object]) -> None:
+def test_the_studys_programs(
+    launcher: Runner | Participant | LiveView | VrServer | ButtonServer, expected: dict[str, object]
+) -> None:
     args = study_parser().parse_args(program_args(launcher.argv(), "sim.study"))
     assert {key: getattr(args, key) for key in expected} == expected
     assert launcher.ready is None or isinstance(launcher.ready, str)
@@ -88,3 +91,5 @@ def test_the_studys_programs(launcher: Runner | Participant | LiveView | VrServe
 def test_the_vr_servers_page_address_is_read_from_its_output() -> None:
     output = "vr: the page: https://localhost:8443/\nvr: its WebSocket /ros goes to the endpoint's ws://x:9090/\n"
     assert VrServer.page_url(output) == "https://localhost:8443/"
+    button = "button: the page: https://localhost:8444/\nbutton: its WebSocket /ros goes to the endpoint's ws://x:1/\n"
+    assert ButtonServer.page_url(button) == "https://localhost:8444/"

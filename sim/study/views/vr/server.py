@@ -1,5 +1,6 @@
-"""The VR page's web server: HTTPS (or plain HTTP for localhost) serving the page, the robot's meshes and the
-settings, and `/ros`, a WebSocket passed through byte for byte to the endpoint's WebSocket port.
+"""The VR page's web server (and the stop button page's, sim.study.views.vr.site): HTTPS (or plain HTTP for
+localhost) serving the page, the robot's meshes and the settings, and `/ros`, a WebSocket passed through byte for
+byte to the endpoint's WebSocket port.
 
 A headset's browser reaches the machine by a LAN address, and WebXR needs a secure context: an https:// page, whose
 WebSocket must then be wss:// too. The endpoint speaks plain ws://, so this server ends TLS and hands the WebSocket
@@ -56,7 +57,7 @@ class PageServer:
     ) -> None:
         self.site, self.endpoint, self.host, self.port, self.tls, self.log = site, endpoint, host, port, tls, log
         self._server: asyncio.AbstractServer | None = None
-        self._policy = _content_security_policy((site.web_dir / "index.html").read_text())
+        self._policy = _content_security_policy((site.web_dir / site.entry).read_text())
 
     async def start(self) -> int:
         """Listen; the port (the one picked, for port 0)."""
@@ -121,19 +122,19 @@ class PageServer:
     async def _content(self, path: str) -> tuple[int, bytes, str]:
         if path == "/settings.json":
             return 200, json.dumps(self.site.settings).encode(), "application/json"
-        if path == "/robot.urdf":
+        if path == "/robot.urdf" and self.site.urdf:
             return 200, self.site.urdf.encode(), "application/xml; charset=utf-8"
         file = self.site.file_for(path)
         if file is None or not file.is_file():
             return 404, f"nothing at {path}\n".encode(), "text/plain; charset=utf-8"
         data = await asyncio.get_running_loop().run_in_executor(None, file.read_bytes)
-        if file.name == "index.html":
+        if file.name == self.site.entry:
             data = self._with_instruments(data)
         return 200, data, content_type(file)
 
     def _with_instruments(self, page: bytes) -> bytes:
-        """The page, with the modules this server was asked for (the emulated headset, the tests' probe, the
-        frame-time instrument) loaded before the page's own: without them, not a word of them is in the page."""
+        """The page, with the modules this server was asked for (the emulated headset or gamepad, the tests' probe,
+        the frame-time instrument) loaded before the page's own: without them, not a word of them is in the page."""
         tags = "".join(f'<script type="module" src="/app/{name}"></script>' for name in self.site.instruments)
         return page.replace(b"<!-- instruments -->", tags.encode())
 
@@ -143,7 +144,9 @@ class PageServer:
         origin = _header(request, b"origin").decode("latin-1")
         own = f"{'https' if self.tls else 'http'}://{_header(request, b'host').decode('latin-1')}"
         if origin and origin.lower() != own.lower():
-            self.log(f"vr: refused a WebSocket from the page {origin}: only {own}'s own page may open /ros")
+            self.log(
+                f"{self.site.page}: refused a WebSocket from the page {origin}: only {own}'s own page may open /ros"
+            )
             _refuse(writer, "403 Forbidden", f"only this server's page ({own}) may open {ROS_PATH}, not {origin}")
             await writer.drain()
             return
@@ -151,7 +154,9 @@ class PageServer:
         try:
             upstream_reader, upstream_writer = await asyncio.open_connection(host, port)
         except OSError as error:
-            self.log(f"vr: a page's WebSocket could not reach the endpoint at ws://{host}:{port}/: {error}")
+            self.log(
+                f"{self.site.page}: a page's WebSocket could not reach the endpoint at ws://{host}:{port}/: {error}"
+            )
             _refuse(writer, "502 Bad Gateway", f"the endpoint's WebSocket port {host}:{port} is not reachable: {error}")
             await writer.drain()
             return

@@ -1,6 +1,10 @@
 """What the VR page's server serves, as data: the robot's URDF with its meshes renamed to URLs, the page's settings
 (scene, topics, joints) and which file a URL names. Pure logic: no socket, and no file is read here.
 
+The same server serves the reality condition's stop button page (`python -m sim.study button`), a page of its own
+(button.html) from the same folder, sharing the VR page's modules for ROS (connection.js, rostcp.js, clock.js) and
+the trial's rules (study.js); it has no robot, no scene and no npm package.
+
 A URL names a file only through a fixed table: the page's own files, the parts of the npm packages the page
 imports, and the folders that hold the robot's meshes (a mesh's .mtl and textures sit beside it). Nothing else on
 the machine can be reached, whatever the path says.
@@ -30,9 +34,15 @@ __all__ = [
     "PAGE_FILES",
     "EMULATION_FILES",
     "FRAME_TIME_FILES",
+    "BUTTON_PAGE_FILES",
+    "GAMEPAD_EMULATION_FILES",
+    "PageFiles",
+    "PAGES",
     "Site",
     "make_site",
+    "make_button_site",
     "page_settings",
+    "button_settings",
     "content_type",
 ]
 
@@ -53,6 +63,7 @@ PAGE_FILES = (
     "rostcp.js",
     "clock.js",
     "study.js",
+    "presses.js",
 )
 # Modules served and loaded only when the server is started for them, in the order the page loads them: the emulated
 # headset before the page asks for WebXR, then the tests' probe (window.vrPage); the bench's frame-time instrument.
@@ -66,6 +77,38 @@ _VENDOR = {
 }
 _EMULATION_VENDOR = {"/vendor/iwer/build/": "iwer/build"}  # the emulated headset, only when asked for
 _ROBOT_PREFIX = "/robot/"
+# The stop button's page: its own entry and modules, and the VR page's for ROS and the trial's rules
+BUTTON_PAGE_FILES = (
+    "button.html",
+    "button.css",
+    "button.js",
+    "gamepad.js",
+    "presses.js",
+    "connection.js",
+    "rostcp.js",
+    "clock.js",
+    "study.js",
+)
+# The emulated gamepad before the page reads any, then the tests' probe (window.buttonPage)
+GAMEPAD_EMULATION_FILES = ("gamepademulation.js", "buttonprobe.js")
+
+
+@dataclass(frozen=True)
+class PageFiles:
+    """One page the server may serve: its entry (served at /), its modules and styles (under /app/), the modules
+    served and loaded only for tests, and the npm packages it imports (URL prefix -> folder under node_modules)."""
+
+    entry: str
+    files: tuple[str, ...]
+    emulation: tuple[str, ...]
+    vendor: dict[str, str]
+    emulation_vendor: dict[str, str]
+
+
+PAGES = {
+    "vr": PageFiles("index.html", PAGE_FILES, EMULATION_FILES, _VENDOR, _EMULATION_VENDOR),
+    "button": PageFiles("button.html", BUTTON_PAGE_FILES, GAMEPAD_EMULATION_FILES, {}, {}),
+}
 
 
 @dataclass(frozen=True)
@@ -74,22 +117,32 @@ class Site:
     mesh_folders: tuple[Path, ...]  # /robot/<k>/ is mesh_folders[k]
     settings: dict[str, Any]  # the page's /settings.json
     web_dir: Path = WEB_DIR
-    emulation: bool = False  # serve the emulated headset (IWER) and the tests' probe, and load them: tests and demos
-    frame_time: bool = False  # serve the frame-time instrument and load it: bench/vr_frame_bench.py
+    emulation: bool = False  # serve the emulated headset (IWER) or gamepad and the tests' probe, and load them
+    frame_time: bool = False  # serve the frame-time instrument and load it: bench/vr_frame_bench.py (the VR page's)
+    page: str = "vr"  # which of PAGES: the VR page, or the stop button's
+
+    @property
+    def files(self) -> PageFiles:
+        return PAGES[self.page]
+
+    @property
+    def entry(self) -> str:
+        """The page's HTML file, served at /."""
+        return self.files.entry
 
     @property
     def instruments(self) -> tuple[str, ...]:
-        """The page's modules beyond PAGE_FILES that this site serves and the page loads, in that order."""
-        return (EMULATION_FILES if self.emulation else ()) + (FRAME_TIME_FILES if self.frame_time else ())
+        """The page's modules beyond its files that this site serves and the page loads, in that order."""
+        return (self.files.emulation if self.emulation else ()) + (FRAME_TIME_FILES if self.frame_time else ())
 
     def file_for(self, url_path: str) -> Path | None:
         """The file a request's path names, or None when it names nothing the page may have."""
-        if url_path in ("/", "/index.html"):
-            return self.web_dir / "index.html"
+        if url_path in ("/", f"/{self.entry}"):
+            return self.web_dir / self.entry
         if url_path.startswith("/app/"):
             name = url_path[len("/app/") :]
-            return self.web_dir / name if name in PAGE_FILES or name in self.instruments else None
-        vendor = dict(_VENDOR, **(_EMULATION_VENDOR if self.emulation else {}))
+            return self.web_dir / name if name in self.files.files or name in self.instruments else None
+        vendor = dict(self.files.vendor, **(self.files.emulation_vendor if self.emulation else {}))
         for prefix, folder in vendor.items():
             if url_path.startswith(prefix):
                 return _inside(self.web_dir / "node_modules" / folder, url_path[len(prefix) :])
@@ -170,6 +223,23 @@ def make_site(
     settings = page_settings(robot, scene)
     settings["emulation"] = emulation
     return Site(urdf, folders, settings, web_dir, emulation, frame_time)
+
+
+def button_settings(emulation: bool = False) -> dict[str, Any]:
+    """What the stop button's page needs: the trial's status and the stop's topics with their types, the trial
+    protocol's table, the stop source its presses are named by (the reality condition's) and the WebSocket's path."""
+    return {
+        "topics": {"trial": list(PROTOCOL.status), "stop": list(PROTOCOL.inputs["stop"])},
+        "protocol": PROTOCOL.data,
+        "stop_source": PROTOCOL.stop_source("reality"),
+        "ros_path": ROS_PATH,
+        "emulation": emulation,
+    }
+
+
+def make_button_site(emulation: bool = False, web_dir: Path = WEB_DIR) -> Site:
+    """The stop button's page: no robot, no meshes; with `emulation`, the emulated gamepad and the tests' probe."""
+    return Site("", (), button_settings(emulation), web_dir, emulation, False, "button")
 
 
 def content_type(path: Path) -> str:

@@ -114,3 +114,19 @@ def test_a_stop_ends_a_paced_wait_with_an_error() -> None:
     with pytest.raises(ControllerError, match="interrupted"):
         stepper.step(np.zeros(2), np.zeros(2))  # due 5 s after the start
     assert time.monotonic() - began < 2.0
+
+
+def test_now_is_the_clock_in_lockstep_and_the_scaled_wall_clock_in_real_time() -> None:
+    lockstep = Stepper(RecordingNode(), Pacing(dt=0.02))  # type: ignore[arg-type]
+    assert math.isnan(lockstep.now())  # before the start
+    lockstep.start(timeout=1.0)
+    lockstep.step(np.zeros(2), np.zeros(2))
+    time.sleep(0.05)
+    assert lockstep.now() == lockstep.clock == pytest.approx(0.02)  # stands still between steps
+    paced = Stepper(RecordingNode(), Pacing(dt=0.02, realtime=True, time_scale=2.0))  # type: ignore[arg-type]
+    paced.start(timeout=1.0, need_state=False)
+    began = time.monotonic()
+    time.sleep(0.1)
+    before = paced.now()
+    elapsed = time.monotonic() - began
+    assert 2.0 * 0.1 <= before <= 2.0 * elapsed + 0.01 and paced.clock == 0.0  # no step taken, time goes on

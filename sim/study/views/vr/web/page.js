@@ -35,7 +35,8 @@ async function startPage() {
 
   const enterButton = document.getElementById('enter');
   const headset = new Headset(view.renderer.xr, enterButton, statusLine, () => {
-    topics.send(participant.onTrigger(topics.rosNow()));
+    const now = performance.now(); // first: the press's input delay ends at its stamp
+    topics.send(participant.onTrigger(topics.rosNow()), loop.sinceFrame(now));
   });
   await headset.offer();
   return { settings, view, robot, panel, controllers, participant, topics, loop, headset };

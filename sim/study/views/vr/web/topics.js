@@ -1,7 +1,8 @@
 // The page's side of the study over ROS, through the endpoint's client (connection.js): the robot's joint states and
 // the trial's status in, the participant's answers out, on the topics of the settings.
 import { RosConnection } from './connection.js';
-import { EMPTY, decodeJointState, decodeString, encodeFloat32, encodeHeader, encodeString, rosTime } from './rostcp.js';
+import { stopPayload } from './presses.js';
+import { EMPTY, decodeJointState, decodeString, encodeFloat32, encodeString } from './rostcp.js';
 
 export class StudyTopics {
   // url: the endpoint's WebSocket (through this page's server); onJoints(jointState), onStatus(trial status object).
@@ -12,7 +13,6 @@ export class StudyTopics {
       this.state = state;
     });
     this.sent = []; // the answers published: [input, value], oldest first
-    this.stopSeq = 0;
     const topics = settings.topics;
     this.connection.subscribe(topics.joint_states[0], topics.joint_states[1], (payload) => {
       onJoints(decodeJointState(payload));
@@ -36,13 +36,14 @@ export class StudyTopics {
     return this.connection.rosNow();
   }
 
-  // Publish a participant's answer ([input, value], study.js), if any, on its input's topic.
-  send(action) {
+  // Publish a participant's answer ([input, value], study.js), if any, on its input's topic; a stop with its input
+  // delay (s, or null when not measured), which goes in the Header's seq (presses.js).
+  send(action, inputDelay = null) {
     if (!action) return;
     const [what, value] = action;
     const payload = {
       go: () => EMPTY,
-      stop: () => encodeHeader(this.stopSeq++, rosTime(value), this.settings.stop_source),
+      stop: () => stopPayload(value, inputDelay, this.settings.stop_source),
       distance: () => encodeFloat32(value),
       preference: () => encodeString(value),
       answer: () => encodeString(JSON.stringify(value)), // {administration, item, answer}, as the runner reads it

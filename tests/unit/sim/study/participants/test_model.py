@@ -14,12 +14,14 @@ from sim.study.design.paths import PATH_NAMES
 from sim.study.errors import StudyError
 from sim.study.participants.errors import ParticipantError
 from sim.study.participants.model import (
+    INPUT_FRAME_S,
     KNOWN_TRUTHS,
     MIN_COMFORT,
     Population,
     arrival_time,
     comfort_at_press,
     draw_traits,
+    input_delay,
     perceived_distance,
     preferred_path,
     questionnaire_answer,
@@ -173,3 +175,12 @@ def test_the_questionnaire_truths_leave_the_trials_traits_as_they_were():
 def test_impossible_questionnaire_truths_are_named(truths, said):
     with pytest.raises(ParticipantError, match=said):
         Population(**truths)
+
+
+def test_a_modelled_input_delay_spans_one_frame_of_the_conditions_page() -> None:
+    rng = np.random.default_rng(3)
+    for condition, frame in INPUT_FRAME_S.items():
+        delays = np.array([input_delay(condition, rng) for _ in range(2000)])
+        assert delays.min() >= 0 and delays.max() <= frame and delays.mean() == pytest.approx(frame / 2, rel=0.05)
+    with pytest.raises(StudyError, match="'lab'"):
+        input_delay("lab", rng)

@@ -12,6 +12,7 @@ import pytest
 from sim.study.errors import StudyError
 from sim.study.run.errors import RunError
 from sim.study.run.protocol import (
+    MAX_SEQ,
     PROTOCOL,
     PROTOCOL_FILE,
     Answer,
@@ -21,6 +22,8 @@ from sim.study.run.protocol import (
     checked_answer,
     checked_distance,
     chosen_path,
+    input_delay_from_seq,
+    input_delay_seq,
     item_prompt,
     load_protocol,
     observer_input,
@@ -212,3 +215,12 @@ def test_an_answer_counts_for_the_item_asked_and_on_its_scale() -> None:
             checked_answer(answer, ITEM)
     with pytest.raises(RunError, match="no questionnaire item is asked in phase ready"):
         checked_answer(Answer("ssq_before_vr", "nausea", 1), TrialStatus(5, 1, 38, "ready"))
+
+
+def test_a_stops_input_delay_goes_in_its_seq_in_microseconds_zero_when_not_measured() -> None:
+    assert input_delay_seq(0.0083) == 8300 and input_delay_from_seq(8300) == pytest.approx(0.0083)
+    assert input_delay_seq(0.0) == 1  # measured, and under a microsecond: never 0, which says "not measured"
+    assert input_delay_seq(math.nan) == input_delay_seq(-0.002) == 0 and math.isnan(input_delay_from_seq(0))
+    assert input_delay_seq(1e9) == MAX_SEQ  # a uint32
+    with pytest.raises(StudyError, match="seq"):
+        input_delay_from_seq(-1)

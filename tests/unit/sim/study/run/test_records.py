@@ -33,6 +33,8 @@ PRESSED = TrialRecord(
     0.0051,
     math.nan,
     "straight",
+    0.0123,
+    0.0041,
 )
 RESTED = TrialRecord(
     4,
@@ -101,3 +103,17 @@ def test_a_damaged_file_is_refused_naming_where(tmp_path: Path, damage, problem:
 def test_a_missing_file_is_a_study_error(tmp_path: Path) -> None:
     with pytest.raises(StudyError, match="cannot read"):
         read_records(tmp_path / "absent.csv")
+
+
+def test_a_file_written_before_the_latency_columns_is_read_with_them_unmeasured(tmp_path: Path) -> None:
+    path = tmp_path / "participant_04.csv"
+    write_records(path, [PRESSED])
+    header, row = (line.split(",") for line in path.read_text().splitlines())
+    assert header[-2:] == ["press_input_delay", "press_arrival_delay"] and row[-2:] == ["0.0123", "0.0041"]
+    path.write_text(",".join(header[:-2]) + "\n" + ",".join(row[:-2]) + "\n")
+    (back,) = read_records(path)
+    assert math.isnan(back.press_input_delay) and math.isnan(back.press_arrival_delay)
+    assert same(replace(back, press_input_delay=0.0123, press_arrival_delay=0.0041), PRESSED)
+    path.write_text(",".join(header[:-1]) + "\n" + ",".join(row[:-1]) + "\n")  # one of the two: no known header
+    with pytest.raises(StudyError, match="header"):
+        read_records(path)

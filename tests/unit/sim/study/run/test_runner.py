@@ -4,6 +4,7 @@ again on a refused one (answer_item)."""
 
 from __future__ import annotations
 
+import math
 import threading
 
 import pytest
@@ -12,7 +13,7 @@ from sim.study.design.plan import make_plan
 from sim.study.design.spec import load_design
 from sim.study.run.protocol import PHASES, PROTOCOL, Answer, answer_to_json
 from sim.study.run.questionnaires import item_status
-from sim.study.run.runner import Inputs, answer_item
+from sim.study.run.runner import Inputs, Press, answer_item
 
 
 def entered(phase: str) -> Inputs:
@@ -121,3 +122,14 @@ def test_a_refused_answer_has_the_item_said_again_and_the_next_answer_is_taken()
     logged.clear()
     assert answer_item(status, inputs, lambda: inputs.wait("answer", 0.0, stop), say_again, logged.append, 9.0) is None
     assert logged == ["ssq_before_vr item nausea: no answer within 9 s; left missing"] and len(said) == 2
+
+
+def test_a_press_keeps_its_latency_the_arrival_delay_only_when_it_is_stamped() -> None:
+    inputs = entered("moving")
+    inputs.press(12.40, "button", 0.0083, 12.4321)
+    inputs.press(0.0, "keyboard")  # the observer's: nothing measured
+    stamped, unstamped = inputs.take_press(until=1e9), inputs.take_press(until=1e9)
+    assert stamped is not None and unstamped is not None
+    assert stamped.input_delay == 0.0083 and stamped.arrival_delay == pytest.approx(0.0321)
+    assert math.isnan(unstamped.input_delay) and math.isnan(unstamped.arrival_delay)
+    assert math.isnan(Press(0.0, "vr_trigger", 0.01, 12.0).arrival_delay)  # its time is its arrival, by definition

@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 from bridge.framing import FrameDecoder, encode_frame, encode_syscommand
+from sim.study.run.protocol import input_delay_from_seq
 from sim.wire.rosmsgs import deserialize, encode_joint_state, encode_message, time_msg
 
 JS_TESTS = Path(__file__).resolve().parents[4] / "js"
@@ -56,6 +57,7 @@ def test_the_page_reads_and_writes_what_ros_does() -> None:
         "joint_state": joint_state.hex(),
         "frames": frames.hex(),
         "header": {"seq": 4, "stamp": 1.16, "frame_id": "vr_trigger"},
+        "stop": {"stamp": 12.25, "input_delay": 0.0123456, "frame_id": "button"},
         "float32": 0.12,
         "string": "lateral_arc",
         "frame": ["/study/stop", "0102"],
@@ -74,6 +76,9 @@ def test_the_page_reads_and_writes_what_ros_does() -> None:
     assert bytes.fromhex(out["header"]) == encode_message(
         "std_msgs/Header", seq=4, stamp=time_msg(1.16), frame_id="vr_trigger"
     )
+    stop = deserialize(bytes.fromhex(out["stop"]), "std_msgs/Header")  # the runner reads its input delay from seq
+    assert (stop.stamp.sec, stop.stamp.nanosec, stop.frame_id) == (12, 250_000_000, "button")
+    assert input_delay_from_seq(stop.seq) == pytest.approx(0.012346, abs=1e-12)
     assert deserialize(bytes.fromhex(out["float32"]), "std_msgs/Float32").data == pytest.approx(0.12, abs=1e-7)
     assert bytes.fromhex(out["string"]) == encode_message("std_msgs/String", data="lateral_arc")
     assert bytes.fromhex(out["frame"]) == encode_frame("/study/stop", b"\x01\x02")

@@ -9,17 +9,36 @@ import http.client
 import re
 
 from sim.study.views.vr.server import PageServer
-from sim.study.views.vr.site import EMULATION_FILES, FRAME_TIME_FILES, PAGE_FILES, Site
+from sim.study.views.vr.site import (
+    BUTTON_PAGE_FILES,
+    EMULATION_FILES,
+    FRAME_TIME_FILES,
+    GAMEPAD_EMULATION_FILES,
+    PAGE_FILES,
+    Site,
+    make_button_site,
+)
 
 # What only the probe and the instrument say: their globals, the pixel read back, the bench's old URL switch
-INSTRUMENT_WORDS = ("vrPage", "vrFrameTime", "readPixels", "frametime", "emulatedHeadset")
+INSTRUMENT_WORDS = (
+    "vrPage",
+    "vrFrameTime",
+    "readPixels",
+    "frametime",
+    "emulatedHeadset",
+    "buttonPage",
+    "emulatedGamepad",
+    "defineProperty",
+)
 _SCRIPT = re.compile(r'<script type="module" src="/app/([^"]+)"')
 _IMPORT = re.compile(r"""(?:\bfrom|\bimport)\s*\(?\s*'\./([^']+)'""")
 
 
-def served(site: Site) -> tuple[dict[str, str], dict[str, int]]:
+def served(
+    site: Site, instruments: tuple[str, ...] = EMULATION_FILES + FRAME_TIME_FILES
+) -> tuple[dict[str, str], dict[str, int]]:
     """The page and the modules a browser loads from it ({name: text}, "/" for the page), and the status of a GET of
-    each instrument's module."""
+    each of `instruments`' modules."""
 
     async def main() -> tuple[dict[str, str], dict[str, int]]:
         server = PageServer(site, ("127.0.0.1", 9), "127.0.0.1", 0, tls=None, log=lambda _: None)
@@ -49,7 +68,7 @@ def served(site: Site) -> tuple[dict[str, str], dict[str, int]]:
                 loaded[name] = text
                 waiting += _IMPORT.findall(text)
             statuses = {}
-            for name in EMULATION_FILES + FRAME_TIME_FILES:
+            for name in instruments:
                 statuses[name] = (await loop.run_in_executor(None, get, f"/app/{name}"))[0]
             return loaded, statuses
         finally:
@@ -84,3 +103,16 @@ def test_the_emulated_headset_brings_the_probe_and_the_bench_flag_the_frame_time
     loaded, _ = served(site(emulation=True, frame_time=True))
     scripts = _SCRIPT.findall(loaded["/"])
     assert scripts == ["emulation.js", "probe.js", "frametime.js", "page.js"]
+
+
+def test_the_button_page_loads_its_modules_and_only_with_the_emulated_gamepad_the_probe() -> None:
+    loaded, statuses = served(make_button_site(), GAMEPAD_EMULATION_FILES + EMULATION_FILES)
+    assert set(loaded) - {"/"} == {name for name in BUTTON_PAGE_FILES if name.endswith(".js")}
+    found = {name: [word for word in INSTRUMENT_WORDS if word in text] for name, text in loaded.items()}
+    assert {name: words for name, words in found.items() if words} == {}
+    assert statuses == {name: 404 for name in GAMEPAD_EMULATION_FILES + EMULATION_FILES}
+    assert "three" not in loaded["/"] and "Enter VR" not in loaded["/"]
+    loaded, _ = served(make_button_site(emulation=True), ())
+    # the emulated gamepad first: it replaces navigator.getGamepads before the page reads it
+    assert _SCRIPT.findall(loaded["/"]) == ["gamepademulation.js", "buttonprobe.js", "button.js"]
+    assert "window.buttonPage" in loaded["buttonprobe.js"]

@@ -76,10 +76,36 @@ def test_the_page_its_files_and_the_libraries_it_imports(site: Site) -> None:
 
 
 def test_every_module_of_the_page_is_a_file_of_the_web_folder() -> None:
-    from sim.study.views.vr.site import EMULATION_FILES, FRAME_TIME_FILES, PAGE_FILES
+    from sim.study.views.vr.site import FRAME_TIME_FILES, PAGES
 
-    listed = {name for name in PAGE_FILES + EMULATION_FILES + FRAME_TIME_FILES if name.endswith(".js")}
-    assert listed == {path.name for path in WEB_DIR.glob("*.js")} - {"eslint.config.js"}
+    listed = {name for page in PAGES.values() for name in page.files + page.emulation if name.endswith(".js")}
+    assert listed | set(FRAME_TIME_FILES) == {path.name for path in WEB_DIR.glob("*.js")} - {"eslint.config.js"}
+    for page in PAGES.values():
+        assert all((WEB_DIR / name).is_file() for name in (page.entry, *page.files, *page.emulation))
+
+
+def test_the_button_page_is_its_own_entry_with_the_vr_pages_ros_modules_and_nothing_of_the_robot() -> None:
+    from sim.study.views.vr.site import make_button_site
+
+    button = make_button_site()
+    assert button.file_for("/") == WEB_DIR / "button.html" and button.file_for("/index.html") is None
+    for name in ("button.js", "gamepad.js", "connection.js", "rostcp.js", "clock.js", "study.js", "button.css"):
+        assert button.file_for(f"/app/{name}") == WEB_DIR / name
+    for path in ("/app/page.js", "/app/scene.js", "/vendor/three/build/three.module.js", "/robot/0/link1.obj"):
+        assert button.file_for(path) is None, path
+    assert button.file_for("/app/gamepademulation.js") is None and button.file_for("/app/buttonprobe.js") is None
+    emulated = make_button_site(emulation=True)
+    assert emulated.instruments == ("gamepademulation.js", "buttonprobe.js")
+    assert emulated.file_for("/app/gamepademulation.js") == WEB_DIR / "gamepademulation.js"
+    assert emulated.file_for("/vendor/iwer/build/iwer.module.js") is None and emulated.file_for("/app/probe.js") is None
+    settings = button.settings
+    assert settings["topics"] == {
+        "trial": ["/study/trial", "std_msgs/String"],
+        "stop": ["/study/stop", "std_msgs/Header"],
+    }
+    assert (
+        settings["stop_source"] == "button" and settings["protocol"]["stop_sources"]["button"]["condition"] == "reality"
+    )
 
 
 def test_the_settings_carry_the_scene_the_joints_and_the_topics(site: Site) -> None:
