@@ -98,9 +98,10 @@ def test_a_simulated_study_with_the_arm_recovers_its_biases(tmp_path: Path, name
     assert len(records) == 2 * 14 and all(r.pressed and r.press_late == 0.0 for r in records if r.test == 2)
     summary = summarise(records)
     # Two participants, three judgements each per condition: the estimates are near what was put in, within the
-    # judgements' noise (a perceived / actual ratio's is some 0.05, the presses' some millimetres)
+    # judgements' noise (a perceived / actual ratio's is some 0.05) and the two participants' own differences (their
+    # comfort shifts' SD is 5 mm, their mean's 3.5 mm: 10 mm is three of those)
     ratio, press = summary.distance_ratio_vr_vs_reality, summary.stop_distance_vr_vs_reality
     assert ratio.mean_difference == pytest.approx(-0.15, abs=0.06), ratio  # the 15 % underestimate put in
-    assert press.mean_difference == pytest.approx(-0.02, abs=0.005), press  # 2 cm closer in VR, as put in
+    assert press.mean_difference == pytest.approx(-0.02, abs=0.01), press  # 2 cm closer in VR, as put in
     scene = yaml.safe_load((out / "scene.yaml").read_text())
     assert scene["robot"] == str(arm(tmp_path, name))  # every process was handed the scene chosen for the arm

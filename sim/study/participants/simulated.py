@@ -20,7 +20,8 @@ protocol's table, sim.study.run.protocol):
 Why at once, and planned before go: a lockstep runs some 15 times faster than real time on a busy machine, so
 whatever the participant does after the approach starts races the robot. Pressing on the joint state one human
 reaction time ahead (some 15 ms of wall time there) came late in three studies of seven; planning on `moving` (5 ms,
-sometimes 140 ms on a starved CPU) still did now and then. While the runner waits for go nothing moves.
+sometimes 140 ms on a starved CPU) still did now and then. While the runner waits for go nothing moves, and in
+lockstep it holds the clock at a test-2 approach's start until the press is in.
 """
 
 from __future__ import annotations

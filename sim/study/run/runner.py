@@ -21,7 +21,10 @@ runner waits for go or an answer, the clock stands still. --realtime: /clock and
 clock (a VR headset, a real robot), and the robot is held at its target while the runner waits.
 
 A press's time is its stamp on ROS time (a zero stamp: when it arrives); a press whose stamp has already passed is
-applied at once, and how late it was is logged. Presses before the approach starts are ignored. Each press's latency
+applied at once, and how late it was is logged. Presses before the approach starts are ignored. In lockstep the
+runner holds the clock at a test-2 approach's start until the participant's press is in (at most
+RunnerOptions.press_grace of wall time): a simulated participant plans its press and sends it, stamped ahead, when
+the approach begins, and the lockstep would otherwise outrun it. Each press's latency
 is recorded in two parts: its input delay (the client's, in the Header's seq) and its arrival delay (the runner's ROS
 time when it came, minus its stamp).
 """
@@ -99,6 +102,12 @@ class RunnerOptions:
     settle: float = 0.5  # s held after the motion ends, before it counts as at rest
     response_timeout: float = 300.0  # the longest wait for go or an answer; then the trial goes on without it
     deceleration: float = 1.0  # m/s² along the path on a press
+    # Lockstep only: before a test-2 approach, how long (s of wall time) the runner waits for the participant's press.
+    # An approach of seconds of ROS time takes a fraction of a second of wall time in lockstep, so a press sent on
+    # `moving` by a participant short of CPU landed after its stamp, or after the approach (measured beside other
+    # work: presses 0.1-0.3 s late in wall time). Waiting keeps ROS time still until the press is in; a participant
+    # who does not press costs this once per trial.
+    press_grace: float = 2.0
 
 
 # what the observer is told at the terminal (--keyboard), by the input the phase accepts
@@ -202,6 +211,17 @@ class Inputs:
                 if press.stamp <= until:
                     return self._presses.pop(k)
         return None
+
+    def wait_for_press(self, timeout: float, stop: threading.Event) -> bool:
+        """Wait (up to `timeout` s, or until stopped) until a press has come, without taking it; whether one has."""
+        deadline = time.monotonic() + timeout
+        with self._changed:
+            while not self._presses and not stop.is_set():
+                remaining = deadline - time.monotonic()
+                if remaining <= 0:
+                    break
+                self._changed.wait(min(remaining, 0.1))
+            return bool(self._presses)
 
     def wait(self, what: str, timeout: float, stop: threading.Event) -> Any:
         """Wait for go (True), a distance (float), a preference (str) or an answer (Answer); None after `timeout` s
@@ -481,6 +501,8 @@ class StudyRunner(ControllerNode):
         run = TrialRun(self.robot, planned, self.approaches.hand_distance, self.options.deceleration)
         start = self.clock
         self.publish_status(self.status(trial, "moving", motion_start=start))
+        if trial.test == 2 and not self.options.pacing.realtime and not self.options.auto_go:
+            self.inputs.wait_for_press(self.options.press_grace, self.stop)  # see RunnerOptions.press_grace
         run.record_state(0.0, positions)
         settle = int(round(self.options.settle / dt))
         late, source, k = 0.0, "", 0

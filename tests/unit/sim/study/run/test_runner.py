@@ -133,3 +133,17 @@ def test_a_press_keeps_its_latency_the_arrival_delay_only_when_it_is_stamped() -
     assert stamped.input_delay == 0.0083 and stamped.arrival_delay == pytest.approx(0.0321)
     assert math.isnan(unstamped.input_delay) and math.isnan(unstamped.arrival_delay)
     assert math.isnan(Press(0.0, "vr_trigger", 0.01, 12.0).arrival_delay)  # its time is its arrival, by definition
+
+
+def test_waiting_for_a_press_returns_when_one_comes_and_leaves_it_to_be_taken() -> None:
+    inputs, stop = entered("moving"), threading.Event()
+    assert inputs.wait_for_press(0.05, stop) is False  # none came within the grace
+    later = threading.Timer(0.05, lambda: inputs.press(3.0, "button"))
+    later.start()
+    assert inputs.wait_for_press(10.0, stop) is True
+    later.join()
+    assert inputs.take_press(until=2.0) is None  # not taken by the wait: applied at its stamp, 3.0
+    press = inputs.take_press(until=3.0)
+    assert press is not None and press.stamp == 3.0 and press.source == "button"
+    stop.set()
+    assert inputs.wait_for_press(10.0, stop) is False  # a stopped runner does not wait
