@@ -81,7 +81,7 @@ def test_the_live_view_shows_the_scene_the_plan_the_trail_and_the_stop(
         finish(runner, 120)
         after = settled_screenshot(browser, tmp_path / "after.png", "/stop_distance")
         counts = {part: pixels_like(after, COLOURS[part]) for part in ("hand", "path", "trail", "stop")}
-        # the trail runs along the path it followed, the two lines sharing pixels: a short approach leaves few of its own
+        # the trail runs along the path it followed, the lines sharing pixels: a short approach leaves few of its own
         assert counts["hand"] > 300 and counts["path"] > 200 and counts["trail"] > 20 and counts["stop"] > 20, counts
         assert np.abs(after - before).max(axis=2).astype(bool).sum() > 5_000  # the robot moved on the page
     finally:
