@@ -54,7 +54,7 @@ __all__ = [
     "scene_to_data",
 ]
 
-_VERSION = 1  # of the proposal; a cached scene of another version is proposed again
+_VERSION = 2  # of the proposal; one kept by another version is proposed again (2: the bundled scene names the arm)
 
 # The hand's distance from the base, as fractions of the reach, the Panda's first (its bundled scene has about
 # this), then ever farther from it; the table top at the robot's mounting (the bottom of its base link: the robot
@@ -125,7 +125,7 @@ def candidate_scene(
     seat = hand.top + (template.seat - template.hand.top)
     return dataclasses.replace(
         template,
-        robot=str(robot.cli_args[1]) if len(robot.cli_args) > 1 else robot.name,
+        robot=scene_robot_name(robot),
         ee_link=robot.ee_link,
         base_position=np.zeros(3),
         base_rpy=np.zeros(3),
@@ -155,6 +155,11 @@ def _screen(
     return ""
 
 
+def scene_robot_name(robot: RobotSpec) -> str:
+    """The robot as a scene names it: as --robot gave it (a URDF's path), else its name."""
+    return str(robot.cli_args[1]) if len(robot.cli_args) > 1 else robot.name
+
+
 def fit_scene(
     robot: RobotSpec,
     template: Scene,
@@ -165,7 +170,8 @@ def fit_scene(
     """The first candidate that fits (module docstring), with every candidate tried and why it did not."""
     chain = chain_for(robot)
     found = proportions(robot, chain)
-    candidates = [("the bundled scene", dataclasses.replace(template, ee_link=robot.ee_link))]
+    bundled = dataclasses.replace(template, robot=scene_robot_name(robot), ee_link=robot.ee_link)
+    candidates = [("the bundled scene", bundled)]
     with SceneWorld(robot, template) as world:
         mount = world.base_bottom()
     pairs = sorted(
