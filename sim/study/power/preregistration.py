@@ -1,5 +1,6 @@
 """The pre-registration summary, written from the design file (`python -m sim.study preregister`): hypotheses,
-measures, the SESOIs with their reasoning, the planned sample and its power, the models and the decision rules. Pure
+measures, the participant's input devices, the questionnaires, the SESOIs with their reasoning, the planned sample
+and its power, the models and the decision rules. Pure
 logic: what is analysed is what the design declares, and the summary names the file and its SHA-256 so that a
 reader can check the analysis used that very file."""
 
@@ -7,12 +8,16 @@ from __future__ import annotations
 
 from sim.study.analysis.contrasts import FACTOR_NAMES, MEASURES
 from sim.study.analysis.mixed_model import CROSSOVER_TERMS, formula
+from sim.study.analysis.questionnaires import SSQ_SUSPECT_SOURCE, SSQ_SUSPECT_TOTAL
 from sim.study.design.spec import TESTS, Design
 from sim.study.power.sample_size import PlannedSample
+from sim.study.questionnaires.instruments import Instrument
+from sim.study.run.protocol import PROTOCOL
 
 __all__ = ["preregistration"]
 
 _UNITS = {1: "", 2: " m"}
+_CONDITION_NAMES = {"vr": "VR", "reality": "reality"}
 _HYPOTHESES = {
     1: "People perceive the robot's distance from their hand the same in VR as in reality",
     2: "People stop an approaching robot at the same distance from their hand in VR as in reality",
@@ -28,6 +33,58 @@ def _factors(design: Design, test: int) -> str:
         )
     speeds = ", ".join(f"{name} ({speed:g} m/s)" for name, speed in design.test2_speed_sets)
     return f"paths {', '.join(design.test2_paths)} × speed sets {speeds}; after each speed set's group, a preference"
+
+
+def _input_devices() -> list[str]:
+    """How the participant stops the robot, per condition: the protocol's stop sources."""
+    lines = [
+        "## Input devices",
+        "",
+        "How a stop press is given, per condition (a press names its source). Each press's latency is recorded in two "
+        "parts, from the input's change to its stamp and from the stamp to its arrival at the runner, and reported per "
+        "source with the difference between the two conditions' sources.",
+        "",
+    ]
+    for name, entry in PROTOCOL.data["stop_sources"].items():
+        where = f"in {_CONDITION_NAMES[entry['condition']]}" if entry["condition"] else "in neither condition: flagged"
+        lines.append(f"- `{name}` ({where}): {entry['meaning']}.")
+    return lines
+
+
+def _scoring(instrument: Instrument) -> str:
+    if instrument.rule == "weighted_sum":
+        weights = ", ".join(f"{s.name} × {s.weight:g}" for s in instrument.subscales)
+        total = (
+            f"; {instrument.total.name}: {instrument.total.weight:g} × the sum of the raw sums"
+            if instrument.total
+            else ""
+        )
+        return f"each subscale's raw sum weighted ({weights}){total}"
+    if len(instrument.items) == 1:
+        return "its answer"
+    reversed_ = [item.id for item in instrument.items if item.reversed]
+    means = ", ".join(s.name for s in instrument.subscales)
+    return f"the mean of each subscale's items ({means})" + (f", {', '.join(reversed_)} reversed" if reversed_ else "")
+
+
+def _questionnaires(design: Design) -> list[str]:
+    lines = ["## Questionnaires", ""]
+    if not design.questionnaires:
+        return lines + ["None declared."]
+    lines += ["Asked in their place in every session, to check the measures' validity, not as outcomes:", ""]
+    for declared in design.questionnaires:
+        instrument = declared.instrument
+        count = len(instrument.items)
+        when = ", ".join(f"{position} {_CONDITION_NAMES[condition]}" for condition, position in declared.placements)
+        lines.append(
+            f"- **{instrument.title}** (`{instrument.name}`, {count} item{'s' if count != 1 else ''}), {when}; "
+            f"scored as {_scoring(instrument)}."
+        )
+    return lines + [
+        "",
+        f"A participant whose SSQ total after VR is above {SSQ_SUSPECT_TOTAL:g} is named in the report as one whose VR "
+        f"data are suspect, and stays in the analysis. {SSQ_SUSPECT_SOURCE}.",
+    ]
 
 
 def _power_table(sample: PlannedSample, test: int) -> list[str]:
@@ -69,11 +126,15 @@ def preregistration(design: Design, source: str, digest: str, sample: PlannedSam
         "",
         "## Measures",
         "",
-        "- Test 1: perceived / actual distance. The participant shows the distance between the end effector and "
-        "their hand; the actual one is the end effector's distance to the hand's surface with the robot at rest, "
-        "from forward kinematics of the recorded joint states.",
-        "- Test 2: the end effector's distance to the hand's surface when the participant's stop press lands, from "
-        "forward kinematics of the recorded joint state nearest the press. A trial without a press has no measure.",
+        "- Test 1: perceived / actual distance. The participant shows the distance between the robot and their "
+        "hand; the actual one is the robot's distance to the hand's surface with the robot at rest (its nearest "
+        "collision surface, or its end-effector point where the scene says so), from the recorded joint states.",
+        "- Test 2: the robot's distance to the hand's surface when the participant's stop press lands, from the "
+        "recorded joint state nearest the press. A trial without a press has no measure.",
+        "",
+        *_input_devices(),
+        "",
+        *_questionnaires(design),
         "",
         "## Smallest effects of interest",
         "",
