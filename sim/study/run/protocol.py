@@ -211,14 +211,20 @@ def status_to_json(status: TrialStatus) -> str:
     )
 
 
-def status_from_json(text: str) -> TrialStatus:
+def _json_fields(text: str, kind: type, what: str) -> dict[str, Any]:
+    """`text` as a JSON object with exactly the fields of the dataclass `kind`; RunError naming `what` if not."""
     try:
         data = json.loads(text)
     except json.JSONDecodeError as error:
-        raise RunError(f"a trial status is not JSON: {error}") from None
-    names = [field.name for field in fields(TrialStatus)]
+        raise RunError(f"{what} is not JSON: {error}") from None
+    names = [field.name for field in fields(kind)]
     if not isinstance(data, dict) or sorted(data) != sorted(names):
-        raise RunError(f"a trial status must have exactly {', '.join(names)}, got {text[:200]!r}")
+        raise RunError(f"{what} must have exactly {', '.join(names)}, got {text[:200]!r}")
+    return data
+
+
+def status_from_json(text: str) -> TrialStatus:
+    data = _json_fields(text, TrialStatus, "a trial status")
     PROTOCOL.phase(data["phase"])  # RunError when it is none of the table's
     for key in ("standoff", "peak_speed", "motion_start"):
         data[key] = math.nan if data[key] is None else float(data[key])
@@ -278,13 +284,7 @@ def answer_to_json(answer: Answer) -> str:
 
 def answer_from_json(text: str) -> Answer:
     """An answer as sent; RunError when it is not one (the scale is checked against the item asked: checked_answer)."""
-    try:
-        data = json.loads(text)
-    except json.JSONDecodeError as error:
-        raise RunError(f"an answer is not JSON: {error}") from None
-    names = [field.name for field in fields(Answer)]
-    if not isinstance(data, dict) or sorted(data) != sorted(names):
-        raise RunError(f"an answer must have exactly {', '.join(names)}, got {text[:200]!r}")
+    data = _json_fields(text, Answer, "an answer")
     value = data["answer"]
     if not (isinstance(data["administration"], str) and isinstance(data["item"], str)):
         raise RunError(f"an answer's administration and item must be texts, got {text[:200]!r}")
