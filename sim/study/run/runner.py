@@ -214,14 +214,7 @@ class Inputs:
 
     def wait_for_press(self, timeout: float, stop: threading.Event) -> bool:
         """Wait (up to `timeout` s, or until stopped) until a press has come, without taking it; whether one has."""
-        deadline = time.monotonic() + timeout
-        with self._changed:
-            while not self._presses and not stop.is_set():
-                remaining = deadline - time.monotonic()
-                if remaining <= 0:
-                    break
-                self._changed.wait(min(remaining, 0.1))
-            return bool(self._presses)
+        return self._wait_for(lambda: True if self._presses else None, timeout, stop) is not None
 
     def wait(self, what: str, timeout: float, stop: threading.Event) -> Any:
         """Wait for go (True), a distance (float), a preference (str) or an answer (Answer); None after `timeout` s
@@ -232,10 +225,14 @@ class Inputs:
             "preference": lambda: self._preferences.pop(0) if self._preferences else None,
             "answer": lambda: self._answers.pop(0) if self._answers else None,
         }
+        return self._wait_for(taken[what], timeout, stop)
+
+    def _wait_for(self, found: Callable[[], Any], timeout: float, stop: threading.Event) -> Any:
+        """What `found()` gives (under the lock) once it is not None; None after `timeout` s or when stopped."""
         deadline = time.monotonic() + timeout
         with self._changed:
             while not stop.is_set():
-                value = taken[what]()
+                value = found()
                 if value is not None:
                     return value
                 remaining = deadline - time.monotonic()
