@@ -18,6 +18,10 @@ checks it and gives it to Python. Pure logic, but for reading that file once.
   /study/answer             std_msgs/String, to the runner: a questionnaire item's answer as JSON (Answer:
                             administration, item, answer), naming the item so that a late answer to one item is never
                             taken for the next one's
+  /study/pose/head          geometry_msgs/PoseStamped, to the runner, during every trial at the tracker's frame rate:
+  /study/pose/left_hand     the headset's and the controllers' poses (the VR page), or a tracker's in reality; stamp =
+  /study/pose/right_hand    when, on the runner's clock; frame_id = the scene's world frame ("world"). A body that is
+                            not tracked in a frame sends nothing: a gap in tracking (sim.study.motion)
 
 Phases of a trial, in order: to_start (moving to the path's start), ready (accepts go), moving (accepts a stop),
 at_rest (the motion has ended or stopped), distance (test 1: accepts the perceived distance), preference (after a
@@ -52,6 +56,11 @@ __all__ = [
     "DISTANCE_TOPIC",
     "PREFERENCE_TOPIC",
     "ANSWER_TOPIC",
+    "BODIES",
+    "POSE_TOPICS",
+    "POSE_TYPE",
+    "POSE_FRAME",
+    "TRACKING_GAP",
     "TOPIC_TYPES",
     "PHASES",
     "MAX_PERCEIVED_DISTANCE",
@@ -82,6 +91,8 @@ INPUT_TYPES = {
     "preference": "std_msgs/String",
     "answer": "std_msgs/String",
 }
+BODIES = ("head", "left_hand", "right_hand")  # the tracked bodies, each a PoseStamped topic of its own
+POSE_TYPE = "geometry_msgs/PoseStamped"
 
 
 @dataclass(frozen=True)
@@ -102,6 +113,9 @@ class Protocol:
     stop_sources: dict[str, str | None]
     max_perceived_distance: float  # m: an answer beyond this is a typing or tracking error, not a judgement
     stamp_window: tuple[float, float]  # s around motion_start: a press stamped outside it is on another clock
+    poses: dict[str, tuple[str, str]]  # by body (BODIES): its pose topic and type
+    pose_frame: str  # the frame_id every pose must have: the scene's world frame
+    tracking_gap: float  # s: a body's poses further apart than this leave a gap in its tracking
     data: dict[str, Any]
 
     def phase(self, name: str) -> Phase:
@@ -149,6 +163,15 @@ def load_protocol(path: Path = PROTOCOL_FILE) -> Protocol:
                 raise RunError(f"phase {phase.name} says nothing on the VR panel (panel.lines)")
         stop_sources = {name: entry["condition"] for name, entry in data["stop_sources"].items()}
         low, high = (float(value) for value in data["limits"]["stamp_window_s"])
+        poses = {name: _topic(data["poses"]["bodies"][name], f"pose {name}") for name in BODIES}
+        if sorted(data["poses"]["bodies"]) != sorted(BODIES):
+            raise RunError(f"the poses must be exactly {', '.join(BODIES)}, got {', '.join(data['poses']['bodies'])}")
+        for name, (_, kind) in poses.items():
+            if kind != POSE_TYPE:
+                raise RunError(f"pose {name} must be a {POSE_TYPE}, got {kind!r}")
+        tracking_gap = float(data["limits"]["tracking_gap_s"])
+        if not (math.isfinite(tracking_gap) and tracking_gap > 0.0):
+            raise RunError(f"the tracking gap must be > 0 s, got {tracking_gap!r}")
         protocol = Protocol(
             status=_topic(data["status"], "status"),
             inputs=inputs,
@@ -156,6 +179,9 @@ def load_protocol(path: Path = PROTOCOL_FILE) -> Protocol:
             stop_sources=stop_sources,
             max_perceived_distance=float(data["limits"]["max_perceived_distance_m"]),
             stamp_window=(low, high),
+            poses=poses,
+            pose_frame=str(data["poses"]["frame_id"]),
+            tracking_gap=tracking_gap,
             data=data,
         )
     except (KeyError, TypeError, ValueError) as error:
@@ -169,7 +195,10 @@ def load_protocol(path: Path = PROTOCOL_FILE) -> Protocol:
 PROTOCOL = load_protocol()
 STATUS_TOPIC = PROTOCOL.status[0]
 GO_TOPIC, STOP_TOPIC, DISTANCE_TOPIC, PREFERENCE_TOPIC, ANSWER_TOPIC = (PROTOCOL.inputs[name][0] for name in INPUTS)
-TOPIC_TYPES = {topic: kind for topic, kind in (PROTOCOL.status, *PROTOCOL.inputs.values())}
+POSE_TOPICS = {body: topic for body, (topic, _) in PROTOCOL.poses.items()}
+POSE_FRAME = PROTOCOL.pose_frame
+TRACKING_GAP = PROTOCOL.tracking_gap
+TOPIC_TYPES = {topic: kind for topic, kind in (PROTOCOL.status, *PROTOCOL.inputs.values(), *PROTOCOL.poses.values())}
 PHASES = tuple(phase.name for phase in PROTOCOL.phases)
 MAX_PERCEIVED_DISTANCE = PROTOCOL.max_perceived_distance
 

@@ -2,7 +2,8 @@
 column, so the analysis never works on a half-written or edited-by-hand file without saying so.
 
 Distances are the end effector's (its FK from the achieved joint states) to the hand's surface, in metres. The
-press's latency columns came last, so a file written before them is still read (with them NaN).
+press's latency columns, then the participant's motion (sim.study.motion), came last: a file written before either
+is still read, with them NaN (and no tracked hand).
 """
 
 from __future__ import annotations
@@ -43,11 +44,20 @@ class TrialRecord:
     # The press's latency in two parts (NaN where it was not measured: the keyboard's, a client that does not say):
     press_input_delay: float = math.nan  # s from the input's change to its stamp, as the pressing client measured it
     press_arrival_delay: float = math.nan  # s from its stamp to its arrival at the runner (ROS time); NaN unstamped
+    # The participant's motion during the approach (sim.study.motion; NaN and "" where nothing was tracked):
+    tracked_hand: str = ""  # the body taken for the hand under the robot (left_hand or right_hand); "" untracked
+    withdrawal_distance: float = math.nan  # m, the hand's farthest from where it was at the motion's start
+    withdrawal_peak_speed: float = math.nan  # m/s, the hand's highest speed during the approach
+    head_distance_at_press: float = math.nan  # m, the head to the end effector at the press; NaN without a press
+    hand_untracked: float = math.nan  # s of the approach without the hand's pose (gaps longer than the protocol's)
+    head_untracked: float = math.nan  # s of the approach without the head's pose
 
 
 _FIELDS = fields(TrialRecord)
-# Columns a file written before they were recorded lacks: it is read with them NaN
-_ADDED_LATER = ("press_input_delay", "press_arrival_delay")
+_NAMES = [field.name for field in _FIELDS]
+# The headers a file may have: the columns up to each group added later (the press's latency, the motion). A file
+# written before a group is read with that group's columns at their defaults.
+_HEADERS = [_NAMES[: _NAMES.index(first)] for first in ("press_input_delay", "tracked_hand")] + [_NAMES]
 
 
 def write_records(path: Path, records: list[TrialRecord]) -> None:
@@ -56,7 +66,7 @@ def write_records(path: Path, records: list[TrialRecord]) -> None:
     partial = path.with_name(path.name + ".partial")
     with open(partial, "w", newline="") as out:
         writer = csv.writer(out)
-        writer.writerow([field.name for field in _FIELDS])
+        writer.writerow(_NAMES)
         for record in records:
             writer.writerow([_text(value) for value in astuple(record)])
     partial.replace(path)
@@ -91,10 +101,8 @@ def read_records(path: Path) -> list[TrialRecord]:
             rows = list(csv.reader(source))
     except OSError as error:
         raise RunError(f"cannot read {path}: {error.strerror}") from None
-    names = [field.name for field in _FIELDS]
-    earlier = [name for name in names if name not in _ADDED_LATER]
-    if not rows or rows[0] not in (names, earlier):
-        raise RunError(f"{path} is not a study record file: its header must be {','.join(names)}")
+    if not rows or rows[0] not in _HEADERS:
+        raise RunError(f"{path} is not a study record file: its header must be {','.join(_NAMES)}")
     columns = _FIELDS[: len(rows[0])]
     records = []
     for number, row in enumerate(rows[1:], start=2):

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import replace
+from dataclasses import astuple, replace
 from pathlib import Path
 
 import pytest
@@ -35,6 +35,12 @@ PRESSED = TrialRecord(
     "straight",
     0.0123,
     0.0041,
+    "right_hand",
+    0.034,
+    0.21,
+    0.52,
+    0.0,
+    0.016,
 )
 RESTED = TrialRecord(
     4,
@@ -61,11 +67,12 @@ RESTED = TrialRecord(
 )
 
 
+def same_value(x: object, y: object) -> bool:
+    return (x == y) or (isinstance(x, float) and isinstance(y, float) and math.isnan(x) and math.isnan(y))
+
+
 def same(a: TrialRecord, b: TrialRecord) -> bool:
-    return all(
-        (x == y) or (isinstance(x, float) and math.isnan(x) and math.isnan(y))
-        for x, y in zip(vars(a).values(), vars(b).values())
-    )
+    return all(same_value(x, y) for x, y in zip(vars(a).values(), vars(b).values()))
 
 
 def test_records_round_trip_exactly(tmp_path: Path) -> None:
@@ -105,15 +112,20 @@ def test_a_missing_file_is_a_study_error(tmp_path: Path) -> None:
         read_records(tmp_path / "absent.csv")
 
 
-def test_a_file_written_before_the_latency_columns_is_read_with_them_unmeasured(tmp_path: Path) -> None:
+@pytest.mark.parametrize("first", ["press_input_delay", "tracked_hand"])
+def test_a_file_written_before_a_group_of_columns_is_read_with_them_at_their_defaults(
+    tmp_path: Path, first: str
+) -> None:
     path = tmp_path / "participant_04.csv"
     write_records(path, [PRESSED])
     header, row = (line.split(",") for line in path.read_text().splitlines())
-    assert header[-2:] == ["press_input_delay", "press_arrival_delay"] and row[-2:] == ["0.0123", "0.0041"]
-    path.write_text(",".join(header[:-2]) + "\n" + ",".join(row[:-2]) + "\n")
+    kept = header.index(first)
+    path.write_text(",".join(header[:kept]) + "\n" + ",".join(row[:kept]) + "\n")
     (back,) = read_records(path)
-    assert math.isnan(back.press_input_delay) and math.isnan(back.press_arrival_delay)
-    assert same(replace(back, press_input_delay=0.0123, press_arrival_delay=0.0041), PRESSED)
-    path.write_text(",".join(header[:-1]) + "\n" + ",".join(row[:-1]) + "\n")  # one of the two: no known header
+    later = {name: getattr(PRESSED, name) for name in header[kept:]}
+    defaults = {name: getattr(TrialRecord(*astuple(PRESSED)[:kept]), name) for name in header[kept:]}
+    assert same(replace(back, **later), PRESSED)
+    assert all(same_value(getattr(back, name), value) for name, value in defaults.items())
+    path.write_text(",".join(header[: kept + 1]) + "\n" + ",".join(row[: kept + 1]) + "\n")  # inside a group
     with pytest.raises(StudyError, match="header"):
         read_records(path)
