@@ -56,6 +56,7 @@ from sim.study.run.protocol import (
     ANSWER_TOPIC,
     DISTANCE_TOPIC,
     GO_TOPIC,
+    POSE_TOPICS,
     PREFERENCE_TOPIC,
     PROTOCOL,
     STATUS_TOPIC,
@@ -281,6 +282,7 @@ def recorder_topics(robot: RobotSpec) -> list[str]:
         DISTANCE_TOPIC,
         PREFERENCE_TOPIC,
         ANSWER_TOPIC,
+        *POSE_TOPICS.values(),
     ]
 
 
