@@ -27,10 +27,14 @@ from sim.study.participants.model import INPUT_FRAME_S
 from sim.study.run.protocol import (
     DISTANCE_TOPIC,
     GO_TOPIC,
+    POSE_FRAME,
+    POSE_TOPICS,
+    POSE_TYPE,
     PREFERENCE_TOPIC,
     STATUS_TOPIC,
     STOP_TOPIC,
     TOPIC_TYPES,
+    TRACKING_GAP,
     status_from_json,
 )
 from sim.study.run.stop import STOP_DECELERATION
@@ -71,9 +75,29 @@ def message(topic: str, **fields: Any) -> bytes:
     return encode_message(TOPIC_TYPES[topic], **fields)
 
 
+# The scripted scene's tracked body in trial 2, in the world: the head still, the right hand on the scene's hand,
+# withdrawn from the press by WITHDRAWAL along -y at a constant speed; the left hand away on the table. The head's
+# poses stop for HEAD_LOST joint states (a gap), and the first pose is sent on the approach's FIRST_POSE-th state.
+HEAD = np.array([0.55, -0.65, 0.45])
+LEFT_HAND = np.array([0.35, -0.45, 0.02])
+WITHDRAWAL, WITHDRAWAL_SPEED = 0.03, 0.1  # m, m/s
+HEAD_LOST = range(10, 21)
+PRESS_STATE = 25
+
+
+def pose_message(stamp: float, position: np.ndarray) -> bytes:
+    types = TYPESTORE.types
+    header = types["std_msgs/msg/Header"](seq=0, stamp=time_msg(stamp), frame_id=POSE_FRAME)
+    point = types["geometry_msgs/msg/Point"](x=position[0], y=position[1], z=position[2])
+    orientation = types["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=0.0, w=1.0)
+    pose = types["geometry_msgs/msg/Pose"](position=point, orientation=orientation)
+    return encode_message(POSE_TYPE, header=header, pose=pose)
+
+
 class ScriptedVrScene:
     """What a Unity scene would do, scripted: go on ready; in trial 2 a trigger press (unstamped) on the 25th joint
-    state of the approach; wrong answers first, then right ones."""
+    state of the approach, and the tracked body's poses at each joint state's stamp until the trial ends; wrong
+    answers first, then right ones."""
 
     def __init__(self, port: int) -> None:
         self.client = TcpClient("127.0.0.1", port)
@@ -81,7 +105,9 @@ class ScriptedVrScene:
         self.phases: list[tuple[int, str]] = []
         self.moving_states = 0
         self.trial = 0
-        for topic in (GO_TOPIC, STOP_TOPIC, DISTANCE_TOPIC, PREFERENCE_TOPIC):
+        self.posing = False  # trial 2, from its approach on
+        self.press_stamp = math.nan  # of the joint state on which trial 2's press went
+        for topic in (GO_TOPIC, STOP_TOPIC, DISTANCE_TOPIC, PREFERENCE_TOPIC, *POSE_TOPICS.values()):
             self.client.register_publisher(topic, TOPIC_TYPES[topic])
         self.client.subscribe(STATUS_TOPIC, TOPIC_TYPES[STATUS_TOPIC], self.on_status)
         self.client.subscribe(ROBOT.joint_states_topic, JOINT_STATE, self.on_joint_state)
@@ -90,6 +116,7 @@ class ScriptedVrScene:
         status = status_from_json(deserialize(payload, TOPIC_TYPES[STATUS_TOPIC]).data)
         self.phases.append((status.index, status.phase))
         self.trial = status.index if status.phase == "moving" else 0
+        self.posing = status.index == 2 and status.phase in ("moving", "at_rest")
         self.moving_states = 0
         if status.phase == "ready":
             self.client.publish(GO_TOPIC, message(GO_TOPIC))
@@ -106,8 +133,17 @@ class ScriptedVrScene:
     def on_joint_state(self, payload: bytes) -> None:
         if self.trial == 2:
             self.moving_states += 1
-            if self.moving_states == 25:
+            if self.moving_states == PRESS_STATE:
+                self.press_stamp = to_seconds(deserialize(payload, JOINT_STATE).header.stamp)
                 self.client.publish(STOP_TOPIC, message(STOP_TOPIC, seq=0, stamp=time_msg(0.0), frame_id="vr_trigger"))
+        if self.posing:
+            stamp = to_seconds(deserialize(payload, JOINT_STATE).header.stamp)
+            withdrawn = min(max(stamp - self.press_stamp, 0.0) * WITHDRAWAL_SPEED, WITHDRAWAL)
+            hand = SCENE.hand.position + np.array([0.0, -1.0, 0.0]) * (0.0 if math.isnan(withdrawn) else withdrawn)
+            if self.moving_states not in HEAD_LOST:
+                self.client.publish(POSE_TOPICS["head"], pose_message(stamp, HEAD))
+            self.client.publish(POSE_TOPICS["right_hand"], pose_message(stamp, hand))
+            self.client.publish(POSE_TOPICS["left_hand"], pose_message(stamp, LEFT_HAND))
 
 
 def read_csv(path: Path) -> list[dict[str, str]]:
@@ -168,17 +204,36 @@ def test_a_vr_scene_stops_the_robot_and_answers_through_the_endpoint(roscore, en
     assert at_rest < at_press and at_press - at_rest == pytest.approx(braking, abs=0.01)
     assert unpressed["pressed"] == "false" and float(unpressed["distance_at_rest"]) == pytest.approx(ON_TOP, abs=0.002)
     assert pressed["preferred_path"] == unpressed["preferred_path"] == "vertical"
+    # The tracked body of trial 2, measured over its approach: the right hand withdrew WITHDRAWAL at its speed, the
+    # head was lost for the joint states it was not sent on (from the pose before to the one after), and was where
+    # it was at the press, from the end effector there
+    assert pressed["tracked_hand"] == "right_hand"
+    assert float(pressed["withdrawal_distance"]) == pytest.approx(WITHDRAWAL, abs=1e-6)
+    assert float(pressed["withdrawal_peak_speed"]) == pytest.approx(WITHDRAWAL_SPEED, rel=1e-3)
+    assert float(pressed["hand_untracked"]) == 0.0
+    head_lost = (len(HEAD_LOST) + 1) * STEP_S
+    assert head_lost > TRACKING_GAP and float(pressed["head_untracked"]) == pytest.approx(head_lost, abs=1e-6)
+    for row in (first, unpressed):  # no poses were sent in them
+        assert row["tracked_hand"] == "" and row["withdrawal_distance"] == row["head_untracked"] == ""
     # everything is in the bag: the press, the answers, and the robot resting where the CSV says
     bag = tmp_path / "out" / "bags" / "participant_07.bag"
     presses = bag_messages(bag, STOP_TOPIC)
     assert [p.frame_id for p in presses] == ["vr_trigger"]
     assert [round(m.data, 3) for m in bag_messages(bag, DISTANCE_TOPIC)] == [-1.0, 0.123]
     assert [m.data for m in bag_messages(bag, PREFERENCE_TOPIC)] == ["9", "2"]
+    heads = bag_messages(bag, POSE_TOPICS["head"])
+    assert heads and all(m.header.frame_id == POSE_FRAME for m in heads)
+    assert len(bag_messages(bag, POSE_TOPICS["right_hand"])) == len(heads) + len(HEAD_LOST)
     states = bag_messages(bag, ROBOT.joint_states_topic)
     last = states[-1]
     positions = np.array([last.position[list(last.name).index(name)] for name in ROBOT.joint_names])
+    press = float(pressed["motion_start"]) + float(pressed["press_time"])
+    at_press = min(states, key=lambda state: abs(to_seconds(state.header.stamp) - press))
+    positions_at_press = np.array([at_press.position[list(at_press.name).index(n)] for n in ROBOT.joint_names])
     with SceneWorld(ROBOT, SCENE) as world:  # the robot's nearest surface, the scene's definition of the distance
         assert world.hand_distance(positions) == pytest.approx(float(unpressed["distance_at_rest"]), abs=1e-4)
+        head_to_end_effector = float(np.linalg.norm(HEAD - world.end_effector(positions_at_press)))
+    assert float(pressed["head_distance_at_press"]) == pytest.approx(head_to_end_effector, abs=1e-4)
     assert to_seconds(last.header.stamp) > 0
 
 

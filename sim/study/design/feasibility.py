@@ -189,6 +189,9 @@ class Approaches:
     def hand_distance(self, q: np.ndarray) -> float:
         return self.world.hand_distance(q)
 
+    def end_effector(self, q: np.ndarray) -> np.ndarray:
+        return self.world.end_effector(q)
+
     def close(self) -> None:
         self.world.close()
 

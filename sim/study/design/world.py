@@ -157,6 +157,10 @@ class SceneWorld:
         points = p.getClosestPoints(self._body, self._obstacles["hand"], FAR, physicsClientId=self._client)
         return min((c for c in points if c[3] in self._moving), key=lambda c: c[8], default=None)
 
+    def end_effector(self, q: np.ndarray) -> np.ndarray:
+        """The end-effector point in the world at joint positions q."""
+        return self.scene.end_effector(self._chain, q)
+
     def end_effector_distance(self, q: np.ndarray) -> float:
         """The end-effector point's distance (m) to the hand at joint positions q, whatever the definition."""
         return self.scene.hand.distance(self.scene.end_effector(self._chain, q))

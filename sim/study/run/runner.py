@@ -27,6 +27,13 @@ RunnerOptions.press_grace of wall time): a simulated participant plans its press
 the approach begins, and the lockstep would otherwise outrun it. Each press's latency
 is recorded in two parts: its input delay (the client's, in the Header's seq) and its arrival delay (the runner's ROS
 time when it came, minus its stamp).
+
+The participant's tracked head and hands (the protocol's pose topics: the VR page's headset and controllers, or a
+tracker in reality) are measured per approach (sim.study.motion): the hand's withdrawal, the head's distance to the
+end effector at the press, the time tracking was lost; an approach during which no pose came is unmeasured. At an
+approach's end the runner waits (at most RunnerOptions.pose_grace of wall time, holding the robot in real time) until
+every body that has sent poses since the approach started has sent one stamped at its end: a lockstep outruns its
+participant, and poses travel apart from the status.
 """
 
 from __future__ import annotations
@@ -52,6 +59,8 @@ from sim.study.design.feasibility import Approaches
 from sim.study.design.plan import PlannedTrial, SessionPlan
 from sim.study.design.scene import Scene
 from sim.study.errors import StudyError
+from sim.study.motion.measures import UNMEASURED, MotionMeasures, Window, motion_measures
+from sim.study.run.poses import ReceivedPoses
 from sim.study.run.protocol import (
     ANSWER_TOPIC,
     DISTANCE_TOPIC,
@@ -61,6 +70,7 @@ from sim.study.run.protocol import (
     PROTOCOL,
     STATUS_TOPIC,
     STOP_TOPIC,
+    TRACKING_GAP,
     Answer,
     TrialStatus,
     answer_from_json,
@@ -109,6 +119,9 @@ class RunnerOptions:
     # work: presses 0.1-0.3 s late in wall time). Waiting keeps ROS time still until the press is in; a participant
     # who does not press costs this once per trial.
     press_grace: float = 2.0
+    # At an approach's end, how long (s of wall time) the runner waits for the poses up to its end (see the module's
+    # docstring); a tracker that stops sending costs this once per trial, and its gap is measured.
+    pose_grace: float = 1.0
 
 
 # what the observer is told at the terminal (--keyboard), by the input the phase accepts
@@ -297,11 +310,14 @@ class StudyRunner(ControllerNode):
         stop: threading.Event,
     ) -> None:
         super().__init__(robot, stop)
+        from geometry_msgs.msg import PoseStamped
         from std_msgs.msg import Empty, Float32, Header, String
 
         self._string_type = String
         self.scene, self.plan, self.approaches, self.options = scene, plan, approaches, options
         self.inputs = Inputs()
+        self.poses = ReceivedPoses()
+        self._refusals_told: set[str] = set()  # bodies whose refused poses have been logged
         self.stepper = Stepper(self, options.pacing)
         self.phase = ""  # of the last status published
         self.asked: TrialStatus | None = None  # the last status published: the item asked, in phase questionnaire
@@ -317,12 +333,20 @@ class StudyRunner(ControllerNode):
             self.rospy.Subscriber(PREFERENCE_TOPIC, String, lambda message: self.inputs.preference(message.data)),
             self.rospy.Subscriber(ANSWER_TOPIC, String, lambda message: self.inputs.answer_json(message.data)),
         ]
+        for body, topic in POSE_TOPICS.items():
+            self._subscribers.append(
+                self.rospy.Subscriber(topic, PoseStamped, self._on_pose, callback_args=body, tcp_nodelay=True)
+            )
 
     def _on_press(self, message: Any) -> None:
         arrival = self.stepper.now()  # first: the press's latency ends here
         self.inputs.press(
             message.stamp.to_sec(), message.frame_id or "unnamed", input_delay_from_seq(message.seq), arrival
         )
+
+    def _on_pose(self, message: Any, body: str) -> None:
+        point = message.pose.position
+        self.poses.add(body, message.header.stamp.to_sec(), message.header.frame_id, (point.x, point.y, point.z))
 
     def publish_status(self, status: TrialStatus) -> None:
         """Enter the status's phase (what it accepts from now on), then say so."""
@@ -490,6 +514,7 @@ class StudyRunner(ControllerNode):
         """One trial from wherever the robot is; its record (preference still empty) and where the robot ends."""
         planned = self.approaches.plan((trial.path, trial.standoff, trial.peak_speed))
         dt = self.options.pacing.dt
+        began = self.clock  # poses from here on are this trial's
         self.publish_status(self.status(trial, "to_start"))
         to_start, speeds = approach(self.robot, positions, planned.positions[0], dt)
         for k in range(1, len(to_start)):
@@ -521,6 +546,7 @@ class StudyRunner(ControllerNode):
             run.record_state(k * dt, positions)
         self.publish_status(self.status(trial, "at_rest", motion_start=start))
         measures = run.measures()
+        motion = self._motion(trial, run, began, Window(start, self.clock, start + measures.press_time), log)
         perceived = math.nan
         if trial.test == 1:
             self.publish_status(self.status(trial, "distance", motion_start=start))
@@ -559,8 +585,51 @@ class StudyRunner(ControllerNode):
             "",
             input_delay,
             arrival_delay,
+            motion.tracked_hand,
+            motion.withdrawal_distance,
+            motion.withdrawal_peak_speed,
+            motion.head_distance_at_press,
+            motion.hand_untracked,
+            motion.head_untracked,
         )
         return record, positions
+
+    def _motion(
+        self, trial: PlannedTrial, run: TrialRun, began: float, window: Window, log: Callable[[str], None]
+    ) -> MotionMeasures:
+        """The approach's motion measures from the poses of the bodies sending since it started (none: unmeasured),
+        once they are in up to its end; their poses since the trial `began` count (where a body was as it started)."""
+        if not self.poses.sending(window.start):
+            return UNMEASURED
+        late = self._await_poses(window.start, window.end)
+        if late:
+            log(
+                f"trial {trial.index}: no pose of {', '.join(late)} up to the approach's end within "
+                f"{self.options.pose_grace:g} s; measured as a gap"
+            )
+        for body, why in self.poses.refused.items():
+            if body not in self._refusals_told:
+                self._refusals_told.add(body)
+                log(f"poses of {body} refused: {why}")
+        pressed = math.isfinite(window.press)
+        end_effector = self.approaches.end_effector(run.positions_at(window.press - window.start)) if pressed else None
+        measures = motion_measures(
+            self.poses.tracks(began), window, self.scene.hand.position, end_effector, TRACKING_GAP
+        )
+        self.poses.forget(before=window.end)
+        if not measures.tracked_hand:
+            log(f"trial {trial.index}: no tracked hand was at the scene's hand as the approach started")
+        return measures
+
+    def _await_poses(self, since: float, end: float) -> list[str]:
+        """Wait (at most pose_grace s of wall time; in real time holding the robot) until every body that has sent
+        poses since `since` has one at `end`; the bodies still short of it."""
+        if not self.options.pacing.realtime:
+            return self.poses.wait_covered(since, end, self.options.pose_grace, self.stop)
+        deadline = time.monotonic() + self.options.pose_grace
+        while (late := self.poses.uncovered(since, end)) and time.monotonic() < deadline and not self.stop.is_set():
+            self.step(self._target[0], np.zeros(self.robot.dof))
+        return late
 
     def close(self) -> None:
         for subscriber in self._subscribers:

@@ -90,6 +90,12 @@ class TrialRun:
         """The robot's distance to the hand at joint positions `positions`."""
         return self._hand_distance(positions)
 
+    def positions_at(self, time_s: float) -> np.ndarray:
+        """The achieved joint positions recorded nearest `time_s` (s from the motion's start)."""
+        if not self._states:
+            raise RunError("no joint state was recorded in this trial")
+        return min(self._states, key=lambda state: abs(state[0] - time_s))[1]
+
     def measures(self) -> TrialMeasures:
         if not self._states:
             raise RunError("no joint state was recorded in this trial")
@@ -97,8 +103,12 @@ class TrialRun:
         if self.stopped is None:
             return TrialMeasures(False, math.nan, math.nan, rest, math.nan, 0.0)
         press = self.stopped.press_time
-        nearest = min(self._states, key=lambda state: abs(state[0] - press))
         planned_distance = float(np.interp(press, self.planned.path.times, self.planned.distances))
         return TrialMeasures(
-            True, press, self.hand_distance(nearest[1]), rest, planned_distance, self.stopped.braking_distance
+            True,
+            press,
+            self.hand_distance(self.positions_at(press)),
+            rest,
+            planned_distance,
+            self.stopped.braking_distance,
         )
