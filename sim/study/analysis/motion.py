@@ -165,7 +165,10 @@ def _compare(records: Sequence[TrialRecord], measure: MotionMeasure, model: bool
     fit = None
     if model and measure == MODELLED:
         try:
-            trials = trials_for(records, measure.test, measure.value)
+            # a participant with values in one condition only says nothing about VR − reality, and the model
+            # refuses them: they are left out of it, as they are of the pairs
+            paired_records = [r for r in records if r.participant in both]
+            trials = trials_for(paired_records, measure.test, measure.value)
             fit = fit_model(model_design(trials, FACTOR_NAMES[measure.test]), trials.value)
         except StudyError as error:
             notes.append(f"{where}: no mixed model: {error}")
@@ -251,7 +254,7 @@ def _model_line(c: MotionComparison) -> str:
         f"Test {m.test}'s {m.label} in the stop distance's crossover mixed model, "
         f"{formula(f'{m.label} ({m.unit})', FACTOR_NAMES[m.test])}, random effects: {fit.random_effects}: "
         f"VR − reality {k.estimate * s:+.{d}f} {m.unit} [{k.ci_low * s:+.{d}f}, {k.ci_high * s:+.{d}f}] "
-        f"({fit.participants} participants, {fit.trials} trials, t with {fit.df} df){said}."
+        f"({fit.participants} participants with both conditions, {fit.trials} trials, t with {fit.df} df){said}."
     )
 
 
@@ -268,7 +271,8 @@ def motion_lines(summary: MotionSummary) -> list[str]:
         "How the participant moved while the robot approached, from their tracked head and hands. Secondary and "
         "exploratory: compared VR − reality without an equivalence margin, and no verdict is drawn. Each "
         "participant's trials with a value are averaged per condition, then VR and reality are compared in pairs "
-        "(paired t-test with Cohen's d_z); 95 % t intervals across participants, n participants.",
+        "(paired t-test with Cohen's d_z); 95 % t intervals across participants. n: the participants with a value "
+        "(for the difference, in both conditions).",
         "",
     ]
     seen = set()

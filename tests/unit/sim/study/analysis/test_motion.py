@@ -6,10 +6,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
+from pathlib import Path
 
 import pytest
 
 from sim.study.analysis.motion import MODELLED, motion_lines, motion_recorded, summarise_motion
+from sim.study.analysis.report import write_report
 from sim.study.errors import StudyError
 from sim.study.run.records import TrialRecord
 from tests.unit.sim.study.analysis.test_summary import study
@@ -96,7 +98,7 @@ def test_gaps_are_summed_per_condition_and_body_and_untracked_trials_are_named()
     # a withdrawal the runner should not have written for an untracked hand is left out all the same
     k = next(k for k, r in enumerate(records) if r.participant == 4 and r.condition == "reality" and r.test == 2)
     records[k] = replace(records[k], tracked_hand="", hand_untracked=math.nan, withdrawal_distance=5.0)
-    summary = summarise_motion(records)
+    summary = summarise_motion(records, model=True)
     vr, reality = summary.tracking["vr"], summary.tracking["reality"]
     trials = len(records) // 2
     assert vr.trials == reality.trials == trials
@@ -110,6 +112,10 @@ def test_gaps_are_summed_per_condition_and_body_and_untracked_trials_are_named()
     withdrawal = summary.comparisons[0]
     assert withdrawal.vr_vs_reality is not None and withdrawal.vr_vs_reality.n == 3  # participant 3 left out
     assert withdrawal.conditions["reality"].n == 3 and withdrawal.conditions["reality"].mean < 1.0
+    # the model leaves participant 3 out too, rather than refusing the whole study for them (3 are then too few)
+    assert summary.notes == (
+        "test 2's withdrawal distance: no mixed model: 3 participants in 2 sequences leave too few to compare",
+    )
     lines = "\n".join(motion_lines(summary))
     assert "| vr | 56 | 56 | 2 | 0.75 | 0.50 | 56 | 1 | 0.20 | 0.20 |" in lines
     assert (
@@ -152,3 +158,13 @@ def test_records_without_motion_say_so() -> None:
     assert "No motion was recorded" in "\n".join(motion_lines(summary))
     with pytest.raises(StudyError, match="no trial records"):
         summarise_motion([])
+
+
+def test_the_report_has_the_motion_section_or_says_none_was_recorded(tmp_path: Path) -> None:
+    report = write_report(tracked_study(participants=4), tmp_path / "tracked", sesoi={1: 0.05, 2: 0.02}).read_text()
+    section = report.index("## The participant's motion")
+    assert report.index("## Test 2: comfort distance") < section < report.index("## Stop presses: latency")
+    assert "| 2 | withdrawal distance (cm) | " in report and "| 1 | withdrawal distance (cm) | " in report
+    assert "Test 2's withdrawal distance in the stop distance's crossover mixed model" in report  # with the design
+    old = write_report(study(participants=4), tmp_path / "old").read_text()
+    assert "## The participant's motion\n\nNo motion was recorded" in old
