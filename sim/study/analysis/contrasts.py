@@ -9,7 +9,7 @@ The measures: test 1, perceived / actual distance (actual: the robot at rest); t
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -65,9 +65,10 @@ def factor_level(test: int, standoff: float, speed_set: str) -> str:
     return f"{standoff:g} m" if test == 1 else speed_set
 
 
-def trials_for(records: Sequence[TrialRecord], test: int) -> Trials:
-    """The test's trials with a finite measure, as the model's rows."""
-    rows = [r for r in records if r.test == test and math.isfinite(measure(r))]
+def trials_for(records: Sequence[TrialRecord], test: int, value: Callable[[TrialRecord], float] = measure) -> Trials:
+    """The test's trials with a finite `value` (by default the test's measure), as the model's rows. Another value
+    (the participant's motion, sim.study.analysis.motion) gets the same crossover model as the test's measure."""
+    rows = [r for r in records if r.test == test and math.isfinite(value(r))]
     if not rows:
         raise AnalysisError(f"test {test} has no trial with a measure")
     return Trials(
@@ -76,7 +77,7 @@ def trials_for(records: Sequence[TrialRecord], test: int) -> Trials:
         vr_first=np.array([(r.condition == "vr") == (r.condition_position == 1) for r in rows]),
         factor=np.array([factor_level(r.test, r.standoff, r.speed_set) for r in rows]),
         path=np.array([r.path for r in rows]),
-        value=np.array([measure(r) for r in rows], dtype=float),
+        value=np.array([value(r) for r in rows], dtype=float),
     )
 
 

@@ -1,8 +1,8 @@
 """The study's report: every participant's CSV in a directory, summarised (sim.study.analysis.summary) into `report.md`
 with its plots beside it (`python -m sim.study analyse DIR`): the verdicts on VR against reality first, then each
-test's mixed model, the paired comparisons, the stop presses' latency per path (sim.study.analysis.latency), the
-questionnaires' scores (sim.study.analysis.questionnaires), and the
-plots (Bland–Altman among them)."""
+test's mixed model, the paired comparisons, the participant's motion (sim.study.analysis.motion), the stop presses'
+latency per path (sim.study.analysis.latency), the questionnaires' scores (sim.study.analysis.questionnaires), and
+the plots (Bland–Altman among them)."""
 
 from __future__ import annotations
 
@@ -16,6 +16,7 @@ from sim.study.analysis.contrasts import FACTOR_NAMES, MEASURES, TestContrast
 from sim.study.analysis.errors import AnalysisError
 from sim.study.analysis.latency import LatencySummary, keyboard_flag, latency_lines, summarise_latency
 from sim.study.analysis.mixed_model import CROSSOVER_TERMS, formula
+from sim.study.analysis.motion import MotionSummary, motion_lines, summarise_motion
 from sim.study.analysis.questionnaires import QuestionnaireSummary, questionnaire_lines
 from sim.study.analysis.statistics import Estimate, PairedComparison
 from sim.study.analysis.summary import StudySummary, cell, per_participant, perceived_ratio, summarise
@@ -126,6 +127,7 @@ def _verdict_lines(contrasts: Mapping[int, TestContrast]) -> list[str]:
 def _markdown(
     summary: StudySummary,
     latency: LatencySummary,
+    motion: MotionSummary,
     plots: list[Path],
     title: str,
     questionnaires: QuestionnaireSummary | None,
@@ -194,6 +196,7 @@ def _markdown(
         f"The thesis's estimate (the planned distance at the press time) differs from the measured distance "
         f"at the press by {_estimate_cell(error, 1000.0, 1)} mm on average.",
         "",
+        *motion_lines(motion),
         *latency_lines(latency),
     ]
     if summary.notes:
@@ -310,9 +313,9 @@ def write_report(
     sesoi: Mapping[int, float] | None = None,
     questionnaires: QuestionnaireSummary | None = None,
 ) -> Path:
-    """report.md and its plots in `out`; with `sesoi` (per test, the design's), the verdicts, mixed models and
-    Bland–Altman plot too; with `questionnaires`, their section. AnalysisError when the records cannot be
-    analysed."""
+    """report.md and its plots in `out`; with `sesoi` (per test, the design's), the verdicts, mixed models (the
+    withdrawal's among them) and Bland–Altman plot too; with `questionnaires`, their section. AnalysisError when the
+    records cannot be analysed."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -325,5 +328,7 @@ def write_report(
     if summary.contrasts:
         plots.append(_plot_agreement(summary.contrasts, out / "agreement_bland_altman.png"))
     report = out / "report.md"
-    report.write_text(_markdown(summary, summarise_latency(records), plots, title, questionnaires))
+    # the withdrawal's mixed model with the design's, as the full analysis is asked for with the design
+    motion = summarise_motion(records, model=sesoi is not None)
+    report.write_text(_markdown(summary, summarise_latency(records), motion, plots, title, questionnaires))
     return report

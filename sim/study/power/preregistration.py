@@ -1,18 +1,19 @@
 """The pre-registration summary, written from the design file (`python -m sim.study preregister`): hypotheses,
-measures, the participant's input devices, the questionnaires, the SESOIs with their reasoning, the planned sample
-and its power, the models and the decision rules. Pure
-logic: what is analysed is what the design declares, and the summary names the file and its SHA-256 so that a
-reader can check the analysis used that very file."""
+measures, the participant's input devices, the participant's motion, the questionnaires, the SESOIs with their
+reasoning, the planned sample and its power, the models and the decision rules. Pure logic: what is analysed is what
+the design declares, and the summary names the file and its SHA-256 so that a reader can check the analysis used
+that very file."""
 
 from __future__ import annotations
 
 from sim.study.analysis.contrasts import FACTOR_NAMES, MEASURES
 from sim.study.analysis.mixed_model import CROSSOVER_TERMS, formula
+from sim.study.analysis.motion import MODELLED, MOTION_MEASURES
 from sim.study.analysis.questionnaires import SSQ_SUSPECT_SOURCE, SSQ_SUSPECT_TOTAL
 from sim.study.design.spec import TESTS, Design
 from sim.study.power.sample_size import PlannedSample
 from sim.study.questionnaires.instruments import Instrument
-from sim.study.run.protocol import PROTOCOL
+from sim.study.run.protocol import BODIES, POSE_FRAME, POSE_TOPICS, POSE_TYPE, PROTOCOL, TRACKING_GAP
 
 __all__ = ["preregistration"]
 
@@ -49,6 +50,46 @@ def _input_devices() -> list[str]:
         where = f"in {_CONDITION_NAMES[entry['condition']]}" if entry["condition"] else "in neither condition: flagged"
         lines.append(f"- `{name}` ({where}): {entry['meaning']}.")
     return lines
+
+
+def _motion() -> list[str]:
+    """What is recorded of the participant's body, what is derived from it per trial, and how it is compared: the
+    protocol's pose topics and tracking gap, the analysis's measures."""
+    lines = [
+        "## The participant's motion (secondary, exploratory)",
+        "",
+        f"Recorded during every trial, at the tracker's frame rate: the head's and both hands' poses, each a "
+        f"`{POSE_TYPE}` in the `{POSE_FRAME}` frame, stamped on the runner's clock. A body not tracked in a frame "
+        "sends nothing for it.",
+        "",
+    ]
+    for body in BODIES:
+        lines.append(f"- `{POSE_TOPICS[body]}`: {PROTOCOL.data['poses']['bodies'][body]['meaning']}.")
+    lines += [
+        "",
+        "Derived per trial, of the hand under the robot (the tracked hand the runner takes for the scene's hand, "
+        "recorded as `tracked_hand`) and the head:",
+        "",
+    ]
+    described = set()
+    for measure in MOTION_MEASURES:
+        if measure.column not in described:
+            described.add(measure.column)
+            lines.append(f"- **{measure.label}** (`{measure.column}`): {measure.definition}.")
+    tests = " and ".join(
+        f"test {test}'s {', '.join(m.label for m in MOTION_MEASURES if m.test == test)}"
+        for test in sorted({m.test for m in MOTION_MEASURES}, reverse=True)
+    )
+    return lines + [
+        f"- **untracked time** per body (`hand_untracked`, `head_untracked`): a body's poses further apart than "
+        f"{TRACKING_GAP:g} s leave a gap in its tracking, and the approach's time in such gaps is untracked. A trial "
+        "in which a body sent no pose has none of that body's measures; the report names its participant.",
+        "",
+        f"Compared as the stop distance is, each participant's mean per condition, then VR − reality in pairs with "
+        f"its 95 % t interval: {tests}. Test 2's {MODELLED.label} also gets the crossover mixed model, "
+        f"{formula(f'{MODELLED.label} (m)', FACTOR_NAMES[MODELLED.test])}. These are secondary and exploratory "
+        "measures of comfort beside the press: no equivalence margin is declared for them and no verdict is drawn.",
+    ]
 
 
 def _scoring(instrument: Instrument) -> str:
@@ -133,6 +174,8 @@ def preregistration(design: Design, source: str, digest: str, sample: PlannedSam
         "recorded joint state nearest the press. A trial without a press has no measure.",
         "",
         *_input_devices(),
+        "",
+        *_motion(),
         "",
         *_questionnaires(design),
         "",

@@ -1,6 +1,6 @@
 """sim.study.power.preregistration and sample_size.plan_sample: the summary says what the design declares (hypotheses,
-measures, SESOIs with their reasons, the planned N and its power, the models, the decision rules), and the sample is
-the first size at which every test reaches the planned power."""
+measures, the participant's motion as secondary measures, SESOIs with their reasons, the planned N and its power,
+the models, the decision rules), and the sample is the first size at which every test reaches the planned power."""
 
 from __future__ import annotations
 
@@ -66,6 +66,19 @@ def test_the_summary_declares_what_the_analysis_will_judge_by():
         "**different** when its 95 % confidence interval excludes 0",
         "true VR − reality +0, SD of the participants' own differences 0.06",
         "38 trials per participant",
+        "## The participant's motion (secondary, exploratory)",
+        "- `/study/pose/head`: the headset, between the eyes",
+        "- `/study/pose/left_hand`: ",
+        "- `/study/pose/right_hand`: ",
+        "each a `geometry_msgs/PoseStamped` in the `world` frame",
+        "- **withdrawal distance** (`withdrawal_distance`): the farthest the hand under the robot moved",
+        "- **withdrawal peak speed** (`withdrawal_peak_speed`)",
+        "- **head to the end effector at the press** (`head_distance_at_press`)",
+        "poses further apart than 0.1 s leave a gap in its tracking",
+        "test 2's withdrawal distance, withdrawal peak speed, head to the end effector at the press and test 1's "
+        "withdrawal distance",
+        "withdrawal distance (m) ~ condition × speed set × path + period + sequence",
+        "no equivalence margin is declared for them and no verdict is drawn",
     ):
         assert expected in text, expected
     none = preregistration(design, "design.yaml", "0" * 64, PlannedSample(None, rows, 500, 1))
