@@ -129,11 +129,12 @@ def test_sim_parts_import_only_from_the_layers_below() -> None:
 # sim.study's own parts, from the inputs to the sample size: a session is planned (design), run (run), answered by
 # simulated participants or shown (participants, views) and analysed (analysis); power and the end-to-end simulation
 # use all of those. The protocol that the runner and its answerers speak is in run/, below everyone who answers it.
-# The questionnaires (instruments and their scoring) are below the design, which says when each is asked.
+# The questionnaires (instruments and their scoring) are below the design, which says when each is asked; the
+# motion's measures (from tracked poses alone) below the runner, which takes them per approach.
 STUDY_LAYERS = (
     ("errors",),
     ("checks",),
-    ("questionnaires",),
+    ("questionnaires", "motion"),
     ("design",),
     ("run",),
     ("participants", "analysis", "views"),

@@ -128,6 +128,8 @@ def test_the_table_gives_each_phase_at_most_one_input_and_each_condition_its_sto
     ]
     assert (PROTOCOL.stop_source("vr"), PROTOCOL.stop_source("reality")) == ("vr_trigger", "button")
     assert "keyboard" in PROTOCOL.stop_sources and PROTOCOL.max_perceived_distance == 2.0
+    assert list(PROTOCOL.poses) == ["head", "left_hand", "right_hand"] and PROTOCOL.pose_frame == "world"
+    assert all(kind == "geometry_msgs/PoseStamped" for _, kind in PROTOCOL.poses.values())
 
 
 def broken_table(tmp_path, change) -> Path:
@@ -148,6 +150,16 @@ def broken_table(tmp_path, change) -> Path:
         (lambda d: d["limits"].pop("stamp_window_s"), "malformed"),
         (lambda d: d["status"].pop("type"), "needs a topic and a type"),
         (lambda d: d["inputs"]["answer"].update(type="std_msgs/Int32"), "input answer must be a std_msgs/String"),
+        (lambda d: d["poses"]["bodies"].pop("head"), "malformed"),
+        (
+            lambda d: d["poses"]["bodies"].update(torso=d["poses"]["bodies"]["head"]),
+            "the poses must be exactly head, left_hand, right_hand",
+        ),
+        (
+            lambda d: d["poses"]["bodies"]["head"].update(type="geometry_msgs/Pose"),
+            "pose head must be a geometry_msgs/PoseStamped",
+        ),
+        (lambda d: d["limits"].update(tracking_gap_s=0), "the tracking gap must be > 0 s"),
     ],
 )
 def test_a_malformed_table_is_one_error_that_says_what(tmp_path, change, said) -> None:
