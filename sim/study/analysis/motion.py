@@ -29,6 +29,7 @@ from sim.study.analysis.statistics import Estimate, PairedComparison, mean_estim
 from sim.study.analysis.summary import cell, per_participant
 from sim.study.design.spec import CONDITIONS
 from sim.study.errors import StudyError
+from sim.study.motion.measures import SPEED_SPAN
 from sim.study.run.protocol import TRACKING_GAP
 from sim.study.run.records import TrialRecord
 
@@ -76,7 +77,8 @@ MOTION_MEASURES = (
         "m/s",
         1.0,
         2,
-        "the highest speed of the hand under the robot during the approach",
+        f"the highest speed of the hand under the robot during the approach, each speed taken over at least "
+        f"{SPEED_SPAN * 1000:.0f} ms",
     ),
     MotionMeasure(
         "head_distance_at_press",

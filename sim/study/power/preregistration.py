@@ -11,6 +11,7 @@ from sim.study.analysis.mixed_model import CROSSOVER_TERMS, formula
 from sim.study.analysis.motion import MODELLED, MOTION_MEASURES
 from sim.study.analysis.questionnaires import SSQ_SUSPECT_SOURCE, SSQ_SUSPECT_TOTAL
 from sim.study.design.spec import TESTS, Design
+from sim.study.motion.measures import HAND_RADIUS
 from sim.study.power.sample_size import PlannedSample
 from sim.study.questionnaires.instruments import Instrument
 from sim.study.run.protocol import BODIES, POSE_FRAME, POSE_TOPICS, POSE_TYPE, PROTOCOL, TRACKING_GAP
@@ -67,8 +68,8 @@ def _motion() -> list[str]:
         lines.append(f"- `{POSE_TOPICS[body]}`: {PROTOCOL.data['poses']['bodies'][body]['meaning']}.")
     lines += [
         "",
-        "Derived per trial, of the hand under the robot (the tracked hand the runner takes for the scene's hand, "
-        "recorded as `tracked_hand`) and the head:",
+        "Derived per trial, of the hand under the robot (of the two tracked hands, the one nearest the scene's hand "
+        f"as the approach starts, within {HAND_RADIUS:g} m; recorded as `tracked_hand`) and the head:",
         "",
     ]
     described = set()
