@@ -35,7 +35,7 @@ function loopWith(input, connected = true, bodies = [], clock = { offset: null }
       connected,
       state: 'connecting to wss://here/ros',
       send: (action) => action && calls.push(action),
-      sendPose: (body, stamp, pose) => calls.push(['pose', body, stamp, pose]),
+      sendPoses: (stamp, sent) => sent.forEach(([body, pose]) => calls.push(['pose', body, stamp, pose])),
       get clockOffset() {
         return clock.offset;
       },

@@ -6,8 +6,9 @@ import { readFileSync } from 'node:fs';
 import { test } from 'node:test';
 
 import { WorldFrame, frameStamp, trackedBodies } from '../../sim/study/views/vr/web/poses.js';
-import { encodePoseStamped, rosTime } from '../../sim/study/views/vr/web/rostcp.js';
+import { encodePoseStamped, framesIn, rosTime } from '../../sim/study/views/vr/web/rostcp.js';
 import { Participant } from '../../sim/study/views/vr/web/study.js';
+import { StudyTopics } from '../../sim/study/views/vr/web/topics.js';
 
 const PROTOCOL = JSON.parse(readFileSync(new URL('../../sim/study/run/protocol.json', import.meta.url)));
 const SEAT = [0.55, -0.65, 0.45]; // the scene's: the eyes' place in the world frame
@@ -167,4 +168,45 @@ test("the participant is in a trial in its phases, not in a questionnaire's item
   assert.equal(participant.inTrial, false);
   participant.onStatus({ ...trial, phase: 'done', index: 0, test: 0 });
   assert.equal(participant.inTrial, false);
+});
+
+test("a frame's poses go out in one message, a frame each on its body's topic, numbered by body", () => {
+  // the settings as the page's server gives them (sim/study/views/vr/site.py): each topic [name, type]
+  const entry = ({ topic, type }) => [topic, type];
+  const topics = {
+    joint_states: ['/panda/joint_states', 'sensor_msgs/JointState'],
+    trial: entry(PROTOCOL.status),
+    ...Object.fromEntries(Object.entries(PROTOCOL.inputs).map(([name, input]) => [name, entry(input)])),
+    ...Object.fromEntries(Object.entries(PROTOCOL.poses.bodies).map(([body, pose]) => [body, entry(pose)])),
+  };
+  const study = new StudyTopics({ topics, protocol: PROTOCOL }, 'ws://nowhere/ros', {});
+  const messages = [];
+  study.connection._send = (bytes) => messages.push(bytes); // no socket: what would be sent
+  const head = { position: [0.55, -0.65, 0.45], orientation: [Math.SQRT1_2, 0, 0, Math.SQRT1_2] };
+  const hand = { position: [0.5, -0.4, 0.2], orientation: [0, 0, 0, 1] };
+  assert.equal(study.sendPoses(10.5, [['head', head]]), false); // not connected: nothing sent, nothing counted
+  assert.deepEqual(study.posesSent, { head: 0, left_hand: 0, right_hand: 0 });
+  study.connection.connected = true;
+  assert.equal(
+    study.sendPoses(10.5, [
+      ['head', head],
+      ['right_hand', hand],
+    ]),
+    true,
+  );
+  assert.equal(study.sendPoses(10.52, [['head', head]]), true);
+  assert.equal(messages.length, 2);
+  const first = framesIn(messages[0]);
+  assert.deepEqual(
+    first.map(([topic]) => topic),
+    [PROTOCOL.poses.bodies.head.topic, PROTOCOL.poses.bodies.right_hand.topic],
+  );
+  const frameId = PROTOCOL.poses.frame_id;
+  assert.deepEqual(
+    [...first[1][1]],
+    [...encodePoseStamped(0, rosTime(10.5), frameId, hand.position, hand.orientation)],
+  );
+  const [[, second]] = framesIn(messages[1]);
+  assert.deepEqual([...second], [...encodePoseStamped(1, rosTime(10.52), frameId, head.position, head.orientation)]);
+  assert.deepEqual(study.posesSent, { head: 2, left_hand: 0, right_hand: 1 });
 });

@@ -50,7 +50,7 @@ export class FrameLoop {
     const stamp = frameStamp(time, this.timeOrigin, this.topics.clockOffset);
     if (stamp === null) return;
     this.poseFrames += 1;
-    for (const [body, pose] of this.tracking.read(frame)) this.topics.sendPose(body, stamp, pose);
+    this.topics.sendPoses(stamp, this.tracking.read(frame));
   }
 
   // The phase's instructions, and what the connection does while it is not connected.

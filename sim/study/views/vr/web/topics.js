@@ -55,13 +55,17 @@ export class StudyTopics {
     return this.connection.clockOffset;
   }
 
-  // Publish a body's pose ({position, orientation} in the world frame, poses.js) at stamp (s of ROS time) on its
-  // topic; false when not connected.
-  sendPose(body, stamp, pose) {
-    const seq = this.posesSent[body];
-    const payload = encodePoseStamped(seq, rosTime(stamp), this.poseFrame, pose.position, pose.orientation);
-    if (!this.connection.publish(this.settings.topics[body][0], payload)) return false;
-    this.posesSent[body] = seq + 1;
+  // Publish the bodies' poses ([body, {position, orientation}] in the world frame, poses.js) of one frame, stamped
+  // with its time (s of ROS time), each on its body's topic, in one send; false when not connected.
+  sendPoses(stamp, bodies) {
+    if (bodies.length === 0) return true;
+    const time = rosTime(stamp);
+    const messages = bodies.map(([body, pose]) => [
+      this.settings.topics[body][0],
+      encodePoseStamped(this.posesSent[body], time, this.poseFrame, pose.position, pose.orientation),
+    ]);
+    if (!this.connection.publishAll(messages)) return false;
+    for (const [body] of bodies) this.posesSent[body] += 1; // the next one's seq
     return true;
   }
 
