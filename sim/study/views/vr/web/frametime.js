@@ -50,6 +50,7 @@ class FrameTimes {
   timed(step) {
     return (time, frame) => {
       const sentBefore = frame ? this.posesSent() : 0; // outside the frame's time: the bench's, not the page's
+      this.poseWorkNow = 0;
       const started = performance.now();
       if (frame && this.lastFrameAt !== null) keep(this.intervals, time - this.lastFrameAt);
       this.lastFrameAt = frame ? time : null;
