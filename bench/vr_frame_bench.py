@@ -3,16 +3,28 @@ the immersive session with the Panda's meshes, beside the 72-90 Hz a headset nee
 
     .venv/bin/python -m bench.vr_frame_bench [--seconds 20] [--size 800,600] [--only rendered|submitted]
 
+Each pass measures the frames with the tracked body's poses off and on (the frame loop's switch, set through the
+instrument), `--seconds` each, in alternating slices in one session, and prints both and their difference.
+
 Method. Its own roscore, an endpoint with its WebSocket port, and the page's server with the emulated Meta Quest 3
 (IWER, --emulate-headset, which loads the tests' probe window.vrPage too) and the frame-time instrument (--frame-time,
 window.vrFrameTime), opened in Debian's headless Chromium. The robot moves the whole time: this process publishes the
 Panda's joint states at 100 Hz through the endpoint's TCP port (each joint on a slow sine), and the page applies the
-latest at every frame. Once in the session, the page's own figures are read:
+latest at every frame. It also publishes a trial's status (latched, phase moving): the page is in a trial, and sends
+the participant's tracked body (the emulated headset's head and two hands, three PoseStamped a frame) while its poses
+are on; this process subscribes to them through the endpoint, to count what reaches ROS. Once in the session, the
+page's own figures are read:
 - the work of each frame: applying the joints, reading the controllers, the panel, and rendering both eyes;
 - pass `rendered` sets the instrument's waitForRendering, so each frame waits for its rendering to end (it reads one
   pixel back) and the figure includes the rendering itself; pass `submitted` does not wait, so it is what the page's
   JavaScript and three.js cost before the GPU works;
-- the interval between frames, as the emulated headset's frame loop scheduled them.
+- the interval between frames, as the emulated headset's frame loop scheduled them;
+- poses off and on: the instrument switches the frame loop's poses between two frames and records, per frame, whether
+  they were on and how many it sent. Off and on alternate in SLICES slices of each, so that a change in what else
+  the machine runs falls on both; the difference of their medians is what the poses cost, beside the spread of one
+  mode's slices, the noise of the measure. As that noise is far larger than the poses' part, the instrument also times
+  the part itself in each frame (reading the bodies, encoding and sending them): its mean, as Chromium's clock is
+  coarse (0.1 ms steps, with jitter, unless the page is cross-origin isolated), and its largest.
 
 Here the rendering is SwiftShader, WebGL in software on this machine's CPU cores, into the emulated headset's
 framebuffer (the page's canvas: IWER renders both eyes side by side into it). A headset's GPU renders far faster:
@@ -40,21 +52,47 @@ from measuring.browser import chromium, start_vr_page
 from measuring.stats import percentile
 from sim.processes import EndpointProcess, ManagedProcess, RosCore, wait_for
 from sim.study.design.scene import load_scene, scene_robot
-from sim.wire.rosmsgs import JOINT_STATE, encode_joint_state
+from sim.study.run.protocol import POSE_TOPICS, POSE_TYPE, PROTOCOL, TrialStatus, status_to_json
+from sim.wire.rosmsgs import JOINT_STATE, encode_joint_state, encode_message
 
 HEADSET_RATES_HZ = (72, 90)
 PUBLISH_HZ = 100.0
 PASSES = ("rendered", "submitted")  # the frame's work with its rendering waited for, and without
 SETTLE_S = 3.0  # after entering the session, before the frames counted (shaders compiled, meshes uploaded)
+MODES = ("off", "on")  # the tracked body's poses
+SLICES = 2  # of each mode, alternating
+# the page's status: in a trial (test 1, the approach running), so that the page sends the tracked body
+TRIAL = TrialStatus(participant=0, index=1, total=1, phase="moving", condition="vr", test=1, path="straight")
 
 
-def publish_joint_states(port: int, stop: threading.Event) -> None:
-    """The Panda's joints on slow sines around its home, at PUBLISH_HZ, until `stop` (at most 10 minutes)."""
+class PosesReceived:
+    """The tracked body's poses that reach ROS, counted as this process's subscriber receives them."""
+
+    def __init__(self) -> None:
+        self.count = 0
+        self.lock = threading.Lock()
+
+    def add(self, _payload: bytes) -> None:
+        with self.lock:
+            self.count += 1
+
+    def __call__(self) -> int:
+        with self.lock:
+            return self.count
+
+
+def publish_joint_states(port: int, stop: threading.Event, received: PosesReceived) -> None:
+    """The Panda's joints on slow sines around its home, at PUBLISH_HZ, until `stop` (at most 10 minutes); the trial's
+    status, latched; and `received` counts the poses the page sends."""
     robot = scene_robot(load_scene())
     home = np.asarray(robot.home, dtype=float)
     client = TcpClient("127.0.0.1", port)
     client.register_publisher(robot.joint_states_topic, JOINT_STATE)
+    client.register_publisher(PROTOCOL.status[0], PROTOCOL.status[1], latch=True)
+    for topic in POSE_TOPICS.values():
+        client.subscribe(topic, POSE_TYPE, received.add)
     client.connect()
+    client.publish(PROTOCOL.status[0], encode_message(PROTOCOL.status[1], data=status_to_json(TRIAL)))
     started = time.monotonic()
     seq = 0
     try:
@@ -73,18 +111,22 @@ def publish_joint_states(port: int, stop: threading.Event) -> None:
         client.close()
 
 
-def page_figures(browser: Any) -> dict[str, Any]:
+def take(browser: Any, poses_on: bool) -> dict[str, Any]:
+    """The page's frames since the last take, and its figures now; then its poses off or on from the next frame."""
     return browser.execute_script(
         "const s = window.vrPage.state(); const t = window.vrFrameTime;"
         "const r = window.vrPage.page.view.renderer; const layer = r.xr.getSession()?.renderState.baseLayer;"
-        "return {work: t.work.slice(), intervals: t.intervals.slice(), frames: s.frames, jointStates: s.jointStates,"
+        f"return {{...t.take({str(poses_on).lower()}), jointStates: s.jointStates, inTrial: s.inTrial,"
         " triangles: r.info.render.triangles,"
         " framebuffer: layer ? [layer.framebufferWidth, layer.framebufferHeight] : null, error: s.error};"
     )
 
 
-def measure(browser: Any, url: str, wait_for_rendering: bool, seconds: float) -> dict[str, Any]:
-    """Load the page at `url`, enter the session, and read its figures over `seconds` (after SETTLE_S)."""
+def measure(
+    browser: Any, url: str, wait_for_rendering: bool, seconds: float, received: PosesReceived
+) -> dict[str, dict[str, Any]]:
+    """Load the page at `url`, enter the session, and read its figures (after SETTLE_S) by mode of the poses: MODES
+    alternating in SLICES slices of each, `seconds` of each mode in all."""
     browser.get(url)
     wait_for(
         lambda: browser.execute_script(
@@ -98,35 +140,78 @@ def measure(browser: Any, url: str, wait_for_rendering: bool, seconds: float) ->
     browser.find_element("id", "enter").click()
     wait_for(lambda: browser.execute_script("return window.vrPage.state().inSession;"), 60, "the immersive session")
     time.sleep(SETTLE_S)
-    before = page_figures(browser)
-    time.sleep(seconds)
-    after = page_figures(browser)
-    frames = after["frames"] - before["frames"]
-    return {
-        **after,
-        "frames_counted": frames,
-        "work": after["work"][-frames:] if frames > 0 else [],
-        "intervals": after["intervals"][-frames:] if frames > 0 else [],
-        "joint_states_per_s": (after["jointStates"] - before["jointStates"]) / seconds,
-        "seconds": seconds,
+    figures = {
+        mode: {
+            "work": [],
+            "intervals": [],
+            "poses": [],
+            "pose_work": [],
+            "slices": [],
+            "joint_states": 0,
+            "received": 0,
+        }
+        for mode in MODES
     }
+    latest = take(browser, MODES[0] == "on")  # the settling frames are not counted
+    for _ in range(SLICES):
+        for k, mode in enumerate(MODES):
+            received_before = received()
+            time.sleep(seconds / SLICES)
+            following = MODES[(k + 1) % len(MODES)]
+            frames = take(browser, following == "on")
+            if any(on != (mode == "on") for on in frames["posesOn"]):
+                raise RuntimeError(f"a frame of the slice with poses {mode} had them the other way")
+            kept = figures[mode]
+            kept["work"] += frames["work"]
+            kept["intervals"] += frames["intervals"]
+            kept["poses"] += frames["poses"]
+            kept["pose_work"] += frames["poseWork"]
+            kept["slices"].append(statistics.median(frames["work"]) if frames["work"] else math.nan)
+            kept["joint_states"] += frames["jointStates"] - latest["jointStates"]
+            kept["received"] += received() - received_before
+            latest = frames
+    for kept in figures.values():
+        kept.update({key: latest[key] for key in ("triangles", "framebuffer", "error", "inTrial")})
+        kept["joint_states_per_s"] = kept["joint_states"] / seconds
+        kept["received_per_s"] = kept["received"] / seconds
+    return figures
 
 
-def report(name: str, figures: dict[str, Any]) -> str:
-    work, intervals = figures["work"], figures["intervals"]
-    median = statistics.median(work) if work else math.nan
-    p95 = percentile(work, 95) if work else math.nan
+def summary(work: list[float]) -> tuple[float, float]:
+    """The median and the 95th percentile of frames' work (ms)."""
+    return (statistics.median(work), percentile(work, 95)) if work else (math.nan, math.nan)
+
+
+def report(name: str, mode: str, figures: dict[str, Any]) -> str:
+    work, intervals, poses = figures["work"], figures["intervals"], figures["poses"]
+    median, p95 = summary(work)
     within = {hz: sum(1 for w in work if w <= 1000.0 / hz) / len(work) if work else math.nan for hz in HEADSET_RATES_HZ}
+    slices = " / ".join(f"{value:.2f}" for value in figures["slices"])
     return (
-        f"| {name} | {len(work)} | {median:.2f} | {p95:.2f} | {max(work, default=math.nan):.2f} | "
+        f"| {name} | {mode} | {len(work)} | {median:.2f} | {slices} | {p95:.2f} | {max(work, default=math.nan):.2f} | "
         f"{1000.0 / median:.0f} | {100 * within[72]:.0f} % | {100 * within[90]:.0f} % | "
-        f"{statistics.median(intervals) if intervals else math.nan:.2f} | {figures['joint_states_per_s']:.0f} |"
+        f"{statistics.median(intervals) if intervals else math.nan:.2f} | {figures['joint_states_per_s']:.0f} | "
+        f"{sum(poses) / len(poses) if poses else math.nan:.2f} | {figures['received_per_s']:.0f} |"
+    )
+
+
+def difference(name: str, figures: dict[str, dict[str, Any]]) -> str:
+    """What the poses cost a frame: on minus off, beside the spread of one mode's slices (the measure's noise)."""
+    (off_median, off_p95), (on_median, on_p95) = (summary(figures[mode]["work"]) for mode in MODES)
+    spread = max(max(figures[mode]["slices"]) - min(figures[mode]["slices"]) for mode in MODES)
+    own = figures["on"]["pose_work"]
+    return (
+        f"pass {name}: poses on minus off: median {on_median - off_median:+.2f} ms, p95 {on_p95 - off_p95:+.2f} ms; "
+        f"the slices of one mode differ in their medians by up to {spread:.2f} ms; the poses' own part of a frame: "
+        f"mean {statistics.fmean(own) if own else math.nan:.3f} ms, largest {max(own, default=math.nan):.2f} ms"
     )
 
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--seconds", type=float, default=20.0, help="frames counted per pass (default 20 s)")
+    parser.add_argument(
+        "--seconds", type=float, default=20.0, help="frames counted per pass and mode of the poses (default 20 s)"
+    )
     parser.add_argument("--size", default="800,600", help="the browser window (default 800,600)")
     parser.add_argument("--only", choices=PASSES, help="one pass only (default both)")
     args = parser.parse_args()
@@ -137,20 +222,21 @@ def main() -> int:
     core = RosCore()
     processes: list[ManagedProcess] = []
     stop = threading.Event()
-    results: dict[str, dict[str, Any]] = {}
+    results: dict[str, dict[str, dict[str, Any]]] = {}
+    received = PosesReceived()
     try:
         endpoint = EndpointProcess(core.env, tmp, extra=["--websocket-port", "0"])
         processes.append(endpoint)
         assert endpoint.websocket_port is not None  # asked for with --websocket-port
         vr, url = start_vr_page(endpoint.websocket_port, tmp, frame_time=True)
         processes.append(vr)
-        publisher = threading.Thread(target=publish_joint_states, args=(endpoint.port, stop), daemon=True)
+        publisher = threading.Thread(target=publish_joint_states, args=(endpoint.port, stop, received), daemon=True)
         publisher.start()
         for name in (args.only,) if args.only else PASSES:
             wait_for_rendering = name == "rendered"
             with chromium(tmp / f"chromium-{name}", accept_insecure_certs=True, size=args.size) as browser:
-                print(f"vr_frame_bench: pass {name} ({args.seconds:g} s) ...", file=sys.stderr, flush=True)
-                results[name] = measure(browser, url, wait_for_rendering, args.seconds)
+                print(f"vr_frame_bench: pass {name} ({args.seconds:g} s a mode) ...", file=sys.stderr, flush=True)
+                results[name] = measure(browser, url, wait_for_rendering, args.seconds, received)
     finally:
         stop.set()
         for process in reversed(processes):
@@ -158,24 +244,31 @@ def main() -> int:
         core.stop()
         shutil.rmtree(tmp, ignore_errors=True)  # the browsers' profiles, the certificate, the logs
 
-    first = next(iter(results.values()))
+    first = next(iter(results.values()))["on"]
     width, height = first["framebuffer"] or (0, 0)
     print(
         f"VR page frame time: the Panda with its meshes ({first['triangles']} triangles a frame, both eyes), "
         f"the emulated Quest 3's framebuffer {width}x{height}, WebGL in software (SwiftShader), "
-        f"headless Chromium, window {args.size}; joint states published at {PUBLISH_HZ:.0f} Hz"
+        f"headless Chromium, window {args.size}; joint states published at {PUBLISH_HZ:.0f} Hz; in a trial "
+        f"(the page in one: {first['inTrial']}), the tracked body's poses off and on in {SLICES} alternating slices "
+        f"of {args.seconds / SLICES:g} s each"
     )
     print()
     print(
-        "| pass | frames | work median (ms) | p95 | max | rate the work allows (Hz) | frames within 72 Hz (13.9 ms) "
-        "| within 90 Hz (11.1 ms) | frame interval median (ms) | joint states received /s |"
+        "| pass | poses | frames | work median (ms) | median by slice | p95 | max | rate the work allows (Hz) "
+        "| frames within 72 Hz (13.9 ms) | within 90 Hz (11.1 ms) | frame interval median (ms) "
+        "| joint states received /s | poses sent /frame | poses reaching ROS /s |"
     )
-    print("|---|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for name, figures in results.items():
-        print(report(name, figures))
+        for mode in MODES:
+            print(report(name, mode, figures[mode]))
+    print()
     for name, figures in results.items():
-        if figures["error"]:
-            print(f"the page reported, in pass {name}: {figures['error']}")
+        print(difference(name, figures))
+    for name, figures in results.items():
+        if figures["on"]["error"]:
+            print(f"the page reported, in pass {name}: {figures['on']['error']}")
     return 0
 
 

@@ -3,7 +3,8 @@ software), with an emulated Meta Quest 3 (IWER, loaded only with --emulate-heads
 over HTTPS with the page's self-signed certificate, its WebSocket passed through to the endpoint's, it enters the
 immersive session, shows the robot and the hand, and answers a short session of the runner (--realtime) with the
 trigger, the controllers, the thumbstick and the buttons, as the participant would: go, a stop, a distance, a
-preference and a questionnaire's item."""
+preference and a questionnaire's item; all through its trials it sends the participant's tracked body (the head and
+both hands), which the runner's bag records."""
 
 from __future__ import annotations
 
@@ -23,10 +24,10 @@ from measuring.browser import chromium, start_vr_page
 from sim.study.design.feasibility import Approaches
 from sim.study.design.paths import ON_TOP
 from sim.study.design.scene import load_scene, scene_robot
-from sim.study.run.protocol import STATUS_TOPIC, status_from_json
+from sim.study.run.protocol import BODIES, POSE_FRAME, POSE_TOPICS, STATUS_TOPIC, status_from_json
 from sim.study.views.live import COLOURS
 from sim.wire.contract import STEP_S
-from sim.wire.rosmsgs import decode_joint_state, deserialize
+from sim.wire.rosmsgs import TYPESTORE, decode_joint_state, deserialize, to_seconds
 from tests.integration.bridge_helpers import DiagnosticsInbox, start_endpoint, tcp_client
 from tests.integration.pixels import pixels_like
 from tests.integration.sim_helpers import start_engine
@@ -36,6 +37,7 @@ from tests.study_arms import STUDY_ARMS, study_arm
 
 PARTICIPANT = 4
 CONTROLLERS_APART = 0.12  # m
+HEADSET_MOVED = (0.03, -0.05, 0.1)  # m in the emulator's space (three.js's axes), with the controllers in test 1
 RUNNER_PACE_SLACK_S = 0.25
 DELIVERY_S = 0.3  # a press from the page to the runner, on a quiet machine
 # No new phase on the page for this long means the session is stuck. On a quiet machine the whole session takes
@@ -138,6 +140,37 @@ def joints_before_trial(bag: Path, robot: Any, index: int) -> np.ndarray:
     raise AssertionError(f"no trial {index} in {bag}")
 
 
+def in_world(xr: Any) -> np.ndarray:
+    """A displacement in the XR space (three.js's y up, -z ahead of the eyes at the session's start) in the scene's
+    ROS world frame (x forward from the robot, z up), as the scene places it (scene.js): x stays, y is -z, z is y."""
+    x, y, z = xr
+    return np.array([x, -z, y])
+
+
+def bag_poses(bag: Path) -> tuple[dict[str, list[tuple[float, Any]]], list[tuple[float, Any]]]:
+    """The bag's poses by body and its trial statuses, each as (the time it was recorded, on the runner's clock, and
+    the message), in the order recorded."""
+    from rosbags.rosbag1 import Reader
+
+    topics = {topic: body for body, topic in POSE_TOPICS.items()}
+    poses: dict[str, list[tuple[float, Any]]] = {body: [] for body in BODIES}
+    statuses = []
+    with Reader(bag) as reader:
+        connections = [c for c in reader.connections if c.topic in topics or c.topic == STATUS_TOPIC]
+        for connection, recorded, raw in reader.messages(connections=connections):
+            message = TYPESTORE.deserialize_ros1(raw, connection.msgtype)
+            if connection.topic == STATUS_TOPIC:
+                statuses.append((recorded / 1e9, status_from_json(message.data)))
+            else:
+                poses[topics[connection.topic]].append((recorded / 1e9, message))
+    return poses, statuses
+
+
+def position_of(message: Any) -> np.ndarray:
+    point = message.pose.position
+    return np.array([point.x, point.y, point.z])
+
+
 def test_an_emulated_quest_enters_the_session_and_answers_the_runner(tmp_path: Path) -> None:
     core = RosCore()  # this test's own: the page's pings see its ROS time
     # ROS time is the runner's /clock: the endpoint answers the page's pings with it, so the page stamps its presses
@@ -158,9 +191,17 @@ def test_an_emulated_quest_enters_the_session_and_answers_the_runner(tmp_path: P
                 60,
                 "the page to load the robot and connect",
             )
+            # where the emulator's headset and right controller are when the session starts: the XR space's origin is
+            # the headset's place then ('local'), which the scene puts at the seat
+            headset_at_start, right_at_start = browser.execute_script(
+                "const device = window.emulatedHeadset; const xyz = (p) => [p.x, p.y, p.z];"
+                "return [xyz(device.position), xyz(device.controllers.right.position)];"
+            )
             browser.find_element("id", "enter").click()
             wait_for(lambda: page_state(browser)["inSession"], 30, "the immersive session")
             over_frames(browser, frames=5)
+            before_trials = page_state(browser)
+            assert before_trials["poseFrames"] == 0 and before_trials["posesSent"] == dict.fromkeys(BODIES, 0)
             browser.save_screenshot(str(tmp_path / "session.png"))
             picture = np.asarray(Image.open(tmp_path / "session.png").convert("RGB")).astype(int)
             counts = {
@@ -214,9 +255,11 @@ def test_an_emulated_quest_enters_the_session_and_answers_the_runner(tmp_path: P
                     press(browser, "right", "a-button")
                 elif key == (1, "distance"):
                     headset = "window.emulatedHeadset.controllers"
+                    moved = np.add(headset_at_start, HEADSET_MOVED)
                     browser.execute_script(
                         f"{headset}.left.position.set({-CONTROLLERS_APART / 2}, 1.4, -0.45);"
                         f"{headset}.right.position.set({CONTROLLERS_APART / 2}, 1.4, -0.45);"
+                        f"window.emulatedHeadset.position.set({moved[0]}, {moved[1]}, {moved[2]});"
                     )
                     over_frames(browser)
                     press(browser, "left", "x-button")
@@ -232,7 +275,8 @@ def test_an_emulated_quest_enters_the_session_and_answers_the_runner(tmp_path: P
                     f"the session stalled for {STALL_S} s; the page showed {seen}, did {page_state(browser)['actions']}"
                 )
             assert runner.wait(60) == 0, runner.output()[-3000:]  # the page may see "done" before the runner exits
-            actions = page_state(browser)["actions"]
+            ended_state = page_state(browser)
+            actions = ended_state["actions"]
             press_round_trip_s = browser.execute_script("return window.pressClockRoundTripMs;") / 1000
         assert [what for what, _ in actions] == ["go", "distance", "go", "stop", "go", "preference", "answer"], (
             actions,
@@ -276,6 +320,51 @@ def test_an_emulated_quest_enters_the_session_and_answers_the_runner(tmp_path: P
     assert (
         -press_round_trip_s / 2 <= float(second["press_arrival_delay"]) < DELIVERY_S + press_round_trip_s / 2 + STEP_S
     )
+    assert_the_bag_holds_the_tracked_body(
+        out / "bags" / f"participant_{PARTICIPANT:02d}.bag",
+        ended_state,
+        np.array(scene.seat),
+        np.subtract([CONTROLLERS_APART / 2, 1.4, -0.45], right_at_start),
+        DELIVERY_S + press_round_trip_s / 2 + RUNNER_PACE_SLACK_S,
+    )
+
+
+def assert_the_bag_holds_the_tracked_body(
+    bag: Path, page: dict[str, Any], seat: np.ndarray, right_moved: np.ndarray, clock_slack_s: float
+) -> None:
+    """The head and both hands, one PoseStamped each in every frame the page drew in the trials (in this emulator all
+    three are always tracked), in the world frame, stamped on the runner's clock within the trials; the head where
+    the emulated headset is, the right hand moved as the test moved its controller. `right_moved`: how far the test
+    moved the right controller (XR space); `clock_slack_s`: what the page's stamps may be off the runner's clock by
+    (its clock offset's error, and a status's delivery to the page). The emulator's poses are float32: to 1e-5 m."""
+    poses, statuses = bag_poses(bag)
+    sent = page["posesSent"]
+    # every frame in the trials sent each body, and the bag holds them all
+    assert page["poseFrames"] > 0 and sent == dict.fromkeys(BODIES, page["poseFrames"]), page
+    assert {body: len(poses[body]) for body in BODIES} == sent
+    # from the first trial's status to the questionnaire after the last trial: the trials
+    trials = [recorded for recorded, status in statuses if status.test > 0]
+    after = [recorded for recorded, status in statuses if recorded > trials[-1] and status.test == 0]
+    start, end = trials[0], after[0]
+    for body in BODIES:
+        headers = [message.header for _, message in poses[body]]
+        assert {header.frame_id for header in headers} == {POSE_FRAME}
+        assert [header.seq for header in headers] == list(range(len(headers)))  # none lost, none reordered
+        stamps = np.array([to_seconds(header.stamp) for header in headers])
+        assert np.all(np.diff(stamps) > 0), body  # one a frame, each frame's time its own
+        assert start - clock_slack_s <= stamps[0] and stamps[-1] <= end + clock_slack_s, (body, stamps, start, end)
+    # the headset: at the seat, looking ahead (the world's y, towards the hand), until the test moved it in test 1
+    head = [message for _, message in poses["head"]]
+    assert position_of(head[0]) == pytest.approx(seat, abs=1e-5)
+    orientation = head[0].pose.orientation
+    ahead = np.array([orientation.x, orientation.y, orientation.z, orientation.w])
+    assert np.abs(ahead) == pytest.approx([np.sqrt(0.5), 0, 0, np.sqrt(0.5)], abs=1e-6)
+    assert position_of(head[-1]) == pytest.approx(seat + in_world(HEADSET_MOVED), abs=1e-5)
+    # the right controller's grip: moved by as much as the test moved the controller, in the world's axes
+    right = [message for _, message in poses["right_hand"]]
+    moved = position_of(right[-1]) - position_of(right[0])
+    assert moved == pytest.approx(in_world(right_moved), abs=1e-5)
+    assert np.linalg.norm(moved) > 0.05
 
 
 pytestmark = [pytest.mark.lane("alone", on=("project",)), pytest.mark.timeout(400)]

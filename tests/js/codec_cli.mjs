@@ -7,6 +7,7 @@ import {
   decodeJointState,
   encodeFloat32,
   encodeHeader,
+  encodePoseStamped,
   encodeString,
   frame,
   framesIn,
@@ -30,6 +31,15 @@ console.log(
     header: hex(encodeHeader(input.header.seq, rosTime(input.header.stamp), input.header.frame_id)),
     stop: hex(stopPayload(input.stop.stamp, input.stop.input_delay, input.stop.frame_id)),
     float32: hex(encodeFloat32(input.float32)),
+    pose: hex(
+      encodePoseStamped(
+        input.pose.seq,
+        rosTime(input.pose.stamp),
+        input.pose.frame_id,
+        input.pose.position,
+        input.pose.orientation,
+      ),
+    ),
     string: hex(encodeString(input.string)),
     frame: hex(frame(input.frame[0], Buffer.from(input.frame[1], 'hex'))),
     command: hex(command('__subscribe', { topic: '/study/trial', message_name: 'std_msgs/String' })),

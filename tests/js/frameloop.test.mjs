@@ -9,8 +9,9 @@ import { Participant } from '../../sim/study/views/vr/web/study.js';
 
 const PROTOCOL = JSON.parse(readFileSync(new URL('../../sim/study/run/protocol.json', import.meta.url)));
 
-// A frame loop whose parts write what they are asked into `calls`; the controllers read `input` each frame.
-function loopWith(input, connected = true) {
+// A frame loop whose parts write what they are asked into `calls`; the controllers read `input` each frame, the
+// tracking `bodies` (the bodies tracked, in the world frame); the topics' clock offset is `clock.offset`.
+function loopWith(input, connected = true, bodies = [], clock = { offset: null }) {
   const calls = [];
   const participant = new Participant(PROTOCOL);
   const parts = {
@@ -23,15 +24,31 @@ function loopWith(input, connected = true) {
         return input;
       },
     },
+    tracking: {
+      read: () => {
+        calls.push('tracking');
+        return bodies;
+      },
+    },
     participant,
-    topics: { connected, state: 'connecting to wss://here/ros', send: (action) => action && calls.push(action) },
+    topics: {
+      connected,
+      state: 'connecting to wss://here/ros',
+      send: (action) => action && calls.push(action),
+      sendPoses: (stamp, sent) => sent.forEach(([body, pose]) => calls.push(['pose', body, stamp, pose])),
+      get clockOffset() {
+        return clock.offset;
+      },
+    },
   };
   return { loop: new FrameLoop(parts), calls, participant };
 }
 
 function status(phase, extra = {}) {
-  return { index: 1, total: 3, phase, motion_start: null, group_paths: [], ...extra };
+  return { index: 1, total: 3, test: 1, phase, motion_start: null, group_paths: [], ...extra };
 }
+
+const kinds = (calls) => calls.map((call) => (Array.isArray(call) ? call[0] : call));
 
 test('a frame of the session poses the robot, answers from the controllers, shows the panel and draws', () => {
   const { loop, calls, participant } = loopWith({ distance: 0.12, presses: [{ confirm: true, choose: 0 }] });
@@ -80,4 +97,55 @@ test("a questionnaire's answer: pushes walk the scale frame by frame, then a con
     calls.filter((call) => call[0] === 'answer'),
     [['answer', { administration: 'ssq_after_vr', item: 'fatigue', answer: 3 }]],
   );
+});
+
+test("in a trial's frame, each tracked body is sent, stamped with the frame's time on the runner's clock", () => {
+  const head = { position: [0.55, -0.65, 0.45], orientation: [Math.SQRT1_2, 0, 0, Math.SQRT1_2] };
+  const hand = { position: [0.5, -0.4, 0.2], orientation: [0, 0, 0, 1] };
+  const clock = { offset: null };
+  const { loop, calls, participant } = loopWith(
+    { distance: null, presses: [] },
+    true,
+    [
+      ['head', head],
+      ['left_hand', hand],
+    ],
+    clock,
+  );
+  loop.timeOrigin = 1_764_000_000_000;
+  participant.onStatus(status('moving'));
+  loop.step(16, {}); // no ROS time yet: nothing to stamp the poses with, so none is read or sent
+  assert.deepEqual(kinds(calls), ['robot', 'controllers', 'panel', 'render']);
+  assert.equal(loop.poseFrames, 0);
+  clock.offset = -1_763_999_990; // ROS time is 10 s when the browser's clock says timeOrigin
+  calls.length = 0;
+  loop.step(32.5, {});
+  assert.deepEqual(kinds(calls), ['robot', 'controllers', 'tracking', 'pose', 'pose', 'panel', 'render']);
+  const [[, first, stamp, pose], [, second, sameStamp]] = calls.filter((call) => call[0] === 'pose');
+  assert.deepEqual([first, second, pose], ['head', 'left_hand', head]);
+  assert.ok(Math.abs(stamp - 10.0325) < 1e-6, stamp);
+  assert.equal(sameStamp, stamp); // one frame, one time for every body
+  assert.equal(loop.poseFrames, 1);
+});
+
+test('no pose outside a trial, outside the session, or with the poses switched off', () => {
+  const bodies = [['head', { position: [0, 0, 0], orientation: [0, 0, 0, 1] }]];
+  const { loop, calls, participant } = loopWith({ distance: null, presses: [] }, true, bodies, { offset: 0 });
+  participant.onStatus(status('questionnaire', { test: 0, scale_low: 0, scale_high: 3, scale_labels: [] }));
+  loop.step(16, {});
+  participant.onStatus(status('done', { index: 0, test: 0 }));
+  loop.step(32, {});
+  participant.onStatus(status('ready'));
+  loop.step(48, undefined); // not in the session
+  loop.sendPoses = false; // the frame-time bench's switch
+  loop.step(64, {});
+  assert.deepEqual(
+    calls.filter((call) => call === 'tracking' || call[0] === 'pose'),
+    [],
+  );
+  assert.equal(loop.poseFrames, 0);
+  loop.sendPoses = true;
+  loop.step(80, {});
+  assert.deepEqual(kinds(calls.filter((call) => call === 'tracking' || call[0] === 'pose')), ['tracking', 'pose']);
+  assert.equal(loop.poseFrames, 1);
 });

@@ -24,7 +24,7 @@ from sim.robots import RobotSpec
 from sim.robots.meshes import resolve_shapes
 from sim.robots.urdf_model import urdf_root
 from sim.study.design.scene import Box, Scene
-from sim.study.run.protocol import INPUTS, PROTOCOL
+from sim.study.run.protocol import BODIES, INPUTS, PROTOCOL
 from sim.study.views.live import COLOURS
 from sim.wire.rosmsgs import JOINT_STATE
 
@@ -58,6 +58,8 @@ PAGE_FILES = (
     "controllers.js",
     "headset.js",
     "frameloop.js",
+    "tracking.js",
+    "poses.js",
     "topics.js",
     "connection.js",
     "rostcp.js",
@@ -184,7 +186,8 @@ def _box(box: Box) -> dict[str, Any]:
 
 def page_settings(robot: RobotSpec, scene: Scene) -> dict[str, Any]:
     """What the page needs to know beyond the URDF: the scene in the world frame (ROS: x forward, z up), the
-    robot's base pose, the joints it is sent, the study's topics with their types and the trial protocol's table."""
+    robot's base pose, the joints it is sent, the study's topics with their types (the runner's status, the
+    participant's inputs, the tracked body's poses) and the trial protocol's table."""
     x, y, z, w = matrix_to_quat(scene.base_pose[:3, :3])
     return {
         "robot": {
@@ -199,6 +202,7 @@ def page_settings(robot: RobotSpec, scene: Scene) -> dict[str, Any]:
             "joint_states": [robot.joint_states_topic, JOINT_STATE],
             "trial": list(PROTOCOL.status),
             **{name: list(PROTOCOL.inputs[name]) for name in INPUTS},
+            **{body: list(PROTOCOL.poses[body]) for body in BODIES},  # the tracked body's, sent during trials
         },
         "protocol": PROTOCOL.data,  # the trial protocol's table, as the runner reads it
         "stop_source": PROTOCOL.stop_source("vr"),  # what the page's presses are named

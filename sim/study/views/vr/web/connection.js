@@ -44,6 +44,22 @@ export class RosConnection {
     return true;
   }
 
+  // Publish messages ([topic, payload] pairs, each on a topic advertised before) in one WebSocket message: the
+  // endpoint takes any number of whole frames in one, and one send costs the page less than one each (a frame's
+  // poses); false when not connected.
+  publishAll(messages) {
+    if (!this.connected) return false;
+    const frames = messages.map(([topic, payload]) => frame(topic, payload));
+    const bytes = new Uint8Array(frames.reduce((length, part) => length + part.length, 0));
+    let at = 0;
+    for (const part of frames) {
+      bytes.set(part, at);
+      at += part.length;
+    }
+    this._send(bytes);
+    return true;
+  }
+
   // ROS time minus this browser's clock (s), from the quickest recent ping; null before any answer.
   get clockOffset() {
     return this.clock.offset;

@@ -1,11 +1,20 @@
 // One frame of the page, at the headset's frame rate (or the browser's, outside the session): the robot posed by its
-// latest joint state, the controllers read as the participant's answers, the panel, and both eyes drawn.
+// latest joint state, the controllers read as the participant's answers, the participant's tracked body sent during
+// a trial, the panel, and both eyes drawn.
+import { frameStamp } from './poses.js';
+
 export class FrameLoop {
-  // The page's parts: view (scene.js), robot, panel, controllers, participant (study.js) and topics (ROS).
-  constructor({ view, robot, panel, controllers, participant, topics }) {
-    Object.assign(this, { view, robot, panel, controllers, participant, topics });
+  // The page's parts: view (scene.js), robot, panel, controllers, tracking (the headset's and the controllers'
+  // poses, tracking.js), participant (study.js) and topics (ROS).
+  constructor({ view, robot, panel, controllers, tracking, participant, topics }) {
+    Object.assign(this, { view, robot, panel, controllers, tracking, participant, topics });
     this.frames = 0; // of the immersive session
     this.frameTime = null; // the latest session frame's time (ms, performance.now()'s clock)
+    // Off, no pose is read or sent: the frame-time bench (bench/vr_frame_bench.py) measures frames without them and
+    // with them, to show what they cost.
+    this.sendPoses = true;
+    this.poseFrames = 0; // session frames that sent the tracked body (a trial's, with ROS time known)
+    this.timeOrigin = performance.timeOrigin; // when performance.now() was 0, on the browser's clock (ms)
   }
 
   // s since the latest session frame began, at nowMs (performance.now()); null outside the session. XR input events
@@ -21,6 +30,7 @@ export class FrameLoop {
     this.frameTime = frame ? time : null;
     this.robot.update();
     if (frame) this.answer(frame);
+    if (frame && this.sendPoses) this.sendBody(time, frame);
     this.showInstructions();
     this.view.render();
   }
@@ -31,6 +41,16 @@ export class FrameLoop {
       if (choose) this.participant.onChoose(choose);
       if (confirm) this.topics.send(this.participant.onConfirm(distance));
     }
+  }
+
+  // During a trial, each tracked body's pose in this frame, stamped with the frame's time on the runner's clock;
+  // nothing before that clock is known (a pose stamped on the browser's clock would be placed wrongly in the trial).
+  sendBody(time, frame) {
+    if (!this.participant.inTrial) return;
+    const stamp = frameStamp(time, this.timeOrigin, this.topics.clockOffset);
+    if (stamp === null) return;
+    this.poseFrames += 1;
+    this.topics.sendPoses(stamp, this.tracking.read(frame));
   }
 
   // The phase's instructions, and what the connection does while it is not connected.

@@ -1,6 +1,7 @@
 // The VR condition's page: the robot from its URDF, the table and the hand in the headset, moved by the robot's
 // joint states at the headset's frame rate; the trial's phase and instructions on a panel in view; the trigger,
-// buttons and controllers as the participant's answers (study.js). It is a client of the endpoint's WebSocket
+// buttons and controllers as the participant's answers (study.js); during a trial, the headset's and the controllers'
+// poses as the participant's tracked body (tracking.js, poses.js). It is a client of the endpoint's WebSocket
 // transport (connection.js), reached through this page's own server at /ros.
 //
 // This module puts the parts together; `page` holds them all, the page's whole state. The tests' probe and the
@@ -13,6 +14,7 @@ import { Robot } from './robot.js';
 import { View } from './scene.js';
 import { Participant } from './study.js';
 import { StudyTopics } from './topics.js';
+import { Tracking } from './tracking.js';
 
 async function startPage() {
   const settings = await (await fetch('/settings.json')).json();
@@ -21,6 +23,7 @@ async function startPage() {
   const robot = new Robot(settings.robot, view.world);
   const panel = new Panel(view.scene, statusLine);
   const controllers = new Controllers(view.renderer.xr, view.scene);
+  const tracking = new Tracking(view.renderer.xr, view.world);
   const participant = new Participant(settings.protocol);
   const url = `${location.protocol === 'https:' ? 'wss' : 'ws'}://${location.host}${settings.ros_path}`;
   const topics = new StudyTopics(settings, url, {
@@ -29,7 +32,7 @@ async function startPage() {
   });
   topics.open();
 
-  const loop = new FrameLoop({ view, robot, panel, controllers, participant, topics });
+  const loop = new FrameLoop({ view, robot, panel, controllers, tracking, participant, topics });
   view.renderer.setAnimationLoop((time, frame) => loop.step(time, frame));
   window.addEventListener('resize', () => view.resize(window.innerWidth, window.innerHeight));
 
@@ -39,7 +42,7 @@ async function startPage() {
     topics.send(participant.onTrigger(topics.rosNow()), loop.sinceFrame(now));
   });
   await headset.offer();
-  return { settings, view, robot, panel, controllers, participant, topics, loop, headset };
+  return { settings, view, robot, panel, controllers, tracking, participant, topics, loop, headset };
 }
 
 export const page = await startPage();

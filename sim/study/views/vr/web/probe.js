@@ -20,6 +20,9 @@ window.vrPage = {
       inSession: page.headset.inSession,
       enterable: !page.headset.button.disabled,
       frames: page.loop.frames,
+      inTrial: page.participant.inTrial, // the page sends the tracked body in its session's frames
+      poseFrames: page.loop.poseFrames, // the session's frames that sent the tracked body
+      posesSent: { ...page.topics.posesSent }, // by body
       triggers: page.headset.triggers,
       actions: page.topics.sent,
       index: status ? status.index : null,

@@ -165,6 +165,30 @@ export function encodeHeader(seq, stamp, frameId) {
   return writer.bytes();
 }
 
+// geometry_msgs/PoseStamped: Header {seq, stamp ({secs, nsecs}), frameId}, then the pose's position [x, y, z] and
+// orientation [x, y, z, w], float64 each. Written into one buffer: the page sends three of them every frame.
+export function encodePoseStamped(seq, stamp, frameId, position, orientation) {
+  if (position.length !== 3 || orientation.length !== 4) {
+    throw new RangeError(
+      `a pose is 3 coordinates and 4 of a quaternion, not ${position.length} and ${orientation.length}`,
+    );
+  }
+  const name = encoder.encode(frameId);
+  const out = new Uint8Array(16 + name.length + 7 * 8);
+  const view = new DataView(out.buffer);
+  view.setUint32(0, seq, true);
+  view.setUint32(4, stamp.secs, true);
+  view.setUint32(8, stamp.nsecs, true);
+  view.setUint32(12, name.length, true);
+  out.set(name, 16);
+  let at = 16 + name.length;
+  for (const value of [...position, ...orientation]) {
+    view.setFloat64(at, value, true);
+    at += 8;
+  }
+  return out;
+}
+
 // std_msgs/Float32.
 export function encodeFloat32(value) {
   const writer = new Writer();

@@ -53,6 +53,14 @@ export class Participant {
     return phase ? phase.accepts : null;
   }
 
+  // The status is a trial's, whose poses the page sends (the protocol's poses): a trial has its test (1 or 2); a
+  // questionnaire's item, between trials, and the end (index 0) have none. Their phases are checked too, by what
+  // the table says of them rather than by name: a questionnaire's accepts an answer, the end has index 0.
+  get inTrial() {
+    const status = this.status;
+    return Boolean(status) && status.test > 0 && status.index > 0 && this.accepts !== 'answer';
+  }
+
   // The trigger was pressed; rosNow is ROS time by the measured clock offset (s), or null without one.
   onTrigger(rosNow) {
     if (this.accepts !== 'stop') return null;

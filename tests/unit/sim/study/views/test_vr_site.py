@@ -114,6 +114,12 @@ def test_the_settings_carry_the_scene_the_joints_and_the_topics(site: Site) -> N
     assert settings["robot"]["joint_names"][0] == "panda_joint1" and len(settings["robot"]["joint_names"]) == 7
     assert settings["topics"]["stop"] == ["/study/stop", "std_msgs/Header"]
     assert settings["topics"]["joint_states"] == ["/panda/joint_states", "sensor_msgs/JointState"]
+    # the tracked body's, by the protocol's bodies, as the page advertises them
+    assert {body: settings["topics"][body] for body in settings["protocol"]["poses"]["bodies"]} == {
+        "head": ["/study/pose/head", "geometry_msgs/PoseStamped"],
+        "left_hand": ["/study/pose/left_hand", "geometry_msgs/PoseStamped"],
+        "right_hand": ["/study/pose/right_hand", "geometry_msgs/PoseStamped"],
+    }
     assert settings["ros_path"] == "/ros" and settings["emulation"] is False
 
 

@@ -1,0 +1,212 @@
+// The tracked body's pure parts (sim/study/views/vr/web/poses.js): which bodies a frame sends, its stamp on the
+// runner's clock, the XR pose taken into the scene's ROS world frame; the PoseStamped's bytes (rostcp.js); and when
+// the participant is in a trial (study.js). Run by node's test runner.
+import assert from 'node:assert/strict';
+import { readFileSync } from 'node:fs';
+import { test } from 'node:test';
+
+import { WorldFrame, frameStamp, trackedBodies } from '../../sim/study/views/vr/web/poses.js';
+import { encodePoseStamped, framesIn, rosTime } from '../../sim/study/views/vr/web/rostcp.js';
+import { Participant } from '../../sim/study/views/vr/web/study.js';
+import { StudyTopics } from '../../sim/study/views/vr/web/topics.js';
+
+const PROTOCOL = JSON.parse(readFileSync(new URL('../../sim/study/run/protocol.json', import.meta.url)));
+const SEAT = [0.55, -0.65, 0.45]; // the scene's: the eyes' place in the world frame
+
+// An XRPose as WebXR gives it.
+function xrPose(position, orientation = [0, 0, 0, 1], emulatedPosition = false) {
+  const [x, y, z] = position;
+  const [qx, qy, qz, qw] = orientation;
+  return { transform: { position: { x, y, z }, orientation: { x: qx, y: qy, z: qz, w: qw } }, emulatedPosition };
+}
+
+// The column-major 4x4 matrix (three.js's elements) of rotation q = [x, y, z, w] then translation t.
+function matrixOf([x, y, z, w], [tx, ty, tz]) {
+  return [
+    1 - 2 * (y * y + z * z), 2 * (x * y + z * w), 2 * (x * z - y * w), 0,
+    2 * (x * y - z * w), 1 - 2 * (x * x + z * z), 2 * (y * z + x * w), 0,
+    2 * (x * z + y * w), 2 * (y * z - x * w), 1 - 2 * (x * x + y * y), 0,
+    tx, ty, tz, 1,
+  ]; // prettier-ignore
+}
+
+function rotate([x, y, z, w], v) {
+  const m = matrixOf([x, y, z, w], [0, 0, 0]);
+  return [0, 1, 2].map((row) => m[row] * v[0] + m[4 + row] * v[1] + m[8 + row] * v[2]);
+}
+
+function multiply([ax, ay, az, aw], [bx, by, bz, bw]) {
+  return [
+    aw * bx + ax * bw + ay * bz - az * by,
+    aw * by - ax * bz + ay * bw + az * bx,
+    aw * bz + ax * by - ay * bx + az * bw,
+    aw * bw - ax * bx - ay * by - az * bz,
+  ];
+}
+
+function near(actual, expected, what, tolerance = 1e-12) {
+  assert.equal(actual.length, expected.length, what);
+  actual.forEach((value, k) =>
+    assert.ok(Math.abs(value - expected[k]) <= tolerance, `${what}: ${actual} vs ${expected}`),
+  );
+}
+
+// Quaternions q and -q are one rotation.
+function sameRotation(actual, expected, what) {
+  const sign = actual.reduce((sum, value, k) => sum + value * expected[k], 0) < 0 ? -1 : 1;
+  near(
+    actual.map((value) => sign * value),
+    expected,
+    what,
+  );
+}
+
+// The scene's world (scene.js): rotated -pi/2 about three's x, its origin placed so that the seat is at the origin of
+// the XR reference space.
+const SCENE_WORLD = matrixOf([-Math.SQRT1_2, 0, 0, Math.SQRT1_2], [-SEAT[0], -SEAT[2], SEAT[1]]);
+
+test("the scene's world: the eyes at the origin are at the seat, three's up is ROS's z, its -z ROS's y", () => {
+  const world = new WorldFrame(SCENE_WORLD);
+  near(world.pose(xrPose([0, 0, 0]).transform).position, SEAT, 'the eyes', 1e-15);
+  near(world.pose(xrPose([0, 1, 0]).transform).position, [SEAT[0], SEAT[1], SEAT[2] + 1], 'up', 1e-15);
+  near(world.pose(xrPose([0, 0, -1]).transform).position, [SEAT[0], SEAT[1] + 1, SEAT[2]], 'forward', 1e-15);
+  near(world.pose(xrPose([0.2, 0, 0]).transform).position, [SEAT[0] + 0.2, SEAT[1], SEAT[2]], 'right', 1e-15);
+  // a headset looking straight ahead looks along the world's y (from the seat towards the hand), its up is z
+  const ahead = world.pose(xrPose([0, 0, 0]).transform).orientation;
+  sameRotation(ahead, [Math.SQRT1_2, 0, 0, Math.SQRT1_2], 'ahead');
+  near(rotate(ahead, [0, 0, -1]), [0, 1, 0], 'its view', 1e-15);
+  near(rotate(ahead, [0, 1, 0]), [0, 0, 1], 'its up', 1e-15);
+  // turned left by 90 degrees about three's up: it looks along the world's -x
+  const left = world.pose(xrPose([0, 0, 0], [0, Math.SQRT1_2, 0, Math.SQRT1_2]).transform).orientation;
+  near(rotate(left, [0, 0, -1]), [-1, 0, 0], 'looking left', 1e-15);
+});
+
+test('any rigid placement of the world is undone: position and orientation, each branch of the rotation', () => {
+  const turns = [
+    [0, 0, 0, 1],
+    [1, 0, 0, 0], // half turns: the trace is -1, each of x, y, z the largest square
+    [0, 1, 0, 0],
+    [0, 0, 1, 0],
+    [0.1, -0.7, 0.3, 0.2],
+    [-0.6, 0.2, 0.5, -0.1],
+  ].map((q) => q.map((value) => value / Math.hypot(...q)));
+  const origin = [0.3, -1.2, 2.5];
+  const bodyInWorld = [0.4, -0.1, 0.9];
+  const bodyTurn = [0.2, 0.3, -0.4, 0.8].map((value) => value / Math.hypot(0.2, 0.3, -0.4, 0.8));
+  for (const turn of turns) {
+    const world = new WorldFrame(matrixOf(turn, origin));
+    const inSpace = rotate(turn, bodyInWorld).map((value, k) => value + origin[k]);
+    const pose = world.pose(xrPose(inSpace, multiply(turn, bodyTurn)).transform);
+    near(pose.position, bodyInWorld, `position, world turned ${turn}`, 1e-12);
+    sameRotation(pose.orientation, bodyTurn, `orientation, world turned ${turn}`);
+  }
+});
+
+test('the bodies a frame sends: the head and each hand tracked in it, nothing of one that is not', () => {
+  const head = xrPose([0, 0, 0]);
+  const left = xrPose([-0.1, -0.3, -0.4]);
+  const right = xrPose([0.1, -0.3, -0.4]);
+  const names = (bodies) => bodies.map(([body]) => body);
+  const all = trackedBodies(head, [
+    ['right', right],
+    ['left', left],
+  ]);
+  assert.deepEqual(all, [
+    ['head', head],
+    ['right_hand', right],
+    ['left_hand', left],
+  ]);
+  // no pose, or one the runtime made up (lost tracking), is a gap: nothing is sent for it
+  assert.deepEqual(names(trackedBodies(null, [['left', left]])), ['left_hand']);
+  assert.deepEqual(names(trackedBodies(xrPose([0, 0, 0], [0, 0, 0, 1], true), [['left', null]])), []);
+  assert.deepEqual(names(trackedBodies(head, [['right', xrPose([0, 0, 0], [0, 0, 0, 1], true)]])), ['head']);
+  // no hand without a handedness, and one pose per hand
+  assert.deepEqual(
+    names(
+      trackedBodies(head, [
+        ['none', left],
+        ['left', left],
+        ['left', right],
+      ]),
+    ),
+    ['head', 'left_hand'],
+  );
+});
+
+test("a frame's stamp: its time on the browser's clock plus the measured offset; none before the offset", () => {
+  assert.equal(frameStamp(1500.25, 1.7e12, null), null);
+  assert.equal(frameStamp(1500, 1.7e12, -1.7e9 + 2), 3.5); // 1.7e9 + 1.5 on the browser's clock
+  assert.ok(Math.abs(frameStamp(16.5, 1_764_000_000_000, -1_763_999_990) - 10.0165) < 1e-6);
+});
+
+test('a PoseStamped in ROS 1 bytes: Header (seq, stamp, frame_id), then position and orientation as float64', () => {
+  const bytes = encodePoseStamped(7, rosTime(12.25), 'world', [0.5, -0.65, 0.45], [0, 0, Math.SQRT1_2, Math.SQRT1_2]);
+  assert.equal(bytes.length, 4 + 8 + 4 + 5 + 7 * 8);
+  const view = new DataView(bytes.buffer);
+  assert.deepEqual(
+    [view.getUint32(0, true), view.getUint32(4, true), view.getUint32(8, true), view.getUint32(12, true)],
+    [7, 12, 250_000_000, 5],
+  );
+  assert.equal(new TextDecoder().decode(bytes.subarray(16, 21)), 'world');
+  const values = [0, 1, 2, 3, 4, 5, 6].map((k) => view.getFloat64(21 + 8 * k, true));
+  assert.deepEqual(values, [0.5, -0.65, 0.45, 0, 0, Math.SQRT1_2, Math.SQRT1_2]);
+  assert.throws(() => encodePoseStamped(0, rosTime(1), 'world', [0, 0], [0, 0, 0, 1]), RangeError);
+});
+
+test("the participant is in a trial in its phases, not in a questionnaire's item, nor at the end", () => {
+  const participant = new Participant(PROTOCOL);
+  assert.equal(participant.inTrial, false); // no status yet
+  const trial = { participant: 3, index: 2, total: 4, condition: 'vr', test: 1, group_paths: [] };
+  for (const phase of PROTOCOL.phases.filter((phase) => phase.accepts !== 'answer')) {
+    participant.onStatus({ ...trial, phase: phase.name, index: phase.name === 'done' ? 0 : 2 });
+    assert.equal(participant.inTrial, phase.name !== 'done', phase.name);
+  }
+  // between trials a questionnaire's item has no test, and the end neither; a questionnaire is no trial's phase
+  participant.onStatus({ ...trial, phase: 'questionnaire', index: 2, test: 0, scale_low: 0, scale_high: 3 });
+  assert.equal(participant.inTrial, false);
+  participant.onStatus({ ...trial, phase: 'questionnaire', index: 2, test: 2, scale_low: 0, scale_high: 3 });
+  assert.equal(participant.inTrial, false);
+  participant.onStatus({ ...trial, phase: 'done', index: 0, test: 0 });
+  assert.equal(participant.inTrial, false);
+});
+
+test("a frame's poses go out in one message, a frame each on its body's topic, numbered by body", () => {
+  // the settings as the page's server gives them (sim/study/views/vr/site.py): each topic [name, type]
+  const entry = ({ topic, type }) => [topic, type];
+  const topics = {
+    joint_states: ['/panda/joint_states', 'sensor_msgs/JointState'],
+    trial: entry(PROTOCOL.status),
+    ...Object.fromEntries(Object.entries(PROTOCOL.inputs).map(([name, input]) => [name, entry(input)])),
+    ...Object.fromEntries(Object.entries(PROTOCOL.poses.bodies).map(([body, pose]) => [body, entry(pose)])),
+  };
+  const study = new StudyTopics({ topics, protocol: PROTOCOL }, 'ws://nowhere/ros', {});
+  const messages = [];
+  study.connection._send = (bytes) => messages.push(bytes); // no socket: what would be sent
+  const head = { position: [0.55, -0.65, 0.45], orientation: [Math.SQRT1_2, 0, 0, Math.SQRT1_2] };
+  const hand = { position: [0.5, -0.4, 0.2], orientation: [0, 0, 0, 1] };
+  assert.equal(study.sendPoses(10.5, [['head', head]]), false); // not connected: nothing sent, nothing counted
+  assert.deepEqual(study.posesSent, { head: 0, left_hand: 0, right_hand: 0 });
+  study.connection.connected = true;
+  assert.equal(
+    study.sendPoses(10.5, [
+      ['head', head],
+      ['right_hand', hand],
+    ]),
+    true,
+  );
+  assert.equal(study.sendPoses(10.52, [['head', head]]), true);
+  assert.equal(messages.length, 2);
+  const first = framesIn(messages[0]);
+  assert.deepEqual(
+    first.map(([topic]) => topic),
+    [PROTOCOL.poses.bodies.head.topic, PROTOCOL.poses.bodies.right_hand.topic],
+  );
+  const frameId = PROTOCOL.poses.frame_id;
+  assert.deepEqual(
+    [...first[1][1]],
+    [...encodePoseStamped(0, rosTime(10.5), frameId, hand.position, hand.orientation)],
+  );
+  const [[, second]] = framesIn(messages[1]);
+  assert.deepEqual([...second], [...encodePoseStamped(1, rosTime(10.52), frameId, head.position, head.orientation)]);
+  assert.deepEqual(study.posesSent, { head: 2, left_hand: 0, right_hand: 1 });
+});
