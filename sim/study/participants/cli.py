@@ -51,6 +51,10 @@ def participant_command(args: argparse.Namespace) -> int:
     participant.attach()
     try:
         client.connect(timeout=30)
+        # The endpoint answers a ping only once it has acted on the registrations sent before it, publishers
+        # advertised on the ROS graph: the runner, started once this says "connected", and its recorder then find
+        # them at once. Without it the recorder's link to the last pose topic came up to a trial late.
+        client.ping(timeout=30)
     except ClientError as error:
         participant.close()
         return fail(

@@ -31,7 +31,23 @@ A Population gives the distributions; each participant's traits are drawn from i
                         frame (the VR page's at the Quest browser's 72 Hz, the button page's at a 60 Hz display).
                         It is reported with the press, not added to its stamp: where the press lands stays the
                         comfort distance put in.
-  Questionnaire traits and answers are drawn from streams of their own: the trials' draws are those of before.
+  withdrawal            test 2: after the press the hand under the robot withdraws: the participant's own distance in
+                        reality (mean `withdrawal_mean`, SD `withdrawal_sd`), plus a VR − reality difference of
+                        their own (mean `vr_withdrawal_shift`, SD `withdrawal_shift_sd`); each trial's varies by
+                        `withdrawal_noise`; none is below 0. Test 1 has no press: the hand stays.
+  Questionnaire traits and answers are drawn from streams of their own: the trials' draws are those of before. So are
+  the withdrawal's traits, each trial's withdrawal and the tracking's jitter.
+
+The tracked body (body_poses: the poses the protocol's pose topics carry, in the scene's world frame), a pure
+function of the time:
+  head                  at the seat (the eyes), looking at the hand, with a small slow sway (HEAD_SWAY);
+  right_hand            the hand under the robot: resting on the scene hand's top surface, palm down along the scene
+                        hand; from the press on it withdraws by the trial's distance, horizontally toward the seat
+                        (away from the robot's approach from above), on a minimum-jerk profile over
+                        WITHDRAWAL_DURATION: so its farthest displacement is the distance put in and its peak speed
+                        1.875 x distance / duration;
+  left_hand             resting on the table between the seat and the hand, to the participant's left;
+  each position carries the tracker's jitter (TRACKING_JITTER, normal per axis) when a random stream is given.
 """
 
 from __future__ import annotations
@@ -39,12 +55,18 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
+from sim.geometry.frames import euler_xyz_to_quat
 from sim.study.design.paths import ON_TOP, PATH_NAMES
 from sim.study.participants.errors import ParticipantError
 from sim.study.questionnaires.instruments import standard_instrument
+from sim.study.run.protocol import BODIES
+
+if TYPE_CHECKING:  # only its fields are read: the model needs no robot
+    from sim.study.design.scene import Scene
 
 __all__ = [
     "MIN_COMFORT",
@@ -62,15 +84,29 @@ __all__ = [
     "questionnaire_answer",
     "INPUT_FRAME_S",
     "input_delay",
+    "trial_withdrawal",
+    "WITHDRAWAL_DURATION",
+    "TRACKING_JITTER",
+    "HEAD_SWAY",
+    "min_jerk",
+    "withdrawal_peak_speed",
+    "BodyLayout",
+    "body_layout",
+    "Pose",
+    "body_poses",
 ]
 
 MIN_COMFORT = ON_TOP + 0.01  # m: a press must land before the approach's end, on top of the hand
+MAX_WITHDRAWAL = 0.3  # m: a population's mean withdrawal beyond this is no flinch but leaving the table
 # what `participant` and `simulate` take from the command line (--vr-distance-shift ...): the truths to recover
 KNOWN_TRUTHS = {
     "vr_distance_shift": "VR - reality of perceived / actual distance, the population's mean",
     "distance_shift_sd": "SD of the participants' own VR - reality differences of perceived / actual",
     "vr_comfort_shift": "VR - reality of the distance at the press (m), the population's mean",
     "comfort_shift_sd": "SD of the participants' own VR - reality differences of the distance at the press (m)",
+    "withdrawal_mean": "test 2: how far the hand withdraws after the press in reality (m), the population's mean",
+    "vr_withdrawal_shift": "VR - reality of the hand's withdrawal after the press (m), the population's mean",
+    "withdrawal_shift_sd": "SD of the participants' own VR - reality differences of the hand's withdrawal (m)",
     "ssq_level": "SSQ: each symptom's mean rating (0..3) before the participant has been in VR",
     "vr_ssq_rise": "SSQ: how much each symptom's mean rating rises once the participant has been in VR",
     "ipq_level": "IPQ: every subscale's mean score (0..6)",
@@ -89,6 +125,11 @@ class Population:
     vr_comfort_shift: float = -0.02  # m: closer in VR
     comfort_shift_sd: float = 0.02  # m
     comfort_noise: float = 0.01  # m: one trial's, around the participant's own
+    withdrawal_mean: float = 0.03  # m: how far the hand withdraws after the press, in reality
+    withdrawal_sd: float = 0.008  # m: SD of the participants' own in reality
+    vr_withdrawal_shift: float = -0.01  # m: VR − reality: they withdraw less in VR
+    withdrawal_shift_sd: float = 0.005  # m: SD of the participants' own VR − reality differences
+    withdrawal_noise: float = 0.004  # m: one trial's, around the participant's own
     ssq_level: float = 0.1  # SSQ: a symptom's mean rating before VR (0..3): total 7.9 on average
     vr_ssq_rise: float = 0.2  # SSQ: a symptom's mean rating after VR, more: total 23.6 on average
     symptom_spread: float = 0.5  # SSQ: the CV of the participants' susceptibility
@@ -104,6 +145,9 @@ class Population:
             "comfort_sd": self.comfort_sd,
             "comfort_shift_sd": self.comfort_shift_sd,
             "comfort_noise": self.comfort_noise,
+            "withdrawal_sd": self.withdrawal_sd,
+            "withdrawal_shift_sd": self.withdrawal_shift_sd,
+            "withdrawal_noise": self.withdrawal_noise,
         }
         bad = [f"{name} {value!r}" for name, value in spreads.items() if not (math.isfinite(value) and value >= 0.0)]
         if bad:
@@ -114,6 +158,14 @@ class Population:
             )
         if not (math.isfinite(self.vr_comfort_shift) and abs(self.vr_comfort_shift) < 0.2):
             raise ParticipantError(f"the VR comfort shift must be within ±0.2 m, got {self.vr_comfort_shift}")
+        in_vr = self.withdrawal_mean + self.vr_withdrawal_shift
+        if not (
+            math.isfinite(in_vr) and 0.0 <= self.withdrawal_mean <= MAX_WITHDRAWAL and 0.0 <= in_vr <= MAX_WITHDRAWAL
+        ):
+            raise ParticipantError(
+                f"the withdrawal in reality ({self.withdrawal_mean}) and in VR (+ shift {self.vr_withdrawal_shift}) "
+                f"must be within 0..{MAX_WITHDRAWAL} m"
+            )
         ssq, ipq = _scale("ssq"), _scale("ipq")
         after = self.ssq_level + self.vr_ssq_rise
         if not (math.isfinite(after) and ssq[0] <= self.ssq_level <= ssq[1] and ssq[0] <= after <= ssq[1]):
@@ -145,6 +197,13 @@ class Population:
             "comfort_vr": np.maximum(comfort_vr, MIN_COMFORT),
         }
 
+    def withdrawal_draws(self, rng: np.random.Generator, participants: int) -> dict[str, np.ndarray]:
+        """Each participant's own withdrawal (m) per condition, none below 0. Apart from `draws`, so that adding the
+        withdrawal changed none of the other traits' draws."""
+        reality = np.maximum(rng.normal(self.withdrawal_mean, self.withdrawal_sd, participants), 0.0)
+        vr = reality + rng.normal(self.vr_withdrawal_shift, self.withdrawal_shift_sd, participants)
+        return {"withdrawal_reality": reality, "withdrawal_vr": np.maximum(vr, 0.0)}
+
 
 @dataclass(frozen=True)
 class Traits:
@@ -157,6 +216,8 @@ class Traits:
     symptoms: dict[str, float]  # SSQ: a symptom's mean rating, before (False) and after (True) having been in VR
     presence: float  # IPQ: the mean item score as a fraction of the scale (0..1)
     item_level: float  # the lab's own items: the mean answer as a fraction of the scale (0..1)
+    withdrawal: dict[str, float]  # per condition, m: how far the hand withdraws after a press, the participant's mean
+    withdrawal_noise: float
 
 
 def _scale(name: str) -> tuple[int, int]:
@@ -179,6 +240,8 @@ def draw_traits(population: Population, participant: int, seed: int) -> Traits:
     shape = 1.0 / population.symptom_spread**2  # a gamma of mean 1 and this CV
     susceptibility = float(answering.gamma(shape, 1.0 / shape))
     low, high = _scale("ipq")
+    moving = np.random.default_rng([seed, participant, 6])  # apart, likewise: the withdrawal came later
+    withdrawal = {name: float(values[0]) for name, values in population.withdrawal_draws(moving, 1).items()}
     return Traits(
         participant,
         {"vr": drawn["ratio_vr"], "reality": drawn["ratio_reality"]},
@@ -192,6 +255,8 @@ def draw_traits(population: Population, participant: int, seed: int) -> Traits:
         },
         _beta(answering, (population.ipq_level - low) / (high - low), population.answer_concentration),
         _beta(answering, population.item_level, population.answer_concentration),
+        {"vr": withdrawal["withdrawal_vr"], "reality": withdrawal["withdrawal_reality"]},
+        population.withdrawal_noise,
     )
 
 
@@ -299,3 +364,103 @@ def questionnaire_answer(
         chance = traits.item_level
     scored = low + int(rng.binomial(steps, chance))
     return low + high - scored if reversed_ else scored
+
+
+def trial_withdrawal(traits: Traits, condition: str, rng: np.random.Generator) -> float:
+    """How far (m) the hand withdraws after this trial's press, around the participant's own; never below 0."""
+    _condition(traits, condition)
+    return max(float(rng.normal(traits.withdrawal[condition], traits.withdrawal_noise)), 0.0)
+
+
+# --- the tracked body ------------------------------------------------------------------------------------------------
+
+# s: a quick withdrawal, as a flinch is. Shorter than the runner holds the robot at rest after a stop (0.5 s), so the
+# whole withdrawal lies within the approach's window, where the runner measures it.
+WITHDRAWAL_DURATION = 0.4
+TRACKING_JITTER = 0.0001  # m, SD per axis: a headset's and its controllers' tracking noise is sub-millimetre
+HEAD_SWAY = (0.004, 5.0)  # m and s: the head's sway from side to side, its amplitude and period
+_LEFT_HAND_FORWARD, _LEFT_HAND_ASIDE = 0.3, 0.2  # m from under the eyes: toward the scene hand, to the left
+
+Pose = tuple[np.ndarray, np.ndarray]  # position (x, y, z) and orientation as a unit quaternion (x, y, z, w)
+
+
+def min_jerk(fraction: float) -> float:
+    """How much of a minimum-jerk movement is done at `fraction` of its duration (0 before, 1 after): 10τ³ − 15τ⁴ +
+    6τ⁵, at rest at both ends; its speed peaks at τ = ½ with 1.875 x distance / duration."""
+    tau = min(max(fraction, 0.0), 1.0)
+    return tau**3 * (10.0 - 15.0 * tau + 6.0 * tau**2)
+
+
+def withdrawal_peak_speed(distance: float, duration: float = WITHDRAWAL_DURATION) -> float:
+    """The peak speed (m/s) of a withdrawal of `distance` m over `duration` s (minimum jerk)."""
+    return 1.875 * distance / duration
+
+
+@dataclass(frozen=True)
+class BodyLayout:
+    """Where the participant's body rests in a scene (world frame), and which way the hand withdraws."""
+
+    head: np.ndarray  # (3,) the eyes: the scene's seat
+    hand: np.ndarray  # (3,) the hand under the robot at rest: the centre of the scene hand's top
+    other_hand: np.ndarray  # (3,) the other hand at rest, on the table
+    away: np.ndarray  # (3,) unit, horizontal: from the hand toward the seat, the way the hand withdraws
+    aside: np.ndarray  # (3,) unit, horizontal: the participant's left, facing the hand from the seat
+    orientations: dict[str, np.ndarray]  # by body: its unit quaternion (x, y, z, w), which stays
+
+
+def _unit(vector: np.ndarray, what: str) -> np.ndarray:
+    norm = float(np.linalg.norm(vector))
+    if not (math.isfinite(norm) and norm > 1e-6):
+        raise ParticipantError(f"no direction {what}: the scene's seat and hand are at the same place")
+    return vector / norm
+
+
+def body_layout(scene: Scene) -> BodyLayout:
+    """The participant seated at `scene.seat`, their right hand on the scene hand (under the robot), their left on
+    the table between them and it; looking at the hand."""
+    hand = scene.hand.top
+    seat = np.asarray(scene.seat, dtype=float)
+    toward = _unit(np.array([hand[0] - seat[0], hand[1] - seat[1], 0.0]), "from the seat to the hand")
+    aside = np.array([-toward[1], toward[0], 0.0])  # a quarter turn to the left about z (up)
+    table_top = float(scene.table.top[2])
+    other_hand = seat + _LEFT_HAND_FORWARD * toward + _LEFT_HAND_ASIDE * aside
+    other_hand[2] = table_top + float(scene.hand.size[2])  # on the table, at a hand's height as the other
+    look = hand - seat
+    heading = math.atan2(toward[1], toward[0])
+    pitch = math.atan2(-look[2], math.hypot(look[0], look[1]))  # positive: looking down
+    return BodyLayout(
+        head=seat,
+        hand=hand,
+        other_hand=other_hand,
+        away=-toward,
+        aside=aside,
+        orientations={
+            "head": euler_xyz_to_quat(0.0, pitch, heading),
+            "left_hand": euler_xyz_to_quat(0.0, 0.0, heading),  # palm down, fingers toward the hand
+            "right_hand": euler_xyz_to_quat(0.0, 0.0, scene.hand.yaw),  # palm down along the scene hand
+        },
+    )
+
+
+def body_poses(
+    layout: BodyLayout,
+    t: float,
+    withdrawal: float = 0.0,
+    press_time: float = math.nan,
+    jitter: np.random.Generator | None = None,
+) -> dict[str, Pose]:
+    """Each body's pose (BODIES) at time `t` (s, on the trial's clock). The hand under the robot (right_hand)
+    withdraws by `withdrawal` m from `press_time` on (NaN: no press, it stays); with `jitter`, each position carries
+    the tracking's noise, drawn from it in the order of BODIES."""
+    if not (math.isfinite(withdrawal) and withdrawal >= 0.0):
+        raise ParticipantError(f"a withdrawal must be >= 0 m, got {withdrawal!r}")
+    amplitude, period = HEAD_SWAY
+    head = layout.head + amplitude * math.sin(2.0 * math.pi * t / period) * layout.aside
+    hand = layout.hand
+    if math.isfinite(press_time):
+        hand = hand + withdrawal * min_jerk((t - press_time) / WITHDRAWAL_DURATION) * layout.away
+    positions = {"head": head, "left_hand": layout.other_hand, "right_hand": hand}
+    if jitter is not None:
+        noise = jitter.normal(0.0, TRACKING_JITTER, (len(BODIES), 3))
+        positions = {body: positions[body] + noise[k] for k, body in enumerate(BODIES)}
+    return {body: (positions[body], layout.orientations[body]) for body in BODIES}

@@ -17,6 +17,13 @@ protocol's table, sim.study.run.protocol):
               its own levels;
   done        (the last phase; for its participant number) ends.
 
+Its tracked body (the protocol's pose topics, one geometry_msgs/PoseStamped per body in the world frame), as the
+model's body_poses has it: from a trial's `moving` status until a status of another trial, a questionnaire's or
+done, on each joint state stamped t it publishes every body's pose on the joint states' grid (dt) from after the last
+one it published up to t itself: a joint state it missed leaves no gap, and the runner, which waits at an approach's
+end for a pose of every tracked body stamped at its end, always has one. In test 2 the hand withdraws from the press
+by this trial's withdrawal (the model's trial_withdrawal, drawn on go); in test 1 it stays.
+
 Why at once, and planned before go: a lockstep runs some 15 times faster than real time on a busy machine, so
 whatever the participant does after the approach starts races the robot. Pressing on the joint state one human
 reaction time ahead (some 15 ms of wall time there) came late in three studies of seven; planning on `moving` (5 ms,
@@ -26,6 +33,8 @@ lockstep it holds the clock at a test-2 approach's start until the press is in.
 
 from __future__ import annotations
 
+import math
+import struct
 import threading
 from typing import Any
 
@@ -39,11 +48,14 @@ from sim.study.errors import StudyError
 from sim.study.participants.model import (
     Traits,
     arrival_time,
+    body_layout,
+    body_poses,
     comfort_at_press,
     input_delay,
     perceived_distance,
     preferred_path,
     questionnaire_answer,
+    trial_withdrawal,
 )
 from sim.study.questionnaires.instruments import STANDARD, standard_instrument
 from sim.study.run.protocol import (
@@ -51,6 +63,9 @@ from sim.study.run.protocol import (
     DISTANCE_TOPIC,
     GO_TOPIC,
     PHASES,
+    POSE_FRAME,
+    POSE_TOPICS,
+    POSE_TYPE,
     PREFERENCE_TOPIC,
     PROTOCOL,
     STATUS_TOPIC,
@@ -65,11 +80,26 @@ from sim.study.run.protocol import (
 from sim.wire.contract import STEP_S
 from sim.wire.rosmsgs import JOINT_STATE, decode_joint_state, deserialize, encode_message, time_msg
 
-__all__ = ["SimulatedParticipant"]
+__all__ = ["SimulatedParticipant", "pose_stamped"]
+
+# The endpoint's queue for each pose topic: a joint state missed is made up for by a burst of poses at once
+POSE_QUEUE = 100
+_FRAME_ID = POSE_FRAME.encode()
+# A PoseStamped in ROS 1 bytes: the Header (seq, stamp's sec and nsec, frame_id's length and text), the position's
+# x, y, z and the orientation's x, y, z, w
+_POSE_STAMPED = struct.Struct(f"<4I{len(_FRAME_ID)}s7d")
 
 
 def _encode(topic: str, **fields: Any) -> bytes:
     return encode_message(TOPIC_TYPES[topic], **fields)
+
+
+def pose_stamped(stamp_s: float, position: np.ndarray, orientation: np.ndarray) -> bytes:
+    """A PoseStamped in POSE_FRAME stamped `stamp_s`, serialized: the bytes encode_message makes (the tests compare
+    them), packed directly: a session publishes three a step, and encode_message took 5-15 us for one on this 2-core
+    machine (its typestore builds the message's objects first), this 1.5 us."""
+    stamp = time_msg(stamp_s)
+    return _POSE_STAMPED.pack(0, stamp.sec, stamp.nanosec, len(_FRAME_ID), _FRAME_ID, *position, *orientation)
 
 
 class SimulatedParticipant:
@@ -81,6 +111,10 @@ class SimulatedParticipant:
         # the questionnaires' answers: a stream apart, so that the judgements are those of a study without them
         self.answer_rng = np.random.default_rng([seed, traits.participant, 4])
         self.delay_rng = np.random.default_rng([seed, traits.participant, 5])  # the input delays: apart, likewise
+        self.withdrawal_rng = np.random.default_rng([seed, traits.participant, 7])  # each trial's withdrawal: apart
+        self.jitter_rng = np.random.default_rng([seed, traits.participant, 8])  # the tracking's jitter: apart
+        self.layout = body_layout(scene)
+        self.poses = 0  # samples of the tracked body published, each one pose per body
         self.been_in_vr = False  # whether any trial of the VR block has been run: the SSQ's symptoms rise after
         self.answers = 0
         self.done = threading.Event()
@@ -90,10 +124,16 @@ class SimulatedParticipant:
         self._status: TrialStatus | None = None
         self._press_after: float | None = None  # test 2: s after the approach starts at which this trial's press lands
         self._latest: tuple[float, np.ndarray] | None = None
+        self._tracked: TrialStatus | None = None  # the trial whose body is published: from its moving status on
+        self._withdrawal = 0.0  # m: this trial's withdrawal after the press (test 2)
+        self._press_time = math.nan  # s of ROS time: this trial's press; NaN: none, the hand stays
+        self._last_pose = math.nan  # s of ROS time: the last sample's stamp published in the tracked trial
 
     def attach(self) -> None:
         for topic in (GO_TOPIC, STOP_TOPIC, DISTANCE_TOPIC, PREFERENCE_TOPIC, ANSWER_TOPIC):
             self.client.register_publisher(topic, TOPIC_TYPES[topic])
+        for topic in POSE_TOPICS.values():
+            self.client.register_publisher(topic, POSE_TYPE, queue_size=POSE_QUEUE)
         self.client.subscribe(self.robot.joint_states_topic, JOINT_STATE, self._on_joint_state)
         self.client.subscribe(STATUS_TOPIC, TOPIC_TYPES[STATUS_TOPIC], self._on_status)
 
@@ -106,6 +146,30 @@ class SimulatedParticipant:
     def _on_joint_state(self, payload: bytes) -> None:
         sample = decode_joint_state(payload, self.robot.joint_names)
         self._latest = (sample.stamp_s, sample.positions)
+        if self._tracked is not None:
+            self._publish_poses(sample.stamp_s)
+
+    def _start_tracking(self, status: TrialStatus) -> None:
+        if self._tracked is not None and self._tracked.index == status.index:
+            return  # this trial's moving status again (latched, sent anew): its poses go on where they were
+        self._tracked = status
+        self._last_pose = status.motion_start - self.dt  # so that the first sample is the motion's start
+        if self._latest is not None:  # joint states that came before this status
+            self._publish_poses(self._latest[0])
+
+    def _publish_poses(self, t: float) -> None:
+        """Every body's pose on the grid of dt back from `t` (s of ROS time), from after the last stamp published up
+        to `t` itself."""
+        if self._tracked is None or t < self._tracked.motion_start - 1e-6 or not t > self._last_pose + 1e-9:
+            return  # before the motion, or covered already
+        count = max(round((t - self._last_pose) / self.dt), 1)  # its earliest lies >= dt/2 after the last one
+        for k in range(count - 1, -1, -1):
+            stamp = t - k * self.dt
+            poses = body_poses(self.layout, stamp, self._withdrawal, self._press_time, self.jitter_rng)
+            for body, (position, orientation) in poses.items():
+                self.client.publish(POSE_TOPICS[body], pose_stamped(stamp, position, orientation))
+        self._last_pose = t
+        self.poses += count
 
     def _plan_press(self, status: TrialStatus) -> float:
         """How long after the start (s) the planned approach reaches this trial's comfort distance."""
@@ -130,20 +194,27 @@ class SimulatedParticipant:
         if status.participant != self.traits.participant:
             return  # another session's (a latched status from before)
         self._status = status
+        if self._tracked is not None and (status.index != self._tracked.index or status.test == 0):
+            self._tracked = None  # another trial's status, a questionnaire's or done: this trial's tracking ends
         if status.condition == "vr" and status.test > 0:  # a trial's status (a questionnaire's has test 0)
             self.been_in_vr = True
         accepted = PROTOCOL.accepts(status.phase)
         if accepted == "go":
             self._press_after = None
+            self._withdrawal, self._press_time = 0.0, math.nan
             if status.test == 2:
                 try:
+                    self._withdrawal = trial_withdrawal(self.traits, status.condition, self.withdrawal_rng)
                     self._press_after = self._plan_press(status)
                 except StudyError as error:
                     self.problems.append(f"trial {status.index}: {error}")
             self.client.publish(GO_TOPIC, _encode(GO_TOPIC))
-        elif accepted == "stop" and self._press_after is not None:
-            self._press(status, self._press_after)
-            self._press_after = None
+        elif accepted == "stop":  # the approach has started
+            if self._press_after is not None:
+                self._press_time = status.motion_start + self._press_after
+                self._press(status, self._press_after)
+                self._press_after = None
+            self._start_tracking(status)
         elif accepted == "distance":
             if self._latest is None:
                 self.problems.append(f"trial {status.index}: asked for a distance before any joint state")
@@ -180,8 +251,10 @@ class SimulatedParticipant:
     @property
     def traits_note(self) -> str:
         ratio, comfort = self.traits.distance_ratio, self.traits.comfort_distance
+        withdrawal = self.traits.withdrawal
         return (
             f"comfort {comfort['reality']:.3f} m (VR {comfort['vr']:.3f} m), "
+            f"withdrawal {withdrawal['reality']:.3f} m (VR {withdrawal['vr']:.3f} m), "
             f"perceived / actual {ratio['reality']:.2f} (VR {ratio['vr']:.2f}), SSQ symptom rating "
             f"{self.traits.symptoms['before_vr']:.2f} (after VR {self.traits.symptoms['after_vr']:.2f})"
         )

@@ -1,34 +1,47 @@
 """sim.study.participants.model: traits are reproducible and spread as the population says; judgements and presses
 carry the known VR − reality differences; a whole study drawn at once has the same truths; the press lands where
 the participant means it to; the preference follows the ranking; the questionnaires' answers have the levels put
-in."""
+in; the tracked body withdraws the hand by the distance put in, on a minimum-jerk profile of known peak speed."""
 
 from __future__ import annotations
 
+import argparse
+import math
 from dataclasses import replace
 
 import numpy as np
 import pytest
 
 from sim.study.design.paths import PATH_NAMES
+from sim.study.design.scene import load_scene
 from sim.study.errors import StudyError
+from sim.study.participants.cli import add_population_options, population_from_args
 from sim.study.participants.errors import ParticipantError
 from sim.study.participants.model import (
+    HEAD_SWAY,
     INPUT_FRAME_S,
     KNOWN_TRUTHS,
     MIN_COMFORT,
+    TRACKING_JITTER,
+    WITHDRAWAL_DURATION,
     Population,
     arrival_time,
+    body_layout,
+    body_poses,
     comfort_at_press,
     draw_traits,
     input_delay,
+    min_jerk,
     perceived_distance,
     preferred_path,
     questionnaire_answer,
     study_measures,
+    trial_withdrawal,
+    withdrawal_peak_speed,
 )
 from sim.study.questionnaires.instruments import standard_instrument
 from sim.study.questionnaires.scoring import scores
+from sim.study.run.protocol import BODIES
 
 POPULATION = Population()
 
@@ -184,3 +197,134 @@ def test_a_modelled_input_delay_spans_one_frame_of_the_conditions_page() -> None
         assert delays.min() >= 0 and delays.max() <= frame and delays.mean() == pytest.approx(frame / 2, rel=0.05)
     with pytest.raises(StudyError, match="'lab'"):
         input_delay("lab", rng)
+
+
+# --- the tracked body ----------------------------------------------------------------------------------------------
+
+SCENE = load_scene()
+LAYOUT = body_layout(SCENE)
+
+
+def test_the_minimum_jerk_profile_rests_at_both_ends_and_peaks_at_1_875_times_the_mean_speed() -> None:
+    assert [min_jerk(f) for f in (-1.0, 0.0, 0.5, 1.0, 2.0)] == pytest.approx([0.0, 0.0, 0.5, 1.0, 1.0])
+    fractions = np.linspace(0.0, 1.0, 100_001)
+    done = np.array([min_jerk(f) for f in fractions])
+    speeds = np.diff(done) / np.diff(fractions)
+    assert np.all(speeds >= 0.0) and speeds[0] == pytest.approx(0.0, abs=1e-3) and speeds[-1] < 1e-3
+    assert speeds.max() == pytest.approx(1.875, rel=1e-6)
+    assert fractions[np.argmax(speeds)] == pytest.approx(0.5, abs=1e-4)
+    assert withdrawal_peak_speed(0.03) == pytest.approx(1.875 * 0.03 / WITHDRAWAL_DURATION)
+
+
+def test_the_hand_rests_on_the_scene_hand_then_withdraws_by_the_distance_toward_the_seat() -> None:
+    press, distance = 3.0, 0.025
+    rest = body_poses(LAYOUT, press - 1.0, distance, press)["right_hand"][0]
+    assert rest == pytest.approx(SCENE.hand.top)  # on the hand's top surface
+    assert body_poses(LAYOUT, press, distance, press)["right_hand"][0] == pytest.approx(rest)
+    times = np.arange(press - 0.5, press + 2.0, 0.001)
+    hand = np.array([body_poses(LAYOUT, t, distance, press)["right_hand"][0] for t in times])
+    displacement = hand - rest
+    assert np.linalg.norm(displacement, axis=1).max() == pytest.approx(distance, abs=1e-12)  # the distance truth
+    assert np.allclose(displacement[:, 2], 0.0)  # horizontal
+    # toward the seat: away from the robot's approach to the hand
+    toward_seat = (SCENE.seat - SCENE.hand.top)[:2] / np.linalg.norm((SCENE.seat - SCENE.hand.top)[:2])
+    assert displacement[-1, :2] == pytest.approx(distance * toward_seat)
+    done = times >= press + WITHDRAWAL_DURATION
+    assert np.allclose(displacement[done], displacement[-1], atol=1e-15)
+    half = body_poses(LAYOUT, press + WITHDRAWAL_DURATION / 2, distance, press)["right_hand"][0]
+    assert np.linalg.norm(half - rest) == pytest.approx(distance / 2)
+    speeds = np.linalg.norm(np.diff(hand, axis=0), axis=1) / 0.001
+    assert speeds.max() == pytest.approx(withdrawal_peak_speed(distance), rel=1e-4)
+    assert times[np.argmax(speeds)] == pytest.approx(press + WITHDRAWAL_DURATION / 2, abs=0.002)
+
+
+def test_without_a_press_the_hand_stays_and_the_other_bodies_rest_where_they_should() -> None:
+    for t in np.arange(0.0, 10.0, 0.37):
+        poses = body_poses(LAYOUT, float(t), 0.05)  # test 1: no press time
+        assert list(poses) == list(BODIES)
+        assert poses["right_hand"][0] == pytest.approx(SCENE.hand.top)
+        head, left = poses["head"][0], poses["left_hand"][0]
+        assert np.linalg.norm(head - SCENE.seat) <= HEAD_SWAY[0] + 1e-12
+        assert left[2] == pytest.approx(SCENE.hand.top[2])
+        # the hand under the robot is the one nearest the scene hand, by far
+        assert np.linalg.norm(left - SCENE.hand.top) > 0.2
+        for _, orientation in poses.values():
+            assert np.linalg.norm(orientation) == pytest.approx(1.0)
+    heads = np.array([body_poses(LAYOUT, t, 0.0)["head"][0] for t in np.linspace(0.0, HEAD_SWAY[1], 200)])
+    assert np.ptp(heads, axis=0).max() == pytest.approx(2 * HEAD_SWAY[0], rel=1e-3)  # it sways, slowly
+    # the head looks at the hand: its x axis points from the seat to the hand
+    x, y, z, w = body_poses(LAYOUT, 0.0)["head"][1]
+    forward = np.array([1 - 2 * (y * y + z * z), 2 * (x * y + z * w), 2 * (x * z - y * w)])
+    look = SCENE.hand.top - SCENE.seat
+    assert forward == pytest.approx(look / np.linalg.norm(look))
+
+
+def test_the_tracking_jitter_is_sub_millimetre_and_reproducible_from_its_stream() -> None:
+    clean = body_poses(LAYOUT, 1.2, 0.03, 1.0)
+    first = body_poses(LAYOUT, 1.2, 0.03, 1.0, np.random.default_rng([5, 1, 8]))
+    again = body_poses(LAYOUT, 1.2, 0.03, 1.0, np.random.default_rng([5, 1, 8]))
+    for body in BODIES:
+        assert np.array_equal(first[body][0], again[body][0])
+        assert 0.0 < np.abs(first[body][0] - clean[body][0]).max() < min(6 * TRACKING_JITTER, 0.001)
+        assert np.array_equal(first[body][1], clean[body][1])
+    with pytest.raises(ParticipantError, match="withdrawal must be >= 0 m"):
+        body_poses(LAYOUT, 0.0, -0.01, 0.0)
+
+
+def test_the_withdrawal_truths_come_out_as_put_in_per_participant_and_per_trial() -> None:
+    population = Population(withdrawal_mean=0.04, vr_withdrawal_shift=-0.015, withdrawal_shift_sd=0.006)
+    traits = [draw_traits(population, p, 11) for p in range(1, 1601)]
+    reality = np.array([t.withdrawal["reality"] for t in traits])
+    shift = np.array([t.withdrawal["vr"] for t in traits]) - reality
+    assert np.mean(reality) == pytest.approx(0.04, abs=0.0006)
+    assert np.std(reality) == pytest.approx(population.withdrawal_sd, rel=0.1)
+    assert np.mean(shift) == pytest.approx(-0.015, abs=0.0005)
+    assert np.std(shift) == pytest.approx(0.006, rel=0.1)
+    rng = np.random.default_rng(2)
+    one = traits[0]
+    for condition in ("vr", "reality"):
+        trials = np.array([trial_withdrawal(one, condition, rng) for _ in range(4000)])
+        assert np.mean(trials) == pytest.approx(one.withdrawal[condition], abs=0.0003)
+        assert np.std(trials) == pytest.approx(population.withdrawal_noise, rel=0.05) and trials.min() >= 0.0
+    with pytest.raises(StudyError, match="unknown condition 'ar'"):
+        trial_withdrawal(one, "ar", rng)
+
+
+def test_the_withdrawal_truths_leave_every_other_draw_as_it_was() -> None:
+    plain = draw_traits(POPULATION, 4, 2)
+    other = draw_traits(Population(withdrawal_mean=0.08, withdrawal_sd=0.02, vr_withdrawal_shift=0.01), 4, 2)
+    assert replace(other, withdrawal=plain.withdrawal) == plain
+    assert other.withdrawal["reality"] > plain.withdrawal["reality"]
+    # the trials' traits are still the first draws of the traits' stream, as before the withdrawal
+    drawn = POPULATION.draws(np.random.default_rng([2, 4, 1]), 1)
+    assert plain.comfort_distance == {"vr": drawn["comfort_vr"][0], "reality": drawn["comfort_reality"][0]}
+    assert plain.distance_ratio == {"vr": drawn["ratio_vr"][0], "reality": drawn["ratio_reality"][0]}
+
+
+def test_the_withdrawal_truths_are_command_line_options() -> None:
+    assert {"withdrawal_mean", "vr_withdrawal_shift", "withdrawal_shift_sd"} <= set(KNOWN_TRUTHS)
+    parser = argparse.ArgumentParser()
+    add_population_options(parser)
+    args = parser.parse_args(["--withdrawal-mean", "0.05", "--vr-withdrawal-shift=-0.02", "--withdrawal-shift-sd", "0"])
+    population = population_from_args(args)
+    assert (population.withdrawal_mean, population.vr_withdrawal_shift, population.withdrawal_shift_sd) == (
+        0.05,
+        -0.02,
+        0.0,
+    )
+    assert population_from_args(parser.parse_args([])) == POPULATION
+
+
+@pytest.mark.parametrize(
+    "truths, said",
+    [
+        ({"withdrawal_sd": -0.001}, "spreads must be >= 0: withdrawal_sd -0.001"),
+        ({"withdrawal_noise": math.nan}, "spreads must be >= 0: withdrawal_noise nan"),
+        ({"withdrawal_mean": 0.01, "vr_withdrawal_shift": -0.02}, "withdrawal in reality .* must be within 0..0.3 m"),
+        ({"withdrawal_mean": 0.5}, "withdrawal in reality"),
+        ({"vr_withdrawal_shift": math.inf}, "withdrawal in reality"),
+    ],
+)
+def test_impossible_withdrawal_truths_are_named(truths, said) -> None:
+    with pytest.raises(ParticipantError, match=said):
+        Population(**truths)
