@@ -247,12 +247,14 @@ def test_simulated_participants_run_the_study_and_the_analysis_recovers_their_bi
     in the scene's place: simulate hands it to every process (its end effector the hand's tool frame, as the scene's
     own robot has it). The participants' own VR − reality differences spread little (their SDs given), so that four
     of them recover the population's differences."""
-    spreads = ["--distance-shift-sd", "0.01", "--comfort-shift-sd", "0.005"]
+    spreads = ["--distance-shift-sd", "0.01", "--comfort-shift-sd", "0.005", "--withdrawal-shift-sd", "0.002"]
     out = simulate_small_study(tmp_path, participants=4, seed=11, extra=["--robot", str(PANDA_WITH_HAND), *spreads])
     report = (out / "report.md").read_text()
     for plot in ("test1_distance_perception.png", "test2_comfort_distance.png", "agreement_bland_altman.png"):
         assert f"]({plot})" in report and (out / plot).stat().st_size > 10_000
     assert "## VR against reality: the verdicts" in report and "### Test 2: the mixed model" in report
+    from sim.study.analysis.latency import summarise_latency
+    from sim.study.analysis.motion import summarise_motion
     from sim.study.analysis.report import load_study
     from sim.study.analysis.summary import summarise
 
@@ -283,9 +285,26 @@ def test_simulated_participants_run_the_study_and_the_analysis_recovers_their_bi
     # by what they mean to, not less
     press = summary.stop_distance_vr_vs_reality
     assert press.ci_low <= -0.02 <= press.ci_high < 0, press
+    # Their motion: 1 cm less withdrawal in VR, as put in, from the poses they sent at every step of the approach
+    motion = summarise_motion(records)
+    (withdrawal,) = [c for c in motion.comparisons if c.measure.column == "withdrawal_distance" and c.measure.test == 2]
+    shift = withdrawal.vr_vs_reality
+    assert shift is not None and shift.ci_low <= -0.01 <= shift.ci_high < 0, shift
+    assert all(r.tracked_hand == "right_hand" and r.hand_untracked == 0.0 == r.head_untracked for r in records)
+    assert "## The participant's motion" in report
+    # Each stop path's input delay, uniform over one frame of its page: its mean is half a frame
+    latency = summarise_latency(records)
+    for source, condition in (("vr_trigger", "vr"), ("button", "reality")):
+        delays = [r.press_input_delay for r in records if r.press_source == source]
+        assert float(np.mean(delays)) == pytest.approx(INPUT_FRAME_S[condition] / 2, rel=0.4), (source, delays)
+        assert latency.path(source).input_delay.measured == len(delays) == 16
     for number in range(1, 5):
         bag = out / "bags" / f"participant_{number:02d}.bag"
         assert len(bag_messages(bag, STOP_TOPIC)) == 8 and len(bag_messages(bag, DISTANCE_TOPIC)) == 6
+        # the tracked body at the simulated headset's frame rate (its engine's step) through every approach
+        heads = [to_seconds(m.header.stamp) for m in bag_messages(bag, POSE_TOPICS["head"])]
+        assert np.allclose(np.diff([t for t in heads if t - heads[0] < 1.0]), STEP_S, atol=1e-6), heads[:60]
+        assert len(bag_messages(bag, POSE_TOPICS["right_hand"])) == len(heads)
     derived = "robot panda: end effector 'panda_grasptarget': the tool frame of 'panda_hand'"
     for log in [*(out / "logs").glob("runner_*.log"), *(out / "logs").glob("participant_*.log")]:
         assert derived in log.read_text(), log

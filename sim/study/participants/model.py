@@ -55,7 +55,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Tuple
 
 import numpy as np
 
@@ -381,7 +381,7 @@ TRACKING_JITTER = 0.0001  # m, SD per axis: a headset's and its controllers' tra
 HEAD_SWAY = (0.004, 5.0)  # m and s: the head's sway from side to side, its amplitude and period
 _LEFT_HAND_FORWARD, _LEFT_HAND_ASIDE = 0.3, 0.2  # m from under the eyes: toward the scene hand, to the left
 
-Pose = tuple[np.ndarray, np.ndarray]  # position (x, y, z) and orientation as a unit quaternion (x, y, z, w)
+Pose = Tuple[np.ndarray, np.ndarray]  # position (x, y, z) and orientation as a unit quaternion (x, y, z, w)
 
 
 def min_jerk(fraction: float) -> float:

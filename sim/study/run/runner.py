@@ -103,6 +103,10 @@ __all__ = [
 
 
 EXIT_OK, EXIT_ROS, EXIT_INTERRUPTED = 0, 4, 130
+# s of wall time between the session's end and stopping rosbag record: it reads its links on threads of its own, and
+# SIGINT drops what is still in its sockets; the last answer, which the runner took a few ms before, was lost so
+# beside other work (a loopback link delivers in well under a millisecond on a quiet machine)
+RECORDER_DRAIN = 0.25
 
 
 @dataclass(frozen=True)
@@ -343,6 +347,38 @@ class StudyRunner(ControllerNode):
         self.inputs.press(
             message.stamp.to_sec(), message.frame_id or "unnamed", input_delay_from_seq(message.seq), arrival
         )
+
+    def wait_for_inputs(self, timeout: float, recorder: str | None) -> None:
+        """Wait (at most `timeout` s) until every node that publishes an input or pose topic writes it to this runner
+        and to the recorder: rospy keeps nothing for a subscriber whose link is not up yet, and a simulated
+        participant answers the first questionnaire's first item at once (its answer was lost, and the session hung
+        until the response timeout). Nodes that come later (a VR page opened after the start) link as they come."""
+        import rosgraph
+
+        from sim.processes import writes_to
+
+        me = self.rospy.get_name()
+        readers = [me] + ([recorder if recorder.startswith("/") else "/" + recorder] if recorder else [])
+        topics = {GO_TOPIC, STOP_TOPIC, DISTANCE_TOPIC, PREFERENCE_TOPIC, ANSWER_TOPIC, *POSE_TOPICS.values()}
+        master = rosgraph.Master(me)
+        deadline = time.monotonic() + timeout
+        while not self.stop.is_set():
+            publishers, _, _ = master.getSystemState()
+            missing = [
+                f"{topic}: {node} -> {reader}"
+                for topic, nodes in publishers
+                if topic in topics
+                for node in nodes
+                if node != me
+                for reader in readers
+                if not writes_to(master.lookupNode(node), topic, reader)
+            ]
+            if not missing:
+                return
+            if time.monotonic() > deadline:
+                raise ControllerError(f"the participant's topics are not linked after {timeout:g} s: {missing}")
+            self.stop.wait(0.05)
+        raise ControllerError("interrupted while waiting for the participant's topics")
 
     def _on_pose(self, message: Any, body: str) -> None:
         point = message.pose.position
@@ -685,11 +721,14 @@ def run_node(
     started = time.monotonic()
     try:
         partner = runner.wait_for_partner(connect_timeout, [recorder_node] if recorder else [])
+        runner.wait_for_inputs(connect_timeout, recorder_node if recorder else None)
         _log(
             f"engine {partner} connected; participant {plan.participant}, {len(plan.trials)} trials, conditions "
             f"{' then '.join(plan.conditions)}"
         )
         records = runner.run_session(records_path, _log)
+        if recorder is not None:
+            stop.wait(RECORDER_DRAIN)  # see RECORDER_DRAIN
     except ControllerError as error:
         _log(f"error: {error}")
         return EXIT_INTERRUPTED if stop.is_set() else EXIT_ROS
