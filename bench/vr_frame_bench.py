@@ -140,7 +140,7 @@ def measure(
     browser.find_element("id", "enter").click()
     wait_for(lambda: browser.execute_script("return window.vrPage.state().inSession;"), 60, "the immersive session")
     time.sleep(SETTLE_S)
-    figures = {
+    figures: dict[str, dict[str, Any]] = {
         mode: {
             "work": [],
             "intervals": [],
