@@ -96,5 +96,7 @@ def test_study_bench(tmp_path: Path) -> None:
 def test_vr_frame_bench(tmp_path: Path) -> None:
     output = run_bench(tmp_path, "vr_frame_bench", "--seconds", "1", "--only", "submitted")
     assert "VR page frame time: the Panda with its meshes" in output
-    row = next(line for line in output.splitlines() if line.startswith("| submitted |"))
-    assert len(row.strip("|").split("|")) == 10
+    # frames without the tracked body's poses and with them, each row its figures: with them, three poses a frame
+    rows = {line.split("|")[2].strip(): line for line in output.splitlines() if line.startswith("| submitted |")}
+    assert sorted(rows) == ["off", "on"] and all(len(row.strip("|").split("|")) == 14 for row in rows.values())
+    assert float(rows["off"].split("|")[13]) == 0.0 and float(rows["on"].split("|")[13]) == pytest.approx(3.0)
