@@ -37,6 +37,7 @@ __all__ = [
     "MotionMeasure",
     "MOTION_MEASURES",
     "MODELLED",
+    "DEFINED",
     "TRACKED_BODIES",
     "MotionComparison",
     "BodyTracking",
@@ -95,6 +96,12 @@ MOTION_MEASURES = (
 # The measure whose VR − reality contrast also comes from the crossover mixed model, as the stop distance's does:
 # the withdrawal is the comfort measure beside the press, so it gets the press's analysis
 MODELLED = MOTION_MEASURES[0]
+# Each column once, its first measure (test 1 and test 2 share the withdrawal's): where the measures are defined
+DEFINED = tuple(
+    measure
+    for k, measure in enumerate(MOTION_MEASURES)
+    if measure.column not in {earlier.column for earlier in MOTION_MEASURES[:k]}
+)
 # The bodies whose tracking is summarised, with the record's column of their untracked time
 TRACKED_BODIES = {"hand": "hand_untracked", "head": "head_untracked"}
 
@@ -277,11 +284,7 @@ def motion_lines(summary: MotionSummary) -> list[str]:
         "(for the difference, in both conditions).",
         "",
     ]
-    seen = set()
-    for measure in MOTION_MEASURES:
-        if measure.column not in seen:
-            seen.add(measure.column)
-            lines.append(f"- **{measure.label}**: {measure.definition}.")
+    lines += [f"- **{measure.label}**: {measure.definition}." for measure in DEFINED]
     lines += [
         "",
         "| test | measure | reality [95 % CI] | VR [95 % CI] | n | VR − reality [95 % CI] | p (t) | d_z |",

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from sim.study.analysis.contrasts import FACTOR_NAMES, MEASURES
 from sim.study.analysis.mixed_model import CROSSOVER_TERMS, formula
-from sim.study.analysis.motion import MODELLED, MOTION_MEASURES
+from sim.study.analysis.motion import DEFINED, MODELLED, MOTION_MEASURES
 from sim.study.analysis.questionnaires import SSQ_SUSPECT_SOURCE, SSQ_SUSPECT_TOTAL
 from sim.study.design.spec import TESTS, Design
 from sim.study.motion.measures import HAND_RADIUS
@@ -72,11 +72,7 @@ def _motion() -> list[str]:
         f"as the approach starts, within {HAND_RADIUS:g} m; recorded as `tracked_hand`) and the head:",
         "",
     ]
-    described = set()
-    for measure in MOTION_MEASURES:
-        if measure.column not in described:
-            described.add(measure.column)
-            lines.append(f"- **{measure.label}** (`{measure.column}`): {measure.definition}.")
+    lines += [f"- **{measure.label}** (`{measure.column}`): {measure.definition}." for measure in DEFINED]
     tests = " and ".join(
         f"test {test}'s {', '.join(m.label for m in MOTION_MEASURES if m.test == test)}"
         for test in sorted({m.test for m in MOTION_MEASURES}, reverse=True)
