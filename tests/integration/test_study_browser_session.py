@@ -1,18 +1,20 @@
 """A browser session produces everything: one participant's session of both conditions, run by the runner
 (--realtime) with the endpoint, the engine and rosbag, answered by the two pages in real headless browsers (Debian's
 Chromium), then analysed as a pilot. The VR block through the VR page and its emulated Meta Quest 3 (IWER): a test 2
-approach stopped by the trigger, the right controller on the scene's hand as it starts and withdrawn after the press.
+approach stopped by the trigger, the right controller on the scene's hand as it starts and withdrawn after the press,
+after a test 1 trial answered with the controllers.
 The reality block through the stop button page (`python -m sim.study button`) and its emulated gamepad (Chromium has
 no virtual one) as the foot pedal: an approach stopped by the pedal, stamped on the runner's clock. The lab's
 questionnaire item after each block. The CSV holds each press's source and its two latencies, and the withdrawal;
 `analyse` reports the motion, both stop paths' latency, the questionnaire and the model's terms.
 
-(The VR page's own answers, test 1's distance among them, and its tracked body in detail are test_study_vr.py's; this
+(The VR page's answers through the thumbstick, its picture and its tracked body in detail are test_study_vr.py's; this
 test took over test_study_button.py's checks of the button page.)"""
 
 from __future__ import annotations
 
 import math
+import re
 import subprocess
 import time
 from contextlib import ExitStack
@@ -35,7 +37,8 @@ from tests.integration.test_study_vr import page_state as vr_state
 from tests.rosenv import PYTHON, EndpointProcess, ManagedProcess, RosCore, wait_for
 
 PARTICIPANT = 7
-VR_TRIAL, REALITY_TRIAL = 1, 2
+PERCEIVED, VR_TRIAL, REALITY_TRIAL = 1, 2, 3  # test 1 in VR, then test 2 in VR and in reality
+CONTROLLERS_APART = 0.1  # m: the left controller beside the right, which is on the hand (test 1's answer)
 PRESS_AFTER_FRAMES = 3  # the VR page's frames into the approach before the trigger: the robot is on its way
 WITHDRAWN = (0.0, 0.12, 0.1)  # m in the emulator's space: the right controller, up and towards the participant
 PRESS_AFTER_MS = 600  # into the reality approach: the robot is well on its way (a slow approach takes some 6 s)
@@ -154,15 +157,17 @@ def test_a_session_of_both_conditions_in_the_two_pages_is_analysed_as_a_pilot(tm
             assert button_state(pedal)["presses"][0]["sent"] is False
             assert "would not count" in button_state(pedal)["shown"]
 
-            # The right controller on the scene's hand: the XR space's origin is the headset's place as the session
-            # starts ('local', looking along -z), which the scene puts at the seat
+            # The right controller on the scene's hand, the left beside it: the XR space's origin is the headset's
+            # place as the session starts ('local', looking along -z), which the scene puts at the seat
             headset_at_start = np.array(
                 headset.execute_script("const p = window.emulatedHeadset.position;return [p.x, p.y, p.z];")
             )
             hand_xr = np.subtract(scene.hand.position, scene.seat)
             on_hand = headset_at_start + [hand_xr[0], hand_xr[2], -hand_xr[1]]
+            beside = on_hand - [CONTROLLERS_APART, 0, 0]
             headset.execute_script(
                 f"window.emulatedHeadset.controllers.right.position.set({', '.join(map(str, on_hand))});"
+                f"window.emulatedHeadset.controllers.left.position.set({', '.join(map(str, beside))});"
             )
             # The robot left undrawn: in software rendering its meshes held the session to some seven frames a second,
             # and the runner measures a withdrawal from the hand's place as the approach starts, which needs poses no
@@ -177,6 +182,9 @@ def test_a_session_of_both_conditions_in_the_two_pages_is_analysed_as_a_pilot(tm
                 PARTICIPANT,
                 "vr",
                 [
+                    # test 1 first: the page sends the tracked body from then on, through test 2's start (a page short
+                    # of CPU was seen to begin sending late in the session's first approach)
+                    trial(PERCEIVED, "vr", 1, "straight", 0.10, 0.3),
                     trial(VR_TRIAL, "vr", 2, "straight", ON_TOP, 0.1, "slow", 1),
                     trial(REALITY_TRIAL, "reality", 2, "vertical", ON_TOP, 0.1, "slow", 1),
                 ],
@@ -208,7 +216,9 @@ def test_a_session_of_both_conditions_in_the_two_pages_is_analysed_as_a_pilot(tm
                 if key not in seen:
                     seen.append(key)
                     last_progress = time.monotonic()
-                    if state["phase"] == "questionnaire":
+                    if state["phase"] == "distance":
+                        press(headset, "left", "x-button")  # the controllers CONTROLLERS_APART apart
+                    elif state["phase"] == "questionnaire":
                         press(headset, "left", "x-button")  # the scale's middle, as offered
                     elif state["phase"] == "preference":
                         # each group is of one approach, and is asked all the same; in reality the observer asks,
@@ -225,17 +235,25 @@ def test_a_session_of_both_conditions_in_the_two_pages_is_analysed_as_a_pilot(tm
             process.stop()
         core.stop()
 
-    assert [what for what, _ in ended["actions"]] == ["stop", "preference", "answer", "preference", "answer"], (
+    assert [what for what, _ in ended["actions"]] == [
+        "distance",
+        "stop",
+        "preference",
+        "answer",
+        "preference",
+        "answer",
+    ], (
         ended["actions"],
         seen,
     )
-    vr_row, reality_row = read_csv(out / f"participant_{PARTICIPANT:02d}.csv")
+    perceived_row, vr_row, reality_row = read_csv(out / f"participant_{PARTICIPANT:02d}.csv")
+    assert float(perceived_row["perceived_distance"]) == pytest.approx(CONTROLLERS_APART, abs=0.001)
     answers = read_csv(out / "questionnaires" / "answers" / f"comfort_participant_{PARTICIPANT:02d}.csv")
     assert [(a["administration"], a["item"], a["answer"]) for a in answers] == [
         ("comfort_after_vr", "comfort", "3"),
         ("comfort_after_reality", "comfort", "3"),
     ]
-    assert_the_trigger_stopped_the_vr_approach(vr_row, ended["actions"][0][1], vr_round_trip_s)
+    assert_the_trigger_stopped_the_vr_approach(vr_row, ended["actions"][1][1], vr_round_trip_s)
     assert_the_hand_withdrew(vr_row, out / "bags" / f"participant_{PARTICIPANT:02d}.bag", ended, np.array(WITHDRAWN))
     assert_the_pedal_stopped_the_reality_approach(reality_row, pedalled, pedalled_at)
     assert_the_pilot_is_analysed(out)
@@ -262,7 +280,6 @@ def assert_the_hand_withdrew(row: dict[str, str], bag: Path, page: dict[str, Any
     its place at the approach's start. The bag holds every pose the page sent, the move among them."""
     assert row["tracked_hand"] == "right_hand", row
     assert float(row["withdrawal_distance"]) == pytest.approx(np.linalg.norm(withdrawn), abs=1e-4), row
-    assert float(row["hand_untracked"]) == 0.0 and float(row["withdrawal_peak_speed"]) > 0.0, row  # a move, tracked
     assert math.isfinite(float(row["head_distance_at_press"])) and float(row["head_distance_at_press"]) > 0.1, row
     poses, _ = bag_poses(bag)
     assert page["poseFrames"] > 0 and page["posesSent"] == dict.fromkeys(BODIES, page["poseFrames"]), page
@@ -316,7 +333,9 @@ def assert_the_pilot_is_analysed(out: Path) -> None:
     )
     assert analysed.returncode == 0, analysed.stderr[-3000:]
     report = (out / "report.md").read_text()
-    assert f"A pilot of 1 participant (participant {PARTICIPANT}), 2 trials" in report
+    assert f"A pilot of 1 participant (participant {PARTICIPANT}), 3 trials" in report
+    assert re.search(r"^\| vr \| \d\.\d{3} \|$", report, re.M)  # test 1's ratio
+    assert "| reality | – (no trial with a value) |" in report
     assert "| 2 | withdrawal distance (cm) | " in report.split("## The participant's motion")[1]
     assert "## Stop presses: latency" in report
     assert "| button | 1 |" in report and "| vr_trigger | 1 |" in report
