@@ -11,7 +11,8 @@ verdict.
 
 Tracking: per condition, the trials with a gap (a body's poses further apart than the protocol's tracking gap), and
 each body's untracked time in all and in the worst trial. A trial in which a body sent no pose has no value of that
-body's measures (the runner writes NaN) and is named by participant. Records without any motion (files written
+body's measures (the runner writes NaN) and is named by participant. A pilot (one participant) gets that
+participant's mean per condition, without an interval. Records without any motion (files written
 before the motion's columns, sessions without a tracker) give a summary that says so, not an error.
 """
 
@@ -25,7 +26,7 @@ from dataclasses import dataclass
 from sim.study.analysis.contrasts import FACTOR_NAMES, trials_for
 from sim.study.analysis.errors import AnalysisError
 from sim.study.analysis.mixed_model import ModelFit, fit_model, formula, model_design
-from sim.study.analysis.statistics import Estimate, PairedComparison, mean_estimate, paired_comparison
+from sim.study.analysis.statistics import Estimate, PairedComparison, mean_estimate, one_value, paired_comparison
 from sim.study.analysis.summary import cell, per_participant
 from sim.study.design.spec import CONDITIONS
 from sim.study.errors import StudyError
@@ -109,7 +110,7 @@ TRACKED_BODIES = {"hand": "hand_untracked", "head": "head_untracked"}
 @dataclass(frozen=True)
 class MotionComparison:
     measure: MotionMeasure
-    conditions: dict[str, Estimate]  # the conditions with at least 2 participants with a value
+    conditions: dict[str, Estimate]  # the conditions with at least 2 participants with a value (a pilot's: 1)
     vr_vs_reality: PairedComparison | None  # None with fewer than 2 participants with a value in both
     model: ModelFit | None  # the crossover mixed model's fit (MODELLED only, when asked and it could be fitted)
 
@@ -156,11 +157,14 @@ def motion_recorded(records: Sequence[TrialRecord]) -> bool:
 
 def _compare(records: Sequence[TrialRecord], measure: MotionMeasure, model: bool, notes: list[str]) -> MotionComparison:
     where = f"test {measure.test}'s {measure.label}"
+    pilot = len({r.participant for r in records}) == 1
     conditions = {}
     for condition in CONDITIONS:
         means = per_participant(records, cell(measure.test, condition), measure.value)
         if len(means) >= 2:
             conditions[condition] = mean_estimate(list(means.values()))
+        elif pilot and means:
+            conditions[condition] = one_value(*means.values())
         else:
             notes.append(f"{where} in {condition}: {len(means)} participant(s) with a value, too few for a mean")
     vr = per_participant(records, cell(measure.test, "vr"), measure.value)
@@ -232,6 +236,8 @@ def _estimate(estimate: Estimate | None, measure: MotionMeasure) -> str:
     if estimate is None:
         return "–"
     s, d = measure.scale, measure.digits
+    if math.isnan(estimate.ci_low):  # a pilot's one participant
+        return f"{estimate.mean * s:.{d}f} (n {estimate.n})"
     return f"{estimate.mean * s:.{d}f} [{estimate.ci_low * s:.{d}f}, {estimate.ci_high * s:.{d}f}] (n {estimate.n})"
 
 

@@ -2,7 +2,9 @@
 with its plots beside it (`python -m sim.study analyse DIR`): the verdicts on VR against reality first, then each
 test's mixed model, the paired comparisons, the participant's motion (sim.study.analysis.motion), the stop presses'
 latency per path (sim.study.analysis.latency), the questionnaires' scores (sim.study.analysis.questionnaires), and
-the plots (Bland–Altman among them)."""
+the plots (Bland–Altman among them). A pilot (one participant) gets that participant's means per condition and a note
+in place of all that needs more participants (intervals, comparisons, models, verdicts), with the model it would
+fit."""
 
 from __future__ import annotations
 
@@ -124,6 +126,61 @@ def _verdict_lines(contrasts: Mapping[int, TestContrast]) -> list[str]:
     return lines
 
 
+def _pilot_means(estimates: Mapping[str, Estimate], scale: float, digits: int) -> list[str]:
+    return [
+        f"| {condition} | {estimates[condition].mean * scale:.{digits}f} |"
+        if condition in estimates
+        else f"| {condition} | – (no trial with a value) |"
+        for condition in CONDITIONS
+    ]
+
+
+def _pilot_lines(summary: StudySummary, modelled: bool) -> list[str]:
+    """A pilot's tests: the participant's means per condition, and what needs more participants said, not computed:
+    with `modelled` (the design's SESOIs given), the model each test would get."""
+    lines = [
+        f"A pilot of 1 participant (participant {summary.participants[0]}), {summary.trials} trials: intervals "
+        "across participants, the paired VR − reality comparisons, the mixed models and the verdicts need at least "
+        "2 participants (the mixed models at least 3), and are left out. The figures below are this participant's "
+        "means of their trials per condition. Distances are the end effector's to the hand's surface, from FK of "
+        "the achieved joint states.",
+        "",
+        "## Test 1: distance perception",
+        "",
+        "Perceived / actual distance (1 = exact; 0.85 = a 15 % underestimate), actual = the robot at rest:",
+        "",
+        "| condition | ratio |",
+        "|---|---|",
+        *_pilot_means(summary.distance_ratio, 1.0, 3),
+        "",
+        "## Test 2: comfort distance",
+        "",
+        "Distance to the hand at the press, cm:",
+        "",
+        "| condition | at the press |",
+        "|---|---|",
+        *_pilot_means(summary.stop_distance, 100.0, 1),
+        "",
+    ]
+    if not modelled:
+        return lines
+    lines += [
+        "## The mixed models: not fitted in a pilot",
+        "",
+        "A pilot of 1 participant: each test's mixed model, and the verdict on VR against reality with it, needs at "
+        "least 3 participants. With them, each test's measure would be modelled (REML, statsmodels MixedLM; random "
+        "effects: an intercept and a condition slope per participant) as:",
+        "",
+        *(f"- Test {test}: {formula(MEASURES[test], FACTOR_NAMES[test])}" for test in sorted(MEASURES)),
+        "",
+        "Condition, period and sequence coded ±½, the factors sum-to-zero.",
+        "",
+        *(f"- {line}" for line in CROSSOVER_TERMS),
+        "",
+    ]
+    return lines
+
+
 def _markdown(
     summary: StudySummary,
     latency: LatencySummary,
@@ -131,12 +188,22 @@ def _markdown(
     plots: list[Path],
     title: str,
     questionnaires: QuestionnaireSummary | None,
+    modelled: bool,
 ) -> str:
     flag = keyboard_flag(latency)  # first, as it biases the contrast
-    lines = [
-        f"# {title}",
-        "",
-        *([flag, ""] if flag else []),
+    lines = [f"# {title}", "", *([flag, ""] if flag else [])]
+    if summary.pilot:
+        lines += _pilot_lines(summary, modelled)
+        if summary.extrapolation_error is not None:
+            lines += [
+                f"The thesis's estimate (the planned distance at the press time) differs from the measured distance "
+                f"at the press by {summary.extrapolation_error.mean * 1000:.1f} mm on average.",
+                "",
+            ]
+        return _rest(lines, summary, latency, motion, plots, questionnaires)
+    assert summary.distance_ratio_vr_vs_reality and summary.stop_distance_vr_vs_reality  # 2+ participants
+    assert summary.extrapolation_error
+    lines += [
         *_verdict_lines(summary.contrasts),
         f"{len(summary.participants)} participants, {summary.trials} trials. Within subjects: each participant's "
         "trials are averaged per cell, then VR and reality are compared in pairs (paired t-test with Cohen's "
@@ -196,9 +263,21 @@ def _markdown(
         f"The thesis's estimate (the planned distance at the press time) differs from the measured distance "
         f"at the press by {_estimate_cell(error, 1000.0, 1)} mm on average.",
         "",
-        *motion_lines(motion),
-        *latency_lines(latency),
     ]
+    return _rest(lines, summary, latency, motion, plots, questionnaires)
+
+
+def _rest(
+    lines: list[str],
+    summary: StudySummary,
+    latency: LatencySummary,
+    motion: MotionSummary,
+    plots: list[Path],
+    questionnaires: QuestionnaireSummary | None,
+) -> str:
+    """The sections after the tests', a pilot's as well: the motion, the latency, the notes, the questionnaires and
+    the plots."""
+    lines += [*motion_lines(motion), *latency_lines(latency)]
     if summary.notes:
         lines += ["Notes:", ""] + [f"- {note}" for note in summary.notes] + [""]
     if questionnaires is not None:
@@ -217,8 +296,9 @@ def _plot_test1(records: list[TrialRecord], summary: StudySummary, path: Path) -
         actual = np.array([r.distance_at_rest for r in rows]) * 100
         perceived = np.array([r.perceived_distance for r in rows]) * 100
         top = max(top, float(actual.max(initial=0)), float(perceived.max(initial=0)))
-        ratio = summary.distance_ratio[condition].mean
-        left.scatter(actual, perceived, s=12, alpha=0.6, color=_COLOURS[condition], label=f"{condition} (×{ratio:.2f})")
+        ratio = summary.distance_ratio.get(condition)  # none in a pilot's condition without a value
+        label = condition if ratio is None else f"{condition} (×{ratio.mean:.2f})"
+        left.scatter(actual, perceived, s=12, alpha=0.6, color=_COLOURS[condition], label=label)
     left.plot([0, top * 1.05], [0, top * 1.05], "k--", linewidth=1, label="perceived = actual")
     left.set(xlabel="actual distance (cm)", ylabel="perceived distance (cm)", title="Test 1: every trial")
     left.legend()
@@ -243,7 +323,8 @@ def _plot_test2(records: list[TrialRecord], summary: StudySummary, path: Path) -
     import matplotlib.pyplot as plt
 
     figure, (left, right) = plt.subplots(1, 2, figsize=(11, 4.5))
-    speed_sets = list(summary.stop_distance_by_speed_set)
+    # by peak speed, as the summary orders them (a pilot's summary has no comparison per speed set)
+    speed_sets = [name for _, name in sorted({(r.peak_speed, r.speed_set) for r in records if r.test == 2})]
     for offset, condition in ((-0.18, "vr"), (0.18, "reality")):
         data = [
             [
@@ -330,5 +411,6 @@ def write_report(
     report = out / "report.md"
     # the withdrawal's mixed model with the design's, as the full analysis is asked for with the design
     motion = summarise_motion(records, model=sesoi is not None)
-    report.write_text(_markdown(summary, summarise_latency(records), motion, plots, title, questionnaires))
+    latency = summarise_latency(records)
+    report.write_text(_markdown(summary, latency, motion, plots, title, questionnaires, sesoi is not None))
     return report

@@ -21,7 +21,7 @@ from scipy import stats
 
 from sim.study.analysis.errors import AnalysisError
 
-__all__ = ["PairedComparison", "Estimate", "paired_comparison", "mean_estimate", "ratio_summary"]
+__all__ = ["PairedComparison", "Estimate", "paired_comparison", "mean_estimate", "one_value", "ratio_summary"]
 
 
 @dataclass(frozen=True)
@@ -42,7 +42,7 @@ class PairedComparison:
 
 @dataclass(frozen=True)
 class Estimate:
-    """A mean with its Student-t confidence interval."""
+    """A mean with its Student-t confidence interval (NaN for one value: a pilot's single participant)."""
 
     n: int
     mean: float
@@ -122,3 +122,8 @@ def mean_estimate(values: Sequence[float], confidence: float = 0.95) -> Estimate
         raise AnalysisError(f"an estimate needs at least 2 finite values, got {array.tolist()}")
     mean, low, high = _t_interval(array, confidence)
     return Estimate(array.size, mean, low, high)
+
+
+def one_value(value: float) -> Estimate:
+    """One participant's mean, as a pilot has: no spread across participants, so no interval (NaN)."""
+    return Estimate(1, float(value), math.nan, math.nan)

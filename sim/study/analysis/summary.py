@@ -8,6 +8,9 @@ set or path), then the per-participant means are compared in pairs, VR against r
            paired VR − reality difference overall, per speed set and per path; how often each path was preferred;
            and how far the thesis's estimate from the press time lies from the measured distance.
 Given the design's SESOI, each test's mixed model and its verdicts (sim.study.analysis.contrasts) come with it.
+
+A pilot (one participant) has no spread across participants: its summary keeps that participant's mean per condition
+(without an interval; a condition without a value is left out), and no paired comparison, model or verdict.
 """
 
 from __future__ import annotations
@@ -21,7 +24,7 @@ import numpy as np
 
 from sim.study.analysis.contrasts import TestContrast, contrast, perceived_ratio
 from sim.study.analysis.errors import AnalysisError
-from sim.study.analysis.statistics import Estimate, PairedComparison, mean_estimate, paired_comparison
+from sim.study.analysis.statistics import Estimate, PairedComparison, mean_estimate, one_value, paired_comparison
 from sim.study.design.spec import CONDITIONS, TESTS
 from sim.study.errors import StudyError
 from sim.study.run.records import TrialRecord
@@ -31,18 +34,25 @@ __all__ = ["StudySummary", "cell", "per_participant", "perceived_ratio", "summar
 
 @dataclass(frozen=True)
 class StudySummary:
+    """The results; in a pilot (`pilot`: one participant) the estimates are the participant's means without an
+    interval, a condition without a value is missing, and the comparisons are None (by speed set and path: empty)."""
+
     participants: tuple[int, ...]
     trials: int
     distance_ratio: dict[str, Estimate]  # test 1, per condition: perceived / actual
-    distance_ratio_vr_vs_reality: PairedComparison
+    distance_ratio_vr_vs_reality: PairedComparison | None
     stop_distance: dict[str, Estimate]  # test 2, per condition: m at the press
-    stop_distance_vr_vs_reality: PairedComparison
+    stop_distance_vr_vs_reality: PairedComparison | None
     stop_distance_by_speed_set: dict[str, PairedComparison]
     stop_distance_by_path: dict[str, PairedComparison]
     preferences: dict[str, Counter[str]]  # per condition: groups in which each path was preferred (0 too)
-    extrapolation_error: Estimate  # test 2: |the plan's distance at the press time − the measured one|, m
+    extrapolation_error: Estimate | None  # test 2: |the plan's distance at the press time − the measured one|, m
     notes: list[str] = field(default_factory=list)  # missing answers, trials without a press
     contrasts: dict[int, TestContrast] = field(default_factory=dict)  # per test, given its SESOI and enough data
+
+    @property
+    def pilot(self) -> bool:
+        return len(self.participants) == 1
 
 
 def per_participant(
@@ -90,6 +100,39 @@ def _at_press(record: TrialRecord) -> float:
     return record.distance_at_press
 
 
+def _pilot_estimates(
+    records: Sequence[TrialRecord], test: int, value: Callable[[TrialRecord], float]
+) -> dict[str, Estimate]:
+    """The pilot's participant's mean per condition with a value."""
+    found = {}
+    for condition in CONDITIONS:
+        means = per_participant(records, cell(test, condition), value)
+        if means:
+            found[condition] = one_value(*means.values())
+    return found
+
+
+def _pilot(records: Sequence[TrialRecord], notes: list[str], preferences: dict[str, Counter[str]]) -> StudySummary:
+    """One participant's summary: their means per condition, and nothing that needs a spread across participants."""
+    ratio, at_press = _pilot_estimates(records, 1, perceived_ratio), _pilot_estimates(records, 2, _at_press)
+    for test, found in ((1, ratio), (2, at_press)):
+        notes += [f"test {test} in {c}: no trial with a value" for c in CONDITIONS if c not in found]
+    errors = per_participant(records, cell(2), lambda r: abs(r.distance_extrapolated - r.distance_at_press))
+    return StudySummary(
+        participants=tuple(sorted({r.participant for r in records})),
+        trials=len(records),
+        distance_ratio=ratio,
+        distance_ratio_vr_vs_reality=None,
+        stop_distance=at_press,
+        stop_distance_vr_vs_reality=None,
+        stop_distance_by_speed_set={},
+        stop_distance_by_path={},
+        preferences=preferences,
+        extrapolation_error=one_value(*errors.values()) if errors else None,
+        notes=notes,
+    )
+
+
 def cell(test: int, condition: str = "", speed_set: str = "", path: str = "") -> Callable[[TrialRecord], bool]:
     """Selects the records of `test` and, where given, of one condition, speed set or path."""
 
@@ -115,7 +158,8 @@ def _contrasts(records: Sequence[TrialRecord], sesoi: Mapping[int, float], notes
 
 
 def summarise(records: Sequence[TrialRecord], sesoi: Mapping[int, float] | None = None) -> StudySummary:
-    """The study's results; with `sesoi` (per test, the design's), each test's mixed model and verdicts too."""
+    """The study's results; with `sesoi` (per test, the design's), each test's mixed model and verdicts too. One
+    participant's records make a pilot's summary (StudySummary.pilot), without comparisons, models or verdicts."""
     if not records:
         raise AnalysisError("no trial records to analyse")
     test1, test2 = cell(1), cell(2)
@@ -140,6 +184,8 @@ def summarise(records: Sequence[TrialRecord], sesoi: Mapping[int, float] | None 
         if record.test == 2 and record.preferred_path and key not in seen_groups:
             seen_groups.add(key)
             preferences[record.condition][record.preferred_path] += 1
+    if len({r.participant for r in records}) == 1:
+        return _pilot(records, notes, preferences)
     contrasts = {} if sesoi is None else _contrasts(records, sesoi, notes)
     return StudySummary(
         participants=tuple(sorted({r.participant for r in records})),

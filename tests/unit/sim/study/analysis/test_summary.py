@@ -163,8 +163,27 @@ def test_missing_answers_and_unpressed_trials_are_left_out_and_said() -> None:
     assert math.isfinite(summary.distance_ratio["vr"].mean)
 
 
-def test_one_participant_cannot_be_compared() -> None:
-    with pytest.raises(StudyError, match="at least 2 participants"):
-        summarise(study(participants=1))
+def test_one_participant_is_a_pilot_with_their_means_and_no_comparison() -> None:
+    records = study(participants=1)
+    pilot = summarise(records, {1: 0.05, 2: 0.02})
+    assert pilot.pilot and pilot.participants == (1,) and pilot.trials == len(records)
+    for condition in ("vr", "reality"):
+        ratios = [
+            r.perceived_distance / r.distance_at_rest for r in records if r.test == 1 and r.condition == condition
+        ]
+        ratio = pilot.distance_ratio[condition]
+        assert ratio.n == 1 and ratio.mean == pytest.approx(np.mean(ratios))
+        assert math.isnan(ratio.ci_low) and math.isnan(ratio.ci_high)  # no spread across participants
+        at_press = [r.distance_at_press for r in records if r.test == 2 and r.condition == condition]
+        assert pilot.stop_distance[condition].mean == pytest.approx(np.mean(at_press))
+    assert pilot.distance_ratio_vr_vs_reality is None and pilot.stop_distance_vr_vs_reality is None
+    assert pilot.stop_distance_by_speed_set == {} and pilot.stop_distance_by_path == {} and pilot.contrasts == {}
+    assert pilot.extrapolation_error is not None and pilot.extrapolation_error.mean == pytest.approx(0.0005)
+    assert sum(pilot.preferences["vr"].values()) == len(SPEED_SETS)
+    # a condition without a value is left out and said
+    vr_only = summarise([r for r in records if r.test == 2 or r.condition == "vr"])
+    assert set(vr_only.distance_ratio) == {"vr"} and set(vr_only.stop_distance) == {"vr", "reality"}
+    assert "test 1 in reality: no trial with a value" in vr_only.notes
+    assert not summarise(study(participants=2)).pilot
     with pytest.raises(StudyError, match="no trial records"):
         summarise([])
