@@ -170,7 +170,7 @@ test("the participant is in a trial in its phases, not in a questionnaire's item
   assert.equal(participant.inTrial, false);
 });
 
-test("a frame's poses go out in one message, a frame each on its body's topic, numbered by body", () => {
+test("frames' poses go out together, from a task after the frames, each on its body's topic, numbered by body", () => {
   // the settings as the page's server gives them (sim/study/views/vr/site.py): each topic [name, type]
   const entry = ({ topic, type }) => [topic, type];
   const topics = {
@@ -182,6 +182,8 @@ test("a frame's poses go out in one message, a frame each on its body's topic, n
   const study = new StudyTopics({ topics, protocol: PROTOCOL }, 'ws://nowhere/ros', {});
   const messages = [];
   study.connection._send = (bytes) => messages.push(bytes); // no socket: what would be sent
+  const scheduled = [];
+  study.schedule = (send, ms) => scheduled.push([send, ms]); // no timer: the test sends when it wants
   const head = { position: [0.55, -0.65, 0.45], orientation: [Math.SQRT1_2, 0, 0, Math.SQRT1_2] };
   const hand = { position: [0.5, -0.4, 0.2], orientation: [0, 0, 0, 1] };
   assert.equal(study.sendPoses(10.5, [['head', head]]), false); // not connected: nothing sent, nothing counted
@@ -195,18 +197,31 @@ test("a frame's poses go out in one message, a frame each on its body's topic, n
     true,
   );
   assert.equal(study.sendPoses(10.52, [['head', head]]), true);
-  assert.equal(messages.length, 2);
-  const first = framesIn(messages[0]);
+  // two frames' poses, queued: one send is scheduled, after the batch's time, and nothing has gone yet
+  assert.equal(messages.length, 0);
   assert.deepEqual(
-    first.map(([topic]) => topic),
-    [PROTOCOL.poses.bodies.head.topic, PROTOCOL.poses.bodies.right_hand.topic],
+    scheduled.map(([, ms]) => ms),
+    [50],
+  );
+  scheduled.shift()[0]();
+  assert.equal(messages.length, 1);
+  const sent = framesIn(messages[0]);
+  assert.deepEqual(
+    sent.map(([topic]) => topic),
+    [PROTOCOL.poses.bodies.head.topic, PROTOCOL.poses.bodies.right_hand.topic, PROTOCOL.poses.bodies.head.topic],
   );
   const frameId = PROTOCOL.poses.frame_id;
+  assert.deepEqual([...sent[1][1]], [...encodePoseStamped(0, rosTime(10.5), frameId, hand.position, hand.orientation)]);
   assert.deepEqual(
-    [...first[1][1]],
-    [...encodePoseStamped(0, rosTime(10.5), frameId, hand.position, hand.orientation)],
+    [...sent[2][1]],
+    [...encodePoseStamped(1, rosTime(10.52), frameId, head.position, head.orientation)],
   );
-  const [[, second]] = framesIn(messages[1]);
-  assert.deepEqual([...second], [...encodePoseStamped(1, rosTime(10.52), frameId, head.position, head.orientation)]);
   assert.deepEqual(study.posesSent, { head: 2, left_hand: 0, right_hand: 1 });
+  // the next frame schedules the next send; a frame without tracked bodies queues nothing and schedules nothing
+  assert.equal(study.sendPoses(10.54, []), true);
+  assert.equal(scheduled.length, 0);
+  study.sendPoses(10.56, [['left_hand', hand]]);
+  assert.equal(scheduled.length, 1);
+  scheduled.shift()[0]();
+  assert.equal(messages.length, 2);
 });

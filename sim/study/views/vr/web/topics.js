@@ -12,6 +12,12 @@ import {
   rosTime,
 } from './rostcp.js';
 
+// ms the poses wait to go out together. One WebSocket send took some 0.2 ms of the page's frame in Chromium (bench/
+// vr_frame_bench.py), twenty times what encoding a frame's poses takes, and within the frame it is time the headset
+// waits for; sent in batches from their own task, they leave the frame. The runner waits for an approach's last poses
+// far longer than this (RunnerOptions.pose_grace).
+const POSE_BATCH_MS = 50;
+
 export class StudyTopics {
   // url: the endpoint's WebSocket (through this page's server); onJoints(jointState), onStatus(trial status object).
   constructor(settings, url, { onJoints, onStatus }) {
@@ -31,6 +37,9 @@ export class StudyTopics {
     for (const name of Object.keys(settings.protocol.inputs)) this.connection.advertise(...topics[name]);
     this.poseFrame = settings.protocol.poses.frame_id;
     this.posesSent = {}; // body -> poses published, which is the next one's seq
+    this.pendingPoses = []; // [topic, payload] queued for the next send (sendPoses)
+    this.flushScheduled = false;
+    this.schedule = (send, ms) => setTimeout(send, ms); // the node tests run it themselves
     for (const body of Object.keys(settings.protocol.poses.bodies)) {
       this.connection.advertise(...topics[body]);
       this.posesSent[body] = 0;
@@ -56,17 +65,30 @@ export class StudyTopics {
   }
 
   // Publish the bodies' poses ([body, {position, orientation}] in the world frame, poses.js) of one frame, stamped
-  // with its time (s of ROS time), each on its body's topic, in one send; false when not connected.
+  // with its time (s of ROS time), each on its body's topic; false when not connected. They are queued, numbered by
+  // body, and go out with the other frames' of POSE_BATCH_MS in one send, from a task of its own after the frame.
   sendPoses(stamp, bodies) {
-    if (bodies.length === 0) return true;
+    if (!this.connected) return false;
     const time = rosTime(stamp);
-    const messages = bodies.map(([body, pose]) => [
-      this.settings.topics[body][0],
-      encodePoseStamped(this.posesSent[body], time, this.poseFrame, pose.position, pose.orientation),
-    ]);
-    if (!this.connection.publishAll(messages)) return false;
-    for (const [body] of bodies) this.posesSent[body] += 1; // the next one's seq
+    for (const [body, pose] of bodies) {
+      const payload = encodePoseStamped(this.posesSent[body], time, this.poseFrame, pose.position, pose.orientation);
+      this.pendingPoses.push([this.settings.topics[body][0], payload]);
+      this.posesSent[body] += 1; // the next one's seq
+    }
+    if (this.pendingPoses.length > 0 && !this.flushScheduled) {
+      this.flushScheduled = true;
+      this.schedule(() => this.flushPoses(), POSE_BATCH_MS);
+    }
     return true;
+  }
+
+  // Send the queued poses in one message. A connection lost since they were queued loses them, as it loses anything
+  // published while it is down: their seqs say so in the bag.
+  flushPoses() {
+    this.flushScheduled = false;
+    const messages = this.pendingPoses;
+    this.pendingPoses = [];
+    if (messages.length > 0) this.connection.publishAll(messages);
   }
 
   // Publish a participant's answer ([input, value], study.js), if any, on its input's topic; a stop with its input
