@@ -25,6 +25,7 @@ from sim.study.design.scene import load_scene, scene_robot
 from sim.study.design.world import SceneWorld
 from sim.study.participants.model import INPUT_FRAME_S
 from sim.study.run.protocol import (
+    BODIES,
     DISTANCE_TOPIC,
     GO_TOPIC,
     POSE_FRAME,
@@ -301,10 +302,16 @@ def test_simulated_participants_run_the_study_and_the_analysis_recovers_their_bi
     for number in range(1, 5):
         bag = out / "bags" / f"participant_{number:02d}.bag"
         assert len(bag_messages(bag, STOP_TOPIC)) == 8 and len(bag_messages(bag, DISTANCE_TOPIC)) == 6
-        # the tracked body at the simulated headset's frame rate (its engine's step) through every approach
-        heads = [to_seconds(m.header.stamp) for m in bag_messages(bag, POSE_TOPICS["head"])]
-        assert np.allclose(np.diff([t for t in heads if t - heads[0] < 1.0]), STEP_S, atol=1e-6), heads[:60]
-        assert len(bag_messages(bag, POSE_TOPICS["right_hand"])) == len(heads)
+        # The tracked body in the bag at the simulated headset's frame rate, its engine's step, in every approach.
+        # Not every pose: beside other work a lockstep's catching-up participant sends poses in bursts, and a
+        # starved rosbag record drops what overflows its queue of 100 a topic (seen: 14 of 2006 of one body). That
+        # the bag holds every pose sent is for the tests that run alone: the scripted scene's and the browser's.
+        for body in BODIES:
+            stamps = np.array([to_seconds(m.header.stamp) for m in bag_messages(bag, POSE_TOPICS[body])])
+            steps = np.diff(stamps) / STEP_S
+            assert np.median(steps) == pytest.approx(1.0) and np.allclose(steps, np.round(steps), atol=1e-4), body
+            starts = sorted(r.motion_start for r in records if r.participant == number) + [math.inf]
+            assert all(np.any((stamps >= a) & (stamps < b)) for a, b in zip(starts, starts[1:])), body
     derived = "robot panda: end effector 'panda_grasptarget': the tool frame of 'panda_hand'"
     for log in [*(out / "logs").glob("runner_*.log"), *(out / "logs").glob("participant_*.log")]:
         assert derived in log.read_text(), log
