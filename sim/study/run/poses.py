@@ -28,7 +28,7 @@ class ReceivedPoses:
         self._changed = threading.Condition()
         self._samples: dict[str, list[tuple[float, tuple[float, float, float]]]] = {body: [] for body in BODIES}
         self._latest = dict.fromkeys(BODIES, -math.inf)  # each body's latest stamp
-        self.refused: dict[str, str] = {}  # by body: why its first refused pose was refused
+        self._refused: dict[str, str] = {}  # by body: why its first refused pose was refused
 
     def add(self, body: str, stamp: float, frame_id: str, position: Sequence[float]) -> None:
         """A pose of `body` (one of BODIES) as it came: its stamp (s of ROS time), frame and position."""
@@ -44,7 +44,12 @@ class ReceivedPoses:
                 self._changed.notify_all()
             return
         with self._changed:
-            self.refused.setdefault(body, why)
+            self._refused.setdefault(body, why)
+
+    def refused(self) -> dict[str, str]:
+        """By body, why its first refused pose was refused (a copy: rospy's threads add to it meanwhile)."""
+        with self._changed:
+            return dict(self._refused)
 
     def sending(self, since: float) -> list[str]:
         """The bodies with a pose stamped at or after `since`."""

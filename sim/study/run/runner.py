@@ -643,7 +643,7 @@ class StudyRunner(ControllerNode):
                 f"trial {trial.index}: no pose of {', '.join(late)} up to the approach's end within "
                 f"{self.options.pose_grace:g} s; measured as a gap"
             )
-        for body, why in self.poses.refused.items():
+        for body, why in self.poses.refused().items():
             if body not in self._refusals_told:
                 self._refusals_told.add(body)
                 log(f"poses of {body} refused: {why}")

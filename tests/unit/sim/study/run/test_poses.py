@@ -26,8 +26,8 @@ def test_a_pose_in_another_frame_or_not_a_point_is_refused_and_why_is_kept() -> 
     poses.add("head", 1.0, "optitrack", (0.0, 0.0, 1.0))
     poses.add("left_hand", float("nan"), "world", (0.0, 0.0, 1.0))
     assert poses.sending(0.0) == []
-    assert "'optitrack', not the scene's 'world'" in poses.refused["head"]
-    assert "not a finite point" in poses.refused["left_hand"]
+    assert "'optitrack', not the scene's 'world'" in poses.refused()["head"]
+    assert "not a finite point" in poses.refused()["left_hand"]
 
 
 def test_waiting_ends_once_every_sending_body_has_a_pose_at_the_time() -> None:
