@@ -159,10 +159,10 @@ def withdrawal(track: Track, window: Window, gap: float) -> tuple[float, float]:
     reference = position_at(track, window.start, gap)
     inside = (track.stamps >= window.start) & (track.stamps <= window.end)
     stamps, positions = track.stamps[inside], track.positions[inside]
+    speed = _peak_speed(stamps, positions, gap)
     if reference is None or stamps.size == 0:
-        return math.nan, _peak_speed(stamps, positions, gap)
-    farthest = float(np.max(np.linalg.norm(positions - reference, axis=1)))
-    return farthest, _peak_speed(stamps, positions, gap)
+        return math.nan, speed
+    return float(np.max(np.linalg.norm(positions - reference, axis=1))), speed
 
 
 def _peak_speed(stamps: np.ndarray, positions: np.ndarray, gap: float) -> float:
@@ -188,8 +188,7 @@ def motion_measures(
     """The approach's measures from the bodies' tracks (by name: head and HANDS; a body absent or empty sent
     nothing); `hand_point` is the scene's hand, `end_effector_at_press` the end effector's point at the press
     (None without a press), both in the world."""
-    empty = Track(np.zeros(0), np.zeros((0, 3)))
-    head = tracks.get("head", empty)
+    head = tracks.get("head", Track(np.zeros(0), np.zeros((0, 3))))
     hand = hand_under_robot(tracks, window, np.asarray(hand_point, dtype=float), gap)
     distance = speed = hand_untracked = math.nan
     if hand:
@@ -197,7 +196,7 @@ def motion_measures(
         hand_untracked = untracked_time(tracks[hand], window, gap)
     head_at_press = math.nan
     if end_effector_at_press is not None and math.isfinite(window.press):
-        place = position_at(head, window.press, gap) if len(head) else None
+        place = position_at(head, window.press, gap)
         if place is not None:
             head_at_press = float(np.linalg.norm(place - np.asarray(end_effector_at_press, dtype=float)))
     return MotionMeasures(hand, distance, speed, head_at_press, hand_untracked, untracked_time(head, window, gap))
