@@ -30,7 +30,6 @@ from sim.study.run.protocol import (
     GO_TOPIC,
     POSE_FRAME,
     POSE_TOPICS,
-    POSE_TYPE,
     PREFERENCE_TOPIC,
     STATUS_TOPIC,
     STOP_TOPIC,
@@ -40,7 +39,15 @@ from sim.study.run.protocol import (
 )
 from sim.study.run.stop import STOP_DECELERATION
 from sim.wire.contract import STEP_S
-from sim.wire.rosmsgs import JOINT_STATE, TYPESTORE, deserialize, encode_message, time_msg, to_seconds
+from sim.wire.rosmsgs import (
+    JOINT_STATE,
+    TYPESTORE,
+    deserialize,
+    encode_message,
+    encode_pose_stamped,
+    time_msg,
+    to_seconds,
+)
 from tests.integration.sim_helpers import start_engine
 from tests.integration.study_helpers import SMALL_DESIGN, trial, write_plan
 from tests.robot_files import PANDA_WITH_HAND
@@ -84,15 +91,7 @@ LEFT_HAND = np.array([0.35, -0.45, 0.02])
 WITHDRAWAL, WITHDRAWAL_SPEED = 0.03, 0.1  # m, m/s
 HEAD_LOST = range(10, 21)
 PRESS_STATE = 25
-
-
-def pose_message(stamp: float, position: np.ndarray) -> bytes:
-    types = TYPESTORE.types
-    header = types["std_msgs/msg/Header"](seq=0, stamp=time_msg(stamp), frame_id=POSE_FRAME)
-    point = types["geometry_msgs/msg/Point"](x=position[0], y=position[1], z=position[2])
-    orientation = types["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=0.0, w=1.0)
-    pose = types["geometry_msgs/msg/Pose"](position=point, orientation=orientation)
-    return encode_message(POSE_TYPE, header=header, pose=pose)
+UPRIGHT = (0.0, 0.0, 0.0, 1.0)  # every body's orientation: the measures read positions only
 
 
 class ScriptedVrScene:
@@ -142,9 +141,9 @@ class ScriptedVrScene:
             withdrawn = min(max(stamp - self.press_stamp, 0.0) * WITHDRAWAL_SPEED, WITHDRAWAL)
             hand = SCENE.hand.position + np.array([0.0, -1.0, 0.0]) * (0.0 if math.isnan(withdrawn) else withdrawn)
             if self.moving_states not in HEAD_LOST:
-                self.client.publish(POSE_TOPICS["head"], pose_message(stamp, HEAD))
-            self.client.publish(POSE_TOPICS["right_hand"], pose_message(stamp, hand))
-            self.client.publish(POSE_TOPICS["left_hand"], pose_message(stamp, LEFT_HAND))
+                self.client.publish(POSE_TOPICS["head"], encode_pose_stamped(stamp, POSE_FRAME, HEAD, UPRIGHT))
+            self.client.publish(POSE_TOPICS["right_hand"], encode_pose_stamped(stamp, POSE_FRAME, hand, UPRIGHT))
+            self.client.publish(POSE_TOPICS["left_hand"], encode_pose_stamped(stamp, POSE_FRAME, LEFT_HAND, UPRIGHT))
 
 
 def read_csv(path: Path) -> list[dict[str, str]]:

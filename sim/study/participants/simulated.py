@@ -34,7 +34,6 @@ lockstep it holds the clock at a test-2 approach's start until the press is in.
 from __future__ import annotations
 
 import math
-import struct
 import threading
 from typing import Any
 
@@ -78,28 +77,23 @@ from sim.study.run.protocol import (
     status_from_json,
 )
 from sim.wire.contract import STEP_S
-from sim.wire.rosmsgs import JOINT_STATE, decode_joint_state, deserialize, encode_message, time_msg
+from sim.wire.rosmsgs import (
+    JOINT_STATE,
+    decode_joint_state,
+    deserialize,
+    encode_message,
+    encode_pose_stamped,
+    time_msg,
+)
 
-__all__ = ["SimulatedParticipant", "pose_stamped"]
+__all__ = ["SimulatedParticipant"]
 
 # The endpoint's queue for each pose topic: a joint state missed is made up for by a burst of poses at once
 POSE_QUEUE = 100
-_FRAME_ID = POSE_FRAME.encode()
-# A PoseStamped in ROS 1 bytes: the Header (seq, stamp's sec and nsec, frame_id's length and text), the position's
-# x, y, z and the orientation's x, y, z, w
-_POSE_STAMPED = struct.Struct(f"<4I{len(_FRAME_ID)}s7d")
 
 
 def _encode(topic: str, **fields: Any) -> bytes:
     return encode_message(TOPIC_TYPES[topic], **fields)
-
-
-def pose_stamped(stamp_s: float, position: np.ndarray, orientation: np.ndarray) -> bytes:
-    """A PoseStamped in POSE_FRAME stamped `stamp_s`, serialized: the bytes encode_message makes (the tests compare
-    them), packed directly: a session publishes three a step, and encode_message took 5-15 us for one on this 2-core
-    machine (its typestore builds the message's objects first), this 1.5 us."""
-    stamp = time_msg(stamp_s)
-    return _POSE_STAMPED.pack(0, stamp.sec, stamp.nanosec, len(_FRAME_ID), _FRAME_ID, *position, *orientation)
 
 
 class SimulatedParticipant:
@@ -167,7 +161,7 @@ class SimulatedParticipant:
             stamp = t - k * self.dt
             poses = body_poses(self.layout, stamp, self._withdrawal, self._press_time, self.jitter_rng)
             for body, (position, orientation) in poses.items():
-                self.client.publish(POSE_TOPICS[body], pose_stamped(stamp, position, orientation))
+                self.client.publish(POSE_TOPICS[body], encode_pose_stamped(stamp, POSE_FRAME, position, orientation))
         self._last_pose = t
         self.poses += count
 

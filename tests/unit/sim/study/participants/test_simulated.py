@@ -1,7 +1,7 @@
 """sim.study.participants.simulated, its tracked body, without an endpoint: fed the runner's statuses and joint
 states as the endpoint would hand them over, it publishes every body's pose from a trial's motion on, on the joint
 states' grid up to each joint state's own stamp, with no gap where a joint state was missed; the hand withdraws
-after a test-2 press and stays in test 1; the poses are the bytes encode_message makes."""
+after a test-2 press and stays in test 1."""
 
 from __future__ import annotations
 
@@ -19,7 +19,7 @@ from sim.study.participants.model import (
     Population,
     draw_traits,
 )
-from sim.study.participants.simulated import SimulatedParticipant, pose_stamped
+from sim.study.participants.simulated import SimulatedParticipant
 from sim.study.questionnaires.instruments import standard_instrument
 from sim.study.run.protocol import (
     BODIES,
@@ -32,7 +32,7 @@ from sim.study.run.protocol import (
     status_to_json,
 )
 from sim.wire.contract import STEP_S
-from sim.wire.rosmsgs import _T, deserialize, encode_joint_state, encode_message, time_msg, to_seconds
+from sim.wire.rosmsgs import deserialize, encode_joint_state, encode_message, time_msg, to_seconds
 
 SCENE = load_scene()
 ROBOT = scene_robot(SCENE)
@@ -93,20 +93,6 @@ def stamps(messages: list[Any]) -> list[float]:
 def position(message: Any) -> np.ndarray:
     p = message.pose.position
     return np.array([p.x, p.y, p.z])
-
-
-def test_a_pose_is_packed_as_encode_message_makes_it() -> None:
-    place, turn = np.array([0.55, -0.012, 0.035]), np.array([0.0, 0.0, 0.3826834323650898, 0.9238795325112867])
-    for stamp in (0.0, 12.34, 1234.999999999):
-        made = encode_message(
-            POSE_TYPE,
-            header=_T["std_msgs/msg/Header"](seq=0, stamp=time_msg(stamp), frame_id=POSE_FRAME),
-            pose=_T["geometry_msgs/msg/Pose"](
-                position=_T["geometry_msgs/msg/Point"](x=place[0], y=place[1], z=place[2]),
-                orientation=_T["geometry_msgs/msg/Quaternion"](x=turn[0], y=turn[1], z=turn[2], w=turn[3]),
-            ),
-        )
-        assert pose_stamped(stamp, place, turn) == made
 
 
 def test_a_test_1_trial_publishes_every_body_on_the_grid_up_to_each_joint_state_and_the_hand_stays(
