@@ -6,7 +6,7 @@ The engine stand-in speaks to the endpoint in plain ROS 1 bytes, like Unity does
 from __future__ import annotations
 
 import struct
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -89,7 +89,7 @@ def to_seconds(stamp: object) -> float:
 
 
 def encode_pose_stamped(
-    stamp_s: float, frame_id: str, position: Sequence[float], orientation: Sequence[float]
+    stamp_s: float, frame_id: str, position: Iterable[float], orientation: Iterable[float]
 ) -> bytes:
     """A PoseStamped (seq 0) serialized: the bytes encode_message makes, packed directly (the Header's seq, stamp and
     frame_id, then the position's x, y, z and the orientation's x, y, z, w). A simulated participant sends three a
