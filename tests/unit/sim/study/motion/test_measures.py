@@ -11,7 +11,10 @@ import pytest
 from sim.study.errors import StudyError
 from sim.study.motion.measures import (
     HAND_RADIUS,
+    REST_DURATION,
+    REST_SPEED,
     SPEED_SPAN,
+    WITHDRAWAL_LIMIT,
     Track,
     Window,
     hand_under_robot,
@@ -19,15 +22,17 @@ from sim.study.motion.measures import (
     position_at,
     untracked_time,
     withdrawal,
+    withdrawal_end,
 )
 
 GAP = 0.1
 RATE = 72.0
 HAND = np.array([0.55, 0.0, 0.02])
 WINDOW = Window(10.0, 14.0, press=12.0)
+ROBOT = HAND + np.array([-0.2, 0.0, 0.0])  # the end effector's point at the press: on the robot's side of the hand
 
 
-def stamps(start: float = 9.0, end: float = 15.0, rate: float = RATE) -> np.ndarray:
+def stamps(start: float = 9.0, end: float = 18.0, rate: float = RATE) -> np.ndarray:
     return start + np.arange(int(round((end - start) * rate)) + 1) / rate
 
 
@@ -59,7 +64,7 @@ def test_a_withdrawal_gives_its_distance_and_peak_speed() -> None:
     times = stamps()
     direction = np.array([0.0, -1.0, 0.0])
     track = Track(times, min_jerk(times, 12.0, 0.4, 0.05, direction))
-    distance, speed = withdrawal(track, WINDOW, GAP)
+    distance, speed = withdrawal(track, WINDOW, GAP, ROBOT)
     assert distance == pytest.approx(0.05, abs=1e-9)
     assert 0.98 * 1.875 * 0.05 / 0.4 <= speed <= 1.875 * 0.05 / 0.4
 
@@ -67,7 +72,7 @@ def test_a_withdrawal_gives_its_distance_and_peak_speed() -> None:
 def test_a_still_hand_with_a_trackers_jitter_has_next_to_no_withdrawal() -> None:
     times = stamps()
     jitter = np.random.default_rng(3).normal(0.0, 0.0003, (len(times), 3))
-    distance, speed = withdrawal(Track(times, HAND + jitter), WINDOW, GAP)
+    distance, speed = withdrawal(Track(times, HAND + jitter), WINDOW, GAP, ROBOT)
     assert distance < 0.003 and speed < 0.04
 
 
@@ -119,21 +124,90 @@ def test_the_measures_of_an_approach_together() -> None:
     end_effector = np.array([0.55, 0.0, 0.12])
     measures = motion_measures(tracks, WINDOW, HAND, end_effector, GAP)
     assert measures.tracked_hand == "right_hand"
-    assert measures.withdrawal_distance == pytest.approx(0.04, abs=1e-9)
-    assert 0.98 * 1.875 * 0.04 / 0.5 <= measures.withdrawal_peak_speed <= 1.875 * 0.04 / 0.5
+    # the end effector is right above the hand: the move's rise is towards it, and only its part across counts
+    assert measures.withdrawal_distance == pytest.approx(0.6 * 0.04, abs=1e-9)
+    assert 0.98 * 1.875 * 0.024 / 0.5 <= measures.withdrawal_peak_speed <= 1.875 * 0.024 / 0.5 + 1e-9
     assert measures.head_distance_at_press == pytest.approx(float(np.linalg.norm(head - end_effector)))
     assert measures.hand_untracked == 0.0 and measures.head_untracked == 0.0
     # without a press, no head distance; without any pose, nothing
-    unpressed = motion_measures(tracks, Window(10.0, 14.0), HAND, None, GAP)
+    unpressed = motion_measures(tracks, Window(10.0, 14.0), HAND, None, GAP, end_effector_at_rest=HAND - direction)
     assert math.isnan(unpressed.head_distance_at_press) and unpressed.tracked_hand == "right_hand"
+    assert unpressed.withdrawal_distance == pytest.approx(0.04, abs=1e-9)  # straight away from the robot at rest
     nothing = motion_measures({}, WINDOW, HAND, end_effector, GAP)
     assert nothing.tracked_hand == "" and all(
         math.isnan(value) for value in vars(nothing).values() if isinstance(value, float)
     )
 
 
-def test_speed_needs_two_poses_a_span_apart_without_a_gap() -> None:
-    times = np.array([10.0, 10.02, 10.2, 10.22])  # no two within one stretch are SPEED_SPAN apart
-    assert SPEED_SPAN > 0.02
-    distance, speed = withdrawal(still(HAND, times), WINDOW, GAP)
-    assert distance == 0.0 and math.isnan(speed)
+def test_a_gap_inside_the_withdrawals_window_makes_it_missing_never_zero() -> None:
+    """The hand unseen for 2 s of the approach, around its move: missing, not "no withdrawal"; a gap before the
+    approach, or after the hand is at rest again, does not count."""
+    times = stamps()
+    track = Track(times, min_jerk(times, 12.0, 0.4, 0.05, np.array([0.0, -1.0, 0.0])))
+    holed = times[(times < 11.5) | (times > 13.5)]
+    distance, speed = withdrawal(Track(holed, track.positions[np.isin(times, holed)]), WINDOW, GAP, ROBOT)
+    assert math.isnan(distance) and math.isnan(speed)
+    before = (times < 9.3) | (times > 9.8)
+    distance, _ = withdrawal(Track(times[before], track.positions[before]), WINDOW, GAP, ROBOT)
+    assert distance == pytest.approx(0.05, abs=1e-9)
+    # a track that stops before the hand is seen at rest again: the window runs to the limit, and the end is unseen
+    short = times < 12.3
+    distance, speed = withdrawal(Track(times[short], track.positions[short]), WINDOW, GAP, ROBOT)
+    assert math.isnan(distance) and math.isnan(speed)
+
+
+def test_speed_needs_two_poses_a_span_apart() -> None:
+    times = WINDOW.start + np.arange(0, 8.0, 0.04)  # every pose 40 ms from the next: none SPEED_SPAN after another
+    times = np.sort(np.concatenate([times, times + 0.045]))
+    assert SPEED_SPAN > 0.045
+    distance, speed = withdrawal(still(HAND, times), WINDOW, GAP, ROBOT)
+    assert distance == 0.0 and speed == 0.0
+    distance, speed = withdrawal(still(HAND, np.array([10.0, 10.02])), Window(10.0, 10.02), GAP, ROBOT)
+    assert math.isnan(speed)
+
+
+def test_the_window_ends_when_the_hand_is_at_rest_again_after_moving() -> None:
+    """A withdrawal over by the robot's rest: the window ends at the rest (the hand has been still REST_DURATION);
+    a move after that (the hand put back on the table) is no part of it."""
+    times = stamps()
+    direction = np.array([0.0, -1.0, 0.0])
+    positions = min_jerk(times, 12.0, 0.4, 0.05, direction) + min_jerk(times, 15.0, 0.4, 0.08, direction) - HAND
+    track = Track(times, positions)
+    end = withdrawal_end(track, WINDOW, GAP)
+    assert end == times[np.searchsorted(times, WINDOW.end)]
+    assert withdrawal(track, WINDOW, GAP, ROBOT)[0] == pytest.approx(0.05, abs=1e-9)
+    # still all along: no rest "again", followed to the limit; a track short of the limit has no end yet
+    assert withdrawal_end(still(HAND, times), WINDOW, GAP) == WINDOW.limit == WINDOW.end + WITHDRAWAL_LIMIT
+    assert withdrawal_end(still(HAND, times[times < 16.0]), WINDOW, GAP) is None
+
+
+def test_a_late_slow_withdrawal_is_measured_whole() -> None:
+    """A pull back that starts after the robot rests and takes 1.5 s: followed until the hand rests again (REST_SPEED
+    x REST_DURATION), within 1 mm of its whole length; the old window (0.5 s after the rest) held none of it."""
+    times = stamps(end=20.0)
+    start, duration, distance = WINDOW.end + 0.6, 1.5, 0.06
+    track = Track(times, min_jerk(times, start, duration, distance, np.array([0.0, -0.6, 0.8])))
+    end = withdrawal_end(track, WINDOW, GAP)
+    assert end is not None and start + duration - REST_DURATION < end <= WINDOW.limit
+    measured, speed = withdrawal(track, WINDOW, GAP, ROBOT)
+    assert distance - REST_SPEED * REST_DURATION / 5 <= measured <= distance
+    assert 0.98 * 1.875 * distance / duration <= speed <= 1.875 * distance / duration
+    assert withdrawal(track, Window(WINDOW.start, WINDOW.end - WITHDRAWAL_LIMIT + 0.5, WINDOW.press), GAP)[0] < 1e-3
+
+
+@pytest.mark.parametrize(
+    ("direction", "counted"),
+    [
+        ((1.0, 0.0, 0.0), 1.0),  # straight away from the end effector
+        ((-1.0, 0.0, 0.0), 0.0),  # towards it
+        ((0.0, -1.0, 0.0), 1.0),  # across: out from under it, towards the seat
+        ((-0.6, -0.8, 0.0), 0.8),  # partly towards it: the rest counts
+    ],
+)
+def test_only_what_is_not_towards_the_robot_counts(direction: tuple[float, float, float], counted: float) -> None:
+    times = stamps()
+    track = Track(times, min_jerk(times, 12.0, 0.4, 0.05, np.array(direction)))
+    distance, speed = withdrawal(track, WINDOW, GAP, ROBOT)
+    assert distance == pytest.approx(0.05 * counted, abs=1e-9)
+    peak = 1.875 * 0.05 / 0.4
+    assert (0.98 * peak * counted - 1e-9) <= speed <= peak * counted + 1e-9
