@@ -34,7 +34,10 @@ A Population gives the distributions; each participant's traits are drawn from i
   withdrawal            test 2: after the press the hand under the robot withdraws: the participant's own distance in
                         reality (mean `withdrawal_mean`, SD `withdrawal_sd`), plus a VR − reality difference of
                         their own (mean `vr_withdrawal_shift`, SD `withdrawal_shift_sd`); each trial's varies by
-                        `withdrawal_noise`; none is below 0. Test 1 has no press: the hand stays.
+                        `withdrawal_noise`; none is below 0. Test 1 has no press: the hand stays. A share of the
+                        trials (`late_withdrawal_share`) withdraw late and slowly: LATE_WITHDRAWAL_DELAY after the
+                        press, after the robot is at rest, over SLOW_WITHDRAWAL_DURATION; the others at once, over
+                        WITHDRAWAL_DURATION.
   Questionnaire traits and answers are drawn from streams of their own: the trials' draws are those of before. So are
   the withdrawal's traits, each trial's withdrawal and the tracking's jitter.
 
@@ -42,10 +45,11 @@ The tracked body (body_poses: the poses the protocol's pose topics carry, in the
 function of the time:
   head                  at the seat (the eyes), looking at the hand, with a small slow sway (HEAD_SWAY);
   right_hand            the hand under the robot: resting on the scene hand's top surface, palm down along the scene
-                        hand; from the press on it withdraws by the trial's distance, horizontally toward the seat
-                        (away from the robot's approach from above), on a minimum-jerk profile over
-                        WITHDRAWAL_DURATION: so its farthest displacement is the distance put in and its peak speed
-                        1.875 x distance / duration;
+                        hand; after the press (at once, or late) it withdraws by the trial's distance,
+                        horizontally toward the seat (out from under the robot's approach from above: across the
+                        direction to the end effector, so the measure counts it whole), on a minimum-jerk profile
+                        over the trial's duration: so its farthest displacement is the distance put in and its peak
+                        speed 1.875 x distance / duration;
   left_hand             resting on the table between the seat and the hand, to the participant's left;
   each position carries the tracker's jitter (TRACKING_JITTER, normal per axis) when a random stream is given.
 """
@@ -85,7 +89,11 @@ __all__ = [
     "INPUT_FRAME_S",
     "input_delay",
     "trial_withdrawal",
+    "WithdrawalTiming",
+    "trial_withdrawal_timing",
     "WITHDRAWAL_DURATION",
+    "LATE_WITHDRAWAL_DELAY",
+    "SLOW_WITHDRAWAL_DURATION",
     "TRACKING_JITTER",
     "HEAD_SWAY",
     "min_jerk",
@@ -107,6 +115,7 @@ KNOWN_TRUTHS = {
     "withdrawal_mean": "test 2: how far the hand withdraws after the press in reality (m), the population's mean",
     "vr_withdrawal_shift": "VR - reality of the hand's withdrawal after the press (m), the population's mean",
     "withdrawal_shift_sd": "SD of the participants' own VR - reality differences of the hand's withdrawal (m)",
+    "late_withdrawal_share": "the share of test 2 trials (0..1) in which the hand withdraws late and slowly",
     "ssq_level": "SSQ: each symptom's mean rating (0..3) before the participant has been in VR",
     "vr_ssq_rise": "SSQ: how much each symptom's mean rating rises once the participant has been in VR",
     "ipq_level": "IPQ: every subscale's mean score (0..6)",
@@ -130,6 +139,8 @@ class Population:
     vr_withdrawal_shift: float = -0.01  # m: VR − reality: they withdraw less in VR
     withdrawal_shift_sd: float = 0.005  # m: SD of the participants' own VR − reality differences
     withdrawal_noise: float = 0.004  # m: one trial's, around the participant's own
+    # of test 2's trials, those whose withdrawal comes after the robot rests and is slow: the measure must follow it
+    late_withdrawal_share: float = 0.25
     ssq_level: float = 0.1  # SSQ: a symptom's mean rating before VR (0..3): total 7.9 on average
     vr_ssq_rise: float = 0.2  # SSQ: a symptom's mean rating after VR, more: total 23.6 on average
     symptom_spread: float = 0.5  # SSQ: the CV of the participants' susceptibility
@@ -166,6 +177,8 @@ class Population:
                 f"the withdrawal in reality ({self.withdrawal_mean}) and in VR (+ shift {self.vr_withdrawal_shift}) "
                 f"must be within 0..{MAX_WITHDRAWAL} m"
             )
+        if not (0.0 <= self.late_withdrawal_share <= 1.0):
+            raise ParticipantError(f"the late withdrawals' share must be within 0..1, got {self.late_withdrawal_share}")
         ssq, ipq = _scale("ssq"), _scale("ipq")
         after = self.ssq_level + self.vr_ssq_rise
         if not (math.isfinite(after) and ssq[0] <= self.ssq_level <= ssq[1] and ssq[0] <= after <= ssq[1]):
@@ -218,6 +231,7 @@ class Traits:
     item_level: float  # the lab's own items: the mean answer as a fraction of the scale (0..1)
     withdrawal: dict[str, float]  # per condition, m: how far the hand withdraws after a press, the participant's mean
     withdrawal_noise: float
+    late_withdrawal_share: float = 0.0  # of test 2's trials, the share whose withdrawal is late and slow
 
 
 def _scale(name: str) -> tuple[int, int]:
@@ -257,6 +271,7 @@ def draw_traits(population: Population, participant: int, seed: int) -> Traits:
         _beta(answering, population.item_level, population.answer_concentration),
         {"vr": withdrawal["withdrawal_vr"], "reality": withdrawal["withdrawal_reality"]},
         population.withdrawal_noise,
+        population.late_withdrawal_share,
     )
 
 
@@ -372,11 +387,30 @@ def trial_withdrawal(traits: Traits, condition: str, rng: np.random.Generator) -
     return max(float(rng.normal(traits.withdrawal[condition], traits.withdrawal_noise)), 0.0)
 
 
+@dataclass(frozen=True)
+class WithdrawalTiming:
+    """When a trial's withdrawal starts after the press (s) and how long it takes (s)."""
+
+    delay: float
+    duration: float
+
+
+def trial_withdrawal_timing(traits: Traits, rng: np.random.Generator) -> WithdrawalTiming:
+    """At once and quick, or (with the participant's late_withdrawal_share) late and slow."""
+    if rng.random() < traits.late_withdrawal_share:
+        return WithdrawalTiming(LATE_WITHDRAWAL_DELAY, SLOW_WITHDRAWAL_DURATION)
+    return WithdrawalTiming(0.0, WITHDRAWAL_DURATION)
+
+
 # --- the tracked body ------------------------------------------------------------------------------------------------
 
-# s: a quick withdrawal, as a flinch is. Shorter than the runner holds the robot at rest after a stop (0.5 s), so the
-# whole withdrawal lies within the approach's window, where the runner measures it.
+# s: a quick withdrawal, as a flinch is, from the press on
 WITHDRAWAL_DURATION = 0.4
+# s: a late one starts this long after the press, when the robot has braked and rests (a stop's braking and the
+# runner's 0.5 s hold take about a second), and takes this long: it ends some 2 s after the robot rests, inside the
+# measure's limit (sim.study.motion's WITHDRAWAL_LIMIT), and far outside the approach's own window
+LATE_WITHDRAWAL_DELAY = 1.5
+SLOW_WITHDRAWAL_DURATION = 1.2
 TRACKING_JITTER = 0.0001  # m, SD per axis: a headset's and its controllers' tracking noise is sub-millimetre
 HEAD_SWAY = (0.004, 5.0)  # m and s: the head's sway from side to side, its amplitude and period
 _LEFT_HAND_FORWARD, _LEFT_HAND_ASIDE = 0.3, 0.2  # m from under the eyes: toward the scene hand, to the left
@@ -448,17 +482,18 @@ def body_poses(
     withdrawal: float = 0.0,
     press_time: float = math.nan,
     jitter: np.random.Generator | None = None,
+    timing: WithdrawalTiming = WithdrawalTiming(0.0, WITHDRAWAL_DURATION),
 ) -> dict[str, Pose]:
     """Each body's pose (BODIES) at time `t` (s, on the trial's clock). The hand under the robot (right_hand)
-    withdraws by `withdrawal` m from `press_time` on (NaN: no press, it stays); with `jitter`, each position carries
-    the tracking's noise, drawn from it in the order of BODIES."""
+    withdraws by `withdrawal` m, `timing.delay` after `press_time` over `timing.duration` (NaN press: no press, it
+    stays); with `jitter`, each position carries the tracking's noise, drawn from it in the order of BODIES."""
     if not (math.isfinite(withdrawal) and withdrawal >= 0.0):
         raise ParticipantError(f"a withdrawal must be >= 0 m, got {withdrawal!r}")
     amplitude, period = HEAD_SWAY
     head = layout.head + amplitude * math.sin(2.0 * math.pi * t / period) * layout.aside
     hand = layout.hand
     if math.isfinite(press_time):
-        hand = hand + withdrawal * min_jerk((t - press_time) / WITHDRAWAL_DURATION) * layout.away
+        hand = hand + withdrawal * min_jerk((t - press_time - timing.delay) / timing.duration) * layout.away
     positions = {"head": head, "left_hand": layout.other_hand, "right_hand": hand}
     if jitter is not None:
         noise = jitter.normal(0.0, TRACKING_JITTER, (len(BODIES), 3))

@@ -22,7 +22,8 @@ model's body_poses has it: from a trial's `moving` status until a status of anot
 done, on each joint state stamped t it publishes every body's pose on the joint states' grid (dt) from after the last
 one it published up to t itself: a joint state it missed leaves no gap, and the runner, which waits at an approach's
 end for a pose of every tracked body stamped at its end, always has one. In test 2 the hand withdraws from the press
-by this trial's withdrawal (the model's trial_withdrawal, drawn on go); in test 1 it stays.
+by this trial's withdrawal (the model's trial_withdrawal and trial_withdrawal_timing, drawn on go: at once, or late
+and slow); in test 1 it stays.
 
 Why at once, and planned before go: a lockstep runs some 15 times faster than real time on a busy machine, so
 whatever the participant does after the approach starts races the robot. Pressing on the joint state one human
@@ -45,7 +46,9 @@ from sim.study.design.feasibility import Approaches
 from sim.study.design.scene import Scene
 from sim.study.errors import StudyError
 from sim.study.participants.model import (
+    WITHDRAWAL_DURATION,
     Traits,
+    WithdrawalTiming,
     arrival_time,
     body_layout,
     body_poses,
@@ -55,6 +58,7 @@ from sim.study.participants.model import (
     preferred_path,
     questionnaire_answer,
     trial_withdrawal,
+    trial_withdrawal_timing,
 )
 from sim.study.questionnaires.instruments import STANDARD, standard_instrument
 from sim.study.run.protocol import (
@@ -107,6 +111,7 @@ class SimulatedParticipant:
         self.delay_rng = np.random.default_rng([seed, traits.participant, 5])  # the input delays: apart, likewise
         self.withdrawal_rng = np.random.default_rng([seed, traits.participant, 7])  # each trial's withdrawal: apart
         self.jitter_rng = np.random.default_rng([seed, traits.participant, 8])  # the tracking's jitter: apart
+        self.timing_rng = np.random.default_rng([seed, traits.participant, 9])  # late or at once: apart, likewise
         self.layout = body_layout(scene)
         self.poses = 0  # samples of the tracked body published, each one pose per body
         self.been_in_vr = False  # whether any trial of the VR block has been run: the SSQ's symptoms rise after
@@ -120,6 +125,7 @@ class SimulatedParticipant:
         self._latest: tuple[float, np.ndarray] | None = None
         self._tracked: TrialStatus | None = None  # the trial whose body is published: from its moving status on
         self._withdrawal = 0.0  # m: this trial's withdrawal after the press (test 2)
+        self._timing = WithdrawalTiming(0.0, WITHDRAWAL_DURATION)  # when it starts after the press, how long it takes
         self._press_time = math.nan  # s of ROS time: this trial's press; NaN: none, the hand stays
         self._last_pose = math.nan  # s of ROS time: the last sample's stamp published in the tracked trial
 
@@ -159,7 +165,7 @@ class SimulatedParticipant:
         count = max(round((t - self._last_pose) / self.dt), 1)  # its earliest lies >= dt/2 after the last one
         for k in range(count - 1, -1, -1):
             stamp = t - k * self.dt
-            poses = body_poses(self.layout, stamp, self._withdrawal, self._press_time, self.jitter_rng)
+            poses = body_poses(self.layout, stamp, self._withdrawal, self._press_time, self.jitter_rng, self._timing)
             for body, (position, orientation) in poses.items():
                 self.client.publish(POSE_TOPICS[body], encode_pose_stamped(stamp, POSE_FRAME, position, orientation))
         self._last_pose = t
@@ -199,6 +205,7 @@ class SimulatedParticipant:
             if status.test == 2:
                 try:
                     self._withdrawal = trial_withdrawal(self.traits, status.condition, self.withdrawal_rng)
+                    self._timing = trial_withdrawal_timing(self.traits, self.timing_rng)
                     self._press_after = self._plan_press(status)
                 except StudyError as error:
                     self.problems.append(f"trial {status.index}: {error}")

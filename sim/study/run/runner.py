@@ -33,7 +33,9 @@ tracker in reality) are measured per approach (sim.study.motion): the hand's wit
 end effector at the press, the time tracking was lost; an approach during which no pose came is unmeasured. At an
 approach's end the runner waits (at most RunnerOptions.pose_grace of wall time, holding the robot in real time) until
 every body that has sent poses since the approach started has sent one stamped at its end: a lockstep outruns its
-participant, and poses travel apart from the status.
+participant, and poses travel apart from the status. Then it holds the robot at rest, its clock running, until the
+hand under the robot is at rest again (at most sim.study.motion's WITHDRAWAL_LIMIT after the robot rests), so that a
+late withdrawal is measured whole.
 """
 
 from __future__ import annotations
@@ -59,7 +61,15 @@ from sim.study.design.feasibility import Approaches
 from sim.study.design.plan import PlannedTrial, SessionPlan
 from sim.study.design.scene import Scene
 from sim.study.errors import StudyError
-from sim.study.motion.measures import UNMEASURED, MotionMeasures, Window, motion_measures
+from sim.study.motion.measures import (
+    REST_DURATION,
+    UNMEASURED,
+    MotionMeasures,
+    Window,
+    hand_under_robot,
+    motion_measures,
+    withdrawal_end,
+)
 from sim.study.run.poses import ReceivedPoses
 from sim.study.run.protocol import (
     ANSWER_TOPIC,
@@ -647,15 +657,34 @@ class StudyRunner(ControllerNode):
             if body not in self._refusals_told:
                 self._refusals_told.add(body)
                 log(f"poses of {body} refused: {why}")
+        at_rest = self.approaches.end_effector(self._target[0])
+        if not late:
+            self._follow_withdrawal(began, window)
         pressed = math.isfinite(window.press)
         end_effector = self.approaches.end_effector(run.positions_at(window.press - window.start)) if pressed else None
         measures = motion_measures(
-            self.poses.tracks(began), window, self.scene.hand.position, end_effector, TRACKING_GAP
+            self.poses.tracks(began), window, self.scene.hand.position, end_effector, TRACKING_GAP, at_rest
         )
         self.poses.forget(before=window.end)
         if not measures.tracked_hand:
             log(f"trial {trial.index}: no tracked hand was at the scene's hand as the approach started")
         return measures
+
+    def _follow_withdrawal(self, began: float, window: Window) -> None:
+        """Hold the robot at rest, its clock running, until the hand under the robot is at rest again after its
+        withdrawal (sim.study.motion's withdrawal_end), at most to the window's limit: a participant who pulls back
+        late is measured whole. Stops early when no hand is under the robot, or a body's poses fall behind."""
+        hold = max(1, round(REST_DURATION / 2 / self.options.pacing.dt))  # steps between looks: a quarter second
+        hand_point = self.scene.hand.position
+        while self.clock < window.limit and not self.stop.is_set():
+            tracks = self.poses.tracks(began)
+            hand = hand_under_robot(tracks, window, hand_point, TRACKING_GAP)
+            if not hand or withdrawal_end(tracks[hand], window, TRACKING_GAP) is not None:
+                return
+            for _ in range(hold):
+                self.step(self._target[0], np.zeros(self.robot.dof))
+            if self._await_poses(window.start, self.clock):
+                return  # a body stopped sending: its gap is measured, and no longer waited for
 
     def _await_poses(self, since: float, end: float) -> list[str]:
         """Wait (at most pose_grace s of wall time; in real time holding the robot) until every body that has sent

@@ -15,16 +15,20 @@ import pytest
 from sim.study.design.paths import PATH_NAMES
 from sim.study.design.scene import load_scene
 from sim.study.errors import StudyError
+from sim.study.motion.measures import Track, Window, motion_measures
 from sim.study.participants.cli import add_population_options, population_from_args
 from sim.study.participants.errors import ParticipantError
 from sim.study.participants.model import (
     HEAD_SWAY,
     INPUT_FRAME_S,
     KNOWN_TRUTHS,
+    LATE_WITHDRAWAL_DELAY,
     MIN_COMFORT,
+    SLOW_WITHDRAWAL_DURATION,
     TRACKING_JITTER,
     WITHDRAWAL_DURATION,
     Population,
+    WithdrawalTiming,
     arrival_time,
     body_layout,
     body_poses,
@@ -37,6 +41,7 @@ from sim.study.participants.model import (
     questionnaire_answer,
     study_measures,
     trial_withdrawal,
+    trial_withdrawal_timing,
     withdrawal_peak_speed,
 )
 from sim.study.questionnaires.instruments import standard_instrument
@@ -328,3 +333,37 @@ def test_the_withdrawal_truths_are_command_line_options() -> None:
 def test_impossible_withdrawal_truths_are_named(truths, said) -> None:
     with pytest.raises(ParticipantError, match=said):
         Population(**truths)
+
+
+def test_a_share_of_the_withdrawals_is_late_and_slow_as_put_in() -> None:
+    rng = np.random.default_rng(6)
+    one = draw_traits(Population(late_withdrawal_share=0.3), 2, 5)
+    timings = [trial_withdrawal_timing(one, rng) for _ in range(4000)]
+    late = [t for t in timings if t.delay > 0]
+    assert len(late) / len(timings) == pytest.approx(0.3, abs=0.03)
+    assert set(late) == {WithdrawalTiming(LATE_WITHDRAWAL_DELAY, SLOW_WITHDRAWAL_DURATION)}
+    assert {t for t in timings if t.delay == 0} == {WithdrawalTiming(0.0, WITHDRAWAL_DURATION)}
+    assert all(trial_withdrawal_timing(replace(one, late_withdrawal_share=0.0), rng).delay == 0 for _ in range(50))
+    with pytest.raises(ParticipantError, match="late withdrawals' share"):
+        Population(late_withdrawal_share=1.5)
+
+
+def test_a_simulated_late_withdrawal_is_measured_whole() -> None:
+    """The hand pulls back late and slowly, after the robot has come to rest (0.9 s after the press) and beyond the
+    0.5 s the approach's window used to end after: the motion measure follows it until the hand rests again, and
+    reads the distance put in (the move runs toward the seat, across the direction to the end effector above)."""
+    press, rest, distance, rate = 12.0, 12.9, 0.03, 72.0
+    late = WithdrawalTiming(LATE_WITHDRAWAL_DELAY, SLOW_WITHDRAWAL_DURATION)
+    assert press + late.delay > rest + 0.5
+    jitter = np.random.default_rng(4)
+    times = 10.0 + np.arange(int(8.0 * rate)) / rate
+    hand = [body_poses(LAYOUT, t, distance, press, jitter, late)["right_hand"][0] for t in times]
+    head = [body_poses(LAYOUT, t)["head"][0] for t in times]
+    tracks = {"right_hand": Track(times, np.array(hand)), "head": Track(times, np.array(head))}
+    end_effector = SCENE.hand.top + np.array([-0.1, 0.0, 0.15])
+    measured = motion_measures(tracks, Window(10.5, rest, press), SCENE.hand.top, end_effector, 0.1)
+    assert measured.tracked_hand == "right_hand"
+    assert measured.withdrawal_distance == pytest.approx(distance, abs=6 * TRACKING_JITTER)
+    # its peak, and the jitter read over SPEED_SPAN (0.1 mm a pose: some 5 mm/s, 10 at most)
+    peak = withdrawal_peak_speed(distance, SLOW_WITHDRAWAL_DURATION)
+    assert 0.98 * peak <= measured.withdrawal_peak_speed <= peak + 0.01

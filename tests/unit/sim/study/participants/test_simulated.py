@@ -132,7 +132,9 @@ def test_a_test_2_trial_withdraws_the_hand_from_the_press_until_a_questionnaire(
     joint_state(participant, 10.0)  # the motion's first joint state came before its status
     say(participant, replace(trial, phase="moving", motion_start=10.0))
     assert [topic for topic, _ in client.sent].count(STOP_TOPIC) == 1
-    steps = int(np.ceil((press_after + WITHDRAWAL_DURATION + 0.3) / DT))
+    timing = participant._timing  # at once, or late and slow
+    assert timing.duration >= WITHDRAWAL_DURATION
+    steps = int(np.ceil((press_after + timing.delay + timing.duration + 0.3) / DT))
     end = 10.0 + steps * DT
     for k in range(1, steps + 1):
         joint_state(participant, 10.0 + k * DT)
@@ -146,7 +148,7 @@ def test_a_test_2_trial_withdraws_the_hand_from_the_press_until_a_questionnaire(
     assert times[0] == pytest.approx(10.0) and times[-1] == pytest.approx(end)
     assert np.diff(times) == pytest.approx(np.full(len(times) - 1, DT))
     moved = np.array([position(m) for m in sent["right_hand"]]) - SCENE.hand.top
-    before = times < 10.0 + press_after
+    before = times < 10.0 + press_after + timing.delay
     assert np.abs(moved[before]).max() < JITTER
     farthest = np.linalg.norm(moved, axis=1).max()
     assert farthest == pytest.approx(withdrawal, abs=JITTER)  # the trial's withdrawal, as the runner will measure it
