@@ -10,8 +10,11 @@ comes from the stop distance's crossover mixed model. The measures are secondary
 verdict.
 
 Tracking: per condition, the trials with a gap (a body's poses further apart than the protocol's tracking gap), and
-each body's untracked time in all and in the worst trial. A trial in which a body sent no pose has no value of that
-body's measures (the runner writes NaN) and is named by participant. A pilot (one participant) gets that
+each body's untracked time in all and in the worst trial. A trial without a value of a measure is left out of it,
+and counted per condition beside its contrast, by why (LEFT_OUT): nothing tracked in the trial; no tracked hand at
+the scene's hand (the hands sent no pose, or none was near it); the head sent no pose; a gap in the hand's tracking
+inside the withdrawal's window (missing, never 0); no press. The trials without a hand at the scene's hand, or
+without the head, are also named by participant. A pilot (one participant) gets that
 participant's mean per condition, without an interval. Records without any motion (files written
 before the motion's columns, sessions without a tracker) give a summary that says so, not an error.
 """
@@ -30,7 +33,7 @@ from sim.study.analysis.statistics import Estimate, PairedComparison, mean_estim
 from sim.study.analysis.summary import cell, per_participant
 from sim.study.design.spec import CONDITIONS
 from sim.study.errors import StudyError
-from sim.study.motion.measures import SPEED_SPAN
+from sim.study.motion.measures import REST_DURATION, REST_SPEED, SPEED_SPAN, WITHDRAWAL_LIMIT
 from sim.study.run.protocol import TRACKING_GAP
 from sim.study.run.records import TrialRecord
 
@@ -40,6 +43,8 @@ __all__ = [
     "MODELLED",
     "DEFINED",
     "TRACKED_BODIES",
+    "LEFT_OUT",
+    "left_out_why",
     "MotionComparison",
     "BodyTracking",
     "ConditionTracking",
@@ -67,7 +72,11 @@ class MotionMeasure:
 
 
 _WITHDRAWAL = (
-    "the farthest the hand under the robot moved from where it was at the approach's start, during the approach"
+    "how far the hand under the robot got away from the robot, from where it was at the approach's start: only "
+    "motion not towards the robot counts (each displacement less its component towards the end effector's point at "
+    "the press, or at rest without one), taken from the approach's start until the hand is at rest again (within "
+    f"{REST_SPEED * REST_DURATION * 1000:.0f} mm for {REST_DURATION:g} s after it moved), at most "
+    f"{WITHDRAWAL_LIMIT:g} s after the robot rests; a tracking gap in that window leaves it missing"
 )
 MOTION_MEASURES = (
     MotionMeasure("withdrawal_distance", 2, "hand", "withdrawal distance", "cm", 100.0, 1, _WITHDRAWAL),
@@ -79,8 +88,8 @@ MOTION_MEASURES = (
         "m/s",
         1.0,
         2,
-        f"the highest speed of the hand under the robot during the approach, each speed taken over at least "
-        f"{SPEED_SPAN * 1000:.0f} ms",
+        f"the highest speed of the hand under the robot away from the robot (its velocity less any part towards the "
+        f"end effector) in the withdrawal's window, each speed taken over at least {SPEED_SPAN * 1000:.0f} ms",
     ),
     MotionMeasure(
         "head_distance_at_press",
@@ -105,6 +114,20 @@ DEFINED = tuple(
 )
 # The bodies whose tracking is summarised, with the record's column of their untracked time
 TRACKED_BODIES = {"hand": "hand_untracked", "head": "head_untracked"}
+# Why a trial has no value of a measure, in the report's words
+LEFT_OUT = {
+    "nothing": "nothing tracked",
+    "hand": "no tracked hand at the scene's hand",
+    "head": "the head sent no pose",
+    "gap": "a tracking gap in the withdrawal's window",
+    "press": "no press",
+}
+# What a body missing from a trial means, for the trials named by participant
+_MISSING = {
+    "hand": "no tracked hand was at the scene's hand as the approach started (neither hand sent a pose, or neither "
+    "was within 25 cm of it)",
+    "head": "the head sent no pose",
+}
 
 
 @dataclass(frozen=True)
@@ -113,6 +136,7 @@ class MotionComparison:
     conditions: dict[str, Estimate]  # the conditions with at least 2 participants with a value (a pilot's: 1)
     vr_vs_reality: PairedComparison | None  # None with fewer than 2 participants with a value in both
     model: ModelFit | None  # the crossover mixed model's fit (MODELLED only, when asked and it could be fitted)
+    left_out: dict[str, dict[str, int]]  # condition -> why (LEFT_OUT's keys) -> the measure's test's trials
 
 
 @dataclass(frozen=True)
@@ -147,6 +171,19 @@ def _tracked(record: TrialRecord, body: str) -> bool:
     if body == "hand" and not record.tracked_hand:
         return False
     return math.isfinite(getattr(record, TRACKED_BODIES[body]))
+
+
+def left_out_why(record: TrialRecord, measure: MotionMeasure) -> str:
+    """Why the record has no value of `measure` (a key of LEFT_OUT), or "" when it has one."""
+    if math.isfinite(measure.value(record)):
+        return ""
+    if not any(_tracked(record, body) for body in TRACKED_BODIES) and not record.tracked_hand:
+        return "nothing"
+    if not _tracked(record, measure.body):
+        return measure.body
+    if measure.body == "head" and not record.pressed:
+        return "press"
+    return "gap"
 
 
 def motion_recorded(records: Sequence[TrialRecord]) -> bool:
@@ -185,7 +222,12 @@ def _compare(records: Sequence[TrialRecord], measure: MotionMeasure, model: bool
             fit = fit_model(model_design(trials, FACTOR_NAMES[measure.test]), trials.value)
         except StudyError as error:
             notes.append(f"{where}: no mixed model: {error}")
-    return MotionComparison(measure, conditions, paired, fit)
+    left_out: dict[str, dict[str, int]] = {}
+    for condition in sorted(CONDITIONS):  # reality, then vr: the table's order
+        why = Counter(left_out_why(r, measure) for r in records if r.test == measure.test and r.condition == condition)
+        del why[""]
+        left_out[condition] = {reason: why[reason] for reason in LEFT_OUT if why[reason]}
+    return MotionComparison(measure, conditions, paired, fit, left_out)
 
 
 def _body(records: Sequence[TrialRecord], body: str) -> BodyTracking:
@@ -293,16 +335,32 @@ def motion_lines(summary: MotionSummary) -> list[str]:
     lines += [f"- **{measure.label}**: {measure.definition}." for measure in DEFINED]
     lines += [
         "",
-        "| test | measure | reality [95 % CI] | VR [95 % CI] | n | VR − reality [95 % CI] | p (t) | d_z |",
-        "|---|---|---|---|---|---|---|---|",
+        "| test | measure | reality [95 % CI] | VR [95 % CI] | n | VR − reality [95 % CI] | p (t) | d_z | "
+        "trials left out (reality; VR) |",
+        "|---|---|---|---|---|---|---|---|---|",
     ]
     for c in summary.comparisons:
         m = c.measure
+        counts = "; ".join(str(sum(c.left_out.get(condition, {}).values())) for condition in ("reality", "vr"))
         lines.append(
             f"| {m.test} | {m.label} ({m.unit}) | {_estimate(c.conditions.get('reality'), m)} | "
-            f"{_estimate(c.conditions.get('vr'), m)} | {_difference(c.vr_vs_reality, m)} |"
+            f"{_estimate(c.conditions.get('vr'), m)} | {_difference(c.vr_vs_reality, m)} | {counts} |"
         )
     lines.append("")
+    left = [
+        f"- test {c.measure.test}'s {c.measure.label}: "
+        + "; ".join(
+            f"{condition} {sum(reasons.values())} ("
+            + ", ".join(f"{n} {LEFT_OUT[reason]}" for reason, n in reasons.items())
+            + ")"
+            for condition, reasons in c.left_out.items()
+            if reasons
+        )
+        for c in summary.comparisons
+        if any(c.left_out.values())
+    ]
+    if left:
+        lines += ["Trials left out of a measure, which have no value of it, and why:", "", *left, ""]
     lines += [_model_line(c) for c in summary.comparisons if c.model is not None]
     if any(c.model is not None for c in summary.comparisons):
         lines.append("")
@@ -332,7 +390,7 @@ def motion_lines(summary: MotionSummary) -> list[str]:
     for body, participants in summary.untracked.items():
         if participants:
             named = "; ".join(f"participant {p} ({_counts(counts)})" for p, counts in participants.items())
-            lines.append(f"Trials in which the {body} sent no pose, left out of its measures: {named}.")
+            lines.append(f"Trials in which {_MISSING[body]}, left out of its measures: {named}.")
     lines.append("")
     if summary.notes:
         lines += [f"- {note}" for note in summary.notes] + [""]

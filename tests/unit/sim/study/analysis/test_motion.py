@@ -98,6 +98,9 @@ def test_gaps_are_summed_per_condition_and_body_and_untracked_trials_are_named()
     # a withdrawal the runner should not have written for an untracked hand is left out all the same
     k = next(k for k, r in enumerate(records) if r.participant == 4 and r.condition == "reality" and r.test == 2)
     records[k] = replace(records[k], tracked_hand="", hand_untracked=math.nan, withdrawal_distance=5.0)
+    # a hand seen, with a gap in the withdrawal's window: its withdrawal is missing, and counted apart
+    gapped = vr_test2[2]
+    records[gapped] = replace(records[gapped], withdrawal_distance=math.nan, withdrawal_peak_speed=math.nan)
     summary = summarise_motion(records, model=True)
     vr, reality = summary.tracking["vr"], summary.tracking["reality"]
     trials = len(records) // 2
@@ -119,8 +122,17 @@ def test_gaps_are_summed_per_condition_and_body_and_untracked_trials_are_named()
     lines = "\n".join(motion_lines(summary))
     assert "| vr | 56 | 56 | 2 | 0.75 | 0.50 | 56 | 1 | 0.20 | 0.20 |" in lines
     assert (
-        "Trials in which the hand sent no pose, left out of its measures: participant 3 (14 in reality); "
+        "Trials in which no tracked hand was at the scene's hand as the approach started (neither hand sent a pose, "
+        "or neither was within 25 cm of it), left out of its measures: participant 3 (14 in reality); "
         "participant 4 (1 in reality)." in lines
+    )
+    # beside each contrast, the trials it leaves out per condition, and why
+    reality_test2 = sum(1 for k in untracked_hand if records[k].test == 2) + 1
+    assert withdrawal.left_out == {"reality": {"hand": reality_test2}, "vr": {"gap": 1}}
+    assert f"| {reality_test2}; 1 |" in lines.split("withdrawal distance (cm)")[1].split("\n")[0]
+    assert (
+        f"- test 2's withdrawal distance: reality {reality_test2} ({reality_test2} no tracked hand at the scene's "
+        "hand); vr 1 (1 a tracking gap in the withdrawal's window)" in lines
     )
     assert "0.1 s (the protocol's tracking gap)" in lines
 
