@@ -71,7 +71,7 @@ def test_the_summary_declares_what_the_analysis_will_judge_by():
         "- `/study/pose/left_hand`: ",
         "- `/study/pose/right_hand`: ",
         "each a `geometry_msgs/PoseStamped` in the `world` frame",
-        "- **withdrawal distance** (`withdrawal_distance`): the farthest the hand under the robot moved",
+        "- **withdrawal distance** (`withdrawal_distance`): how far the hand under the robot got away from the robot",
         "- **withdrawal peak speed** (`withdrawal_peak_speed`)",
         "- **head to the end effector at the press** (`head_distance_at_press`)",
         "poses further apart than 0.1 s leave a gap in its tracking",
