@@ -13,7 +13,15 @@ import {
   framesIn,
   rosTime,
 } from '../../sim/study/views/vr/web/rostcp.js';
-import { ControllerEdges, Participant, answerLabel, firstAnswer, wrapped } from '../../sim/study/views/vr/web/study.js';
+import {
+  ControllerEdges,
+  HeldUntilRead,
+  PRIMARY_BUTTON,
+  Participant,
+  answerLabel,
+  firstAnswer,
+  wrapped,
+} from '../../sim/study/views/vr/web/study.js';
 
 // the trial protocol's table, as the page gets it in its settings
 const PROTOCOL = JSON.parse(readFileSync(new URL('../../sim/study/run/protocol.json', import.meta.url)));
@@ -78,12 +86,18 @@ const SYMPTOM = {
   scale_labels: ['none', 'slight', 'moderate', 'severe'],
 };
 
-test("a questionnaire's item is shown from its status, each item afresh", () => {
+test("a questionnaire's item starts unanswered, and a confirm without a choice is refused, visibly", () => {
   const participant = new Participant(PROTOCOL);
   participant.onStatus(status('questionnaire', { ...SYMPTOM, item: 'nausea', item_text: 'Nausea', item_number: 8 }));
   const [title, lines] = participant.instructions();
   assert.equal(title, 'Question 8 of {item_count}'); // a field the status lacks stays as written
-  assert.deepEqual(lines.slice(0, 2), ['Nausea', '< 1: slight >']);
+  assert.deepEqual(lines.slice(0, 2), ['Nausea', '< ?: no answer yet >']);
+  assert.equal(participant.onConfirm(null), null); // no default answer: nothing is sent
+  assert.equal(participant.answered, false);
+  assert.match(participant.instructions()[1].at(-1), /Choose an answer with the thumbstick first/);
+  participant.onChoose(-1); // from no choice: the middle of 0..3, on the side pushed
+  assert.equal(participant.instructions()[1][1], '< 1: slight >');
+  assert.doesNotMatch(participant.instructions()[1].at(-1), /Choose an answer/); // the notice goes once chosen
   participant.onChoose(-1);
   assert.deepEqual(participant.onConfirm(null), [
     'answer',
@@ -94,10 +108,17 @@ test("a questionnaire's item is shown from its status, each item afresh", () => 
   const next = { ...SYMPTOM, item: 'vertigo', item_text: 'Vertigo', item_number: 9, item_count: 16 };
   participant.onStatus(status('questionnaire', next));
   assert.equal(participant.answered, false);
+  assert.equal(participant.answer, null); // each item afresh: the last item's answer is not offered
   assert.deepEqual(participant.instructions(), [
     'Question 9 of 16',
-    ['Vertigo', '< 1: slight >', 'Thumbstick to change, A (or X) to choose.'],
+    ['Vertigo', '< ?: no answer yet >', 'Thumbstick to choose an answer, A (or X) to confirm it.'],
   ]);
+  // the same item of another administration at the same place is a new question, not one said again
+  participant.onChoose(+1);
+  participant.onConfirm(null);
+  participant.onStatus(status('questionnaire', { ...next, administration: 'ssq_after_vr' }));
+  assert.equal(participant.answer, null);
+  assert.equal(participant.notice, '');
 });
 
 // the fields by which an answer names its item
@@ -115,6 +136,8 @@ test("the thumbstick walks an item's scale from its middle, one point a push, an
     scale_labels: ['not at all safe', '', '', '', '', '', 'completely safe'],
   };
   participant.onStatus(status('questionnaire', safety));
+  assert.equal(participant.answer, null);
+  participant.onChoose(+1); // the first push chooses the middle
   assert.equal(participant.answer, 4);
   assert.equal(participant.instructions()[1][1], '< 4: between not at all safe and completely safe >');
   for (let push = 0; push < 5; push += 1) participant.onChoose(+1);
@@ -128,9 +151,11 @@ test("the thumbstick walks an item's scale from its middle, one point a push, an
 });
 
 test('the middle of each scale, and the labels of points between labelled ones', () => {
-  assert.equal(firstAnswer({ scale_low: 0, scale_high: 3 }), 1);
-  assert.equal(firstAnswer({ scale_low: 0, scale_high: 6 }), 3);
-  assert.equal(firstAnswer({ scale_low: 1, scale_high: 5 }), 3);
+  assert.equal(firstAnswer({ scale_low: 0, scale_high: 3 }, -1), 1);
+  assert.equal(firstAnswer({ scale_low: 0, scale_high: 3 }, +1), 2);
+  assert.equal(firstAnswer({ scale_low: 0, scale_high: 6 }, -1), 3);
+  assert.equal(firstAnswer({ scale_low: 0, scale_high: 6 }, +1), 3);
+  assert.equal(firstAnswer({ scale_low: 1, scale_high: 5 }, +1), 3);
   const aware = {
     scale_low: 0,
     scale_labels: ['extremely aware', '', '', 'moderately aware', '', '', 'not aware at all'],
@@ -146,12 +171,13 @@ test('an item said again after its answer was refused is asked again, from the p
   const nausea = status('questionnaire', { ...SYMPTOM, item: 'nausea', item_text: 'Nausea' });
   participant.onStatus(nausea);
   participant.onChoose(+1);
-  assert.deepEqual(participant.onConfirm(null)[1].answer, 2);
+  participant.onChoose(+1);
+  assert.deepEqual(participant.onConfirm(null)[1].answer, 3);
   participant.onStatus({ ...nausea }); // the runner refused it and says the item again
   assert.equal(participant.answered, false);
-  assert.equal(participant.instructions()[1][1], '< 2: moderate >');
+  assert.equal(participant.instructions()[1][1], '< 3: severe >');
   assert.match(participant.instructions()[1].at(-1), /not taken/);
-  assert.deepEqual(participant.onConfirm(null)[1].answer, 2);
+  assert.deepEqual(participant.onConfirm(null)[1].answer, 3);
   assert.equal(participant.notice, '');
   // a preference's status said again is not a question asked again
   participant.onStatus(status('preference', { group_paths: ['straight'] }));
@@ -176,7 +202,7 @@ test('every phase of the table has its words on the panel', () => {
     participant.onStatus(status(phase.name, { index: 5, group_paths: ['straight'], ...SYMPTOM }));
     const [title, lines] = participant.instructions();
     assert.equal(title, phase.panel.title || 'Trial 5 of 4');
-    const filled = { '{choice}': '1', '{path}': 'straight', '{answer}': '1', '{label}': 'slight' };
+    const filled = { '{choice}': '1', '{path}': 'straight', '{answer}': '?', '{label}': 'no answer yet' };
     assert.deepEqual(
       lines,
       phase.panel.lines.map((line) => line.replace(/\{\w+\}/g, (key) => filled[key] || key)),
@@ -192,6 +218,121 @@ test('button and thumbstick edges', () => {
   assert.deepEqual(edges.update([], [0, 0, 0.95, 0]), { confirm: false, choose: 0 }); // still pushed
   assert.deepEqual(edges.update([], [0, 0, 0.1, 0]), { confirm: false, choose: 0 });
   assert.deepEqual(edges.update([], [0, 0, -0.7, 0]), { confirm: false, choose: -1 });
+});
+
+// A runtime that reads a controller once a frame, as WebXR does (and IWER: a button's latest value, applied at the
+// next frame's start): `changes` are [ms, pressed] of A, `frames` the frames' times (ms). The page's confirms.
+function confirmsOver(changes, frames, held) {
+  const edges = new ControllerEdges();
+  const button = held ? new HeldUntilRead(false) : null;
+  let current = false;
+  let confirms = 0;
+  let next = 0; // the first change not yet made
+  for (const at of frames) {
+    for (; next < changes.length && changes[next][0] <= at; next += 1) {
+      const down = changes[next][1];
+      if (button) button.set(down);
+      else current = down;
+    }
+    const pressed = button ? button.read() : current;
+    const buttons = [];
+    buttons[PRIMARY_BUTTON] = pressed;
+    if (edges.update(buttons, [0, 0, 0, 0]).confirm) confirms += 1;
+  }
+  return confirms;
+}
+
+test('one press counts once, however slow the frames: held until a frame has read it', () => {
+  // a person's press of 150 ms, at 72 Hz: several frames see it, the first one counts
+  const quick = Array.from({ length: 40 }, (_, k) => k * 13.9);
+  assert.equal(
+    confirmsOver(
+      [
+        [100, true],
+        [250, false],
+      ],
+      quick,
+      false,
+    ),
+    1,
+  );
+  // the same press between two frames of software rendering (400 ms apart) was lost: the miss
+  const slow = [0, 400, 800, 1200];
+  assert.equal(
+    confirmsOver(
+      [
+        [450, true],
+        [600, false],
+      ],
+      slow,
+      false,
+    ),
+    0,
+  );
+  // held until read, the next frame sees it, once, and the one after sees it released
+  assert.equal(
+    confirmsOver(
+      [
+        [450, true],
+        [600, false],
+      ],
+      slow,
+      true,
+    ),
+    1,
+  );
+  assert.equal(
+    confirmsOver(
+      [
+        [100, true],
+        [250, false],
+      ],
+      quick,
+      true,
+    ),
+    1,
+  );
+  // two presses between the same two frames are one press to a runtime that reads once a frame
+  assert.equal(
+    confirmsOver(
+      [
+        [450, true],
+        [500, false],
+        [550, true],
+        [600, false],
+      ],
+      slow,
+      true,
+    ),
+    1,
+  );
+  // a press still held at the next frame, and released later, is one press too
+  assert.equal(
+    confirmsOver(
+      [
+        [450, true],
+        [1000, false],
+      ],
+      slow,
+      true,
+    ),
+    1,
+  );
+});
+
+test('a held value: a change away from rest stays until read; a change while read applies at once', () => {
+  const stick = new HeldUntilRead();
+  stick.set(0.9);
+  stick.set(0); // released before any reading
+  assert.equal(stick.read(), 0.9);
+  assert.equal(stick.read(), 0);
+  stick.set(-0.8);
+  assert.equal(stick.read(), -0.8);
+  stick.set(0); // already read: back to rest at once
+  assert.equal(stick.read(), 0);
+  stick.set(0.7);
+  stick.set(0.95); // another push before a reading: the latest
+  assert.equal(stick.read(), 0.95);
 });
 
 // the panel's lines measured by characters

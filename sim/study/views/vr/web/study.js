@@ -7,7 +7,9 @@
 //   A or X                        the phase's go, distance (between the controllers' tips), preference (the path
 //                                 shown) or answer (the point of the item's scale shown), whichever it accepts
 //   thumbstick left / right       while a preference is asked: show the previous / next path of the group; while a
-//                                 questionnaire's item is asked: one point down / up its scale, stopping at its ends
+//                                 questionnaire's item is asked: one point down / up its scale, stopping at its ends;
+//                                 an item starts with no answer chosen, and the first push chooses the scale's middle
+//                                 (on the side pushed, when the middle falls between two points)
 
 // An action is [input, value]: ['stop', stamp s or 0], ['go'], ['distance', m], ['preference', path name],
 // ['answer', {administration, item, answer}], named by the table's inputs.
@@ -17,7 +19,7 @@ export class Participant {
     this.phases = new Map(protocol.phases.map((phase) => [phase.name, phase]));
     this.status = null;
     this.choice = 0; // the group's path shown while a preference is asked
-    this.answer = null; // the point of the item's scale shown while a questionnaire's item is asked
+    this.answer = null; // the point of the item's scale chosen while a questionnaire's item is asked; null: none yet
     this.answered = false; // this phase's answer has been sent
     this.notice = ''; // why the last confirm did nothing
   }
@@ -28,13 +30,14 @@ export class Participant {
       this.status &&
       this.status.index === status.index &&
       this.status.phase === status.phase &&
+      this.status.administration === status.administration &&
       this.status.item === status.item;
     this.status = status;
     if (!samePhase) {
       this.answered = false;
       this.notice = '';
       if (this.accepts === 'preference') this.choice = 0;
-      if (this.accepts === 'answer') this.answer = firstAnswer(status);
+      if (this.accepts === 'answer') this.answer = null; // no default: paper and the keyboard have none either
     } else if (this.accepts === 'answer' && this.answered) {
       // the runner says an item again only when it refused the answer it got (off the scale, or to another item):
       // it still waits, so the page asks again, from the point last shown
@@ -106,6 +109,10 @@ export class Participant {
       return ['preference', paths[this.choice]];
     }
     if (accepts === 'answer') {
+      if (this.answer === null) {
+        this.notice = 'Choose an answer with the thumbstick first.';
+        return null;
+      }
       this.answered = true;
       this.notice = '';
       // the answer names its item, so that the runner never takes a late one for the next item's
@@ -125,12 +132,15 @@ export class Participant {
       // a scale stops at its ends, unlike the group's paths, which go round: from "severe" one more push is not
       // "none"
       const { scale_low: low, scale_high: high } = this.status;
-      this.answer = Math.min(high, Math.max(low, this.answer + step));
+      this.answer =
+        this.answer === null ? firstAnswer(this.status, step) : Math.min(high, Math.max(low, this.answer + step));
+      this.notice = '';
     }
   }
 
   // What the panel in view says: a title and lines, the phase's words from the table ({choice} and {path}: the
-  // group's path shown; {answer} and {label}: the point of the item's scale shown and its label; any other {name}:
+  // group's path shown; {answer} and {label}: the point of the item's scale chosen and its label, NO_ANSWER and
+  // NO_ANSWER_LABEL before one is; any other {name}:
   // the status's field of that name, e.g. a questionnaire's item_text). Placeholders of what the status lacks stay
   // as they are.
   instructions() {
@@ -146,8 +156,11 @@ export class Participant {
       line
         .replace('{choice}', String(this.choice + 1))
         .replace('{path}', path)
-        .replace('{answer}', answering ? String(this.answer) : '{answer}')
-        .replace('{label}', answering ? answerLabel(status, this.answer) : '{label}')
+        .replace('{answer}', answering ? (this.answer === null ? NO_ANSWER : String(this.answer)) : '{answer}')
+        .replace(
+          '{label}',
+          answering ? (this.answer === null ? NO_ANSWER_LABEL : answerLabel(status, this.answer)) : '{label}',
+        )
         .replace(/\{(\w+)\}/g, (whole, key) => (status[key] == null ? whole : String(status[key])));
     const title = panel.title ? fill(panel.title) : `Trial ${status.index} of ${status.total}`;
     const lines = words.map(fill);
@@ -155,12 +168,17 @@ export class Participant {
   }
 }
 
-// Where the walk over an item's scale starts: its middle (rounded down: 1 of the SSQ's 0..3, 3 of the IPQ's 0..6, 4
-// of a 1..7 item). The same rule for every scale, so that the page needs to know no instrument, and no end is
-// offered ready to take: on a symptom scale a hurried press then says "slight", not "none", erring towards a
-// symptom reported (the SSQ is asked to flag a participant's VR data) rather than one hidden.
-export function firstAnswer(status) {
-  return Math.floor((status.scale_low + status.scale_high) / 2);
+// What the panel shows for an item before an answer is chosen.
+export const NO_ANSWER = '?';
+export const NO_ANSWER_LABEL = 'no answer yet';
+
+// Where the first push of the thumbstick lands on an item's scale, which starts unanswered: its middle (3 of the IPQ's
+// 0..6, 4 of a 1..7 item), and where the middle falls between two points (the SSQ's 0..3), the one on the side pushed
+// (step -1: 1, +1: 2). The same rule for every scale, so that the page needs to know no instrument; no point is taken
+// without a push and a confirm, as on paper nothing is ticked until the participant ticks it.
+export function firstAnswer(status, step) {
+  const middle = (status.scale_low + status.scale_high) / 2;
+  return step < 0 ? Math.floor(middle) : Math.ceil(middle);
 }
 
 // What the panel says of a point of the item's scale: its label, or, for a point without one (the IPQ labels only
@@ -226,5 +244,47 @@ export class ControllerEdges {
       this.stick = 0;
     }
     return { confirm, choose };
+  }
+}
+
+// An emulated control (a button's value, a thumbstick's axis) as the runtime that reads it once a frame must see it:
+// a change away from rest is held until one reading has reported it. The emulations (emulation.js for the headset,
+// gamepademulation.js for the pedal) use it; here beside ControllerEdges, whose readings it feeds, for node's tests.
+//
+// Why: the page reads the controllers once a frame (WebXR has no event for A, X or the thumbstick, and updates
+// their state at each frame's start; the button page reads the Gamepad API once an animation frame). IWER, the
+// emulated headset, keeps only a button's latest value until the next frame starts, and the emulated pedal only its
+// current one: a press released before the next frame began never reached the page, which sees no edge. With
+// software rendering a frame may take from 0.1 s to over a second, longer than a click, so presses were lost (2 of
+// 16 questionnaire items in one emulated session). A headset reads its controllers at 72-120 Hz, several times
+// within any press of a person; held here, an emulated press reaches the next frame however slow it is, once.
+export class HeldUntilRead {
+  constructor(rest = 0) {
+    this.rest = rest;
+    this.value = rest;
+    this.unread = false; // a value away from rest that no reading has reported yet
+    this.next = null; // the value set back to rest while unread: it applies after the next reading
+  }
+
+  // The control changed to `value`.
+  set(value) {
+    if (this.unread && value === this.rest) {
+      this.next = value;
+      return;
+    }
+    this.value = value;
+    this.unread = value !== this.rest;
+    this.next = null;
+  }
+
+  // A reading (a frame's start): the value it reports.
+  read() {
+    const value = this.value;
+    this.unread = false;
+    if (this.next !== null) {
+      this.value = this.next;
+      this.next = null;
+    }
+    return value;
   }
 }
