@@ -1,11 +1,10 @@
-// The stop button's logic (sim/study/views/vr/web/gamepad.js, presses.js) and the VR page's measure of a trigger's
-// input delay (frameloop.js), run by node's test runner with plain objects for the Gamepad API's snapshots.
+// The stop button's logic (sim/study/views/vr/web/gamepad.js, presses.js) and both pages' measure of a press's input
+// delay (presses.js), run by node's test runner with plain objects for the Gamepad API's snapshots.
 import assert from 'node:assert/strict';
 import { test } from 'node:test';
 
-import { FrameLoop } from '../../sim/study/views/vr/web/frameloop.js';
-import { GamepadPresses, inputDelay } from '../../sim/study/views/vr/web/gamepad.js';
-import { inputDelaySeq, stopPayload } from '../../sim/study/views/vr/web/presses.js';
+import { GamepadPresses } from '../../sim/study/views/vr/web/gamepad.js';
+import { inputDelay, inputDelaySeq, stopPayload } from '../../sim/study/views/vr/web/presses.js';
 
 // A Gamepad API snapshot: `down` lists the pressed buttons' indices.
 function pad(index, id, down, timestamp, count = 4) {
@@ -60,19 +59,10 @@ test("a press's Header carries its input delay in microseconds in the seq, 0 whe
   assert.deepEqual([view.getUint32(0, true), view.getUint32(4, true), view.getUint32(8, true)], [16500, 12, 5e8]);
 });
 
-test("the VR page measures a trigger's input delay from the latest session frame, not outside the session", () => {
-  const parts = {
-    view: { render() {} },
-    robot: { update() {} },
-    panel: { show() {} },
-    controllers: { read: () => ({ distance: null, presses: [] }) },
-    participant: { instructions: () => ['', []], phase: 'waiting', onChoose() {}, onConfirm: () => null },
-    topics: { connected: true, state: '', send() {} },
-  };
-  const loop = new FrameLoop(parts);
-  assert.equal(loop.sinceFrame(100), null);
-  loop.step(1000, {});
-  assert.equal(loop.sinceFrame(1012), 0.012);
-  loop.step(1020, undefined); // the session ended
-  assert.equal(loop.sinceFrame(1030), null);
+test("both pages' input delay: from the first reading that saw the change to the stamp, or none", () => {
+  // the VR page: the trigger's event fired at the frame that read it (its timeStamp), stamped 3 ms later
+  assert.equal(inputDelay(1003, 1000), 0.003);
+  assert.equal(inputDelay(1000, 1000), 0);
+  // a time of 0 or none (a browser that keeps none), or after the stamp (another clock): not measured
+  for (const readAt of [0, undefined, null, 1004]) assert.equal(inputDelay(1003, readAt), null);
 });

@@ -9,7 +9,6 @@ export class FrameLoop {
   constructor({ view, robot, panel, controllers, tracking, participant, topics }) {
     Object.assign(this, { view, robot, panel, controllers, tracking, participant, topics });
     this.frames = 0; // of the immersive session
-    this.frameTime = null; // the latest session frame's time (ms, performance.now()'s clock)
     // Off, no pose is read or sent: the frame-time bench (bench/vr_frame_bench.py) measures frames without them and
     // with them, to show what they cost.
     this.sendPoses = true;
@@ -17,17 +16,9 @@ export class FrameLoop {
     this.timeOrigin = performance.timeOrigin; // when performance.now() was 0, on the browser's clock (ms)
   }
 
-  // s since the latest session frame began, at nowMs (performance.now()); null outside the session. XR input events
-  // carry no time: the runtime reads the controllers once a frame, so this is what a trigger press's input delay can
-  // be measured as, the time from the frame whose reading held it (within a frame) to its stamp.
-  sinceFrame(nowMs) {
-    return this.frameTime === null ? null : Math.max(0, nowMs - this.frameTime) / 1000;
-  }
-
   // three.js's animation loop: `frame` is the session's XRFrame, undefined outside the session.
   step(time, frame) {
     if (frame) this.frames += 1;
-    this.frameTime = frame ? time : null;
     this.robot.update();
     if (frame) this.answer(frame);
     if (frame && this.sendPoses) this.sendBody(time, frame);

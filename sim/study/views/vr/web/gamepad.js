@@ -2,16 +2,10 @@
 // frame): any button of any gamepad, a foot pedal or a USB button among them, counts. A press is a button's edge
 // from released to pressed between two readings. Pure: the page hands it the snapshots, node hands it plain objects.
 //
-// Its input delay: the Gamepad API's `timestamp` is when the browser last saw the gamepad's input change, on the
-// clock of performance.now(); the page reads it at `nowMs`, on the same clock, and stamps the press then. Their
-// difference is what the polling (and the page's frame) added between the change and the stamp.
-
-// s from the gamepad's last change (timestampMs) to the reading (nowMs); null when the gamepad gives no usable
-// timestamp (0 or none: some browsers and devices do not keep it; after nowMs: not on this clock).
-export function inputDelay(nowMs, timestampMs) {
-  if (typeof timestampMs !== 'number' || !(timestampMs > 0) || timestampMs > nowMs) return null;
-  return (nowMs - timestampMs) / 1000;
-}
+// Its input delay (presses.js's inputDelay): the Gamepad API's `timestamp` is when the browser's poll last saw the
+// gamepad's input change, on the clock of performance.now(); the page reads it at `nowMs`, on the same clock, and
+// stamps the press then. Their difference is what the page's frame added between the first reading and the stamp.
+import { inputDelay } from './presses.js';
 
 export class GamepadPresses {
   constructor() {

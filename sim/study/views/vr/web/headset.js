@@ -1,8 +1,9 @@
 // The headset's immersive session: the Enter VR button, entering and leaving, and the trigger (WebXR's selectstart,
-// either hand).
+// either hand). The runtime reads the controllers at each frame's start and fires the event then: the event's time
+// is the reading that first saw the trigger, from which the page measures the press's input delay (presses.js).
 export class Headset {
   // xr: three.js's WebXR manager (renderer.xr); button: Enter VR; statusLine: where a failure to enter is said;
-  // onTrigger(): a trigger was pressed.
+  // onTrigger(readMs): a trigger was pressed, and read at readMs (the event's time, performance.now()'s clock).
   constructor(xr, button, statusLine, onTrigger) {
     this.xr = xr;
     this.button = button;
@@ -30,9 +31,9 @@ export class Headset {
 
   async enter() {
     const session = await navigator.xr.requestSession('immersive-vr', { optionalFeatures: ['local-floor'] });
-    session.addEventListener('selectstart', () => {
+    session.addEventListener('selectstart', (event) => {
       this.triggers += 1;
-      this.onTrigger();
+      this.onTrigger(event.timeStamp);
     });
     session.addEventListener('end', () => {
       this.inSession = false;

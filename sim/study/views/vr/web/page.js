@@ -10,6 +10,7 @@ import { Controllers } from './controllers.js';
 import { FrameLoop } from './frameloop.js';
 import { Headset } from './headset.js';
 import { Panel } from './panel.js';
+import { inputDelay } from './presses.js';
 import { Robot } from './robot.js';
 import { View } from './scene.js';
 import { Participant } from './study.js';
@@ -37,12 +38,15 @@ async function startPage() {
   window.addEventListener('resize', () => view.resize(window.innerWidth, window.innerHeight));
 
   const enterButton = document.getElementById('enter');
-  const headset = new Headset(view.renderer.xr, enterButton, statusLine, () => {
+  const triggers = []; // each trigger press: {readAt, stampedAt (ms, performance.now()), inputDelay (s or null)}
+  const headset = new Headset(view.renderer.xr, enterButton, statusLine, (readAt) => {
     const now = performance.now(); // first: the press's input delay ends at its stamp
-    topics.send(participant.onTrigger(topics.rosNow()), loop.sinceFrame(now));
+    const delay = inputDelay(now, readAt);
+    triggers.push({ readAt, stampedAt: now, inputDelay: delay });
+    topics.send(participant.onTrigger(topics.rosNow()), delay);
   });
   await headset.offer();
-  return { settings, view, robot, panel, controllers, tracking, participant, topics, loop, headset };
+  return { settings, view, robot, panel, controllers, tracking, participant, topics, loop, headset, triggers };
 }
 
 export const page = await startPage();

@@ -5,6 +5,16 @@
 import { encodeHeader, rosTime } from './rostcp.js';
 
 const MAX_SEQ = 2 ** 32 - 1; // a uint32
+
+// A press's input delay, measured the same way on both pages: s from the first reading that saw the input's change
+// (readMs: the button page's Gamepad API timestamp, the browser's poll that saw it; the VR page's trigger event's
+// time, the headset's frame that read it) to its stamp (nowMs), both on performance.now()'s clock. Neither page sees
+// the press itself: the time from it to that reading is not in the delay. null when the reading's time is unusable
+// (0 or none: some browsers and devices do not keep it; after nowMs: not on this clock).
+export function inputDelay(nowMs, readMs) {
+  if (typeof readMs !== 'number' || !(readMs > 0) || readMs > nowMs) return null;
+  return (nowMs - readMs) / 1000;
+}
 const SEQ_UNIT_S = 1e-6;
 
 // The Header's seq for an input delay (s): whole microseconds, at least 1 (0 says "not measured"); 0 for null or for

@@ -24,6 +24,7 @@ window.vrPage = {
       poseFrames: page.loop.poseFrames, // the session's frames that sent the tracked body
       posesSent: { ...page.topics.posesSent }, // by body
       triggers: page.headset.triggers,
+      triggerPresses: page.triggers, // each: when it was read and stamped (ms), its input delay (s)
       actions: page.topics.sent,
       index: status ? status.index : null,
       phase: status ? status.phase : null,

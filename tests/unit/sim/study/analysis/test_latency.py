@@ -54,7 +54,9 @@ def test_each_path_is_summarised_and_the_buttons_minus_the_triggers_is_stated() 
     lines = "\n".join(latency_lines(summary))
     assert "| button | 3 | 8.0 | 8.9 | 3 | 2.5 |" in lines
     assert "medians: input delay -4.0 ms, arrival delay -2.5 ms, total -6.0 ms" in lines
-    assert "(0.2 m/s) the input delays' difference puts reality's stops -0.8 mm further" in lines
+    assert "(0.2 m/s) the measured input delays' difference puts reality's stops -0.8 mm further" in lines
+    # what neither page measures (the press to its first reading, 16 ms at most) makes it a bound, said so
+    assert "bounded, not measured: it lies within ±3.2 mm of this one" in lines
     assert keyboard_flag(summary) == "" and "observer" not in lines
 
 

@@ -20,7 +20,7 @@ from sim.study.participants.cli import add_population_options, population_from_a
 from sim.study.participants.errors import ParticipantError
 from sim.study.participants.model import (
     HEAD_SWAY,
-    INPUT_FRAME_S,
+    INPUT_DELAY_MAX_S,
     KNOWN_TRUTHS,
     LATE_WITHDRAWAL_DELAY,
     MIN_COMFORT,
@@ -195,9 +195,9 @@ def test_impossible_questionnaire_truths_are_named(truths, said):
         Population(**truths)
 
 
-def test_a_modelled_input_delay_spans_one_frame_of_the_conditions_page() -> None:
+def test_a_modelled_input_delay_spans_what_the_conditions_page_reports() -> None:
     rng = np.random.default_rng(3)
-    for condition, frame in INPUT_FRAME_S.items():
+    for condition, frame in INPUT_DELAY_MAX_S.items():
         delays = np.array([input_delay(condition, rng) for _ in range(2000)])
         assert delays.min() >= 0 and delays.max() <= frame and delays.mean() == pytest.approx(frame / 2, rel=0.05)
     with pytest.raises(StudyError, match="'lab'"):
