@@ -28,11 +28,22 @@ from measuring.browser import chromium, start_button_page, start_vr_page
 from sim.study.design.feasibility import Approaches
 from sim.study.design.paths import ON_TOP
 from sim.study.design.scene import load_scene, scene_robot
-from sim.study.run.protocol import BODIES
+from sim.study.motion.measures import WITHDRAWAL_LIMIT
+from sim.study.run.protocol import BODIES, TRACKING_GAP
 from sim.wire.contract import STEP_S
+from sim.wire.rosmsgs import decode_joint_state, to_seconds
 from tests.integration.sim_helpers import start_engine
 from tests.integration.study_helpers import questionnaire, trial, write_plan
-from tests.integration.test_study_vr import COMFORT, bag_poses, in_world, position_of, press, read_csv
+from tests.integration.test_study_vr import (
+    COMFORT,
+    HOLD_MS,
+    bag_poses,
+    in_world,
+    position_of,
+    press,
+    push_thumbstick,
+    read_csv,
+)
 from tests.integration.test_study_vr import page_state as vr_state
 from tests.rosenv import PYTHON, EndpointProcess, ManagedProcess, RosCore, wait_for
 
@@ -42,7 +53,6 @@ CONTROLLERS_APART = 0.1  # m: the left controller beside the right, which is on 
 PRESS_AFTER_FRAMES = 3  # the VR page's frames into the approach before the trigger: the robot is on its way
 WITHDRAWN = (0.0, 0.12, 0.1)  # m in the emulator's space: the right controller, up and towards the participant
 PRESS_AFTER_MS = 600  # into the reality approach: the robot is well on its way (a slow approach takes some 6 s)
-HOLD_MS = 150  # a foot on a pedal
 PEDAL = 3  # the button pressed in the reality trial: any button counts
 DELIVERY_S = 0.3  # a press from a page to the runner, on a quiet machine
 # No new phase on the VR page for this long means the session is stuck (see test_study_vr.py's STALL_S)
@@ -58,16 +68,12 @@ def button_state(browser: Any) -> dict[str, Any] | None:
     return browser.execute_script("return window.buttonPage ? window.buttonPage.state() : null;")
 
 
-# window.holdPressed(control): press button `control` and hold it for HOLD_MS, and on until the page has read it
-# (the page reads the gamepad once an animation frame; a busy machine's headless browser may draw fewer than one frame
-# in HOLD_MS, and a press released before any reading saw it is one that no page could see); its performance.now().
+# window.holdPressed(control): press button `control`, as a foot on a pedal, and release it HOLD_MS later, whatever
+# the page's frames do (a busy machine's headless browser may draw fewer than one frame in HOLD_MS: the emulated pedal
+# holds a press until a reading has seen it, as a real one's lasts several readings); its performance.now().
 HOLD_PRESSED = (
-    "window.holdPressed = (control) => { const page = window.buttonPage.page; const seen = page.presses.length;"
-    " const at = window.emulatedGamepad.press(control);"
-    " const hold = setInterval(() => {"
-    f"  if (page.presses.length > seen && performance.now() - at >= {HOLD_MS}) {{"
-    "   clearInterval(hold); window.emulatedGamepad.release(control); } }, 3);"
-    " return at; };"
+    "window.holdPressed = (control) => { const at = window.emulatedGamepad.press(control);"
+    f" setTimeout(() => window.emulatedGamepad.release(control), {HOLD_MS}); return at; }};"
 )
 
 
@@ -92,9 +98,9 @@ def pedal_while_moving(browser: Any, index: int, control: int) -> None:
 def trigger_and_withdraw(browser: Any, index: int, withdrawn_to: np.ndarray) -> None:
     """In the VR page, frame by frame (a round trip through the browser's driver may take longer than the
     approach): PRESS_AFTER_FRAMES frames after the page first shows trial `index` moving, press the right trigger;
-    two frames later release it and withdraw the right controller to `withdrawn_to`, as a participant who pulls their
+    HOLD_MS later release it and withdraw the right controller to `withdrawn_to`, as a participant who pulls their
     hand away after the stop. Keeps the round trip of the ping that the press's stamp rests on
-    (window.pressClockRoundTripMs)."""
+    (window.pressClockRoundTripMs) and when it was pressed (window.pressedAtMs, performance.now())."""
     x, y, z = withdrawn_to
     browser.execute_script(
         "const page = window.vrPage.page; const session = window.vrPage.session();"
@@ -103,12 +109,11 @@ def trigger_and_withdraw(browser: Any, index: int, withdrawn_to: np.ndarray) -> 
         " const status = page.participant.status;"
         f" if (pressAt === null && status && status.index === {index} && status.phase === 'moving')"
         f"  pressAt = page.loop.frames + {PRESS_AFTER_FRAMES};"
-        " if (pressAt !== null && page.loop.frames === pressAt) {"
-        "  right.updateButtonValue('trigger', 1);"
-        "  window.pressClockRoundTripMs = page.topics.connection.clock.best()[0]; }"
-        " if (pressAt !== null && page.loop.frames >= pressAt + 2) {"
-        f"  right.updateButtonValue('trigger', 0); right.position.set({x}, {y}, {z}); }}"
-        " else { watch(); } });"
+        " if (pressAt === null || page.loop.frames < pressAt) { watch(); return; }"
+        " right.updateButtonValue('trigger', 1); window.pressedAtMs = performance.now();"
+        " window.pressClockRoundTripMs = page.topics.connection.clock.best()[0];"
+        " setTimeout(() => {"
+        f"  right.updateButtonValue('trigger', 0); right.position.set({x}, {y}, {z}); }}, {HOLD_MS}); }});"
         "watch();"
     )
 
@@ -219,7 +224,9 @@ def test_a_session_of_both_conditions_in_the_two_pages_is_analysed_as_a_pilot(tm
                     if state["phase"] == "distance":
                         press(headset, "left", "x-button")  # the controllers CONTROLLERS_APART apart
                     elif state["phase"] == "questionnaire":
-                        press(headset, "left", "x-button")  # the scale's middle, as offered
+                        # unanswered until chosen: the first push chooses the scale's middle, then one press
+                        push_thumbstick(headset, "left", 0.9)
+                        press(headset, "left", "x-button")
                     elif state["phase"] == "preference":
                         # each group is of one approach, and is asked all the same; in reality the observer asks,
                         # and the VR page's panel stands in for them here
@@ -228,6 +235,7 @@ def test_a_session_of_both_conditions_in_the_two_pages_is_analysed_as_a_pilot(tm
             assert runner.wait(60) == 0, (seen, runner.output()[-3000:])
             ended = vr_state(headset)
             vr_round_trip_s = headset.execute_script("return window.pressClockRoundTripMs;") / 1000
+            vr_pressed_at_ms = headset.execute_script("return window.pressedAtMs;")
             pedalled = button_state(pedal)
             pedalled_at = pedal.execute_script("return window.pressedAt;")
     finally:
@@ -250,42 +258,84 @@ def test_a_session_of_both_conditions_in_the_two_pages_is_analysed_as_a_pilot(tm
     assert float(perceived_row["perceived_distance"]) == pytest.approx(CONTROLLERS_APART, abs=0.001)
     answers = read_csv(out / "questionnaires" / "answers" / f"comfort_participant_{PARTICIPANT:02d}.csv")
     assert [(a["administration"], a["item"], a["answer"]) for a in answers] == [
-        ("comfort_after_vr", "comfort", "3"),
+        ("comfort_after_vr", "comfort", "3"),  # the middle of 1..5, chosen by the first push
         ("comfort_after_reality", "comfort", "3"),
     ]
-    assert_the_trigger_stopped_the_vr_approach(vr_row, ended["actions"][1][1], vr_round_trip_s)
-    assert_the_hand_withdrew(vr_row, out / "bags" / f"participant_{PARTICIPANT:02d}.bag", ended, np.array(WITHDRAWN))
+    assert_the_trigger_stopped_the_vr_approach(vr_row, ended, vr_round_trip_s, vr_pressed_at_ms)
+    assert_the_hand_withdrew(
+        vr_row, out / "bags" / f"participant_{PARTICIPANT:02d}.bag", ended, np.array(WITHDRAWN), on_hand
+    )
     assert_the_pedal_stopped_the_reality_approach(reality_row, pedalled, pedalled_at)
     assert_the_pilot_is_analysed(out)
 
 
-def assert_the_trigger_stopped_the_vr_approach(row: dict[str, str], stamp: float, round_trip_s: float) -> None:
+def assert_the_trigger_stopped_the_vr_approach(
+    row: dict[str, str], page: dict[str, Any], round_trip_s: float, pressed_at_ms: float
+) -> None:
     """Stamped on the runner's clock within the approach, applied at its stamp or just after (late by the delivery
     and the page's clock offset's error, half its ping's round trip at most), with both latencies measured: the input
-    delay is the time since the session's latest frame (XR input events carry no time)."""
+    delay the page measured, from the frame that read the trigger (its event's time, after the test pressed it) to
+    the stamp, is the CSV's, as the pedal's is."""
+    stamp = page["actions"][1][1]
     assert row["condition"] == "vr" and row["pressed"] == "true" and row["press_source"] == "vr_trigger", row
+    (trigger,) = page["triggerPresses"]
+    assert pressed_at_ms <= trigger["readAt"] <= trigger["stampedAt"], (pressed_at_ms, trigger)
+    assert float(row["press_input_delay"]) == pytest.approx(trigger["inputDelay"], abs=1e-6), (row, trigger)
     motion_start = float(row["motion_start"])
     assert motion_start < stamp < motion_start + approach_duration("straight"), (stamp, motion_start)
     late = float(row["press_late"])
     assert 0 <= late < DELIVERY_S + round_trip_s / 2, (late, round_trip_s)
     assert float(row["press_time"]) == pytest.approx(stamp - motion_start + late, abs=0.01)
-    assert 0 <= float(row["press_input_delay"]) < 2.0, row
     assert -round_trip_s / 2 <= float(row["press_arrival_delay"]) < DELIVERY_S + round_trip_s / 2 + STEP_S, row
 
 
-def assert_the_hand_withdrew(row: dict[str, str], bag: Path, page: dict[str, Any], withdrawn: np.ndarray) -> None:
+def end_effector_at(bag: Path, time_s: float) -> np.ndarray:
+    """The end effector's point (world) at the recorded joint state stamped nearest `time_s`, as the runner takes
+    it for the press."""
+    from rosbags.rosbag1 import Reader
+
+    scene = load_scene()
+    robot = scene_robot(scene)
+    nearest = None
+    with Reader(bag) as reader:
+        connections = [c for c in reader.connections if c.topic == robot.joint_states_topic]
+        for _, _, raw in reader.messages(connections=connections):
+            state = decode_joint_state(raw, robot.joint_names)
+            if nearest is None or abs(state.stamp_s - time_s) < abs(nearest.stamp_s - time_s):
+                nearest = state
+    assert nearest is not None
+    with Approaches(robot, scene, STEP_S) as approaches:
+        return approaches.end_effector(nearest.positions)
+
+
+def assert_the_hand_withdrew(
+    row: dict[str, str], bag: Path, page: dict[str, Any], withdrawn: np.ndarray, on_hand: np.ndarray
+) -> None:
     """The right controller was on the scene's hand as the approach started, so it is the hand under the robot, and
-    it was moved by `withdrawn` (XR space) after the press, inside the approach (which ends a braking and the
-    runner's settling after the press): its withdrawal is that move's length, the runner's farthest displacement from
-    its place at the approach's start. The bag holds every pose the page sent, the move among them."""
+    it was moved by `withdrawn` (XR space) after the press: its withdrawal is that move less its part towards the end
+    effector's point at the press (the move's rise is towards a robot coming from above). Or, when the page's frames
+    came further apart than the tracking gap in the withdrawal's window (software rendering on a busy machine), it is
+    missing, never 0. The bag holds every pose the page sent, the move among them."""
     assert row["tracked_hand"] == "right_hand", row
-    assert float(row["withdrawal_distance"]) == pytest.approx(np.linalg.norm(withdrawn), abs=1e-4), row
     assert math.isfinite(float(row["head_distance_at_press"])) and float(row["head_distance_at_press"]) > 0.1, row
     poses, _ = bag_poses(bag)
     assert page["poseFrames"] > 0 and page["posesSent"] == dict.fromkeys(BODIES, page["poseFrames"]), page
     assert {body: len(poses[body]) for body in BODIES} == page["posesSent"]
     right = [message for _, message in poses["right_hand"]]
-    assert position_of(right[-1]) - position_of(right[0]) == pytest.approx(in_world(withdrawn), abs=1e-5)
+    moved = in_world(withdrawn)
+    assert position_of(right[-1]) - position_of(right[0]) == pytest.approx(moved, abs=1e-5)
+    motion_start, press = float(row["motion_start"]), float(row["motion_start"]) + float(row["press_time"])
+    stamps = np.array([to_seconds(message.header.stamp) for message in right])
+    at_start = position_of(right[int(np.argmin(np.abs(stamps - motion_start)))])
+    away = at_start - end_effector_at(bag, press)
+    away /= np.linalg.norm(away)
+    expected = np.linalg.norm(moved - min(0.0, float(moved @ away)) * away)
+    if row["withdrawal_distance"] == "":
+        window = stamps[(stamps >= motion_start) & (stamps <= press + WITHDRAWAL_LIMIT + 2.0)]
+        assert np.diff(window).max() > TRACKING_GAP, (row, np.diff(window).max())
+    else:
+        assert float(row["withdrawal_distance"]) == pytest.approx(expected, abs=2e-3), (row, expected)
+        assert 0.05 < expected < np.linalg.norm(moved)
 
 
 def assert_the_pedal_stopped_the_reality_approach(
