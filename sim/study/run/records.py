@@ -42,12 +42,12 @@ class TrialRecord:
     perceived_distance: float  # m, test 1's answer; NaN otherwise
     preferred_path: str  # test 2: the group's preferred path, on each of its rows; "" otherwise
     # The press's latency in two parts (NaN where it was not measured: the keyboard's, a client that does not say):
-    press_input_delay: float = math.nan  # s from the input's change to its stamp, as the pressing client measured it
+    press_input_delay: float = math.nan  # s from the first reading that saw the press to its stamp (the client's)
     press_arrival_delay: float = math.nan  # s from its stamp to its arrival at the runner (ROS time); NaN unstamped
     # The participant's motion during the approach (sim.study.motion; NaN and "" where nothing was tracked):
     tracked_hand: str = ""  # the body taken for the hand under the robot (left_hand or right_hand); "" untracked
-    withdrawal_distance: float = math.nan  # m, the hand's farthest from where it was at the motion's start
-    withdrawal_peak_speed: float = math.nan  # m/s, the hand's highest speed during the approach
+    withdrawal_distance: float = math.nan  # m, how far the hand got away from the robot (sim.study.motion); NaN: gap
+    withdrawal_peak_speed: float = math.nan  # m/s, the hand's highest speed away from the robot, likewise
     head_distance_at_press: float = math.nan  # m, the head to the end effector at the press; NaN without a press
     hand_untracked: float = math.nan  # s of the approach without the hand's pose (gaps longer than the protocol's)
     head_untracked: float = math.nan  # s of the approach without the head's pose
