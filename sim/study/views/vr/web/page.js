@@ -27,9 +27,13 @@ async function startPage() {
   const tracking = new Tracking(view.renderer.xr, view.world);
   const participant = new Participant(settings.protocol);
   const url = `${location.protocol === 'https:' ? 'wss' : 'ws'}://${location.host}${settings.ros_path}`;
+  const statuses = []; // each status as it arrived: {index, phase, test, ros (ROS time then by the clock offset, s)}
   const topics = new StudyTopics(settings, url, {
     onJoints: (jointState) => robot.receive(jointState),
-    onStatus: (status) => participant.onStatus(status),
+    onStatus: (status) => {
+      statuses.push({ index: status.index, phase: status.phase, test: status.test, ros: topics.rosNow() });
+      participant.onStatus(status);
+    },
   });
   topics.open();
 
@@ -46,7 +50,20 @@ async function startPage() {
     topics.send(participant.onTrigger(topics.rosNow()), delay);
   });
   await headset.offer();
-  return { settings, view, robot, panel, controllers, tracking, participant, topics, loop, headset, triggers };
+  return {
+    settings,
+    view,
+    robot,
+    panel,
+    controllers,
+    tracking,
+    participant,
+    topics,
+    loop,
+    headset,
+    triggers,
+    statuses,
+  };
 }
 
 export const page = await startPage();

@@ -25,6 +25,7 @@ window.vrPage = {
       posesSent: { ...page.topics.posesSent }, // by body
       triggers: page.headset.triggers,
       triggerPresses: page.triggers, // each: when it was read and stamped (ms), its input delay (s)
+      statuses: page.statuses, // each status as it arrived, with the page's ROS time then
       actions: page.topics.sent,
       index: status ? status.index : null,
       phase: status ? status.phase : null,
