@@ -386,7 +386,11 @@ def assert_the_pilot_is_analysed(out: Path) -> None:
     assert f"A pilot of 1 participant (participant {PARTICIPANT}), 3 trials" in report
     assert re.search(r"^\| vr \| \d\.\d{3} \|$", report, re.M)  # test 1's ratio
     assert "| reality | – (no trial with a value) |" in report
-    assert "| 2 | withdrawal distance (cm) | " in report.split("## The participant's motion")[1]
+    motion = report.split("## The participant's motion")[1].split("## Stop presses")[0]
+    # the withdrawal's row, or, when the page's slow frames left a gap in its window in every test 2 trial, why not
+    assert "| 2 | withdrawal distance (cm) | " in motion or re.search(
+        r"no test 2 trial has a withdrawal distance: all left out, .*a tracking gap in the withdrawal's window", motion
+    ), motion
     assert "## Stop presses: latency" in report
     assert "| button | 1 |" in report and "| vr_trigger | 1 |" in report
     assert "The button path minus the vr_trigger path, medians: input delay " in report

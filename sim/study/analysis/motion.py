@@ -222,12 +222,28 @@ def _compare(records: Sequence[TrialRecord], measure: MotionMeasure, model: bool
             fit = fit_model(model_design(trials, FACTOR_NAMES[measure.test]), trials.value)
         except StudyError as error:
             notes.append(f"{where}: no mixed model: {error}")
+    return MotionComparison(measure, conditions, paired, fit, _left_out(records, measure))
+
+
+def _left_out(records: Sequence[TrialRecord], measure: MotionMeasure) -> dict[str, dict[str, int]]:
+    """Per condition (reality, then vr: the table's order), the measure's test's trials without a value, by why."""
     left_out: dict[str, dict[str, int]] = {}
-    for condition in sorted(CONDITIONS):  # reality, then vr: the table's order
+    for condition in sorted(CONDITIONS):
         why = Counter(left_out_why(r, measure) for r in records if r.test == measure.test and r.condition == condition)
         del why[""]
         left_out[condition] = {reason: why[reason] for reason in LEFT_OUT if why[reason]}
-    return MotionComparison(measure, conditions, paired, fit, left_out)
+    return left_out
+
+
+def _left_out_words(left_out: dict[str, dict[str, int]]) -> str:
+    """'reality 2 (2 no tracked hand at the scene's hand); vr 1 (...)', the conditions with any left out."""
+    return "; ".join(
+        f"{condition} {sum(reasons.values())} ("
+        + ", ".join(f"{n} {LEFT_OUT[reason]}" for reason, n in reasons.items())
+        + ")"
+        for condition, reasons in left_out.items()
+        if reasons
+    )
 
 
 def _body(records: Sequence[TrialRecord], body: str) -> BodyTracking:
@@ -252,8 +268,9 @@ def summarise_motion(records: Sequence[TrialRecord], model: bool = False) -> Mot
     for measure in MOTION_MEASURES:
         if any(r.test == measure.test and math.isfinite(measure.value(r)) for r in records):
             comparisons.append(_compare(records, measure, model, notes))
-        else:
-            notes.append(f"no test {measure.test} trial has a {measure.label}")
+        elif any(r.test == measure.test for r in records):
+            why = _left_out_words(_left_out(records, measure))
+            notes.append(f"no test {measure.test} trial has a {measure.label}: all left out, {why}")
     tracking = {}
     for condition in CONDITIONS:
         mine = [r for r in records if r.condition == condition]
@@ -348,14 +365,7 @@ def motion_lines(summary: MotionSummary) -> list[str]:
         )
     lines.append("")
     left = [
-        f"- test {c.measure.test}'s {c.measure.label}: "
-        + "; ".join(
-            f"{condition} {sum(reasons.values())} ("
-            + ", ".join(f"{n} {LEFT_OUT[reason]}" for reason, n in reasons.items())
-            + ")"
-            for condition, reasons in c.left_out.items()
-            if reasons
-        )
+        f"- test {c.measure.test}'s {c.measure.label}: {_left_out_words(c.left_out)}"
         for c in summary.comparisons
         if any(c.left_out.values())
     ]

@@ -180,3 +180,24 @@ def test_the_report_has_the_motion_section_or_says_none_was_recorded(tmp_path: P
     assert "Test 2's withdrawal distance in the stop distance's crossover mixed model" in report  # with the design
     old = write_report(study(participants=4), tmp_path / "old").read_text()
     assert "## The participant's motion\n\nNo motion was recorded" in old
+
+
+def test_a_measure_with_every_trial_left_out_says_why() -> None:
+    """Every test 1 withdrawal missing (a gap in its window in VR; no hand at the scene's hand in reality): no row
+    for it, and a note that says how many were left out, and why, per condition."""
+    records = [
+        r
+        if r.test == 2
+        else replace(r, withdrawal_distance=math.nan)
+        if r.condition == "vr"
+        else replace(r, tracked_hand="", hand_untracked=math.nan, withdrawal_distance=math.nan)
+        for r in tracked_study(participants=4)
+    ]
+    summary = summarise_motion(records)
+    assert [(c.measure.test, c.measure.column) for c in summary.comparisons][-1] == (2, "head_distance_at_press")
+    per_condition = sum(1 for r in records if r.test == 1 and r.condition == "vr")
+    assert (
+        f"no test 1 trial has a withdrawal distance: all left out, reality {per_condition} ({per_condition} no "
+        f"tracked hand at the scene's hand); vr {per_condition} ({per_condition} a tracking gap in the withdrawal's "
+        "window)" in summary.notes
+    )
