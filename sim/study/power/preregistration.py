@@ -80,7 +80,9 @@ def _motion() -> list[str]:
     return lines + [
         f"- **untracked time** per body (`hand_untracked`, `head_untracked`): a body's poses further apart than "
         f"{TRACKING_GAP:g} s leave a gap in its tracking, and the approach's time in such gaps is untracked. A trial "
-        "in which a body sent no pose has none of that body's measures; the report names its participant.",
+        "without a value of a measure (nothing tracked, no tracked hand at the scene's hand, no pose of the head, a "
+        "tracking gap in the withdrawal's window, or no press) is left out of it, never read as 0; the report counts "
+        "those trials per condition, and why, beside each contrast.",
         "",
         f"Compared as the stop distance is, each participant's mean per condition, then VR − reality in pairs with "
         f"its 95 % t interval: {tests}. Test 2's {MODELLED.label} also gets the crossover mixed model, "
