@@ -60,6 +60,12 @@ def register(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> N
 
 def _add_server_options(parser: argparse.ArgumentParser, port: int) -> None:
     """The page server's options, the same for every page it serves."""
+    parser.epilog = (
+        "It prints the page's address with a key made at each launch: only browsers that opened it reach the "
+        "endpoint. From the environment: ROS_TCP_AUTH_TOKEN, the endpoint's --auth-token (the server authenticates "
+        "the pages; the browser never holds it); ROS_TCP_PROXY_SECRET, the endpoint's proxy secret, shown with each "
+        "browser's address."
+    )
     parser.add_argument("--endpoint-host", default="127.0.0.1", help="the endpoint's address")
     parser.add_argument(
         "--websocket-port", type=int, default=9090, help="the endpoint's --websocket-port (default 9090)"
