@@ -3,12 +3,15 @@ the wire on loopback: only a client that carries the launch's key, names this ma
 comes from the server's own page reaches the endpoint, and it is authenticated there by the server. A forged Host, a
 client without the key, a DNS-rebinding page (its Host and Origin agree with each other, not with this machine), a
 LAN address that is not this machine's in Host, and another page of this machine each get an HTTP 403 that says
-why; the server listens on 127.0.0.1 alone unless told. The pages themselves in a browser are
+why; the server listens on 127.0.0.1 alone unless told, which a headset on a LAN of network namespaces sees. The pages themselves in a browser are
 test_study_browser_session.py's, with a token too."""
 
 from __future__ import annotations
 
+import json
+import os
 import socket
+import subprocess
 from pathlib import Path
 
 import pytest
@@ -16,7 +19,7 @@ import pytest
 from bridge.client import ClientError, TcpClient
 from measuring.browser import chromium, launch_secrets
 from sim.launchers import ButtonServer, start
-from sim.processes import EndpointProcess, ManagedProcess, plain_env
+from sim.processes import PYTHON, EndpointProcess, ManagedProcess, plain_env
 from sim.study.views.vr.relay import AUTH_TOKEN_ENV
 from tests.rosenv import RosCore, wait_for
 
@@ -177,6 +180,117 @@ def test_a_browser_that_opened_the_printed_address_is_served_and_one_without_its
             browser.get(url.split("?")[0])
             wait_for(lambda: (s := browser.execute_script(state)) and s["connected"], 60, "the page by its cookie")
             assert TOKEN not in browser.page_source
+    finally:
+        for process in reversed(processes):
+            process.stop()
+
+
+# What a headset on the LAN asks the lab machine's page server, run in the headset's network namespace: the status of
+# each GET (argv: the server's address, its port, then Host and target pairs), or "refused" when the connection is
+# refused
+_HEADSET = """
+import http.client, json, sys
+address, port, asks = sys.argv[1], int(sys.argv[2]), sys.argv[3:]
+answers = []
+for host, target in zip(asks[::2], asks[1::2]):
+    connection = http.client.HTTPConnection(address, port, timeout=10)
+    try:
+        connection.putrequest("GET", target, skip_host=True)
+        connection.putheader("Host", host)
+        connection.endheaders()
+        answers.append(connection.getresponse().status)
+    except ConnectionRefusedError:
+        answers.append("refused")
+    finally:
+        connection.close()
+print(json.dumps(answers))
+"""
+
+
+@pytest.fixture
+def lan(tmp_path: Path):
+    """Two network namespaces, the lab machine and a headset, on a LAN of their own (a veth pair); the lab machine's
+    default route leaves by it, as a LAN address's does. Yields (lab, headset, the lab's address, the headset's);
+    removed afterwards."""
+    tag = f"{os.getpid() % 100000}"
+    lab, headset = f"pslab{tag}", f"pshead{tag}"
+    lab_address, headset_address = "10.77.0.1", "10.77.0.2"
+    made = []
+    try:
+        for namespace in (lab, headset):
+            subprocess.run(["ip", "netns", "add", namespace], check=True, capture_output=True)
+            made.append(namespace)
+            subprocess.run(["ip", "-n", namespace, "link", "set", "lo", "up"], check=True)
+        subprocess.run(
+            [
+                "ip",
+                "link",
+                "add",
+                f"pl{tag}",
+                "netns",
+                lab,
+                "type",
+                "veth",
+                "peer",
+                "name",
+                f"ph{tag}",
+                "netns",
+                headset,
+            ],
+            check=True,
+        )
+        for namespace, device, address in ((lab, f"pl{tag}", lab_address), (headset, f"ph{tag}", headset_address)):
+            subprocess.run(["ip", "-n", namespace, "addr", "add", f"{address}/24", "dev", device], check=True)
+            subprocess.run(["ip", "-n", namespace, "link", "set", device, "up"], check=True)
+        subprocess.run(["ip", "-n", lab, "route", "add", "default", "via", headset_address], check=True)
+        yield lab, headset, lab_address, headset_address
+    finally:
+        for namespace in made:
+            subprocess.run(["ip", "netns", "delete", namespace], capture_output=True)
+
+
+def test_a_headset_on_the_lan_gets_the_page_by_the_machines_address_only_when_the_server_is_told_to_listen(
+    lan, tmp_path: Path
+) -> None:
+    """By default the server is not on the LAN at all; with --host 0.0.0.0 a headset that names the machine's LAN
+    address (which the server finds itself) and carries the key gets the page, and one that names another address,
+    or carries no key, gets a 403."""
+    lab, headset, lab_address, _ = lan
+    inside = ("ip", "netns", "exec", lab)
+    processes: list[ManagedProcess] = []
+    try:
+        default = ButtonServer(9, plain_http=True)
+        everywhere = ButtonServer(9, host="0.0.0.0", plain_http=True)
+        closed = start(default, plain_env(), tmp_path, "default", prefix=inside)
+        processes.append(closed)
+        opened = start(everywhere, plain_env(), tmp_path, "everywhere", prefix=inside)
+        processes.append(opened)
+        closed_port = int(default.page_url(closed.output()).split(":")[2].split("/")[0])
+        printed = [line.split("the page: ")[1] for line in opened.output().splitlines() if "the page: " in line]
+        assert f"http://{lab_address}:" in " ".join(printed), printed  # the machine's LAN address, found and printed
+        url = next(address for address in printed if lab_address in address)
+        port, key = int(url.split(":")[2].split("/")[0]), url.split("?key=")[1]
+
+        def from_headset(address: str, port: int, *asks: str) -> list[object]:
+            done = subprocess.run(
+                ["ip", "netns", "exec", headset, PYTHON, "-c", _HEADSET, address, str(port), *asks],
+                capture_output=True,
+                text=True,
+                timeout=60,
+            )
+            assert done.returncode == 0, done.stderr
+            return json.loads(done.stdout)
+
+        assert from_headset(lab_address, closed_port, f"{lab_address}:{closed_port}", "/") == ["refused"]
+        here = f"{lab_address}:{port}"
+        assert from_headset(
+            lab_address,
+            port,
+            *(here, f"/?key={key}"),  # the machine's LAN address, with the key
+            *(here, "/"),  # without it
+            *(f"10.77.0.99:{port}", f"/?key={key}"),  # another address of the LAN
+            *(f"lab.evil.example:{port}", f"/?key={key}"),  # a rebinding page's name
+        ) == [200, 403, 403, 403]
     finally:
         for process in reversed(processes):
             process.stop()
