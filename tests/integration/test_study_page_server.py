@@ -3,8 +3,8 @@ the wire on loopback: only a client that carries the launch's key, names this ma
 comes from the server's own page reaches the endpoint, and it is authenticated there by the server. A forged Host, a
 client without the key, a DNS-rebinding page (its Host and Origin agree with each other, not with this machine), a
 LAN address that is not this machine's in Host, and another page of this machine each get an HTTP 403 that says
-why; the server listens on 127.0.0.1 alone unless told, which a headset on a LAN of network namespaces sees. The pages themselves in a browser are
-test_study_browser_session.py's, with a token too."""
+why; the server listens on 127.0.0.1 alone unless told, which a headset on a LAN of network namespaces sees. The
+pages' whole session in browsers is test_study_browser_session.py's, with a token too."""
 
 from __future__ import annotations
 
