@@ -142,6 +142,13 @@ def _check_server_options(args: argparse.Namespace) -> None:
         raise ViewError("--certificate and --key go together")
     if args.plain_http and args.certificate is not None:
         raise ViewError("--plain-http serves no TLS: leave out --certificate and --key")
+    from sim.study.views.vr.access import is_host_name
+
+    for name in args.allow_host:
+        if not is_host_name(name):
+            raise ViewError(
+                f"--allow-host {name!r}: give a host name or an address alone, without scheme, port or path"
+            )
 
 
 def _serve_page(args: argparse.Namespace, site: Site, name: str) -> int:

@@ -18,13 +18,15 @@ from __future__ import annotations
 
 import hmac
 import ipaddress
+import re
 from collections.abc import Iterable
 from dataclasses import dataclass
 from urllib.parse import parse_qs
 
-__all__ = ["SECRET_PARAMETER", "Access", "host_name", "normal_names"]
+__all__ = ["SECRET_PARAMETER", "Access", "host_name", "is_host_name", "normal_names"]
 
 SECRET_PARAMETER = "key"  # the query parameter of the printed address that carries the secret
+_HOST_NAME = re.compile(r"[A-Za-z0-9](?:[A-Za-z0-9-]*[A-Za-z0-9])?(?:\.[A-Za-z0-9-]+)*\.?")
 LOCAL_NAMES = ("localhost",)  # always this machine, as every loopback address is
 
 
@@ -37,6 +39,14 @@ def host_name(host: str) -> str:
     if host.count(":") == 1:
         host = host.split(":", 1)[0]
     return host.rstrip(".")
+
+
+def is_host_name(text: str) -> bool:
+    """`text` is a host name (letters, digits, hyphens, dots) or an IP address: no scheme, port or path."""
+    return (
+        _is_ip(text)
+        or re.fullmatch(r"[A-Za-z0-9](?:[A-Za-z0-9-]*[A-Za-z0-9])?(?:\.[A-Za-z0-9-]+)*\.?", text) is not None
+    )
 
 
 def normal_names(names: Iterable[str]) -> frozenset[str]:

@@ -10,7 +10,7 @@ import struct
 import pytest
 from wsproto.frame_protocol import FrameProtocol, Opcode
 
-from sim.study.views.vr.access import Access, host_name, normal_names
+from sim.study.views.vr.access import Access, host_name, is_host_name, normal_names
 from sim.study.views.vr.relay import auth_message, upgrade_request
 
 KEY = "k3y-of-this-launch"
@@ -34,6 +34,25 @@ COOKIE = f"{ACCESS.cookie}={KEY}"
 )
 def test_the_name_in_a_host_header(host: str, name: str) -> None:
     assert host_name(host) == name
+
+
+@pytest.mark.parametrize(
+    ("name", "valid"),
+    [
+        ("lab.example", True),
+        ("labpc", True),
+        ("vr-lab.local.", True),
+        ("192.168.1.10", True),
+        ("fe80::1", True),
+        ("https://lab.example", False),
+        ("lab.example:8443", False),
+        ("lab.example/", False),
+        ("-lab", False),
+        ("", False),
+    ],
+)
+def test_a_name_given_to_allow_is_a_host_name_or_an_address_alone(name: str, valid: bool) -> None:
+    assert is_host_name(name) is valid
 
 
 @pytest.mark.parametrize(
