@@ -43,10 +43,7 @@ def host_name(host: str) -> str:
 
 def is_host_name(text: str) -> bool:
     """`text` is a host name (letters, digits, hyphens, dots) or an IP address: no scheme, port or path."""
-    return (
-        _is_ip(text)
-        or re.fullmatch(r"[A-Za-z0-9](?:[A-Za-z0-9-]*[A-Za-z0-9])?(?:\.[A-Za-z0-9-]+)*\.?", text) is not None
-    )
+    return _is_ip(text) or _HOST_NAME.fullmatch(text) is not None
 
 
 def normal_names(names: Iterable[str]) -> frozenset[str]:
