@@ -18,6 +18,7 @@ from sim.launchers import Engine, Participant, Runner, finish, start, wait_ready
 from sim.processes import EndpointProcess, ManagedProcess, ProcessError, RosCore, plain_env
 from sim.study.analysis.questionnaires import load_questionnaires, summarise_questionnaires
 from sim.study.analysis.report import load_study, write_report
+from sim.study.analysis.trackers import load_trackers, summarise_trackers
 from sim.study.design.feasibility import plan_combinations, remedies
 from sim.study.design.fit import scene_for, scene_to_data
 from sim.study.design.plan import make_plan, plan_to_data
@@ -120,4 +121,5 @@ def simulate(settings: Simulation, log: Callable[[str], None]) -> Path:
         f"Perception study, {settings.participants} simulated participants (seed {settings.seed})",
         design.sesoi,
         summarise_questionnaires(load_questionnaires(out)),
+        summarise_trackers(load_trackers(out)),
     )
