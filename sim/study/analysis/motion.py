@@ -307,7 +307,8 @@ def motion_lines(summary: MotionSummary, caveat: str = "", trackers: Sequence[st
     lines.append("")
     if caveat:
         measures = ", ".join(f"test {c.measure.test}'s {c.measure.label}" for c in summary.comparisons)
-        lines += [f"**Caveat on every VR − reality contrast here** ({measures}, and the model below): {caveat}.", ""]
+        modelled = ", and the model below" if any(c.model is not None for c in summary.comparisons) else ""
+        lines += [f"**Caveat on every VR − reality contrast here** ({measures}{modelled}): {caveat}.", ""]
     lines += [_model_line(c) for c in summary.comparisons if c.model is not None]
     if any(c.model is not None for c in summary.comparisons):
         lines.append("")
