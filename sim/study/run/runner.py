@@ -33,7 +33,9 @@ tracker in reality) are measured per approach (sim.study.motion): the hand's wit
 end effector at the press, the time tracking was lost; an approach during which no pose came is unmeasured. At an
 approach's end the runner waits (at most RunnerOptions.pose_grace of wall time, holding the robot in real time) until
 every body that has sent poses since the approach started has sent one stamped at its end: a lockstep outruns its
-participant, and poses travel apart from the status.
+participant, and poses travel apart from the status. Which pose source tracked each condition (announced on
+/study/tracking by the tracker relay, sim.study.run.tracker, or named by RunnerOptions.pose_sources), with its
+jitter and calibration, goes to tracking/participant_NN.json after every trial.
 """
 
 from __future__ import annotations

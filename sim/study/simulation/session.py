@@ -30,6 +30,9 @@ from sim.wire.contract import STEP_S
 
 __all__ = ["Simulation", "simulate"]
 
+# The simulated participants send their own poses in both conditions: one pose source, named for the report
+SIMULATED_POSE_SOURCES = ("--pose-source", "vr=simulated participant", "--pose-source", "reality=simulated participant")
+
 
 @dataclass(frozen=True)
 class Simulation:
@@ -107,7 +110,7 @@ def simulate(settings: Simulation, log: Callable[[str], None]) -> Path:
                 session.callback(answering.stop)
                 wait_ready(engine_process, engine)
                 wait_ready(answering, participant)
-                runner = Runner(plan_path, out, scene_and_robot, settings.dt)
+                runner = Runner(plan_path, out, scene_and_robot, settings.dt, extra=SIMULATED_POSE_SOURCES)
                 running_session = start(runner, core.env, logs, f"runner_{number:02d}")
                 session.callback(running_session.stop)
                 summary = _finish(running_session, settings.timeout)
