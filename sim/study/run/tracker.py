@@ -13,7 +13,8 @@ At the start, in this order:
      /study/tracking, the fit on /study/calibration (both JSON std_msgs/String) and the transform on /tf_static
      (world -> the tracker's frame), so that the session's bag holds them.
 Then, while the runner's status is a trial of one of its conditions, every pose is moved into the world and
-published on its body's /study/pose/... topic with its own stamp and frame `world`. A pose in another frame than the
+published on its body's /study/pose/... topic with its own stamp (or, configured so, the relay's ROS time when it
+came) and frame `world`. A pose in another frame than the
 tracker's is dropped, and said once.
 """
 
@@ -158,7 +159,8 @@ def run_tracker(
         if transform is None or not relay["open"]:
             return
         message = PoseStamped()
-        message.header.stamp, message.header.frame_id = stamp, POSE_FRAME
+        message.header.stamp = rospy.Time.now() if config.stamp == "arrival" else stamp
+        message.header.frame_id = POSE_FRAME
         p, q = message.pose.position, message.pose.orientation
         p.x, p.y, p.z = (float(v) for v in transform.apply(position))
         q.x, q.y, q.z, q.w = (float(v) for v in matrix_to_quat(transform.apply_rotation(rotation)))

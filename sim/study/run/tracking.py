@@ -47,6 +47,7 @@ TRACKING_TOPIC = "/study/tracking"  # std_msgs/String, latched: a pose source's 
 CALIBRATION_TOPIC = "/study/calibration"  # std_msgs/String, latched: the calibration's fit (JSON)
 TF_STATIC_TOPIC = "/tf_static"  # the calibration as TF: world -> the tracker's frame
 FOLDER = "tracking"  # in a session's output: the trackers' calibrations and jitter, and each session's record
+STAMPS = ("source", "arrival")  # how a relayed pose is stamped (TrackerConfig.stamp)
 DEFAULT_POINTS = ("hand_fingertips", "hand_wrist", "table_corner_1", "table_corner_2", "table_corner_3")
 
 
@@ -76,7 +77,9 @@ class TrackerConfig:
     conditions: tuple[str, ...] = CONDITIONS
     calibration: CalibrationSettings = field(default_factory=CalibrationSettings)
     rest: float = 3.0  # s of the bodies at rest at the start, for the jitter
-    tf_rate: float = 100.0  # Hz: how often a TF frame is read
+    # how a relayed pose is stamped: "source", the tracker's own stamp (a driver that stamps on ROS time), or
+    # "arrival", the relay's ROS time when it came (a tracker on a clock of its own; adds the way to the relay)
+    stamp: str = "source"
 
 
 def _number(data: Mapping[str, Any], key: str, default: float, where: str) -> float:
@@ -105,7 +108,7 @@ def _name(data: Mapping[str, Any], key: str, where: str) -> str:
 def tracker_config(data: object, scene: Scene, where: str = "tracker config") -> TrackerConfig:
     """The tracker's configuration from its YAML data, its marked points checked against the scene's; RunError names
     the key and the value that cannot be used."""
-    top = _keys(data, ("source", "frame", "conditions", "bodies", "calibration", "rest", "tf_rate"), where)
+    top = _keys(data, ("source", "frame", "conditions", "bodies", "calibration", "rest", "stamp"), where)
     source, frame = _name(top, "source", where), _name(top, "frame", where)
     if frame == POSE_FRAME:
         raise RunError(
@@ -148,15 +151,10 @@ def tracker_config(data: object, scene: Scene, where: str = "tracker config") ->
         _number(settings, "hold", defaults.hold, f"{where}: calibration"),
         _number(settings, "still", defaults.still, f"{where}: calibration"),
     )
-    return TrackerConfig(
-        source,
-        frame,
-        bodies,
-        conditions,
-        calibration,
-        _number(top, "rest", 3.0, where),
-        _number(top, "tf_rate", 100.0, where),
-    )
+    stamp = top.get("stamp", "source")
+    if stamp not in STAMPS:
+        raise RunError(f"{where}: stamp must be one of {', '.join(STAMPS)}, got {stamp!r}")
+    return TrackerConfig(source, frame, bodies, conditions, calibration, _number(top, "rest", 3.0, where), stamp)
 
 
 def marked_points(scene: Scene) -> dict[str, np.ndarray]:

@@ -42,6 +42,7 @@ def test_a_config_maps_topics_and_tf_frames_to_bodies() -> None:
     assert config.bodies["head"] == BodySource(topic="/vrpn_client_node/head/pose")
     assert config.bodies["left_hand"] == BodySource(tf="left_hand")
     assert config.conditions == ("reality",) and config.calibration.max_residual == 0.01 and config.rest == 3.0
+    assert config.stamp == "source" and tracker_config({**CONFIG, "stamp": "arrival"}, SCENE).stamp == "arrival"
 
 
 @pytest.mark.parametrize(
@@ -54,6 +55,7 @@ def test_a_config_maps_topics_and_tf_frames_to_bodies() -> None:
         ({"calibration": {"body": "left_hand", "points": ["hand_wrist", "a_cup", "table_corner_1"]}}, "'a_cup'"),
         ({"calibration": {"body": "right_hand", "max_residual": -1}}, "max_residual must be a positive number"),
         ({"rest": 0}, "rest must be a positive number"),
+        ({"stamp": "now"}, "stamp must be one of source, arrival"),
         ({"colour": "red"}, "unknown key 'colour'"),
     ],
 )
