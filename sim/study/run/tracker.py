@@ -32,6 +32,7 @@ from typing import Any
 import numpy as np
 
 from sim.geometry.frames import matrix_to_quat, quat_to_matrix
+from sim.study.errors import StudyError
 from sim.study.motion.calibration import Calibration, RigidTransform, fit_calibration, jitter
 from sim.study.run.errors import RunError
 from sim.study.run.protocol import POSE_FRAME, POSE_TOPICS, STATUS_TOPIC, status_from_json
@@ -44,7 +45,9 @@ from sim.study.run.tracking import (
     announcement,
 )
 
-__all__ = ["Samples", "run_tracker"]
+__all__ = ["EXIT_INTERRUPTED", "Samples", "run_tracker"]
+
+EXIT_INTERRUPTED = 130
 
 
 class Samples:
@@ -109,6 +112,14 @@ def _touches(
     return np.array(taken)
 
 
+def _rotation(q: Any) -> np.ndarray:
+    """A message's quaternion as a matrix; a zero quaternion (a driver that sends positions only) as none."""
+    try:
+        return quat_to_matrix((q.x, q.y, q.z, q.w))
+    except ValueError:
+        return np.eye(3)
+
+
 def _tf_message(transform: RigidTransform, frame: str) -> Any:
     """The calibration as a TFMessage: the tracker's frame in the scene's world."""
     from geometry_msgs.msg import TransformStamped
@@ -141,8 +152,6 @@ def run_tracker(
 
     stop = threading.Event()
     init_node("study_tracker_" + re.sub(r"[^A-Za-z0-9_]", "_", config.source))
-    for signum in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(signum, lambda *_: stop.set())
     samples = Samples()
     relay: dict[str, Any] = {"transform": None, "open": False}  # set once calibrated; open during its trials
     publishers = {body: rospy.Publisher(POSE_TOPICS[body], PoseStamped, queue_size=100) for body in config.bodies}
@@ -167,11 +176,8 @@ def run_tracker(
         publishers[body].publish(message)
 
     def on_topic(message: Any, body: str) -> None:
-        p, q = message.pose.position, message.pose.orientation
-        try:
-            rotation = quat_to_matrix((q.x, q.y, q.z, q.w))
-        except ValueError:  # a zero quaternion: a driver that sends positions only
-            rotation = np.eye(3)
+        p = message.pose.position
+        rotation = _rotation(message.pose.orientation)
         on_pose(body, message.header.stamp, message.header.frame_id, np.array([p.x, p.y, p.z]), rotation)
 
     by_child = {source.tf: body for body, source in config.bodies.items() if source.tf}
@@ -181,14 +187,13 @@ def run_tracker(
             body = by_child.get(stamped.child_frame_id.lstrip("/"))
             if body is None:
                 continue
-            t, q = stamped.transform.translation, stamped.transform.rotation
-            rotation = quat_to_matrix((q.x, q.y, q.z, q.w))
+            t, rotation = stamped.transform.translation, _rotation(stamped.transform.rotation)
             on_pose(body, stamped.header.stamp, stamped.header.frame_id, np.array([t.x, t.y, t.z]), rotation)
 
     def on_status(message: Any) -> None:
         try:
             status = status_from_json(message.data)
-        except RunError:
+        except StudyError:
             return
         relay["open"] = status.test > 0 and status.condition in config.conditions
 
@@ -200,6 +205,7 @@ def run_tracker(
     if by_child:
         subscribers.append(rospy.Subscriber("/tf", TFMessage, on_tf, tcp_nodelay=True))
     try:
+        # Ctrl-C while a point is asked for or the bodies rest: interrupted at once (the read of a line is not)
         if saved is None:
             names = config.calibration.points
             touched = _touches(config, points, samples, lines, stop)
@@ -232,6 +238,8 @@ def run_tracker(
         for publisher, message in latched:
             publisher.publish(message)
         relay["transform"] = calibration.transform
+        for signum in (signal.SIGINT, signal.SIGTERM):  # from now on, the relay ends cleanly on either
+            signal.signal(signum, lambda *_: stop.set())
         rospy.Subscriber(STATUS_TOPIC, String, on_status)
         print(f"tracker {config.source}: saved {record}", flush=True)
         print(
@@ -241,6 +249,9 @@ def run_tracker(
         )
         while not stop.is_set():
             stop.wait(0.2)
+    except KeyboardInterrupt:
+        _say("interrupted before the relay started: nothing saved")
+        return EXIT_INTERRUPTED
     finally:
         for subscriber in subscribers:
             subscriber.unregister()
