@@ -247,7 +247,16 @@ SIM_ROSDEP_KEYS = {
 # Imported only by commands that are no ROS node: the campaign's progress bar and the study's live view (a missing
 # one is named in one line, as any other, by sim.entry.run_as_ros_command and setup.py installs both).
 SIM_OFF_NODE_PACKAGES = {"tqdm", "viser", "yourdfpy"}
-ROS_MESSAGE_PACKAGES = {"geometry_msgs", "sensor_msgs", "trajectory_msgs", "rosgraph_msgs", "tf2_msgs", "std_msgs"}
+ROS_MESSAGE_PACKAGES = {
+    "geometry_msgs",
+    "sensor_msgs",
+    "trajectory_msgs",
+    "rosgraph_msgs",
+    "tf2_msgs",
+    "std_msgs",
+    "actionlib_msgs",  # control_msgs' action types, generated at run time (sim.wire.control_types)
+    "actionlib",  # the stand-in's trajectory controller serves the action
+}
 
 
 def test_every_package_sim_imports_has_a_rosdep_key_in_vr_sim() -> None:
