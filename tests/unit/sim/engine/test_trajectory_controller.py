@@ -1,4 +1,4 @@
-"""The stand-in's trajectory controller (sim.control.trajectory_controller): one test per documented case of
+"""The stand-in's trajectory controller (sim.engine.trajectory_controller): one test per documented case of
 ros_controllers' joint_trajectory_controller that the issue lists, and the spline orders."""
 
 from __future__ import annotations
@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from sim.control.trajectory_controller import (
+from sim.engine.trajectory_controller import (
     ControllerError,
     Ending,
     ErrorCode,
