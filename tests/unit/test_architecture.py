@@ -130,12 +130,14 @@ def test_sim_parts_import_only_from_the_layers_below() -> None:
 # simulated participants or shown (participants, views) and analysed (analysis); power and the end-to-end simulation
 # use all of those. The protocol that the runner and its answerers speak is in run/, below everyone who answers it.
 # The questionnaires (instruments and their scoring) are below the design, which says when each is asked; the
-# motion's measures (from tracked poses alone) below the runner, which takes them per approach.
+# motion's measures (from tracked poses alone) below the runner, which takes them per approach. The safety checks (the
+# limits a plan keeps, the braking on a press) between the design, which `check` verifies, and the runner.
 STUDY_LAYERS = (
     ("errors",),
     ("checks",),
     ("questionnaires", "motion"),
     ("design",),
+    ("safety",),
     ("run",),
     ("participants", "analysis", "views"),
     ("power", "simulation"),
