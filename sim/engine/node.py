@@ -16,15 +16,18 @@ import logging
 import signal
 import sys
 from collections.abc import Callable
+from typing import TYPE_CHECKING
 
 import rospy
 
 from sim.engine.stand_in import EngineOptions, EngineStandIn, argument_parser, make_world, options_from_args
-from sim.engine.trajectory_server import TrajectoryServer, TrajectoryServerOptions
 from sim.entry import EXIT_BAD_INPUT, EXIT_OK, fail, without_ros_arguments
 from sim.errors import SimError
 from sim.robots import RobotSpec, robot_from_args
 from sim.wire.rosnode import init_node
+
+if TYPE_CHECKING:
+    from sim.engine.trajectory_server import TrajectoryServerOptions
 
 __all__ = ["RospyTransport", "main"]
 
@@ -103,6 +106,8 @@ def node_argument_parser() -> argparse.ArgumentParser:
 
 
 def _server_options(args: argparse.Namespace, robot: RobotSpec, options: EngineOptions) -> TrajectoryServerOptions:
+    from sim.engine.trajectory_server import TrajectoryServerOptions  # actionlib: only for a trajectory controller
+
     if not options.auto_simulate:
         raise SimError("--trajectory-controller runs on wall time: --no-auto-simulate does not go with it")
     if not (args.joint_states_rate > 0 and args.stop_trajectory_duration >= 0 and args.goal_time >= 0):
@@ -151,6 +156,8 @@ def main(argv: list[str] | None = None) -> int:
 def _run_trajectory_controller(
     robot: RobotSpec, options: EngineOptions, server_options: TrajectoryServerOptions, duration: float | None
 ) -> int:
+    from sim.engine.trajectory_server import TrajectoryServer
+
     world = make_world(robot, options)
     server = TrajectoryServer(robot, world, server_options)
     for signum in (signal.SIGINT, signal.SIGTERM):

@@ -14,7 +14,9 @@ Why the physics node and not the engine stand-in: actionlib's server is a rospy 
 only through the endpoint, as Unity does; a real arm's driver is itself a ROS node on the robot's side.
 
 Locks: actionlib calls the goal and cancel callbacks holding its own lock, and a goal handle's methods take it. So the
-controller's lock is never held while a goal handle is told anything: events are collected under it, then sent.
+one order is actionlib's lock, then the controller's: the stepping loop and the command topic collect the goals that
+ended under the controller's lock and tell their handles after releasing it; the goal callback, which holds
+actionlib's lock already, accepts its goal under the controller's, so the loop never ends a goal not yet accepted.
 """
 
 from __future__ import annotations
@@ -142,17 +144,17 @@ class TrajectoryServer:
     def _on_goal(self, handle: Any) -> None:
         goal = handle.get_goal()
         goal_id = handle.get_goal_id().id
+        # actionlib holds its lock here already, so telling handles under ours keeps the one order (actionlib's,
+        # then ours); and the stepping loop cannot end the goal before it has been accepted.
         with self._lock:
             verdict = self.controller.on_goal(
                 goal_id, trajectory_from_message(goal.trajectory), _tolerances(goal), time.time(), self._measured
             )
-            ended = self._take_handles(verdict.ended)
+            self._tell(self._take_handles(verdict.ended))
             if verdict.accepted:
+                handle.set_accepted()
                 self._handles[goal_id] = handle
-        self._tell(ended)
-        if verdict.accepted:
-            handle.set_accepted()
-        else:
+        if not verdict.accepted:
             log.warning("goal %s rejected: %s", goal_id, verdict.text)
             result = self.types.result(error_code=int(verdict.code), error_string=verdict.text)
             handle.set_rejected(result, verdict.text)
