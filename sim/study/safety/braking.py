@@ -92,6 +92,15 @@ class PathGeometry:
     def world(self, s: np.ndarray | float) -> np.ndarray:
         return np.asarray(self._x(np.clip(s, 0.0, self.length)))
 
+    def joint_state(self, state: PathState) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Joint positions, velocities and accelerations of a path state (q, q'·ṡ, q''·ṡ² + q'·s̈)."""
+        tangent, curvature = self.joints(state.arc, 1), self.joints(state.arc, 2)
+        return (
+            self.joints(state.arc),
+            tangent * state.speed,
+            curvature * state.speed**2 + tangent * state.acceleration,
+        )
+
     def project(self, positions: np.ndarray, velocities: np.ndarray, accelerations: np.ndarray) -> PathState:
         """The path state that best explains a joint state (see the module's doc)."""
         nearest = int(np.argmin(np.linalg.norm(self._dense_q - positions, axis=1)))

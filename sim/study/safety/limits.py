@@ -25,6 +25,8 @@ __all__ = [
     "KNOWN_TABLES",
     "MotionLimits",
     "limits_for",
+    "Exceedance",
+    "motion_exceedances",
     "motion_refusals",
 ]
 
@@ -106,7 +108,34 @@ def _derivatives(times: np.ndarray, values: np.ndarray) -> list[np.ndarray]:
     return out
 
 
-def motion_refusals(
+@dataclass(frozen=True)
+class Exceedance:
+    """One limit a motion exceeds, at its worst sample."""
+
+    what: str  # the motion: "approach diagonal", "braking from a press at t = 0.84 s"
+    subject: str  # a joint's name, or "the end effector's"
+    kind: str  # velocity, acceleration or jerk
+    value: float
+    unit: str
+    time: float  # s into the motion
+    allowed: float  # margin · limit
+    limit: float
+    margin: float
+    source: str
+
+    @property
+    def ratio(self) -> float:
+        return self.value / self.allowed
+
+    @property
+    def line(self) -> str:
+        return (
+            f"{self.what}: {self.subject} {self.kind} {self.value:.3f} {self.unit} at t = {self.time:.2f} s exceeds "
+            f"{self.allowed:.3f}, {self.margin:.0%} of its limit {self.limit:g} ({self.source})"
+        )
+
+
+def motion_exceedances(
     what: str,
     times: Sequence[float] | np.ndarray,
     joint_positions: np.ndarray,
@@ -114,10 +143,10 @@ def motion_refusals(
     margin: float = DEFAULT_MARGIN,
     world_positions: np.ndarray | None = None,
     derivatives: Sequence[np.ndarray] | None = None,
-) -> list[str]:
-    """One line per limit a sampled motion exceeds (its worst sample), naming `what`, the joint or the end effector,
-    the limit and the margin; [] when it keeps them all. `derivatives` gives the joint velocities, accelerations and
-    jerks when they are known exactly (a braking's); otherwise they come from the samples."""
+) -> list[Exceedance]:
+    """Every limit a sampled motion exceeds, each at its worst sample; [] when it keeps them all. `derivatives` gives
+    the joint velocities, accelerations and jerks when they are known exactly (a braking's); otherwise they come from
+    the samples."""
     if not (math.isfinite(margin) and 0 < margin <= 1):
         raise SafetyError(f"the safety margin is the fraction of each limit a motion may use, in (0, 1]; got {margin}")
     t = np.asarray(times, dtype=float)
@@ -125,7 +154,7 @@ def motion_refusals(
     if len(t) < 4:
         return []  # too few samples to have a jerk: nothing moves that a limit could refuse
     joint = list(derivatives) if derivatives is not None else _derivatives(t, q)
-    refusals = []
+    found = []
     for kind, values, bound in zip(
         ("velocity", "acceleration", "jerk"), joint, (limits.velocity, limits.acceleration, limits.jerk)
     ):
@@ -135,10 +164,12 @@ def motion_refusals(
         ratio = np.abs(values) / allowed
         for j in np.flatnonzero(ratio.max(axis=0) > 1.0):
             k = int(np.argmax(ratio[:, j]))
-            refusals.append(
-                f"{what}: {limits.joint_names[j]} {kind} {abs(values[k, j]):.3f} {_UNITS[kind]} at t = {t[k]:.2f} s "
-                f"exceeds {allowed[j]:.3f}, {margin:.0%} of its limit {bound[j]:g} ({limits.source})"
-            )
+            found.append(
+                Exceedance(
+                    what, limits.joint_names[j], kind, float(abs(values[k, j])), _UNITS[kind], float(t[k]),
+                    float(allowed[j]), float(bound[j]), margin, limits.source,
+                )
+            )  # fmt: skip
     if world_positions is not None:
         cartesian = _derivatives(t, np.asarray(world_positions, dtype=float))
         bounds = (limits.cartesian_velocity, limits.cartesian_acceleration, limits.cartesian_jerk)
@@ -149,8 +180,25 @@ def motion_refusals(
             k = int(np.argmax(norms))
             if norms[k] > margin * limit:
                 unit = _UNITS[kind].replace("rad", "m")
-                refusals.append(
-                    f"{what}: the end effector's {kind} {norms[k]:.3f} {unit} at t = {t[k]:.2f} s exceeds "
-                    f"{margin * limit:.3f}, {margin:.0%} of its limit {limit:g} ({limits.source})"
-                )
-    return refusals
+                found.append(
+                    Exceedance(
+                        what, "the end effector's", kind, float(norms[k]), unit, float(t[k]), margin * limit, limit,
+                        margin, limits.source,
+                    )
+                )  # fmt: skip
+    return found
+
+
+def motion_refusals(
+    what: str,
+    times: Sequence[float] | np.ndarray,
+    joint_positions: np.ndarray,
+    limits: MotionLimits,
+    margin: float = DEFAULT_MARGIN,
+    world_positions: np.ndarray | None = None,
+    derivatives: Sequence[np.ndarray] | None = None,
+) -> list[str]:
+    """One line per limit a sampled motion exceeds (motion_exceedances), naming `what`, the joint or the end
+    effector, the limit and the margin."""
+    found = motion_exceedances(what, times, joint_positions, limits, margin, world_positions, derivatives)
+    return [exceedance.line for exceedance in found]

@@ -59,12 +59,7 @@ def test_braking_at_every_press_time_is_smooth_on_the_path_and_within_the_pandas
     arc, path_acceleration = arc_length(path), np.gradient(path.speeds, path.dt)
     braked = 0
     for k in range(1, len(path.times) - 1):  # every press time of the plan
-        s, v, a = arc[k], path.speeds[k], path_acceleration[k]
-        desired = (
-            geometry.joints(s),
-            geometry.joints(s, 1) * v,
-            geometry.joints(s, 2) * v**2 + geometry.joints(s, 1) * a,
-        )
+        desired = geometry.joint_state(PathState(arc[k], path.speeds[k], path_acceleration[k]))
         stop = brake(geometry, *desired, DT)
         assert stop is not None, f"press at {path.times[k]:.2f} s"
         braked += 1
