@@ -202,6 +202,70 @@ def test_goals_replacement_command_cancel_and_wrong_joints_through_actionlib(arm
     assert node.process.poll() is None
 
 
+def points(
+    arm: Arm, times: np.ndarray, positions: np.ndarray, velocities: np.ndarray, accelerations: np.ndarray
+) -> Any:
+    """A JointTrajectory of the Panda through these samples (time_from_start, then the three per joint)."""
+    message = arm.JointTrajectory()
+    message.joint_names = list(PANDA.joint_names)
+    for t, q, v, a in zip(times, positions, velocities, accelerations):
+        point = arm.JointTrajectoryPoint()
+        point.positions, point.velocities, point.accelerations = q.tolist(), v.tolist(), a.tolist()
+        point.time_from_start = arm.rospy.Duration.from_sec(float(t))
+        message.points.append(point)
+    return message
+
+
+def test_a_press_as_a_braking_replacement_stops_the_approach_smoothly_short_of_its_end(
+    arm: tuple[ManagedProcess, Arm],
+) -> None:
+    """What the runner will do on a press: the approach as one goal, then braking along its path from the
+    controller's desired state (query_state, a little ahead), sent as a replacement stamped with that time."""
+    from actionlib_msgs.msg import GoalStatus
+
+    from sim.study.safety.braking import PathGeometry, PathState, arc_length, brake
+    from tests.unit.sim.study.safety.plans import panda_plan
+
+    _, arm_ = arm
+    rospy = arm_.rospy
+    path, joints = panda_plan("diagonal", 0.5)
+    geometry = PathGeometry(path, joints)
+    arc, accelerations = arc_length(path), np.gradient(path.speeds, path.dt)
+    planned = [geometry.joint_state(PathState(arc[k], path.speeds[k], accelerations[k])) for k in range(len(arc))]
+    q, v, a = (np.array([state[i] for state in planned]) for i in range(3))
+
+    start = arm_.send(points(arm_, np.array([2.0]), q[:1], np.zeros((1, 7)), np.zeros((1, 7))))
+    assert arm_.outcome(start)[0] == GoalStatus.SUCCEEDED
+    approach = arm_.send(points(arm_, path.times[1:], q[1:], v[1:], a[1:]))
+    wait_for(lambda: len(arm_.states) and np.linalg.norm(arm_.latest().velocity) > 0.3, 20, "the approach at speed")
+
+    query = rospy.ServiceProxy(f"{NS}/query_state", arm_.types.query_state)
+    at = rospy.Time.now() + rospy.Duration.from_sec(0.1)  # ahead of the replacement's way there
+    desired = query(arm_.types.query_state_request(time=at))
+    stop = brake(geometry, *(np.array(x) for x in (desired.position, desired.velocity, desired.acceleration)), 0.01)
+    assert stop is not None and stop.start.speed > 0.1 and stop.arc[-1] < geometry.length - 0.05
+    sent_at = len(arm_.states)
+    braking = arm_.send(
+        points(arm_, stop.times[1:], stop.positions[1:], stop.velocities[1:], stop.accelerations[1:]), stamp=at
+    )
+    assert arm_.outcome(approach)[0] == GoalStatus.PREEMPTED
+    assert arm_.outcome(braking) == (GoalStatus.SUCCEEDED, arm_.types.result.SUCCESSFUL)
+
+    def resting() -> bool:
+        recent = arm_.states[-15:]
+        return len(recent) == 15 and max(np.abs(s.velocity).max() for s in recent) < 1e-3
+
+    wait_for(resting, 20, "the arm at rest")
+    np.testing.assert_allclose(arm_.latest().position, stop.positions[-1], atol=1e-3)  # where braking rests
+    # No step in the achieved velocity around the replacement: its changes between joint states stay within the
+    # Panda's acceleration limits.
+    around = arm_.states[max(sent_at - 30, 0) :]
+    stamps = np.array([s.header.stamp.to_sec() for s in around])
+    velocities = np.array([s.velocity for s in around])
+    achieved = np.abs(np.diff(velocities, axis=0)) / np.diff(stamps)[:, None]
+    assert np.all(achieved <= np.array([15, 7.5, 10, 12.5, 15, 20, 20])), achieved.max(axis=0)
+
+
 @pytest.mark.lane("beside", on=("project",))
 def test_a_trajectory_controller_in_lockstep_is_one_line_and_exit_2(tmp_path: Path) -> None:
     done = subprocess.run(
