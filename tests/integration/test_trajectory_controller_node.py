@@ -228,7 +228,7 @@ def test_a_press_as_a_braking_replacement_stops_the_approach_smoothly_short_of_i
 
     _, arm_ = arm
     rospy = arm_.rospy
-    path, joints = panda_plan("diagonal", 0.5)
+    path, joints = panda_plan("diagonal", 0.3)  # 2.5 s: room for a test process slowed by a loaded machine
     geometry = PathGeometry(path, joints)
     arc, accelerations = arc_length(path), np.gradient(path.speeds, path.dt)
     planned = [geometry.joint_state(PathState(arc[k], path.speeds[k], accelerations[k])) for k in range(len(arc))]
@@ -237,10 +237,12 @@ def test_a_press_as_a_braking_replacement_stops_the_approach_smoothly_short_of_i
     start = arm_.send(points(arm_, np.array([2.0]), q[:1], np.zeros((1, 7)), np.zeros((1, 7))))
     assert arm_.outcome(start)[0] == GoalStatus.SUCCEEDED
     approach = arm_.send(points(arm_, path.times[1:], q[1:], v[1:], a[1:]))
-    wait_for(lambda: len(arm_.states) and np.linalg.norm(arm_.latest().velocity) > 0.3, 20, "the approach at speed")
+    wait_for(lambda: np.linalg.norm(arm_.latest().velocity) > 0.1, 20, "the approach under way")
 
     query = rospy.ServiceProxy(f"{NS}/query_state", arm_.types.query_state)
-    at = rospy.Time.now() + rospy.Duration.from_sec(0.1)  # ahead of the replacement's way there
+    # The braking starts from the desired state a little ahead: the replacement must arrive before that time, or
+    # the controller bridges from where its desired state has gone meanwhile (the runner's look-ahead, likewise).
+    at = rospy.Time.now() + rospy.Duration.from_sec(0.3)
     desired = query(arm_.types.query_state_request(time=at))
     stop = brake(geometry, *(np.array(x) for x in (desired.position, desired.velocity, desired.acceleration)), 0.01)
     assert stop is not None and stop.start.speed > 0.1 and stop.arc[-1] < geometry.length - 0.05
