@@ -18,6 +18,7 @@ setup(
         "sim.robots": ["*.yaml", "urdf/*.urdf"],
         "sim.study.design": ["*.yaml"],
         "sim.study.run": ["protocol.json"],
+        "sim.wire": ["interfaces/control_msgs/*/*"],  # control_msgs' definitions (sim.wire.control_types)
         "sim.study.questionnaires": ["*.json"],
         # the VR page, and the npm packages setup.sh fetched beside it (node_modules)
         "sim.study.views.vr": ["web/*.html", "web/*.css", "web/*.js", "web/*.json", "web/node_modules/**/*"],

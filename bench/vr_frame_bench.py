@@ -48,7 +48,7 @@ from typing import Any
 import numpy as np
 
 from bridge.client import TcpClient
-from measuring.browser import chromium, start_vr_page
+from measuring.browser import chromium, launch_secrets, start_vr_page
 from measuring.stats import percentile
 from sim.processes import EndpointProcess, ManagedProcess, RosCore, wait_for
 from sim.study.design.scene import load_scene, scene_robot
@@ -225,10 +225,11 @@ def main() -> int:
     results: dict[str, dict[str, dict[str, Any]]] = {}
     received = PosesReceived()
     try:
-        endpoint = EndpointProcess(core.env, tmp, extra=["--websocket-port", "0"])
+        secrets = launch_secrets()  # the launch's proxy secret, for the endpoint and the page's server
+        endpoint = EndpointProcess({**core.env, **secrets}, tmp, extra=["--websocket-port", "0"])
         processes.append(endpoint)
         assert endpoint.websocket_port is not None  # asked for with --websocket-port
-        vr, url = start_vr_page(endpoint.websocket_port, tmp, frame_time=True)
+        vr, url = start_vr_page(endpoint.websocket_port, tmp, frame_time=True, env=secrets)
         processes.append(vr)
         publisher = threading.Thread(target=publish_joint_states, args=(endpoint.port, stop, received), daemon=True)
         publisher.start()

@@ -8,7 +8,8 @@ cd "$repo"
 
 apt_packages=(ros-core python3-rospy python3-rosbag python3-sensor-msgs python3-trajectory-msgs
   ros-message-generation ros-message-runtime ros-std-msgs ros-geometry-msgs libstd-msgs-dev libgeometry-msgs-dev
-  python3-diagnostic-msgs
+  python3-diagnostic-msgs python3-actionlib python3-actionlib-msgs
+  ros-actionlib-msgs libactionlib-msgs-dev ros-trajectory-msgs libtrajectory-msgs-dev
   python3-geometry-msgs python3-std-msgs python3-rosgraph-msgs python3-std-srvs python3-tf2-msgs
   ros-robot-state-publisher python3-yaml python3-wsproto
   python3-pip

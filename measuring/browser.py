@@ -4,24 +4,39 @@ frame-time bench."""
 
 from __future__ import annotations
 
-from collections.abc import Iterator, Sequence
+import secrets
+from collections.abc import Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
 from sim.launchers import ButtonServer, VrServer, start
 from sim.processes import ManagedProcess, plain_env
+from sim.study.views.vr.relay import AUTH_TOKEN_ENV, PROXY_SECRET_ENV
 
 CHROMIUM, CHROMEDRIVER = "/usr/bin/chromium", "/usr/bin/chromedriver"
 
 
+def launch_secrets(auth_token: str | None = None) -> dict[str, str]:
+    """One launch's secrets shared by an endpoint and its page servers, as the environment gives them: a new proxy
+    secret (the endpoint believes the page server's X-Forwarded-For only with it), and the endpoint's `auth_token`
+    when it has one (the page servers authenticate the pages with it)."""
+    made = {PROXY_SECRET_ENV: secrets.token_urlsafe(18)}
+    return made if auth_token is None else {**made, AUTH_TOKEN_ENV: auth_token}
+
+
 def start_vr_page(
-    websocket_port: int, log_dir: Path, frame_time: bool = False, robot: Sequence[str] = ()
+    websocket_port: int,
+    log_dir: Path,
+    frame_time: bool = False,
+    robot: Sequence[str] = (),
+    env: Mapping[str, str] | None = None,
 ) -> tuple[ManagedProcess, str]:
     """`python -m sim.study vr` with the emulated headset and the tests' probe (window.vrPage), and with `frame_time`
     the frame-time instrument (window.vrFrameTime), on a free port of localhost, passing its WebSocket to the
     endpoint's `websocket_port`, its certificate made in log_dir/certificate; `robot`: its --robot options (default:
-    the scene's). Returned once it serves, with the page's URL."""
+    the scene's); `env`: more environment (launch_secrets). Returned once it serves, with the page's URL (and its
+    key)."""
     server = VrServer(
         websocket_port,
         certificate_dir=log_dir / "certificate",
@@ -29,15 +44,17 @@ def start_vr_page(
         frame_time=frame_time,
         robot=robot,
     )
-    vr = start(server, plain_env(), log_dir, "vr")
+    vr = start(server, {**plain_env(), **(env or {})}, log_dir, "vr")
     return vr, server.page_url(vr.output())
 
 
-def start_button_page(websocket_port: int, log_dir: Path) -> tuple[ManagedProcess, str]:
+def start_button_page(
+    websocket_port: int, log_dir: Path, env: Mapping[str, str] | None = None
+) -> tuple[ManagedProcess, str]:
     """`python -m sim.study button` with the emulated gamepad and the tests' probe (window.buttonPage), as
-    start_vr_page starts the VR page. Returned once it serves, with the page's URL."""
+    start_vr_page starts the VR page. Returned once it serves, with the page's URL (and its key)."""
     server = ButtonServer(websocket_port, certificate_dir=log_dir / "certificate", emulate_gamepad=True)
-    button = start(server, plain_env(), log_dir, "button")
+    button = start(server, {**plain_env(), **(env or {})}, log_dir, "button")
     return button, server.page_url(button.output())
 
 

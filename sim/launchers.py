@@ -191,15 +191,27 @@ class LiveView:
         ]
 
 
+def _server_options(host: str, port: int, allow_hosts: Sequence[str], plain_http: bool) -> list[str]:
+    """The page server's own options (sim.study.views.cli), the same for the VR and the button page."""
+    return [
+        *("--port", str(port), "--host", host),
+        *[option for name in allow_hosts for option in ("--allow-host", name)],
+        *_flag("--plain-http", plain_http),
+    ]
+
+
 @dataclass(frozen=True)
 class VrServer:
     """`python -m sim.study vr`: the VR page's server on `host`:`port` (0: a free one), passing the page's WebSocket
-    to the endpoint's `websocket_port`; `certificate_dir` holds its self-signed certificate."""
+    to the endpoint's `websocket_port`; `certificate_dir` holds its self-signed certificate. The endpoint's token and
+    proxy secret go in its environment (sim.study.views.vr.relay's AUTH_TOKEN_ENV, PROXY_SECRET_ENV), not here."""
 
     websocket_port: int
     port: int = 0
     host: str = "127.0.0.1"
     certificate_dir: Path | None = None
+    allow_hosts: Sequence[str] = ()  # names the page may be opened by beyond the machine's own
+    plain_http: bool = False
     emulate_headset: bool = False  # and the tests' probe
     frame_time: bool = False  # the frame-time instrument, for the bench
     robot: Sequence[str] = ()
@@ -209,7 +221,7 @@ class VrServer:
     def argv(self) -> list[str]:
         return [
             *(PYTHON, "-m", "sim.study", "vr", "--websocket-port", str(self.websocket_port)),
-            *("--port", str(self.port), "--host", self.host),
+            *_server_options(self.host, self.port, self.allow_hosts, self.plain_http),
             *_option("--certificate-dir", self.certificate_dir),
             *_flag("--emulate-headset", self.emulate_headset),
             *_flag("--frame-time", self.frame_time),
@@ -219,7 +231,7 @@ class VrServer:
 
     @staticmethod
     def page_url(output: str) -> str:
-        """The page's address, from the server's output once it is ready."""
+        """The page's address (with this launch's key), from the server's output once it is ready."""
         return next(line.split("the page: ")[1] for line in output.splitlines() if "the page: " in line)
 
 
@@ -232,6 +244,8 @@ class ButtonServer:
     port: int = 0
     host: str = "127.0.0.1"
     certificate_dir: Path | None = None
+    allow_hosts: Sequence[str] = ()
+    plain_http: bool = False
     emulate_gamepad: bool = False
     extra: Sequence[str] = ()
     ready = "its WebSocket /ros goes to"
@@ -239,7 +253,7 @@ class ButtonServer:
     def argv(self) -> list[str]:
         return [
             *(PYTHON, "-m", "sim.study", "button", "--websocket-port", str(self.websocket_port)),
-            *("--port", str(self.port), "--host", self.host),
+            *_server_options(self.host, self.port, self.allow_hosts, self.plain_http),
             *_option("--certificate-dir", self.certificate_dir),
             *_flag("--emulate-gamepad", self.emulate_gamepad),
             *self.extra,

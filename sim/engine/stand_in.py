@@ -5,6 +5,7 @@ endpoint, steps the pybullet physics, and publishes `<robot>/joint_states` after
   auto-simulate on  (default): steps on its own wall clock (x `--time-scale`); stamps follow /clock if it runs.
   auto-simulate off (--no-auto-simulate): steps only as /clock advances (lockstep with the commander); when it
       (re)anchors its step grid on a /clock value it publishes its current joint state stamped with that value.
+An endpoint that wants a token (--auth-token) gets it from the environment variable ROS_TCP_AUTH_TOKEN.
 Offline (`--csv`): replays desired joint positions from a CSV without ROS or TCP and logs the achieved ones.
 
 CSV formats (both): a header row `time,<joint name>,...` then one row per sample, time in s, positions in rad/m.
@@ -15,6 +16,7 @@ from __future__ import annotations
 
 import argparse
 import logging
+import os
 import sys
 import threading
 import time
@@ -413,7 +415,8 @@ def _run_online(
 ) -> int:
     import signal
 
-    client = TcpClient(args.host, args.port)
+    # an endpoint started with --auth-token: its token from the environment, as the page server takes it (not in ps)
+    client = TcpClient(args.host, args.port, auth_token=os.environ.get("ROS_TCP_AUTH_TOKEN") or None)
     engine = EngineStandIn(robot, client, options, recorder)
     engine.attach()
     for signum in (signal.SIGINT, signal.SIGTERM):

@@ -8,6 +8,7 @@
   view --port P [--http-port 8080]                            the experimenter's live 3-D view (a web page)
   vr --websocket-port W [--port 8443]                         the VR condition's page for a WebXR headset (HTTPS)
   button --websocket-port W [--port 8444]                     reality's stop button page: a USB button, pedal, gamepad
+  tracker --config YAML --participant N --out DIR             a tracker calibrated into the scene, relayed (ROS)
   analyse DIR [--out DIR] [--design D]                        the report (verdicts, models) over every CSV in DIR
   simulate --participants 12 --out DIR                        the whole study with simulated participants, end to end
   power --test 2 [--difference D --sd-between S ...]          the sample size, from studies simulated without physics

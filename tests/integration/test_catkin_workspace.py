@@ -28,6 +28,7 @@ from bridge.client import TcpClient
 from sim.campaign import analysis
 from sim.robots import load_robot
 from tests.rosenv import PYTHON, REPO, ManagedProcess, RosCore, free_port, wait_for
+from tests.unit.sim.wire.test_control_types import PUBLISHED_MD5SUMS
 
 pytestmark = pytest.mark.lane("alone", on=("project",))
 
@@ -81,6 +82,8 @@ def workspace(tmp_path_factory: pytest.TempPathFactory) -> Path:
             (clone / name).parent.mkdir(parents=True, exist_ok=True)
             shutil.copy2(source, clone / name, follow_symlinks=False)
     shutil.copytree(REPO / "tests" / "fixtures" / "catkin" / "vr_test_msgs", workspace / "src" / "vr_test_msgs")
+    # Debian packages no control_msgs: its user builds the repository's subset (docs/trajectory_controller.md).
+    (clone / "catkin_ws" / "src" / "control_msgs" / "CATKIN_IGNORE").unlink()
     for command in ("catkin_make", "catkin_make install"):
         result = subprocess.run(
             ["bash", "-c", command], cwd=workspace, env=user_env(), capture_output=True, text=True, timeout=600
@@ -383,6 +386,21 @@ def test_user_types_with_no_definition_at_all_from_the_graph(
     finally:
         endpoint.stop()
         ros_publisher.stop()
+
+
+def test_the_control_msgs_subset_builds_from_the_carried_definitions_with_the_published_md5sums(
+    workspace: Path,
+) -> None:
+    names = sorted(PUBLISHED_MD5SUMS)
+    # The service's classes are in control_msgs.srv, the messages' in control_msgs.msg.
+    code = (
+        f"import control_msgs.msg as m, control_msgs.srv as s; names = {names!r}; "
+        "print(' '.join(getattr(s if 'Query' in n else m, n.split('/')[1])._md5sum for n in names))"
+    )
+    for space in ("devel", "install"):
+        result = in_space(workspace, space, f'python3 -c "{code}"')
+        assert result.returncode == 0, result.stderr
+        assert dict(zip(names, result.stdout.split())) == PUBLISHED_MD5SUMS, space
 
 
 # --- vr_sim -------------------------------------------------------------------------------------------------------

@@ -48,6 +48,7 @@ from sim.wire.rosmsgs import (
     time_msg,
     to_seconds,
 )
+from tests.doc_figures import figures_of, markdown_tables, shape_mismatch
 from tests.integration.sim_helpers import start_engine
 from tests.integration.study_helpers import SMALL_DESIGN, trial, write_plan
 from tests.robot_files import PANDA_WITH_HAND
@@ -253,6 +254,11 @@ def test_simulated_participants_run_the_study_and_the_analysis_recovers_their_bi
     for plot in ("test1_distance_perception.png", "test2_comfort_distance.png", "agreement_bland_altman.png"):
         assert f"]({plot})" in report and (out / plot).stat().st_size > 10_000
     assert "## VR against reality: the verdicts" in report and "### Test 2: the mixed model" in report
+    # README's tables of simulated studies have the columns and rows that simulate prints today
+    for figures in figures_of("python -m sim.study simulate"):
+        assert shape_mismatch(figures, markdown_tables(report)) is None, shape_mismatch(
+            figures, markdown_tables(report)
+        )
     from sim.study.analysis.latency import summarise_latency
     from sim.study.analysis.motion import summarise_motion
     from sim.study.analysis.report import load_study

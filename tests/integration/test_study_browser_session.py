@@ -24,7 +24,8 @@ from typing import Any
 import numpy as np
 import pytest
 
-from measuring.browser import chromium, start_button_page, start_vr_page
+from measuring.browser import chromium, launch_secrets, start_button_page, start_vr_page
+from sim.launchers import Engine, start
 from sim.study.design.feasibility import Approaches
 from sim.study.design.paths import ON_TOP
 from sim.study.design.scene import load_scene, scene_robot
@@ -32,7 +33,6 @@ from sim.study.motion.measures import WITHDRAWAL_LIMIT
 from sim.study.run.protocol import BODIES, TRACKING_GAP
 from sim.wire.contract import STEP_S
 from sim.wire.rosmsgs import decode_joint_state, to_seconds
-from tests.integration.sim_helpers import start_engine
 from tests.integration.study_helpers import questionnaire, trial, write_plan
 from tests.integration.test_study_vr import (
     COMFORT,
@@ -48,6 +48,7 @@ from tests.integration.test_study_vr import page_state as vr_state
 from tests.rosenv import PYTHON, EndpointProcess, ManagedProcess, RosCore, wait_for
 
 PARTICIPANT = 7
+TOKEN = "the-labs-endpoint-token"  # the endpoint's --auth-token
 PERCEIVED, VR_TRIAL, REALITY_TRIAL = 1, 2, 3  # test 1 in VR, then test 2 in VR and in reality
 CONTROLLERS_APART = 0.1  # m: the left controller beside the right, which is on the hand (test 1's answer)
 PRESS_AFTER_FRAMES = 3  # the VR page's frames into the approach before the trigger: the robot is on its way
@@ -129,15 +130,29 @@ def test_a_session_of_both_conditions_in_the_two_pages_is_analysed_as_a_pilot(tm
     # ROS time is the runner's /clock: the endpoint answers the pages' pings with it, so they stamp their presses on
     # the runner's clock
     subprocess.run(["rosparam", "set", "/use_sim_time", "true"], env=core.env, check=True, timeout=30)
-    endpoint = EndpointProcess(core.env, tmp_path, extra=["--websocket-port", "0"])
+    # The endpoint wants a token, which the pages' servers hold and send for the pages (a page never sees it); one
+    # proxy secret for the launch, which the servers show with each browser's address
+    secrets = launch_secrets(TOKEN)
+    endpoint = EndpointProcess(
+        {**core.env, **secrets}, tmp_path, extra=["--websocket-port", "0", "--auth-token", TOKEN]
+    )
     processes: list[ManagedProcess] = [endpoint]
     out = tmp_path / "out"
     scene = load_scene()
     try:
-        processes.append(start_engine(core, tmp_path, "panda", endpoint.port, "--no-auto-simulate"))
-        vr, vr_url = start_vr_page(endpoint.websocket_port, tmp_path / "vr")
+        # the engine is a TCP client of the endpoint like Unity's, with the token from its environment
+        processes.append(
+            start(
+                Engine(("--robot", "panda"), port=endpoint.port, auto_simulate=False),
+                {**core.env, **secrets},
+                tmp_path,
+                "engine",
+                timeout=30,
+            )
+        )
+        vr, vr_url = start_vr_page(endpoint.websocket_port, tmp_path / "vr", env=secrets)
         processes.append(vr)
-        button, button_url = start_button_page(endpoint.websocket_port, tmp_path / "button")
+        button, button_url = start_button_page(endpoint.websocket_port, tmp_path / "button", env=secrets)
         processes.append(button)
         # two browsers, each page in front in its own: a page in a background tab draws no frames, and both pages
         # act on their frames (the headset's input, the gamepad's readings)

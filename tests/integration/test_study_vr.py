@@ -9,6 +9,7 @@ both hands), which the runner's bag records."""
 from __future__ import annotations
 
 import csv
+import os
 import socket
 import ssl
 import subprocess
@@ -20,7 +21,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from measuring.browser import chromium, start_vr_page
+from measuring.browser import chromium, launch_secrets, start_vr_page
 from sim.study.design.feasibility import Approaches
 from sim.study.design.paths import ON_TOP
 from sim.study.design.scene import load_scene, scene_robot
@@ -28,7 +29,7 @@ from sim.study.run.protocol import BODIES, POSE_FRAME, POSE_TOPICS, STATUS_TOPIC
 from sim.study.views.live import COLOURS
 from sim.wire.contract import STEP_S
 from sim.wire.rosmsgs import TYPESTORE, decode_joint_state, deserialize, to_seconds
-from tests.integration.bridge_helpers import DiagnosticsInbox, start_endpoint, tcp_client
+from tests.integration.bridge_helpers import DiagnosticsInbox, tcp_client
 from tests.integration.pixels import pixels_like
 from tests.integration.sim_helpers import start_engine
 from tests.integration.study_helpers import questionnaire, trial, write_plan
@@ -182,13 +183,14 @@ def test_an_emulated_quest_enters_the_session_and_answers_the_runner(tmp_path: P
     # ROS time is the runner's /clock: the endpoint answers the page's pings with it, so the page stamps its presses
     # on the runner's clock
     subprocess.run(["rosparam", "set", "/use_sim_time", "true"], env=core.env, check=True, timeout=30)
-    endpoint = EndpointProcess(core.env, tmp_path, extra=["--websocket-port", "0"])
+    secrets = launch_secrets()  # the proxy secret, shared by the endpoint and the page's server
+    endpoint = EndpointProcess({**core.env, **secrets}, tmp_path, extra=["--websocket-port", "0"])
     processes: list[ManagedProcess] = [endpoint]
     try:
         processes.append(start_engine(core, tmp_path, "panda", endpoint.port, "--no-auto-simulate"))
-        vr, url = start_vr_page(endpoint.websocket_port, tmp_path)
+        vr, url = start_vr_page(endpoint.websocket_port, tmp_path, env=secrets)
         processes.append(vr)
-        assert url.startswith("https://localhost:")
+        assert url.startswith("https://localhost:") and "/?key=" in url
         assert (tmp_path / "certificate" / "certificate.pem").is_file()
         with chromium(tmp_path / "chromium", accept_insecure_certs=True, size="800,600") as browser:
             browser.get(url)
@@ -413,9 +415,10 @@ return counted;"""
 def test_the_page_shows_another_arm_with_its_meshes(roscore, tmp_path: Path, name: str) -> None:
     urdf = study_arm(tmp_path, name)
     visual_meshes = urdf.read_text().count("<visual")  # each a mesh on the page, a primitive or a mesh file's
-    endpoint = EndpointProcess(roscore.env, tmp_path, extra=["--websocket-port", "0"])
+    secrets = launch_secrets()
+    endpoint = EndpointProcess({**roscore.env, **secrets}, tmp_path, extra=["--websocket-port", "0"])
     try:
-        vr, url = start_vr_page(endpoint.websocket_port, tmp_path, robot=("--robot", str(urdf)))
+        vr, url = start_vr_page(endpoint.websocket_port, tmp_path, robot=("--robot", str(urdf)), env=secrets)
         try:
             with chromium(tmp_path / "chromium", accept_insecure_certs=True, size="800,600") as browser:
                 browser.get(url)
@@ -432,22 +435,29 @@ def test_the_page_shows_another_arm_with_its_meshes(roscore, tmp_path: Path, nam
 
 
 def test_the_pages_server_passes_only_its_own_page_on_with_the_browsers_address(roscore, ros_node, tmp_path) -> None:
-    """`python -m sim.study vr` in front of an endpoint that allows no page: its own page's WebSocket is served (the
-    server checked the Origin and says the browser's address); another page's is refused by the server itself."""
-    endpoint = start_endpoint(roscore, tmp_path / "endpoint", "--websocket-port", "0")
+    """`python -m sim.study vr` in front of an endpoint that allows no page: its own page's WebSocket is served over
+    TLS (the server checked the key and the Origin and says the browser's address, with the launch's proxy secret);
+    another page's is refused by the server itself, as is one without the key. (The page server's refusals in full
+    are test_study_page_server.py's.)"""
+    secrets = launch_secrets()
+    endpoint = EndpointProcess(
+        {**roscore.env, **secrets}, tmp_path / "endpoint", f"endpoint_vr_{os.getpid()}", ["--websocket-port", "0"]
+    )
     diagnostics = DiagnosticsInbox(ros_node, "/" + endpoint.name)
-    vr, url = start_vr_page(endpoint.websocket_port, tmp_path / "vr")
+    vr, url = start_vr_page(endpoint.websocket_port, tmp_path / "vr", env=secrets)
     try:
-        page = url.split("://", 1)[1].split("/", 1)[0]
+        page, key = url.split("://", 1)[1].split("/?key=", 1)
         host, port = page.rsplit(":", 1)
         own = f"https://{page}"
-        with _tls_websocket(host, int(port), own) as (answer, sock):
+        with _tls_websocket(host, int(port), own, key) as (answer, sock):
             assert answer.startswith(b"HTTP/1.1 101"), answer
             # the browser's address (loopback here too), said by the server: the endpoint counts the client by it
             wait_for(lambda: diagnostics.find("127.0.0.1 via 127.0.0.1:"), 10, "the page's client on /diagnostics")
-        with _tls_websocket(host, int(port), "https://attacker.example") as (answer, _):
+        with _tls_websocket(host, int(port), "https://attacker.example", key) as (answer, _):
             assert answer.startswith(b"HTTP/1.1 403") and b"attacker.example" in answer, answer
-        assert "refused a WebSocket from the page https://attacker.example" in vr.output()
+        with _tls_websocket(host, int(port), own, "") as (answer, _):
+            assert answer.startswith(b"HTTP/1.1 403") and b"launch's key" in answer, answer
+        assert "refused /ros to 127.0.0.1: only this server's page" in vr.output()
     finally:
         diagnostics.close()
         vr.stop()
@@ -455,16 +465,16 @@ def test_the_pages_server_passes_only_its_own_page_on_with_the_browsers_address(
 
 
 class _tls_websocket:
-    """A WebSocket upgrade over TLS to the VR page's server, as a browser on `origin` sends it; yields the answer's
-    head and the socket."""
+    """A WebSocket upgrade over TLS to the VR page's server, as a browser on `origin` sends it with the launch's
+    `key` (none: "") in its query; yields the answer's head and the socket."""
 
-    def __init__(self, host: str, port: int, origin: str) -> None:
+    def __init__(self, host: str, port: int, origin: str, key: str) -> None:
         context = ssl.create_default_context()
         context.check_hostname = False
         context.verify_mode = ssl.CERT_NONE  # the server's self-signed certificate
         self.sock = context.wrap_socket(socket.create_connection((host, port), timeout=10), server_hostname=host)
         self.request = (
-            f"GET /ros HTTP/1.1\r\nHost: {host}:{port}\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
+            f"GET /ros?key={key} HTTP/1.1\r\nHost: {host}:{port}\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
             f"Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\nOrigin: {origin}\r\n\r\n"
         ).encode()
 

@@ -130,12 +130,14 @@ def test_sim_parts_import_only_from_the_layers_below() -> None:
 # simulated participants or shown (participants, views) and analysed (analysis); power and the end-to-end simulation
 # use all of those. The protocol that the runner and its answerers speak is in run/, below everyone who answers it.
 # The questionnaires (instruments and their scoring) are below the design, which says when each is asked; the
-# motion's measures (from tracked poses alone) below the runner, which takes them per approach.
+# motion's measures (from tracked poses alone) below the runner, which takes them per approach. The safety checks (the
+# limits a plan keeps, the braking on a press) between the design, which `check` verifies, and the runner.
 STUDY_LAYERS = (
     ("errors",),
     ("checks",),
     ("questionnaires", "motion"),
     ("design",),
+    ("safety",),
     ("run",),
     ("participants", "analysis", "views"),
     ("power", "simulation"),
@@ -247,7 +249,16 @@ SIM_ROSDEP_KEYS = {
 # Imported only by commands that are no ROS node: the campaign's progress bar and the study's live view (a missing
 # one is named in one line, as any other, by sim.entry.run_as_ros_command and setup.py installs both).
 SIM_OFF_NODE_PACKAGES = {"tqdm", "viser", "yourdfpy"}
-ROS_MESSAGE_PACKAGES = {"geometry_msgs", "sensor_msgs", "trajectory_msgs", "rosgraph_msgs", "tf2_msgs", "std_msgs"}
+ROS_MESSAGE_PACKAGES = {
+    "geometry_msgs",
+    "sensor_msgs",
+    "trajectory_msgs",
+    "rosgraph_msgs",
+    "tf2_msgs",
+    "std_msgs",
+    "actionlib_msgs",  # control_msgs' action types, generated at run time (sim.wire.control_types)
+    "actionlib",  # the stand-in's trajectory controller serves the action
+}
 
 
 def test_every_package_sim_imports_has_a_rosdep_key_in_vr_sim() -> None:

@@ -19,6 +19,7 @@ setup(
             "sim.robots": ["*.yaml", "urdf/*.urdf"],
             "sim.study.design": ["*.yaml"],
             "sim.study.run": ["protocol.json"],
+            "sim.wire": ["interfaces/control_msgs/*/*"],
         },
     )
 )

@@ -24,11 +24,16 @@ def register(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> N
 def analyse_command(args: argparse.Namespace) -> int:
     from sim.study.analysis.questionnaires import load_questionnaires, summarise_questionnaires
     from sim.study.analysis.report import load_study, write_report
+    from sim.study.analysis.trackers import load_trackers, summarise_trackers
 
     sesoi = load_design(args.design).sesoi
     questionnaires = summarise_questionnaires(load_questionnaires(args.directory))
     report = write_report(
-        load_study(args.directory), args.out or args.directory, sesoi=sesoi, questionnaires=questionnaires
+        load_study(args.directory),
+        args.out or args.directory,
+        sesoi=sesoi,
+        questionnaires=questionnaires,
+        trackers=summarise_trackers(load_trackers(args.directory)),
     )
     print(report.read_text(), end="")
     print(f"report: {report}")

@@ -332,8 +332,10 @@ def _model_line(c: MotionComparison) -> str:
     )
 
 
-def motion_lines(summary: MotionSummary) -> list[str]:
-    """The report's section on the participant's motion; when nothing was tracked, one line that says so."""
+def motion_lines(summary: MotionSummary, caveat: str = "", trackers: Sequence[str] = ()) -> list[str]:
+    """The report's section on the participant's motion; when nothing was tracked, one line that says so. `caveat`
+    (sim.study.analysis.trackers): what every VR − reality contrast carries when the conditions' trackers differ;
+    `trackers`: the lines on them, after the tracking's."""
     lines = ["## The participant's motion", ""]
     if not summary.recorded:
         return lines + [
@@ -371,6 +373,10 @@ def motion_lines(summary: MotionSummary) -> list[str]:
     ]
     if left:
         lines += ["Trials left out of a measure, which have no value of it, and why:", "", *left, ""]
+    if caveat:
+        measures = ", ".join(f"test {c.measure.test}'s {c.measure.label}" for c in summary.comparisons)
+        modelled = ", and the model below" if any(c.model is not None for c in summary.comparisons) else ""
+        lines += [f"**Caveat on every VR − reality contrast here** ({measures}{modelled}): {caveat}.", ""]
     lines += [_model_line(c) for c in summary.comparisons if c.model is not None]
     if any(c.model is not None for c in summary.comparisons):
         lines.append("")
@@ -402,6 +408,7 @@ def motion_lines(summary: MotionSummary) -> list[str]:
             named = "; ".join(f"participant {p} ({_counts(counts)})" for p, counts in participants.items())
             lines.append(f"Trials in which {_MISSING[body]}, left out of its measures: {named}.")
     lines.append("")
+    lines += trackers
     if summary.notes:
         lines += [f"- {note}" for note in summary.notes] + [""]
     return lines

@@ -22,6 +22,7 @@ from sim.study.analysis.motion import MotionSummary, motion_lines, summarise_mot
 from sim.study.analysis.questionnaires import QuestionnaireSummary, questionnaire_lines
 from sim.study.analysis.statistics import Estimate, PairedComparison
 from sim.study.analysis.summary import StudySummary, cell, per_participant, perceived_ratio, summarise
+from sim.study.analysis.trackers import TrackerSummary, tracker_caveat, tracker_lines
 from sim.study.design.spec import CONDITIONS
 from sim.study.run.records import TrialRecord, read_records
 
@@ -189,6 +190,7 @@ def _markdown(
     title: str,
     questionnaires: QuestionnaireSummary | None,
     modelled: bool,
+    trackers: TrackerSummary | None = None,
 ) -> str:
     flag = keyboard_flag(latency)  # first, as it biases the contrast
     lines = [f"# {title}", "", *([flag, ""] if flag else [])]
@@ -200,7 +202,7 @@ def _markdown(
                 f"at the press by {summary.extrapolation_error.mean * 1000:.1f} mm on average.",
                 "",
             ]
-        return _rest(lines, summary, latency, motion, plots, questionnaires)
+        return _rest(lines, summary, latency, motion, plots, questionnaires, trackers)
     assert summary.distance_ratio_vr_vs_reality and summary.stop_distance_vr_vs_reality  # 2+ participants
     assert summary.extrapolation_error
     lines += [
@@ -264,7 +266,7 @@ def _markdown(
         f"at the press by {_estimate_cell(error, 1000.0, 1)} mm on average.",
         "",
     ]
-    return _rest(lines, summary, latency, motion, plots, questionnaires)
+    return _rest(lines, summary, latency, motion, plots, questionnaires, trackers)
 
 
 def _rest(
@@ -274,10 +276,12 @@ def _rest(
     motion: MotionSummary,
     plots: list[Path],
     questionnaires: QuestionnaireSummary | None,
+    trackers: TrackerSummary | None = None,
 ) -> str:
-    """The sections after the tests', a pilot's as well: the motion, the latency, the notes, the questionnaires and
-    the plots."""
-    lines += [*motion_lines(motion), *latency_lines(latency)]
+    """The sections after the tests', a pilot's as well: the motion (with its trackers), the latency, the notes, the
+    questionnaires and the plots."""
+    motion_section = motion_lines(motion, tracker_caveat(trackers), tracker_lines(trackers) if motion.recorded else [])
+    lines += [*motion_section, *latency_lines(latency)]
     if summary.notes:
         lines += ["Notes:", ""] + [f"- {note}" for note in summary.notes] + [""]
     if questionnaires is not None:
@@ -393,9 +397,11 @@ def write_report(
     title: str = "Perception study",
     sesoi: Mapping[int, float] | None = None,
     questionnaires: QuestionnaireSummary | None = None,
+    trackers: TrackerSummary | None = None,
 ) -> Path:
     """report.md and its plots in `out`; with `sesoi` (per test, the design's), the verdicts, mixed models (the
-    withdrawal's among them) and Bland–Altman plot too; with `questionnaires`, their section. AnalysisError when the
+    withdrawal's among them) and Bland–Altman plot too; with `questionnaires`, their section; with `trackers` (the
+    sessions' pose sources), which tracked each condition and the caveat when they differ. AnalysisError when the
     records cannot be analysed."""
     import matplotlib
 
@@ -412,5 +418,5 @@ def write_report(
     # the withdrawal's mixed model with the design's, as the full analysis is asked for with the design
     motion = summarise_motion(records, model=sesoi is not None)
     latency = summarise_latency(records)
-    report.write_text(_markdown(summary, latency, motion, plots, title, questionnaires, sesoi is not None))
+    report.write_text(_markdown(summary, latency, motion, plots, title, questionnaires, sesoi is not None, trackers))
     return report

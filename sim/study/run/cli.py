@@ -37,7 +37,21 @@ def register(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> N
     )
     run.add_argument("--step-timeout", type=float, default=10.0, help="lockstep: longest wait for a joint state")
     run.add_argument("--connect-timeout", type=float, default=60.0, help="longest wait for the engine at start")
+    run.add_argument(
+        "--pose-source",
+        action="append",
+        default=[],
+        metavar="CONDITION=NAME",
+        help="the pose source of a condition that does not announce itself on /study/tracking (e.g. vr=headset)",
+    )
     run.set_defaults(handler=run_command)
+    tracker = commands.add_parser("tracker", help="relay a tracker's poses into the scene's world, calibrated")
+    tracker.add_argument("--config", type=Path, required=True, help="the tracker's YAML (docs/study.md)")
+    tracker.add_argument("--participant", type=int, required=True, help="the session's participant number")
+    tracker.add_argument("--out", type=Path, required=True, help="the study's output: the fit goes in its tracking/")
+    tracker.add_argument("--calibration", type=Path, help="a saved fit (tracking/*.json) instead of touching points")
+    add_scene_options(tracker)
+    tracker.set_defaults(handler=tracker_command)
 
 
 def run_command(args: argparse.Namespace) -> int:
@@ -56,6 +70,7 @@ def run_command(args: argparse.Namespace) -> int:
         args.settle,
         args.response_timeout,
         args.deceleration,
+        pose_sources=pose_sources(args.pose_source),
     )
     with Approaches(robot, scene, args.dt) as approaches:
         planned = approaches.plan_all((t.path, t.standoff, t.peak_speed) for t in plan.trials)
@@ -69,3 +84,41 @@ def run_command(args: argparse.Namespace) -> int:
         return run_node(
             robot, scene, plan, approaches, options, args.out.resolve(), not args.no_record, args.connect_timeout
         )
+
+
+def pose_sources(given: list[str]) -> dict[str, str]:
+    """--pose-source CONDITION=NAME, each condition once."""
+    from sim.study.design.spec import CONDITIONS
+
+    named: dict[str, str] = {}
+    for text in given:
+        condition, _, name = text.partition("=")
+        if condition not in CONDITIONS or not name.strip() or condition in named:
+            raise RunError(
+                f"--pose-source must be CONDITION=NAME, a condition of {', '.join(CONDITIONS)} once, got {text!r}"
+            )
+        named[condition] = name.strip()
+    return named
+
+
+def tracker_command(args: argparse.Namespace) -> int:
+    import json
+
+    from sim.study.motion.calibration import Calibration
+    from sim.study.run.tracker import run_tracker
+    from sim.study.run.tracking import marked_points, tracker_config
+
+    scene, _ = scene_and_robot(args)
+    config = tracker_config(read_yaml(args.config, "tracker config"), scene, str(args.config))
+    saved = None
+    if args.calibration is not None:
+        try:
+            data = json.loads(args.calibration.read_text(encoding="utf-8"))
+        except (OSError, ValueError) as error:
+            raise RunError(f"cannot read the calibration {args.calibration}: {error}") from None
+        fit = data.get("calibration", data) if isinstance(data, dict) else data
+        if not isinstance(fit, dict):
+            raise RunError(f"{args.calibration} holds no calibration")
+        bound = {**fit, "bound_m": config.calibration.max_residual}  # held to this session's bound
+        saved = Calibration.from_data(bound, str(args.calibration))
+    return run_tracker(config, marked_points(scene), args.participant, args.out.resolve(), saved)

@@ -35,20 +35,23 @@ approach's end the runner waits (at most RunnerOptions.pose_grace of wall time, 
 every body that has sent poses since the approach started has sent one stamped at its end: a lockstep outruns its
 participant, and poses travel apart from the status. Then it holds the robot at rest, its clock running, until the
 hand under the robot is at rest again (at most sim.study.motion's WITHDRAWAL_LIMIT after the robot rests), so that a
-late withdrawal is measured whole.
+late withdrawal is measured whole. Which pose source tracked each condition (announced on /study/tracking by the
+tracker relay, sim.study.run.tracker, or named by RunnerOptions.pose_sources), with its jitter and calibration, goes
+to tracking/participant_NN.json after every trial.
 """
 
 from __future__ import annotations
 
+import json
 import math
 import os
 import signal
 import sys
 import threading
 import time
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any, Callable, Iterable
+from typing import Any, Callable, Iterable, Mapping
 
 import numpy as np
 
@@ -95,6 +98,14 @@ from sim.study.run.protocol import (
 from sim.study.run.questionnaires import FOLDER as QUESTIONNAIRES
 from sim.study.run.questionnaires import asked_after, item_status, write_questionnaire
 from sim.study.run.records import TrialRecord, write_records
+from sim.study.run.tracking import (
+    CALIBRATION_TOPIC,
+    TF_STATIC_TOPIC,
+    TRACKING_TOPIC,
+    announcement_from_json,
+    session_tracking,
+)
+from sim.study.run.tracking import FOLDER as TRACKING
 from sim.study.run.trial import TrialRun
 
 __all__ = [
@@ -136,6 +147,8 @@ class RunnerOptions:
     # At an approach's end, how long (s of wall time) the runner waits for the poses up to its end (see the module's
     # docstring); a tracker that stops sending costs this once per trial, and its gap is measured.
     pose_grace: float = 1.0
+    # by condition, the pose source of one that does not announce itself on /study/tracking (the VR page)
+    pose_sources: Mapping[str, str] = field(default_factory=dict)
 
 
 # what the observer is told at the terminal (--keyboard), by the input the phase accepts
@@ -310,6 +323,9 @@ def recorder_topics(robot: RobotSpec) -> list[str]:
         PREFERENCE_TOPIC,
         ANSWER_TOPIC,
         *POSE_TOPICS.values(),
+        TRACKING_TOPIC,
+        CALIBRATION_TOPIC,
+        TF_STATIC_TOPIC,
     ]
 
 
@@ -332,6 +348,8 @@ class StudyRunner(ControllerNode):
         self.inputs = Inputs()
         self.poses = ReceivedPoses()
         self._refusals_told: set[str] = set()  # bodies whose refused poses have been logged
+        self.announced: dict[str, dict[str, Any]] = {}  # by condition: the latest pose source announced for it
+        self.tracked: set[str] = set()  # the conditions whose trials had poses
         self.stepper = Stepper(self, options.pacing)
         self.phase = ""  # of the last status published
         self.asked: TrialStatus | None = None  # the last status published: the item asked, in phase questionnaire
@@ -347,6 +365,7 @@ class StudyRunner(ControllerNode):
             self.rospy.Subscriber(PREFERENCE_TOPIC, String, lambda message: self.inputs.preference(message.data)),
             self.rospy.Subscriber(ANSWER_TOPIC, String, lambda message: self.inputs.answer_json(message.data)),
         ]
+        self._subscribers.append(self.rospy.Subscriber(TRACKING_TOPIC, String, self._on_tracker))
         for body, topic in POSE_TOPICS.items():
             self._subscribers.append(
                 self.rospy.Subscriber(topic, PoseStamped, self._on_pose, callback_args=body, tcp_nodelay=True)
@@ -389,6 +408,23 @@ class StudyRunner(ControllerNode):
                 raise ControllerError(f"the participant's topics are not linked after {timeout:g} s: {missing}")
             self.stop.wait(0.05)
         raise ControllerError("interrupted while waiting for the participant's topics")
+
+    def _on_tracker(self, message: Any) -> None:
+        """A pose source's announcement: it serves its conditions from now on."""
+        try:
+            said = announcement_from_json(message.data)
+        except StudyError as error:
+            _log(f"a tracker's announcement was refused: {error}")
+            return
+        for condition in said["conditions"]:
+            self.announced[condition] = said
+
+    def write_tracking(self, out: Path) -> None:
+        """The session's pose sources per tracked condition, in `out`/tracking/participant_NN.json."""
+        record = session_tracking(self.plan.participant, self.tracked, self.announced, self.options.pose_sources)
+        path = out / TRACKING / f"participant_{self.plan.participant:02d}.json"
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(json.dumps(record, indent=2) + "\n")
 
     def _on_pose(self, message: Any, body: str) -> None:
         point = message.pose.position
@@ -501,6 +537,8 @@ class StudyRunner(ControllerNode):
                 indices = {t.index for t in group}
                 records = [replace(r, preferred_path=preferred) if r.index in indices else r for r in records]
             write_records(records_path, records)  # after every trial: a crash loses at most the one running
+            if self.tracked:
+                self.write_tracking(records_path.parent)
             self._administer(trial.index, records_path.parent, log)
         self.publish_status(TrialStatus(self.plan.participant, 0, len(self.plan.trials), "done"))
         return records
@@ -647,6 +685,7 @@ class StudyRunner(ControllerNode):
         once they are in up to its end; their poses since the trial `began` count (where a body was as it started)."""
         if not self.poses.sending(window.start):
             return UNMEASURED
+        self.tracked.add(trial.condition)
         late = self._await_poses(window.start, window.end)
         if late:
             log(

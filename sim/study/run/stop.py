@@ -1,5 +1,7 @@
-"""Stopping on the participant's press, as a real controller would: along the path, decelerating at a stated limit,
-never jumping. Pure logic; the runner streams what it returns, and the same logic would drive a real robot.
+"""Stopping on the participant's press, streamed: along the path, decelerating at a stated limit, never jumping in
+position or speed. Pure logic; the runner streams what it returns to the stand-in. For a trajectory controller the
+stop is sim.study.safety.braking's instead, which is also continuous in acceleration (the same path, deceleration
+and arc length, from there).
 
 A planned approach follows its path with the minimum-jerk arc length s(t). Pressed at t_p (arc length s_p, speed
 v_p), the robot brakes at STOP_DECELERATION: s(t) = s_p + v_p·τ − ½·a·τ², τ = t − t_p, until it rests after
@@ -20,10 +22,9 @@ import numpy as np
 
 from sim.study.design.paths import ApproachPath
 from sim.study.run.errors import RunError
+from sim.study.safety.braking import STOP_DECELERATION, arc_length
 
 __all__ = ["STOP_DECELERATION", "StoppedMotion", "arc_length", "stop_motion"]
-
-STOP_DECELERATION = 1.0  # m/s² along the path: what a press may ask of the end effector
 
 
 @dataclass(frozen=True)
@@ -40,11 +41,6 @@ class StoppedMotion:
     @property
     def braking_distance(self) -> float:
         return self.rest_arc - self.press_arc
-
-
-def arc_length(path: ApproachPath) -> np.ndarray:
-    """The planned arc length at each sample of `path` (cumulative distance between samples)."""
-    return np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(path.positions, axis=0), axis=1))])
 
 
 def stop_motion(

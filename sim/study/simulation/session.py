@@ -18,6 +18,7 @@ from sim.launchers import Engine, Participant, Runner, finish, start, wait_ready
 from sim.processes import EndpointProcess, ManagedProcess, ProcessError, RosCore, plain_env
 from sim.study.analysis.questionnaires import load_questionnaires, summarise_questionnaires
 from sim.study.analysis.report import load_study, write_report
+from sim.study.analysis.trackers import load_trackers, summarise_trackers
 from sim.study.design.feasibility import plan_combinations, remedies
 from sim.study.design.fit import scene_for, scene_to_data
 from sim.study.design.plan import make_plan, plan_to_data
@@ -28,6 +29,9 @@ from sim.study.simulation.errors import SimulationError
 from sim.wire.contract import STEP_S
 
 __all__ = ["Simulation", "simulate"]
+
+# The simulated participants send their own poses in both conditions: one pose source, named for the report
+SIMULATED_POSE_SOURCES = ("--pose-source", "vr=simulated participant", "--pose-source", "reality=simulated participant")
 
 
 @dataclass(frozen=True)
@@ -106,7 +110,7 @@ def simulate(settings: Simulation, log: Callable[[str], None]) -> Path:
                 session.callback(answering.stop)
                 wait_ready(engine_process, engine)
                 wait_ready(answering, participant)
-                runner = Runner(plan_path, out, scene_and_robot, settings.dt)
+                runner = Runner(plan_path, out, scene_and_robot, settings.dt, extra=SIMULATED_POSE_SOURCES)
                 running_session = start(runner, core.env, logs, f"runner_{number:02d}")
                 session.callback(running_session.stop)
                 summary = _finish(running_session, settings.timeout)
@@ -120,4 +124,5 @@ def simulate(settings: Simulation, log: Callable[[str], None]) -> Path:
         f"Perception study, {settings.participants} simulated participants (seed {settings.seed})",
         design.sesoi,
         summarise_questionnaires(load_questionnaires(out)),
+        summarise_trackers(load_trackers(out)),
     )

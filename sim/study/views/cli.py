@@ -60,12 +60,31 @@ def register(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> N
 
 def _add_server_options(parser: argparse.ArgumentParser, port: int) -> None:
     """The page server's options, the same for every page it serves."""
+    parser.epilog = (
+        "It prints the page's address with a key made at each launch: only browsers that opened it reach the "
+        "endpoint. From the environment: ROS_TCP_AUTH_TOKEN, the endpoint's --auth-token (the server authenticates "
+        "the pages; the browser never holds it); ROS_TCP_PROXY_SECRET, the endpoint's proxy secret, shown with each "
+        "browser's address."
+    )
     parser.add_argument("--endpoint-host", default="127.0.0.1", help="the endpoint's address")
     parser.add_argument(
         "--websocket-port", type=int, default=9090, help="the endpoint's --websocket-port (default 9090)"
     )
-    parser.add_argument("--host", default="0.0.0.0", help="the page's address (default 0.0.0.0: every interface)")
+    parser.add_argument(
+        "--host",
+        default="127.0.0.1",
+        help="the address to listen on (default 127.0.0.1: this machine only, which `adb reverse` reaches); a "
+        "headset on the LAN needs the machine's LAN address, or 0.0.0.0 for every interface",
+    )
     parser.add_argument("--port", type=int, default=port, help=f"the page's port (default {port}; 0 picks a free one)")
+    parser.add_argument(
+        "--allow-host",
+        action="append",
+        default=[],
+        metavar="NAME",
+        help="a name the page is opened by, beyond this machine's own names and addresses (repeatable): requests "
+        "naming any other host are refused",
+    )
     parser.add_argument(
         "--plain-http",
         action="store_true",
@@ -123,14 +142,31 @@ def _check_server_options(args: argparse.Namespace) -> None:
         raise ViewError("--certificate and --key go together")
     if args.plain_http and args.certificate is not None:
         raise ViewError("--plain-http serves no TLS: leave out --certificate and --key")
+    from sim.study.views.vr.access import is_host_name
+
+    for name in args.allow_host:
+        if not is_host_name(name):
+            raise ViewError(
+                f"--allow-host {name!r}: give a host name or an address alone, without scheme, port or path"
+            )
 
 
 def _serve_page(args: argparse.Namespace, site: Site, name: str) -> int:
     """Serve `site` as the options say (TLS with the given or a self-signed certificate, or plain HTTP) until
-    SIGINT or SIGTERM; `name` prefixes what it prints."""
+    SIGINT or SIGTERM, to the browsers that open the address it prints (with this launch's key); `name` prefixes
+    what it prints. The endpoint's token and proxy secret come from the environment, out of `ps`'s sight."""
+    import os
+    import secrets
     import ssl
 
-    from sim.study.views.vr.certificate import DEFAULT_CERTIFICATE_DIR, ensure_certificate, machine_addresses
+    from sim.study.views.vr.access import Access, normal_names
+    from sim.study.views.vr.certificate import (
+        DEFAULT_CERTIFICATE_DIR,
+        ensure_certificate,
+        machine_addresses,
+        machine_names,
+    )
+    from sim.study.views.vr.relay import AUTH_TOKEN_ENV, PROXY_SECRET_ENV
     from sim.study.views.vr.server import PageServer, serve
 
     addresses = machine_addresses()
@@ -145,15 +181,35 @@ def _serve_page(args: argparse.Namespace, site: Site, name: str) -> int:
             tls.load_cert_chain(certificate, key)
         except (OSError, ssl.SSLError) as error:
             raise ViewError(f"cannot use the certificate {certificate} with the key {key}: {error}") from None
-    server = PageServer(site, (args.endpoint_host, args.websocket_port), args.host, args.port, tls)
+    every_interface = args.host in ("0.0.0.0", "::")
+    access = Access(
+        secrets.token_urlsafe(18),
+        normal_names([*machine_names(), *addresses, *([] if every_interface else [args.host]), *args.allow_host]),
+        "http" if tls is None else "https",
+    )
+    server = PageServer(
+        site,
+        (args.endpoint_host, args.websocket_port),
+        args.host,
+        args.port,
+        tls,
+        access,
+        auth_token=os.environ.get(AUTH_TOKEN_ENV) or None,
+        proxy_secret=os.environ.get(PROXY_SECRET_ENV) or None,
+    )
 
     def ready(port: int) -> None:
-        scheme = "http" if tls is None else "https"
         hosts = ["localhost"] if args.host in ("127.0.0.1", "localhost") else ["localhost", *addresses]
-        if args.host not in ("0.0.0.0", "127.0.0.1", "localhost"):
+        if not every_interface and args.host not in ("127.0.0.1", "localhost"):
             hosts = [args.host]
         for host in hosts:
-            print(f"{name}: the page: {scheme}://{host}:{port}/", flush=True)
+            print(f"{name}: the page: {server.access.page_address(host, port)}", flush=True)
+        token = "with the token in $" + AUTH_TOKEN_ENV if server.auth_token else "without a token"
+        print(
+            f"{name}: only a browser that opened this address (its key is new at each launch) reaches the endpoint; "
+            f"pages are authenticated to it {token}",
+            flush=True,
+        )
         print(
             f"{name}: its WebSocket /ros goes to the endpoint's ws://{args.endpoint_host}:{args.websocket_port}/"
             + ("" if tls is None else "; the certificate is self-signed: accept it once in the page's browser"),

@@ -68,6 +68,10 @@ def test_the_commander_with_its_recorder_and_wall_clock() -> None:
         (LiveView(10001, 8080, ROBOT), {"http_port": 8080}),
         (VrServer(9090, certificate_dir=Path("certs"), emulate_headset=True, frame_time=True), {"frame_time": True}),
         (ButtonServer(9091, certificate_dir=Path("c"), emulate_gamepad=True), {"emulate_gamepad": True, "port": 0}),
+        (
+            VrServer(9090, allow_hosts=("vr.lab.example", "labpc"), plain_http=True),
+            {"allow_host": ["vr.lab.example", "labpc"], "plain_http": True, "host": "127.0.0.1"},
+        ),
     ],
 )
 def test_the_studys_programs(

@@ -15,7 +15,7 @@ from pathlib import Path
 
 from sim.study.views.errors import ViewError
 
-__all__ = ["DEFAULT_CERTIFICATE_DIR", "machine_addresses", "ensure_certificate"]
+__all__ = ["DEFAULT_CERTIFICATE_DIR", "machine_addresses", "machine_names", "ensure_certificate"]
 
 DEFAULT_CERTIFICATE_DIR = Path.home() / ".ros" / "sim_study_vr"
 VALID_DAYS = 825  # what browsers accept at most for a server certificate
@@ -39,6 +39,11 @@ def machine_addresses() -> list[str]:
         if address not in found:
             found.append(address)
     return [address for address in found if not ipaddress.ip_address(address).is_loopback]
+
+
+def machine_names() -> list[str]:
+    """This machine's own names: its host name and its fully qualified one (the page's server answers to them)."""
+    return sorted({socket.gethostname(), socket.getfqdn()} - {""})
 
 
 def ensure_certificate(folder: Path, addresses: list[str]) -> tuple[Path, Path]:

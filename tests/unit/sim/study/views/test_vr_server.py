@@ -1,6 +1,7 @@
 """What the VR page's server (sim.study.views.vr.server) sends a browser, on loopback over plain HTTP: the page and
 every module it imports, followed from index.html as a browser does. Without --emulate-headset and --frame-time, a
-participant's page holds neither the tests' probe nor the frame-time instrument, and cannot fetch them."""
+participant's page holds neither the tests' probe nor the frame-time instrument, and cannot fetch them. The page
+is opened by its address with the launch's key, and every module by the cookie that keeps it, as a browser does."""
 
 from __future__ import annotations
 
@@ -8,6 +9,7 @@ import asyncio
 import http.client
 import re
 
+from sim.study.views.vr.access import Access
 from sim.study.views.vr.server import PageServer
 from sim.study.views.vr.site import (
     BUTTON_PAGE_FILES,
@@ -41,22 +43,27 @@ def served(
     each of `instruments`' modules."""
 
     async def main() -> tuple[dict[str, str], dict[str, int]]:
-        server = PageServer(site, ("127.0.0.1", 9), "127.0.0.1", 0, tls=None, log=lambda _: None)
+        access = Access("the-key", frozenset(), "http")
+        server = PageServer(site, ("127.0.0.1", 9), "127.0.0.1", 0, None, access, log=lambda _: None)
         port = await server.start()
         loop = asyncio.get_running_loop()
+        cookie = {}
 
         def get(path: str) -> tuple[int, str]:
             connection = http.client.HTTPConnection("127.0.0.1", port, timeout=10)
             try:
-                connection.request("GET", path)
+                connection.request("GET", path, headers=cookie)
                 response = connection.getresponse()
+                if response.getheader("Set-Cookie"):
+                    cookie["Cookie"] = response.getheader("Set-Cookie").split(";", 1)[0]
                 return response.status, response.read().decode()
             finally:
                 connection.close()
 
         try:
-            status, page = await loop.run_in_executor(None, get, "/")
-            assert status == 200
+            assert (await loop.run_in_executor(None, get, "/"))[0] == 403  # not without the key
+            status, page = await loop.run_in_executor(None, get, "/?key=the-key")
+            assert status == 200 and cookie == {"Cookie": f"sim_study_key_{port}=the-key"}
             loaded = {"/": page}
             waiting = _SCRIPT.findall(page)
             while waiting:

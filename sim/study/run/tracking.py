@@ -1,0 +1,232 @@
+"""A tracker of the participant's body in reality, as configured (pure: data in, data out; the node that relays its
+poses is sim.study.run.tracker).
+
+  TrackerConfig     a tracker's YAML: its name, the frame its poses are in, the conditions it tracks, each body's
+                    source (a PoseStamped topic, as a motion-capture driver publishes one per rigid body, or a TF
+                    frame, a direct child of the tracker's frame on /tf), the calibration's marked points and bound,
+                    and how long the bodies rest for the jitter
+  marked_points     the scene's points an experimenter touches to calibrate: the hand model's two ends on its top,
+                    and the table top's four corners (world coordinates, from the scene)
+  announcement      what a pose source says of itself on TRACKING_TOPIC (latched, JSON): its name, the conditions it
+                    tracks, its jitter at rest and its calibration; the runner records it per condition
+  session_tracking  the session's record of it: per condition whose trials had poses, the source that announced
+                    itself for it (or the one named on the runner's command line), its jitter and calibration
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from sim.study.design.scene import Scene
+from sim.study.design.spec import CONDITIONS
+from sim.study.run.errors import RunError
+from sim.study.run.protocol import BODIES, POSE_FRAME
+
+__all__ = [
+    "TRACKING_TOPIC",
+    "CALIBRATION_TOPIC",
+    "TF_STATIC_TOPIC",
+    "FOLDER",
+    "BodySource",
+    "CalibrationSettings",
+    "TrackerConfig",
+    "tracker_config",
+    "marked_points",
+    "announcement",
+    "announcement_from_json",
+    "session_tracking",
+]
+
+TRACKING_TOPIC = "/study/tracking"  # std_msgs/String, latched: a pose source's announcement (JSON)
+CALIBRATION_TOPIC = "/study/calibration"  # std_msgs/String, latched: the calibration's fit (JSON)
+TF_STATIC_TOPIC = "/tf_static"  # the calibration as TF: world -> the tracker's frame
+FOLDER = "tracking"  # in a session's output: the trackers' calibrations and jitter, and each session's record
+STAMPS = ("source", "arrival")  # how a relayed pose is stamped (TrackerConfig.stamp)
+DEFAULT_POINTS = ("hand_fingertips", "hand_wrist", "table_corner_1", "table_corner_2", "table_corner_3")
+
+
+@dataclass(frozen=True)
+class BodySource:
+    topic: str = ""  # a PoseStamped topic in the tracker's frame
+    tf: str = ""  # or a TF child frame of the tracker's frame
+
+    def __str__(self) -> str:
+        return self.topic or f"TF {self.tf}"
+
+
+@dataclass(frozen=True)
+class CalibrationSettings:
+    body: str = "right_hand"  # the tracked body that touches the points
+    points: tuple[str, ...] = DEFAULT_POINTS
+    max_residual: float = 0.01  # m: the largest residual accepted
+    hold: float = 0.5  # s the body is held on each point; its poses over that time are averaged
+    still: float = 0.005  # m: a touch whose poses stray further from their mean is taken again (the hand moved)
+
+
+@dataclass(frozen=True)
+class TrackerConfig:
+    source: str  # the tracker's name, as the report gives it
+    frame: str  # the frame_id of its poses (its own origin), the child of the scene's world on /tf_static
+    bodies: dict[str, BodySource]  # by BODIES' names: the bodies it tracks
+    conditions: tuple[str, ...] = CONDITIONS
+    calibration: CalibrationSettings = field(default_factory=CalibrationSettings)
+    rest: float = 3.0  # s of the bodies at rest at the start, for the jitter
+    # how a relayed pose is stamped: "source", the tracker's own stamp (a driver that stamps on ROS time), or
+    # "arrival", the relay's ROS time when it came (a tracker on a clock of its own; adds the way to the relay)
+    stamp: str = "source"
+
+
+def _number(data: Mapping[str, Any], key: str, default: float, where: str) -> float:
+    value = data.get(key, default)
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not (math.isfinite(value) and value > 0):
+        raise RunError(f"{where}: {key} must be a positive number, got {value!r}")
+    return float(value)
+
+
+def _keys(data: object, allowed: tuple[str, ...], where: str) -> Mapping[str, Any]:
+    if not isinstance(data, Mapping):
+        raise RunError(f"{where} must be a mapping, got {data!r}")
+    unknown = sorted(set(data) - set(allowed))
+    if unknown:
+        raise RunError(f"{where}: unknown key {unknown[0]!r} (known: {', '.join(allowed)})")
+    return data
+
+
+def _name(data: Mapping[str, Any], key: str, where: str) -> str:
+    value = data.get(key)
+    if not isinstance(value, str) or not value.strip():
+        raise RunError(f"{where}: {key} must be a name, got {value!r}")
+    return value.strip()
+
+
+def tracker_config(data: object, scene: Scene, where: str = "tracker config") -> TrackerConfig:
+    """The tracker's configuration from its YAML data, its marked points checked against the scene's; RunError names
+    the key and the value that cannot be used."""
+    top = _keys(data, ("source", "frame", "conditions", "bodies", "calibration", "rest", "stamp"), where)
+    source, frame = _name(top, "source", where), _name(top, "frame", where)
+    if frame == POSE_FRAME:
+        raise RunError(
+            f"{where}: the tracker's frame is named {frame!r}, as the scene's: name the driver's frame otherwise "
+            "(vrpn_client_ros: ~frame_id; mocap_optitrack: parent_frame_id), e.g. mocap"
+        )
+    conditions = tuple(top.get("conditions", CONDITIONS))
+    if not conditions or any(c not in CONDITIONS for c in conditions) or len(set(conditions)) != len(conditions):
+        raise RunError(f"{where}: conditions must be some of {', '.join(CONDITIONS)}, got {top.get('conditions')!r}")
+    bodies_data = top.get("bodies")
+    if not isinstance(bodies_data, Mapping) or not bodies_data:
+        raise RunError(f"{where}: bodies must map some of {', '.join(BODIES)} to a topic or a TF frame")
+    bodies = {}
+    for body, given in bodies_data.items():
+        if body not in BODIES:
+            raise RunError(f"{where}: unknown body {body!r} (the bodies: {', '.join(BODIES)})")
+        entry = _keys(given, ("topic", "tf"), f"{where}: bodies.{body}")
+        if len(entry) != 1:
+            raise RunError(f"{where}: bodies.{body} needs one of topic or tf, got {dict(entry)!r}")
+        kind = next(iter(entry))
+        bodies[body] = BodySource(**{kind: _name(entry, kind, f"{where}: bodies.{body}")})
+    settings = _keys(
+        top.get("calibration", {}), ("body", "points", "max_residual", "hold", "still"), f"{where}: calibration"
+    )
+    defaults = CalibrationSettings()
+    body = settings.get("body", defaults.body)
+    if body not in bodies:
+        raise RunError(f"{where}: calibration.body must be a body it tracks ({', '.join(bodies)}), got {body!r}")
+    points = tuple(settings.get("points", defaults.points))
+    known = marked_points(scene)
+    wrong = [p for p in points if p not in known]
+    if wrong or len(set(points)) != len(points) or len(points) < 3:
+        raise RunError(
+            f"{where}: calibration.points must be 3 or more of {', '.join(known)}, each once, got {list(points)!r}"
+        )
+    calibration = CalibrationSettings(
+        body,
+        points,
+        _number(settings, "max_residual", defaults.max_residual, f"{where}: calibration"),
+        _number(settings, "hold", defaults.hold, f"{where}: calibration"),
+        _number(settings, "still", defaults.still, f"{where}: calibration"),
+    )
+    stamp = top.get("stamp", "source")
+    if stamp not in STAMPS:
+        raise RunError(f"{where}: stamp must be one of {', '.join(STAMPS)}, got {stamp!r}")
+    return TrackerConfig(source, frame, bodies, conditions, calibration, _number(top, "rest", 3.0, where), stamp)
+
+
+def marked_points(scene: Scene) -> dict[str, np.ndarray]:
+    """The scene's points to touch, in the world: the hand model's fingertips and wrist (the middle of each end of its
+    top; its fingers point along its x), and the table top's corners, counted anticlockwise seen from above from the
+    one at the table's lowest x and y."""
+    hand, table = scene.hand, scene.table
+    along = hand.rotation @ np.array([hand.size[0] / 2.0, 0.0, 0.0])
+    points = {"hand_fingertips": hand.top + along, "hand_wrist": hand.top - along}
+    half = table.size / 2.0
+    for k, (sx, sy) in enumerate(((-1, -1), (1, -1), (1, 1), (-1, 1)), start=1):
+        corner = table.top + table.rotation @ np.array([sx * half[0], sy * half[1], 0.0])
+        points[f"table_corner_{k}"] = corner
+    return points
+
+
+def announcement(
+    source: str,
+    conditions: tuple[str, ...],
+    jitter: Mapping[str, float],
+    rest: float,
+    calibration: Mapping[str, Any] | None,
+    participant: int | None = None,
+) -> str:
+    """A pose source's announcement as JSON: its jitter by body (m; null where not measured), over `rest` s."""
+    return json.dumps(
+        {
+            "source": source,
+            "conditions": list(conditions),
+            "participant": participant,
+            "rest_s": rest,
+            "jitter_m": {body: (None if not math.isfinite(v) else v) for body, v in jitter.items()},
+            "calibration": calibration,
+        }
+    )
+
+
+def announcement_from_json(text: str) -> dict[str, Any]:
+    """An announcement as data; RunError when it is not one."""
+    try:
+        data = json.loads(text)
+    except ValueError as error:
+        raise RunError(f"a tracker's announcement is not JSON: {error}") from None
+    if not (isinstance(data, dict) and isinstance(data.get("source"), str) and data["source"]):
+        raise RunError(f"a tracker's announcement names no source: {text[:200]!r}")
+    conditions = data.get("conditions")
+    if not (isinstance(conditions, list) and all(c in CONDITIONS for c in conditions)):
+        raise RunError(f"a tracker's announcement has conditions {conditions!r}, not some of {CONDITIONS}")
+    return data
+
+
+def session_tracking(
+    participant: int,
+    tracked: set[str],
+    announced: Mapping[str, Mapping[str, Any]],
+    named: Mapping[str, str],
+) -> dict[str, Any]:
+    """The session's record of its pose sources: per condition in `tracked` (its trials had poses), the source
+    `announced` for it (by condition, the latest announcement naming it), else the one `named` on the command line
+    (no jitter, no calibration), else "" (unnamed)."""
+    conditions: dict[str, Any] = {}
+    for condition in CONDITIONS:
+        if condition not in tracked:
+            continue
+        said = announced.get(condition)
+        if said is not None:
+            conditions[condition] = {
+                "source": said["source"],
+                "jitter_m": said.get("jitter_m") or {},
+                "rest_s": said.get("rest_s"),
+                "calibration": said.get("calibration"),
+            }
+        else:
+            conditions[condition] = {"source": named.get(condition, ""), "jitter_m": {}, "calibration": None}
+    return {"participant": participant, "conditions": conditions}

@@ -1,0 +1,46 @@
+"""The check before any motion: a planned approach's samples, and its braking from a press at any of them, against
+the robot's limits with the declared safety margin. One line per refusal, naming the limit. Pure logic."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from sim.study.design.paths import ApproachPath
+from sim.study.safety.braking import STOP_DECELERATION, STOP_JERK, PathGeometry, PathState, arc_length, brake
+from sim.study.safety.limits import DEFAULT_MARGIN, Exceedance, MotionLimits, motion_exceedances
+
+__all__ = ["BRAKING_STEP", "plan_refusals"]
+
+BRAKING_STEP = 0.004  # s between the braking's samples: fine enough to see its jerk
+
+
+def plan_refusals(
+    what: str,
+    path: ApproachPath,
+    joint_positions: np.ndarray,
+    limits: MotionLimits,
+    margin: float = DEFAULT_MARGIN,
+    deceleration: float = STOP_DECELERATION,
+    jerk: float = STOP_JERK,
+) -> list[str]:
+    """The limits the plan's samples exceed, then those its braking exceeds from a press at any sample (each limit
+    once, at its worst press); [] when the plan may run."""
+    joints = np.asarray(joint_positions, dtype=float)
+    lines = [e.line for e in motion_exceedances(what, path.times, joints, limits, margin, path.positions)]
+    geometry = PathGeometry(path, joints)
+    arc, accelerations = arc_length(path), np.gradient(path.speeds, path.dt)
+    worst: dict[tuple[str, str], Exceedance] = {}
+    for k in range(1, len(path.times) - 1):
+        desired = geometry.joint_state(PathState(float(arc[k]), float(path.speeds[k]), float(accelerations[k])))
+        stop = brake(geometry, *desired, BRAKING_STEP, deceleration, jerk)
+        if stop is None:
+            continue  # the plan rests sooner than braking would: its own samples are checked above
+        exact = (stop.velocities, stop.accelerations, stop.jerks)
+        press = f"{what}, braking from a press at t = {path.times[k]:.2f} s"
+        for found in motion_exceedances(
+            press, stop.times, stop.positions, limits, margin, stop.world_positions, derivatives=exact
+        ):
+            key = (found.subject, found.kind)
+            if key not in worst or found.ratio > worst[key].ratio:
+                worst[key] = found
+    return lines + [found.line for found in worst.values()]
