@@ -1,9 +1,10 @@
-"""The endpoint's TCP server: admits clients (bridge.session) and dispatches what they ask to the topic and service
-tables (bridge.topics, bridge.services), which it owns; housekeeping once a second. With a WebSocket port, a second
+"""The endpoint's TCP server: accepts clients as its gate lets them in (bridge.gate), starts their sessions
+(bridge.session, bridge.web_session) and dispatches what they ask to the topic and service tables (bridge.topics,
+bridge.services), which it owns; housekeeping once a second. With a WebSocket port, a second
 listener admits WebSocket clients (browsers, Unity WebGL builds) to the same tables, under the same rules.
 
 Threads: one accept thread per listener; per client a reader (frames in), a writer (drains the client's bounded
-queue when a direct send could not write everything, see ClientSession.send) and a few workers for its ROS service
+queue when a direct send could not write everything, see SessionOutput.send) and a few workers for its ROS service
 calls and topic-list look-ups (so a slow service never stalls a reader, nor another client's calls); per published
 topic a pump thread (bridge.ros_publisher.RawPublisher); rospy's own threads deliver ROS messages, which are fanned
 out to the subscribed clients (bridge.topics.Topics.fan_out); one housekeeping thread.
