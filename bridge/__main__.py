@@ -10,10 +10,11 @@ from __future__ import annotations
 import argparse
 import gc
 import logging
+import os
 import signal
 import sys
 import threading
-from typing import Any
+from typing import Any, Mapping
 
 from bridge.config import ConfigError, EndpointConfig
 from bridge.memory import keep_large_buffers
@@ -54,12 +55,14 @@ def _parser() -> argparse.ArgumentParser:
 _SOURCES = {setting.name: setting for setting in SETTINGS}
 
 
-def build_config(args: argparse.Namespace, ros: Any) -> EndpointConfig:
-    """The endpoint's settings: command line over private rosparams (over the original endpoint's global ones) over
-    defaults; ConfigError names a bad one."""
+def build_config(args: argparse.Namespace, ros: Any, environ: Mapping[str, str] = os.environ) -> EndpointConfig:
+    """The endpoint's settings: command line over the environment (for the settings read from it) over private
+    rosparams (over the original endpoint's global ones) over defaults; ConfigError names a bad one."""
     given = {}
     for setting in SETTINGS:
         value = getattr(args, setting.name)
+        if value is None and setting.env is not None:
+            value = environ.get(setting.env)
         if value is None:
             value = ros.get_param(setting.param, None)
         if value is None and setting.fallback_param is not None:

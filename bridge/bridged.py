@@ -11,10 +11,10 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Callable, TypeVar
 
 from bridge.config import EndpointConfig
+from bridge.errors import RequestRefused
 from bridge.ros_publisher import RawPublisher
 from bridge.ros_service_proxy import RawServiceProxy
 from bridge.ros_types import RosError
-from bridge.session import RequestRefused
 
 if TYPE_CHECKING:
     from bridge.session import ClientSession

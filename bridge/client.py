@@ -4,7 +4,7 @@ It connects, checks the handshake, sends a keepalive after each second without s
 services, and on a lost connection reconnects (fixed delay) and re-sends every registration. Payloads are plain
 ROS 1 serialized bytes; (de)serialize them with rosbags or any ROS 1 serializer. With `websocket=True` it speaks
 the same protocol over a WebSocket (bridge.websocket; needs wsproto), as a browser or a Unity WebGL build would.
-Callbacks run on the client's reader thread: keep them short.
+Callbacks run on the client's reader thread: keep them short. The answers it waits for are bridge.client_answers'.
 """
 
 from __future__ import annotations
@@ -14,10 +14,10 @@ import logging
 import socket
 import threading
 import time
-from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from typing import TYPE_CHECKING, Any, Callable
 
+from bridge.client_answers import Answers, PingResult
 from bridge.errors import BridgeError
 from bridge.framing import LARGE_PAYLOAD_BYTES
 from bridge.protocol import (
@@ -31,7 +31,6 @@ from bridge.protocol import (
     Keepalive,
     Log,
     Ping,
-    PingResponse,
     Publish,
     Remove,
     Role,
@@ -39,7 +38,6 @@ from bridge.protocol import (
     ServiceRequest,
     ServiceResponse,
     Subscribe,
-    TopicList,
     TopicListQuery,
     TopicMessage,
     UnityService,
@@ -60,23 +58,6 @@ ServiceHandler = Callable[[bytes], bytes]
 
 class ClientError(BridgeError, RuntimeError):
     """Connection, handshake or service-call failure of the TCP client."""
-
-
-@dataclass(frozen=True)
-class PingResult:
-    """One __ping: its round trip, and how far ROS time is ahead of this machine's clock (time.time()), taking the
-    endpoint's answer as given half-way through the round trip (None from an endpoint that does not say)."""
-
-    round_trip_s: float
-    ros_clock_offset_s: float | None
-
-
-@dataclass
-class _PendingCall:
-    service: str
-    done: threading.Event = field(default_factory=threading.Event)
-    response: bytes | None = None
-    failure: str | None = None
 
 
 class TcpClient:
@@ -121,9 +102,7 @@ class TcpClient:
         self._publishers: dict[str, Publish] = {}
         self._ros_services: dict[str, RosService] = {}
         self._srv_ids = itertools.count(101)
-        self._pending: dict[int, _PendingCall] = {}
-        self._topic_list_waiters: list[tuple[threading.Event, dict[str, str]]] = []
-        self._ping_waiters: dict[str, tuple[threading.Event, list[PingResponse]]] = {}
+        self._answers = Answers()  # service responses, topic lists and ping answers awaited
         self._last_round_trip: float | None = None  # told to the endpoint with the next ping, for its diagnostics
         self._reader: threading.Thread | None = None
         self._keepalive: threading.Thread | None = None
@@ -173,7 +152,7 @@ class TcpClient:
         for thread in (self._reader, self._keepalive):
             if thread is not None and thread is not threading.current_thread():
                 thread.join(timeout=2.0)
-        self._fail_pending("client closed")
+        self._answers.fail_calls("client closed")
 
     def __enter__(self) -> TcpClient:
         return self
@@ -313,9 +292,7 @@ class TcpClient:
     def call_service(self, service: str, request: bytes, timeout: float = 10.0) -> bytes:
         """Call a ROS service (registered with register_ros_service) and wait for its response bytes."""
         srv_id = next(self._srv_ids)
-        call = _PendingCall(service)
-        with self._state_lock:
-            self._pending[srv_id] = call
+        call = self._answers.call(srv_id, service)
         try:
             self._say(ServiceRequest(srv_id, service, request), or_raise=True)
             if not call.done.wait(timeout):
@@ -327,15 +304,11 @@ class TcpClient:
         except OSError as error:
             raise ClientError(f"service {service}: connection failed: {error}") from None
         finally:
-            with self._state_lock:
-                self._pending.pop(srv_id, None)
+            self._answers.forget_call(srv_id)
 
     def topic_list(self, timeout: float = 5.0) -> dict[str, str]:
         """The ROS graph's topics and their types, as the endpoint reports them."""
-        done = threading.Event()
-        result: dict[str, str] = {}
-        with self._state_lock:
-            self._topic_list_waiters.append((done, result))
+        done, result = self._answers.topic_list()
         self._say(TopicListQuery(), or_raise=True)
         if not done.wait(timeout):
             raise ClientError(f"no __topic_list answer within {timeout:g} s")
@@ -344,10 +317,7 @@ class TcpClient:
     def ping(self, timeout: float = 5.0) -> PingResult:
         """A __ping (newer connectors' ROSConnection.Ping) and its answer: round trip and ROS clock offset."""
         request_time = datetime.now(timezone.utc).isoformat()
-        done = threading.Event()
-        answer: list[PingResponse] = []
-        with self._state_lock:
-            self._ping_waiters[request_time] = (done, answer)
+        done, answer = self._answers.ping(request_time)
         try:
             sent_at, started = time.time(), time.monotonic()
             self._say(Ping(request_time, self._last_round_trip), or_raise=True)
@@ -359,8 +329,7 @@ class TcpClient:
             offset = None if ros_time is None else ros_time - (sent_at + round_trip / 2)
             return PingResult(round_trip, offset)
         finally:
-            with self._state_lock:
-                self._ping_waiters.pop(request_time, None)
+            self._answers.forget_ping(request_time)
 
     def send_raw(self, data: bytes, *, as_is: bool = False) -> None:
         """Write arbitrary bytes (tests and fault injection); over a WebSocket, as one binary message, unless
@@ -379,7 +348,7 @@ class TcpClient:
             if sock is not None:
                 self._read_connection(sock, self._conversation if self._link is None else self._link)
             self._connected.clear()
-            self._fail_pending("connection lost")
+            self._answers.fail_calls("connection lost")
             if self._closing.is_set() or not self.reconnect:
                 return
             if self._closing.wait(self.reconnect_delay_s):
@@ -424,7 +393,7 @@ class TcpClient:
                 log.warning("endpoint %s:%d: %s", self.host, self.port, event.error)
                 if event.error.fatal:
                     return False
-            else:
+            elif not self._answers.take(event):  # a service response, a topic list, a ping's answer: taken
                 self._handle(event)
         return True
 
@@ -445,26 +414,8 @@ class TcpClient:
             self.handshake = event
             self.connections += 1
             self._connected.set()
-        elif isinstance(event, ServiceResponse):
-            with self._state_lock:
-                call = self._pending.get(event.srv_id)
-            if call is not None:
-                call.response = event.payload
-                call.done.set()
         elif isinstance(event, ServiceRequest):
             self._answer(event)
-        elif isinstance(event, TopicList):
-            with self._state_lock:
-                waiters, self._topic_list_waiters = self._topic_list_waiters, []
-            for done, result in waiters:
-                result.update(zip(event.topics, event.types))
-                done.set()
-        elif isinstance(event, PingResponse):
-            with self._state_lock:
-                waiter = self._ping_waiters.get(event.request_time)
-            if waiter is not None:
-                waiter[1].append(event)
-                waiter[0].set()
         elif isinstance(event, Error):
             self._record_error(event)
         elif isinstance(event, Warn):
@@ -493,17 +444,6 @@ class TcpClient:
         self.errors = (self.errors + [error.text])[-100:]
         log.warning("endpoint error: %s", error.text)
         if error.srv_id is not None:  # the endpoint says which of our calls will not complete: fail it at once
-            with self._state_lock:
-                call = self._pending.get(error.srv_id)
-            if call is not None:
-                call.failure = error.text
-                call.done.set()
+            self._answers.fail_call(error.srv_id, error.text)
         if self.on_error is not None:
             self.on_error(error.text)
-
-    def _fail_pending(self, reason: str) -> None:
-        with self._state_lock:
-            calls = list(self._pending.values())
-        for call in calls:
-            call.failure = reason
-            call.done.set()

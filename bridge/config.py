@@ -1,5 +1,6 @@
 """The endpoint's settings, checked before it listens: EndpointConfig (the defaults; bridge.settings says how each
-is given, checked and shown) and the ConfigError a bad one raises."""
+is given, checked and shown) and the ConfigError a bad one raises. `python -m bridge.config` prints the README's
+table of settings, with these defaults."""
 
 from __future__ import annotations
 
@@ -8,7 +9,7 @@ from dataclasses import dataclass
 
 from bridge.framing import LARGE_PAYLOAD_BYTES
 from bridge.protocol import DEFAULT_MAX_PAYLOAD_BYTES, MAX_DESTINATION_BYTES
-from bridge.settings import MAX_FRAME_LENGTH, SETTINGS, ConfigError
+from bridge.settings import MAX_FRAME_LENGTH, SETTINGS, ConfigError, markdown_table
 
 __all__ = ["ConfigError", "EndpointConfig", "MAX_FRAME_LENGTH"]
 
@@ -25,6 +26,9 @@ class EndpointConfig:
     # Proxies whose X-Forwarded-For the endpoint believes (the VR page's server, on this machine): their WebSocket
     # clients are limited, backed off and reported by the address the proxy says they have
     trusted_proxies: tuple[str, ...] = ("127.0.0.1",)
+    # What a trusted proxy must send in X-Proxy-Secret for its X-Forwarded-For to be believed; None: never believed
+    # (an address proves nothing: any local process connects from 127.0.0.1)
+    proxy_secret: str | None = None
     max_payload_bytes: int = DEFAULT_MAX_PAYLOAD_BYTES
     max_destination_bytes: int = MAX_DESTINATION_BYTES
     client_queue_frames: int = 1024
@@ -80,3 +84,7 @@ class EndpointConfig:
         return not self.allow_topics or any(
             fnmatch.fnmatchcase(resolved_name, pattern) for pattern in self.allow_topics
         )
+
+
+if __name__ == "__main__":
+    print(markdown_table(EndpointConfig()))

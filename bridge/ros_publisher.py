@@ -81,7 +81,8 @@ class RawPublisher:
         self.queue = OutgoingQueue(max(queue_size, 1), max_queue_bytes)
         self._write_lock = threading.Lock()  # held while writing to the subscriber connections
         self._stalled = False  # set by publish when no room came in time; cleared by the pump's next write
-        self.published = 0  # client messages handed over (for /diagnostics)
+        self.published = 0  # client messages handed over (for /diagnostics); clients' readers count at once
+        self._published_lock = threading.Lock()
         self._pump = threading.Thread(target=self._pump_loop, name=f"pump {publisher.resolved_name}", daemon=True)
         self._pump.start()
 
@@ -89,7 +90,8 @@ class RawPublisher:
         """Send messages to ROS, in order: those of one client read (one lock hand-off for all of them). A message
         that came `alone` goes directly if ROS keeps up; the rest through the queue, waiting for room unless the
         ROS side is stalled (see the class). Returns how many older queued messages were dropped to make room."""
-        self.published += len(payloads)
+        with self._published_lock:
+            self.published += len(payloads)
         if alone and len(payloads) == 1 and not self._latch and self._write_lock.acquire(blocking=False):
             try:
                 if not self.queue and self._subscribers_take_whole(len(payloads[0])):

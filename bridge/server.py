@@ -1,9 +1,10 @@
-"""The endpoint's TCP server: admits clients (bridge.session) and dispatches what they ask to the topic and service
-tables (bridge.topics, bridge.services), which it owns; housekeeping once a second. With a WebSocket port, a second
+"""The endpoint's TCP server: accepts clients as its gate lets them in (bridge.gate), starts their sessions
+(bridge.session, bridge.web_session) and dispatches what they ask to the topic and service tables (bridge.topics,
+bridge.services), which it owns; housekeeping once a second. With a WebSocket port, a second
 listener admits WebSocket clients (browsers, Unity WebGL builds) to the same tables, under the same rules.
 
 Threads: one accept thread per listener; per client a reader (frames in), a writer (drains the client's bounded
-queue when a direct send could not write everything, see ClientSession.send) and a few workers for its ROS service
+queue when a direct send could not write everything, see SessionOutput.send) and a few workers for its ROS service
 calls and topic-list look-ups (so a slow service never stalls a reader, nor another client's calls); per published
 topic a pump thread (bridge.ros_publisher.RawPublisher); rospy's own threads deliver ROS messages, which are fanned
 out to the subscribed clients (bridge.topics.Topics.fan_out); one housekeeping thread.
@@ -19,11 +20,12 @@ import time
 from typing import TYPE_CHECKING, Any, Callable
 
 from bridge import protocol
-from bridge.admission import to_evict
 from bridge.auth import AuthGuard
 from bridge.bridged import Bridged, ClientRegistrations
 from bridge.config import EndpointConfig
 from bridge.diagnostics import ClientSnapshot, TopicSnapshot, parse_client_time, report
+from bridge.errors import RequestRefused
+from bridge.gate import Gate
 from bridge.memory import QuietTrim, give_back_free_memory
 from bridge.protocol import (
     Auth,
@@ -43,11 +45,11 @@ from bridge.protocol import (
 from bridge.queues import ByteBudget
 from bridge.ros_graph import RosGraph
 from bridge.services import Services
-from bridge.session import CLOSE_TIMEOUT_S, ClientSession, RequestRefused, WebSocketSession
+from bridge.session import CLOSE_TIMEOUT_S, ClientSession
 from bridge.sockets import send_now, tune_socket
 from bridge.throttle import LogThrottle
 from bridge.topics import Topics
-from bridge.web_clients import forwarded_client, normal_origin, origin_allowed
+from bridge.web_session import WebSocketSession
 
 if TYPE_CHECKING:  # wsproto is optional: bridge.websocket is imported only for WebSocket clients
     from bridge.websocket import UpgradeRequest
@@ -82,12 +84,10 @@ class Endpoint:
         self._housekeeping_thread: threading.Thread | None = None
         self._address = ""
         self._stopping = threading.Event()
-        self._turned_away = LogThrottle(log)
         self._auth = AuthGuard(config.auth_token) if config.auth_token is not None else None
         self._partial_frames = ByteBudget(config.max_partial_frame_bytes)
         self._accept_failures = LogThrottle(log)
-        self._refused_upgrades = LogThrottle(log)  # any page a browser opens may try: logged at most once a second
-        self.refused_origins = 0  # WebSocket upgrades refused for their Origin (on /diagnostics)
+        self._gate = Gate(config, self._clients, self._lock)
         # Totals of the clients that have left (those still connected are summed in stats()).
         self.frames_in = 0
         self.frames_out = 0
@@ -191,11 +191,11 @@ class Endpoint:
                 time.sleep(0.1)
                 continue
             # A trusted proxy's clients are counted by their own address once their upgrade request says it
-            behind_proxy = websocket and address[0] in self.config.trusted_proxies
-            refusal = self._admission_refusal(address[0], per_address=not behind_proxy)
+            behind_proxy = websocket and self._gate.behind_proxy(address[0])
+            refusal = self._gate.refusal(address[0], per_address=not behind_proxy)
             if refusal is not None:
                 _turn_away(sock, refusal, websocket)
-                self._turned_away.warning("turned away a client at %s:%d: %s", address[0], address[1], refusal)
+                self._gate.turn_away(f"{address[0]}:{address[1]}", refusal)
                 continue
             session: ClientSession | None = None
             try:
@@ -212,46 +212,6 @@ class Endpoint:
                     self.release(session)
                     session.close()
                 sock.close()
-
-    def _admission_refusal(
-        self, host: str, per_address: bool = True, newcomer: ClientSession | None = None
-    ) -> str | None:
-        """Why a new client from `host` cannot be served now (a limit reached, and no connection there not using its
-        slot: bridge.admission); None when it can, room having been made if needed. With `per_address` False, only
-        the endpoint's limit is checked; for a `newcomer` already connected (a WebSocket client whose address its
-        proxy has just said), only its address's."""
-        now = time.monotonic()
-        with self._lock:
-            # those leaving hold no slot; a newcomer's own is not counted against it
-            sessions = [session for session in self._clients if not session.closing and session is not newcomer]
-        from_host = [session for session in sessions if session.host == host]
-        if newcomer is None and len(sessions) >= self.config.max_clients:
-            limit, among = f"the endpoint serves {len(sessions)} clients already, its limit (--max-clients)", sessions
-        elif per_address and len(from_host) >= self.config.max_clients_per_address:
-            limit = (
-                f"the endpoint serves {len(from_host)} clients from {host} already, its limit per address "
-                "(--max-clients-per-address)"
-            )
-            among = from_host
-        else:
-            return None
-        uses = [session.slot_use(now) for session in among]
-        victim = to_evict(uses)
-        if victim is None:
-            return limit
-        use = uses[victim]
-        doing = (
-            f"{use.frame_bytes} bytes of a frame in {use.frame_for_s:.1f} s"
-            if use.frame_for_s is not None
-            else f"no {'__auth' if not use.authenticated else 'frame'} in {use.connected_for_s:.1f} s"
-        )
-        log.warning(
-            "client %s closed to make room for a new client from %s (%s): %s", among[victim].name, host, limit, doing
-        )
-        among[victim].close(
-            f"closed to make room for a new client: {limit}, and this connection sent {doing}", tell_client=True
-        )
-        return None
 
     # --- the session's owner: every client event lands here ------------------------------------------------------
     def handle(self, session: ClientSession, event: Event) -> None:
@@ -270,32 +230,8 @@ class Endpoint:
         handler(session, event)
 
     def upgrade_refusal(self, session: WebSocketSession, request: UpgradeRequest) -> tuple[str, str] | None:
-        """A WebSocket client's upgrade request: refused (HTTP 403) when its Origin is not allowed, a page's that no
-        --websocket-origin matches (bridge.web_clients); behind a trusted proxy, the client's own address is taken
-        from it and checked against the per-address limit (HTTP 503 past it, 400 for an address that is none)."""
-        if not origin_allowed(request.origin, self.config.websocket_origins):
-            self.refused_origins += 1
-            origin = normal_origin(request.origin or "")
-            self._refused_upgrades.warning(
-                "refused a WebSocket upgrade from %s: its Origin %s is not allowed (--websocket-origin)",
-                session.name,
-                origin,
-            )
-            return "403 Forbidden", f"the origin {origin} may not open a WebSocket here (--websocket-origin)"
-        if session.peer_host not in self.config.trusted_proxies:
-            return None
-        try:
-            client = forwarded_client(request.forwarded_for)
-        except ValueError as error:
-            self._refused_upgrades.warning("refused a WebSocket upgrade from %s: %s", session.name, error)
-            return "400 Bad Request", str(error)
-        if client is not None:
-            session.use_forwarded_address(client)
-        refusal = self._admission_refusal(session.host, newcomer=session)
-        if refusal is None:
-            return None
-        self._turned_away.warning("turned away a client at %s: %s", session.name, refusal)
-        return "503 Service Unavailable", f"connection refused: {refusal}"
+        """A WebSocket client's upgrade request, as the gate decides it (bridge.gate)."""
+        return self._gate.upgrade_refusal(session, request)
 
     def release(self, session: ClientSession) -> None:
         """Undo everything a departing client registered; fail its pending service calls."""
@@ -370,7 +306,7 @@ class Endpoint:
                     topics,
                     counts,
                     DIAGNOSTICS_PERIOD_S,
-                    self.refused_origins if self.config.websocket_port is not None else None,
+                    self._gate.refused_origins if self.config.websocket_port is not None else None,
                 )
                 self.ros.publish_diagnostics(statuses)
             except Exception:  # diagnostics must never take the endpoint down

@@ -12,9 +12,10 @@ from typing import Any
 
 from bridge import protocol
 from bridge.bridged import Bridged, ClientRegistrations, made_for_client
+from bridge.errors import RequestRefused
 from bridge.protocol import RosService, ServiceRequest, ServiceResponse, UnityService
 from bridge.ros_types import RosError
-from bridge.session import ClientSession, RequestRefused
+from bridge.session import ClientSession
 
 __all__ = ["Services"]
 

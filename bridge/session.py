@@ -1,13 +1,13 @@
-"""One client connection of the endpoint: the socket, the conversation on it, and the way out to the client.
+"""One client connection of the endpoint: the socket, the conversation on it, and the connection's life.
 
 The connection carries ROS-TCP frames directly (TCP), or one frame per binary message of a WebSocket
 (bridge.websocket, for browsers and Unity WebGL builds); everything above the frames is the same.
 
 A reader thread feeds the client's bytes to its Conversation and hands the events to the session's owner (the
 Endpoint, which owns every registration and everything clients share): topic messages go to their ROS publisher,
-a read's worth at a time; commands and service bodies to `owner.handle`. Frames to the client go out directly
-when its socket keeps up, otherwise through a bounded queue drained by a writer thread, so a slow reader loses its
-oldest topic frames, never the endpoint's memory.
+a read's worth at a time; commands and service bodies to `owner.handle`. The way out to the client (direct sends,
+the queue and its writer) is bridge.session_output's, the workers of its ROS calls bridge.calls', and a WebSocket
+client's session bridge.web_session's.
 """
 
 from __future__ import annotations
@@ -18,33 +18,30 @@ import select
 import socket
 import threading
 import time
-from concurrent.futures import Future, ThreadPoolExecutor
 from typing import TYPE_CHECKING, Callable, Protocol
 
 from bridge import protocol
 from bridge.admission import SlotUse
 from bridge.auth import AuthGuard
+from bridge.calls import ClientCalls
 from bridge.config import EndpointConfig
-from bridge.errors import BridgeError
-from bridge.framing import LARGE_PAYLOAD_BYTES
+from bridge.errors import RequestRefused
 from bridge.protocol import Auth, Conversation, Event, IgnoredFields, InvalidInput, Role, TopicMessage, Warn
-from bridge.queues import ByteBudget, OutgoingQueue
+from bridge.queues import ByteBudget
 from bridge.ros_publisher import RawPublisher
-from bridge.sockets import UnsentLimit, send_now, takes_whole, unsent_bytes, wait_writable
+from bridge.session_output import SessionOutput
+from bridge.sockets import send_now
 from bridge.throttle import LogThrottle
 
 if TYPE_CHECKING:  # wsproto is optional: bridge.websocket is imported only for WebSocket clients
+    from bridge.web_session import WebSocketSession
     from bridge.websocket import UpgradeRequest, WebSocketLink
 
-__all__ = ["ClientSession", "WebSocketSession", "RequestRefused", "SessionOwner"]
+__all__ = ["ClientSession", "SessionOwner", "CLOSE_TIMEOUT_S"]
 
 log = logging.getLogger(__name__)
 
 RECV_BYTES = 256 * 1024
-# A client with more than this waiting unacknowledged in its socket is not keeping up: no direct sends to it.
-DIRECT_SEND_MAX_UNSENT = 64 * 1024
-DROP_WARNING_INTERVAL_S = 1.0
-ERROR_LOG_INTERVAL_S = 1.0
 # A client may hold this much of a frame not yet complete without counting against the endpoint's budget for them.
 PARTIAL_FRAME_FREE_BYTES = 1024 * 1024
 # A WebSocket's reader looks up at least this often (s), so that a close made on another thread starts its handshake
@@ -53,15 +50,6 @@ CLOSE_CHECK_INTERVAL_S = 0.2
 # once the close handshake is done); a peer that does not answer in time is cut off.
 CLOSE_TIMEOUT_S = 2.0
 _AUTH_FAILURES_LOG = LogThrottle(log)  # wrong tokens may come thousands a second: logged once a second
-
-
-class RequestRefused(BridgeError):
-    """A request of one client that the endpoint refuses. The text goes back to that client as __error, with the
-    srv_id of the service call it concerns, if any."""
-
-    def __init__(self, text: str, srv_id: int | None = None) -> None:
-        super().__init__(text)
-        self.srv_id = srv_id
 
 
 class SessionOwner(Protocol):
@@ -80,8 +68,9 @@ class SessionOwner(Protocol):
         """Why a WebSocket client's upgrade request is refused, as (HTTP status, reason); None to accept it."""
 
 
-class ClientSession:
-    """One connected client: its conversation, its outgoing queue and writer, and the workers of its ROS calls."""
+class ClientSession(SessionOutput):
+    """One connected client: its conversation and reader, its outgoing queue and writer (SessionOutput), and the
+    workers of its ROS calls."""
 
     websocket = False  # the transport: ROS-TCP frames directly; WebSocketSession's are WebSocket messages
 
@@ -96,15 +85,12 @@ class ClientSession:
         partial_frames: ByteBudget | None = None,
     ) -> None:
         self.owner = owner
-        self.sock = sock
         self.client_id = client_id
         self.name = f"#{client_id} {address[0]}:{address[1]}"
         # The client's address for per-address limits and back-off: the peer's, or (behind a trusted proxy) the one
         # the proxy says the client has (WebSocketSession.use_forwarded_address)
         self.host: str = address[0]
         self.peer_host: str = address[0]
-        # Small frames go before queued large ones (take_batch): control messages never wait behind camera images.
-        self.queue = OutgoingQueue(config.client_queue_frames, config.client_queue_bytes, LARGE_PAYLOAD_BYTES)
         self.conversation = Conversation(Role.ENDPOINT, config.max_payload_bytes, config.max_destination_bytes)
         # What the client's bytes are fed to: the conversation itself, or the WebSocket link around it.
         self._link: WebSocketLink | None = None
@@ -125,9 +111,7 @@ class ClientSession:
         # Partly received frames above PARTIAL_FRAME_FREE_BYTES count against the endpoint's budget for all clients
         self._partial_frames = partial_frames
         self._partial_held = 0
-        self.frames_out = 0
         self.bytes_in = 0
-        self.bytes_out = 0
         self.connected_at = time.time()
         self._connected_monotonic = time.monotonic()
         self.pings = 0
@@ -139,26 +123,12 @@ class ClientSession:
         self._closed = threading.Event()
         # Set once the reader has ended: the client will read no more answers, so its ROS calls may give up.
         self.gone = threading.Event()
-        self._send_lock = threading.Lock()  # one writer of the socket at a time: direct sends or the writer thread
-        self._unsent_bound = 0  # at least the bytes waiting in the kernel's send queue (see _peer_keeps_up)
-        self._unsent_limit = UnsentLimit(sock)  # we decide what goes next, not the kernel, once the client is behind
-        # Threads are started on demand, so a client that never calls a service costs none. Look-ups at the master
-        # (topic lists) have a worker of their own: service calls in flight never hold them up.
-        self._calls = ThreadPoolExecutor(config.client_call_workers, thread_name_prefix=f"calls {self.name}")
-        self._lookups = ThreadPoolExecutor(1, thread_name_prefix=f"look-ups {self.name}")
-        self._max_pending_calls = config.client_max_pending_calls
-        self._calls_lock = threading.Lock()
-        self._pending_calls: set[Future] = set()
+        self._calls = ClientCalls(self.name, config.client_call_workers, config.client_max_pending_calls)
         # Topic messages of the current read that go to one publisher, handed over together (_publish_pending)
         self._pending_publisher: RawPublisher | None = None
         self._pending_payloads: list[bytes] = []
-        self._reported_drops = 0
-        self._reported_publish_drops = 0
-        self._reported_pongs_refused = 0
-        self._last_drop_warning_at = 0.0
-        self._error_log = LogThrottle(log, ERROR_LOG_INTERVAL_S)
+        SessionOutput.__init__(self, config, sock)
         self._reader = threading.Thread(target=self._read_loop, name=f"read {self.name}", daemon=True)
-        self._writer = threading.Thread(target=self._write_loop, name=f"write {self.name}", daemon=True)
 
     @property
     def frames_in(self) -> int:
@@ -180,11 +150,6 @@ class ClientSession:
             self.authenticated,
         )
 
-    @property
-    def dropped(self) -> int:
-        """Frames for this client dropped because it read too slowly."""
-        return self.queue.dropped
-
     def start(self) -> None:
         auth = "" if self.authenticated else ", waiting for __auth"
         if self._link is None:
@@ -196,93 +161,14 @@ class ClientSession:
         self._writer.start()
         self._reader.start()
 
-    def send(self, frame: bytes, droppable: bool = True, key: str | None = None, key_limit: int = 0) -> None:
-        """Send one frame (or a service header + body, as one item) without ever blocking the caller.
-
-        Direct path: when nothing is queued, nobody is writing and the peer keeps up, write it at once with a
-        non-blocking send on the calling thread (a rospy callback, a reader), which saves the writer thread's
-        wake-up and keeps 1 kHz latency low. Whatever the socket does not take goes to the queue: the unsent rest of
-        a frame as non-droppable (it must follow its first bytes), so frames stay whole and in order. The writer
-        thread takes the same lock for each batch, so the two paths never interleave bytes. A peer that does not
-        keep up (DIRECT_SEND_MAX_UNSENT bytes waiting in the kernel) is left to the writer thread: measured, sending
-        to a never-reading client from rospy's receive thread slowed that thread to ~580 msg/s for every client.
-        The kernel is asked (an ioctl, a fifth of a fan-out's cost) only when what was written since it last
-        answered could have reached the limit. `key` and `key_limit`: at most that many frames of the key (a topic)
-        wait in the queue, the oldest going first (the client's queue_size for the topic).
-        """
-        if self._send_lock.acquire(blocking=False):
-            try:
-                if not self.queue and not self._closed.is_set() and self._peer_keeps_up(len(frame)):
-                    try:
-                        sent = send_now(self.sock, frame)
-                    except OSError as error:  # the connection is gone; the reader sees it too and cleans up
-                        self.close(f"send failed: {error}")
-                        return
-                    self._unsent_bound += sent
-                    self.bytes_out += sent
-                    if sent == len(frame):
-                        self.frames_out += 1
-                        return
-                    if sent:
-                        self.queue.put_continuation(frame[sent:])
-                        return
-            finally:
-                self._send_lock.release()
-        self.queue.put(frame, droppable, key=key, key_limit=key_limit)
-
-    # Bytes ready for the socket as they are, whatever the transport (a WebSocket link's own replies): this class's
-    # send, which WebSocketSession's send wraps.
-    _send_bytes = send
-
-    def _peer_keeps_up(self, size: int) -> bool:
-        """Fewer than DIRECT_SEND_MAX_UNSENT bytes would wait in the kernel after sending `size` more; or, for a
-        large frame (a camera image), the client has taken everything and the send buffer takes the frame whole
-        (sockets.takes_whole), which saves a local client the writer thread's wake-up (~0.15 ms of a 1 MiB round
-        trip); on a slow link, the next image then finds the first still going and waits in the queue. Called with
-        the send lock held; `_unsent_bound` is the last measured backlog plus everything written since."""
-        if self._unsent_bound + size < DIRECT_SEND_MAX_UNSENT:
-            return True
-        self._unsent_bound = unsent_bytes(self.sock)
-        if self._unsent_bound + size < DIRECT_SEND_MAX_UNSENT:
-            return True
-        return size >= LARGE_PAYLOAD_BYTES and not self._unsent_bound and takes_whole(self.sock, size)
-
-    def send_error(self, text: str, srv_id: int | None = None) -> None:
-        # Errors are diagnostics (Unity only logs them): droppable, so a client that floods bad input and never
-        # reads cannot grow the endpoint's memory; and logged at most once a second per client, so it cannot
-        # flood the log either.
-        self._error_log.warning("client %s: %s", self.name, text)
-        self.send(protocol.encode(protocol.Error(text, srv_id)), droppable=True)
-
     def run_call(self, what: str, call: Callable[[], None], srv_id: int | None = None) -> None:
         """Run a ROS service call on this client's own workers, so a slow ROS side holds up only this client's
         calls; RequestRefused when too many are waiting already."""
-        self._submit(self._calls, what, call, srv_id)
+        self._calls.run_call(what, call, srv_id)
 
     def run_lookup(self, what: str, look_up: Callable[[], None]) -> None:
         """Run a look-up at the ROS master (a topic list) on this client's look-up worker."""
-        self._submit(self._lookups, what, look_up, None)
-
-    def _submit(self, workers: ThreadPoolExecutor, what: str, call: Callable[[], None], srv_id: int | None) -> None:
-        with self._calls_lock:
-            if len(self._pending_calls) >= self._max_pending_calls:
-                raise RequestRefused(
-                    f"{what}: refused, this client already has {len(self._pending_calls)} ROS calls in progress; "
-                    "this call will not complete",
-                    srv_id,
-                )
-            try:
-                future = workers.submit(call)
-            except RuntimeError:  # the session is closing and its workers are shut down
-                return
-            self._pending_calls.add(future)
-        future.add_done_callback(self._call_done)
-
-    def _call_done(self, future: Future) -> None:
-        with self._calls_lock:
-            self._pending_calls.discard(future)
-        if not future.cancelled() and future.exception() is not None:
-            log.error("client %s: a ROS call failed", self.name, exc_info=future.exception())
+        self._calls.run_lookup(what, look_up)
 
     def close(self, reason: str | None = None, tell_client: bool = False) -> None:
         """End the connection (from any thread); with `tell_client`, the reason goes to the client first as a __warn,
@@ -456,14 +342,7 @@ class ClientSession:
             self._partial_frames.resize(self._partial_held, 0)
             self._partial_held = 0
         self.owner.release(self)
-        # Calls not started yet are dropped; running ones see `gone` and end. Cancelled outside the lock: cancel()
-        # runs the done callback (_call_done), which takes it.
-        with self._calls_lock:
-            pending = list(self._pending_calls)
-        for future in pending:
-            future.cancel()
-        self._calls.shutdown(wait=False)
-        self._lookups.shutdown(wait=False)
+        self._calls.stop()  # calls not started yet are dropped; running ones see `gone` and end
         self._end_transport()
         log.info(
             "client %s disconnected: %s (frames in %d, out %d, dropped %d)",
@@ -566,136 +445,3 @@ class ClientSession:
         self._ended(f"authentication failed ({reason})")
         self.send_error("authentication required: the first command must be __auth with the endpoint's token")
         return False
-
-    # --- writer -----------------------------------------------------------------------------------------------
-    def _write_loop(self) -> None:
-        try:
-            while self.queue.wait(timeout=DROP_WARNING_INTERVAL_S):
-                if self.queue.large_queued:
-                    # A client behind on large frames gets the kernel's limit, and its next batch is chosen when the
-                    # link can take it: what came meanwhile (a joint state, a newer image) may then go first.
-                    self._unsent_limit.before_large_write()
-                    if self._unsent_limit.limited and not wait_writable(self.sock, DROP_WARNING_INTERVAL_S):
-                        continue
-                # Take the batch under the send lock: a direct send (see send) can then never slip between
-                # taking frames off the queue and writing them.
-                with self._send_lock:
-                    batch = self.queue.take_batch()
-                    # Nothing after a WebSocket's Close: a batch that holds it was taken after _closed was set
-                    warning = None if self._closed.is_set() else self._drop_warning()
-                    if warning is not None:
-                        batch.append(warning)
-                    if batch:
-                        data = b"".join(batch)
-                        self.sock.sendall(data)
-                        self.bytes_out += len(data)
-                        self.frames_out += len(batch)
-                        self._unsent_bound += len(data)
-        except OSError as error:
-            self._ended(f"write failed: {error}")
-            self.close()
-
-    def _drop_warning(self) -> bytes | None:
-        """At most once per wake-up (>= 1 s apart when idle): how many frames were lost each way, and how many
-        WebSocket pongs were not sent."""
-        dropped, publish_dropped, pongs_refused = self.queue.dropped, self.publish_drops, self.pongs_refused
-        if (
-            dropped == self._reported_drops
-            and publish_dropped == self._reported_publish_drops
-            and pongs_refused == self._reported_pongs_refused
-        ):
-            return None
-        now = time.monotonic()
-        if now - self._last_drop_warning_at < DROP_WARNING_INTERVAL_S:
-            return None
-        self._last_drop_warning_at = now
-        parts = []
-        if dropped != self._reported_drops:
-            parts.append(
-                f"client reads too slowly: {dropped - self._reported_drops} outgoing message(s) dropped "
-                f"(oldest first), {dropped} in total"
-            )
-        if publish_dropped != self._reported_publish_drops:
-            parts.append(
-                f"ROS subscribers take this client's messages too slowly: "
-                f"{publish_dropped - self._reported_publish_drops} published message(s) dropped (oldest first; "
-                f"raise queue_size in __publish), {publish_dropped} in total"
-            )
-        if pongs_refused != self._reported_pongs_refused:
-            parts.append(
-                f"{pongs_refused - self._reported_pongs_refused} WebSocket pong(s) not sent: more than "
-                f"{self._answers_budget} bytes of earlier answers waited unread, {pongs_refused} in total"
-            )
-        self._reported_drops, self._reported_publish_drops = dropped, publish_dropped
-        self._reported_pongs_refused = pongs_refused
-        warning = protocol.encode(protocol.Warn("; ".join(parts)))
-        return warning if self._link is None else self._link.wrap(warning)
-
-
-class WebSocketSession(ClientSession):
-    """A client of the WebSocket transport: each frame it is sent goes out as a binary message of its own. (Its own
-    class, so that sending to a TCP client, the endpoint's hot path, checks nothing more per frame.)
-
-    Its close is a handshake (RFC 6455 7.1): the Close goes out after the frame on the wire, never inside it, and
-    nothing after it; then the reader waits up to CLOSE_TIMEOUT_S for the peer's Close before the socket closes.
-    Only the reader touches the socket's reading side, so a close made on another thread never races it."""
-
-    websocket = True
-
-    def send(self, frame: bytes, droppable: bool = True, key: str | None = None, key_limit: int = 0) -> None:
-        link = self._link
-        assert link is not None
-        if not link.upgraded:  # nothing can be said in frames before the upgrade (link.close answers in HTTP)
-            return
-        super().send(link.wrap(frame), droppable, key, key_limit)
-
-    def use_forwarded_address(self, host: str) -> None:
-        """The client's own address, as a trusted proxy in front of the endpoint says it: per-address limits,
-        back-off and /diagnostics go by it from now on."""
-        self.name = f"#{self.client_id} {host} via {self.name.split(' ', 1)[1]}"
-        self.host = host
-
-    def _say_goodbye(self, text: str | None) -> None:
-        """The __warn with `text` and the Close (1001, going away), after the frame on the wire; what is queued and
-        not begun is dropped. Before the upgrade, an HTTP 503 instead. The reader sees the close within
-        CLOSE_CHECK_INTERVAL_S and waits for the peer's answer (_end_transport)."""
-        link = self._link
-        assert link is not None
-        self._closed.set()  # first: a direct send that checks it under the send lock from now on queues instead
-        goodbye = link.wrap(protocol.encode(Warn(f"closing the connection: {text}"))) if text and link.upgraded else b""
-        goodbye += link.close(text or self._end_reason or "", going_away=True)
-        self.queue.finish_with(goodbye)
-
-    def _end_transport(self) -> None:
-        link = self._link
-        assert link is not None
-        if not self._closed.is_set():  # the reader ended it: what it said last (an __error) goes before the Close
-            self._closed.set()
-            closing = link.close(self._end_reason or "")
-            if closing:
-                self.queue.put(closing, droppable=False)
-        self.queue.close()
-        deadline = time.monotonic() + CLOSE_TIMEOUT_S
-        if link.close_sent and not link.peer_closed:
-            self._await_peer_close(deadline)
-        self._writer.join(timeout=max(0.0, deadline - time.monotonic()))
-        self._shut()
-        self.sock.close()
-
-    def _await_peer_close(self, deadline: float) -> None:
-        """Read until the peer answers this end's Close, hangs up, or `deadline` passes; what else it sends is not
-        acted on any more."""
-        assert self._link is not None
-        readable = select.poll()
-        readable.register(self.sock, select.POLLIN)
-        while True:
-            remaining = deadline - time.monotonic()
-            if remaining <= 0 or not readable.poll(remaining * 1000):
-                log.info("client %s: no answer to the WebSocket close within %g s", self.name, CLOSE_TIMEOUT_S)
-                return
-            try:
-                data = self.sock.recv(RECV_BYTES)
-            except OSError:
-                return
-            if not data or self._link.await_close(data):
-                return

@@ -1,7 +1,7 @@
 """The endpoint's settings as one table: for each EndpointConfig field, its option, its rosparam, its kind (which
 says how a value is read, checked and shown) and its help. The command line, the rosparams, the checks and the
-README's table are all derived from SETTINGS; the defaults are EndpointConfig's. `python -m bridge.settings` prints
-the README's table."""
+README's table are all derived from SETTINGS; the defaults are EndpointConfig's (bridge.config, which imports this
+table and never the other way round). `python -m bridge.config` prints the README's table."""
 
 from __future__ import annotations
 
@@ -57,6 +57,9 @@ class Setting:
     kind: str
     help: str
     fallback_param: str | None = None  # the original endpoint's global rosparam, read when the private is unset
+    # An environment variable read when the option is not given, before the rosparams: a secret given so never
+    # shows in `ps` (nor in the parameter server)
+    env: str | None = None
     positive: bool = False
     highest: int | None = None
     optional: bool = False
@@ -71,7 +74,8 @@ class Setting:
     def source(self) -> str:
         """Where the setting is given, as an error message names it: `--tcp-port / ~tcp_port (/ROS_TCP_PORT)`."""
         fallback = f" ({self.fallback_param})" if self.fallback_param else ""
-        return f"{self.option} / {self.param}{fallback}"
+        env = f" / ${self.env}" if self.env else ""
+        return f"{self.option}{env} / {self.param}{fallback}"
 
     def parse(self, value: Any) -> Any:
         """An option's or a rosparam's value (a rosparam may hold any YAML type) as this setting's type."""
@@ -142,8 +146,18 @@ SETTINGS: tuple[Setting, ...] = (
         "--trusted-proxy",
         "~trusted_proxies",
         "ips",
-        "a proxy whose X-Forwarded-For gives a WebSocket client's own address (repeatable; 127.0.0.1 is the VR "
-        "page's server on this machine)",
+        "a proxy whose X-Forwarded-For gives a WebSocket client's own address, once it proves itself with "
+        "--proxy-secret (repeatable; 127.0.0.1 is the VR page's server on this machine)",
+    ),
+    Setting(
+        "proxy_secret",
+        "--proxy-secret",
+        "~proxy_secret",
+        "text",
+        "the secret a trusted proxy sends in X-Proxy-Secret with each upgrade; without it, or from a proxy that "
+        "sends another, X-Forwarded-For is ignored (also from the environment, ROS_TCP_PROXY_SECRET)",
+        optional=True,
+        env="ROS_TCP_PROXY_SECRET",
     ),
     Setting(
         "auth_token",
@@ -433,9 +447,3 @@ def _check_whole(setting: str, value: object, lowest: int, highest: int | None) 
     if isinstance(value, bool) or not in_range:
         allowed = f"from {lowest} to {highest}" if highest is not None else f"of at least {lowest}"
         raise ConfigError(setting, f"must be a whole number {allowed}, got {value!r}")
-
-
-if __name__ == "__main__":
-    from bridge.config import EndpointConfig
-
-    print(markdown_table(EndpointConfig()))

@@ -12,9 +12,10 @@ from typing import Any, Iterable, Tuple
 
 from bridge import protocol
 from bridge.bridged import Bridged, ClientRegistrations, made_for_client
+from bridge.errors import RequestRefused
 from bridge.protocol import Publish, Subscribe, TopicMessage, Warn
 from bridge.ros_publisher import RawPublisher, end_topic
-from bridge.session import ClientSession, RequestRefused
+from bridge.session import ClientSession
 
 __all__ = ["ECHO_RECORD_MAX", "EchoFilter", "SharedSubscriber", "SharedPublisher", "Topics"]
 
@@ -81,7 +82,10 @@ class SharedSubscriber:
     clients: tuple[_Subscription, ...] = ()
     untyped: str | None = None  # why there is no class of the type, when there is none
     latest_only: bool = False  # a client behind gets only the newest message (EndpointConfig.latest_only)
-    delivered: int = 0  # messages from ROS fanned out (for /diagnostics; rospy's threads count, roughly)
+    # messages from ROS fanned out (for /diagnostics), counted under its lock: rospy reads each publisher's
+    # connection on a thread of its own, so two publishers of the topic count at once
+    delivered: int = 0
+    delivered_lock: threading.Lock = field(default_factory=threading.Lock)
     echoes: EchoFilter = field(default_factory=EchoFilter)
 
 
@@ -290,7 +294,8 @@ class Topics:
         shared = self.subscribers.get(resolved)
         if shared is None:
             return
-        shared.delivered += 1
+        with shared.delivered_lock:
+            shared.delivered += 1
         sender = None
         if shared.echoes.records and header.get("callerid") == self._node_name:
             sender = shared.echoes.take(payload)

@@ -87,11 +87,13 @@ def _message_header(length: int) -> bytes:
 @dataclass(frozen=True)
 class UpgradeRequest:
     """What the endpoint decides a WebSocket upgrade on: the page's Origin (None from clients that are not
-    browsers), and the client's address as a proxy in front says it (X-Forwarded-For, all its values in order)."""
+    browsers), the client's address as a proxy in front says it (X-Forwarded-For, all its values in order), and the
+    secret by which that proxy proves itself (X-Proxy-Secret)."""
 
     target: str
     origin: str | None
     forwarded_for: str | None
+    proxy_secret: str | None = None
 
 
 def refusal_response(reason: str, status: str = "503 Service Unavailable") -> bytes:
@@ -204,10 +206,12 @@ class WebSocketLink:
                     headers.setdefault(bytes(name).lower(), []).append(bytes(value))
                 origin = headers.get(b"origin")
                 forwarded = headers.get(b"x-forwarded-for")
+                secret = headers.get(b"x-proxy-secret")
                 self.pending_request = UpgradeRequest(
                     ws_event.target,
                     origin[-1].decode("latin-1") if origin else None,
                     b", ".join(forwarded).decode("latin-1") if forwarded else None,
+                    secret[-1].decode("latin-1") if secret else None,
                 )
                 break
             elif isinstance(ws_event, AcceptConnection):

@@ -43,8 +43,16 @@ def serialize(message) -> bytes:
 # --- endpoint processes -----------------------------------------------------------------------------------------
 
 
-def start_endpoint(roscore: RosCore, log_dir: Path, *extra: str, name: str | None = None) -> EndpointProcess:
-    return EndpointProcess(roscore.env, log_dir, name=name or f"bridge_test_{os.getpid()}_{next(_names)}", extra=extra)
+def start_endpoint(
+    roscore: RosCore, log_dir: Path, *extra: str, name: str | None = None, env: dict[str, str] | None = None
+) -> EndpointProcess:
+    """The endpoint as a process of `roscore`'s, with `extra` options and, if given, more environment variables."""
+    return EndpointProcess(
+        {**roscore.env, **(env or {})},
+        log_dir,
+        name=name or f"bridge_test_{os.getpid()}_{next(_names)}",
+        extra=extra,
+    )
 
 
 @pytest.fixture(scope="module")

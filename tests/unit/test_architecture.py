@@ -26,6 +26,8 @@ def imported_after(module: str) -> set[str]:
     "module",
     [
         "bridge.protocol",
+        "bridge.commands",
+        "bridge.client_answers",
         "bridge.events",
         "bridge.framing",
         "bridge.layout",
@@ -164,6 +166,64 @@ def test_every_study_part_says_what_it_holds_and_has_its_own_error_type() -> Non
         assert errors is not None, f"{package} has no errors.py"
         classes = [node for node in errors.body if isinstance(node, ast.ClassDef)]
         assert len(classes) == 1, f"{package}/errors.py declares {len(classes)} error types"
+
+
+# The last redesign of bridge/ brought every module to this size or under (docs/architecture.md: one room, one job).
+BRIDGE_MODULE_MAX_LINES = 450
+
+
+def test_no_bridge_module_is_over_its_size() -> None:
+    sizes = {path.name: len(path.read_text().splitlines()) for path in (REPO / "bridge").glob("*.py")}
+    assert {name: lines for name, lines in sizes.items() if lines > BRIDGE_MODULE_MAX_LINES} == {}
+
+
+def runtime_imports(path: Path, package: str) -> set[str]:
+    """The modules of `package` that the module at `path` imports when it runs, even in functions; not those it
+    imports for its annotations alone (under `if TYPE_CHECKING:`), which never run."""
+    tree = ast.parse(path.read_text())
+    for node in ast.walk(tree):
+        if isinstance(node, ast.If) and isinstance(node.test, ast.Name) and node.test.id == "TYPE_CHECKING":
+            node.body = []
+    found = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom) and node.module and node.module.split(".")[0] == package:
+            found.update(
+                [node.module] if node.module != package else [f"{package}.{alias.name}" for alias in node.names]
+            )
+        elif isinstance(node, ast.Import):
+            found.update(alias.name for alias in node.names if alias.name.split(".")[0] == package)
+    return found
+
+
+def import_circles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """Every circle of imports in `graph` (module -> modules it imports), each once, as the path around it."""
+    circles: list[list[str]] = []
+    seen: set[frozenset[str]] = set()
+
+    def walk(path: list[str]) -> None:
+        for target in sorted(graph.get(path[-1], ())):
+            if target == path[0] and frozenset(path) not in seen:
+                seen.add(frozenset(path))
+                circles.append([*path, target])
+            elif target not in path and target > path[0]:  # each circle is found from its smallest module only
+                walk([*path, target])
+
+    for module in sorted(graph):
+        walk([module])
+    return circles
+
+
+def test_import_circles_are_found() -> None:
+    assert import_circles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c", "a"]]
+    assert import_circles({"a": {"b"}, "b": set()}) == []
+
+
+def test_bridge_has_no_import_circle() -> None:
+    graph = {
+        ".".join(path.relative_to(REPO).with_suffix("").parts): runtime_imports(path, "bridge")
+        for path in (REPO / "bridge").glob("*.py")
+    }
+    assert import_circles(graph) == []
 
 
 def test_only_the_bridges_ros_modules_touch_rospy() -> None:

@@ -27,8 +27,8 @@ class Params:
         return self.values.get(name, default)
 
 
-def config(argv: list[str], **params: Any) -> EndpointConfig:
-    return build_config(_parser().parse_args(argv), Params(**params))
+def config(argv: list[str], environ: dict[str, str] | None = None, **params: Any) -> EndpointConfig:
+    return build_config(_parser().parse_args(argv), Params(**params), environ or {})
 
 
 def test_defaults_are_a_loopback_endpoint_on_unitys_port() -> None:
@@ -70,6 +70,16 @@ def test_which_topics_a_client_behind_gets_only_the_newest_of() -> None:
     assert config([], latest_only_topics="/a, /b/*", latest_only_bytes="1000").latest_only("/b/c")
     with pytest.raises(ConfigError, match="latest_only_bytes"):
         EndpointConfig(latest_only_bytes=-1)
+
+
+def test_the_proxy_secret_comes_from_the_environment_so_that_it_need_not_show_in_ps() -> None:
+    environ = {"ROS_TCP_PROXY_SECRET": "from-env"}
+    assert config([]).proxy_secret is None  # no proxy can prove itself: X-Forwarded-For is never believed
+    assert config([], environ).proxy_secret == "from-env"
+    assert config([], environ, proxy_secret="from-param").proxy_secret == "from-env"  # the environment beats rosparams
+    assert config(["--proxy-secret", "from-option"], environ).proxy_secret == "from-option"
+    assert config([], proxy_secret="from-param").proxy_secret == "from-param"
+    assert config([], {"ROS_TCP_PROXY_SECRET": ""}).proxy_secret is None  # empty means unset, as for the token
 
 
 def test_the_launch_files_empty_token_means_auth_is_off() -> None:
@@ -182,9 +192,9 @@ def test_a_bad_value_on_the_command_line_is_named_like_a_bad_rosparam() -> None:
 
 def test_the_readme_table_is_the_settings_table() -> None:
     readme = (REPO / "README.md").read_text(encoding="utf-8")
-    start = readme.index("<!-- settings: python -m bridge.settings -->\n")
+    start = readme.index("<!-- settings: python -m bridge.config -->\n")
     copy = readme[readme.index("\n", start) + 1 : readme.index("<!-- /settings -->")]
-    assert copy.strip() == markdown_table(EndpointConfig()), "run `python -m bridge.settings` and paste its table"
+    assert copy.strip() == markdown_table(EndpointConfig()), "run `python -m bridge.config` and paste its table"
 
 
 def test_the_launch_files_parameters_are_settings_of_their_kind() -> None:

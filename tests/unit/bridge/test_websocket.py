@@ -68,13 +68,16 @@ def request_with(*headers: tuple[str, str]) -> bytes:
     return ("\r\n".join(lines) + "\r\n\r\n").encode()
 
 
-def test_the_request_says_the_pages_origin_and_the_forwarded_addresses() -> None:
+def test_the_request_says_the_pages_origin_the_forwarded_addresses_and_the_proxys_secret() -> None:
     endpoint = WebSocketLink(Role.ENDPOINT, Conversation(Role.ENDPOINT), protocol.handshake())
     request = request_with(
-        ("Origin", "https://Lab.Example"), ("X-Forwarded-For", "10.0.0.9"), ("x-forwarded-for", "192.168.1.7")
+        ("Origin", "https://Lab.Example"),
+        ("X-Forwarded-For", "10.0.0.9"),
+        ("x-forwarded-for", "192.168.1.7"),
+        ("X-Proxy-Secret", "s3cret"),
     )
     assert endpoint.receive_data(request) == []
-    assert endpoint.pending_request == UpgradeRequest("/ros", "https://Lab.Example", "10.0.0.9, 192.168.1.7")
+    assert endpoint.pending_request == UpgradeRequest("/ros", "https://Lab.Example", "10.0.0.9, 192.168.1.7", "s3cret")
 
 
 def test_a_refused_request_gets_its_http_answer_and_nothing_more() -> None:
