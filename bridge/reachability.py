@@ -45,6 +45,7 @@ class NetworkFacts:
     route_to_master: str | None  # the local address this machine reaches the master from (None: no route)
     bind_address: str  # the endpoint's tcp_ip
     port: int
+    in_container: bool = False  # Docker's or Podman's mark is on this machine's file system
 
     @property
     def master_is_remote(self) -> bool:
@@ -128,6 +129,11 @@ def findings(facts: NetworkFacts) -> list[str]:
             hints.append(f"the ROS master is on another machine ({facts.master_uri})")
         if facts.ros_ip and not is_loopback(facts.ros_ip) and not _is_wildcard(facts.ros_ip):
             hints.append(f"ROS_IP is {facts.ros_ip}")
+        if facts.in_container:
+            hints.append(
+                "it runs in a container (whose published ports, `docker run -p`, arrive on the container's "
+                "own address, not on its loopback)"
+            )
         if hints:
             found.append(
                 f"the endpoint listens on {facts.bind_address} only, yet {' and '.join(hints)}: a client (Unity) on "

@@ -27,6 +27,7 @@ __all__ = ["MASTER_PROBE_S", "gather_facts", "master_problem", "port_problem"]
 MASTER_PROBE_S = 3.0  # how long the master has to answer at start-up before the endpoint says it cannot reach it
 
 _SIOCGIFADDR = 0x8915
+CONTAINER_MARKS = ("/.dockerenv", "/run/.containerenv")  # Docker's and Podman's
 
 
 def _ipv4_addresses() -> list[str]:
@@ -91,6 +92,7 @@ def gather_facts(bind_address: str, port: int) -> NetworkFacts:
         route_to_master=_route_from(master_addresses[0]) if master_addresses else None,
         bind_address=bind_address,
         port=port,
+        in_container=any(Path(mark).exists() for mark in CONTAINER_MARKS),
     )
 
 

@@ -98,3 +98,19 @@ def test_listening_on_loopback_while_ros_runs_across_machines_is_named() -> None
     )
     (finding,) = findings(local_master)
     assert "yet ROS_IP is 10.0.0.2" in finding and "not the ROS_IP environment variable" in finding
+
+
+def test_listening_on_loopback_in_a_container_is_named() -> None:
+    """Inside Docker, a published port (-p 10000:10000) reaches the container's own address: an endpoint on its
+    loopback refuses it, even with ROS and Unity's endpoint side all in one container."""
+    alone = replace(
+        UBUNTU_HOSTNAME,
+        master_uri="http://localhost:11311/",
+        master_addresses=("127.0.0.1",),
+        bind_address="127.0.0.1",
+        in_container=True,
+    )
+    (finding,) = findings(alone)
+    assert finding.startswith("the endpoint listens on 127.0.0.1 only, yet it runs in a container")
+    assert "Pass --tcp-ip 0.0.0.0" in finding
+    assert findings(replace(alone, bind_address="0.0.0.0")) == []
