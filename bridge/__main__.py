@@ -119,11 +119,13 @@ def main(argv: list[str] | None = None) -> int:
     if args.wait:
         ros.wait_for_master()
     else:
-        # rospy would wait for an absent master without a word, in the first parameter look-up
+        # rospy would wait for an absent master without a word, in the first parameter look-up. A silent one may
+        # be a starved machine's: said, and then waited for as before.
         problem = master_problem()
         if problem is not None:
-            print(f"python -m bridge: {problem}", file=sys.stderr)
-            return 2
+            print(f"python -m bridge: {problem.line}", file=sys.stderr, flush=True)
+            if problem.certain:
+                return 2
     ros.init_node(args.node_name)
     _log_to_screen()
     if unknown:

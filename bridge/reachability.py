@@ -72,8 +72,15 @@ def reachable_at(facts: NetworkFacts) -> list[str]:
 
 def summary(facts: NetworkFacts) -> list[str]:
     """The start-up lines: where clients connect, and the ROS network settings in force."""
+    lines = ["clients can connect to " + ", ".join(reachable_at(facts))]
+    if facts.in_container and is_loopback(facts.bind_address):
+        # a note, not a warning: ROS and its clients may all be in this container
+        lines.append(
+            "in a container: a port it publishes (docker run -p) arrives on the container's own address, which an "
+            f"endpoint on {facts.bind_address} refuses; clients outside it need --tcp-ip 0.0.0.0"
+        )
     return [
-        "clients can connect to " + ", ".join(reachable_at(facts)),
+        *lines,
         f"ROS_IP={facts.ros_ip or '(unset)'} ROS_HOSTNAME={facts.ros_hostname or '(unset)'}; the ROS master "
         f"({facts.master_uri}) and other nodes are told to reach this node at {facts.advertised_host}",
     ]
@@ -129,11 +136,6 @@ def findings(facts: NetworkFacts) -> list[str]:
             hints.append(f"the ROS master is on another machine ({facts.master_uri})")
         if facts.ros_ip and not is_loopback(facts.ros_ip) and not _is_wildcard(facts.ros_ip):
             hints.append(f"ROS_IP is {facts.ros_ip}")
-        if facts.in_container:
-            hints.append(
-                "it runs in a container (whose published ports, `docker run -p`, arrive on the container's "
-                "own address, not on its loopback)"
-            )
         if hints:
             found.append(
                 f"the endpoint listens on {facts.bind_address} only, yet {' and '.join(hints)}: a client (Unity) on "

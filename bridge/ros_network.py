@@ -14,6 +14,7 @@ import os
 import socket
 import struct
 import xmlrpc.client
+from dataclasses import dataclass
 from pathlib import Path
 from urllib.parse import urlsplit
 
@@ -22,7 +23,7 @@ import rosgraph.network
 
 from bridge.reachability import NetworkFacts
 
-__all__ = ["MASTER_PROBE_S", "gather_facts", "master_problem", "port_problem"]
+__all__ = ["MASTER_PROBE_S", "MasterProblem", "gather_facts", "master_problem", "port_problem"]
 
 MASTER_PROBE_S = 3.0  # how long the master has to answer at start-up before the endpoint says it cannot reach it
 
@@ -107,19 +108,30 @@ class _TimeoutTransport(xmlrpc.client.Transport):
         return connection
 
 
-def master_problem(timeout: float = MASTER_PROBE_S) -> str | None:
-    """None when the ROS master answers within the timeout; else one line saying why not and what to do."""
+@dataclass(frozen=True)
+class MasterProblem:
+    """Why the master did not answer, in one line; `certain` when it cannot be there (refused, no such name, no
+    route), as against a silence that a master on a starved machine might still end."""
+
+    line: str
+    certain: bool
+
+
+def master_problem(timeout: float = MASTER_PROBE_S) -> MasterProblem | None:
+    """None when the ROS master answers within the timeout; else why not and what to do."""
     uri = rosgraph.get_master_uri()
     host = urlsplit(uri).hostname or ""
+    where = f"cannot reach the ROS master at {uri} (ROS_MASTER_URI)"
     if not _resolve(host):
-        return f"cannot reach the ROS master at {uri} (ROS_MASTER_URI): the name '{host}' does not resolve here"
+        return MasterProblem(f"{where}: the name '{host}' does not resolve here", certain=True)
     proxy = xmlrpc.client.ServerProxy(uri, transport=_TimeoutTransport(timeout))
+    certain = True
     try:
         proxy.getPid("/ros_tcp_endpoint")
     except ConnectionRefusedError:
         why = "connection refused: no roscore listens there"
     except socket.timeout:
-        why = f"no answer within {timeout:g} s: a firewall, or a wrong address"
+        why, certain = f"no answer within {timeout:g} s: a firewall, or a wrong address", False
     except OSError as error:
         why = error.strerror or str(error)
     except (xmlrpc.client.Error, ValueError) as error:
@@ -129,10 +141,8 @@ def master_problem(timeout: float = MASTER_PROBE_S) -> str | None:
     finally:
         with contextlib.suppress(Exception):
             proxy("close")()
-    return (
-        f"cannot reach the ROS master at {uri} (ROS_MASTER_URI): {why}. Start roscore there, or set ROS_MASTER_URI "
-        "to where it runs; --wait waits for it"
-    )
+    fix = "Start roscore there, or set ROS_MASTER_URI to where it runs; --wait waits for it"
+    return MasterProblem(f"{where}: {why}. {fix}", certain)
 
 
 def port_problem(error: OSError, address: str, port: int) -> str:
