@@ -18,6 +18,7 @@ from typing import Any, Mapping
 
 from bridge.config import ConfigError, EndpointConfig
 from bridge.memory import keep_large_buffers
+from bridge.reachability import findings, summary
 from bridge.server import Endpoint
 from bridge.settings import SETTINGS, describe
 
@@ -112,6 +113,7 @@ def main(argv: list[str] | None = None) -> int:
 
     # bridge.ros_graph (rospy) is imported here, not at module level, so `--help` works without a ROS install.
     from bridge.ros_graph import RosGraph
+    from bridge.ros_network import gather_facts, master_problem, port_problem
 
     # Arguments we do not know are ignored with a warning, never an exit: launch files written for other endpoints
     # pass their own. A known option with a bad value is still an error (exit 2).
@@ -119,6 +121,14 @@ def main(argv: list[str] | None = None) -> int:
     ros = RosGraph()
     if args.wait:
         ros.wait_for_master()
+    else:
+        # rospy would wait for an absent master without a word, in the first parameter look-up. A silent one may
+        # be a starved machine's: said, and then waited for as before.
+        problem = master_problem()
+        if problem is not None:
+            print(f"python -m bridge: {problem.line}", file=sys.stderr, flush=True)
+            if problem.certain:
+                return 2
     ros.init_node(args.node_name)
     _log_to_screen()
     if unknown:
@@ -141,9 +151,9 @@ def main(argv: list[str] | None = None) -> int:
     try:
         port = endpoint.start()
     except OSError as error:
-        log.error("cannot listen on %s:%d: %s", config.tcp_ip, config.tcp_port, error)
+        print(f"python -m bridge: {port_problem(error, config.tcp_ip, config.tcp_port)}", file=sys.stderr)
         ros.shutdown("bind failed")
-        return 1
+        return 2
     actual = {"~actual_port": port}
     if endpoint.websocket_port is not None:
         actual["~actual_websocket_port"] = endpoint.websocket_port
@@ -162,6 +172,11 @@ def main(argv: list[str] | None = None) -> int:
     print(f"ROS-TCP endpoint v0.7.0 listening on {config.tcp_ip}:{port}", flush=True)
     if endpoint.websocket_port is not None:
         print(f"WebSocket clients: ws://{config.tcp_ip}:{endpoint.websocket_port}/", flush=True)
+    facts = gather_facts(config.tcp_ip, port)
+    for line in summary(facts):
+        print(line, flush=True)
+    for finding in findings(facts):
+        log.warning("%s", finding)
 
     stop = threading.Event()
     for signum in (signal.SIGINT, signal.SIGTERM):

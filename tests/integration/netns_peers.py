@@ -1,0 +1,115 @@
+"""The two far ends of tests/integration/test_bridge_across_machines.py, each run inside its own network namespace
+(`ip netns exec NS python -m tests.integration.netns_peers ROLE ...`). Each prints one line per thing that worked,
+`ok <what>`, and goes on serving its peer until it is stopped, or its deadline.
+
+- `ros`: a rospy node on the master's host. It publishes /far/from_ros (std_msgs/String), waits for
+  /far/to_ros, serves /far/ros_echo (std_srvs/SetBool: success = data) and calls /far/client_echo, a service the
+  client implements through the endpoint.
+- `client HOST PORT`: an endpoint client with no rospy (as Unity is): the mirror image of the above.
+"""
+
+from __future__ import annotations
+
+import struct
+import sys
+import threading
+import time
+
+DEADLINE_S = 40.0
+FROM_ROS, TO_ROS = "/far/from_ros", "/far/to_ros"
+ROS_ECHO, CLIENT_ECHO = "/far/ros_echo", "/far/client_echo"
+
+
+def _string(text: str) -> bytes:
+    data = text.encode()
+    return struct.pack("<I", len(data)) + data
+
+
+def _unstring(payload: bytes) -> str:
+    (length,) = struct.unpack_from("<I", payload)
+    return payload[4 : 4 + length].decode()
+
+
+def _set_bool_response(success: bool, message: str) -> bytes:
+    return struct.pack("<B", success) + _string(message)
+
+
+def _say(what: str) -> None:
+    print(f"ok {what}", flush=True)
+
+
+def ros_side() -> int:
+    import rospy
+    from std_msgs.msg import String
+    from std_srvs.srv import SetBool, SetBoolResponse
+
+    rospy.init_node("far_ros_peer", disable_signals=True)
+    heard = threading.Event()
+
+    def on_message(message: String) -> None:
+        if message.data == "hello from the client" and not heard.is_set():
+            heard.set()
+            _say("ros heard the client")
+
+    rospy.Subscriber(TO_ROS, String, on_message)
+    rospy.Service(ROS_ECHO, SetBool, lambda request: SetBoolResponse(request.data, "answered by ros"))
+    publisher = rospy.Publisher(FROM_ROS, String, queue_size=10)
+    called = False
+    deadline = time.monotonic() + DEADLINE_S
+    while time.monotonic() < deadline and not rospy.is_shutdown():
+        publisher.publish(String("hello from ros"))
+        if not called:
+            try:
+                rospy.wait_for_service(CLIENT_ECHO, timeout=0.1)
+                answer = rospy.ServiceProxy(CLIENT_ECHO, SetBool)(True)
+            except rospy.ROSException:
+                answer = None
+            if answer is not None and answer.success and answer.message == "answered by the client":
+                called = True
+                _say("ros called the client's service")
+        time.sleep(0.1)
+    return 0
+
+
+def client_side(host: str, port: int) -> int:
+    from bridge.client import TcpClient
+
+    client = TcpClient(host, port).connect(timeout=10.0)
+    _say(f"client connected to {host}:{port}")
+    heard = threading.Event()
+    client.subscribe(FROM_ROS, "std_msgs/String", lambda payload: heard.set())
+    client.implement_service(
+        CLIENT_ECHO, "std_srvs/SetBool", lambda _: _set_bool_response(True, "answered by the client")
+    )
+    client.register_publisher(TO_ROS, "std_msgs/String")
+    client.register_ros_service(ROS_ECHO, "std_srvs/SetBool")
+    deadline = time.monotonic() + DEADLINE_S
+    called = said_heard = False
+    while time.monotonic() < deadline:
+        client.publish(TO_ROS, _string("hello from the client"))
+        if not called:
+            try:
+                response = client.call_service(ROS_ECHO, struct.pack("<B", 1), timeout=1.0)
+            except Exception:  # noqa: BLE001 - not offered yet, or not reachable yet: try again until the deadline
+                response = b""
+            if response[:1] == b"\x01" and _unstring(response[1:]) == "answered by ros":
+                called = True
+                _say("client called the ros service")
+        if heard.wait(0.1) and not said_heard:
+            said_heard = True
+            _say("client heard ros")
+    client.close()
+    return 0
+
+
+def main(argv: list[str]) -> int:
+    if argv[:1] == ["ros"]:
+        return ros_side()
+    if argv[:1] == ["client"] and len(argv) == 3:
+        return client_side(argv[1], int(argv[2]))
+    print("usage: python -m tests.integration.netns_peers ros | client HOST PORT", file=sys.stderr)
+    return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
