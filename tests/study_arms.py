@@ -227,7 +227,7 @@ _UR_SPEED = 3.15  # rad/s, ur_description's
 UR5_DH = {"d1": 0.089159, "a2": 0.425, "a3": 0.39225, "d4": 0.10915, "d5": 0.09465, "d6": 0.0823}
 UR5_LIKE = (
     Part(
-        "base_link", "world", "fixed", box=((-0.075, -0.075, 0.0), (0.075, 0.075, 0.08)), mass=4.0, joint="world_joint"
+        "base_link", "world", "fixed", box=((-0.06, -0.06, 0.0), (0.06, 0.06, 0.07)), mass=4.0, joint="world_joint"
     ),
     Part("base", "base_link", "fixed", rpy=(0.0, 0.0, -np.pi), joint="base_link-base_fixed_joint"),
     Part(
@@ -248,7 +248,7 @@ UR5_LIKE = (
         (0.0, np.pi / 2, 0.0),
         "0 1 0",
         (-_TWO_PI, _TWO_PI, _UR_SPEED),
-        ((-0.05, -0.05, -0.05), (0.05, 0.05, 0.47)),
+        ((-0.045, -0.045, -0.035), (0.045, 0.045, 0.46)),
         8.393,
         joint="shoulder_lift_joint",
     ),
@@ -371,13 +371,13 @@ WIDOWX_LIKE = (
 # A SCARA with a lift: a column, a carriage on a prismatic lift, two arm links turning about z and a quill that
 # rolls about z and carries the tool downwards (reach some 0.6 m)
 SCARA_LIKE = (
-    Part("base_link", "world", "fixed", box=((-0.1, -0.1, 0.0), (0.1, 0.1, 0.5)), mass=15.0),
+    Part("base_link", "world", "fixed", box=((-0.1, -0.1, 0.0), (0.1, 0.1, 0.8)), mass=15.0),
     Part(
         "carriage",
         "base_link",
         "prismatic",
         (0.13, 0.0, 0.1),
-        limits=(0.0, 0.35, 0.5),
+        limits=(0.0, 0.6, 0.5),
         box=((-0.03, -0.06, 0.0), (0.05, 0.06, 0.12)),
         mass=4.0,
         joint="lift",
