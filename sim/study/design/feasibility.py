@@ -54,6 +54,7 @@ __all__ = [
 STANDOFF_TOLERANCE = 0.002  # m: FK of the planned end vs the path's stand-off
 _IK_RESTARTS = 20
 _BRANCH_SEEDS = 8  # random seeds for an approach's first sample, besides home
+_BEHIND = 0.1  # m: a joint this far behind the base, away from the hand, reaches over the arm's head
 _STANDOFF_ROUNDS = 4
 # Position and the tool axis along the base's z (the roll about it free): an arm of fewer than six joints, upright
 AXIS_WEIGHTS = (1.0, 1.0, 1.0, 1.0, 1.0, 0.0)
@@ -106,25 +107,32 @@ def remedies(approaches: Iterable[PlannedApproach]) -> str:
 def _solve_branch(
     chain: KinematicChain, targets: np.ndarray, home: np.ndarray, weights: tuple[float, ...]
 ) -> PathIKResult:
-    """One IK branch along `targets`: the first sample solved from home and from _BRANCH_SEEDS random seeds, the
-    solution whose links stand highest kept (elbow up, away from the table: the configuration an arm works in
-    beside a table; home's where it stands as high, within a centimetre), then each sample warm-started from the one
-    before."""
-    first = solve_ik(chain, targets[0], home, weights=weights)
+    """One IK branch along `targets`: the first sample solved from home and from _BRANCH_SEEDS random seeds. Of the
+    solutions that keep every joint on the target's side of the base (none reaching over the arm's own head), the
+    one standing highest (elbow up, away from the table) is kept, home's where it stands within a centimetre of it;
+    then each sample is warm-started from the one before."""
     rng = np.random.default_rng(0)
     lower, upper = np.maximum(chain.lower, -np.pi), np.minimum(chain.upper, np.pi)
-    seeded = [solve_ik(chain, targets[0], rng.uniform(lower, upper), weights=weights) for _ in range(_BRANCH_SEEDS)]
-    solved = [result for result in seeded if result.success]
-    if solved:
-        highest = max(solved, key=lambda result: _height(chain, result.q))
-        if not first.success or _height(chain, highest.q) > _height(chain, first.q) + 0.01:
-            first = highest
+    seeds = [home] + [rng.uniform(lower, upper) for _ in range(_BRANCH_SEEDS)]
+    found = [solve_ik(chain, targets[0], seed, weights=weights) for seed in seeds]
+    solved = [result for result in found if result.success]
+    towards = targets[0, :2, 3] / max(float(np.linalg.norm(targets[0, :2, 3])), 1e-9)
+    facing = [result for result in solved if _behind(chain, result.q, towards) <= _BEHIND]
+    first = found[0]
+    for result in facing or solved:
+        if not first.success or _height(chain, result.q) > _height(chain, first.q) + 0.01:
+            first = result
     return solve_path_ik(chain, targets, first.q, weights=weights)
 
 
 def _height(chain: KinematicChain, q: np.ndarray) -> float:
-    """How high the arm stands at q: the mean height of its links' frames above its base (m)."""
+    """How high the arm stands at q: the mean height of its joints above its base (m)."""
     return float(np.mean([frame[2, 3] for frame in chain.fk_link_frames(q)]))
+
+
+def _behind(chain: KinematicChain, q: np.ndarray, towards: np.ndarray) -> float:
+    """How far (m) the arm's joints reach behind its base at q, away from the horizontal direction `towards`."""
+    return float(max(-(frame[:2, 3] @ towards) for frame in chain.fk_link_frames(q)))
 
 
 def _failure(
