@@ -221,18 +221,18 @@ def plan_approach(robot: RobotSpec, scene: Scene, path: ApproachPath, world: Sce
         kinds.append("speed")
     lowest = {"table": math.inf, "hand": math.inf, "self": math.inf}
     where = {"table": 0, "hand": 0, "self": 0}
-    for k in range(len(path.times)):
-        for what, distance in world.clearance(positions[k]).items():
+    for sample in range(len(path.times)):
+        for what, distance in world.clearance(positions[sample]).items():
             if distance < lowest[what]:
-                lowest[what], where[what] = distance, k
+                lowest[what], where[what] = distance, sample
     for what, distance in lowest.items():
         if distance < CONTACT_MARGIN:
-            k = where[what]
-            links = world.nearest_links(positions[k], what)
+            closest = where[what]
+            links = world.nearest_links(positions[closest], what)
             problems.append(
                 f"the robot comes within {max(distance, 0.0) * 1000:.1f} mm of "
-                f"{'itself' if what == 'self' else 'the ' + what} ({links}, at t = {path.times[k]:.2f} s, "
-                f"q = [{', '.join(f'{v:.2f}' for v in positions[k])}])"
+                f"{'itself' if what == 'self' else 'the ' + what} ({links}, at t = {path.times[closest]:.2f} s, "
+                f"q = [{', '.join(f'{v:.2f}' for v in positions[closest])}])"
             )
             kinds.append(what)
     distances = np.array([world.hand_distance(q) for q in positions])
