@@ -26,6 +26,7 @@ from sim.study.design.paths import ON_TOP, PATH_NAMES, approach_path
 from sim.study.design.scene import Scene, load_scene, scene_robot
 from sim.study.design.tool import tool_axis
 from sim.wire.contract import STEP_S
+from tests.robot_files import LIFT_ARM
 from tests.study_arms import LAB_ARM_EE_LINKS, LAB_ARMS, STUDY_ARMS, study_arm
 
 TEMPLATE = load_scene()
@@ -109,3 +110,19 @@ def test_a_small_arms_paths_shrink_to_its_reach_and_a_large_ones_less(folder: Pa
         assert (
             np.linalg.norm(scene.to_base(wrist) - found.shoulder) <= SIZE_FRACTION * (found.reach - found.tool) + 1e-9
         )
+
+
+def test_an_arm_that_cannot_point_its_tool_down_is_told_so_and_keeps_the_position() -> None:
+    # the four-joint lift arm (lift, shoulder yaw, elbow pitch, a wrist rolling about the forearm): 0.7 m out, the
+    # vertical path's start is within its reach, but not with its tool pointing down
+    robot = load_robot(str(LIFT_ARM))
+    chain = chain_for(robot)
+    scene = candidate_scene(TEMPLATE, robot, 0.7, 0.0)
+    vertical = [("vertical", 0.1, 0.15)]
+    assert screen(robot, chain, scene, vertical, STEP_S, strict=True) == (
+        "the arm cannot point the tool down at the vertical path's start"
+    )
+    assert screen(robot, chain, scene, vertical, STEP_S) == ""
+    path = approach_path(scene, "vertical", 0.1, 0.15)
+    solved, kept = solve_approach(chain, robot, scene, approach_targets(chain, robot, scene, path))
+    assert kept == "position" and solved.all_succeeded
