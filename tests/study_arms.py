@@ -226,9 +226,7 @@ _UR_SPEED = 3.15  # rad/s, ur_description's
 # point out of it; the robot on base_link under a `world` root, with ur_description's `base` and `ee_link` frames
 UR5_DH = {"d1": 0.089159, "a2": 0.425, "a3": 0.39225, "d4": 0.10915, "d5": 0.09465, "d6": 0.0823}
 UR5_LIKE = (
-    Part(
-        "base_link", "world", "fixed", box=((-0.06, -0.06, 0.0), (0.06, 0.06, 0.07)), mass=4.0, joint="world_joint"
-    ),
+    Part("base_link", "world", "fixed", box=((-0.06, -0.06, 0.0), (0.06, 0.06, 0.07)), mass=4.0, joint="world_joint"),
     Part("base", "base_link", "fixed", rpy=(0.0, 0.0, -np.pi), joint="base_link-base_fixed_joint"),
     Part(
         "shoulder_link",
@@ -310,7 +308,7 @@ UR5_LIKE = (
 # A five-joint desktop arm in a WidowX 200's proportions: base yaw, shoulder, elbow, wrist pitch, wrist roll (about
 # the forearm's line, x), the upper arm L-shaped (up, then a step forward), reach some 0.55 m
 WIDOWX_LIKE = (
-    Part("base_link", "world", "fixed", box=((-0.06, -0.06, 0.0), (0.06, 0.06, 0.06)), mass=0.8),
+    Part("base_link", "world", "fixed", box=((-0.06, -0.06, 0.0), (0.06, 0.06, 0.05)), mass=0.8),
     Part(
         "shoulder_link",
         "base_link",
@@ -328,7 +326,7 @@ WIDOWX_LIKE = (
         (0.0, 0.0, 0.039),
         axis="0 1 0",
         limits=(-1.88, 1.97, np.pi),
-        box=((-0.02, -0.025, -0.02), (0.06, 0.025, 0.2)),
+        box=((-0.02, -0.025, -0.015), (0.02, 0.025, 0.2)),
         mass=0.3,
         joint="shoulder",
     ),

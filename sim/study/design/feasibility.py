@@ -252,7 +252,8 @@ def plan_combination(
     end-effector point) is moved along the approach until that surface, not the point, ends at the stand-off: each
     round moves it by the last round's miss, which shrinks fast since near the end the two differ by about the
     tool's reach beyond the point. The rounds solve the end alone (warm-started from the planned end, on its branch),
-    and the path found is planned and checked once more, whole."""
+    and the path found is planned and checked once more, whole; again from there where the whole path ends otherwise
+    than the end alone did (an arm that keeps less than its whole pose)."""
     name, standoff, peak_speed = combination
     path = approach_path(scene, name, standoff, peak_speed, dt)
     planned = plan_approach(robot, scene, path, world)
@@ -260,22 +261,30 @@ def plan_combination(
         return planned  # (where IK fails, the distances say nothing about the path's end)
     chain = chain_for(robot)
     weights = dict(ik_attempts(chain, robot.home, scene.to_base_direction(np.array([0.0, 0.0, -1.0]))))
-    end_q, reached, point_standoff, moved = planned.positions[-1], planned.reached_standoff, standoff, False
-    for _ in range(_STANDOFF_ROUNDS):
-        miss = reached - standoff
-        if not abs(miss) > STANDOFF_TOLERANCE / 4:
-            break  # (NaN or inf: no surface)
-        point_standoff -= miss
-        try:
-            candidate = approach_path(scene, name, standoff, peak_speed, dt, point_standoff)
-        except DesignError:
-            break  # the end moved out too far for the path's start: the last plan says it misses its stand-off
-        target = approach_targets(chain, robot, scene, candidate)[-1]
-        end = solve_ik(chain, target, end_q, weights=weights.get(planned.constraints, POSITION_WEIGHTS))
-        if not end.success:
+    point_standoff = standoff
+    for _ in range(_STANDOFF_ROUNDS):  # each a whole plan, its end first moved by rounds of the end alone
+        end_q, reached, moved = planned.positions[-1], planned.reached_standoff, False
+        for _ in range(_STANDOFF_ROUNDS):
+            miss = reached - standoff
+            if not abs(miss) > STANDOFF_TOLERANCE / 4:
+                break  # (NaN or inf: no surface)
+            point_standoff -= miss
+            try:
+                candidate = approach_path(scene, name, standoff, peak_speed, dt, point_standoff)
+            except DesignError:
+                break  # the end moved out too far for the path's start: the last plan says it misses its stand-off
+            target = approach_targets(chain, robot, scene, candidate)[-1]
+            end = solve_ik(chain, target, end_q, weights=weights.get(planned.constraints, POSITION_WEIGHTS))
+            if not end.success:
+                break
+            path, end_q, reached, moved = candidate, end.q, world.hand_distance(end.q), True
+        if not moved:
             break
-        path, end_q, reached, moved = candidate, end.q, world.hand_distance(end.q), True
-    return plan_approach(robot, scene, path, world) if moved else planned
+        planned = plan_approach(robot, scene, path, world)
+        # an arm that keeps less than the whole pose may end the whole path otherwise than the end alone did
+        if planned.unreachable or not abs(planned.reached_standoff - standoff) > STANDOFF_TOLERANCE:
+            break
+    return planned
 
 
 class Approaches:
