@@ -86,8 +86,8 @@ def test_an_arm_that_cannot_reach_over_a_table_is_told_why_in_one_line(tmp_path:
 
 
 # In lockstep, the study's processes wait for each other, not for the clock: beside other work, as the checks.
-# The LBR iiwa's scene is proposed with the paths' shapes made smaller.
-@pytest.mark.parametrize("name", [*(design.name for design in STUDY_ARMS), "lbr_iiwa"])
+# The LBR iiwa's scene is proposed with the paths' shapes made smaller; the UR5's too, named by its tool0.
+@pytest.mark.parametrize("name", [*(design.name for design in STUDY_ARMS), "lbr_iiwa", "ur5_like"])
 def test_a_simulated_study_with_the_arm_recovers_its_biases(tmp_path: Path, name: str) -> None:
     design = tmp_path / "design.yaml"
     design.write_text(yaml.safe_dump(SMALL_DESIGN))
@@ -97,7 +97,7 @@ def test_a_simulated_study_with_the_arm_recovers_its_biases(tmp_path: Path, name
     # simulate starts a roscore, an endpoint and nodes: in a process group of its own, stopped whatever happens
     env = dict(plain_env(), VR_SIM_CACHE=str(run_cache(tmp_path)))
     process = ManagedProcess(
-        [PYTHON, "-m", "sim.study", *command, "--robot", str(arm(tmp_path, name)), *spreads], env, tmp_path, "simulate"
+        [PYTHON, "-m", "sim.study", *command, *robot_args(tmp_path, name), *spreads], env, tmp_path, "simulate"
     )
     try:
         finish(process, 280)
