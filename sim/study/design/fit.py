@@ -3,7 +3,8 @@ every combination of the design can be run. `python -m sim.study scene --robot X
 a study command given --robot and no --scene uses the same proposal (computed once per robot and design, kept in
 the cache beside the self-contact verdicts).
 
-How. The bundled scene (the thesis's Panda) is tried first, with this robot on its base. Then the hand goes out
+How. The bundled scene (the thesis's Panda) is tried first, with this robot on its base: as it is, then with the
+paths sized to the arm (below). Then the hand goes out
 from the base along x at a fraction of the arm's reach (from its shoulder, the first joint about a horizontal
 axis), on a table whose top is at the robot's mounting (the bottom of its base link) or a fraction of the reach
 lower, in the order of how close each candidate is to the Panda's
@@ -222,7 +223,9 @@ def fit_scene(
     bundled = dataclasses.replace(template, robot=scene_robot_name(robot), ee_link=robot.ee_link)
     names = list(dict.fromkeys(name for name, _, _ in combinations))
     sized = dataclasses.replace(bundled, approach_scale=path_scale(bundled, found, names))
-    candidates = [("the bundled scene" + _scaled(sized), sized)]
+    candidates = [("the bundled scene", bundled)]  # the thesis's paths, whole, where the arm can do them there
+    if sized.approach_scale != bundled.approach_scale:
+        candidates.append(("the bundled scene" + _scaled(sized), sized))
     with SceneWorld(robot, template) as world:
         mount = world.base_bottom()
     pairs = sorted(
