@@ -69,7 +69,7 @@ def check_command(args: argparse.Namespace) -> int:
     elapsed = time.monotonic() - started
     if scene.approach_scale != 1.0:
         print(
-            f"the paths' shapes (starts and via points, from the hand) × {scene.approach_scale:g}, sized to "
+            f"the paths' shapes (starts and via points, from the hand) × {scene.approach_scale:g}, for "
             f"{robot.name}'s reach; stand-offs, speeds and directions as the design gives them"
         )
     print("| path | stand-off | peak speed | samples | duration | clearance table / hand | IK kept | verdict |")
@@ -112,8 +112,8 @@ def scene_command(args: argparse.Namespace) -> int:
         f"{fit.proportions.reach:.2f} m from its shoulder, {fit.proportions.shoulder[2]:.2f} m above its base;\n"
         f"# {chosen.label}. Every combination of the design ({len(combinations)}) was planned and checked in it.\n"
         + (
-            f"# The paths' shapes are sized to the arm: × {fit.scene.approach_scale:g} (approach_scale), every start "
-            "and via point within reach of its shoulder.\n"
+            f"# The paths' shapes are made smaller for the arm: × {fit.scene.approach_scale:g} (approach_scale); "
+            "stand-offs, speeds and directions as the design gives them.\n"
             if fit.scene.approach_scale != 1.0
             else ""
         )

@@ -11,10 +11,11 @@ lower, in the order of how close each candidate is to the Panda's
 own proportions. The table keeps its size beyond the base and the hand, and the participant's seat keeps its place
 beside the hand. The robot's base stays at the origin: it is the URDF's mounting, high or low.
 
-Paths sized to the arm (path_scale): in every candidate the paths' shapes (their starts and via points, from the
-hand) are scaled down, in steps of 0.05 from 1 to 0.3, until at every start and via point the wrist (the tool's
-length above it, the tool pointing down) lies within SIZE_FRACTION of the wrist's reach (the arm's less the tool)
-from the shoulder, and NEAR_FRACTION of it or more out from the shoulder's vertical axis. Stand-offs, speeds, approach
+The paths' shapes (their starts and via points, from the hand) are tried at the thesis's size on every placement,
+then at 0.85 and 0.7 of it; only for an arm that fits none of those (a small one) are they sized to it (path_scale):
+scaled down, in steps of 0.05 from 1 to 0.3, until at every start and via point the wrist (the tool's length above
+it, the tool pointing down) lies within SIZE_FRACTION of the wrist's reach (the arm's less the tool) from the
+shoulder, and NEAR_FRACTION of it or more out from the shoulder's vertical axis. Stand-offs, speeds, approach
 directions and the hand's place relative to the participant stay the design's and the template's.
 
 A candidate is first screened: by reach alone (each approach's start and end within the reach from the shoulder, no
@@ -84,6 +85,9 @@ _REACH_SAMPLES = 400
 # in these steps. (The Panda's own paths, in its bundled scene, take its wrist to 1.02 of it: that scene is the
 # thesis's, used as it is, never sized.)
 SIZE_FRACTION = 0.9
+# Before sizing, the thesis's shapes are tried whole and at these smaller sizes on every placement: sizing goes below
+# them only for an arm that fits none (a small one), as the approaches should start well beyond comfort distances
+_APPROACH_SCALES = (1.0, 0.85, 0.7)
 # ... and, out from the shoulder's vertical axis, at least this fraction of the wrist's reach (an arm reaches down
 # next to its own column badly, a SCARA not at all)
 NEAR_FRACTION = 0.25
@@ -232,12 +236,17 @@ def fit_scene(
         ((hand, drop) for hand in HAND_FRACTIONS for drop in TABLE_DROPS),
         key=lambda pair: abs(pair[0] - HAND_FRACTIONS[0]) + pair[1],
     )
-    for hand, drop in pairs:
-        distance, top = hand * found.reach, mount - drop * found.reach
-        scene = candidate_scene(template, robot, distance, top)
-        scene = dataclasses.replace(scene, approach_scale=path_scale(scene, found, names))
-        label = f"the hand {distance:.2f} m out, the table top {round(top, 2) + 0.0:+.2f} m" + _scaled(scene)
-        candidates.append((label, scene))
+    # the thesis's shapes whole, then the fixed smaller sizes, then sized to the arm (module docstring)
+    for scale in (*_APPROACH_SCALES, None):
+        for hand, drop in pairs:
+            distance, top = hand * found.reach, mount - drop * found.reach
+            scene = candidate_scene(template, robot, distance, top)
+            sized_scale = path_scale(scene, found, names)
+            if scale is None and sized_scale >= _APPROACH_SCALES[-1]:
+                continue  # (tried above at a size at least as large)
+            scene = dataclasses.replace(scene, approach_scale=sized_scale if scale is None else scale)
+            label = f"the hand {distance:.2f} m out, the table top {round(top, 2) + 0.0:+.2f} m" + _scaled(scene)
+            candidates.append((label, scene))
     tried = []
     # An arm of fewer than six joints is first offered the scenes where it keeps its tool pointing down, then any
     passes = (True, False) if len(ik_attempts(chain, robot.home, np.array([0.0, 0.0, -1.0]))) > 1 else (False,)
