@@ -39,3 +39,27 @@ test('only the last few samples count', () => {
   assert.equal(clock.samples.length, 8);
   assert.ok(Math.abs(clock.offset - 5.01) < 1e-9); // the quickest is gone
 });
+
+test('ROS time as the page reads it never runs backwards when a new estimate is lower', () => {
+  const clock = new ClockOffset();
+  clock.add(0, 300, 10.15); // a slow round trip, as a page busy drawing measures it: 10 s ahead
+  assert.ok(Math.abs(clock.offsetAt(1_000) - 10.0) < 1e-9);
+  clock.add(2_000, 2_020, 11.845); // quicker and 0.165 s lower: the estimate steps back
+  assert.ok(Math.abs(clock.offset - 9.835) < 1e-9);
+  // frames 170 ms apart, read by the applied offset: it moves 5 ms a second towards the estimate, never past it
+  let last = -Infinity;
+  for (let now = 2_100; now <= 6_000; now += 170) {
+    const rosNow = now / 1000 + clock.offsetAt(now);
+    assert.ok(rosNow > last, `ROS time read at ${now} ms went back`);
+    last = rosNow;
+  }
+  assert.ok(Math.abs(clock.offsetAt(40_000) - 9.835) < 1e-9); // reached, and kept
+});
+
+test('a jump is read at once, not slewed', () => {
+  const clock = new ClockOffset();
+  clock.add(1_000, 1_002, 50.001);
+  assert.ok(Math.abs(clock.offsetAt(1_500) - 49) < 1e-9);
+  clock.add(3_000, 3_050, 0.525); // /clock restarted
+  assert.ok(Math.abs(clock.offsetAt(3_100) - -2.5) < 1e-9);
+});

@@ -8,10 +8,17 @@
 
 const SAMPLES_KEPT = 8;
 const JUMP_S = 0.5; // beyond the round trips' own uncertainty
+// The offset the page applies moves towards the estimate by at most this share of the time passed (5 ms a second),
+// so ROS time as the page reads it never runs backwards: a new best sample may differ from the last by half a round
+// trip, and a page busy drawing (software rendering: 150 ms frames) measures round trips of hundreds of ms. Stepped
+// back at once, a frame's pose was stamped before the one drawn 170 ms earlier. A jump (a restarted clock) is taken
+// at once.
+const SLEW = 0.05;
 
 export class ClockOffset {
   constructor() {
     this.samples = []; // [round trip ms, offset s], oldest first
+    this.applied = null; // [browser ms, offset s]: the offset last read (offsetAt), null until read or after a jump
   }
 
   // A ping sent at sentAtMs (browser clock, ms) was answered at receivedAtMs with ROS time rosTime (s).
@@ -20,7 +27,10 @@ export class ClockOffset {
     const roundTripMs = receivedAtMs - sentAtMs;
     const offset = rosTime - (sentAtMs + roundTripMs / 2) / 1000;
     const best = this.best();
-    if (best !== null && Math.abs(offset - best[1]) > JUMP_S + (roundTripMs + best[0]) / 2000) this.samples = [];
+    if (best !== null && Math.abs(offset - best[1]) > JUMP_S + (roundTripMs + best[0]) / 2000) {
+      this.samples = [];
+      this.applied = null;
+    }
     this.samples.push([roundTripMs, offset]);
     this.samples = this.samples.slice(-SAMPLES_KEPT);
   }
@@ -30,9 +40,25 @@ export class ClockOffset {
     return this.samples.reduce((best, sample) => (sample[0] < best[0] ? sample : best));
   }
 
-  // ROS time minus the browser's clock (s), or null before any answer.
+  // ROS time minus the browser's clock (s), or null before any answer: the estimate.
   get offset() {
     const best = this.best();
     return best === null ? null : best[1];
+  }
+
+  // The offset to read ROS time by at nowMs (browser clock, ms; not before the last read): the estimate, reached
+  // at no more than SLEW of the time passed since the last read, so that readings never run backwards.
+  offsetAt(nowMs) {
+    const target = this.offset;
+    if (target === null) return null;
+    if (this.applied === null) {
+      this.applied = [nowMs, target];
+      return target;
+    }
+    const [readAt, applied] = this.applied;
+    const most = (SLEW * Math.max(0, nowMs - readAt)) / 1000;
+    const offset = applied + Math.min(most, Math.max(-most, target - applied));
+    this.applied = [Math.max(readAt, nowMs), offset];
+    return offset;
   }
 }

@@ -60,9 +60,10 @@ export class RosConnection {
     return true;
   }
 
-  // ROS time minus this browser's clock (s), from the quickest recent ping; null before any answer.
+  // ROS time minus this browser's clock (s), from the quickest recent ping and slewed (clock.js); null before any
+  // answer.
   get clockOffset() {
-    return this.clock.offset;
+    return this.clock.offsetAt(Date.now());
   }
 
   // Now in ROS time (s), or null without a clock offset.
