@@ -205,8 +205,15 @@ def test_a_session_tracked_by_the_headset_in_vr_and_a_calibrated_mocap_in_realit
     trackers.client.connect(timeout=30)
     trackers.streamer.start()
     command = [PYTHON, "-m", "sim.study", "tracker", "--config", str(config), "--participant", "5", "--out", str(out)]
+    # a process group of its own: kill_process signals the group (without one, the relay outlived every run)
     relay = subprocess.Popen(
-        command, env=roscore.env, cwd=REPO, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.STDOUT
+        command,
+        env=roscore.env,
+        cwd=REPO,
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        start_new_session=True,
     )
     lines: queue.Queue[str] = queue.Queue()
     assert relay.stdout is not None
