@@ -76,6 +76,15 @@ def endpoint_env(master: RosCore, **ros: str) -> dict[str, str]:
     return {**env, **ros}
 
 
+def start_up_output(hosts: Namespaces, env: dict[str, str], tmp_path: Path, host: str, until: str) -> str:
+    """What the endpoint on the middle machine says at start-up, up to `until` (the end of the line awaited)."""
+    endpoint = EndpointProcess(env, tmp_path, host=host, prefix=hosts.prefix(hosts.bridge))
+    try:
+        return endpoint.wait_for_output(until, timeout=10)
+    finally:
+        endpoint.stop()
+
+
 def start_failing(command: list[str], env: dict[str, str], log_dir: Path, prefix: list[str]) -> tuple[int, str]:
     process = ManagedProcess(command, env, log_dir, "endpoint", prefix)
     try:
@@ -143,13 +152,7 @@ def test_a_hostname_resolving_to_loopback_is_named_with_its_fix(
     """Ubuntu's /etc/hosts maps the machine's own name to 127.0.1.1; with neither ROS_IP nor ROS_HOSTNAME set,
     rospy advertises that name, and the master's machine cannot reach it."""
     with hosts_file(hosts.bridge, {HOSTNAME: "127.0.1.1"}):
-        endpoint = EndpointProcess(
-            endpoint_env(far_master), tmp_path, host="0.0.0.0", prefix=hosts.prefix(hosts.bridge)
-        )
-        try:
-            output = endpoint.wait_for_output("before starting the endpoint", timeout=10)
-        finally:
-            endpoint.stop()
+        output = start_up_output(hosts, endpoint_env(far_master), tmp_path, "0.0.0.0", "before starting the endpoint")
     assert (
         f"to reach it at '{HOSTNAME}' (the hostname), which resolves to 127.0.1.1 here, an address no other machine "
         f"can reach: topics to and from other machines will stay empty. Set ROS_IP={BRIDGE}"
@@ -162,13 +165,7 @@ def test_a_machine_on_two_networks_advertising_the_wrong_one_is_named(
     """The endpoint's machine is on the master's network and on the client's; its name resolves to the client's
     side, so the master's machine is told an address it has no route to."""
     with hosts_file(hosts.bridge, {HOSTNAME: BRIDGE_CLIENT_SIDE}):
-        endpoint = EndpointProcess(
-            endpoint_env(far_master), tmp_path, host="0.0.0.0", prefix=hosts.prefix(hosts.bridge)
-        )
-        try:
-            output = endpoint.wait_for_output(f"Set ROS_IP={BRIDGE}", timeout=10)
-        finally:
-            endpoint.stop()
+        output = start_up_output(hosts, endpoint_env(far_master), tmp_path, "0.0.0.0", f"Set ROS_IP={BRIDGE}")
     assert f"this machine has several networks and tells the ROS master to reach it at '{HOSTNAME}'" in output
     assert f"({BRIDGE_CLIENT_SIDE}), while it reaches the master from {BRIDGE}" in output
 
@@ -176,13 +173,8 @@ def test_a_machine_on_two_networks_advertising_the_wrong_one_is_named(
 def test_listening_on_loopback_while_ros_runs_across_machines_is_named(
     hosts: Namespaces, far_master: RosCore, tmp_path: Path
 ) -> None:
-    endpoint = EndpointProcess(
-        endpoint_env(far_master, ROS_IP=BRIDGE), tmp_path, host="127.0.0.1", prefix=hosts.prefix(hosts.bridge)
-    )
-    try:
-        output = endpoint.wait_for_output("Pass --tcp-ip 0.0.0.0", timeout=10)
-    finally:
-        endpoint.stop()
+    env = endpoint_env(far_master, ROS_IP=BRIDGE)
+    output = start_up_output(hosts, env, tmp_path, "127.0.0.1", "Pass --tcp-ip 0.0.0.0")
     assert (
         f"the endpoint listens on 127.0.0.1 only, yet the ROS master is on another machine ({far_master.uri}) and "
         f"ROS_IP is {BRIDGE}: a client (Unity) on another machine cannot connect"
