@@ -100,7 +100,10 @@ def node_argument_parser() -> argparse.ArgumentParser:
         help="s a cancel takes to come to rest; 0 holds the measured position at once (default, as franka's)",
     )
     group.add_argument(
-        "--goal-time", type=float, default=0.0, help="s after its last point a goal may take to settle (0: no limit)"
+        "--goal-time",
+        type=float,
+        default=0.5,
+        help="s after its last point a goal may take to settle; 0: none, it aborts at once (default 0.5, as franka's)",
     )
     return parser
 

@@ -5,21 +5,25 @@ arms' drivers run (docs/trajectory_controller.md lists them). The caller passes 
 the measured joint state; the controller answers with the desired state and with what became of its goal.
 
 - A message's start is its stamp, or the next update (`now`) when the stamp is zero. Each point is due at the start
-  plus its time_from_start; points due at or before max(now, start) are dropped. A message with no point left (all in
-  the past, or a lone point with time_from_start 0) is refused and the current motion carries on.
+  plus its time_from_start; points due at or before `now` are dropped. A message with no point left (all in the past,
+  or a lone point with time_from_start 0 and stamp zero) is refused and the current motion carries on; so is one
+  with a point due before its start (a negative time_from_start).
 - Replacement: the current trajectory is kept up to max(now, start); from there one segment bridges from its desired
-  state to the first point left, then the message's points follow.
+  state to the first point left, then the message's points follow. A first point due exactly at a start in the
+  future gets a bridge of no length: the desired state steps to it there.
 - Each segment's polynomial follows what both its ends give: positions only, linear; velocities too, cubic;
   accelerations too, quintic (the current desired state gives all three).
 - A message with no points means "hold"; so does cancelling the active goal. Holding starts from the measured state:
-  with stop_trajectory_duration 0 the desired position jumps to the measured one; otherwise it comes to rest within
-  that time (from the measured position and velocity, at p + v·T/2).
+  with stop_trajectory_duration 0 the desired position jumps to the measured one; otherwise a quintic from the
+  measured position and velocity comes to zero velocity after that time T, at p + 5/8·v·T (the midpoint of the
+  quintic from (p, v) to (p, -v) over 2T, as ros_controllers builds it).
 - A valid message on the `command` topic cancels the active goal. A new goal cancels the one before.
 - Joint names: a message must name exactly the controller's joints, in any order (INVALID_JOINTS otherwise).
 - Tolerances (position and velocity per joint): 0 takes the controller's default, a negative value means none. A
   path violation aborts the goal but the trajectory carries on. After the last point, the goal succeeds once every
-  joint is within the goal tolerance and moving slower than the stopped-velocity tolerance; with a goal time
-  tolerance above zero it aborts when that time has passed first.
+  joint is within the goal tolerance and its velocity error within the stopped-velocity tolerance; it aborts when
+  the goal time tolerance has passed first: with 0, at the first update after the last point. A goal's time
+  tolerance of 0 takes the controller's default, a negative one means 0.
 """
 
 from __future__ import annotations
@@ -117,7 +121,7 @@ class JointTolerance:
 class GoalTolerances:
     path: Sequence[JointTolerance] = ()
     goal: Sequence[JointTolerance] = ()
-    goal_time: float = 0.0  # s after the last point; 0 takes the default
+    goal_time: float = 0.0  # s after the last point; 0 takes the controller's default, < 0 means 0
 
 
 @dataclass(frozen=True)
@@ -184,6 +188,12 @@ class _Trajectory:
                 break
             kept.append(segment if segment.end <= t else _Segment(segment.start, t, segment.coeffs))
         return tuple(kept)
+
+
+def _constant(positions: np.ndarray) -> np.ndarray:
+    coeffs = np.zeros((6, len(positions)))
+    coeffs[0] = positions
+    return coeffs
 
 
 def _segment(start: float, end: float, a: JointState, b: JointState, order: str) -> _Segment:
@@ -323,10 +333,11 @@ class TrajectoryController:
                 text = self._violations("path", over, error)
                 return Update(desired, self._end_goal(Ending.ABORTED, text, ErrorCode.PATH_TOLERANCE_VIOLATED))
             return Update(desired)
-        outside = (np.abs(error) > goal.goal_position) | (np.abs(actual.velocities) > goal.goal_velocity)
+        outside = np.abs(error) > goal.goal_position
+        outside |= np.abs(actual.velocities - desired.velocities) > goal.goal_velocity
         if not np.any(outside):
             return Update(desired, self._end_goal(Ending.SUCCEEDED, "", ErrorCode.SUCCESSFUL))
-        if goal.goal_time > 0 and now > goal.end_time + goal.goal_time:
+        if now >= goal.end_time + goal.goal_time:  # ros_controllers: no time left, even with a tolerance of 0
             text = self._violations("goal", outside, error)
             return Update(desired, self._end_goal(Ending.ABORTED, text, ErrorCode.GOAL_TOLERANCE_VIOLATED))
         return Update(desired)
@@ -382,19 +393,26 @@ class TrajectoryController:
         parsed = self._parse(TrajectoryMessage(start, message.joint_names, message.points))
         if isinstance(parsed, Verdict):
             return parsed
-        join = max(now, start)
-        future = [k for k, t in enumerate(parsed.times) if t > join]
+        future = [k for k, t in enumerate(parsed.times) if t > now]
         if not future:
             return Verdict(
                 False,
                 ErrorCode.INVALID_GOAL,
-                f"every point of the trajectory is due at or before {join:.3f} s: none is left to follow",
+                f"every point of the trajectory is due at or before {now:.3f} s: none is left to follow",
+            )
+        join = max(now, start)
+        if parsed.times[future[0]] < join:
+            return Verdict(
+                False, ErrorCode.INVALID_GOAL, f"point {future[0]} is due before the trajectory's start {join:.3f} s"
             )
         segments = list(self._trajectory.until(join))
         previous, previous_time, previous_order = self._trajectory.sample(join), join, 5
         for k in future:
-            order = min(previous_order, parsed.orders[k])
-            segments.append(_segment(previous_time, parsed.times[k], previous, parsed.states[k], _ORDER_NAMES[order]))
+            if parsed.times[k] == previous_time:  # due at a future start: a bridge of no length, a step
+                segments.append(_Segment(join, join, _constant(previous.positions)))
+            else:
+                order = _ORDER_NAMES[min(previous_order, parsed.orders[k])]
+                segments.append(_segment(previous_time, parsed.times[k], previous, parsed.states[k], order))
             previous, previous_time, previous_order = parsed.states[k], parsed.times[k], parsed.orders[k]
         self._trajectory = _Trajectory(tuple(s for s in segments if s.end > now - 1.0), previous.positions)
         return None
@@ -404,9 +422,13 @@ class TrajectoryController:
         if duration <= 0:
             self._trajectory = _Trajectory((), actual.positions.copy())
             return
+        # ros_controllers' stop: the quintic from (p, v, 0) to (p, -v, 0) over 2T is symmetric, so at T its velocity
+        # is zero; the stop is the quintic from (p, v, 0) to that midpoint's state over T.
         here = JointState(actual.positions, actual.velocities, np.zeros_like(actual.positions))
-        rest = JointState.at_rest(actual.positions + actual.velocities * duration / 2.0)
-        self._trajectory = _Trajectory((_segment(now, now + duration, here, rest, "cubic"),), rest.positions)
+        mirrored = JointState(actual.positions, -actual.velocities, np.zeros_like(actual.positions))
+        midpoint = _segment(now, now + 2.0 * duration, here, mirrored, "quintic").sample(now + duration)
+        stop = _segment(now, now + duration, here, midpoint, "quintic")
+        self._trajectory = _Trajectory((stop,), midpoint.positions)
 
     def _goal_bounds(self, goal_id: str, tolerances: GoalTolerances) -> _Goal:
         def bounds(default: np.ndarray, given: Sequence[JointTolerance], attribute: str) -> np.ndarray:
@@ -429,7 +451,7 @@ class TrajectoryController:
             bounds(unbounded, tolerances.path, "velocity"),
             bounds(self._default_goal, tolerances.goal, "position"),
             bounds(stopped, tolerances.goal, "velocity"),
-            tolerances.goal_time if tolerances.goal_time > 0 else self.goal_time,
+            tolerances.goal_time if tolerances.goal_time > 0 else (0.0 if tolerances.goal_time < 0 else self.goal_time),
             math.inf,
         )
 

@@ -62,7 +62,7 @@ class TrajectoryServerOptions:
     joint_states_topic: str
     joint_states_rate: float = 50.0  # Hz, at most one per physics step
     stop_trajectory_duration: float = 0.0  # s; 0 holds the measured position at once (franka's default)
-    goal_time: float = 0.0  # s after the last point a goal may take to be within its tolerance; 0: no limit
+    goal_time: float = 0.5  # s after the last point a goal may take to be within its tolerance (franka's config)
 
 
 def trajectory_from_message(message: Any) -> TrajectoryMessage:

@@ -75,6 +75,50 @@ def test_a_trajectory_all_in_the_past_is_refused_and_the_motion_carries_on() -> 
     assert c.active_goal == "g1"
 
 
+def test_a_first_point_due_at_a_future_start_is_reached_by_a_step_there() -> None:
+    # ros_controllers bridges from the desired state at the start to a point due then: a bridge of no length.
+    c = controller()
+    message = TrajectoryMessage(2.0, JOINTS, [Point(0.0, [1.0, 1.0]), Point(1.0, [2.0, 2.0])])
+    assert c.on_command(message, now=1.0, actual=HOME).accepted
+    np.testing.assert_allclose(c.desired_at(1.999).positions, [0.0, 0.0])  # the hold, up to the start
+    np.testing.assert_allclose(c.desired_at(2.0).positions, [1.0, 1.0])  # then the point, at once
+    np.testing.assert_allclose(c.desired_at(2.5).positions, [1.5, 1.5])
+
+
+def test_a_point_due_before_its_future_start_is_refused() -> None:
+    c = controller()
+    message = TrajectoryMessage(2.0, JOINTS, [Point(-0.5, [1.0, 1.0]), Point(1.0, [2.0, 2.0])])
+    verdict = c.on_command(message, now=1.0, actual=HOME)
+    assert (
+        not verdict.accepted
+        and verdict.code == ErrorCode.INVALID_GOAL
+        and "before the trajectory's start" in (verdict.text)
+    )
+    np.testing.assert_allclose(c.desired_at(3.0).positions, [0.0, 0.0])
+
+
+def test_query_state_answers_the_desired_state_the_updates_will_follow() -> None:
+    c = controller()
+    c.on_goal("g1", to([1.0, 1.0], 2.0, velocities=[0.0, 0.0]), GoalTolerances(), 0.0, HOME)
+    ahead = c.desired_at(1.5)  # asked at t = 0 for t = 1.5, as query_state is
+    update = c.update(1.5, follow(c, 1.5))
+    np.testing.assert_allclose(ahead.positions, update.desired.positions)
+    np.testing.assert_allclose(ahead.velocities, update.desired.velocities)
+    np.testing.assert_allclose(ahead.accelerations, update.desired.accelerations)
+
+
+def test_a_goal_with_no_points_holds_and_succeeds_once_the_arm_has_stopped() -> None:
+    c = controller(goal_time=1.0)
+    c.on_goal("g1", to([1.0, 1.0], 2.0), GoalTolerances(), 0.0, HOME)
+    measured = JointState(np.array([0.5, 0.5]), np.array([0.5, 0.5]), np.zeros(2))
+    verdict = c.on_goal("g2", TrajectoryMessage(0.0, JOINTS, []), GoalTolerances(), 1.0, measured)
+    assert verdict.accepted and [(e.goal_id, e.ending) for e in verdict.ended] == [("g1", Ending.CANCELED)]
+    np.testing.assert_allclose(c.desired_at(3.0).positions, [0.5, 0.5])
+    assert c.update(1.1, measured).ended == ()  # still moving: within the goal time it waits
+    (event,) = c.update(1.3, JointState.at_rest([0.52, 0.52])).ended
+    assert event.goal_id == "g2" and event.ending is Ending.SUCCEEDED
+
+
 def test_a_lone_point_at_time_zero_is_dropped() -> None:
     # Today's one-point stream: stamp 0, time_from_start 0. A real controller refuses it; the robot does not move.
     c = controller()
@@ -163,9 +207,13 @@ def test_cancel_with_a_stop_duration_decelerates_from_the_measured_state() -> No
     start = c.desired_at(1.0)
     np.testing.assert_allclose(start.positions, [0.5, 0.5])
     np.testing.assert_allclose(start.velocities, [0.5, -1.0])  # no step in velocity
-    rest = c.desired_at(1.4)
-    np.testing.assert_allclose(rest.positions, [0.5 + 0.5 * 0.2, 0.5 - 1.0 * 0.2])  # p + v·T/2
-    np.testing.assert_allclose(rest.velocities, [0.0, 0.0], atol=1e-12)
+    np.testing.assert_allclose(start.accelerations, [0.0, 0.0], atol=1e-12)
+    # ros_controllers' stop: the midpoint of the quintic from (p, v) to (p, -v) over 2T, at p + 5/8·v·T.
+    stopped = c.desired_at(1.4 - 1e-9)
+    np.testing.assert_allclose(stopped.positions, [0.5 + 0.5 * 0.25, 0.5 - 1.0 * 0.25], atol=1e-8)
+    np.testing.assert_allclose(stopped.velocities, [0.0, 0.0], atol=1e-7)
+    np.testing.assert_allclose(c.desired_at(2.0).positions, [0.625, 0.25])
+    np.testing.assert_allclose(c.desired_at(2.0).velocities, [0.0, 0.0])
 
 
 def test_a_path_violation_aborts_the_goal_but_the_trajectory_goes_on() -> None:
@@ -180,18 +228,37 @@ def test_a_path_violation_aborts_the_goal_but_the_trajectory_goes_on() -> None:
     np.testing.assert_allclose(c.desired_at(1.5).positions, [0.75, 0.75])  # still following the trajectory
 
 
-def test_the_goal_succeeds_within_its_tolerance_and_aborts_after_its_goal_time() -> None:
-    c = controller()
+def test_the_goal_succeeds_within_its_goal_tolerance_after_the_last_point() -> None:
+    c = controller(goal_time=0.5)
     c.on_goal("g1", to([1.0, 1.0], 1.0), GoalTolerances(goal=[JointTolerance("a", position=0.01)]), 0.0, HOME)
-    assert c.update(1.0, JointState.at_rest([0.9, 1.0])).ended == ()  # outside, no goal time: waits
+    assert c.update(0.99, JointState.at_rest([0.5, 1.0])).ended == ()  # before the last point: no goal check
+    assert c.update(1.0, JointState.at_rest([0.9, 1.0])).ended == ()  # outside, within the goal time: waits
     (event,) = c.update(1.2, JointState.at_rest([0.995, 1.0])).ended
     assert event.ending is Ending.SUCCEEDED and event.code == ErrorCode.SUCCESSFUL
 
-    c.on_goal("g2", to([0.0, 0.0], 1.0), GoalTolerances(goal_time=0.5), 2.0, JointState.at_rest([1.0, 1.0]))
+
+def test_a_goal_time_of_zero_aborts_at_the_first_update_after_the_last_point_when_outside() -> None:
+    # ros_controllers: no time left to settle; the default stopped-velocity tolerance (0.01) holds the velocity.
+    c = controller()
+    c.on_goal("g1", to([1.0, 1.0], 1.0), GoalTolerances(), 0.0, HOME)
+    moving = JointState(np.array([1.0, 1.0]), np.array([0.02, 0.0]), np.zeros(2))
+    (event,) = c.update(1.0, moving).ended
+    assert event.ending is Ending.ABORTED and event.code == ErrorCode.GOAL_TOLERANCE_VIOLATED and "a off" in event.text
+    c.on_goal("g2", to([0.0, 0.0], 1.0), GoalTolerances(), 2.0, JointState.at_rest([1.0, 1.0]))
+    (event,) = c.update(3.0, JointState.at_rest([0.0, 0.0])).ended
+    assert event.ending is Ending.SUCCEEDED
+
+
+def test_a_goal_time_tolerance_overrides_the_default_and_a_negative_one_means_none() -> None:
+    c = controller(goal_time=0.5)
     moving = JointState(np.array([0.0, 0.0]), np.array([0.2, 0.0]), np.zeros(2))  # not stopped
-    assert c.update(3.2, moving).ended == ()
-    (event,) = c.update(3.6, moving).ended
+    c.on_goal("g1", to([0.0, 0.0], 1.0), GoalTolerances(goal_time=1.0), 0.0, HOME)
+    assert c.update(1.6, moving).ended == ()  # the goal's 1.0 s, not the default 0.5 s
+    (event,) = c.update(2.0, moving).ended
     assert event.ending is Ending.ABORTED and event.code == ErrorCode.GOAL_TOLERANCE_VIOLATED
+    c.on_goal("g2", to([0.0, 0.0], 1.0), GoalTolerances(goal_time=-1.0), 3.0, HOME)
+    (event,) = c.update(4.0, moving).ended
+    assert event.ending is Ending.ABORTED
 
 
 def test_wrong_joints_are_invalid_joints_and_the_motion_carries_on() -> None:
