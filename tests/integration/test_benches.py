@@ -100,3 +100,12 @@ def test_vr_frame_bench(tmp_path: Path) -> None:
     rows = {line.split("|")[2].strip(): line for line in output.splitlines() if line.startswith("| submitted |")}
     assert sorted(rows) == ["off", "on"] and all(len(row.strip("|").split("|")) == 14 for row in rows.values())
     assert float(rows["off"].split("|")[13]) == 0.0 and float(rows["on"].split("|")[13]) == pytest.approx(3.0)
+
+
+def test_braking_bench(tmp_path: Path) -> None:
+    output = run_bench(tmp_path, "braking_bench", "--presses", "2")
+    assert "Braking bench: diagonal approach at 0.5 m/s" in output
+    assert output.count("  press at ") == 2 and "2 presses (" in output
+    for figure in ("press -> replacement sent [ms]: median", "press -> achieved speed first falls [ms]: median"):
+        assert figure in output
+    assert "braking distance error, achieved - planned [mm]: median" in output

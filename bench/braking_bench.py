@@ -1,0 +1,304 @@
+"""Braking through the stand-in's trajectory controller: press-to-braking latency and braking distance, over presses.
+
+    .venv/bin/python -m bench.braking_bench [--presses 20] [--seconds 180] [--path diagonal] [--speed 0.5]
+                                            [--dt 0.004] [--joint-states-rate 250] [--lead 0.1] [--seed 0]
+
+What the study will do on a press with a real arm, without the study runner: a roscore, the physics node as the
+Panda's driver (`--trajectory-controller /panda/position_joint_trajectory_controller`, on wall time, physics step
+--dt, joint states at --joint-states-rate), and this process as the client, with actionlib's ActionClient. Each press:
+the arm goes to the planned approach's start (a goal), the approach goes as one goal (positions, velocities and
+accelerations of the planned samples), and at a random time while the planned speed is still rising (so that a fall
+of the achieved speed is the braking's doing) the press:
+  1. asks query_state for the desired state --lead s ahead,
+  2. builds the stop from it (sim.study.safety.braking.brake: along the path, jerk-limited, continuous in position,
+     velocity and acceleration), and sends it as a replacement goal stamped at that time;
+  3. waits for the stop's result and for the arm at rest.
+Figures, per press and over all presses (median, p95, max):
+  - press -> replacement sent (query_state, the stop's planning, send_goal returned), ms;
+  - press -> achieved speed first falls: the first joint state (its stamp) after the press whose path speed (the
+    achieved joint velocity projected on the path) is below the one before it, ms. It includes the look-ahead
+    (--lead) and the stop's own ramp: the path acceleration goes from the plan's to braking at a bounded jerk, so
+    the speed still rises a little before it falls;
+  - braking distance, planned (along the path, from the desired state at the stamp to rest) and achieved (from the
+    same start to where the arm rests, projected on the path), and the error achieved - planned, mm.
+The figures are not judged (the machine is shared: a loaded machine makes the physics steps late). Every loop is
+bounded in count and time; roscore and the physics node are stopped by PID.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import tempfile
+import threading
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from sim.control.scenarios.defaults import controllable_weights
+from sim.geometry.kinematics import chain_for, solve_ik, solve_path_ik
+from sim.launchers import PhysicsNode, start
+from sim.processes import RosCore
+from sim.robots import load_robot
+from sim.study.design.paths import ON_TOP, ApproachPath, approach_path
+from sim.study.design.scene import load_scene
+from sim.study.design.tool import approach_rotation
+from sim.study.safety.braking import Braking, PathGeometry, PathState, arc_length, brake
+
+NS = "/panda/position_joint_trajectory_controller"
+JOINT_STATES = "/franka_state_controller/joint_states"
+PANDA = load_robot("panda")
+TO_START_S = 1.5  # the goal that brings the arm back to the approach's start
+REST_SPEED = 1e-3  # rad/s: every joint slower than this for REST_STATES joint states is at rest
+REST_STATES = 10
+WAIT_S = 20.0  # the longest wait for any one thing (a result, the arm at rest)
+
+
+def plan(name: str, speed: float) -> tuple[ApproachPath, np.ndarray]:
+    """The study's approach `name` at `speed` for the Panda, tool pointing down, with the joints of every sample."""
+    scene = load_scene()
+    path = approach_path(scene, name, ON_TOP, peak_speed=speed, dt=0.02)
+    chain = chain_for(PANDA)
+    weights = controllable_weights(chain, PANDA.home)
+    targets = np.tile(chain.fk(PANDA.home), (len(path.times), 1, 1))
+    targets[:, :3, :3] = approach_rotation(chain, PANDA.home, scene.to_base_direction(np.array([0.0, 0.0, -1.0])))
+    targets[:, :3, 3] = scene.to_base(path.positions)
+    first = solve_ik(chain, targets[0], PANDA.home, weights=weights, restarts=20, rng=0)
+    solved = solve_path_ik(chain, targets, first.q, weights=weights)
+    if not solved.all_succeeded:
+        raise SystemExit(f"braking_bench: the {name} approach has no IK solution for the Panda")
+    return path, solved.q
+
+
+@dataclass(frozen=True)
+class Press:
+    at_s: float  # into the approach
+    sent_ms: float
+    falls_ms: float
+    planned_mm: float
+    achieved_mm: float
+    result: str
+
+
+class Client:
+    """This process as the controller's client: joint states heard, the action, query_state."""
+
+    def __init__(self) -> None:
+        import actionlib
+        import rospy
+        from sensor_msgs.msg import JointState
+        from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+
+        from sim.wire.control_types import control_types
+
+        self.rospy = rospy
+        self.types = control_types()
+        self.JointTrajectory, self.JointTrajectoryPoint = JointTrajectory, JointTrajectoryPoint
+        self.states: list[tuple[float, np.ndarray, np.ndarray]] = []  # (stamp, positions, velocities)
+        self._lock = threading.Lock()
+        self._sub = rospy.Subscriber(JOINT_STATES, JointState, self._on_state, queue_size=1000, tcp_nodelay=True)
+        self.client = actionlib.ActionClient(f"{NS}/follow_joint_trajectory", self.types.action)
+        if not self.client.wait_for_server(rospy.Duration(30)):
+            raise SystemExit("braking_bench: no action server")
+        rospy.wait_for_service(f"{NS}/query_state", 30)
+        self.query = rospy.ServiceProxy(f"{NS}/query_state", self.types.query_state, persistent=True)
+        self._handles: list[Any] = []
+
+    def _on_state(self, message: Any) -> None:
+        with self._lock:
+            self.states.append((message.header.stamp.to_sec(), np.array(message.position), np.array(message.velocity)))
+
+    def since(self, stamp: float) -> list[tuple[float, np.ndarray, np.ndarray]]:
+        with self._lock:
+            return [s for s in self.states if s[0] >= stamp]
+
+    def trajectory(self, times: np.ndarray, q: np.ndarray, v: np.ndarray, a: np.ndarray, stamp: float = 0.0) -> Any:
+        message = self.JointTrajectory()
+        message.header.stamp = self.rospy.Time.from_sec(stamp)
+        message.joint_names = list(PANDA.joint_names)
+        for t, qk, vk, ak in zip(times, q, v, a):
+            point = self.JointTrajectoryPoint()
+            point.positions, point.velocities, point.accelerations = qk.tolist(), vk.tolist(), ak.tolist()
+            point.time_from_start = self.rospy.Duration.from_sec(float(t))
+            message.points.append(point)
+        return message
+
+    def send(self, trajectory: Any) -> Any:
+        goal = self.types.goal()
+        goal.trajectory = trajectory
+        handle = self.client.send_goal(goal)
+        self._handles = [h for h in self._handles[-4:]] + [handle]  # actionlib tracks a goal while its handle lives
+        return handle
+
+    def outcome(self, handle: Any) -> str:
+        from actionlib import CommState
+        from actionlib_msgs.msg import GoalStatus
+
+        deadline = time.monotonic() + WAIT_S
+        while handle.get_comm_state() != CommState.DONE:
+            if time.monotonic() > deadline:
+                raise SystemExit("braking_bench: no result within the wait")
+            time.sleep(0.005)
+        names = {v: k for k, v in vars(GoalStatus).items() if isinstance(v, int) and k.isupper()}
+        return names.get(handle.get_goal_status(), str(handle.get_goal_status()))
+
+    def at_rest(self, after: float) -> tuple[float, np.ndarray]:
+        """The first joint state after `after` that begins REST_STATES states all slower than REST_SPEED."""
+        deadline = time.monotonic() + WAIT_S
+        while time.monotonic() < deadline:
+            states = self.since(after)
+            for k in range(len(states) - REST_STATES + 1):
+                window = states[k : k + REST_STATES]
+                if max(np.abs(v).max() for _, _, v in window) < REST_SPEED:
+                    return window[0][0], window[0][1]
+            time.sleep(0.02)
+        raise SystemExit("braking_bench: the arm did not come to rest")
+
+
+def one_press(client: Client, geometry: PathGeometry, approach: Any, start: Any, press_at: float, lead: float) -> Press:
+    rospy = client.rospy
+    if client.outcome(client.send(start)) != "SUCCEEDED":
+        raise SystemExit("braking_bench: the arm did not reach the approach's start")
+    client.at_rest(time.time())
+    running = client.send(approach)
+    begun = time.time()
+    time.sleep(max(0.0, begun + press_at - time.time()))
+    pressed = time.time()  # the press's stamp
+    at = pressed + lead
+    desired = client.query(client.types.query_state_request(time=rospy.Time.from_sec(at)))
+    stop: Braking | None = brake(
+        geometry, *(np.array(x) for x in (desired.position, desired.velocity, desired.acceleration)), 0.004
+    )
+    if stop is None:
+        raise SystemExit(f"braking_bench: no stop at {press_at:.2f} s (the plan rests first)")
+    replacement = client.trajectory(stop.times[1:], stop.positions[1:], stop.velocities[1:], stop.accelerations[1:], at)
+    braking = client.send(replacement)
+    sent = time.time()
+    result = client.outcome(braking)
+    client.outcome(running)
+    rest_stamp, rest = client.at_rest(at)
+    speeds = [
+        (stamp, geometry.project(q, v, np.zeros_like(v)).speed)
+        for stamp, q, v in client.since(pressed)
+        if stamp <= rest_stamp
+    ]
+    falls = next((b[0] for a, b in zip(speeds, speeds[1:]) if b[1] < a[1]), float("nan"))
+    achieved_arc = geometry.project(rest, np.zeros_like(rest), np.zeros_like(rest)).arc
+    return Press(
+        at_s=press_at,
+        sent_ms=(sent - pressed) * 1e3,
+        falls_ms=(falls - pressed) * 1e3,
+        planned_mm=stop.distance * 1e3,
+        achieved_mm=(achieved_arc - stop.start.arc) * 1e3,
+        result=result,
+    )
+
+
+def summary(label: str, values: np.ndarray, digits: int = 1) -> str:
+    values = values[np.isfinite(values)]
+    if not len(values):
+        return f"{label}: none"
+    return (
+        f"{label}: median {np.median(values):.{digits}f}, p95 {np.percentile(values, 95):.{digits}f}, "
+        f"max {values.max():.{digits}f}, min {values.min():.{digits}f}"
+    )
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--presses", type=int, default=20, help="how many presses (default 20)")
+    parser.add_argument("--seconds", type=float, default=180.0, help="stop pressing after this long (default 180)")
+    parser.add_argument("--path", default="diagonal", help="the study's approach path (default diagonal)")
+    parser.add_argument("--speed", type=float, default=0.5, help="its peak speed in m/s (default 0.5)")
+    parser.add_argument("--dt", type=float, default=0.004, help="the physics step in s (default 0.004)")
+    parser.add_argument("--joint-states-rate", type=float, default=250.0, help="Hz (default 250: every step)")
+    parser.add_argument("--lead", type=float, default=0.1, help="s between the press and the stop's stamp (0.1)")
+    parser.add_argument("--seed", type=int, default=0, help="of the press times (default 0)")
+    args = parser.parse_args(argv)
+    if not (args.presses > 0 and args.seconds > 0 and args.dt > 0 and args.joint_states_rate > 0 and args.lead > 0):
+        parser.error("--presses, --seconds, --dt, --joint-states-rate and --lead must be > 0")
+
+    path, joints = plan(args.path, args.speed)
+    geometry = PathGeometry(path, joints)
+    arc, accelerations = arc_length(path), np.gradient(path.speeds, path.dt)
+    planned = [geometry.joint_state(PathState(arc[k], path.speeds[k], accelerations[k])) for k in range(len(arc))]
+    q, v, a = (np.array([state[i] for state in planned]) for i in range(3))
+    rising = path.times[(accelerations > 0.05) & (path.times > args.lead + 0.05)]
+    if not len(rising):
+        raise SystemExit("braking_bench: the plan's speed never rises")
+    rng = np.random.default_rng(args.seed)
+    press_times = rng.uniform(rising.min(), rising.max(), args.presses)
+
+    with tempfile.TemporaryDirectory(prefix="braking-bench-") as tmp:
+        core = RosCore()
+        node = None
+        try:
+            os.environ.update(core.env)
+            node = start(
+                PhysicsNode(
+                    ("--robot", "panda"),
+                    dt=args.dt,
+                    extra=(
+                        "--trajectory-controller",
+                        NS,
+                        "--joint-states-topic",
+                        JOINT_STATES,
+                        "--joint-states-rate",
+                        str(args.joint_states_rate),
+                    ),
+                ),
+                core.env,
+                Path(tmp),
+                "panda_physics",
+                timeout=60,
+            )
+            import rospy
+
+            rospy.init_node("braking_bench", anonymous=True, disable_signals=True)
+            client = Client()
+            zero = np.zeros((1, PANDA.dof))
+            start_goal = client.trajectory(np.array([TO_START_S]), q[:1], zero, zero)
+            approach = client.trajectory(path.times[1:], q[1:], v[1:], a[1:])
+            print(
+                f"Braking bench: {args.path} approach at {args.speed:g} m/s ({path.times[-1]:.2f} s), physics step "
+                f"{args.dt * 1e3:g} ms, joint states at {args.joint_states_rate:g} Hz, the stop stamped "
+                f"{args.lead * 1e3:g} ms after the press; presses at {rising.min():.2f}-{rising.max():.2f} s "
+                "(the planned speed rising)"
+            )
+            presses: list[Press] = []
+            began = time.monotonic()
+            for press_at in press_times:
+                if time.monotonic() - began > args.seconds:
+                    break
+                press = one_press(client, geometry, approach, start_goal, float(press_at), args.lead)
+                presses.append(press)
+                print(
+                    f"  press at {press.at_s:.3f} s: sent after {press.sent_ms:.1f} ms, speed falls after "
+                    f"{press.falls_ms:.1f} ms; distance planned {press.planned_mm:.1f} mm, achieved "
+                    f"{press.achieved_mm:.1f} mm (error {press.achieved_mm - press.planned_mm:+.3f} mm); {press.result}"
+                )
+            rospy.signal_shutdown("braking bench done")
+        finally:
+            if node is not None:
+                node.stop()
+            core.stop()
+    sent = np.array([p.sent_ms for p in presses])
+    falls = np.array([p.falls_ms for p in presses])
+    errors = np.array([p.achieved_mm - p.planned_mm for p in presses])
+    succeeded = sum(p.result == "SUCCEEDED" for p in presses)
+    print(f"{len(presses)} presses ({succeeded} stops SUCCEEDED)")
+    print(summary("press -> replacement sent [ms]", sent))
+    print(summary("press -> achieved speed first falls [ms]", falls))
+    print(summary("braking distance planned [mm]", np.array([p.planned_mm for p in presses])))
+    print(summary("press -> achieved speed first falls, after the stop's stamp [ms]", falls - args.lead * 1e3))
+    print(summary("braking distance error, achieved - planned [mm]", errors, 3))
+    print(summary("|braking distance error| [mm]", np.abs(errors), 3))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
