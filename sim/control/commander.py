@@ -30,6 +30,13 @@ fk_confirm
 the end-effector error over time). `--export-csv PATH` writes the desired joints as the engine's CSV (`python -m
 sim.engine --csv PATH`); with `--export-only` nothing touches ROS.
 
+Through a trajectory controller (--trajectory-controller NS, a real arm's interface; sim.control.trajectory_client):
+the schedule goes as NS/follow_joint_trajectory goals on wall time, no /clock and no stream. Each goal carries
+--horizon s of it (positions and velocities, stamped with the wall time of the schedule's start), goes out --lead s
+before it starts and every --resend s, replacing the one before without a seam (sim.control.horizon). The joint
+states come from --joint-states-topic at the driver's rate; the achieved joints are read at the schedule's times
+from them. The goal pose is not published in this mode.
+
 Exit codes: 0 done, 2 bad input, 3 unreachable IK goal (the residual is printed), 4 ROS failure (no partner,
 a joint state that does not come), 130 interrupted.
 """
@@ -42,7 +49,7 @@ import signal
 import sys
 import threading
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from datetime import datetime
 from pathlib import Path
 
@@ -70,6 +77,7 @@ from sim.control.scenarios import (
     write_engine_csv,
 )
 from sim.control.stepper import Pacing, Stepper
+from sim.control.trajectory_client import ControllerLink
 from sim.entry import (
     EXIT_BAD_INPUT,
     EXIT_INTERRUPTED,
@@ -172,6 +180,18 @@ def _parser() -> argparse.ArgumentParser:
         help=f"min approach time in s from the robot's state to the scenario start; 0 = off "
         f"(default {APPROACH_MIN_S:g})",
     )
+    link = parser.add_argument_group(
+        "through a trajectory controller (a real arm's interface: ros_control's joint_trajectory_controller)"
+    )
+    link.add_argument(
+        "--trajectory-controller",
+        metavar="NS",
+        help="send the schedule as NS/follow_joint_trajectory goals on wall time (no /clock, no stream)",
+    )
+    link.add_argument("--joint-states-topic", help="where the driver publishes joint states (default: the robot's)")
+    link.add_argument("--horizon", type=float, default=1.0, help="s of the schedule in each goal (default 1)")
+    link.add_argument("--resend", type=float, default=0.25, help="s between goals, each replacing the last (0.25)")
+    link.add_argument("--lead", type=float, default=0.1, help="s a goal goes out before it starts (default 0.1)")
     add_pose_convention_argument(parser, accept_old_flag=True)
     run.add_argument("--log", type=Path, help=f"CSV log path (default {DEFAULT_LOG_DIR}/<robot>_<scenario>_<time>.csv)")
     run.add_argument("--export-csv", type=Path, help="write the desired joint trajectory as the engine's CSV")
@@ -220,6 +240,7 @@ class CommanderOptions:
     node_name: str | None = None  # default <robot>_commander
     log: Path | None = None  # default DEFAULT_LOG_DIR/<robot>_<scenario>_<time>.csv
     wait_for: tuple[str, ...] = ()  # further nodes (e.g. a rosbag recorder) that must be connected first
+    controller: ControllerLink | None = None  # a trajectory controller instead of the stream
 
 
 # ------------------------------------------------------------------------------------------------ the node
@@ -317,6 +338,7 @@ def options_from_args(args: argparse.Namespace) -> CommanderOptions:
     if not (math.isfinite(args.approach) and args.approach >= 0):
         raise ScenarioError(f"--approach must be >= 0 s, got {args.approach}")
     return CommanderOptions(
+        controller=_controller_link(args),
         pacing=Pacing(args.dt, args.realtime, args.time_scale, args.timeout),
         connect_timeout=args.connect_timeout,
         approach=args.approach,
@@ -324,6 +346,20 @@ def options_from_args(args: argparse.Namespace) -> CommanderOptions:
         node_name=args.node_name,
         log=args.log,
         wait_for=tuple(args.wait_for),
+    )
+
+
+def _controller_link(args: argparse.Namespace) -> ControllerLink | None:
+    if args.trajectory_controller is None:
+        return None
+    if args.time_scale != 1.0:
+        raise ScenarioError(f"--trajectory-controller runs on wall time: --time-scale must be 1, got {args.time_scale}")
+    for option in ("horizon", "resend", "lead"):
+        value = getattr(args, option)
+        if not (math.isfinite(value) and value > 0):
+            raise ScenarioError(f"--{option} must be > 0 s, got {value}")
+    return ControllerLink(
+        args.trajectory_controller, args.joint_states_topic or "", args.horizon, args.resend, args.lead
     )
 
 
@@ -339,7 +375,18 @@ def main(argv: list[str] | None = None) -> int:
         if args.export_only and args.export_csv is None:
             raise ScenarioError("--export-only needs --export-csv PATH")
         options = options_from_args(args)
+        if options.controller is not None and not options.controller.joint_states_topic:
+            options = replace(
+                options, controller=replace(options.controller, joint_states_topic=robot.joint_states_topic)
+            )
         motion = build_motion(robot, args.scenario, config_from_args(args))
+        if options.controller is not None:
+            link = options.controller
+            if round(link.resend / motion.dt) + 1 >= round(link.horizon / motion.dt):
+                raise ScenarioError(
+                    f"--horizon ({link.horizon:g} s) must exceed --resend ({link.resend:g} s) by two steps of "
+                    f"{motion.dt:g} s: a goal must still hold samples to come when the next one goes out"
+                )
     except UnreachableGoalError as error:
         return fail(PROG, error, EXIT_UNREACHABLE_GOAL, label="UNREACHABLE")
     except SimError as error:  # a robot, a scenario or a number that cannot be used
@@ -351,7 +398,48 @@ def main(argv: list[str] | None = None) -> int:
         print(f"desired trajectory ({len(motion.times)} samples, dt {motion.dt:g} s) exported to {args.export_csv}")
         if args.export_only:
             return EXIT_OK
+    if options.controller is not None:
+        return _run_through_controller(robot, motion, options, options.controller)
     return _run_node(robot, motion, options)
+
+
+def _run_through_controller(robot: RobotSpec, motion: Motion, options: CommanderOptions, link: ControllerLink) -> int:
+    """The schedule through a trajectory controller on wall time (sim.control.trajectory_client)."""
+    import rospy
+
+    from sim.control.trajectory_client import TrajectoryClient
+    from sim.wire.rosnode import init_node
+
+    stop = threading.Event()
+    init_node(options.node_name or f"{robot.name}_commander")
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(signum, lambda *_: stop.set())
+    client = TrajectoryClient(robot, link, stop)
+    log_path = options.log or _default_log_path(robot.name, motion.scenario)
+    try:
+        q_start = client.wait(options.connect_timeout)
+        schedule = build_schedule(motion, q_start if options.approach > 0 else None, options.approach)
+        rospy.loginfo(
+            "%s/follow_joint_trajectory: running %s for %s (%d steps of %g s, goals of %g s every %g s)",
+            link.namespace,
+            motion.scenario,
+            robot.name,
+            len(schedule.positions) - 1,
+            motion.dt,
+            link.horizon,
+            link.resend,
+        )
+        result = client.run(schedule, motion.dt)
+    except ControllerError as error:
+        return fail(PROG, error, EXIT_INTERRUPTED if stop.is_set() else EXIT_NO_CONNECTION)
+    finally:
+        client.close()
+        rospy.signal_shutdown("commander done")
+    report = write_log(log_path, robot, motion, schedule, result)
+    print(format_summary(robot, motion, result, report, log_path, True))
+    if result.error is not None:
+        return fail(PROG, result.error, EXIT_NO_CONNECTION)
+    return EXIT_OK if result.complete else EXIT_INTERRUPTED
 
 
 def _run_node(robot: RobotSpec, motion: Motion, options: CommanderOptions) -> int:
