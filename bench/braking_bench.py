@@ -40,6 +40,7 @@ from typing import Any
 import numpy as np
 
 from sim.control.scenarios.defaults import controllable_weights
+from sim.control.trajectory_client import wait_for_action_server
 from sim.geometry.kinematics import chain_for, solve_ik, solve_path_ik
 from sim.launchers import PhysicsNode, start
 from sim.processes import RosCore
@@ -103,7 +104,7 @@ class Client:
         self._lock = threading.Lock()
         self._sub = rospy.Subscriber(JOINT_STATES, JointState, self._on_state, queue_size=1000, tcp_nodelay=True)
         self.client = actionlib.ActionClient(f"{NS}/follow_joint_trajectory", self.types.action)
-        if not self.client.wait_for_server(rospy.Duration(30)):
+        if not wait_for_action_server(self.client, f"{NS}/follow_joint_trajectory", 30):
             raise SystemExit("braking_bench: no action server")
         rospy.wait_for_service(f"{NS}/query_state", 30)
         self.query = rospy.ServiceProxy(f"{NS}/query_state", self.types.query_state, persistent=True)
@@ -176,9 +177,8 @@ def one_press(client: Client, geometry: PathGeometry, approach: Any, start: Any,
     pressed = time.time()  # the press's stamp
     at = pressed + lead
     desired = client.query(client.types.query_state_request(time=rospy.Time.from_sec(at)))
-    stop: Braking | None = brake(
-        geometry, *(np.array(x) for x in (desired.position, desired.velocity, desired.acceleration)), STOP_DT
-    )
+    q, v, a = (np.array(x, dtype=float) for x in (desired.position, desired.velocity, desired.acceleration))
+    stop: Braking | None = brake(geometry, q, v, a, STOP_DT)
     if stop is None:
         raise SystemExit(f"braking_bench: no stop at {press_at:.2f} s (the plan rests first)")
     replacement = client.trajectory(stop.times[1:], stop.positions[1:], stop.velocities[1:], stop.accelerations[1:], at)

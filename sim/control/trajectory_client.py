@@ -22,13 +22,37 @@ from sim.control.controller_node import ControllerError
 from sim.control.horizon import hermite_at, windows
 from sim.control.run_log import RunResult
 from sim.control.scenarios import Schedule
+from sim.processes import writes_to
 from sim.robots import RobotSpec
 from sim.wire.contract import MessageError, positions_by_name
 
-__all__ = ["ControllerLink", "TrajectoryClient"]
+__all__ = ["ControllerLink", "TrajectoryClient", "wait_for_action_server"]
 
 SETTLE_S = 0.3  # s after the last sample is due that the joint states are still read
 RESULT_TIMEOUT_S = 10.0  # s after that for the last goal's result (the controller's goal time comes first)
+
+
+def wait_for_action_server(client: Any, action: str, timeout: float) -> bool:
+    """actionlib's `client.wait_for_server`, then until the server's node writes its result, feedback and status to
+    us (False after `timeout` s). actionlib checks our subscribers' side only; rospy's publisher answers a new
+    subscriber's header before it takes the connection, so a result published meanwhile is lost and its goal never
+    ends: a goal rejected at once right after wait_for_server did so on a loaded machine (ros/actionlib#180 closed
+    the wider gap, not this one). Only the publisher knows when it writes to us (sim.processes.writes_to)."""
+    import rosgraph
+    import rospy
+
+    deadline = time.monotonic() + timeout
+    if not client.wait_for_server(rospy.Duration.from_sec(timeout)):
+        return False
+    me = rospy.get_name()
+    server = client.last_status_msg._connection_header["callerid"]
+    uri = rosgraph.Master(me).lookupNode(server)
+    topics = [f"{rospy.resolve_name(action)}/{name}" for name in ("result", "feedback", "status")]
+    while time.monotonic() < deadline:
+        if all(writes_to(uri, topic, me) for topic in topics):
+            return True
+        time.sleep(0.01)
+    return False
 
 
 @dataclass(frozen=True)
@@ -63,9 +87,8 @@ class TrajectoryClient:
         self._error: str | None = None
         self._lock = threading.Lock()
         self._sub = rospy.Subscriber(link.joint_states_topic, JointState, self._on_state, queue_size=1000)
-        self._client = actionlib.ActionClient(
-            f"{link.namespace.rstrip('/')}/follow_joint_trajectory", self.types.action
-        )
+        self._action = rospy.resolve_name(f"{link.namespace.rstrip('/')}/follow_joint_trajectory")
+        self._client = actionlib.ActionClient(self._action, self.types.action)
         self._handles: list[Any] = []
 
     def _on_state(self, message: Any) -> None:
@@ -87,7 +110,7 @@ class TrajectoryClient:
         """The robot's joint positions once the action server is up and a joint state has come (ControllerError
         after `timeout` s)."""
         deadline = time.monotonic() + timeout
-        if not self._client.wait_for_server(self.rospy.Duration.from_sec(timeout)):
+        if not wait_for_action_server(self._client, self._action, timeout):
             raise ControllerError(
                 f"no action server {self.link.namespace}/follow_joint_trajectory within {timeout:g} s"
             )

@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 import pytest
 
+from sim.control.trajectory_client import wait_for_action_server
 from sim.robots import load_robot
 from tests.integration.sim_helpers import start_physics_node
 from tests.rosenv import PYTHON, REPO, ManagedProcess, wait_for
@@ -146,7 +147,8 @@ def arm(roscore, ros_node, tmp_path: Path) -> Iterator[tuple[ManagedProcess, Arm
     )
     arm = Arm(ros_node)
     try:
-        assert arm.client.wait_for_server(ros_node.Duration(20)), "the action server"
+        # Until the server writes its result to us: a goal rejected at once could lose its result otherwise.
+        assert wait_for_action_server(arm.client, f"{NS}/follow_joint_trajectory", 20), "the action server"
         yield node, arm
     finally:
         arm.close()
