@@ -21,7 +21,7 @@ import numpy as np
 
 from sim.errors import SimError
 
-__all__ = ["HorizonError", "Window", "windows", "hermite_at"]
+__all__ = ["HorizonError", "Window", "windows", "hermite_at", "achieved_at"]
 
 
 class HorizonError(SimError, ValueError):
@@ -81,4 +81,24 @@ def hermite_at(stamps: np.ndarray, positions: np.ndarray, velocities: np.ndarray
     out[inside] = (
         (2 * s**3 - 3 * s**2 + 1) * p0 + (s**3 - 2 * s**2 + s) * v0 + (-2 * s**3 + 3 * s**2) * p1 + (s**3 - s**2) * v1
     )
+    return out
+
+
+def achieved_at(stamps: np.ndarray, positions: np.ndarray, velocities: np.ndarray, at: np.ndarray) -> np.ndarray:
+    """The achieved positions at times `at` from joint states as they came (a stamp no later than the one before is
+    left out): `hermite_at` where every state has its velocities, linear between states otherwise (a driver that
+    publishes none: NaN velocities). NaN outside the states' span."""
+    stamps = np.asarray(stamps, dtype=float)
+    at = np.asarray(at, dtype=float)
+    keep = np.ones(len(stamps), dtype=bool)
+    if len(stamps):
+        keep[1:] = stamps[1:] > np.maximum.accumulate(stamps)[:-1]
+    stamps, positions, velocities = stamps[keep], np.asarray(positions)[keep], np.asarray(velocities)[keep]
+    if np.all(np.isfinite(velocities)):
+        return hermite_at(stamps, positions, velocities, at)
+    out = np.full((len(at), positions.shape[1]), np.nan)
+    if len(stamps) >= 2:
+        inside = (at >= stamps[0]) & (at <= stamps[-1])
+        for j in range(positions.shape[1]):
+            out[inside, j] = np.interp(at[inside], stamps, positions[:, j])
     return out

@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 
 from sim.control.controller_node import ControllerError
-from sim.control.horizon import hermite_at, windows
+from sim.control.horizon import achieved_at, windows
 from sim.control.run_log import RunResult
 from sim.control.scenarios import Schedule
 from sim.processes import writes_to
@@ -149,17 +149,13 @@ class TrajectoryClient:
         times = np.arange(1, steps + 1) * dt
         with self._lock:
             states = list(self._states)
-        stamps = np.array([s[0] for s in states]) - zero
-        keep = np.concatenate([[True], np.diff(stamps) > 0]) if len(stamps) else np.array([], dtype=bool)
-        positions = np.array([s[1] for s in states])[keep] if len(states) else np.empty((0, self.robot.dof))
-        velocities = np.array([s[2] for s in states])[keep] if len(states) else np.empty((0, self.robot.dof))
-        if len(states) and np.all(np.isfinite(velocities)):
-            achieved = hermite_at(stamps[keep], positions, velocities, times)
-        else:  # a driver without velocities: linear between its states
-            achieved = np.full((steps, self.robot.dof), np.nan)
-            inside = (times >= stamps[keep][0]) & (times <= stamps[keep][-1]) if len(states) > 1 else times < 0
-            for j in range(self.robot.dof):
-                achieved[inside, j] = np.interp(times[inside], stamps[keep], positions[:, j])
+        dof = self.robot.dof
+        achieved = achieved_at(
+            np.array([s[0] for s in states]) - zero,
+            np.array([s[1] for s in states]).reshape(-1, dof),
+            np.array([s[2] for s in states]).reshape(-1, dof),
+            times,
+        )
         known = np.all(np.isfinite(achieved), axis=1)
         return RunResult(
             times,

@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from sim.control.horizon import HorizonError, Window, hermite_at, windows
+from sim.control.horizon import HorizonError, Window, achieved_at, hermite_at, windows
 from sim.engine.trajectory_controller import GoalTolerances, JointState, Point, TrajectoryController, TrajectoryMessage
 
 DT = 0.02
@@ -70,3 +70,15 @@ def test_hermite_reads_a_cubic_exactly_between_states_and_nothing_outside() -> N
     np.testing.assert_allclose(got[1:5], np.column_stack([inside**3 - inside, 2 * inside**2]), atol=1e-15)
     with pytest.raises(HorizonError, match="increase strictly"):
         hermite_at(stamps[::-1], cubic, slope, at)
+
+
+def test_achieved_leaves_out_stamps_that_go_back_and_is_linear_without_velocities() -> None:
+    stamps = np.array([0.0, 0.02, 0.02, 0.01, 0.04])  # a repeated and a late stamp: left out
+    positions = np.array([[0.0], [0.2], [9.0], [9.0], [0.4]])
+    with_velocities = achieved_at(stamps, positions, np.full((5, 1), 10.0), np.array([0.01, 0.03, 0.05]))
+    np.testing.assert_allclose(with_velocities[:2, 0], [0.1, 0.3])  # a line: its cubic is the line
+    assert np.isnan(with_velocities[2, 0])
+    without = achieved_at(stamps, positions, np.full((5, 1), np.nan), np.array([0.01, 0.03, -0.01]))
+    np.testing.assert_allclose(without[:2, 0], [0.1, 0.3])
+    assert np.isnan(without[2, 0])
+    assert np.all(np.isnan(achieved_at(np.array([0.0]), positions[:1], positions[:1], np.array([0.0]))))
