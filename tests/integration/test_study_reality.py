@@ -1,0 +1,205 @@
+"""The reality condition on a real arm's controller, with real parts: the runner (`python -m sim.study run
+--realtime --link ...`) against the physics node's ros_control trajectory controller on wall time (franka_ros's
+topics), a real roscore, and in one session the VR condition through the engine stand-in's stream. The observer types
+at the runner's keyboard. Safety: the runner stops the arm on a stale feed and on tracking error; a runner killed
+mid-approach leaves the arm at rest short of the hand."""
+
+from __future__ import annotations
+
+import csv
+import math
+import signal
+import subprocess
+import threading
+import time
+from collections.abc import Iterator, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from sim.study.design.feasibility import Approaches
+from sim.study.design.paths import ON_TOP
+from sim.study.design.scene import load_scene, scene_robot
+from sim.study.run.protocol import STATUS_TOPIC, status_from_json
+from tests.integration.sim_helpers import start_engine, start_physics_node
+from tests.integration.study_helpers import trial, write_plan
+from tests.rosenv import PYTHON, REPO, ManagedProcess, kill_process, wait_for
+
+pytestmark = pytest.mark.lane("alone", on=("project",))
+
+SCENE = load_scene()
+ROBOT = scene_robot(SCENE)
+NS = "/position_joint_trajectory_controller"  # franka_ros's, as its preset says
+JOINT_STATES = "/franka_state_controller/joint_states"
+
+
+class Watch:
+    """The runner's phases (its status topic) and the arm's joint states, as the test process hears them."""
+
+    def __init__(self, rospy: Any) -> None:
+        from sensor_msgs.msg import JointState
+        from std_msgs.msg import String
+
+        self.phases: list[tuple[int, str]] = []
+        self.states: list[Any] = []
+        self.changed = threading.Condition()
+        self._subscribers = [
+            rospy.Subscriber(STATUS_TOPIC, String, self._on_status),
+            rospy.Subscriber(JOINT_STATES, JointState, self._on_state),
+        ]
+
+    def _on_status(self, message: Any) -> None:
+        status = status_from_json(message.data)
+        with self.changed:
+            self.phases.append((status.index, status.phase))
+            self.changed.notify_all()
+
+    def _on_state(self, message: Any) -> None:
+        with self.changed:
+            self.states.append(message)
+
+    def wait(self, phase: tuple[int, str], timeout: float = 60) -> None:
+        with self.changed:
+            assert self.changed.wait_for(lambda: phase in self.phases, timeout=timeout), self.phases
+
+    def resting_positions(self) -> np.ndarray:
+        """The arm's positions once it has rested for 15 joint states (half a second at 30 Hz)."""
+
+        def resting() -> list[float] | None:
+            with self.changed:
+                recent = self.states[-15:]
+            if len(recent) < 15:
+                return None
+            positions = np.array([s.position for s in recent])
+            speeds = np.abs(np.array([s.velocity for s in recent]))
+            return positions[-1].tolist() if np.ptp(positions, axis=0).max() < 1e-4 and speeds.max() < 1e-3 else None
+
+        return np.array(wait_for(resting, 30, "the arm at rest"))
+
+    def close(self) -> None:
+        for subscriber in self._subscribers:
+            subscriber.unregister()
+
+
+@pytest.fixture
+def arm(roscore, ros_node, tmp_path: Path) -> Iterator[tuple[ManagedProcess, Watch]]:
+    node = start_physics_node(
+        roscore, tmp_path, "panda", "--mode", "physics", "--trajectory-controller", NS,
+        "--joint-states-topic", JOINT_STATES, "--joint-states-rate", "30",
+    )  # fmt: skip
+    watch = Watch(ros_node)
+    try:
+        yield node, watch
+    finally:
+        watch.close()
+        node.stop()
+
+
+def start_runner(roscore, plan: Path, out: Path, extra: Sequence[str] = ()) -> subprocess.Popen:
+    command = [PYTHON, "-m", "sim.study", "run", "--plan", str(plan), "--out", str(out), "--keyboard", "--realtime"]
+    return subprocess.Popen(
+        command + ["--no-record", "--auto-go", "--connect-timeout", "30", *extra],
+        env=roscore.env, cwd=REPO, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+        text=True, start_new_session=True,
+    )  # fmt: skip
+
+
+def type_line(runner: subprocess.Popen, line: str) -> None:
+    assert runner.stdin is not None
+    runner.stdin.write(line)
+    runner.stdin.flush()
+
+
+def read_csv(path: Path) -> list[dict[str, str]]:
+    with open(path, newline="") as source:
+        return list(csv.DictReader(source))
+
+
+def hand_distance(positions: np.ndarray) -> float:
+    with Approaches(ROBOT, SCENE, 0.01) as approaches:
+        return approaches.hand_distance(np.asarray(positions, dtype=float))
+
+
+def test_a_session_runs_vr_on_the_stream_and_reality_on_the_trajectory_controller(
+    roscore, endpoint, arm, tmp_path: Path
+) -> None:
+    _, watch = arm
+    plan = write_plan(
+        tmp_path / "plan.yaml",
+        3,
+        "vr",
+        [trial(1, "vr", 1, "vertical", 0.15, 0.2), trial(2, "reality", 2, "vertical", ON_TOP, 0.2, "slow", 1)],
+    )
+    engine = start_engine(roscore, tmp_path, "panda", endpoint.port, "--no-auto-simulate")
+    runner = start_runner(roscore, plan, tmp_path / "out", ["--link", "reality=franka_ros"])
+    try:
+        watch.wait((1, "distance"))
+        type_line(runner, "12 cm\n")
+        watch.wait((2, "moving"))
+        time.sleep(0.8)  # well into the approach, at speed
+        type_line(runner, "s\n")
+        watch.wait((2, "preference"))
+        type_line(runner, "1\n")
+        output, _ = runner.communicate(timeout=60)
+    finally:
+        kill_process(runner)
+        engine.stop()
+    assert runner.returncode == 0, output
+    vr, reality = read_csv(tmp_path / "out" / "participant_03.csv")
+    assert vr["link"] == "stream" and vr["goal_result"] == "" and vr["tracking_error"] == ""
+    assert float(vr["distance_at_rest"]) == pytest.approx(0.15, abs=0.005)
+    assert reality["link"] == f"franka_ros ({NS})" and reality["pressed"] == "true"
+    # the braking replacement is the goal that ended, and ended well; the arm kept to the commanded path
+    assert (reality["goal_result"], reality["error_code"], reality["safety_stop"]) == ("SUCCEEDED", "0", "")
+    assert 0 < float(reality["tracking_error"]) < 0.1
+    assert 0 <= float(reality["replacement_latency"]) < float(reality["braking_latency"])
+    planned, achieved = float(reality["braking_distance"]), float(reality["braking_distance_achieved"])
+    assert planned > 0.005 and achieved == pytest.approx(planned, abs=0.01)
+    rest = watch.resting_positions()
+    assert hand_distance(rest) == pytest.approx(float(reality["distance_at_rest"]), abs=0.002)
+    assert float(reality["distance_at_rest"]) > float(reality["distance_at_press"]) - planned - 0.01 > ON_TOP
+
+
+@pytest.mark.parametrize(
+    ("option", "why"),
+    [(("--stale-after", "0.01"), "joint states stale"), (("--tracking-tolerance", "0.0005"), "tracking error")],
+)
+def test_the_runner_stops_the_arm_on_its_own(roscore, arm, tmp_path: Path, option: tuple[str, str], why: str) -> None:
+    # The feed comes at 30 Hz, so a stale limit of 10 ms is passed within the approach's first 33 ms; the arm lags its
+    # commanded path by more than half a milliradian once it moves.
+    _, watch = arm
+    plan = write_plan(tmp_path / "plan.yaml", 4, "reality", [trial(1, "reality", 1, "vertical", 0.1, 0.2)])
+    runner = start_runner(roscore, plan, tmp_path / "out", ["--link", "reality=franka_ros", *option])
+    try:
+        output, _ = runner.communicate(timeout=90)
+    finally:
+        kill_process(runner)
+    assert runner.returncode == 5, output
+    assert f"trial 1: the arm was stopped: {why}" in output
+    (row,) = read_csv(tmp_path / "out" / "participant_04.csv")
+    assert row["safety_stop"].startswith(why) and row["pressed"] == "true"
+    assert float(row["distance_at_rest"]) > 0.1 + 0.02  # braked well short of its stand-off
+    assert hand_distance(watch.resting_positions()) > 0.12
+
+
+def test_a_runner_killed_mid_approach_leaves_the_arm_at_rest_short_of_the_hand(roscore, arm, tmp_path: Path) -> None:
+    _, watch = arm
+    standoff = 0.06
+    plan = write_plan(tmp_path / "plan.yaml", 5, "reality", [trial(1, "reality", 1, "vertical", standoff, 0.2)])
+    runner = start_runner(roscore, plan, tmp_path / "out", ["--link", "reality=franka_ros"])
+    try:
+        watch.wait((1, "moving"))
+        time.sleep(0.5)
+        kill_process(runner, first_signal=signal.SIGKILL)
+        killed = time.monotonic()
+        with watch.changed:
+            moving = watch.states[-1]
+        rest = watch.resting_positions()
+    finally:
+        kill_process(runner)
+    assert runner.returncode == -signal.SIGKILL and time.monotonic() - killed > 0
+    assert max(abs(v) for v in moving.velocity) > 0.01  # it was killed in motion
+    distance = hand_distance(rest)
+    assert distance == pytest.approx(standoff, abs=0.005) and not math.isnan(distance)
