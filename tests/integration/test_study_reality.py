@@ -45,6 +45,7 @@ class Watch:
         self.phases: list[tuple[int, str]] = []
         self.states: list[Any] = []
         self.changed = threading.Condition()
+        self.out = ""  # the runner's --out
         self._subscribers = [
             rospy.Subscriber(STATUS_TOPIC, String, self._on_status),
             rospy.Subscriber(JOINT_STATES, JointState, self._on_state),
@@ -162,26 +163,58 @@ def test_a_session_runs_vr_on_the_stream_and_reality_on_the_trajectory_controlle
     assert float(reality["distance_at_rest"]) > float(reality["distance_at_press"]) - planned - 0.01 > ON_TOP
 
 
-@pytest.mark.parametrize(
-    ("option", "why"),
-    [(("--stale-after", "0.01"), "joint states stale"), (("--tracking-tolerance", "0.0005"), "tracking error")],
-)
-def test_the_runner_stops_the_arm_on_its_own(roscore, arm, tmp_path: Path, option: tuple[str, str], why: str) -> None:
-    # The feed comes at 30 Hz, so a stale limit of 10 ms is passed within the approach's first 33 ms; the arm lags its
-    # commanded path by more than half a milliradian once it moves.
-    _, watch = arm
-    plan = write_plan(tmp_path / "plan.yaml", 4, "reality", [trial(1, "reality", 1, "vertical", 0.1, 0.2)])
-    runner = start_runner(roscore, plan, tmp_path / "out", ["--link", "reality=franka_ros", *option])
+def stopped_on_its_own(runner: subprocess.Popen, watch: Watch, why: str, standoff: float, participant: int) -> None:
+    """The trial's answer typed; the runner ended the session (exit 5) after stopping the arm short of the stand-off."""
     try:
-        output, _ = runner.communicate(timeout=90)
+        watch.wait((1, "distance"))
+        type_line(runner, "10 cm\n")
+        output, _ = runner.communicate(timeout=60)
     finally:
         kill_process(runner)
     assert runner.returncode == 5, output
     assert f"trial 1: the arm was stopped: {why}" in output
-    (row,) = read_csv(tmp_path / "out" / "participant_04.csv")
+    (row,) = read_csv(Path(watch.out) / f"participant_{participant:02d}.csv")
     assert row["safety_stop"].startswith(why) and row["pressed"] == "true"
-    assert float(row["distance_at_rest"]) > 0.1 + 0.02  # braked well short of its stand-off
-    assert hand_distance(watch.resting_positions()) > 0.12
+    rest = hand_distance(watch.resting_positions())
+    assert rest > standoff + 0.02  # braked well short of its stand-off
+    if why == "joint states stale":  # its last state seen was in motion: the arm braked on, closer, to rest
+        assert rest < float(row["distance_at_rest"])
+    else:
+        assert rest == pytest.approx(float(row["distance_at_rest"]), abs=0.002)
+
+
+def test_tracking_error_past_the_tolerance_stops_the_arm(roscore, arm, tmp_path: Path) -> None:
+    # the arm lags its commanded path by more than half a milliradian once it moves
+    _, watch = arm
+    watch.out = str(tmp_path / "out")
+    plan = write_plan(tmp_path / "plan.yaml", 4, "reality", [trial(1, "reality", 1, "vertical", 0.1, 0.2)])
+    extra = ["--link", "reality=franka_ros", "--tracking-tolerance", "0.0005"]
+    stopped_on_its_own(start_runner(roscore, plan, tmp_path / "out", extra), watch, "tracking error", 0.1, 4)
+
+
+def test_a_stale_joint_state_feed_stops_the_arm(roscore, ros_node, arm, tmp_path: Path) -> None:
+    # The runner reads the arm's joint states through a relay of the test's, given by namespace and topic; the relay
+    # stops passing them on 0.5 s into the approach.
+    from sensor_msgs.msg import JointState
+
+    _, watch = arm
+    watch.out = str(tmp_path / "out")
+    relaying = threading.Event()
+    relaying.set()
+    relayed = ros_node.Publisher("/relayed/joint_states", JointState, queue_size=10)
+    relay = ros_node.Subscriber(JOINT_STATES, JointState, lambda m: relayed.publish(m) if relaying.is_set() else None)
+    plan = write_plan(tmp_path / "plan.yaml", 6, "reality", [trial(1, "reality", 1, "vertical", 0.1, 0.2)])
+    extra = ["--link", f"reality={NS},/relayed/joint_states"]
+    runner = start_runner(roscore, plan, tmp_path / "out", extra)
+    try:
+        watch.wait((1, "moving"))
+        time.sleep(0.5)
+        relaying.clear()
+        stopped_on_its_own(runner, watch, "joint states stale", 0.1, 6)
+    finally:
+        kill_process(runner)
+        relay.unregister()
+        relayed.unregister()
 
 
 def test_a_runner_killed_mid_approach_leaves_the_arm_at_rest_short_of_the_hand(roscore, arm, tmp_path: Path) -> None:

@@ -391,8 +391,10 @@ class StudyRunner:
         self.given: dict[str, dict[str, dict[str, int | None]]] = {}
         self.safety_stops: list[str] = []  # the trials in which the runner stopped the arm on its own, and why
         self.status_pub = self.rospy.Publisher(STATUS_TOPIC, String, queue_size=10, latch=True)
-        self.links = make_links(robot, plan.conditions, options, stop, trajectory_links or {}, self.status_pub)
-        self.link: RobotLink = self.links[plan.conditions[0]]
+        # only the conditions the plan runs have a link: a link not used waits for no arm
+        run = list(dict.fromkeys(t.condition for t in plan.trials)) or list(plan.conditions[:1])
+        self.links = make_links(robot, run, options, stop, trajectory_links or {}, self.status_pub)
+        self.link: RobotLink = self.links[run[0]]
         self._started: set[int] = set()  # the links started (by id)
         self._subscribers = [
             self.rospy.Subscriber(GO_TOPIC, Empty, lambda _: self.inputs.go()),
@@ -552,7 +554,7 @@ class StudyRunner:
 
     def run_session(self, records_path: Path, log: Callable[[str], None]) -> list[TrialRecord]:
         """The session: the trials' records in `records_path`, the questionnaires' beside it (in its folder)."""
-        self.use_link(self.plan.conditions[0])
+        self.use_link(next(iter(self.links)))
         records: list[TrialRecord] = []
         self._administer(0, records_path.parent, log)
         for trial in self.plan.trials:
