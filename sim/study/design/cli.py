@@ -33,6 +33,16 @@ def register(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> N
     check = commands.add_parser("check", help="plan and check every combination of the design")
     add_design_option(check)
     add_scene_options(check)
+    check.add_argument(
+        "--safety",
+        action="store_true",
+        help="before a real arm: also refuse samples or braking beyond the robot's limits with --margin, and --floor",
+    )
+    check.add_argument(
+        "--margin", type=float, default=0.8, help="the fraction of each motion limit a plan may use (default 0.8)"
+    )
+    check.add_argument("--floor", type=float, default=0.01, help="m no plan may come closer to the hand (0.01)")
+    check.add_argument("--deceleration", type=float, default=1.0, help="braking on a press, m/s² along the path")
     check.set_defaults(handler=check_command)
 
     scene = commands.add_parser("scene", help="propose a scene that fits the robot, checked like check")
@@ -59,8 +69,15 @@ def plan_command(args: argparse.Namespace) -> int:
 
 def check_command(args: argparse.Namespace) -> int:
     from sim.study.design.feasibility import plan_combinations, remedies
+    from sim.study.safety.check import design_refusals
+    from sim.study.safety.limits import limits_for
 
     check_positive(args.dt, "--dt")
+    check_positive(args.deceleration, "--deceleration")
+    if not (0 < args.margin <= 1):
+        raise DesignError(f"--margin must be in (0, 1], got {args.margin!r}")
+    if not (args.floor >= 0):
+        raise DesignError(f"--floor must be >= 0 m, got {args.floor!r}")
     design = load_design(args.design)
     scene, robot = scene_and_robot(args)
     plan = make_plan(design, 1, 0)
@@ -85,6 +102,17 @@ def check_command(args: argparse.Namespace) -> int:
             f"{', '.join(f'{p} to {s} m at {v} m/s' for p, s, v in infeasible)}; to change: "
             + remedies(approaches[key] for key in infeasible)
         )
+    if not args.safety:
+        return EXIT_OK
+    refusals = design_refusals(limits_for(robot), approaches, args.margin, args.floor, args.deceleration)
+    for line in refusals:
+        print(f"refused: {line}")
+    if refusals:
+        raise DesignError(
+            f"{len(refusals)} limit(s) exceeded (the toolkit's checks, never instead of the robot's own stop); "
+            "to change: lower peak speeds, a gentler --deceleration, or another path"
+        )
+    print(f"within {robot.name}'s limits ({limits_for(robot).source}) at {args.margin:.0%}; floor {args.floor:g} m")
     return EXIT_OK
 
 
