@@ -14,11 +14,13 @@ timeout is recorded as missing, and an answer refused (off the item's scale, or 
 status published again, so that a client which took its answer as given asks again. Their answers and scores are
 written as soon as each administration ends (sim.study.run.questionnaires).
 
-It is a controller (sim.control): it drives the robot on the commander's topics, through the same controller node
-and stepper, so the engine stand-in, Unity, or a real robot's controller take the same stream. Lockstep (default):
-the runner owns /clock and the engine steps once per value, so a session takes seconds of wall time; while the
-runner waits for go or an answer, the clock stands still. --realtime: /clock and the commands are paced by the wall
-clock (a VR headset, a real robot), and the robot is held at its target while the runner waits.
+The robot is driven through each condition's link (sim.study.run.links): the stream (the commander's topics, through
+the same controller node and stepper, for the engine stand-in or Unity), or a real arm's ros_control trajectory
+controller on wall time (--link CONDITION=PRESET). On the stream in lockstep (default) the runner owns /clock and the
+engine steps once per value, so a session takes seconds of wall time; while the runner waits for go or an answer,
+the clock stands still. --realtime: /clock and the commands are paced by the wall clock (a VR headset), and the robot
+is held at its target while the runner waits. A trajectory controller holds on its own and has no /clock. When the
+trajectory link stops the arm on its own (sim.study.run.links.trajectory), the session ends after that trial.
 
 A press's time is its stamp on ROS time (a zero stamp: when it arrives); a press whose stamp has already passed is
 applied at once, and how late it was is logged. Presses before the approach starts are ignored. In lockstep the
