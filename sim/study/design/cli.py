@@ -6,11 +6,12 @@ from __future__ import annotations
 import argparse
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import yaml
 
 from sim.entry import EXIT_OK
-from sim.robots import overrides_from_args
+from sim.robots import RobotSpec, overrides_from_args
 from sim.study.checks import check_positive
 from sim.study.design.errors import DesignError
 from sim.study.design.options import add_design_option, add_scene_options, scene_and_robot
@@ -18,7 +19,10 @@ from sim.study.design.plan import make_plan, plan_to_data, printable
 from sim.study.design.scene import DEFAULT_SCENE, load_scene, scene_robot
 from sim.study.design.spec import load_design
 
-__all__ = ["register"]
+if TYPE_CHECKING:
+    from sim.study.design.feasibility import Combination, PlannedApproach
+
+__all__ = ["register", "checked_combinations"]
 
 
 def register(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -33,16 +37,6 @@ def register(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> N
     check = commands.add_parser("check", help="plan and check every combination of the design")
     add_design_option(check)
     add_scene_options(check)
-    check.add_argument(
-        "--safety",
-        action="store_true",
-        help="before a real arm: also refuse samples or braking beyond the robot's limits with --margin, and --floor",
-    )
-    check.add_argument(
-        "--margin", type=float, default=0.8, help="the fraction of each motion limit a plan may use (default 0.8)"
-    )
-    check.add_argument("--floor", type=float, default=0.01, help="m no plan may come closer to the hand (0.01)")
-    check.add_argument("--deceleration", type=float, default=1.0, help="braking on a press, m/s² along the path")
     check.set_defaults(handler=check_command)
 
     scene = commands.add_parser("scene", help="propose a scene that fits the robot, checked like check")
@@ -68,16 +62,16 @@ def plan_command(args: argparse.Namespace) -> int:
 
 
 def check_command(args: argparse.Namespace) -> int:
+    checked_combinations(args)
+    return EXIT_OK
+
+
+def checked_combinations(args: argparse.Namespace) -> tuple[RobotSpec, dict[Combination, PlannedApproach]]:
+    """Every combination of the design planned, printed as a table; DesignError when one is not feasible. The robot
+    and the approaches, for checks above the design's (sim.study.safety's `check --safety`)."""
     from sim.study.design.feasibility import plan_combinations, remedies
-    from sim.study.safety.check import design_refusals
-    from sim.study.safety.limits import limits_for
 
     check_positive(args.dt, "--dt")
-    check_positive(args.deceleration, "--deceleration")
-    if not (0 < args.margin <= 1):
-        raise DesignError(f"--margin must be in (0, 1], got {args.margin!r}")
-    if not (args.floor >= 0):
-        raise DesignError(f"--floor must be >= 0 m, got {args.floor!r}")
     design = load_design(args.design)
     scene, robot = scene_and_robot(args)
     plan = make_plan(design, 1, 0)
@@ -102,18 +96,7 @@ def check_command(args: argparse.Namespace) -> int:
             f"{', '.join(f'{p} to {s} m at {v} m/s' for p, s, v in infeasible)}; to change: "
             + remedies(approaches[key] for key in infeasible)
         )
-    if not args.safety:
-        return EXIT_OK
-    refusals = design_refusals(limits_for(robot), approaches, args.margin, args.floor, args.deceleration)
-    for line in refusals:
-        print(f"refused: {line}")
-    if refusals:
-        raise DesignError(
-            f"{len(refusals)} limit(s) exceeded (the toolkit's checks, never instead of the robot's own stop); "
-            "to change: lower peak speeds, a gentler --deceleration, or another path"
-        )
-    print(f"within {robot.name}'s limits ({limits_for(robot).source}) at {args.margin:.0%}; floor {args.floor:g} m")
-    return EXIT_OK
+    return robot, approaches
 
 
 def scene_command(args: argparse.Namespace) -> int:

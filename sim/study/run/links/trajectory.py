@@ -233,10 +233,10 @@ class TrajectoryLink:
             if self.stop.is_set():
                 raise ControllerError("interrupted")
             for fed in self.feed.since(looked):
+                looked = fed.arrival  # each state once
                 if fed.stamp >= start:
                     run.record_state(fed.stamp - start, fed.positions)
                     tracking = max(tracking, commanded.error(fed.stamp, fed.positions))
-            looked = now
             stopping = not math.isnan(press_at) or reason != ""
             if not stopping:
                 press = take_press(now)
@@ -258,16 +258,16 @@ class TrajectoryLink:
         status, code, text = self._outcome(handle) if self._done(handle) else (-1, None, "no result")
         if not reason and status != SUCCEEDED and handle is self._handles[0]:
             reason = f"the controller ended the goal {GOAL_STATUS.get(status, 'without a result')}: {text}"
-        fed = self.feed.since(start)
-        stamps = np.array([s.stamp for s in fed])
-        speeds = np.array([float(np.linalg.norm(s.velocities)) for s in fed])
+        seen = self.feed.since(start)
+        stamps = np.array([s.stamp for s in seen])
+        speeds = np.array([float(np.linalg.norm(s.velocities)) for s in seen])
         achieved = math.nan
-        if not math.isnan(press_at) and fed:
-            at_press = min(fed, key=lambda s: abs(s.stamp - press_at)).positions
+        if not math.isnan(press_at) and seen:
+            at_press = min(seen, key=lambda s: abs(s.stamp - press_at)).positions
             zeros = np.zeros(self.robot.dof)
-            rest = geometry.project(fed[-1].positions, zeros, zeros)
+            rest = geometry.project(seen[-1].positions, zeros, zeros)
             achieved = rest.arc - geometry.project(at_press, zeros, zeros).arc
-        self._target = fed[-1].positions.copy() if fed else self._target
+        self._target = seen[-1].positions.copy() if seen else self._target
         self._handles.clear()
         return ApproachOutcome(
             press=applied,
@@ -275,7 +275,7 @@ class TrajectoryLink:
             error_code=code,
             tracking_error=tracking,
             replacement_sent=replacement_sent,
-            braking_began=speed_fell(stamps, speeds, press_at) if len(fed) and not math.isnan(press_at) else math.nan,
+            braking_began=speed_fell(stamps, speeds, press_at) if seen and not math.isnan(press_at) else math.nan,
             braking_planned=braking.distance if braking is not None else math.nan,
             braking_achieved=achieved,
             safety_stop=reason,
@@ -325,7 +325,7 @@ class TrajectoryLink:
         qd = positions_by_name(desired.name, desired.velocity, self.robot.joint_names)
         qdd = positions_by_name(desired.name, desired.acceleration, self.robot.joint_names)
         stop = brake(geometry, q, qd, qdd, self.dt, run.deceleration, STOP_JERK)
-        if stop is None:
+        if stop is None or len(stop.times) < 2:  # the plan rests sooner, or it rests already
             return None, time.time()
         points = GoalPoints(stop.times[1:], stop.positions[1:], stop.velocities[1:], stop.accelerations[1:])
         _, sent = self._send(points, at)
