@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import csv
 import math
+import os
 import signal
 import subprocess
 import threading
@@ -20,12 +21,14 @@ import numpy as np
 import pytest
 
 from sim.study.design.feasibility import Approaches
+from sim.study.design.fit import scene_for
 from sim.study.design.paths import ON_TOP
 from sim.study.design.scene import load_scene, scene_robot
 from sim.study.run.protocol import STATUS_TOPIC, status_from_json
 from tests.integration.sim_helpers import start_engine, start_physics_node
 from tests.integration.study_helpers import trial, write_plan
-from tests.rosenv import PYTHON, REPO, ManagedProcess, kill_process, wait_for
+from tests.rosenv import PYTHON, REPO, kill_process, wait_for
+from tests.study_arms import study_arm
 
 pytestmark = pytest.mark.lane("alone", on=("project",))
 
@@ -38,7 +41,7 @@ JOINT_STATES = "/franka_state_controller/joint_states"
 class Watch:
     """The runner's phases (its status topic) and the arm's joint states, as the test process hears them."""
 
-    def __init__(self, rospy: Any) -> None:
+    def __init__(self, rospy: Any, joint_states: str = JOINT_STATES) -> None:
         from sensor_msgs.msg import JointState
         from std_msgs.msg import String
 
@@ -48,7 +51,7 @@ class Watch:
         self.out = ""  # the runner's --out
         self._subscribers = [
             rospy.Subscriber(STATUS_TOPIC, String, self._on_status),
-            rospy.Subscriber(JOINT_STATES, JointState, self._on_state),
+            rospy.Subscriber(joint_states, JointState, self._on_state),
         ]
 
     def _on_status(self, message: Any) -> None:
@@ -84,25 +87,48 @@ class Watch:
             subscriber.unregister()
 
 
-@pytest.fixture
-def arm(roscore, ros_node, tmp_path: Path) -> Iterator[tuple[ManagedProcess, Watch]]:
+def start_arm(roscore, ros_node, tmp_path: Path, robot: str, namespace: str, joint_states: str) -> Iterator[Watch]:
     node = start_physics_node(
-        roscore, tmp_path, "panda", "--mode", "physics", "--trajectory-controller", NS,
-        "--joint-states-topic", JOINT_STATES, "--joint-states-rate", "30",
+        roscore, tmp_path, robot, "--mode", "physics", "--trajectory-controller", namespace,
+        "--joint-states-topic", joint_states, "--joint-states-rate", "30",
     )  # fmt: skip
-    watch = Watch(ros_node)
+    watch = Watch(ros_node, joint_states)
     try:
-        yield node, watch
+        yield watch
     finally:
         watch.close()
         node.stop()
 
 
+@pytest.fixture
+def arm(roscore, ros_node, tmp_path: Path) -> Iterator[tuple[None, Watch]]:
+    """The Panda's stand-in as franka_ros shows it."""
+    for watch in start_arm(roscore, ros_node, tmp_path, "panda", NS, JOINT_STATES):
+        yield None, watch
+
+
+BUILT_ARM = "meshed_arm7"  # one the tests build (tests/study_arms.py), with the scene proposed for it
+
+
+@pytest.fixture
+def built_arm(roscore, ros_node, tmp_path: Path, monkeypatch) -> Iterator[tuple[Path, Watch]]:
+    """The built arm's stand-in under a namespace of the lab's choosing; its scene proposed (and cached for the
+    runner: the suite's cache where test.sh gives one)."""
+    cache = os.environ.get("VR_SIM_CACHE") or str(tmp_path / "cache")
+    monkeypatch.setenv("VR_SIM_CACHE", cache)  # this process's and the runner's (start_runner passes it on)
+    urdf = study_arm(tmp_path / "arms", BUILT_ARM)
+    for watch in start_arm(roscore, ros_node, tmp_path, str(urdf), "/arm/traj_controller", "/arm/joint_states"):
+        yield urdf, watch
+
+
 def start_runner(roscore, plan: Path, out: Path, extra: Sequence[str] = ()) -> subprocess.Popen:
+    env = dict(roscore.env)
+    if "VR_SIM_CACHE" in os.environ:
+        env["VR_SIM_CACHE"] = os.environ["VR_SIM_CACHE"]
     command = [PYTHON, "-m", "sim.study", "run", "--plan", str(plan), "--out", str(out), "--keyboard", "--realtime"]
     return subprocess.Popen(
         command + ["--no-record", "--auto-go", "--connect-timeout", "30", *extra],
-        env=roscore.env, cwd=REPO, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+        env=env, cwd=REPO, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
         text=True, start_new_session=True,
     )  # fmt: skip
 
@@ -118,8 +144,10 @@ def read_csv(path: Path) -> list[dict[str, str]]:
         return list(csv.DictReader(source))
 
 
-def hand_distance(positions: np.ndarray) -> float:
-    with Approaches(ROBOT, SCENE, 0.01) as approaches:
+def hand_distance(positions: np.ndarray, robot: Path | None = None) -> float:
+    """The distance to the hand of the Panda (the default scene) or of the arm at `robot` (its proposed scene)."""
+    scene, spec = (SCENE, ROBOT) if robot is None else scene_for(None, str(robot), None)
+    with Approaches(spec, scene, 0.01) as approaches:
         return approaches.hand_distance(np.asarray(positions, dtype=float))
 
 
@@ -163,7 +191,9 @@ def test_a_session_runs_vr_on_the_stream_and_reality_on_the_trajectory_controlle
     assert float(reality["distance_at_rest"]) > float(reality["distance_at_press"]) - planned - 0.01 > ON_TOP
 
 
-def stopped_on_its_own(runner: subprocess.Popen, watch: Watch, why: str, standoff: float, participant: int) -> None:
+def stopped_on_its_own(
+    runner: subprocess.Popen, watch: Watch, why: str, standoff: float, participant: int, robot: Path | None = None
+) -> None:
     """The trial's answer typed; the runner ended the session (exit 5) after stopping the arm short of the stand-off."""
     try:
         watch.wait((1, "distance"))
@@ -175,7 +205,7 @@ def stopped_on_its_own(runner: subprocess.Popen, watch: Watch, why: str, standof
     assert f"trial 1: the arm was stopped: {why}" in output
     (row,) = read_csv(Path(watch.out) / f"participant_{participant:02d}.csv")
     assert row["safety_stop"].startswith(why) and row["pressed"] == "true"
-    rest = hand_distance(watch.resting_positions())
+    rest = hand_distance(watch.resting_positions(), robot)
     assert rest > standoff + 0.02  # braked well short of its stand-off
     if why == "joint states stale":  # its last state seen was in motion: the arm braked on, closer, to rest
         assert rest < float(row["distance_at_rest"])
@@ -183,13 +213,14 @@ def stopped_on_its_own(runner: subprocess.Popen, watch: Watch, why: str, standof
         assert rest == pytest.approx(float(row["distance_at_rest"]), abs=0.002)
 
 
-def test_tracking_error_past_the_tolerance_stops_the_arm(roscore, arm, tmp_path: Path) -> None:
-    # the arm lags its commanded path by more than half a milliradian once it moves
-    _, watch = arm
+def test_tracking_error_past_the_tolerance_stops_the_arm(roscore, built_arm, tmp_path: Path) -> None:
+    # on the arm the tests build, given by namespace: it lags its commanded path by over half a milliradian as it moves
+    urdf, watch = built_arm
     watch.out = str(tmp_path / "out")
     plan = write_plan(tmp_path / "plan.yaml", 4, "reality", [trial(1, "reality", 1, "vertical", 0.1, 0.2)])
-    extra = ["--link", "reality=franka_ros", "--tracking-tolerance", "0.0005"]
-    stopped_on_its_own(start_runner(roscore, plan, tmp_path / "out", extra), watch, "tracking error", 0.1, 4)
+    extra = ["--robot", str(urdf), "--link", "reality=/arm/traj_controller,/arm/joint_states"]
+    runner = start_runner(roscore, plan, tmp_path / "out", [*extra, "--tracking-tolerance", "0.0005"])
+    stopped_on_its_own(runner, watch, "tracking error", 0.1, 4, urdf)
 
 
 def test_a_stale_joint_state_feed_stops_the_arm(roscore, ros_node, arm, tmp_path: Path) -> None:
