@@ -248,7 +248,9 @@ def test_a_stale_joint_state_feed_stops_the_arm(roscore, ros_node, arm, tmp_path
         relayed.unregister()
 
 
-def test_a_runner_killed_mid_approach_leaves_the_arm_at_rest_short_of_the_hand(roscore, arm, tmp_path: Path) -> None:
+def test_a_runner_killed_mid_approach_leaves_the_arm_at_rest_short_of_the_hand(
+    roscore, ros_node, arm, tmp_path: Path
+) -> None:
     _, watch = arm
     standoff = 0.06
     plan = write_plan(tmp_path / "plan.yaml", 5, "reality", [trial(1, "reality", 1, "vertical", standoff, 0.2)])
@@ -256,6 +258,7 @@ def test_a_runner_killed_mid_approach_leaves_the_arm_at_rest_short_of_the_hand(r
     try:
         watch.wait((1, "moving"))
         time.sleep(0.5)
+        assert "/clock" not in dict(ros_node.get_published_topics())  # wall time: the runner owns no clock
         kill_process(runner, first_signal=signal.SIGKILL)
         killed = time.monotonic()
         with watch.changed:

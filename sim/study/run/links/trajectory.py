@@ -46,6 +46,7 @@ BRAKING_LEAD = 0.03  # s: a replacement starts this far ahead of its sending (it
 POLL = 0.01  # s: the longest wait for a joint state between looks at the presses and the goal
 RESULT_GRACE = 5.0  # s after a motion's planned end that the controller may take to end its goal
 SUCCEEDED = 3
+STAMP_WINDOW = 5.0  # s: a press stamped further from the wall clock is on another clock (the stream's /clock)
 
 
 @dataclass(frozen=True)
@@ -242,10 +243,10 @@ class TrajectoryLink:
                 press = take_press(now)
                 why = self._unsafe(state, now, tracking, run, handle)
                 if press is not None or why:
-                    press_at = now if press is None or press.stamp <= 0 else max(press.stamp, start)
-                    press_at = min(max(press_at, start), now)
+                    press_at = now
                     if press is not None:
-                        applied = _applied(press, press_at, now)
+                        applied, when = _applied(press, now)
+                        press_at = min(max(when, start), now)
                     reason = why if press is None else ""
                     run.press(min((press_at - start) * self.spec.speed_scale, planned.path.duration))
                     braking, sent_at = self._brake(geometry, run, commanded)
@@ -366,6 +367,12 @@ class TrajectoryLink:
         return int(handle.get_goal_status()), int(result.error_code), str(result.error_string)
 
 
-def _applied(press: Press, at: float, now: float) -> AppliedPress:
-    when = press.stamp if press.stamp > 0 else now
-    return AppliedPress(press.source, max(at - when, 0.0), press.input_delay, press.arrival_delay)
+def _applied(press: Press, now: float) -> tuple[AppliedPress, float]:
+    """What is recorded of a press taken at `now` (wall time), and its time: its stamp, or when it arrived if it has
+    none or one on another clock (a page that keeps the stream's /clock in a session of both links). Its lateness
+    is from its stamp to `now`, when the replacement's braking is planned from."""
+    arrived = press.arrival if math.isfinite(press.arrival) else now
+    if press.stamp > 0 and abs(press.stamp - arrived) <= STAMP_WINDOW:
+        late = max(now - press.stamp, 0.0)
+        return AppliedPress(press.source, late, press.input_delay, press.arrival_delay), press.stamp
+    return AppliedPress(press.source, 0.0, press.input_delay, math.nan), arrived
