@@ -55,7 +55,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Callable, Iterable, Mapping
 
-from sim.control.controller_node import ControllerError
+from sim.control.controller_node import DRAIN_TIMEOUT_S, ControllerError, unwritten_subscribers
 from sim.control.stepper import Pacing
 from sim.processes import ManagedProcess, ProcessError, start_recorder, stop_recorder
 from sim.robots import RobotSpec
@@ -770,6 +770,11 @@ class StudyRunner:
     def close(self) -> None:
         for subscriber in self._subscribers:
             subscriber.unregister()
+        # the last status to its slow subscribers (a recorder) before it goes: a stream link drains it too, a
+        # trajectory controller's link does not know it
+        deadline = time.monotonic() + DRAIN_TIMEOUT_S
+        while unwritten_subscribers(self.status_pub) and time.monotonic() < deadline:
+            time.sleep(0.005)
         for link in unique(self.links.values()):
             link.close()
         self.status_pub.unregister()
