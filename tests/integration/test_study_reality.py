@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 import pytest
 
+from sim.processes import plain_env
 from sim.study.design.feasibility import Approaches
 from sim.study.design.fit import scene_for
 from sim.study.design.paths import ON_TOP
@@ -270,3 +271,28 @@ def test_a_runner_killed_mid_approach_leaves_the_arm_at_rest_short_of_the_hand(
     assert max(abs(v) for v in moving.velocity) > 0.01  # it was killed in motion
     distance = hand_distance(rest)
     assert distance == pytest.approx(standoff, abs=0.005) and not math.isnan(distance)
+
+
+def test_check_safety_refuses_a_plan_beyond_the_pandas_limits_or_under_the_floor(tmp_path: Path) -> None:
+    design = tmp_path / "design.yaml"
+    design.write_text(
+        "test1: {paths: [vertical], standoffs: [0.15], peak_speed: 0.15, sesoi: 0.05}\n"
+        "test2: {paths: [vertical], speed_sets: {fast: 0.3}, sesoi: 0.02}\n"
+    )
+
+    def check(*options: str) -> subprocess.CompletedProcess[str]:
+        command = [PYTHON, "-m", "sim.study", "check", "--design", str(design), "--safety", *options]
+        return subprocess.run(command, cwd=REPO, env=plain_env(), capture_output=True, text=True, timeout=120)
+
+    passed = check()
+    assert passed.returncode == 0 and "within panda's limits (URDF and Franka" in passed.stdout, passed.stderr
+    # 5 % of the Panda's acceleration limits: refused, one line per limit, naming it
+    refused = check("--margin", "0.05")
+    lines = [line for line in refused.stdout.splitlines() if line.startswith("refused: ")]
+    assert refused.returncode == 2 and "sim.study check: error: " in refused.stderr.splitlines()[-1]
+    assert any(" acceleration " in line and "5% of its limit 7.5 (URDF and Franka" in line for line in lines)
+    floor = check("--floor", "0.05")
+    assert floor.returncode == 2
+    assert "refused: vertical to 0.02 m at 0.3 m/s: comes 0.0200 m from the hand, under the floor of 0.05 m" in (
+        floor.stdout
+    )

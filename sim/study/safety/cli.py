@@ -48,7 +48,7 @@ def safety_check_command(args: argparse.Namespace) -> int:
         print(f"refused: {line}")
     if refusals:
         raise SafetyError(
-            f"{len(refusals)} limit(s) exceeded; to change: lower peak speeds, a gentler --deceleration, another path"
+            f"{len(refusals)} refusal(s); to change: lower peak speeds, a gentler --deceleration, a larger stand-off"
         )
     print(f"within {robot.name}'s limits ({limits.source}) at {args.margin:.0%}, floor {args.floor:g} m")
     return EXIT_OK
