@@ -229,7 +229,7 @@ class TrajectoryLink:
         tracking = 0.0
         looked = start
         while True:
-            state = self.feed.wait(looked, POLL, self.stop)
+            self.feed.wait(looked, POLL, self.stop)
             now = time.time()
             if self.stop.is_set():
                 raise ControllerError("interrupted")
@@ -241,7 +241,7 @@ class TrajectoryLink:
             stopping = not math.isnan(press_at) or reason != ""
             if not stopping:
                 press = take_press(now)
-                why = self._unsafe(state, now, tracking, run, handle)
+                why = self._unsafe(now, tracking, run, handle)
                 if press is not None or why:
                     press_at = now
                     if press is not None:
@@ -297,7 +297,7 @@ class TrajectoryLink:
             raise ControllerError(f"no joint state on {self.spec.joint_states_topic} for {self.spec.stale_after:g} s")
         return state
 
-    def _unsafe(self, state: FedState | None, now: float, tracking: float, run: TrialRun, handle: Any) -> str:
+    def _unsafe(self, now: float, tracking: float, run: TrialRun, handle: Any) -> str:
         """Why the arm must be stopped now ("" when it need not)."""
         latest = self.feed.latest()
         if latest is None or now - latest.arrival > self.spec.stale_after:
