@@ -296,3 +296,19 @@ def test_check_safety_refuses_a_plan_beyond_the_pandas_limits_or_under_the_floor
     assert "refused: vertical to 0.02 m at 0.3 m/s: comes 0.0200 m from the hand, under the floor of 0.05 m" in (
         floor.stdout
     )
+
+
+@pytest.mark.parametrize(
+    ("options", "said"),
+    [
+        (["--link", "reality=franka_ros"], "runs on wall time: give --realtime"),
+        (["--realtime", "--link", "reality=franka"], "is neither stream, a preset"),
+        (["--realtime", "--link", "reality=franka_ros", "--rehearsal-speed", "2"], "--rehearsal-speed must be"),
+    ],
+)
+def test_a_link_the_runner_cannot_use_is_one_line_and_exit_2(tmp_path: Path, options: list[str], said: str) -> None:
+    plan = write_plan(tmp_path / "plan.yaml", 9, "reality", [trial(1, "reality", 1, "vertical", 0.1, 0.2)])
+    command = [PYTHON, "-m", "sim.study", "run", "--plan", str(plan), "--out", str(tmp_path / "out"), *options]
+    done = subprocess.run(command, cwd=REPO, env=plain_env(), capture_output=True, text=True, timeout=60)
+    errors = [line for line in done.stderr.splitlines() if line.startswith("sim.study run: error: ")]
+    assert done.returncode == 2 and len(errors) == 1 and said in errors[0], done.stderr
