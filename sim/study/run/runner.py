@@ -73,10 +73,10 @@ from sim.study.motion.measures import (
     withdrawal_end,
 )
 from sim.study.run.errors import RunError
+from sim.study.run.inputs import Inputs, answer_item
 from sim.study.run.links.base import Press, RobotLink
+from sim.study.run.links.choose import make_links, unique
 from sim.study.run.links.specs import TrajectoryLinkSpec
-from sim.study.run.links.stream import StreamLink
-from sim.study.run.links.trajectory import TrajectoryLink
 from sim.study.run.poses import ReceivedPoses
 from sim.study.run.protocol import (
     ANSWER_TOPIC,
@@ -90,9 +90,6 @@ from sim.study.run.protocol import (
     TRACKING_GAP,
     Answer,
     TrialStatus,
-    answer_from_json,
-    checked_answer,
-    checked_distance,
     chosen_path,
     input_delay_from_seq,
     item_prompt,
@@ -167,144 +164,6 @@ _PROMPTS = {
 }
 
 
-class Inputs:
-    """What comes in from the participant and the observer, kept until the runner takes it; thread-safe. Only the
-    input that the current phase accepts (the protocol's table) is kept: a go, a press, a distance, a
-    preference or a questionnaire's answer that comes in another phase is not."""
-
-    def __init__(self) -> None:
-        self._changed = threading.Condition()
-        self._accepting: str | None = None
-        self._go = False
-        self._presses: list[Press] = []
-        self._distances: list[float] = []
-        self._preferences: list[str] = []
-        self._answers: list[Answer] = []
-        self.rejected: list[str] = []
-
-    def enter(self, phase: str) -> None:
-        """A new phase: forget what came before it; from now on keep what `phase` accepts."""
-        with self._changed:
-            self._accepting = PROTOCOL.accepts(phase)
-            self._go = False
-            self._presses.clear()
-            self._distances.clear()
-            self._preferences.clear()
-            self._answers.clear()
-
-    def go(self) -> None:
-        with self._changed:
-            if self._accepting == "go":
-                self._go = True
-                self._changed.notify_all()
-
-    def press(self, stamp: float, source: str, input_delay: float = math.nan, arrival: float = math.nan) -> None:
-        with self._changed:
-            if self._accepting == "stop":
-                self._presses.append(Press(stamp, source, input_delay, arrival))
-                self._changed.notify_all()
-
-    def distance(self, value: float) -> None:
-        with self._changed:
-            if self._accepting != "distance":
-                return
-            try:
-                self._distances.append(checked_distance(value))
-            except StudyError as error:
-                self.rejected.append(str(error))
-            self._changed.notify_all()
-
-    def preference(self, text: str) -> None:
-        with self._changed:
-            if self._accepting == "preference":
-                self._preferences.append(text)
-                self._changed.notify_all()
-
-    def answer(self, answer: Answer) -> None:
-        """A questionnaire item's answer, kept as given: which item it answers, and whether on its scale, is the
-        runner's to check against the item it asks."""
-        with self._changed:
-            if self._accepting == "answer":
-                self._answers.append(answer)
-                self._changed.notify_all()
-
-    def answer_json(self, text: str) -> None:
-        """An answer as it comes on the answer topic; one that is no answer at all is refused here."""
-        try:
-            answer = answer_from_json(text)
-        except StudyError as error:
-            with self._changed:
-                if self._accepting == "answer":
-                    self.rejected.append(str(error))
-            return
-        self.answer(answer)
-
-    def take_press(self, until: float) -> Press | None:
-        """The first press stamped at or before `until` (or unstamped), if one came."""
-        with self._changed:
-            for k, press in enumerate(self._presses):
-                if press.stamp <= until:
-                    return self._presses.pop(k)
-        return None
-
-    def wait_for_press(self, timeout: float, stop: threading.Event) -> bool:
-        """Wait (up to `timeout` s, or until stopped) until a press has come, without taking it; whether one has."""
-        return self._wait_for(lambda: True if self._presses else None, timeout, stop) is not None
-
-    def wait(self, what: str, timeout: float, stop: threading.Event) -> Any:
-        """Wait for go (True), a distance (float), a preference (str) or an answer (Answer); None after `timeout` s
-        or when stopped."""
-        taken: dict[str, Callable[[], Any]] = {
-            "go": lambda: True if self._go else None,
-            "distance": lambda: self._distances.pop(0) if self._distances else None,
-            "preference": lambda: self._preferences.pop(0) if self._preferences else None,
-            "answer": lambda: self._answers.pop(0) if self._answers else None,
-        }
-        return self._wait_for(taken[what], timeout, stop)
-
-    def _wait_for(self, found: Callable[[], Any], timeout: float, stop: threading.Event) -> Any:
-        """What `found()` gives (under the lock) once it is not None; None after `timeout` s or when stopped."""
-        deadline = time.monotonic() + timeout
-        with self._changed:
-            while not stop.is_set():
-                value = found()
-                if value is not None:
-                    return value
-                remaining = deadline - time.monotonic()
-                if remaining <= 0:
-                    return None
-                self._changed.wait(min(remaining, 0.1))
-        return None
-
-
-def answer_item(
-    status: TrialStatus,
-    inputs: Inputs,
-    wait: Callable[[], Any],
-    say_again: Callable[[], None],
-    log: Callable[[str], None],
-    timeout: float,
-) -> int | None:
-    """The answer to the item `status` asks, taken from `inputs` by `wait()` (an Answer, or None after `timeout` s),
-    or None when none on its scale came in time. An answer off the scale, or to another item, is refused and logged,
-    and the item is said again (`say_again()`): the client that sent it has shown its participant that the answer
-    was taken, and without a new status would wait on with them until the timeout."""
-    where = f"{status.administration} item {status.item}"
-    while True:
-        answer = wait()
-        for problem in inputs.rejected:
-            log(f"{where}: an answer was refused: {problem}")
-        inputs.rejected.clear()
-        if answer is None:
-            log(f"{where}: no answer within {timeout:g} s; left missing")
-            return None
-        try:
-            return checked_answer(answer, status)
-        except StudyError as error:
-            log(f"{where}: an answer was refused: {error}; asking again")
-            say_again()
-
-
 def recorder_topics(link_topics: Iterable[str]) -> list[str]:
     """The links' topics (the stream's command, joint states and /clock; a controller's), then the study's."""
     return [
@@ -320,40 +179,6 @@ def recorder_topics(link_topics: Iterable[str]) -> list[str]:
         CALIBRATION_TOPIC,
         TF_STATIC_TOPIC,
     ]
-
-
-def unique(links: Iterable[RobotLink]) -> list[RobotLink]:
-    """Each link once (conditions may share one), in the order first met."""
-    seen: dict[int, RobotLink] = {}
-    for link in links:
-        seen.setdefault(id(link), link)
-    return list(seen.values())
-
-
-def make_links(
-    robot: RobotSpec,
-    conditions: Iterable[str],
-    options: RunnerOptions,
-    stop: threading.Event,
-    trajectory_links: Mapping[str, TrajectoryLinkSpec],
-    status_pub: Any,
-) -> dict[str, RobotLink]:
-    """Each condition's link: the stream (one, shared) unless a trajectory controller is named for it. The stream's
-    partner must also take the status (the endpoint, for a VR scene), so it waits for that link too."""
-    links: dict[str, RobotLink] = {}
-    stream: StreamLink | None = None
-    controllers: dict[TrajectoryLinkSpec, TrajectoryLink] = {}
-    for condition in conditions:
-        spec = trajectory_links.get(condition)
-        if spec is None:
-            if stream is None:
-                stream = StreamLink(robot, options.pacing, stop, [(STATUS_TOPIC, status_pub)])
-            links[condition] = stream
-        else:
-            if spec not in controllers:
-                controllers[spec] = TrajectoryLink(robot, spec, options.pacing.dt, stop)
-            links[condition] = controllers[spec]
-    return links
 
 
 class SafetyStopped(RunError):
@@ -395,7 +220,8 @@ class StudyRunner:
         self.status_pub = self.rospy.Publisher(STATUS_TOPIC, String, queue_size=10, latch=True)
         # only the conditions the plan runs have a link: a link not used waits for no arm
         run = list(dict.fromkeys(t.condition for t in plan.trials)) or list(plan.conditions[:1])
-        self.links = make_links(robot, run, options, stop, trajectory_links or {}, self.status_pub)
+        watched = (STATUS_TOPIC, self.status_pub)
+        self.links = make_links(robot, run, options.pacing, stop, trajectory_links or {}, watched)
         self.link: RobotLink = self.links[run[0]]
         self._started: set[int] = set()  # the links started (by id)
         self._subscribers = [
