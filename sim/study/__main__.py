@@ -1,7 +1,7 @@
 """python -m sim.study: plan, check, run, simulate and analyse the perception study (docs/study.md).
 
   plan --participant N --seed S [--out PLAN.yaml] [--print]   a participant's session plan (counterbalanced)
-  check                                                       every combination of the design planned and checked
+  check [--safety --margin 0.8 --floor 0.01]                   every combination of the design planned and checked
   scene --robot URDF [--out SCENE.yaml]                       a scene that fits the robot, proposed and checked
   run --plan PLAN.yaml --out DIR [--realtime] [--auto-go]     the runner node: executes the plan (ROS)
   participant --port P --participant N --seed S               a simulated participant (a TCP client, no rospy)
@@ -30,6 +30,7 @@ from sim.study.design import cli as design_cli
 from sim.study.participants import cli as participants_cli
 from sim.study.power import cli as power_cli
 from sim.study.run import cli as run_cli
+from sim.study.safety import cli as safety_cli
 from sim.study.simulation import cli as simulation_cli
 from sim.study.views import cli as views_cli
 
@@ -38,6 +39,7 @@ __all__ = ["main"]
 # in the order the help lists them: from the design to the sample size
 REGISTERS = (
     design_cli.register,
+    safety_cli.register,  # its options on the design's check
     run_cli.register,
     participants_cli.register,
     views_cli.register,

@@ -9,7 +9,7 @@ fit."""
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -17,6 +17,7 @@ import numpy as np
 from sim.study.analysis.contrasts import FACTOR_NAMES, MEASURES, TestContrast
 from sim.study.analysis.errors import AnalysisError
 from sim.study.analysis.latency import LatencySummary, keyboard_flag, latency_lines, summarise_latency
+from sim.study.analysis.links import link_lines
 from sim.study.analysis.mixed_model import CROSSOVER_TERMS, formula
 from sim.study.analysis.motion import MotionSummary, motion_lines, summarise_motion
 from sim.study.analysis.questionnaires import QuestionnaireSummary, questionnaire_lines
@@ -191,6 +192,7 @@ def _markdown(
     questionnaires: QuestionnaireSummary | None,
     modelled: bool,
     trackers: TrackerSummary | None = None,
+    links: Sequence[str] = (),
 ) -> str:
     flag = keyboard_flag(latency)  # first, as it biases the contrast
     lines = [f"# {title}", "", *([flag, ""] if flag else [])]
@@ -202,7 +204,7 @@ def _markdown(
                 f"at the press by {summary.extrapolation_error.mean * 1000:.1f} mm on average.",
                 "",
             ]
-        return _rest(lines, summary, latency, motion, plots, questionnaires, trackers)
+        return _rest(lines, summary, latency, motion, plots, questionnaires, trackers, links)
     assert summary.distance_ratio_vr_vs_reality and summary.stop_distance_vr_vs_reality  # 2+ participants
     assert summary.extrapolation_error
     lines += [
@@ -266,7 +268,7 @@ def _markdown(
         f"at the press by {_estimate_cell(error, 1000.0, 1)} mm on average.",
         "",
     ]
-    return _rest(lines, summary, latency, motion, plots, questionnaires, trackers)
+    return _rest(lines, summary, latency, motion, plots, questionnaires, trackers, links)
 
 
 def _rest(
@@ -277,11 +279,12 @@ def _rest(
     plots: list[Path],
     questionnaires: QuestionnaireSummary | None,
     trackers: TrackerSummary | None = None,
+    links: Sequence[str] = (),
 ) -> str:
-    """The sections after the tests', a pilot's as well: the motion (with its trackers), the latency, the notes, the
-    questionnaires and the plots."""
+    """The sections after the tests', a pilot's as well: the motion (with its trackers), the latency, the robot's
+    trajectory controller (`links`, where one ran), the notes, the questionnaires and the plots."""
     motion_section = motion_lines(motion, tracker_caveat(trackers), tracker_lines(trackers) if motion.recorded else [])
-    lines += [*motion_section, *latency_lines(latency)]
+    lines += [*motion_section, *latency_lines(latency), *links]
     if summary.notes:
         lines += ["Notes:", ""] + [f"- {note}" for note in summary.notes] + [""]
     if questionnaires is not None:
@@ -418,5 +421,8 @@ def write_report(
     # the withdrawal's mixed model with the design's, as the full analysis is asked for with the design
     motion = summarise_motion(records, model=sesoi is not None)
     latency = summarise_latency(records)
-    report.write_text(_markdown(summary, latency, motion, plots, title, questionnaires, sesoi is not None, trackers))
+    links = link_lines(records)
+    report.write_text(
+        _markdown(summary, latency, motion, plots, title, questionnaires, sesoi is not None, trackers, links)
+    )
     return report

@@ -6,11 +6,12 @@ from __future__ import annotations
 import argparse
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import yaml
 
 from sim.entry import EXIT_OK
-from sim.robots import overrides_from_args
+from sim.robots import RobotSpec, overrides_from_args
 from sim.study.checks import check_positive
 from sim.study.design.errors import DesignError
 from sim.study.design.options import add_design_option, add_scene_options, scene_and_robot
@@ -18,7 +19,10 @@ from sim.study.design.plan import make_plan, plan_to_data, printable
 from sim.study.design.scene import DEFAULT_SCENE, load_scene, scene_robot
 from sim.study.design.spec import load_design
 
-__all__ = ["register"]
+if TYPE_CHECKING:
+    from sim.study.design.feasibility import Combination, PlannedApproach
+
+__all__ = ["register", "checked_combinations"]
 
 
 def register(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -58,6 +62,13 @@ def plan_command(args: argparse.Namespace) -> int:
 
 
 def check_command(args: argparse.Namespace) -> int:
+    checked_combinations(args)
+    return EXIT_OK
+
+
+def checked_combinations(args: argparse.Namespace) -> tuple[RobotSpec, dict[Combination, PlannedApproach]]:
+    """Every combination of the design planned, printed as a table; DesignError when one is not feasible. The robot
+    and the approaches, for checks above the design's (sim.study.safety's `check --safety`)."""
     from sim.study.design.feasibility import plan_combinations, remedies
 
     check_positive(args.dt, "--dt")
@@ -85,7 +96,7 @@ def check_command(args: argparse.Namespace) -> int:
             f"{', '.join(f'{p} to {s} m at {v} m/s' for p, s, v in infeasible)}; to change: "
             + remedies(approaches[key] for key in infeasible)
         )
-    return EXIT_OK
+    return robot, approaches
 
 
 def scene_command(args: argparse.Namespace) -> int:

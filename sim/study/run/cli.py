@@ -44,6 +44,27 @@ def register(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> N
         metavar="CONDITION=NAME",
         help="the pose source of a condition that does not announce itself on /study/tracking (e.g. vr=headset)",
     )
+    run.add_argument(
+        "--link",
+        action="append",
+        default=[],
+        metavar="CONDITION=LINK",
+        help="a condition's robot link: stream (default), a driver's preset (franka_ros, ur_robot_driver, iiwa_stack, "
+        "xarm_ros) or NAMESPACE,JOINT_STATES_TOPIC of a joint_trajectory_controller (needs --realtime)",
+    )
+    trajectory = run.add_argument_group("a trajectory controller's link (the toolkit's checks, never the robot's stop)")
+    trajectory.add_argument(
+        "--stale-after", type=float, default=0.25, help="s without a joint state in a motion: stop the arm (0.25)"
+    )
+    trajectory.add_argument(
+        "--tracking-tolerance", type=float, default=0.1, help="rad of joint error in a motion: stop the arm (0.1)"
+    )
+    trajectory.add_argument(
+        "--floor", type=float, default=0.01, help="m: plans closer to the hand are refused, the arm stopped (0.01)"
+    )
+    trajectory.add_argument(
+        "--rehearsal-speed", type=float, default=1.0, help="approaches at this fraction of their speed (0..1]"
+    )
     run.set_defaults(handler=run_command)
     tracker = commands.add_parser("tracker", help="relay a tracker's poses into the scene's world, calibrated")
     tracker.add_argument("--config", type=Path, required=True, help="the tracker's YAML (docs/study.md)")
@@ -61,7 +82,14 @@ def run_command(args: argparse.Namespace) -> int:
 
     for option in ("dt", "settle", "deceleration", "response_timeout", "step_timeout", "connect_timeout"):
         check_positive(getattr(args, option), f"--{option.replace('_', '-')}")
+    from sim.study.run.links.specs import link_specs
+
     plan = plan_from_data(read_yaml(args.plan, "plan"), str(args.plan))
+    links = link_specs(
+        args.link, plan.conditions, args.stale_after, args.tracking_tolerance, args.floor, args.rehearsal_speed
+    )
+    if links and not args.realtime:
+        raise RunError(f"--link: a trajectory controller ({', '.join(links)}) runs on wall time: give --realtime")
     scene, robot = scene_and_robot(args)
     options = RunnerOptions(
         Pacing(args.dt, args.realtime, step_timeout=args.step_timeout),
@@ -81,8 +109,14 @@ def run_command(args: argparse.Namespace) -> int:
                 + "; ".join(f"{p} to {s} m at {v} m/s: {', '.join(why)}" for (p, s, v), why in infeasible.items())
                 + f"; to change: {remedies(planned[key] for key in infeasible)}"
             )
+        close = {key: a.distances.min() for key, a in planned.items() if float(a.distances.min()) < args.floor}
+        if close:
+            raise RunError(
+                f"the plan comes closer to the hand than the floor of {args.floor:g} m (none was run): "
+                + "; ".join(f"{p} to {s} m at {v} m/s: {d:.4f} m" for (p, s, v), d in close.items())
+            )
         return run_node(
-            robot, scene, plan, approaches, options, args.out.resolve(), not args.no_record, args.connect_timeout
+            robot, scene, plan, approaches, options, args.out.resolve(), not args.no_record, args.connect_timeout, links
         )
 
 

@@ -2,8 +2,8 @@
 column, so the analysis never works on a half-written or edited-by-hand file without saying so.
 
 Distances are the end effector's (its FK from the achieved joint states) to the hand's surface, in metres. The
-press's latency columns, then the participant's motion (sim.study.motion), came last: a file written before either
-is still read, with them NaN (and no tracked hand).
+press's latency columns, then the participant's motion (sim.study.motion), then the robot link's came last: a file
+written before any of them is still read, with them at their defaults (NaN, no tracked hand, the stream).
 """
 
 from __future__ import annotations
@@ -51,13 +51,22 @@ class TrialRecord:
     head_distance_at_press: float = math.nan  # m, the head to the end effector at the press; NaN without a press
     hand_untracked: float = math.nan  # s of the approach without the hand's pose (gaps longer than the protocol's)
     head_untracked: float = math.nan  # s of the approach without the head's pose
+    # The robot link (sim.study.run.links) and, on a trajectory controller, what its goals did (NaN/"" on the stream):
+    link: str = "stream"  # stream, or the trajectory controller's preset and namespace
+    goal_result: str = ""  # the last goal's final status (SUCCEEDED, PREEMPTED, ABORTED...); "" on the stream
+    error_code: int = -1  # its result's control_msgs error code (0 SUCCESSFUL); -1: none (the stream, no result)
+    tracking_error: float = math.nan  # rad: the largest joint error of the achieved against the commanded path
+    replacement_latency: float = math.nan  # s from the press to the braking replacement's sending
+    braking_latency: float = math.nan  # s from the press to the first joint state whose speed had fallen
+    braking_distance_achieved: float = math.nan  # m along the path from the achieved state at the press to the rest
+    safety_stop: str = ""  # why the runner stopped the arm on its own; "" when it did not
 
 
 _FIELDS = fields(TrialRecord)
 _NAMES = [field.name for field in _FIELDS]
 # The headers a file may have: the columns up to each group added later (the press's latency, the motion). A file
 # written before a group is read with that group's columns at their defaults.
-_HEADERS = [_NAMES[: _NAMES.index(first)] for first in ("press_input_delay", "tracked_hand")] + [_NAMES]
+_HEADERS = [_NAMES[: _NAMES.index(first)] for first in ("press_input_delay", "tracked_hand", "link")] + [_NAMES]
 
 
 def write_records(path: Path, records: list[TrialRecord]) -> None:

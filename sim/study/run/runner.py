@@ -14,11 +14,13 @@ timeout is recorded as missing, and an answer refused (off the item's scale, or 
 status published again, so that a client which took its answer as given asks again. Their answers and scores are
 written as soon as each administration ends (sim.study.run.questionnaires).
 
-It is a controller (sim.control): it drives the robot on the commander's topics, through the same controller node
-and stepper, so the engine stand-in, Unity, or a real robot's controller take the same stream. Lockstep (default):
-the runner owns /clock and the engine steps once per value, so a session takes seconds of wall time; while the
-runner waits for go or an answer, the clock stands still. --realtime: /clock and the commands are paced by the wall
-clock (a VR headset, a real robot), and the robot is held at its target while the runner waits.
+The robot is driven through each condition's link (sim.study.run.links): the stream (the commander's topics, through
+the same controller node and stepper, for the engine stand-in or Unity), or a real arm's ros_control trajectory
+controller on wall time (--link CONDITION=PRESET). On the stream in lockstep (default) the runner owns /clock and the
+engine steps once per value, so a session takes seconds of wall time; while the runner waits for go or an answer,
+the clock stands still. --realtime: /clock and the commands are paced by the wall clock (a VR headset), and the robot
+is held at its target while the runner waits. A trajectory controller holds on its own and has no /clock. When the
+trajectory link stops the arm on its own (sim.study.run.links.trajectory), the session ends after that trial.
 
 A press's time is its stamp on ROS time (a zero stamp: when it arrives); a press whose stamp has already passed is
 applied at once, and how late it was is logged. Presses before the approach starts are ignored. In lockstep the
@@ -53,11 +55,8 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Callable, Iterable, Mapping
 
-import numpy as np
-
-from sim.control.controller_node import ControllerError, ControllerNode
-from sim.control.scenarios import approach
-from sim.control.stepper import Pacing, Stepper
+from sim.control.controller_node import DRAIN_TIMEOUT_S, ControllerError, unwritten_subscribers
+from sim.control.stepper import Pacing
 from sim.processes import ManagedProcess, ProcessError, start_recorder, stop_recorder
 from sim.robots import RobotSpec
 from sim.study.design.feasibility import Approaches
@@ -73,6 +72,11 @@ from sim.study.motion.measures import (
     motion_measures,
     withdrawal_end,
 )
+from sim.study.run.errors import RunError
+from sim.study.run.inputs import Inputs, answer_item
+from sim.study.run.links.base import Press, RobotLink
+from sim.study.run.links.choose import make_links, unique
+from sim.study.run.links.specs import TrajectoryLinkSpec
 from sim.study.run.poses import ReceivedPoses
 from sim.study.run.protocol import (
     ANSWER_TOPIC,
@@ -86,9 +90,6 @@ from sim.study.run.protocol import (
     TRACKING_GAP,
     Answer,
     TrialStatus,
-    answer_from_json,
-    checked_answer,
-    checked_distance,
     chosen_path,
     input_delay_from_seq,
     item_prompt,
@@ -111,7 +112,10 @@ from sim.study.run.trial import TrialRun
 __all__ = [
     "EXIT_OK",
     "EXIT_ROS",
+    "EXIT_SAFETY",
     "EXIT_INTERRUPTED",
+    "SafetyStopped",
+    "make_links",
     "RunnerOptions",
     "Press",
     "Inputs",
@@ -123,7 +127,7 @@ __all__ = [
 ]
 
 
-EXIT_OK, EXIT_ROS, EXIT_INTERRUPTED = 0, 4, 130
+EXIT_OK, EXIT_ROS, EXIT_SAFETY, EXIT_INTERRUPTED = 0, 4, 5, 130
 # s of wall time between the session's end and stopping rosbag record: it reads its links on threads of its own, and
 # SIGINT drops what is still in its sockets; the last answer, which the runner took a few ms before, was lost so
 # beside other work (a loopback link delivers in well under a millisecond on a quiet machine)
@@ -160,162 +164,10 @@ _PROMPTS = {
 }
 
 
-@dataclass(frozen=True)
-class Press:
-    stamp: float  # s of ROS time; 0: when it arrived
-    source: str
-    input_delay: float = math.nan  # s from the input's change to the stamp, as the client measured it; NaN: unsaid
-    arrival: float = math.nan  # s of ROS time when it reached the runner; NaN: not a message (the keyboard)
-
-    @property
-    def arrival_delay(self) -> float:
-        """s from the stamp to the arrival; NaN for an unstamped press, whose time is its arrival by definition."""
-        return self.arrival - self.stamp if self.stamp > 0 else math.nan
-
-
-class Inputs:
-    """What comes in from the participant and the observer, kept until the runner takes it; thread-safe. Only the
-    input that the current phase accepts (the protocol's table) is kept: a go, a press, a distance, a
-    preference or a questionnaire's answer that comes in another phase is not."""
-
-    def __init__(self) -> None:
-        self._changed = threading.Condition()
-        self._accepting: str | None = None
-        self._go = False
-        self._presses: list[Press] = []
-        self._distances: list[float] = []
-        self._preferences: list[str] = []
-        self._answers: list[Answer] = []
-        self.rejected: list[str] = []
-
-    def enter(self, phase: str) -> None:
-        """A new phase: forget what came before it; from now on keep what `phase` accepts."""
-        with self._changed:
-            self._accepting = PROTOCOL.accepts(phase)
-            self._go = False
-            self._presses.clear()
-            self._distances.clear()
-            self._preferences.clear()
-            self._answers.clear()
-
-    def go(self) -> None:
-        with self._changed:
-            if self._accepting == "go":
-                self._go = True
-                self._changed.notify_all()
-
-    def press(self, stamp: float, source: str, input_delay: float = math.nan, arrival: float = math.nan) -> None:
-        with self._changed:
-            if self._accepting == "stop":
-                self._presses.append(Press(stamp, source, input_delay, arrival))
-                self._changed.notify_all()
-
-    def distance(self, value: float) -> None:
-        with self._changed:
-            if self._accepting != "distance":
-                return
-            try:
-                self._distances.append(checked_distance(value))
-            except StudyError as error:
-                self.rejected.append(str(error))
-            self._changed.notify_all()
-
-    def preference(self, text: str) -> None:
-        with self._changed:
-            if self._accepting == "preference":
-                self._preferences.append(text)
-                self._changed.notify_all()
-
-    def answer(self, answer: Answer) -> None:
-        """A questionnaire item's answer, kept as given: which item it answers, and whether on its scale, is the
-        runner's to check against the item it asks."""
-        with self._changed:
-            if self._accepting == "answer":
-                self._answers.append(answer)
-                self._changed.notify_all()
-
-    def answer_json(self, text: str) -> None:
-        """An answer as it comes on the answer topic; one that is no answer at all is refused here."""
-        try:
-            answer = answer_from_json(text)
-        except StudyError as error:
-            with self._changed:
-                if self._accepting == "answer":
-                    self.rejected.append(str(error))
-            return
-        self.answer(answer)
-
-    def take_press(self, until: float) -> Press | None:
-        """The first press stamped at or before `until` (or unstamped), if one came."""
-        with self._changed:
-            for k, press in enumerate(self._presses):
-                if press.stamp <= until:
-                    return self._presses.pop(k)
-        return None
-
-    def wait_for_press(self, timeout: float, stop: threading.Event) -> bool:
-        """Wait (up to `timeout` s, or until stopped) until a press has come, without taking it; whether one has."""
-        return self._wait_for(lambda: True if self._presses else None, timeout, stop) is not None
-
-    def wait(self, what: str, timeout: float, stop: threading.Event) -> Any:
-        """Wait for go (True), a distance (float), a preference (str) or an answer (Answer); None after `timeout` s
-        or when stopped."""
-        taken: dict[str, Callable[[], Any]] = {
-            "go": lambda: True if self._go else None,
-            "distance": lambda: self._distances.pop(0) if self._distances else None,
-            "preference": lambda: self._preferences.pop(0) if self._preferences else None,
-            "answer": lambda: self._answers.pop(0) if self._answers else None,
-        }
-        return self._wait_for(taken[what], timeout, stop)
-
-    def _wait_for(self, found: Callable[[], Any], timeout: float, stop: threading.Event) -> Any:
-        """What `found()` gives (under the lock) once it is not None; None after `timeout` s or when stopped."""
-        deadline = time.monotonic() + timeout
-        with self._changed:
-            while not stop.is_set():
-                value = found()
-                if value is not None:
-                    return value
-                remaining = deadline - time.monotonic()
-                if remaining <= 0:
-                    return None
-                self._changed.wait(min(remaining, 0.1))
-        return None
-
-
-def answer_item(
-    status: TrialStatus,
-    inputs: Inputs,
-    wait: Callable[[], Any],
-    say_again: Callable[[], None],
-    log: Callable[[str], None],
-    timeout: float,
-) -> int | None:
-    """The answer to the item `status` asks, taken from `inputs` by `wait()` (an Answer, or None after `timeout` s),
-    or None when none on its scale came in time. An answer off the scale, or to another item, is refused and logged,
-    and the item is said again (`say_again()`): the client that sent it has shown its participant that the answer
-    was taken, and without a new status would wait on with them until the timeout."""
-    where = f"{status.administration} item {status.item}"
-    while True:
-        answer = wait()
-        for problem in inputs.rejected:
-            log(f"{where}: an answer was refused: {problem}")
-        inputs.rejected.clear()
-        if answer is None:
-            log(f"{where}: no answer within {timeout:g} s; left missing")
-            return None
-        try:
-            return checked_answer(answer, status)
-        except StudyError as error:
-            log(f"{where}: an answer was refused: {error}; asking again")
-            say_again()
-
-
-def recorder_topics(robot: RobotSpec) -> list[str]:
+def recorder_topics(link_topics: Iterable[str]) -> list[str]:
+    """The links' topics (the stream's command, joint states and /clock; a controller's), then the study's."""
     return [
-        robot.command_topic,
-        robot.joint_states_topic,
-        "/clock",
+        *link_topics,
         STATUS_TOPIC,
         GO_TOPIC,
         STOP_TOPIC,
@@ -329,7 +181,14 @@ def recorder_topics(robot: RobotSpec) -> list[str]:
     ]
 
 
-class StudyRunner(ControllerNode):
+class SafetyStopped(RunError):
+    """The runner stopped the arm on its own (sim.study.run.links): the session ends after that trial's record."""
+
+
+class StudyRunner:
+    """The session's node: the participant's inputs, the status, and the robot link of each condition (the stream
+    unless `trajectory_links` names a trajectory controller for it)."""
+
     def __init__(
         self,
         robot: RobotSpec,
@@ -338,11 +197,14 @@ class StudyRunner(ControllerNode):
         approaches: Approaches,
         options: RunnerOptions,
         stop: threading.Event,
+        trajectory_links: Mapping[str, TrajectoryLinkSpec] | None = None,
     ) -> None:
-        super().__init__(robot, stop)
+        import rospy
         from geometry_msgs.msg import PoseStamped
         from std_msgs.msg import Empty, Float32, Header, String
 
+        self.rospy = rospy
+        self.robot, self.stop = robot, stop
         self._string_type = String
         self.scene, self.plan, self.approaches, self.options = scene, plan, approaches, options
         self.inputs = Inputs()
@@ -350,14 +212,18 @@ class StudyRunner(ControllerNode):
         self._refusals_told: set[str] = set()  # bodies whose refused poses have been logged
         self.announced: dict[str, dict[str, Any]] = {}  # by condition: the latest pose source announced for it
         self.tracked: set[str] = set()  # the conditions whose trials had poses
-        self.stepper = Stepper(self, options.pacing)
         self.phase = ""  # of the last status published
         self.asked: TrialStatus | None = None  # the last status published: the item asked, in phase questionnaire
         # per questionnaire, its administrations so far: each item's answer (None: not answered)
         self.given: dict[str, dict[str, dict[str, int | None]]] = {}
-        self._target = (robot.home.copy(), np.zeros(robot.dof))
+        self.safety_stops: list[str] = []  # the trials in which the runner stopped the arm on its own, and why
         self.status_pub = self.rospy.Publisher(STATUS_TOPIC, String, queue_size=10, latch=True)
-        self.watched_publishers.append((STATUS_TOPIC, self.status_pub))
+        # only the conditions the plan runs have a link: a link not used waits for no arm
+        run = list(dict.fromkeys(t.condition for t in plan.trials)) or list(plan.conditions[:1])
+        watched = (STATUS_TOPIC, self.status_pub)
+        self.links = make_links(robot, run, options.pacing, stop, trajectory_links or {}, watched)
+        self.link: RobotLink = self.links[run[0]]
+        self._started: set[int] = set()  # the links started (by id)
         self._subscribers = [
             self.rospy.Subscriber(GO_TOPIC, Empty, lambda _: self.inputs.go()),
             self.rospy.Subscriber(STOP_TOPIC, Header, self._on_press, tcp_nodelay=True),
@@ -372,7 +238,7 @@ class StudyRunner(ControllerNode):
             )
 
     def _on_press(self, message: Any) -> None:
-        arrival = self.stepper.now()  # first: the press's latency ends here
+        arrival = self.link.now()  # first: the press's latency ends here
         self.inputs.press(
             message.stamp.to_sec(), message.frame_id or "unnamed", input_delay_from_seq(message.seq), arrival
         )
@@ -474,36 +340,27 @@ class StudyRunner(ControllerNode):
     # --- time -----------------------------------------------------------------------------------------------
     @property
     def clock(self) -> float:
-        """The controller's ROS time: the last step's end."""
-        return self.stepper.clock
+        """The current condition's link's time: the stream's ROS time (its last step's end), or the wall clock."""
+        return self.link.clock
 
-    def start(self) -> np.ndarray:
-        """/clock 0 and the engine's answer (lockstep), or its first joint state (realtime): where the robot is."""
-        state = self.stepper.start(self.options.pacing.step_timeout)
-        if state is None:  # cannot happen: a state was asked for
-            raise ControllerError(f"no {self.robot.joint_states_topic} message received")
-        self._target = (state.positions.copy(), np.zeros(self.robot.dof))
-        return state.positions
-
-    def step(self, positions: np.ndarray, velocities: np.ndarray) -> np.ndarray:
-        """Command the target for the end of the next step and let the step happen; the achieved positions."""
-        self._target = (positions, velocities)
-        state = self.stepper.step(positions, velocities)
-        if state is None:
-            raise ControllerError(f"no {self.robot.joint_states_topic} message received")
-        return state.positions
+    def use_link(self, condition: str) -> None:
+        """Make `condition`'s link the current one, started the first time it is used."""
+        self.link = self.links[condition]
+        if id(self.link) not in self._started:
+            self._started.add(id(self.link))
+            self.link.start(self.options.pacing.step_timeout)
 
     def wait_for_input(self, what: str) -> Any:
         """Go or an answer, waited for at most --response-timeout s. In real time the robot holds its target
         meanwhile (the controller keeps streaming); in lockstep the clock stands still."""
-        if not self.options.pacing.realtime:
+        if not self.link.realtime:
             return self.inputs.wait(what, self.options.response_timeout, self.stop)
         deadline = time.monotonic() + self.options.response_timeout
         while time.monotonic() < deadline and not self.stop.is_set():
             value = self.inputs.wait(what, 0.0, self.stop)
             if value is not None:
                 return value
-            self.step(self._target[0], np.zeros(self.robot.dof))
+            self.link.idle()
         return None
 
     # --- trials ---------------------------------------------------------------------------------------------
@@ -525,11 +382,11 @@ class StudyRunner(ControllerNode):
 
     def run_session(self, records_path: Path, log: Callable[[str], None]) -> list[TrialRecord]:
         """The session: the trials' records in `records_path`, the questionnaires' beside it (in its folder)."""
-        positions = self.start()
+        self.use_link(next(iter(self.links)))
         records: list[TrialRecord] = []
         self._administer(0, records_path.parent, log)
         for trial in self.plan.trials:
-            record, positions = self.run_trial(trial, positions, log)
+            record = self.run_trial(trial, log)
             records.append(record)
             group = self._group_of(trial)
             if group and group[-1] is trial:  # the group's last trial: which approach was preferred?
@@ -539,6 +396,8 @@ class StudyRunner(ControllerNode):
             write_records(records_path, records)  # after every trial: a crash loses at most the one running
             if self.tracked:
                 self.write_tracking(records_path.parent)
+            if self.safety_stops:
+                raise SafetyStopped(f"the session ends: the runner stopped the arm in {'; '.join(self.safety_stops)}")
             self._administer(trial.index, records_path.parent, log)
         self.publish_status(TrialStatus(self.plan.participant, 0, len(self.plan.trials), "done"))
         return records
@@ -592,44 +451,27 @@ class StudyRunner(ControllerNode):
             except StudyError as error:
                 log(f"trial {trial.index}: {error}; asking again")
 
-    def run_trial(
-        self, trial: PlannedTrial, positions: np.ndarray, log: Callable[[str], None]
-    ) -> tuple[TrialRecord, np.ndarray]:
-        """One trial from wherever the robot is; its record (preference still empty) and where the robot ends."""
+    def run_trial(self, trial: PlannedTrial, log: Callable[[str], None]) -> TrialRecord:
+        """One trial from wherever the robot is; its record (preference still empty)."""
         planned = self.approaches.plan((trial.path, trial.standoff, trial.peak_speed))
-        dt = self.options.pacing.dt
+        self.use_link(trial.condition)
         began = self.clock  # poses from here on are this trial's
         self.publish_status(self.status(trial, "to_start"))
-        to_start, speeds = approach(self.robot, positions, planned.positions[0], dt)
-        for k in range(1, len(to_start)):
-            positions = self.step(to_start[k], speeds[k])
+        self.link.move_to(planned.positions[0])
         self.publish_status(self.status(trial, "ready"))
         if not self.options.auto_go and self.wait_for_input("go") is None:
             log(f"trial {trial.index}: no go within {self.options.response_timeout:g} s; starting anyway")
         run = TrialRun(self.robot, planned, self.approaches.hand_distance, self.options.deceleration)
         start = self.clock
         self.publish_status(self.status(trial, "moving", motion_start=start))
-        if trial.test == 2 and not self.options.pacing.realtime and not self.options.auto_go:
+        if trial.test == 2 and not self.link.realtime and not self.options.auto_go:
             self.inputs.wait_for_press(self.options.press_grace, self.stop)  # see RunnerOptions.press_grace
-        run.record_state(0.0, positions)
-        settle = int(round(self.options.settle / dt))
-        late, source, k = 0.0, "", 0
-        input_delay = arrival_delay = math.nan
-        while k < run.steps - 1 + settle:
-            k += 1
-            if run.stopped is None:
-                press = self.inputs.take_press(until=start + k * dt)
-                if press is not None:
-                    when = press.stamp if press.stamp > 0 else self.clock
-                    applied = max(when, start + (k - 1) * dt)  # never before the last sample commanded
-                    late, source = applied - when, press.source
-                    input_delay, arrival_delay = press.input_delay, press.arrival_delay
-                    run.press(applied - start)
-            target, velocity = run.target(k)
-            positions = self.step(target, velocity)
-            run.record_state(k * dt, positions)
+        outcome = self.link.approach(run, lambda until: self.inputs.take_press(until), self.options.settle)
+        if outcome.safety_stop:
+            log(f"trial {trial.index}: the arm was stopped: {outcome.safety_stop}")
         self.publish_status(self.status(trial, "at_rest", motion_start=start))
         measures = run.measures()
+        press = outcome.press
         motion = self._motion(trial, run, began, Window(start, self.clock, start + measures.press_time), log)
         perceived = math.nan
         if trial.test == 1:
@@ -659,24 +501,34 @@ class StudyRunner(ControllerNode):
             start,
             measures.pressed,
             measures.press_time,
-            source,
-            late,
+            press.source if press else "",
+            press.late if press else 0.0,
             measures.distance_at_press,
             measures.distance_at_rest,
             measures.distance_extrapolated,
-            measures.braking_distance,
+            measures.braking_distance if math.isnan(outcome.braking_planned) else outcome.braking_planned,
             perceived,
             "",
-            input_delay,
-            arrival_delay,
+            press.input_delay if press else math.nan,
+            press.arrival_delay if press else math.nan,
             motion.tracked_hand,
             motion.withdrawal_distance,
             motion.withdrawal_peak_speed,
             motion.head_distance_at_press,
             motion.hand_untracked,
             motion.head_untracked,
+            self.link.name,
+            outcome.goal_result,
+            -1 if outcome.error_code is None else outcome.error_code,
+            outcome.tracking_error,
+            outcome.replacement_sent,
+            outcome.braking_began,
+            outcome.braking_achieved,
+            outcome.safety_stop,
         )
-        return record, positions
+        if outcome.safety_stop:
+            self.safety_stops.append(f"trial {trial.index}: {outcome.safety_stop}")
+        return record
 
     def _motion(
         self, trial: PlannedTrial, run: TrialRun, began: float, window: Window, log: Callable[[str], None]
@@ -696,7 +548,7 @@ class StudyRunner(ControllerNode):
             if body not in self._refusals_told:
                 self._refusals_told.add(body)
                 log(f"poses of {body} refused: {why}")
-        at_rest = self.approaches.end_effector(self._target[0])
+        at_rest = self.approaches.end_effector(self.link.target)
         if not late:
             self._follow_withdrawal(began, window)
         pressed = math.isfinite(window.press)
@@ -720,32 +572,45 @@ class StudyRunner(ControllerNode):
             hand = hand_under_robot(tracks, window, hand_point, TRACKING_GAP)
             if not hand or withdrawal_end(tracks[hand], window, TRACKING_GAP) is not None:
                 return
-            for _ in range(hold):
-                self.step(self._target[0], np.zeros(self.robot.dof))
+            self.link.idle(hold * self.options.pacing.dt)
             if self._await_poses(window.start, self.clock):
                 return  # a body stopped sending: its gap is measured, and no longer waited for
 
     def _await_poses(self, since: float, end: float) -> list[str]:
         """Wait (at most pose_grace s of wall time; in real time holding the robot) until every body that has sent
         poses since `since` has one at `end`; the bodies still short of it."""
-        if not self.options.pacing.realtime:
+        if not self.link.realtime:
             return self.poses.wait_covered(since, end, self.options.pose_grace, self.stop)
         deadline = time.monotonic() + self.options.pose_grace
         while (late := self.poses.uncovered(since, end)) and time.monotonic() < deadline and not self.stop.is_set():
-            self.step(self._target[0], np.zeros(self.robot.dof))
+            self.link.idle()
         return late
+
+    def connect(self, timeout: float, recorder: str | None) -> str:
+        """Wait until every link's arm is there and linked (and the status reaches the engine); their names."""
+        return ", ".join(link.connect(timeout, recorder) for link in unique(self.links.values()))
+
+    def recorded_topics(self) -> list[str]:
+        return [topic for link in unique(self.links.values()) for topic in link.recorded_topics()]
 
     def close(self) -> None:
         for subscriber in self._subscribers:
             subscriber.unregister()
-        super().close()
+        # the last status to its slow subscribers (a recorder) before it goes: a stream link drains it too, a
+        # trajectory controller's link does not know it
+        deadline = time.monotonic() + DRAIN_TIMEOUT_S
+        while unwritten_subscribers(self.status_pub) and time.monotonic() < deadline:
+            time.sleep(0.005)
+        for link in unique(self.links.values()):
+            link.close()
+        self.status_pub.unregister()
 
 
-def record_session(robot: RobotSpec, bag: Path, node: str, logs: Path, sim_time: bool) -> ManagedProcess:
+def record_session(link_topics: list[str], bag: Path, node: str, logs: Path, sim_time: bool) -> ManagedProcess:
     """`rosbag record` of the session's topics into `bag` (in this process's ROS environment), once it records; or,
     under /use_sim_time (`sim_time`), once it has subscribed to them all: it then opens the bag only when /clock has
     moved past 0, and /clock is the runner's to publish (wait_for_partner waits for the recorder's links)."""
-    topics = recorder_topics(robot)
+    topics = recorder_topics(link_topics)
     recorder = start_recorder(bag, topics, node, dict(os.environ), logs)
     try:
         recorder.wait_for_output(f"Subscribing to {topics[-1]}" if sim_time else "Recording to", timeout=30)
@@ -768,6 +633,7 @@ def run_node(
     out: Path,
     record: bool = True,
     connect_timeout: float = 60.0,
+    trajectory_links: Mapping[str, TrajectoryLinkSpec] | None = None,
 ) -> int:
     """The runner as a ROS node (rospy.init_node: once per process): the session, its CSV and its bag in `out`."""
     import rospy
@@ -782,13 +648,18 @@ def run_node(
     bag, records_path = out / "bags" / f"{stem}.bag", out / f"{stem}.csv"
     recorder_node = f"study_recorder_{plan.participant}"
     sim_time = bool(rospy.get_param("/use_sim_time", False))
-    recorder = record_session(robot, bag, recorder_node, out / "logs", sim_time) if record else None
-    runner = StudyRunner(robot, scene, plan, approaches, options, stop)
+    runner = StudyRunner(robot, scene, plan, approaches, options, stop, trajectory_links)
+    try:
+        topics = runner.recorded_topics()
+        recorder = record_session(topics, bag, recorder_node, out / "logs", sim_time) if record else None
+    except BaseException:
+        runner.close()
+        raise
     if options.keyboard:
         threading.Thread(target=runner.read_keyboard, args=(sys.stdin,), name="keyboard", daemon=True).start()
     started = time.monotonic()
     try:
-        partner = runner.wait_for_partner(connect_timeout, [recorder_node] if recorder else [])
+        partner = runner.connect(connect_timeout, recorder_node if recorder else None)
         runner.wait_for_inputs(connect_timeout, recorder_node if recorder else None)
         _log(
             f"engine {partner} connected; participant {plan.participant}, {len(plan.trials)} trials, conditions "
@@ -800,6 +671,10 @@ def run_node(
     except ControllerError as error:
         _log(f"error: {error}")
         return EXIT_INTERRUPTED if stop.is_set() else EXIT_ROS
+    except SafetyStopped as error:
+        _log(f"error: {error}")
+        print(f"records: {records_path}")
+        return EXIT_SAFETY
     finally:
         runner.close()
         if recorder is not None:

@@ -3,13 +3,16 @@ the robot's limits with the declared safety margin. One line per refusal, naming
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+
 import numpy as np
 
+from sim.study.design.feasibility import PlannedApproach
 from sim.study.design.paths import ApproachPath
 from sim.study.safety.braking import STOP_DECELERATION, STOP_JERK, PathGeometry, PathState, arc_length, brake
 from sim.study.safety.limits import DEFAULT_MARGIN, Exceedance, MotionLimits, motion_exceedances
 
-__all__ = ["BRAKING_STEP", "plan_refusals"]
+__all__ = ["BRAKING_STEP", "plan_refusals", "design_refusals"]
 
 BRAKING_STEP = 0.004  # s between the braking's samples: fine enough to see its jerk
 
@@ -44,3 +47,25 @@ def plan_refusals(
             if key not in worst or found.ratio > worst[key].ratio:
                 worst[key] = found
     return lines + [found.line for found in worst.values()]
+
+
+def design_refusals(
+    limits: MotionLimits,
+    approaches: Mapping[tuple[str, float, float], PlannedApproach],
+    margin: float = DEFAULT_MARGIN,
+    floor: float = 0.0,
+    deceleration: float = STOP_DECELERATION,
+) -> list[str]:
+    """Every feasible combination's refusals (plan_refusals), then each whose planned points come closer to the hand
+    than `floor` m (a braked rest stops short of the plan's end, so the plan's closest point bounds it); [] when
+    every one may run."""
+    lines = []
+    for (path, standoff, speed), planned in approaches.items():
+        if not planned.feasible:
+            continue
+        what = f"{path} to {standoff:g} m at {speed:g} m/s"
+        lines += plan_refusals(what, planned.path, planned.positions, limits, margin, deceleration)
+        closest = float(np.min(planned.distances))
+        if closest < floor:
+            lines.append(f"{what}: comes {closest:.4f} m from the hand, under the floor of {floor:g} m")
+    return lines

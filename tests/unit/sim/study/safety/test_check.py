@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import re
 
+import numpy as np
+
 from sim.study.safety.check import plan_refusals
 from sim.study.safety.limits import limits_for
 from tests.unit.sim.study.safety.plans import PANDA, panda_plan
@@ -27,3 +29,19 @@ def test_a_plan_whose_samples_exceed_the_limits_is_refused_for_them() -> None:
     path, joints = panda_plan("straight", 0.3)
     refusals = plan_refusals("straight", path, joints, limits_for(PANDA))
     assert any(line.startswith("straight: panda_joint5 velocity") for line in refusals)
+
+
+def test_a_design_beyond_the_pandas_acceleration_limit_is_refused_and_one_under_the_floor_too() -> None:
+    from sim.study.design.feasibility import PlannedApproach
+    from sim.study.safety.check import design_refusals
+
+    path, joints = panda_plan("diagonal", 0.5)
+    distances = np.linspace(0.3, 0.005, len(path.times))
+    planned = PlannedApproach(path, joints, np.gradient(joints, path.dt, axis=0), 0.005, {}, distances)
+    limits = limits_for(PANDA)
+    assert design_refusals(limits, {("diagonal", 0.005, 0.5): planned}) == []
+    # the plan's accelerations are beyond 2% of the Panda's: refused, one line per limit, naming it
+    refusals = design_refusals(limits, {("diagonal", 0.005, 0.5): planned}, margin=0.02, floor=0.01)
+    assert any(re.match(r"diagonal to 0.005 m at 0.5 m/s: panda_joint\d acceleration .* 2% of its limit", line)
+               for line in refusals)  # fmt: skip
+    assert refusals[-1] == "diagonal to 0.005 m at 0.5 m/s: comes 0.0050 m from the hand, under the floor of 0.01 m"

@@ -1,0 +1,63 @@
+"""What the robot's trajectory controller did, per condition, from the records' link columns: the tracking error,
+the press-to-braking latency (to the replacement's sending, and to the first achieved state whose speed had fallen),
+the braking distance planned against achieved, the goals' results and the runner's own stops. Only conditions run on
+a trajectory controller (sim.study.run.links) have these; the stream's rows are left out. Pure: records in, lines
+out."""
+
+from __future__ import annotations
+
+import math
+from collections import Counter
+from collections.abc import Sequence
+
+import numpy as np
+
+from sim.study.run.records import TrialRecord
+
+__all__ = ["link_lines"]
+
+
+def _cell(values: Sequence[float], scale: float, digits: int) -> str:
+    """median / p95 of the finite values, scaled; – when there are none."""
+    finite = np.array([v for v in values if math.isfinite(v)], dtype=float) * scale
+    if finite.size == 0:
+        return "–"
+    return f"{np.median(finite):.{digits}f} / {np.percentile(finite, 95):.{digits}f}"
+
+
+def link_lines(records: Sequence[TrialRecord]) -> list[str]:
+    """The report's section on the trajectory controller's conditions; [] when every condition streamed."""
+    controlled = [r for r in records if r.link != "stream"]
+    if not controlled:
+        return []
+    lines = [
+        "## The robot's trajectory controller",
+        "",
+        "Per condition run on a trajectory controller: each trial's largest joint error against the commanded path "
+        "(tracking, mrad), the press to the braking replacement's sending and to the first joint state whose speed "
+        "had fallen (ms), and the braking distance along the path, planned and achieved, with the achieved minus "
+        "the planned (mm). Medians / 95th percentiles.",
+        "",
+        "| condition | link | trials | goals | tracking | to replacement | to braking | braking planned | "
+        "braking achieved | achieved − planned | runner's stops |",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for condition in dict.fromkeys(r.condition for r in controlled):
+        rows = [r for r in controlled if r.condition == condition]
+        pressed = [r for r in rows if r.pressed]
+        goals = ", ".join(f"{n} {result or 'none'}" for result, n in Counter(r.goal_result for r in rows).items())
+        errors = [r.braking_distance_achieved - r.braking_distance for r in pressed]
+        stops = sum(1 for r in rows if r.safety_stop)
+        lines.append(
+            f"| {condition} | {', '.join(dict.fromkeys(r.link for r in rows))} | {len(rows)} | {goals} | "
+            f"{_cell([r.tracking_error for r in rows], 1000, 1)} | "
+            f"{_cell([r.replacement_latency for r in pressed], 1000, 1)} | "
+            f"{_cell([r.braking_latency for r in pressed], 1000, 1)} | "
+            f"{_cell([r.braking_distance for r in pressed], 1000, 1)} | "
+            f"{_cell([r.braking_distance_achieved for r in pressed], 1000, 1)} | {_cell(errors, 1000, 1)} | {stops} |"
+        )
+    lines.append("")
+    reasons = [f"trial {r.index} of participant {r.participant}: {r.safety_stop}" for r in controlled if r.safety_stop]
+    if reasons:
+        lines += ["The runner stopped the arm on its own in " + "; ".join(reasons) + ".", ""]
+    return lines

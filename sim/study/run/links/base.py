@@ -1,0 +1,100 @@
+"""What the runner asks of a robot link, and what a link tells of an approach. Pure."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Protocol
+
+import numpy as np
+
+from sim.study.run.trial import TrialRun
+
+__all__ = ["Press", "AppliedPress", "ApproachOutcome", "RobotLink", "TakePress"]
+
+
+@dataclass(frozen=True)
+class Press:
+    stamp: float  # s on the link's clock (ROS time); 0: when it arrived
+    source: str
+    input_delay: float = math.nan  # s from the input's change to the stamp, as the client measured it; NaN: unsaid
+    arrival: float = math.nan  # s on the link's clock when it reached the runner; NaN: not a message (the keyboard)
+
+    @property
+    def arrival_delay(self) -> float:
+        """s from the stamp to the arrival; NaN for an unstamped press, whose time is its arrival by definition."""
+        return self.arrival - self.stamp if self.stamp > 0 else math.nan
+
+
+# the first press stamped at or before the given time on the link's clock (or unstamped), if one came
+TakePress = Callable[[float], "Press | None"]
+
+
+@dataclass(frozen=True)
+class AppliedPress:
+    source: str
+    late: float  # s by which it came after its stamp had passed (applied at arrival)
+    input_delay: float
+    arrival_delay: float
+
+
+@dataclass(frozen=True)
+class ApproachOutcome:
+    """What an approach did, beyond the TrialRun's own record. The trajectory controller's fields are NaN or empty
+    on the stream, which has no goal and no replacement."""
+
+    press: AppliedPress | None = None
+    goal_result: str = ""  # the last goal's final status: SUCCEEDED, ABORTED, PREEMPTED, REJECTED...; "" stream
+    error_code: int | None = None  # its result's control_msgs error code
+    tracking_error: float = math.nan  # rad: the largest joint error of the achieved against the commanded path
+    replacement_sent: float = math.nan  # s from the press (its applied time) to the braking replacement's sending
+    braking_began: float = math.nan  # s from the press to the first joint state whose speed had fallen
+    braking_planned: float = math.nan  # m along the path: the replacement's braking distance
+    braking_achieved: float = math.nan  # m along the path: from the achieved state at the press to the achieved rest
+    safety_stop: str = ""  # why the runner stopped the arm on its own ("" when it did not)
+
+
+class RobotLink(Protocol):
+    """The robot side of the runner. `clock` is the link's time (s): the stream's ROS time, or the wall clock."""
+
+    name: str
+    realtime: bool
+
+    @property
+    def clock(self) -> float: ...
+
+    @property
+    def target(self) -> np.ndarray:
+        """The joint positions last commanded to rest at."""
+        ...
+
+    def recorded_topics(self) -> list[str]: ...
+
+    def connect(self, timeout: float, recorder: str | None) -> str:
+        """Wait (at most `timeout` s) until the arm's side is there and linked; its name."""
+        ...
+
+    def start(self, timeout: float) -> np.ndarray:
+        """Where the arm is, once its state comes."""
+        ...
+
+    def now(self) -> float:
+        """The link's time from any thread (a press's arrival)."""
+        ...
+
+    def move_to(self, positions: np.ndarray) -> np.ndarray:
+        """Rest to rest to `positions`; where the arm ended."""
+        ...
+
+    def idle(self, seconds: float = 0.0) -> None:
+        """Keep the arm at rest for `seconds` (the stream: at least one step; a controller holds on its own, and the
+        link waits, watching its joint states)."""
+        ...
+
+    def approach(self, run: TrialRun, take_press: TakePress, settle: float) -> ApproachOutcome:
+        """Run the planned approach from its start (the link's clock at the call), stopping on the first press;
+        until `settle` s after the motion's end. Every achieved state goes to `run`."""
+        ...
+
+    def close(self) -> None: ...

@@ -1,0 +1,378 @@
+"""The trajectory-controller link: a real arm's ros_control joint_trajectory_controller (or the physics node's
+stand-in of it), on wall time. rospy and actionlib.
+
+- No /clock: the link's clock is the wall clock, the time a driver stamps with. Goals have stamp zero ("start at the
+  controller's next update"); a replacement is stamped BRAKING_LEAD ahead, since a start in the past drops its
+  first points.
+- An approach is one follow_joint_trajectory goal of the planned samples (positions, velocities, accelerations).
+- A press is a replacement: sim.study.safety.braking's stop along the path at the runner's deceleration, from the
+  controller's desired state at the replacement's start (query_state), continuous in position, velocity and
+  acceleration. Never a bare cancel: with franka's stop_trajectory_duration of 0 a cancel holds the measured
+  position at once, a step that makes libfranka abort with a reflex.
+- The arm's joint states are read at whatever rate its driver publishes them. During a motion the link stops the
+  arm (the same replacement) on its own when the feed goes stale, the tracking error passes the tolerance, the
+  achieved distance to the hand falls under the floor, or the controller ends the goal otherwise than by success.
+  These are the toolkit's checks, never instead of the robot's own stop.
+- If the runner dies, nothing more is sent: the goal runs on to its end, at the stand-off at rest (ros_control's
+  action server does not cancel a goal when its client goes away).
+
+Goals are followed through actionlib's ActionClient, each by its own handle (SimpleActionClient drops a result that
+comes before its send_goal has returned).
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+import time
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from sim.control.controller_node import ControllerError
+from sim.control.scenarios import approach
+from sim.robots import RobotSpec
+from sim.study.run.links.base import AppliedPress, ApproachOutcome, Press, TakePress
+from sim.study.run.links.goals import GOAL_STATUS, CommandedPath, GoalPoints, goal_points, speed_fell
+from sim.study.run.links.specs import TrajectoryLinkSpec
+from sim.study.run.trial import TrialRun
+from sim.study.safety.braking import STOP_JERK, Braking, PathGeometry, brake
+from sim.wire.contract import MessageError, positions_by_name
+
+__all__ = ["BRAKING_LEAD", "JointFeed", "TrajectoryLink"]
+
+BRAKING_LEAD = 0.03  # s: a replacement starts this far ahead of its sending (its stamp must not have passed)
+POLL = 0.01  # s: the longest wait for a joint state between looks at the presses and the goal
+RESULT_GRACE = 5.0  # s after a motion's planned end that the controller may take to end its goal
+SUCCEEDED = 3
+STAMP_WINDOW = 5.0  # s: a press stamped further from the wall clock is on another clock (the stream's /clock)
+
+
+@dataclass(frozen=True)
+class FedState:
+    stamp: float  # s, the driver's
+    arrival: float  # s, the wall clock when it came
+    positions: np.ndarray
+    velocities: np.ndarray
+
+
+class JointFeed:
+    """The arm's joint states as they come (any rate), in the robot's joint order; thread-safe."""
+
+    def __init__(self, robot: RobotSpec) -> None:
+        self.robot = robot
+        self.error: str | None = None
+        self._states: list[FedState] = []
+        self._changed = threading.Condition()
+
+    def callback(self, message: Any) -> None:
+        try:
+            positions = positions_by_name(message.name, message.position, self.robot.joint_names)
+            velocities = (
+                positions_by_name(message.name, message.velocity, self.robot.joint_names)
+                if len(message.velocity)
+                else np.full(self.robot.dof, math.nan)
+            )
+        except MessageError as error:
+            with self._changed:
+                self.error = str(error)
+                self._changed.notify_all()
+            return
+        state = FedState(message.header.stamp.to_sec(), time.time(), positions, velocities)
+        with self._changed:
+            self._states.append(state)
+            del self._states[:-10000]  # a 500 Hz driver's 20 s, more than a motion takes between looks
+            self._changed.notify_all()
+
+    def count(self) -> int:
+        with self._changed:
+            return len(self._states)
+
+    def latest(self) -> FedState | None:
+        with self._changed:
+            return self._states[-1] if self._states else None
+
+    def since(self, arrival: float) -> list[FedState]:
+        """The states that came after wall time `arrival`."""
+        with self._changed:
+            return [state for state in self._states if state.arrival > arrival]
+
+    def wait(self, after: float, timeout: float, stop: threading.Event) -> FedState | None:
+        """The latest state once one has come after wall time `after` (None after `timeout` s or when stopped)."""
+        deadline = time.monotonic() + timeout
+        with self._changed:
+            while not stop.is_set():
+                if self.error is not None:
+                    raise ControllerError(f"{self.robot.name}'s joint states: {self.error}")
+                if self._states and self._states[-1].arrival > after:
+                    return self._states[-1]
+                remaining = deadline - time.monotonic()
+                if remaining <= 0:
+                    return None
+                self._changed.wait(min(remaining, 0.1))
+        return None
+
+
+class TrajectoryLink:
+    """One trajectory controller: its action, its query_state service and the arm's joint states."""
+
+    realtime = True
+
+    def __init__(self, robot: RobotSpec, spec: TrajectoryLinkSpec, dt: float, stop: threading.Event) -> None:
+        import actionlib
+        import rospy
+        from sensor_msgs.msg import JointState
+        from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+
+        from sim.wire.control_types import control_types
+
+        self.rospy, self.robot, self.spec, self.dt, self.stop = rospy, robot, spec, dt, stop
+        self.name = spec.label
+        self.types = control_types()
+        self._trajectory_type, self._point_type = JointTrajectory, JointTrajectoryPoint
+        ns = spec.namespace
+        self.client = actionlib.ActionClient(f"{ns}/follow_joint_trajectory", self.types.action)
+        self.query = rospy.ServiceProxy(f"{ns}/query_state", self.types.query_state)
+        self.feed = JointFeed(robot)
+        self.subscriber = rospy.Subscriber(
+            spec.joint_states_topic, JointState, self.feed.callback, tcp_nodelay=True, queue_size=1000
+        )
+        self._target = robot.home.copy()
+        self._handles: list[Any] = []  # actionlib tracks a goal while its handle lives
+
+    # --- RobotLink -------------------------------------------------------------------------------------------
+    @property
+    def clock(self) -> float:
+        return time.time()
+
+    def now(self) -> float:
+        return time.time()
+
+    @property
+    def target(self) -> np.ndarray:
+        return self._target
+
+    def recorded_topics(self) -> list[str]:
+        ns = self.spec.namespace
+        action = f"{ns}/follow_joint_trajectory"
+        return [
+            self.spec.joint_states_topic,
+            f"{ns}/state",
+            f"{ns}/command",
+            *(f"{action}/{part}" for part in ("goal", "cancel", "status", "feedback", "result")),
+        ]
+
+    def connect(self, timeout: float, recorder: str | None) -> str:
+        """The controller's action server and query_state service, and a first joint state."""
+        ns = self.spec.namespace
+        if not self.client.wait_for_server(self.rospy.Duration(timeout)):
+            raise ControllerError(f"no action server {ns}/follow_joint_trajectory within {timeout:g} s")
+        try:
+            self.query.wait_for_service(timeout)
+        except self.rospy.ROSException:
+            raise ControllerError(f"no service {ns}/query_state within {timeout:g} s") from None
+        if self.feed.wait(-math.inf, timeout, self.stop) is None:
+            raise ControllerError(f"no joint state on {self.spec.joint_states_topic} within {timeout:g} s")
+        return ns
+
+    def start(self, timeout: float) -> np.ndarray:
+        state = self.feed.wait(-math.inf, timeout, self.stop)
+        if state is None:
+            raise ControllerError(f"no joint state on {self.spec.joint_states_topic} within {timeout:g} s")
+        self._target = state.positions.copy()
+        return state.positions
+
+    def idle(self, seconds: float = 0.0) -> None:
+        """The controller holds the last point on its own: only wait."""
+        self.stop.wait(max(seconds, POLL * 2))
+
+    def move_to(self, positions: np.ndarray) -> np.ndarray:
+        """A quintic from where the arm is, as one goal; waited for to its end (ControllerError when the feed goes
+        stale or the controller does not succeed: the move to a path's start keeps away from the hand, and its goal
+        ends at rest)."""
+        here = self._latest().positions
+        samples, speeds = approach(self.robot, here, np.asarray(positions, dtype=float), self.dt)
+        points = goal_points(samples, speeds, self.dt)
+        handle, sent = self._send(points, 0.0)
+        self._target = np.asarray(positions, dtype=float).copy()
+        deadline = sent + points.duration + RESULT_GRACE
+        while not self._done(handle):
+            state = self.feed.wait(time.time() - self.spec.stale_after, POLL, self.stop)
+            if self.stop.is_set():
+                raise ControllerError("interrupted")
+            if state is None or time.time() - state.arrival > self.spec.stale_after:
+                raise ControllerError(f"joint states stale for over {self.spec.stale_after:g} s on the way to a start")
+            if time.time() > deadline:
+                raise ControllerError(f"the controller did not end the move to the start within {RESULT_GRACE:g} s")
+        status, code, text = self._outcome(handle)
+        if status != SUCCEEDED:
+            raise ControllerError(f"the move to the path's start ended {GOAL_STATUS.get(status)} ({code}): {text}")
+        return self._latest().positions
+
+    def approach(self, run: TrialRun, take_press: TakePress, settle: float) -> ApproachOutcome:
+        planned = run.planned
+        geometry = PathGeometry(planned.path, planned.positions)
+        points = goal_points(planned.positions, planned.velocities, run.dt, self.spec.speed_scale)
+        commanded = CommandedPath()
+        first = self._latest()
+        run.record_state(0.0, first.positions)
+        handle, start = self._send(points, 0.0)
+        commanded.add(start, np.concatenate([[0.0], points.times]), np.vstack([planned.positions[0], points.positions]))
+        self._target = planned.positions[-1].copy()
+        ends = start + points.duration
+        applied: AppliedPress | None = None
+        press_at = math.nan
+        braking: Braking | None = None
+        replacement_sent = math.nan
+        reason = ""
+        tracking = 0.0
+        looked = start
+        while True:
+            self.feed.wait(looked, POLL, self.stop)
+            now = time.time()
+            if self.stop.is_set():
+                raise ControllerError("interrupted")
+            for fed in self.feed.since(looked):
+                looked = fed.arrival  # each state once
+                if fed.stamp >= start:
+                    run.record_state(fed.stamp - start, fed.positions)
+                    tracking = max(tracking, commanded.error(fed.stamp, fed.positions))
+            stopping = not math.isnan(press_at) or reason != ""
+            if not stopping:
+                press = take_press(now)
+                why = self._unsafe(now, tracking, run, handle)
+                if press is not None or why:
+                    press_at = now
+                    if press is not None:
+                        applied, when = _applied(press, now)
+                        press_at = min(max(when, start), now)
+                    reason = why if press is None else ""
+                    run.press(min((press_at - start) * self.spec.speed_scale, planned.path.duration))
+                    braking, sent_at = self._brake(geometry, run, commanded)
+                    if braking is not None:
+                        handle = self._handles[-1]
+                        replacement_sent = sent_at - press_at
+                        ends = max(ends, sent_at + BRAKING_LEAD + braking.duration)
+            if now >= ends + settle and (self._done(handle) or now >= ends + RESULT_GRACE):
+                break
+        status, code, text = self._outcome(handle) if self._done(handle) else (-1, None, "no result")
+        if not reason and status != SUCCEEDED and handle is self._handles[0]:
+            reason = f"the controller ended the goal {GOAL_STATUS.get(status, 'without a result')}: {text}"
+        seen = self.feed.since(start)
+        stamps = np.array([s.stamp for s in seen])
+        speeds = np.array([float(np.linalg.norm(s.velocities)) for s in seen])
+        achieved = math.nan
+        if not math.isnan(press_at) and seen:
+            at_press = min(seen, key=lambda s: abs(s.stamp - press_at)).positions
+            zeros = np.zeros(self.robot.dof)
+            rest = geometry.project(seen[-1].positions, zeros, zeros)
+            achieved = rest.arc - geometry.project(at_press, zeros, zeros).arc
+        self._target = seen[-1].positions.copy() if seen else self._target
+        self._handles.clear()
+        return ApproachOutcome(
+            press=applied,
+            goal_result=GOAL_STATUS.get(status, "NO RESULT"),
+            error_code=code,
+            tracking_error=tracking,
+            replacement_sent=replacement_sent,
+            braking_began=speed_fell(stamps, speeds, press_at) if seen and not math.isnan(press_at) else math.nan,
+            braking_planned=braking.distance if braking is not None else math.nan,
+            braking_achieved=achieved,
+            safety_stop=reason,
+        )
+
+    def close(self) -> None:
+        self.subscriber.unregister()
+        self.query.close()
+        self._handles.clear()
+        client = self.client
+        for endpoint in (client.pub_goal, client.pub_cancel, client.status_sub, client.result_sub, client.feedback_sub):
+            endpoint.unregister()
+
+    # --- the parts -------------------------------------------------------------------------------------------
+    def _latest(self) -> Any:
+        state = self.feed.wait(time.time() - self.spec.stale_after, self.spec.stale_after, self.stop)
+        if state is None:
+            raise ControllerError(f"no joint state on {self.spec.joint_states_topic} for {self.spec.stale_after:g} s")
+        return state
+
+    def _unsafe(self, now: float, tracking: float, run: TrialRun, handle: Any) -> str:
+        """Why the arm must be stopped now ("" when it need not)."""
+        latest = self.feed.latest()
+        if latest is None or now - latest.arrival > self.spec.stale_after:
+            age = math.inf if latest is None else now - latest.arrival
+            return f"joint states stale: none for {age:.3f} s (limit {self.spec.stale_after:g} s)"
+        if tracking > self.spec.tracking_tolerance:
+            return f"tracking error {tracking:.4f} rad over the tolerance {self.spec.tracking_tolerance:g} rad"
+        distance = run.hand_distance(latest.positions)
+        if distance < self.spec.floor:
+            return f"achieved distance to the hand {distance:.4f} m under the floor {self.spec.floor:g} m"
+        if self._done(handle):
+            status, code, text = self._outcome(handle)
+            if status != SUCCEEDED:
+                return f"the controller ended the goal {GOAL_STATUS.get(status, status)} ({code}): {text}"
+        return ""
+
+    def _brake(self, geometry: PathGeometry, run: TrialRun, commanded: CommandedPath) -> tuple[Braking | None, float]:
+        """The replacement: braking from the controller's desired state BRAKING_LEAD from now; (None, now) when the
+        plan comes to rest sooner (it goes on)."""
+        at = time.time() + BRAKING_LEAD
+        try:
+            desired = self.query(self.rospy.Time.from_sec(at))
+        except (self.rospy.ServiceException, self.rospy.ROSException) as error:
+            raise ControllerError(f"{self.spec.namespace}/query_state failed: {error}") from None
+        q = positions_by_name(desired.name, desired.position, self.robot.joint_names)
+        qd = positions_by_name(desired.name, desired.velocity, self.robot.joint_names)
+        qdd = positions_by_name(desired.name, desired.acceleration, self.robot.joint_names)
+        stop = brake(geometry, q, qd, qdd, self.dt, run.deceleration, STOP_JERK)
+        if stop is None or len(stop.times) < 2:  # the plan rests sooner, or it rests already
+            return None, time.time()
+        points = GoalPoints(stop.times[1:], stop.positions[1:], stop.velocities[1:], stop.accelerations[1:])
+        _, sent = self._send(points, at)
+        commanded.add(at, stop.times, stop.positions)
+        self._target = stop.positions[-1].copy()
+        return stop, sent
+
+    def _send(self, points: GoalPoints, stamp: float) -> tuple[Any, float]:
+        """A goal of `points` stamped `stamp` (0: the controller's next update); its handle and when it was sent."""
+        message = self._trajectory_type()
+        message.header.stamp = self.rospy.Time.from_sec(stamp) if stamp > 0 else self.rospy.Time(0)
+        message.joint_names = list(self.robot.joint_names)
+        for k in range(len(points.times)):
+            point = self._point_type()
+            point.positions = points.positions[k].tolist()
+            point.velocities = points.velocities[k].tolist()
+            point.accelerations = points.accelerations[k].tolist()
+            point.time_from_start = self.rospy.Duration.from_sec(float(points.times[k]))
+            message.points.append(point)
+        goal = self.types.goal()
+        goal.trajectory = message
+        sent = time.time()
+        handle = self.client.send_goal(goal)
+        self._handles.append(handle)
+        return handle, sent
+
+    @staticmethod
+    def _done(handle: Any) -> bool:
+        from actionlib import CommState
+
+        return bool(handle.get_comm_state() == CommState.DONE)
+
+    @staticmethod
+    def _outcome(handle: Any) -> tuple[int, int | None, str]:
+        result = handle.get_result()
+        if result is None:
+            return int(handle.get_goal_status()), None, handle.get_goal_status_text()
+        return int(handle.get_goal_status()), int(result.error_code), str(result.error_string)
+
+
+def _applied(press: Press, now: float) -> tuple[AppliedPress, float]:
+    """What is recorded of a press taken at `now` (wall time), and its time: its stamp, or when it arrived if it has
+    none or one on another clock (a page that keeps the stream's /clock in a session of both links). Its lateness
+    is from its stamp to `now`, when the replacement's braking is planned from."""
+    arrived = press.arrival if math.isfinite(press.arrival) else now
+    if press.stamp > 0 and abs(press.stamp - arrived) <= STAMP_WINDOW:
+        late = max(now - press.stamp, 0.0)
+        return AppliedPress(press.source, late, press.input_delay, press.arrival_delay), press.stamp
+    return AppliedPress(press.source, 0.0, press.input_delay, math.nan), arrived

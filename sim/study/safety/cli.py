@@ -1,0 +1,54 @@
+"""`python -m sim.study check --safety`: before a real arm moves, every combination of the design (planned and checked
+by the design's `check`) against the robot's limits with a declared margin, its braking from a press at any sample
+too, and no planned point closer to the hand than a declared floor. One line per refusal, naming the limit; exit 2
+when there is one. The toolkit's own check: it never replaces the robot's own stop."""
+
+from __future__ import annotations
+
+import argparse
+
+from sim.entry import EXIT_OK
+from sim.study.checks import check_positive
+from sim.study.safety.errors import SafetyError
+
+__all__ = ["register"]
+
+
+def register(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    """Adds the safety options to the design's `check` (registered before this)."""
+    check = commands.choices["check"]
+    check.add_argument(
+        "--safety",
+        action="store_true",
+        help="before a real arm: also refuse samples or braking beyond the robot's limits (--margin) and the --floor",
+    )
+    check.add_argument("--margin", type=float, default=0.8, help="--safety: the fraction of each limit a plan may use")
+    check.add_argument("--floor", type=float, default=0.01, help="--safety: m no planned point may come to the hand")
+    check.add_argument("--deceleration", type=float, default=1.0, help="--safety: braking on a press, m/s² on the path")
+    check.set_defaults(handler=safety_check_command)
+
+
+def safety_check_command(args: argparse.Namespace) -> int:
+    from sim.study.design.cli import checked_combinations
+    from sim.study.safety.check import design_refusals
+    from sim.study.safety.limits import limits_for
+
+    if args.safety:  # the margin and floor are said before the planning's minute, not after
+        check_positive(args.deceleration, "--deceleration")
+        if not (0 < args.margin <= 1):
+            raise SafetyError(f"--margin must be in (0, 1], got {args.margin!r}")
+        if not (args.floor >= 0):
+            raise SafetyError(f"--floor must be >= 0 m, got {args.floor!r}")
+    robot, approaches = checked_combinations(args)
+    if not args.safety:
+        return EXIT_OK
+    limits = limits_for(robot)
+    refusals = design_refusals(limits, approaches, args.margin, args.floor, args.deceleration)
+    for line in refusals:
+        print(f"refused: {line}")
+    if refusals:
+        raise SafetyError(
+            f"{len(refusals)} refusal(s); to change: lower peak speeds, a gentler --deceleration, a larger stand-off"
+        )
+    print(f"within {robot.name}'s limits ({limits.source}) at {args.margin:.0%}, floor {args.floor:g} m")
+    return EXIT_OK

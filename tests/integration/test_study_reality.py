@@ -1,0 +1,314 @@
+"""The reality condition on a real arm's controller, with real parts: the runner (`python -m sim.study run
+--realtime --link ...`) against the physics node's ros_control trajectory controller on wall time (franka_ros's
+topics), a real roscore, and in one session the VR condition through the engine stand-in's stream. The observer types
+at the runner's keyboard. Safety: the runner stops the arm on a stale feed and on tracking error; a runner killed
+mid-approach leaves the arm at rest short of the hand."""
+
+from __future__ import annotations
+
+import csv
+import math
+import os
+import signal
+import subprocess
+import threading
+import time
+from collections.abc import Iterator, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from sim.processes import plain_env
+from sim.study.design.feasibility import Approaches
+from sim.study.design.fit import scene_for
+from sim.study.design.paths import ON_TOP
+from sim.study.design.scene import load_scene, scene_robot
+from sim.study.run.protocol import STATUS_TOPIC, status_from_json
+from tests.integration.sim_helpers import start_engine, start_physics_node
+from tests.integration.study_helpers import trial, write_plan
+from tests.rosenv import PYTHON, REPO, kill_process, wait_for
+from tests.study_arms import study_arm
+
+pytestmark = pytest.mark.lane("alone", on=("project",))
+
+SCENE = load_scene()
+ROBOT = scene_robot(SCENE)
+NS = "/position_joint_trajectory_controller"  # franka_ros's, as its preset says
+JOINT_STATES = "/franka_state_controller/joint_states"
+
+
+class Watch:
+    """The runner's phases (its status topic) and the arm's joint states, as the test process hears them."""
+
+    def __init__(self, rospy: Any, joint_states: str = JOINT_STATES) -> None:
+        from sensor_msgs.msg import JointState
+        from std_msgs.msg import String
+
+        self.phases: list[tuple[int, str]] = []
+        self.states: list[Any] = []
+        self.changed = threading.Condition()
+        self.out = ""  # the runner's --out
+        self._subscribers = [
+            rospy.Subscriber(STATUS_TOPIC, String, self._on_status),
+            rospy.Subscriber(joint_states, JointState, self._on_state),
+        ]
+
+    def _on_status(self, message: Any) -> None:
+        status = status_from_json(message.data)
+        with self.changed:
+            self.phases.append((status.index, status.phase))
+            self.changed.notify_all()
+
+    def _on_state(self, message: Any) -> None:
+        with self.changed:
+            self.states.append(message)
+
+    def wait(self, phase: tuple[int, str], timeout: float = 60) -> None:
+        with self.changed:
+            assert self.changed.wait_for(lambda: phase in self.phases, timeout=timeout), self.phases
+
+    def resting_positions(self) -> np.ndarray:
+        """The arm's positions once it has rested for 15 joint states (half a second at 30 Hz)."""
+
+        def resting() -> list[float] | None:
+            with self.changed:
+                recent = self.states[-15:]
+            if len(recent) < 15:
+                return None
+            positions = np.array([s.position for s in recent])
+            speeds = np.abs(np.array([s.velocity for s in recent]))
+            return positions[-1].tolist() if np.ptp(positions, axis=0).max() < 1e-4 and speeds.max() < 1e-3 else None
+
+        return np.array(wait_for(resting, 30, "the arm at rest"))
+
+    def close(self) -> None:
+        for subscriber in self._subscribers:
+            subscriber.unregister()
+
+
+def start_arm(roscore, ros_node, tmp_path: Path, robot: str, namespace: str, joint_states: str) -> Iterator[Watch]:
+    node = start_physics_node(
+        roscore, tmp_path, robot, "--mode", "physics", "--trajectory-controller", namespace,
+        "--joint-states-topic", joint_states, "--joint-states-rate", "30",
+    )  # fmt: skip
+    watch = Watch(ros_node, joint_states)
+    try:
+        yield watch
+    finally:
+        watch.close()
+        node.stop()
+
+
+@pytest.fixture
+def arm(roscore, ros_node, tmp_path: Path) -> Iterator[tuple[None, Watch]]:
+    """The Panda's stand-in as franka_ros shows it."""
+    for watch in start_arm(roscore, ros_node, tmp_path, "panda", NS, JOINT_STATES):
+        yield None, watch
+
+
+BUILT_ARM = "meshed_arm7"  # one the tests build (tests/study_arms.py), with the scene proposed for it
+
+
+@pytest.fixture
+def built_arm(roscore, ros_node, tmp_path: Path, monkeypatch) -> Iterator[tuple[Path, Watch]]:
+    """The built arm's stand-in under a namespace of the lab's choosing; its scene proposed (and cached for the
+    runner: the suite's cache where test.sh gives one)."""
+    cache = os.environ.get("VR_SIM_CACHE") or str(tmp_path / "cache")
+    monkeypatch.setenv("VR_SIM_CACHE", cache)  # this process's and the runner's (start_runner passes it on)
+    urdf = study_arm(tmp_path / "arms", BUILT_ARM)
+    for watch in start_arm(roscore, ros_node, tmp_path, str(urdf), "/arm/traj_controller", "/arm/joint_states"):
+        yield urdf, watch
+
+
+def start_runner(roscore, plan: Path, out: Path, extra: Sequence[str] = ()) -> subprocess.Popen:
+    env = dict(roscore.env)
+    if "VR_SIM_CACHE" in os.environ:
+        env["VR_SIM_CACHE"] = os.environ["VR_SIM_CACHE"]
+    command = [PYTHON, "-m", "sim.study", "run", "--plan", str(plan), "--out", str(out), "--keyboard", "--realtime"]
+    return subprocess.Popen(
+        command + ["--no-record", "--auto-go", "--connect-timeout", "30", *extra],
+        env=env, cwd=REPO, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+        text=True, start_new_session=True,
+    )  # fmt: skip
+
+
+def type_line(runner: subprocess.Popen, line: str) -> None:
+    assert runner.stdin is not None
+    runner.stdin.write(line)
+    runner.stdin.flush()
+
+
+def read_csv(path: Path) -> list[dict[str, str]]:
+    with open(path, newline="") as source:
+        return list(csv.DictReader(source))
+
+
+def hand_distance(positions: np.ndarray, robot: Path | None = None) -> float:
+    """The distance to the hand of the Panda (the default scene) or of the arm at `robot` (its proposed scene)."""
+    scene, spec = (SCENE, ROBOT) if robot is None else scene_for(None, str(robot), None)
+    with Approaches(spec, scene, 0.01) as approaches:
+        return approaches.hand_distance(np.asarray(positions, dtype=float))
+
+
+def test_a_session_runs_vr_on_the_stream_and_reality_on_the_trajectory_controller(
+    roscore, endpoint, arm, tmp_path: Path
+) -> None:
+    _, watch = arm
+    plan = write_plan(
+        tmp_path / "plan.yaml",
+        3,
+        "vr",
+        [trial(1, "vr", 1, "vertical", 0.15, 0.2), trial(2, "reality", 2, "vertical", ON_TOP, 0.2, "slow", 1)],
+    )
+    engine = start_engine(roscore, tmp_path, "panda", endpoint.port, "--no-auto-simulate")
+    runner = start_runner(roscore, plan, tmp_path / "out", ["--link", "reality=franka_ros"])
+    try:
+        watch.wait((1, "distance"))
+        type_line(runner, "12 cm\n")
+        watch.wait((2, "moving"))
+        time.sleep(0.8)  # well into the approach, at speed
+        type_line(runner, "s\n")
+        watch.wait((2, "preference"))
+        type_line(runner, "1\n")
+        output, _ = runner.communicate(timeout=60)
+    finally:
+        kill_process(runner)
+        engine.stop()
+    assert runner.returncode == 0, output
+    vr, reality = read_csv(tmp_path / "out" / "participant_03.csv")
+    assert vr["link"] == "stream" and vr["goal_result"] == "" and vr["tracking_error"] == ""
+    assert float(vr["distance_at_rest"]) == pytest.approx(0.15, abs=0.005)
+    assert reality["link"] == f"franka_ros ({NS})" and reality["pressed"] == "true"
+    # the braking replacement is the goal that ended, and ended well; the arm kept to the commanded path
+    assert (reality["goal_result"], reality["error_code"], reality["safety_stop"]) == ("SUCCEEDED", "0", "")
+    assert 0 < float(reality["tracking_error"]) < 0.1
+    assert 0 <= float(reality["replacement_latency"]) < float(reality["braking_latency"])
+    planned, achieved = float(reality["braking_distance"]), float(reality["braking_distance_achieved"])
+    assert planned > 0.005 and achieved == pytest.approx(planned, abs=0.01)
+    rest = watch.resting_positions()
+    assert hand_distance(rest) == pytest.approx(float(reality["distance_at_rest"]), abs=0.002)
+    assert float(reality["distance_at_rest"]) > float(reality["distance_at_press"]) - planned - 0.01 > ON_TOP
+
+
+def stopped_on_its_own(
+    runner: subprocess.Popen, watch: Watch, why: str, standoff: float, participant: int, robot: Path | None = None
+) -> None:
+    """The trial's answer typed; the runner ended the session (exit 5) after stopping the arm short of the stand-off."""
+    try:
+        watch.wait((1, "distance"))
+        type_line(runner, "10 cm\n")
+        output, _ = runner.communicate(timeout=60)
+    finally:
+        kill_process(runner)
+    assert runner.returncode == 5, output
+    assert f"trial 1: the arm was stopped: {why}" in output
+    (row,) = read_csv(Path(watch.out) / f"participant_{participant:02d}.csv")
+    assert row["safety_stop"].startswith(why) and row["pressed"] == "true"
+    rest = hand_distance(watch.resting_positions(), robot)
+    assert rest > standoff + 0.02  # braked well short of its stand-off
+    if why == "joint states stale":  # its last state seen was in motion: the arm braked on, closer, to rest
+        assert rest < float(row["distance_at_rest"])
+    else:
+        assert rest == pytest.approx(float(row["distance_at_rest"]), abs=0.002)
+
+
+def test_tracking_error_past_the_tolerance_stops_the_arm(roscore, built_arm, tmp_path: Path) -> None:
+    # on the arm the tests build, given by namespace: it lags its commanded path by over half a milliradian as it moves
+    urdf, watch = built_arm
+    watch.out = str(tmp_path / "out")
+    plan = write_plan(tmp_path / "plan.yaml", 4, "reality", [trial(1, "reality", 1, "vertical", 0.1, 0.2)])
+    extra = ["--robot", str(urdf), "--link", "reality=/arm/traj_controller,/arm/joint_states"]
+    runner = start_runner(roscore, plan, tmp_path / "out", [*extra, "--tracking-tolerance", "0.0005"])
+    stopped_on_its_own(runner, watch, "tracking error", 0.1, 4, urdf)
+
+
+def test_a_stale_joint_state_feed_stops_the_arm(roscore, ros_node, arm, tmp_path: Path) -> None:
+    # The runner reads the arm's joint states through a relay of the test's, given by namespace and topic; the relay
+    # stops passing them on 0.5 s into the approach.
+    from sensor_msgs.msg import JointState
+
+    _, watch = arm
+    watch.out = str(tmp_path / "out")
+    relaying = threading.Event()
+    relaying.set()
+    relayed = ros_node.Publisher("/relayed/joint_states", JointState, queue_size=10)
+    relay = ros_node.Subscriber(JOINT_STATES, JointState, lambda m: relayed.publish(m) if relaying.is_set() else None)
+    plan = write_plan(tmp_path / "plan.yaml", 6, "reality", [trial(1, "reality", 1, "vertical", 0.1, 0.2)])
+    extra = ["--link", f"reality={NS},/relayed/joint_states"]
+    runner = start_runner(roscore, plan, tmp_path / "out", extra)
+    try:
+        watch.wait((1, "moving"))
+        time.sleep(0.5)
+        relaying.clear()
+        stopped_on_its_own(runner, watch, "joint states stale", 0.1, 6)
+    finally:
+        kill_process(runner)
+        relay.unregister()
+        relayed.unregister()
+
+
+def test_a_runner_killed_mid_approach_leaves_the_arm_at_rest_short_of_the_hand(
+    roscore, ros_node, arm, tmp_path: Path
+) -> None:
+    _, watch = arm
+    standoff = 0.06
+    plan = write_plan(tmp_path / "plan.yaml", 5, "reality", [trial(1, "reality", 1, "vertical", standoff, 0.2)])
+    runner = start_runner(roscore, plan, tmp_path / "out", ["--link", "reality=franka_ros"])
+    try:
+        watch.wait((1, "moving"))
+        time.sleep(0.5)
+        assert "/clock" not in dict(ros_node.get_published_topics())  # wall time: the runner owns no clock
+        kill_process(runner, first_signal=signal.SIGKILL)
+        killed = time.monotonic()
+        with watch.changed:
+            moving = watch.states[-1]
+        rest = watch.resting_positions()
+    finally:
+        kill_process(runner)
+    assert runner.returncode == -signal.SIGKILL and time.monotonic() - killed > 0
+    assert max(abs(v) for v in moving.velocity) > 0.01  # it was killed in motion
+    distance = hand_distance(rest)
+    assert distance == pytest.approx(standoff, abs=0.005) and not math.isnan(distance)
+
+
+def test_check_safety_refuses_a_plan_beyond_the_pandas_limits_or_under_the_floor(tmp_path: Path) -> None:
+    design = tmp_path / "design.yaml"
+    design.write_text(
+        "test1: {paths: [vertical], standoffs: [0.15], peak_speed: 0.15, sesoi: 0.05}\n"
+        "test2: {paths: [vertical], speed_sets: {fast: 0.3}, sesoi: 0.02}\n"
+    )
+
+    def check(*options: str) -> subprocess.CompletedProcess[str]:
+        command = [PYTHON, "-m", "sim.study", "check", "--design", str(design), "--safety", *options]
+        return subprocess.run(command, cwd=REPO, env=plain_env(), capture_output=True, text=True, timeout=120)
+
+    passed = check()
+    assert passed.returncode == 0 and "within panda's limits (URDF and Franka" in passed.stdout, passed.stderr
+    # 5 % of the Panda's acceleration limits: refused, one line per limit, naming it
+    refused = check("--margin", "0.05")
+    lines = [line for line in refused.stdout.splitlines() if line.startswith("refused: ")]
+    assert refused.returncode == 2 and "sim.study check: error: " in refused.stderr.splitlines()[-1]
+    assert any(" acceleration " in line and "5% of its limit 7.5 (URDF and Franka" in line for line in lines)
+    floor = check("--floor", "0.05")
+    assert floor.returncode == 2
+    assert "refused: vertical to 0.02 m at 0.3 m/s: comes 0.0200 m from the hand, under the floor of 0.05 m" in (
+        floor.stdout
+    )
+
+
+@pytest.mark.parametrize(
+    ("options", "said"),
+    [
+        (["--link", "reality=franka_ros"], "runs on wall time: give --realtime"),
+        (["--realtime", "--link", "reality=franka"], "is neither stream, a preset"),
+        (["--realtime", "--link", "reality=franka_ros", "--rehearsal-speed", "2"], "--rehearsal-speed must be"),
+    ],
+)
+def test_a_link_the_runner_cannot_use_is_one_line_and_exit_2(tmp_path: Path, options: list[str], said: str) -> None:
+    plan = write_plan(tmp_path / "plan.yaml", 9, "reality", [trial(1, "reality", 1, "vertical", 0.1, 0.2)])
+    command = [PYTHON, "-m", "sim.study", "run", "--plan", str(plan), "--out", str(tmp_path / "out"), *options]
+    done = subprocess.run(command, cwd=REPO, env=plain_env(), capture_output=True, text=True, timeout=60)
+    errors = [line for line in done.stderr.splitlines() if line.startswith("sim.study run: error: ")]
+    assert done.returncode == 2 and len(errors) == 1 and said in errors[0], done.stderr

@@ -1,0 +1,33 @@
+"""sim.study.analysis.links on records of known values: per condition on a trajectory controller, the tracking
+error, the press-to-braking latencies and the braking distance planned against achieved; nothing for the stream."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+from sim.study.analysis.links import link_lines
+from tests.unit.sim.study.analysis.test_latency import PRESS
+
+LINK = "franka_ros (/position_joint_trajectory_controller)"
+
+
+def test_only_conditions_on_a_trajectory_controller_are_reported_with_their_measures() -> None:
+    assert link_lines([PRESS]) == []  # the stream's rows say nothing of a controller
+    reality = [
+        replace(
+            PRESS, condition="reality", index=k, link=LINK, goal_result="SUCCEEDED", error_code=0,
+            tracking_error=0.002 * k, replacement_latency=0.001 * k, braking_latency=0.030 + 0.001 * k,
+            braking_distance=0.020, braking_distance_achieved=0.020 + 0.001 * k,
+        )
+        for k in (1, 2, 3)
+    ]  # fmt: skip
+    stopped = replace(reality[0], index=4, pressed=False, goal_result="ABORTED", safety_stop="tracking error 0.2 rad")
+    lines = link_lines([PRESS, *reality, stopped])
+    (row,) = [line for line in lines if line.startswith("| reality |")]
+    cells = [cell.strip() for cell in row.strip("|").split("|")]
+    assert cells[:4] == ["reality", LINK, "4", "3 SUCCEEDED, 1 ABORTED"]
+    assert cells[5] == "2.0 / 2.9"  # to the replacement, ms: the pressed trials' 1, 2, 3
+    assert cells[6] == "32.0 / 32.9"
+    assert cells[7:11] == ["20.0 / 20.0", "22.0 / 22.9", "2.0 / 2.9", "1"]
+    assert not any(line.startswith("| vr |") for line in lines)
+    assert lines[-2] == "The runner stopped the arm on its own in trial 4 of participant 1: tracking error 0.2 rad."
