@@ -96,16 +96,18 @@ def test_preregister_writes_the_summary_of_the_design_it_read(tmp_path):
 
     out = tmp_path / "prereg.md"
     command = [PYTHON, "-m", "sim.study", "preregister", "--participants", "8,12", "--simulations", "40"]
-    result = subprocess.run(
-        [*command, "--out", str(out)], cwd=tmp_path, env=plain_env(), capture_output=True, text=True, timeout=300
-    )
-    assert result.returncode == 0, result.stderr
+    process = ManagedProcess([*command, "--out", str(out)], plain_env(), tmp_path, "preregister")  # as power's
+    try:
+        code = process.wait(300)
+    finally:
+        process.stop()
+    assert code == 0, process.output()[-3000:]
     text = out.read_text()
     bundled = REPO / "sim" / "study" / "design" / "design.yaml"
     assert f"SHA-256 `{hashlib.sha256(bundled.read_bytes()).hexdigest()}`" in text
     assert text.startswith("# Pre-registration: VR against reality") and "## Decision rules" in text
     planned = "(planned: none of the sizes tried)" if "No size tried" in text else "(planned: "
-    assert planned in result.stdout
+    assert planned in process.output()
     for args, fragment in (
         (["--simulations", "0"], "simulations must be 1..100000, got 0"),
         (["--participants", "2,8"], "must be 4..500"),
