@@ -54,15 +54,28 @@ run() {  # run PYTHON ROLE LANE... -- PYTEST_ARGS...: the tests of those lanes t
 # starved of CPU; and a starved endpoint forwarded a lockstep step's /clock before its command (two topics, two
 # connections).
 
-# The endpoint's lane (in the background, its output shown after the foreground's) on 3.8, then the unit lane on
-# 3.10 and the unit and beside lanes on 3.8, which it has time for while the foreground runs the unit and beside
-# lanes on the project's Python (the longest: the benches' smoke tests and the study's command lines are there).
+# The endpoint's lane (in the background, its output shown after the foreground's) on 3.8, with the unit lane on
+# 3.10 beside it (the endpoint's tests use about half a core: ~105 CPU-s in their ~215 s), then the unit and beside
+# lanes on 3.8, which it has time for while the foreground runs the unit and beside lanes on the project's Python
+# (the longest: the benches' smoke tests and the study's command lines are there).
 endpoint_log="$(mktemp)"
-trap 'rm -rf "$endpoint_log" "$VR_SIM_CACHE"' EXIT
+jammy_log="$(mktemp)"
+trap 'rm -rf "$endpoint_log" "$jammy_log" "$VR_SIM_CACHE"' EXIT
 (
   status=0
+  jammy_lane=""
+  if [ -n "$python310" ]; then
+    (
+      run "$python310" jammy unit -- "$@"
+      exit "$status"
+    ) >"$jammy_log" 2>&1 &
+    jammy_lane=$!
+  fi
   run .venv38/bin/python noetic endpoint -- "$@"
-  if [ -n "$python310" ]; then run "$python310" jammy unit -- "$@"; fi
+  if [ -n "$jammy_lane" ]; then
+    wait "$jammy_lane" || status=$?
+    cat "$jammy_log"
+  fi
   run .venv38/bin/python noetic unit beside -- "$@"
   exit "$status"
 ) >"$endpoint_log" 2>&1 &

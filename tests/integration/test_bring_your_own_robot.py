@@ -17,6 +17,8 @@ from tests.integration.sim_helpers import mean_of, report_rows, run_campaign
 from tests.robot_files import LIFT_ARM, PANDA_WITH_HAND, THIRD_PARTY_URDFS, write_gripper_arm
 from tests.rosenv import PYTHON, REPO
 
+# A campaign over ROS records its bags alone (test.sh); what runs no robot through ROS (bad robots refused before
+# anything starts, the CSV mode, the no_ros campaign) runs in the beside lane instead.
 pytestmark = pytest.mark.lane("alone", on=("project",))
 
 ENTRY_POINTS = {
@@ -62,6 +64,7 @@ def bad_robots(tmp_path: Path) -> dict[str, tuple[str, str]]:
     }
 
 
+@pytest.mark.lane("beside", on=("project",))
 @pytest.mark.parametrize("module", sorted(ENTRY_POINTS))
 def test_a_bad_urdf_is_one_clear_line_and_exit_2_from_every_entry_point(tmp_path, module):
     # Every kind of bad robot through sim.robots; the others share its loader (robot_from_args): one kind each.
@@ -81,6 +84,7 @@ def test_a_bad_urdf_is_one_clear_line_and_exit_2_from_every_entry_point(tmp_path
         assert len(errors) == 1 and message in errors[0], (name, done.stderr)
 
 
+@pytest.mark.lane("beside", on=("project",))
 def test_the_campaign_refuses_a_bad_robot_before_running_anything(tmp_path):
     robot, message = bad_robots(tmp_path)["ambiguous_ee"]
     done = subprocess.run(
@@ -100,6 +104,7 @@ def test_the_campaign_refuses_a_bad_robot_before_running_anything(tmp_path):
     assert twice.returncode == 2 and "two robots are named lift_arm" in twice.stderr
 
 
+@pytest.mark.lane("beside", on=("project",))
 @pytest.mark.parametrize("name", sorted(THIRD_PARTY_URDFS))
 def test_the_trial_exports_and_replays_in_every_physics_mode(tmp_path, name):
     """Commander export and the engine's CSV mode (every mode) on a robot that is not ours; the trial tracks within
@@ -173,6 +178,7 @@ def test_a_short_campaign_runs_on_robots_that_are_not_ours_and_on_arms_with_a_gr
     assert (tmp_path / "out" / "bags" / "lift_arm_auto_simulate_off_1.bag").is_file()
 
 
+@pytest.mark.lane("beside", on=("project",))
 def test_the_campaign_takes_the_overrides_every_command_takes(tmp_path: Path) -> None:
     """`sim.trials` accepts --ee-link (and --base-link, --name, --home) as the other commands do, for one robot; with
     several it says where their overrides go, in one line, exit 2."""

@@ -22,6 +22,8 @@ from sim.launchers import PhysicsNode, start, wait_ready
 from sim.robots import load_robot
 from tests.rosenv import PYTHON, REPO, wait_for
 
+# The commander's runs against the engines alone (test.sh); a refused command line and the CSV export, which run
+# no robot through ROS, in the beside lane.
 pytestmark = pytest.mark.lane("alone", on=("noetic",))
 
 DT = 0.02
@@ -339,12 +341,14 @@ def test_missing_partner_is_a_clear_error(roscore, ros_node, engines):
     assert "no engine after 1 s" in done.stderr and "/nobody_here (not registered)" in done.stderr
 
 
+@pytest.mark.lane("beside", on=("noetic",))
 def test_bad_input_names_the_problem(roscore, ros_node):
     done = run_commander(roscore, ros_node, ["--robot", "panda", "--scenario", "single", "--positions", "1", "2"])
     assert done.returncode == 2
     assert "needs 7 values, got 2" in done.stderr
 
 
+@pytest.mark.lane("beside", on=("noetic",))
 @pytest.mark.parametrize("robot_name, scenario", [("panda", "one_joint"), ("igt", "sweep"), ("panda", "ik_cartesian")])
 def test_export_round_trips_through_the_engines_csv_mode(tmp_path, robot_name, scenario):
     robot = load_robot(robot_name)

@@ -11,23 +11,26 @@ from pathlib import Path
 
 import pytest
 
-from sim.processes import PYTHON, REPO, plain_env
+from sim.processes import PYTHON, REPO, ManagedProcess, plain_env
 
 pytestmark = pytest.mark.lane("beside", on=("project",))
 
 
 def power(tmp_path: Path, *args: str) -> dict:
+    """`python -m sim.study power ARGS --json`'s rows, once it has exited 0. It runs in its own process group, and
+    stopping it stops its pool's workers too: a run killed at its timeout by subprocess.run left them computing, for
+    a quarter of an hour on a loaded machine, beside the rest of the suite."""
     out = tmp_path / "power.json"
-    result = subprocess.run(
-        [PYTHON, "-m", "sim.study", "power", *args, "--json", str(out)],
-        cwd=tmp_path,
-        env=plain_env(),
-        capture_output=True,
-        text=True,
-        timeout=300,
+    process = ManagedProcess(
+        [PYTHON, "-m", "sim.study", "power", *args, "--json", str(out)], plain_env(), tmp_path, "power"
     )
-    assert result.returncode == 0, result.stderr
-    assert f"rows: {out}" in result.stdout and out.with_suffix(".png").stat().st_size > 10_000
+    try:
+        code = process.wait(300)
+    finally:
+        process.stop()
+    output = process.output()
+    assert code == 0, output[-3000:]
+    assert f"rows: {out}" in output and out.with_suffix(".png").stat().st_size > 10_000
     return json.loads(out.read_text())
 
 
@@ -93,16 +96,18 @@ def test_preregister_writes_the_summary_of_the_design_it_read(tmp_path):
 
     out = tmp_path / "prereg.md"
     command = [PYTHON, "-m", "sim.study", "preregister", "--participants", "8,12", "--simulations", "40"]
-    result = subprocess.run(
-        [*command, "--out", str(out)], cwd=tmp_path, env=plain_env(), capture_output=True, text=True, timeout=300
-    )
-    assert result.returncode == 0, result.stderr
+    process = ManagedProcess([*command, "--out", str(out)], plain_env(), tmp_path, "preregister")  # as power's
+    try:
+        code = process.wait(300)
+    finally:
+        process.stop()
+    assert code == 0, process.output()[-3000:]
     text = out.read_text()
     bundled = REPO / "sim" / "study" / "design" / "design.yaml"
     assert f"SHA-256 `{hashlib.sha256(bundled.read_bytes()).hexdigest()}`" in text
     assert text.startswith("# Pre-registration: VR against reality") and "## Decision rules" in text
     planned = "(planned: none of the sizes tried)" if "No size tried" in text else "(planned: "
-    assert planned in result.stdout
+    assert planned in process.output()
     for args, fragment in (
         (["--simulations", "0"], "simulations must be 1..100000, got 0"),
         (["--participants", "2,8"], "must be 4..500"),

@@ -322,6 +322,14 @@ def test_simulated_participants_run_the_study_and_the_analysis_recovers_their_bi
         assert derived in log.read_text(), log
 
 
+# The trials around the questionnaires: two of each test a block (8 a participant); what is asked between the blocks
+# does not depend on how many trials they hold, and the biases are the 14-trial study's above
+QUESTIONNAIRE_TRIALS = {
+    "test1": {"paths": ["straight"], "standoffs": [0.08, 0.14], "peak_speed": 0.15, "sesoi": 0.05},
+    "test2": {"paths": ["straight"], "speed_sets": {"slow": 0.2, "fast": 0.3}, "sesoi": 0.02},
+}
+
+
 # In lockstep, as the simulated study above: beside other work
 @pytest.mark.lane("beside", on=("project",))
 def test_simulated_participants_answer_the_planned_questionnaires_and_the_report_scores_them(tmp_path: Path) -> None:
@@ -347,7 +355,7 @@ def test_simulated_participants_answer_the_planned_questionnaires_and_the_report
             }
         },
     }
-    design = {**SMALL_DESIGN, "questionnaires": questionnaires}
+    design = {**QUESTIONNAIRE_TRIALS, "questionnaires": questionnaires}
     truths = ["--ssq-level", "0", "--vr-ssq-rise", "1.0"]
     out = simulate_small_study(tmp_path, participants=2, seed=5, extra=truths, design=design)
     plan = plan_from_data(yaml.safe_load((out / "plans" / "participant_01.yaml").read_text()))
