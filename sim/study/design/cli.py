@@ -58,7 +58,7 @@ def plan_command(args: argparse.Namespace) -> int:
 
 
 def check_command(args: argparse.Namespace) -> int:
-    from sim.study.design.feasibility import plan_combinations, remedies
+    from sim.study.design.feasibility import CONSTRAINTS, plan_combinations, remedies
 
     check_positive(args.dt, "--dt")
     design = load_design(args.design)
@@ -67,15 +67,20 @@ def check_command(args: argparse.Namespace) -> int:
     started = time.monotonic()
     approaches = plan_combinations(robot, scene, [(t.path, t.standoff, t.peak_speed) for t in plan.trials], args.dt)
     elapsed = time.monotonic() - started
-    print("| path | stand-off | peak speed | samples | duration | clearance table / hand | verdict |")
-    print("|---|---|---|---|---|---|---|")
+    if scene.approach_scale != 1.0:
+        print(
+            f"the paths' shapes (starts and via points, from the hand) × {scene.approach_scale:g}, for "
+            f"{robot.name}'s reach; stand-offs, speeds and directions as the design gives them"
+        )
+    print("| path | stand-off | peak speed | samples | duration | clearance table / hand | IK kept | verdict |")
+    print("|---|---|---|---|---|---|---|---|")
     for (path, standoff, speed), planned in approaches.items():
         clearance = planned.min_clearance
         verdict = "feasible" if planned.feasible else "; ".join(planned.problems)
         print(
             f"| {path} | {standoff:.3f} m | {speed:.2f} m/s | {len(planned.path.times)} | "
             f"{planned.path.duration:.2f} s | {clearance['table'] * 1000:.0f} / {clearance['hand'] * 1000:.0f} mm | "
-            f"{verdict} |"
+            f"{CONSTRAINTS[planned.constraints]} | {verdict} |"
         )
     print(f"{len(approaches)} combinations planned in {elapsed:.1f} s")
     infeasible = [key for key, planned in approaches.items() if not planned.feasible]
@@ -106,6 +111,12 @@ def scene_command(args: argparse.Namespace) -> int:
         f"# The study's scene for {robot.name}, proposed by python -m sim.study scene: its reach is "
         f"{fit.proportions.reach:.2f} m from its shoulder, {fit.proportions.shoulder[2]:.2f} m above its base;\n"
         f"# {chosen.label}. Every combination of the design ({len(combinations)}) was planned and checked in it.\n"
+        + (
+            f"# The paths' shapes are made smaller for the arm: × {fit.scene.approach_scale:g} (approach_scale); "
+            "stand-offs, speeds and directions as the design gives them.\n"
+            if fit.scene.approach_scale != 1.0
+            else ""
+        )
     )
     text = header + yaml.safe_dump(scene_to_data(fit.scene), sort_keys=False)
     if args.out is None:

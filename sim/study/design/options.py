@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 from sim.robots import RobotSpec, add_robot_overrides, overrides_from_args
@@ -44,4 +45,10 @@ def scene_and_robot(args: argparse.Namespace) -> tuple[Scene, RobotSpec]:
     scene's gets the scene proposed for it (sim.study.design.fit)."""
     from sim.study.design.fit import scene_for  # pybullet: only for the commands that need a scene
 
-    return scene_for(args.scene, args.robot, overrides_from_args(args))
+    return scene_for(args.scene, args.robot, overrides_from_args(args), progress=_progress)
+
+
+def _progress(line: str) -> None:
+    """A scene being proposed shows each candidate tried, on a terminal (a pipe or a log gets the result alone)."""
+    if sys.stderr.isatty():
+        print(f"tried {line}", file=sys.stderr, flush=True)

@@ -150,8 +150,8 @@ def parse_scene(data: object, source: str = "scene") -> Scene:
     if distance not in DISTANCES:
         raise DesignError(f"{source}: distance must be one of {', '.join(DISTANCES)}, got {distance!r}")
     scale = data.get("approach_scale", 1.0)
-    if not (isinstance(scale, (int, float)) and not isinstance(scale, bool) and 0.5 <= scale <= 2.0):
-        raise DesignError(f"{source}: approach_scale must be a number from 0.5 to 2, got {scale!r}")
+    if not (isinstance(scale, (int, float)) and not isinstance(scale, bool) and 0.3 <= scale <= 2.0):
+        raise DesignError(f"{source}: approach_scale must be a number from 0.3 to 2, got {scale!r}")
     scene = Scene(
         robot,
         ee_link,

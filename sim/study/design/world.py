@@ -122,6 +122,25 @@ class SceneWorld:
         result["self"] = self._self_clearance()
         return result
 
+    def nearest_links(self, q: np.ndarray, what: str) -> str:
+        """Which links are nearest where `what` ("table", "hand" or "self") is at joint positions q: "a and b" for the
+        robot's own pair, else the robot's link."""
+        self._set(q)
+        cid, body, names = self._client, self._body, link_names(self._body, self._client)
+        if what == "self":
+            found = [
+                (float(c[8]), a, b)
+                for a, b in self._checked
+                for c in p.getClosestPoints(body, body, CONTACT_MARGIN, a, b, physicsClientId=cid)
+            ]
+            if not found:
+                return "no two links"
+            _, a, b = min(found)
+            return f"{names[a + 1]} and {names[b + 1]}"
+        points = p.getClosestPoints(body, self._obstacles[what], FAR, physicsClientId=cid)
+        nearest = min((c for c in points if c[3] in self._moving), key=lambda c: c[8], default=None)
+        return "no link" if nearest is None else names[nearest[3] + 1]
+
     def base_bottom(self) -> float:
         """The lowest point (world z) of the robot's base link, where it is mounted; its origin's without shapes."""
         if not p.getCollisionShapeData(self._body, -1, physicsClientId=self._client):
