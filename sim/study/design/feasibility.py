@@ -107,22 +107,44 @@ def remedies(approaches: Iterable[PlannedApproach]) -> str:
 def _solve_branch(
     chain: KinematicChain, targets: np.ndarray, home: np.ndarray, weights: tuple[float, ...]
 ) -> PathIKResult:
-    """One IK branch along `targets`: the first sample solved from home and from _BRANCH_SEEDS random seeds. Of the
+    """One IK branch along `targets`: the first sample's solution (_branch_start), then each sample warm-started
+    from the one before."""
+    return solve_path_ik(chain, targets, _branch_start(chain, targets[0], home, weights), weights=weights)
+
+
+# The first samples' solutions already found, by chain, target, home and weights: the combinations of one path share
+# its start (they differ in stand-off and speed), so a scene's ~40 approaches have some five starts
+_STARTS: dict[tuple[int, bytes, bytes, tuple[float, ...]], np.ndarray] = {}
+_STARTS_KEPT = 4096
+
+
+def _branch_start(
+    chain: KinematicChain, target: np.ndarray, home: np.ndarray, weights: tuple[float, ...]
+) -> np.ndarray:
+    """Where an approach's branch starts: `target` solved from home and from _BRANCH_SEEDS random seeds. Of the
     solutions that keep every joint on the target's side of the base (none reaching over the arm's own head), the
-    one standing highest (elbow up, away from the table) is kept, home's where it stands within a centimetre of it;
-    then each sample is warm-started from the one before."""
+    one standing highest (elbow up, away from the table) is kept, home's where it stands within a centimetre of it.
+    Where none solves, the best of _IK_RESTARTS more random restarts (as a lone IK would try)."""
+    key = (id(chain), target.tobytes(), home.tobytes(), tuple(weights))
+    if key in _STARTS:
+        return _STARTS[key].copy()
     rng = np.random.default_rng(0)
     lower, upper = np.maximum(chain.lower, -np.pi), np.minimum(chain.upper, np.pi)
     seeds = [home] + [rng.uniform(lower, upper) for _ in range(_BRANCH_SEEDS)]
-    found = [solve_ik(chain, targets[0], seed, weights=weights) for seed in seeds]
+    found = [solve_ik(chain, target, seed, weights=weights) for seed in seeds]
     solved = [result for result in found if result.success]
-    towards = targets[0, :2, 3] / max(float(np.linalg.norm(targets[0, :2, 3])), 1e-9)
+    towards = target[:2, 3] / max(float(np.linalg.norm(target[:2, 3])), 1e-9)
     facing = [result for result in solved if _behind(chain, result.q, towards) <= _BEHIND]
     first = found[0]
     for result in facing or solved:
         if not first.success or _height(chain, result.q) > _height(chain, first.q) + 0.01:
             first = result
-    return solve_path_ik(chain, targets, first.q, weights=weights)
+    if not first.success:
+        first = solve_ik(chain, target, home, weights=weights, restarts=_IK_RESTARTS, rng=0)
+    if len(_STARTS) >= _STARTS_KEPT:
+        _STARTS.clear()
+    _STARTS[key] = first.q.copy()
+    return first.q
 
 
 def _height(chain: KinematicChain, q: np.ndarray) -> float:

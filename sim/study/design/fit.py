@@ -3,8 +3,8 @@ every combination of the design can be run. `python -m sim.study scene --robot X
 a study command given --robot and no --scene uses the same proposal (computed once per robot and design, kept in
 the cache beside the self-contact verdicts).
 
-How. The bundled scene (the thesis's Panda) is tried first, with this robot on its base: as it is, then with the
-paths sized to the arm (below). Then the hand goes out
+How. The bundled scene (the thesis's Panda) is tried first, with this robot on its base, as it is. Then the hand goes
+out
 from the base along x at a fraction of the arm's reach (from its shoulder, the first joint about a horizontal
 axis), on a table whose top is at the robot's mounting (the bottom of its base link) or a fraction of the reach
 lower, in the order of how close each candidate is to the Panda's
@@ -12,7 +12,8 @@ own proportions. The table keeps its size beyond the base and the hand, and the 
 beside the hand. The robot's base stays at the origin: it is the URDF's mounting, high or low.
 
 The paths' shapes (their starts and via points, from the hand) are tried at the thesis's size on every placement,
-then at 0.85 and 0.7 of it; only for an arm that fits none of those (a small one) are they sized to it (path_scale):
+then at 0.85 and 0.7 of it; only for an arm that fits none of those (a small one) are they sized to it (path_scale),
+the bundled scene first:
 scaled down, in steps of 0.05 from 1 to 0.3, until at every start and via point the wrist (the tool's length above
 it, the tool pointing down) lies within SIZE_FRACTION of the wrist's reach (the arm's less the tool) from the
 shoulder, and NEAR_FRACTION of it or more out from the shoulder's vertical axis. Stand-offs, speeds, approach
@@ -228,8 +229,6 @@ def fit_scene(
     names = list(dict.fromkeys(name for name, _, _ in combinations))
     sized = dataclasses.replace(bundled, approach_scale=path_scale(bundled, found, names))
     candidates = [("the bundled scene", bundled)]  # the thesis's paths, whole, where the arm can do them there
-    if sized.approach_scale != bundled.approach_scale:
-        candidates.append(("the bundled scene" + _scaled(sized), sized))
     with SceneWorld(robot, template) as world:
         mount = world.base_bottom()
     pairs = sorted(
@@ -238,6 +237,8 @@ def fit_scene(
     )
     # the thesis's shapes whole, then the fixed smaller sizes, then sized to the arm (module docstring)
     for scale in (*_APPROACH_SCALES, None):
+        if scale is None and sized.approach_scale != 1.0:  # sized to the arm: only once no placement fits whole
+            candidates.append(("the bundled scene" + _scaled(sized), sized))
         for hand, drop in pairs:
             distance, top = hand * found.reach, mount - drop * found.reach
             scene = candidate_scene(template, robot, distance, top)
