@@ -70,7 +70,7 @@ def test_the_proposed_scene_is_written_with_its_reasons_and_checks_as_given(tmp_
     text = out.read_text()
     assert text.startswith("# The study's scene for lbr_iiwa, proposed by python -m sim.study scene")
     data = yaml.safe_load(text)
-    assert data["robot"] == urdf and data["distance"] == "surface" and data["base"]["xyz"] == [0.0, 0.0, 0.0]
+    assert data["robot"] == urdf and data["distance"] == "surface" and data["base"]["xyz"] == [0.0, 0.0]
     again = study(["check", "--scene", str(out), "--robot", urdf], tmp_path / "other_cache")
     assert again.returncode == 0, again.stdout[-2000:]
 

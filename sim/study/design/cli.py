@@ -101,7 +101,9 @@ def scene_command(args: argparse.Namespace) -> int:
     template = load_scene(args.scene)
     robot = scene_robot(template, args.robot, overrides_from_args(args))
     combinations = design_combinations(load_design(args.design))
-    fit = fit_scene(robot, template, combinations, args.dt, progress=lambda line: print(f"tried {line}", flush=True))
+    fit = fit_scene(
+        robot, template, combinations, args.dt, progress=lambda _done, _total, line: print(f"tried {line}", flush=True)
+    )
     if fit.scene is None:
         raise DesignError(no_fit_message(robot, fit))
     template_text = (args.scene or DEFAULT_SCENE).read_text(encoding="utf-8")

@@ -30,7 +30,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import logging
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -46,6 +46,7 @@ from sim.study.design.errors import DesignError
 from sim.study.design.feasibility import Approaches, Combination, ik_attempts
 from sim.study.design.paths import SHAPES, approach_path, hand_frame
 from sim.study.design.plan import make_plan
+from sim.study.design.progress import Progress
 from sim.study.design.scene import DEFAULT_SCENE, Box, Scene, load_scene, parse_scene, scene_robot
 from sim.study.design.spec import Design, load_design
 from sim.study.design.tool import approach_rotation, tool_axis
@@ -71,8 +72,9 @@ __all__ = [
     "scene_to_data",
 ]
 
-# of the proposal; one kept by another version is proposed again (2: the bundled scene names the arm; 3: sized paths)
-_VERSION = 3
+# of the proposal; one kept by another version is proposed again (2: the bundled scene names the arm; 3: sized paths;
+# 4: the robot on a pedestal where the table is lower than its mounting)
+_VERSION = 4
 log = logging.getLogger(__name__)
 
 # The hand's distance from the base, as fractions of the reach, the Panda's first (its bundled scene has about
@@ -144,7 +146,12 @@ def proportions(robot: RobotSpec, chain: KinematicChain) -> Proportions:
 
 
 def candidate_scene(
-    template: Scene, robot: RobotSpec, hand_distance: float, table_top: float, approach_scale: float = 1.0
+    template: Scene,
+    robot: RobotSpec,
+    hand_distance: float,
+    table_top: float,
+    approach_scale: float = 1.0,
+    footprint: tuple[float, float] = (0.2, 0.2),
 ) -> Scene:
     """`template` with the hand `hand_distance` out along x on a table whose top is at `table_top` (world z, the
     base at the origin): the table as far behind the base and beyond the hand as the template's, the seat as far
@@ -163,6 +170,12 @@ def candidate_scene(
         template.hand.yaw,
     )
     seat = hand.top + (template.seat - template.hand.top)
+    height = -table_top  # the robot stands on a pedestal of the table's drop (its `footprint`), its base at the origin
+    pedestal = (
+        Box(np.array([footprint[0], footprint[1], height]), np.array([0.0, 0.0, table_top + height / 2.0]))
+        if height > 1e-3
+        else None
+    )
     return dataclasses.replace(
         template,
         robot=scene_robot_name(robot),
@@ -173,6 +186,7 @@ def candidate_scene(
         hand=hand,
         seat=seat,
         approach_scale=approach_scale,
+        pedestal=pedestal,
     )
 
 
@@ -220,7 +234,7 @@ def fit_scene(
     template: Scene,
     combinations: Sequence[Combination],
     dt: float,
-    progress: Callable[[str], None] = lambda _line: None,
+    progress: Progress = lambda _done, _total, _line: None,
 ) -> Fit:
     """The first candidate that fits (module docstring), with every candidate tried and why it did not."""
     chain = chain_for(robot)
@@ -230,7 +244,7 @@ def fit_scene(
     sized = dataclasses.replace(bundled, approach_scale=path_scale(bundled, found, names))
     candidates = [("the bundled scene", bundled)]  # the thesis's paths, whole, where the arm can do them there
     with SceneWorld(robot, template) as world:
-        mount = world.base_bottom()
+        mount, footprint = world.base_bottom(), world.base_footprint()
     pairs = sorted(
         ((hand, drop) for hand in HAND_FRACTIONS for drop in TABLE_DROPS),
         key=lambda pair: abs(pair[0] - HAND_FRACTIONS[0]) + pair[1],
@@ -241,7 +255,7 @@ def fit_scene(
             candidates.append(("the bundled scene" + _scaled(sized), sized))
         for hand, drop in pairs:
             distance, top = hand * found.reach, mount - drop * found.reach
-            scene = candidate_scene(template, robot, distance, top)
+            scene = candidate_scene(template, robot, distance, top, footprint=footprint)
             sized_scale = path_scale(scene, found, names)
             if scale is None and sized_scale >= _APPROACH_SCALES[-1]:
                 continue  # (tried above at a size at least as large)
@@ -251,6 +265,7 @@ def fit_scene(
     tried = []
     # An arm of fewer than six joints is first offered the scenes where it keeps its tool pointing down, then any
     passes = (True, False) if len(ik_attempts(chain, robot.home, np.array([0.0, 0.0, -1.0]))) > 1 else (False,)
+    total = len(passes) * len(candidates)
     for strict in passes:
         for number, (label, scene) in enumerate(candidates, start=1):
             reason = _out_of_reach(scene, found, combinations, dt) or screen(
@@ -267,7 +282,7 @@ def fit_scene(
                         f"{speed} m/s: {approach.problems[0]}"
                     )
             tried.append(Candidate(label, scene, reason or "fits"))
-            progress(f"{label}: {reason or 'fits'}")
+            progress(len(tried), total, f"{label}: {reason or 'fits'}")
             log.info("scene %d of %d tried: %s: %s", number, len(candidates), label, reason or "fits")
             if not reason:
                 return Fit(scene, found, tried)
@@ -324,7 +339,10 @@ def scene_to_data(scene: Scene) -> dict:
     data = {
         "robot": scene.robot,
         "ee_link": scene.ee_link,
-        "base": {"xyz": _rounded(scene.base_position), "rpy": _rounded(scene.base_rpy)},
+        "base": {"xyz": _base_xyz(scene), "rpy": _rounded(scene.base_rpy)},
+        "pedestal": None
+        if scene.pedestal is None
+        else {"height": round(float(scene.pedestal.size[2]), 6), "size": _rounded(scene.pedestal.size[:2])},
         "table": box(scene.table),
         "hand": box(scene.hand),
         "seat": {"xyz": _rounded(scene.seat)},
@@ -332,6 +350,13 @@ def scene_to_data(scene: Scene) -> dict:
         "approach_scale": scene.approach_scale,
     }
     return {key: value for key, value in data.items() if value is not None}
+
+
+def _base_xyz(scene: Scene) -> list[float]:
+    """base.xyz as x, y where the robot stands on the table or its pedestal (lowering the table lowers it too)."""
+    stands_on = float(scene.table.top[2]) + (0.0 if scene.pedestal is None else float(scene.pedestal.size[2]))
+    on_top = abs(float(scene.base_position[2]) - stands_on) < 1e-6
+    return _rounded(scene.base_position[:2] if on_top else scene.base_position)
 
 
 def _rounded(values: np.ndarray) -> list[float]:
@@ -366,7 +391,7 @@ def fitted_scene(
     template_text: str,
     combinations: Sequence[Combination],
     dt: float,
-    progress: Callable[[str], None] = lambda _line: None,
+    progress: Progress = lambda _done, _total, _line: None,
 ) -> Scene:
     """The proposal for `robot`, from the cache when this robot, template and design were fitted before;
     DesignError, in one line, when nothing fits."""
@@ -400,7 +425,7 @@ def scene_for(
     scene_path: Path | None,
     robot: str | None,
     overrides: Mapping[str, Any] | None = None,
-    progress: Callable[[str], None] = lambda _line: None,
+    progress: Progress = lambda _done, _total, _line: None,
 ) -> tuple[Scene, RobotSpec]:
     """A study command's scene and robot: the given scene file's; else the bundled scene with its robot; else, for
     another robot (--robot), the scene proposed for it and the bundled design (fitted_scene, at the default step)."""
