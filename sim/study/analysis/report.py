@@ -9,7 +9,7 @@ fit."""
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -191,9 +191,10 @@ def _markdown(
     questionnaires: QuestionnaireSummary | None,
     modelled: bool,
     trackers: TrackerSummary | None = None,
+    notes: Sequence[str] = (),
 ) -> str:
     flag = keyboard_flag(latency)  # first, as it biases the contrast
-    lines = [f"# {title}", "", *([flag, ""] if flag else [])]
+    lines = [f"# {title}", "", *([flag, ""] if flag else []), *(line for note in notes for line in (note, ""))]
     if summary.pilot:
         lines += _pilot_lines(summary, modelled)
         if summary.extrapolation_error is not None:
@@ -398,11 +399,12 @@ def write_report(
     sesoi: Mapping[int, float] | None = None,
     questionnaires: QuestionnaireSummary | None = None,
     trackers: TrackerSummary | None = None,
+    notes: Sequence[str] = (),
 ) -> Path:
     """report.md and its plots in `out`; with `sesoi` (per test, the design's), the verdicts, mixed models (the
     withdrawal's among them) and Bland–Altman plot too; with `questionnaires`, their section; with `trackers` (the
-    sessions' pose sources), which tracked each condition and the caveat when they differ. AnalysisError when the
-    records cannot be analysed."""
+    sessions' pose sources), which tracked each condition and the caveat when they differ; `notes`, paragraphs
+    under the title (what the scene changed for the arm). AnalysisError when the records cannot be analysed."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -418,5 +420,7 @@ def write_report(
     # the withdrawal's mixed model with the design's, as the full analysis is asked for with the design
     motion = summarise_motion(records, model=sesoi is not None)
     latency = summarise_latency(records)
-    report.write_text(_markdown(summary, latency, motion, plots, title, questionnaires, sesoi is not None, trackers))
+    report.write_text(
+        _markdown(summary, latency, motion, plots, title, questionnaires, sesoi is not None, trackers, notes)
+    )
     return report

@@ -15,7 +15,7 @@ from sim.study.checks import check_positive
 from sim.study.design.errors import DesignError
 from sim.study.design.options import add_design_option, add_scene_options, scene_and_robot
 from sim.study.design.plan import make_plan, plan_to_data, printable
-from sim.study.design.scene import DEFAULT_SCENE, load_scene, scene_robot
+from sim.study.design.scene import DEFAULT_SCENE, load_scene, scaling_note, scene_robot
 from sim.study.design.spec import load_design
 
 __all__ = ["register"]
@@ -67,11 +67,8 @@ def check_command(args: argparse.Namespace) -> int:
     started = time.monotonic()
     approaches = plan_combinations(robot, scene, [(t.path, t.standoff, t.peak_speed) for t in plan.trials], args.dt)
     elapsed = time.monotonic() - started
-    if scene.approach_scale != 1.0:
-        print(
-            f"the paths' shapes (starts and via points, from the hand) × {scene.approach_scale:g}, for "
-            f"{robot.name}'s reach; stand-offs, speeds and directions as the design gives them"
-        )
+    if scaling_note(scene):
+        print(f"{robot.name}: {scaling_note(scene)}")
     print("| path | stand-off | peak speed | samples | duration | clearance table / hand | IK kept | verdict |")
     print("|---|---|---|---|---|---|---|---|")
     for (path, standoff, speed), planned in approaches.items():
@@ -113,12 +110,7 @@ def scene_command(args: argparse.Namespace) -> int:
         f"# The study's scene for {robot.name}, proposed by python -m sim.study scene: its reach is "
         f"{fit.proportions.reach:.2f} m from its shoulder, {fit.proportions.shoulder[2]:.2f} m above its base;\n"
         f"# {chosen.label}. Every combination of the design ({len(combinations)}) was planned and checked in it.\n"
-        + (
-            f"# The paths' shapes are made smaller for the arm: × {fit.scene.approach_scale:g} (approach_scale); "
-            "stand-offs, speeds and directions as the design gives them.\n"
-            if fit.scene.approach_scale != 1.0
-            else ""
-        )
+        + (f"# {scaling_note(fit.scene).capitalize()}.\n" if scaling_note(fit.scene) else "")
     )
     text = header + yaml.safe_dump(scene_to_data(fit.scene), sort_keys=False)
     if args.out is None:

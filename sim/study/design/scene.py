@@ -19,7 +19,7 @@ from sim.study.design.yamlfile import read_yaml
 if TYPE_CHECKING:
     from sim.geometry.kinematics import KinematicChain
 
-__all__ = ["DEFAULT_SCENE", "DISTANCES", "Box", "Scene", "parse_scene", "scene_robot", "load_scene"]
+__all__ = ["DEFAULT_SCENE", "DISTANCES", "Box", "Scene", "parse_scene", "scaling_note", "scene_robot", "load_scene"]
 
 DEFAULT_SCENE = Path(__file__).resolve().parent / "scene.yaml"
 _KEYS = ("robot", "ee_link", "base", "pedestal", "table", "hand", "seat", "distance", "approach_scale")
@@ -98,6 +98,17 @@ class Scene:
     def end_effector(self, chain: KinematicChain, positions: np.ndarray) -> np.ndarray:
         """The chain's end effector in the world at joint positions `positions` (FK, then the base pose)."""
         return self.to_world(chain.fk(positions)[:3, 3][None])[0]
+
+
+def scaling_note(scene: Scene) -> str:
+    """What of the design's paths the scene changes for its arm, in one line: "" when nothing (check, scene and the
+    report say it)."""
+    if scene.approach_scale == 1.0:
+        return ""
+    return (
+        f"the paths' shapes (their starts and via points, from the hand) are scaled × {scene.approach_scale:g} for "
+        "the arm's reach (approach_scale); stand-offs, speeds and approach directions are the design's"
+    )
 
 
 def _vector(value: object, size: int, what: str) -> np.ndarray:
