@@ -21,7 +21,8 @@ directions and the hand's place relative to the participant stay the design's an
 
 A candidate is first screened: by reach alone (each approach's start and end within the reach from the shoulder, no
 IK), then by IK of each approach's start, middle and end (cheap), then checked like `check` (every sample planned,
-limits, contacts, stand-offs); the first that passes is the proposal. An arm of fewer than six joints is offered the
+limits, contacts, stand-offs; a candidate's planning stops at its first combination that fails); the first that
+passes is the proposal. An arm of fewer than six joints is offered the
 candidates where it keeps its tool pointing down first, then all of them again where it keeps the position alone.
 """
 
@@ -272,21 +273,24 @@ def fit_scene(
                 robot, chain, scene, combinations, dt, strict
             )
             if not reason:
-                with Approaches(robot, scene, dt) as approaches:
-                    planned = approaches.plan_all(combinations)
-                failed = [(key, approach) for key, approach in planned.items() if not approach.feasible]
-                if failed:
-                    (name, standoff, speed), approach = failed[0]
-                    reason = (
-                        f"{len(failed)} of {len(planned)} combinations fail, e.g. {name} to {standoff} m at "
-                        f"{speed} m/s: {approach.problems[0]}"
-                    )
+                reason = _first_failure(robot, scene, combinations, dt)
             tried.append(Candidate(label, scene, reason or "fits"))
             progress(len(tried), total, f"{label}: {reason or 'fits'}")
             log.info("scene %d of %d tried: %s: %s", number, len(candidates), label, reason or "fits")
             if not reason:
                 return Fit(scene, found, tried)
     return Fit(None, found, tried)
+
+
+def _first_failure(robot: RobotSpec, scene: Scene, combinations: Sequence[Combination], dt: float) -> str:
+    """Why the first combination that is not feasible in `scene` is not, planned in order; "" when all are. The
+    rest are not planned: one is enough to rule the candidate out, and planning is most of a proposal's time."""
+    with Approaches(robot, scene, dt) as approaches:
+        for name, standoff, speed in dict.fromkeys(combinations):
+            approach = approaches.plan((name, standoff, speed))
+            if not approach.feasible:
+                return f"{name} to {standoff} m at {speed} m/s fails: {approach.problems[0]}"
+    return ""
 
 
 def _scaled(scene: Scene) -> str:
