@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["STUDY_ARMS", "ArmDesign", "study_arm", "write_arm"]
+__all__ = ["LAB_ARMS", "LAB_ARM_EE_LINKS", "STUDY_ARMS", "ArmDesign", "Part", "study_arm", "write_arm", "write_lab_arm"]
 
 
 @dataclass(frozen=True)
@@ -184,10 +184,290 @@ def write_arm(directory: Path, design: ArmDesign) -> Path:
 
 
 def study_arm(directory: Path, name: str) -> Path:
-    """The URDF of an arm the study tests run on, by name: one of STUDY_ARMS (written into `directory`) or a
-    third-party one (tests.robot_files.THIRD_PARTY_URDFS)."""
+    """The URDF of an arm the study tests run on, by name: one of STUDY_ARMS or LAB_ARMS (written into `directory`)
+    or a third-party one (tests.robot_files.THIRD_PARTY_URDFS)."""
     from tests.robot_files import THIRD_PARTY_URDFS
 
     if name in THIRD_PARTY_URDFS:
         return THIRD_PARTY_URDFS[name]
+    if name in LAB_ARMS:
+        return write_lab_arm(directory, name)
     return write_arm(directory, next(design for design in STUDY_ARMS if design.name == name))
+
+
+# ------------------------------------------------------------------------------------ arms labs have, as URDFs
+# Three arms in the shapes labs actually put beside a table, each written as a ROS description package would hold it
+# (<dir>/<name>_description/urdf/<name>.urdf, its meshes under meshes/ named by package:// URLs, STL collision and
+# COLLADA visual): a UR5 from Universal Robots' published DH parameters, a five-joint desktop arm and a SCARA.
+
+
+@dataclass(frozen=True)
+class Part:
+    """A link and the joint above it. `box` is its collision and visual shape, (low, high) corners in its own frame
+    (None: no shape, a frame); the joint's origin is in the parent link's frame."""
+
+    link: str
+    parent: str
+    kind: str  # "revolute", "prismatic", "continuous" or "fixed"
+    xyz: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    rpy: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    axis: str = "0 0 1"
+    limits: tuple[float, float, float] = (0.0, 0.0, 0.0)  # lower, upper, velocity
+    box: tuple[tuple[float, float, float], tuple[float, float, float]] | None = None
+    mass: float = 1.0
+    joint: str = ""  # the joint's name; "" for <link>_joint
+
+
+_TWO_PI = 2.0 * np.pi
+_UR_SPEED = 3.15  # rad/s, ur_description's
+
+# Universal Robots' DH parameters of the UR5 (d1, a2, a3, d4, d5, d6) laid out as ur_description lays its links out:
+# the shoulder offset 0.13585 m sideways, the elbow 0.1197 m back, three wrist joints, tool0 on the flange turned to
+# point out of it; the robot on base_link under a `world` root, with ur_description's `base` and `ee_link` frames
+UR5_DH = {"d1": 0.089159, "a2": 0.425, "a3": 0.39225, "d4": 0.10915, "d5": 0.09465, "d6": 0.0823}
+UR5_LIKE = (
+    Part("base_link", "world", "fixed", box=((-0.06, -0.06, 0.0), (0.06, 0.06, 0.07)), mass=4.0, joint="world_joint"),
+    Part("base", "base_link", "fixed", rpy=(0.0, 0.0, -np.pi), joint="base_link-base_fixed_joint"),
+    Part(
+        "shoulder_link",
+        "base_link",
+        "revolute",
+        (0.0, 0.0, UR5_DH["d1"]),
+        limits=(-_TWO_PI, _TWO_PI, _UR_SPEED),
+        box=((-0.055, -0.055, -0.045), (0.055, 0.075, 0.055)),
+        mass=3.7,
+        joint="shoulder_pan_joint",
+    ),
+    Part(
+        "upper_arm_link",
+        "shoulder_link",
+        "revolute",
+        (0.0, 0.13585, 0.0),
+        (0.0, np.pi / 2, 0.0),
+        "0 1 0",
+        (-_TWO_PI, _TWO_PI, _UR_SPEED),
+        ((-0.045, -0.045, -0.035), (0.045, 0.045, 0.46)),
+        8.393,
+        joint="shoulder_lift_joint",
+    ),
+    Part(
+        "forearm_link",
+        "upper_arm_link",
+        "revolute",
+        (0.0, -0.1197, UR5_DH["a2"]),
+        axis="0 1 0",
+        limits=(-np.pi, np.pi, _UR_SPEED),
+        box=((-0.04, -0.04, -0.04), (0.04, 0.04, 0.42)),
+        mass=2.275,
+        joint="elbow_joint",
+    ),
+    Part(
+        "wrist_1_link",
+        "forearm_link",
+        "revolute",
+        (0.0, 0.0, UR5_DH["a3"]),
+        (0.0, np.pi / 2, 0.0),
+        "0 1 0",
+        (-_TWO_PI, _TWO_PI, _UR_SPEED),
+        ((-0.035, -0.03, -0.035), (0.035, 0.06, 0.035)),
+        1.219,
+        joint="wrist_1_joint",
+    ),
+    Part(
+        "wrist_2_link",
+        "wrist_1_link",
+        "revolute",
+        (0.0, UR5_DH["d4"] - 0.01615, 0.0),  # ur_description's 0.093: d4 less the shoulder's and elbow's offsets
+        limits=(-_TWO_PI, _TWO_PI, _UR_SPEED),
+        box=((-0.035, -0.035, -0.03), (0.035, 0.035, 0.06)),
+        mass=1.219,
+        joint="wrist_2_joint",
+    ),
+    Part(
+        "wrist_3_link",
+        "wrist_2_link",
+        "revolute",
+        (0.0, 0.0, UR5_DH["d5"]),
+        axis="0 1 0",
+        limits=(-_TWO_PI, _TWO_PI, _UR_SPEED),
+        box=((-0.035, -0.02, -0.035), (0.035, UR5_DH["d6"], 0.035)),
+        mass=0.1879,
+        joint="wrist_3_joint",
+    ),
+    Part("ee_link", "wrist_3_link", "fixed", (0.0, UR5_DH["d6"], 0.0), (0.0, 0.0, np.pi / 2), joint="ee_fixed_joint"),
+    Part(
+        "tool0",
+        "wrist_3_link",
+        "fixed",
+        (0.0, UR5_DH["d6"], 0.0),
+        (-np.pi / 2, 0.0, 0.0),
+        joint="wrist_3_link-tool0_fixed_joint",
+    ),
+)
+
+# A five-joint desktop arm in a WidowX 200's proportions: base yaw, shoulder, elbow, wrist pitch, wrist roll (about
+# the forearm's line, x), the upper arm L-shaped (up, then a step forward), reach some 0.55 m
+WIDOWX_LIKE = (
+    Part("base_link", "world", "fixed", box=((-0.06, -0.06, 0.0), (0.06, 0.06, 0.05)), mass=0.8),
+    Part(
+        "shoulder_link",
+        "base_link",
+        "revolute",
+        (0.0, 0.0, 0.072),
+        limits=(-np.pi, np.pi, np.pi),
+        box=((-0.035, -0.035, -0.005), (0.035, 0.035, 0.03)),
+        mass=0.25,
+        joint="waist",
+    ),
+    Part(
+        "upper_arm_link",
+        "shoulder_link",
+        "revolute",
+        (0.0, 0.0, 0.039),
+        axis="0 1 0",
+        limits=(-1.88, 1.97, np.pi),
+        box=((-0.02, -0.025, -0.015), (0.02, 0.025, 0.2)),
+        mass=0.3,
+        joint="shoulder",
+    ),
+    Part(
+        "forearm_link",
+        "upper_arm_link",
+        "revolute",
+        (0.05, 0.0, 0.2),
+        axis="0 1 0",
+        limits=(-1.88, 1.62, np.pi),
+        box=((-0.02, -0.02, -0.02), (0.2, 0.02, 0.02)),
+        mass=0.2,
+        joint="elbow",
+    ),
+    Part(
+        "wrist_link",
+        "forearm_link",
+        "revolute",
+        (0.2, 0.0, 0.0),
+        axis="0 1 0",
+        limits=(-1.75, 2.15, np.pi),
+        box=((-0.015, -0.02, -0.02), (0.065, 0.02, 0.02)),
+        mass=0.1,
+        joint="wrist_angle",
+    ),
+    Part(
+        "gripper_link",
+        "wrist_link",
+        "revolute",
+        (0.065, 0.0, 0.0),
+        axis="1 0 0",
+        limits=(-np.pi, np.pi, np.pi),
+        box=((0.0, -0.03, -0.02), (0.06, 0.03, 0.02)),
+        mass=0.1,
+        joint="wrist_rotate",
+    ),
+    Part("ee_gripper_link", "gripper_link", "fixed", (0.1, 0.0, 0.0)),
+)
+
+# A SCARA with a lift: a column, a carriage on a prismatic lift, two arm links turning about z and a quill that
+# rolls about z and carries the tool downwards (reach some 0.6 m)
+SCARA_LIKE = (
+    Part("base_link", "world", "fixed", box=((-0.1, -0.1, 0.0), (0.1, 0.1, 0.8)), mass=15.0),
+    Part(
+        "carriage",
+        "base_link",
+        "prismatic",
+        (0.13, 0.0, 0.1),
+        limits=(0.0, 0.6, 0.5),
+        box=((-0.03, -0.06, 0.0), (0.05, 0.06, 0.12)),
+        mass=4.0,
+        joint="lift",
+    ),
+    Part(
+        "inner_link",
+        "carriage",
+        "revolute",
+        (0.05, 0.0, 0.06),
+        limits=(-2.5, 2.5, 2.0),
+        box=((-0.04, -0.04, -0.03), (0.34, 0.04, 0.03)),
+        mass=3.0,
+        joint="shoulder",
+    ),
+    Part(
+        "outer_link",
+        "inner_link",
+        "revolute",
+        (0.3, 0.0, -0.065),
+        limits=(-2.6, 2.6, 2.5),
+        box=((-0.035, -0.035, -0.025), (0.29, 0.035, 0.025)),
+        mass=2.0,
+        joint="elbow",
+    ),
+    Part(
+        "quill",
+        "outer_link",
+        "continuous",
+        (0.25, 0.0, -0.03),
+        limits=(0.0, 0.0, 4.0),
+        box=((-0.015, -0.015, -0.12), (0.015, 0.015, 0.0)),
+        mass=0.5,
+        joint="wrist_roll",
+    ),
+    Part("tool0", "quill", "fixed", (0.0, 0.0, -0.12), (np.pi, 0.0, 0.0)),
+)
+
+LAB_ARMS: dict[str, tuple[Part, ...]] = {"ur5_like": UR5_LIKE, "widowx_like": WIDOWX_LIKE, "scara_like": SCARA_LIKE}
+# The link a command names with --ee-link, where the URDF has more than one end (ur_description's ee_link and tool0)
+LAB_ARM_EE_LINKS = {"ur5_like": "tool0"}
+
+
+def _part_urdf(part: Part, package: str) -> tuple[str, str]:
+    """(the link's XML, the joint's XML)."""
+    shapes = ""
+    if part.box is not None:
+        low, high = np.array(part.box[0]), np.array(part.box[1])
+        centre = (low + high) / 2.0
+        inertia = part.mass * float(np.max(high - low)) ** 2 / 12 + 1e-4
+        shapes = (
+            f'<inertial><origin xyz="{centre[0]:.4f} {centre[1]:.4f} {centre[2]:.4f}"/><mass value="{part.mass}"/>'
+            f'<inertia ixx="{inertia:.6f}" ixy="0" ixz="0" iyy="{inertia:.6f}" iyz="0" izz="{inertia:.6f}"/></inertial>'
+            + f'<visual><geometry><mesh filename="package://{package}/meshes/visual/{part.link}.dae"/></geometry></visual>'
+            + f'<collision><geometry><mesh filename="package://{package}/meshes/collision/{part.link}.stl"/></geometry>'
+            + "</collision>"
+        )
+    link = f'<link name="{part.link}">{shapes}</link>'
+    xyz = " ".join(f"{v:.6f}" for v in part.xyz)
+    rpy = " ".join(f"{v:.6f}" for v in part.rpy)
+    joint = (
+        f'<joint name="{part.joint or part.link + "_joint"}" type="{part.kind}"><parent link="{part.parent}"/>'
+        f'<child link="{part.link}"/><origin xyz="{xyz}" rpy="{rpy}"/>'
+    )
+    if part.kind != "fixed":
+        lower, upper, velocity = part.limits
+        joint += f'<axis xyz="{part.axis}"/><limit lower="{lower:.6f}" upper="{upper:.6f}" velocity="{velocity}" '
+        joint += 'effort="100"/>'
+    return link, joint + "</joint>"
+
+
+def write_lab_arm(directory: Path, name: str) -> Path:
+    """Arm `name` of LAB_ARMS as a description package in `directory`: <name>_description/urdf/<name>.urdf, its
+    meshes under meshes/ named by package:// URLs (found in the package above the URDF); the URDF's path."""
+    package = f"{name}_description"
+    folder = directory / package
+    for sub in ("urdf", "meshes/collision", "meshes/visual"):
+        (folder / sub).mkdir(parents=True, exist_ok=True)
+    (folder / "package.xml").write_text(
+        f'<?xml version="1.0"?>\n<package format="2"><name>{package}</name><version>0.0.0</version>'
+        "<description>written by the tests</description><maintainer email='tests@example.org'>tests</maintainer>"
+        "<license>BSD</license><buildtool_depend>catkin</buildtool_depend></package>\n"
+    )
+    links, joints = ['<link name="world"/>'], []
+    for part in LAB_ARMS[name]:
+        link, joint = _part_urdf(part, package)
+        links.append(link)
+        joints.append(joint)
+        if part.box is not None:
+            low, high = np.array(part.box[0]), np.array(part.box[1])
+            _write_stl(folder / "meshes" / "collision" / f"{part.link}.stl", low, high)
+            _write_dae(folder / "meshes" / "visual" / f"{part.link}.dae", low, high)
+    body = "\n  ".join(links + joints)
+    path = folder / "urdf" / f"{name}.urdf"
+    path.write_text(f'<?xml version="1.0"?>\n<robot name="{name}">\n  {body}\n</robot>\n')
+    return path

@@ -92,6 +92,18 @@ def test_study_bench(tmp_path: Path) -> None:
     assert "slowest session" in output
 
 
+def test_check_bench(tmp_path: Path) -> None:
+    design = tmp_path / "design.yaml"
+    design.write_text(yaml.safe_dump(TINY_DESIGN))
+    output = run_bench(tmp_path, "check_bench", "--arms", "panda", "--design", str(design))
+    header, row = output.splitlines()[1:3]
+    assert header.split() == ["arm", "cold", "s", "cpu", "s", "warm", "s", "cpu", "s", "verdict"]
+    name, cold, cold_cpu, warm, warm_cpu, *verdict = row.split()
+    assert name == "panda" and min(float(cold), float(cold_cpu), float(warm), float(warm_cpu)) > 0
+    assert " ".join(verdict).startswith("4 combinations planned in")  # the tiny design's, every one feasible
+    assert "slowest cold check" in output
+
+
 @pytest.mark.timeout(TIMEOUT_S + 30)
 def test_vr_frame_bench(tmp_path: Path) -> None:
     output = run_bench(tmp_path, "vr_frame_bench", "--seconds", "1", "--only", "submitted")

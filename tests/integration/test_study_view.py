@@ -4,17 +4,19 @@ screenshots' pixels tell."""
 
 from __future__ import annotations
 
+import subprocess
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
+import yaml
 from PIL import Image
 
 from measuring.browser import chromium
 from sim.launchers import LiveView, Participant, Runner, finish, start, wait_ready
-from sim.processes import plain_env
+from sim.processes import PYTHON, REPO, plain_env
 from sim.study.design.paths import ON_TOP
 from sim.study.views.live import COLOURS
 from tests.integration import pixels
@@ -61,7 +63,20 @@ def test_the_live_view_shows_the_scene_the_plan_the_trail_and_the_stop(
     roscore, endpoint, browser, tmp_path: Path, arm: str, realtime: bool
 ) -> None:
     robot = "panda" if arm == "panda" else str(study_arm(tmp_path / "arms", arm))
-    robot_args = () if arm == "panda" else ("--robot", robot)  # the study's processes: the scene's robot otherwise
+    robot_args: tuple[str, ...] = ()  # the study's processes: the bundled scene's robot
+    if arm != "panda":  # the scene proposed for the arm, once, before the processes start (each would propose it)
+        scene = tmp_path / "scene.yaml"
+        proposed = subprocess.run(
+            [PYTHON, "-m", "sim.study", "scene", "--robot", robot, "--out", str(scene)],
+            cwd=REPO,
+            env=plain_env(),
+            capture_output=True,
+            text=True,
+            timeout=240,
+        )
+        assert proposed.returncode == 0, proposed.stderr[-2000:]
+        assert yaml.safe_load(scene.read_text())["approach_scale"] == 1.0  # a six-joint arm that fits the paths whole
+        robot_args = ("--robot", robot, "--scene", str(scene))
     engine = start_engine(roscore, tmp_path, robot, endpoint.port, "--no-auto-simulate")
     http = free_port()
     live_view, simulated = LiveView(endpoint.port, http, robot_args), Participant(5, 2, endpoint.port, robot_args)

@@ -34,7 +34,7 @@ from tests.integration.pixels import pixels_like
 from tests.integration.sim_helpers import start_engine
 from tests.integration.study_helpers import questionnaire, trial, write_plan
 from tests.rosenv import PYTHON, EndpointProcess, ManagedProcess, RosCore, wait_for
-from tests.study_arms import STUDY_ARMS, study_arm
+from tests.study_arms import LAB_ARM_EE_LINKS, STUDY_ARMS, study_arm
 
 PARTICIPANT = 4
 CONTROLLERS_APART = 0.12  # m
@@ -410,15 +410,18 @@ window.vrPage.page.robot.model.traverse((child) => {
 return counted;"""
 
 
-# The test arms (primitives; OBJ and COLLADA visuals) and the xArm6 (STL visuals, named by package:// URLs)
-@pytest.mark.parametrize("name", [*(design.name for design in STUDY_ARMS), "xarm6"])
+# The test arms (primitives; OBJ and COLLADA visuals), the xArm6 (STL visuals, named by package:// URLs) and the UR5
+# (COLLADA visuals in its description package, named by its tool0)
+@pytest.mark.parametrize("name", [*(design.name for design in STUDY_ARMS), "xarm6", "ur5_like"])
 def test_the_page_shows_another_arm_with_its_meshes(roscore, tmp_path: Path, name: str) -> None:
     urdf = study_arm(tmp_path, name)
+    ee_link = LAB_ARM_EE_LINKS.get(name)
     visual_meshes = urdf.read_text().count("<visual")  # each a mesh on the page, a primitive or a mesh file's
     secrets = launch_secrets()
     endpoint = EndpointProcess({**roscore.env, **secrets}, tmp_path, extra=["--websocket-port", "0"])
     try:
-        vr, url = start_vr_page(endpoint.websocket_port, tmp_path, robot=("--robot", str(urdf)), env=secrets)
+        robot = ("--robot", str(urdf), *(("--ee-link", ee_link) if ee_link else ()))
+        vr, url = start_vr_page(endpoint.websocket_port, tmp_path, robot=robot, env=secrets)
         try:
             with chromium(tmp_path / "chromium", accept_insecure_certs=True, size="800,600") as browser:
                 browser.get(url)

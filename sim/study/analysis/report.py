@@ -193,9 +193,10 @@ def _markdown(
     modelled: bool,
     trackers: TrackerSummary | None = None,
     links: Sequence[str] = (),
+    notes: Sequence[str] = (),
 ) -> str:
     flag = keyboard_flag(latency)  # first, as it biases the contrast
-    lines = [f"# {title}", "", *([flag, ""] if flag else [])]
+    lines = [f"# {title}", "", *([flag, ""] if flag else []), *(line for note in notes for line in (note, ""))]
     if summary.pilot:
         lines += _pilot_lines(summary, modelled)
         if summary.extrapolation_error is not None:
@@ -401,11 +402,12 @@ def write_report(
     sesoi: Mapping[int, float] | None = None,
     questionnaires: QuestionnaireSummary | None = None,
     trackers: TrackerSummary | None = None,
+    notes: Sequence[str] = (),
 ) -> Path:
     """report.md and its plots in `out`; with `sesoi` (per test, the design's), the verdicts, mixed models (the
     withdrawal's among them) and Bland–Altman plot too; with `questionnaires`, their section; with `trackers` (the
-    sessions' pose sources), which tracked each condition and the caveat when they differ. AnalysisError when the
-    records cannot be analysed."""
+    sessions' pose sources), which tracked each condition and the caveat when they differ; `notes`, paragraphs
+    under the title (what the scene changed for the arm). AnalysisError when the records cannot be analysed."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -423,6 +425,6 @@ def write_report(
     latency = summarise_latency(records)
     links = link_lines(records)
     report.write_text(
-        _markdown(summary, latency, motion, plots, title, questionnaires, sesoi is not None, trackers, links)
+        _markdown(summary, latency, motion, plots, title, questionnaires, sesoi is not None, trackers, links, notes)
     )
     return report

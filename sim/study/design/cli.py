@@ -16,7 +16,7 @@ from sim.study.checks import check_positive
 from sim.study.design.errors import DesignError
 from sim.study.design.options import add_design_option, add_scene_options, scene_and_robot
 from sim.study.design.plan import make_plan, plan_to_data, printable
-from sim.study.design.scene import DEFAULT_SCENE, load_scene, scene_robot
+from sim.study.design.scene import DEFAULT_SCENE, load_scene, scaling_note, scene_robot
 from sim.study.design.spec import load_design
 
 if TYPE_CHECKING:
@@ -69,7 +69,7 @@ def check_command(args: argparse.Namespace) -> int:
 def checked_combinations(args: argparse.Namespace) -> tuple[RobotSpec, dict[Combination, PlannedApproach]]:
     """Every combination of the design planned, printed as a table; DesignError when one is not feasible. The robot
     and the approaches, for checks above the design's (sim.study.safety's `check --safety`)."""
-    from sim.study.design.feasibility import plan_combinations, remedies
+    from sim.study.design.feasibility import CONSTRAINTS, plan_combinations, remedies
 
     check_positive(args.dt, "--dt")
     design = load_design(args.design)
@@ -78,15 +78,17 @@ def checked_combinations(args: argparse.Namespace) -> tuple[RobotSpec, dict[Comb
     started = time.monotonic()
     approaches = plan_combinations(robot, scene, [(t.path, t.standoff, t.peak_speed) for t in plan.trials], args.dt)
     elapsed = time.monotonic() - started
-    print("| path | stand-off | peak speed | samples | duration | clearance table / hand | verdict |")
-    print("|---|---|---|---|---|---|---|")
+    if scaling_note(scene):
+        print(f"{robot.name}: {scaling_note(scene)}")
+    print("| path | stand-off | peak speed | samples | duration | clearance table / hand | IK kept | verdict |")
+    print("|---|---|---|---|---|---|---|---|")
     for (path, standoff, speed), planned in approaches.items():
         clearance = planned.min_clearance
         verdict = "feasible" if planned.feasible else "; ".join(planned.problems)
         print(
             f"| {path} | {standoff:.3f} m | {speed:.2f} m/s | {len(planned.path.times)} | "
             f"{planned.path.duration:.2f} s | {clearance['table'] * 1000:.0f} / {clearance['hand'] * 1000:.0f} mm | "
-            f"{verdict} |"
+            f"{CONSTRAINTS[planned.constraints]} | {verdict} |"
         )
     print(f"{len(approaches)} combinations planned in {elapsed:.1f} s")
     infeasible = [key for key, planned in approaches.items() if not planned.feasible]
@@ -107,7 +109,9 @@ def scene_command(args: argparse.Namespace) -> int:
     template = load_scene(args.scene)
     robot = scene_robot(template, args.robot, overrides_from_args(args))
     combinations = design_combinations(load_design(args.design))
-    fit = fit_scene(robot, template, combinations, args.dt, progress=lambda line: print(f"tried {line}", flush=True))
+    fit = fit_scene(
+        robot, template, combinations, args.dt, progress=lambda _done, _total, line: print(f"tried {line}", flush=True)
+    )
     if fit.scene is None:
         raise DesignError(no_fit_message(robot, fit))
     template_text = (args.scene or DEFAULT_SCENE).read_text(encoding="utf-8")
@@ -117,6 +121,7 @@ def scene_command(args: argparse.Namespace) -> int:
         f"# The study's scene for {robot.name}, proposed by python -m sim.study scene: its reach is "
         f"{fit.proportions.reach:.2f} m from its shoulder, {fit.proportions.shoulder[2]:.2f} m above its base;\n"
         f"# {chosen.label}. Every combination of the design ({len(combinations)}) was planned and checked in it.\n"
+        + (f"# {scaling_note(fit.scene).capitalize()}.\n" if scaling_note(fit.scene) else "")
     )
     text = header + yaml.safe_dump(scene_to_data(fit.scene), sort_keys=False)
     if args.out is None:

@@ -43,5 +43,7 @@ def scene_and_robot(args: argparse.Namespace) -> tuple[Scene, RobotSpec]:
     """A command's scene and robot from --scene and --robot: without --scene, another robot than the bundled
     scene's gets the scene proposed for it (sim.study.design.fit)."""
     from sim.study.design.fit import scene_for  # pybullet: only for the commands that need a scene
+    from sim.study.design.progress import progress_bar
 
-    return scene_for(args.scene, args.robot, overrides_from_args(args))
+    with progress_bar("scenes tried for the arm", "scene") as progress:  # on a terminal: the proposal takes a while
+        return scene_for(args.scene, args.robot, overrides_from_args(args), progress=progress)

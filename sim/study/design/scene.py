@@ -19,10 +19,10 @@ from sim.study.design.yamlfile import read_yaml
 if TYPE_CHECKING:
     from sim.geometry.kinematics import KinematicChain
 
-__all__ = ["DEFAULT_SCENE", "DISTANCES", "Box", "Scene", "parse_scene", "scene_robot", "load_scene"]
+__all__ = ["DEFAULT_SCENE", "DISTANCES", "Box", "Scene", "parse_scene", "scaling_note", "scene_robot", "load_scene"]
 
 DEFAULT_SCENE = Path(__file__).resolve().parent / "scene.yaml"
-_KEYS = ("robot", "ee_link", "base", "table", "hand", "seat", "distance", "approach_scale")
+_KEYS = ("robot", "ee_link", "base", "pedestal", "table", "hand", "seat", "distance", "approach_scale")
 # How the robot's distance to the hand is measured: from its collision geometry's nearest point to the hand's
 # surface, or (the thesis's) from the end-effector point, e.g. the point between a gripper's fingertips.
 DISTANCES = ("surface", "ee_point")
@@ -70,6 +70,9 @@ class Scene:
     # The approach paths' shapes (their starts and via points, from the hand) scaled by this, for an arm that cannot
     # reach the thesis's; stand-offs and speeds are the design's whatever it is
     approach_scale: float = 1.0
+    # What the robot stands on, on the table top under its base, where it is mounted higher than the table (a
+    # pedestal, a stand); None: on the table itself
+    pedestal: Box | None = None
 
     @property
     def base_pose(self) -> np.ndarray:
@@ -95,6 +98,17 @@ class Scene:
     def end_effector(self, chain: KinematicChain, positions: np.ndarray) -> np.ndarray:
         """The chain's end effector in the world at joint positions `positions` (FK, then the base pose)."""
         return self.to_world(chain.fk(positions)[:3, 3][None])[0]
+
+
+def scaling_note(scene: Scene) -> str:
+    """What of the design's paths the scene changes for its arm, in one line: "" when nothing (check, scene and the
+    report say it)."""
+    if scene.approach_scale == 1.0:
+        return ""
+    return (
+        f"the paths' shapes (their starts and via points, from the hand) are scaled × {scene.approach_scale:g} for "
+        "the arm's reach (approach_scale); stand-offs, speeds and approach directions are the design's"
+    )
 
 
 def _vector(value: object, size: int, what: str) -> np.ndarray:
@@ -128,6 +142,36 @@ def _box(data: Mapping[str, Any], key: str, source: str) -> Box:
     return Box(size, _vector(entry.get("xyz"), 3, f"{source}: {key}.xyz"), float(yaw))
 
 
+def _mounting(xyz: object, pedestal: object, table: Box, yaw: float, source: str) -> tuple[np.ndarray, Box | None]:
+    """The robot's base position and what it stands on. Its base link's origin is its mounting face (as a ROS
+    description has it). base.xyz of two values (x, y): the robot stands by construction on the table top, or on the
+    `pedestal` ({height, size: [x, y]}, on the table top under the base), so that lowering the table lowers the robot
+    with it. Three values: the base exactly there (the scene says where), on a pedestal's top where one is given."""
+    if isinstance(xyz, list) and len(xyz) == 2:
+        where = _vector(xyz, 2, f"{source}: base.xyz")
+    else:
+        where = _vector(xyz, 3, f"{source}: base.xyz (x, y: the robot on the table, or x, y, z)")
+    top = float(table.top[2])
+    stand = None
+    if pedestal is not None:
+        entry = _mapping({"pedestal": pedestal}, "pedestal", ("height", "size"), source)
+        height, size = entry.get("height"), _vector(entry.get("size"), 2, f"{source}: pedestal.size")
+        if not (isinstance(height, (int, float)) and not isinstance(height, bool) and 0.0 < height < 5.0):
+            raise DesignError(f"{source}: pedestal.height must be a number of metres above 0, got {height!r}")
+        if np.any(size <= 0):
+            raise DesignError(f"{source}: pedestal.size must be > 0, got {size.tolist()}")
+        stand = Box(np.array([size[0], size[1], height]), np.array([where[0], where[1], top + height / 2.0]), yaw)
+        top += float(height)
+    if where.size == 2:
+        return np.array([where[0], where[1], top]), stand
+    if stand is not None and abs(where[2] - top) > 1e-3:
+        raise DesignError(
+            f"{source}: base.xyz puts the base at z = {where[2]:.3f} m, its pedestal's top is at z = {top:.3f} m: "
+            "give base.xyz as x, y alone to stand it on the pedestal"
+        )
+    return where, stand
+
+
 def parse_scene(data: object, source: str = "scene") -> Scene:
     """A Scene from the YAML's data; DesignError names the key and the value."""
     if not isinstance(data, dict):
@@ -150,18 +194,22 @@ def parse_scene(data: object, source: str = "scene") -> Scene:
     if distance not in DISTANCES:
         raise DesignError(f"{source}: distance must be one of {', '.join(DISTANCES)}, got {distance!r}")
     scale = data.get("approach_scale", 1.0)
-    if not (isinstance(scale, (int, float)) and not isinstance(scale, bool) and 0.5 <= scale <= 2.0):
-        raise DesignError(f"{source}: approach_scale must be a number from 0.5 to 2, got {scale!r}")
+    if not (isinstance(scale, (int, float)) and not isinstance(scale, bool) and 0.3 <= scale <= 2.0):
+        raise DesignError(f"{source}: approach_scale must be a number from 0.3 to 2, got {scale!r}")
+    table = _box(data, "table", source)
+    base_rpy = _vector(base.get("rpy", [0.0, 0.0, 0.0]), 3, f"{source}: base.rpy")
+    base_xyz, pedestal = _mounting(base.get("xyz"), data.get("pedestal"), table, float(base_rpy[2]), source)
     scene = Scene(
         robot,
         ee_link,
-        _vector(base.get("xyz"), 3, f"{source}: base.xyz"),
-        _vector(base.get("rpy", [0.0, 0.0, 0.0]), 3, f"{source}: base.rpy"),
-        _box(data, "table", source),
+        base_xyz,
+        base_rpy,
+        table,
         _box(data, "hand", source),
         _vector(seat.get("xyz"), 3, f"{source}: seat.xyz"),
         distance,
         float(scale),
+        pedestal,
     )
     table_top = scene.table.position[2] + scene.table.size[2] / 2.0
     hand_bottom = scene.hand.position[2] - scene.hand.size[2] / 2.0

@@ -58,7 +58,10 @@ class SceneWorld:
         self._moving = {
             j for j in range(p.getNumJoints(self._body, physicsClientId=cid)) if self._below(j, self._joints[0])
         }
-        self._obstacles = {"table": self._box(scene.table), "hand": self._box(scene.hand)}
+        # the pedestal the robot stands on is furniture like the table (its base resting on it is no contact: only
+        # the moving links are measured)
+        furniture = [scene.table] if scene.pedestal is None else [scene.table, scene.pedestal]
+        self._obstacles = {"table": self._boxes(furniture), "hand": self._boxes([scene.hand])}
         # A robot whose moving links have no collision shapes is measured from its end-effector point
         self._solid = any(p.getCollisionShapeData(self._body, link, physicsClientId=cid) for link in self._moving)
         # Only link pairs that can really collide are checked against each other (adjacent ones, those that touch
@@ -80,19 +83,17 @@ class SceneWorld:
             link = p.getJointInfo(self._body, link, physicsClientId=self._client)[16]  # the parent link's index
         return False
 
-    def _box(self, box: Box) -> int:
+    def _boxes(self, boxes: list[Box]) -> int:
+        """One fixed body of these boxes (world frame)."""
         cid = self._client
-        shape = p.createCollisionShape(p.GEOM_BOX, halfExtents=(box.size / 2).tolist(), physicsClientId=cid)
-        return int(
-            p.createMultiBody(
-                0.0,
-                shape,
-                -1,
-                box.position.tolist(),
-                matrix_to_quat(rpy_to_matrix(0.0, 0.0, box.yaw)).tolist(),
-                physicsClientId=cid,
-            )
+        shape = p.createCollisionShapeArray(
+            [p.GEOM_BOX] * len(boxes),
+            halfExtents=[(box.size / 2).tolist() for box in boxes],
+            collisionFramePositions=[box.position.tolist() for box in boxes],
+            collisionFrameOrientations=[matrix_to_quat(rpy_to_matrix(0.0, 0.0, box.yaw)).tolist() for box in boxes],
+            physicsClientId=cid,
         )
+        return int(p.createMultiBody(0.0, shape, -1, [0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0], physicsClientId=cid))
 
     def _set(self, q: np.ndarray) -> None:
         for joint, value in zip(self._joints, q):
@@ -122,11 +123,38 @@ class SceneWorld:
         result["self"] = self._self_clearance()
         return result
 
+    def nearest_links(self, q: np.ndarray, what: str) -> str:
+        """Which links are nearest where `what` ("table", "hand" or "self") is at joint positions q: "a and b" for the
+        robot's own pair, else the robot's link."""
+        self._set(q)
+        cid, body, names = self._client, self._body, link_names(self._body, self._client)
+        if what == "self":
+            found = [
+                (float(c[8]), a, b)
+                for a, b in self._checked
+                for c in p.getClosestPoints(body, body, CONTACT_MARGIN, a, b, physicsClientId=cid)
+            ]
+            if not found:
+                return "no two links"
+            _, a, b = min(found)
+            return f"{names[a + 1]} and {names[b + 1]}"
+        points = p.getClosestPoints(body, self._obstacles[what], FAR, physicsClientId=cid)
+        nearest = min((c for c in points if c[3] in self._moving), key=lambda c: c[8], default=None)
+        return "no link" if nearest is None else names[nearest[3] + 1]
+
     def base_bottom(self) -> float:
         """The lowest point (world z) of the robot's base link, where it is mounted; its origin's without shapes."""
         if not p.getCollisionShapeData(self._body, -1, physicsClientId=self._client):
             return float(self.scene.base_position[2])
         return float(p.getAABB(self._body, -1, physicsClientId=self._client)[0][2])
+
+    def base_footprint(self) -> tuple[float, float]:
+        """The base link's extent along world x and y (m), what a pedestal under it is as wide as; 0.2 m without
+        shapes."""
+        if not p.getCollisionShapeData(self._body, -1, physicsClientId=self._client):
+            return (0.2, 0.2)
+        low, high = p.getAABB(self._body, -1, physicsClientId=self._client)
+        return (float(high[0] - low[0]), float(high[1] - low[1]))
 
     def hand_distance(self, q: np.ndarray) -> float:
         """The robot's distance (m) to the hand at joint positions q, by the scene's definition: from its collision

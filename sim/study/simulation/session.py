@@ -22,6 +22,8 @@ from sim.study.analysis.trackers import load_trackers, summarise_trackers
 from sim.study.design.feasibility import plan_combinations, remedies
 from sim.study.design.fit import scene_for, scene_to_data
 from sim.study.design.plan import make_plan, plan_to_data
+from sim.study.design.progress import progress_bar
+from sim.study.design.scene import scaling_note
 from sim.study.design.spec import load_design
 from sim.study.errors import StudyError
 from sim.study.participants.model import KNOWN_TRUTHS, Population
@@ -65,7 +67,8 @@ def simulate(settings: Simulation, log: Callable[[str], None]) -> Path:
             f"{settings.out} already holds participant records ({earlier[0].name}, ...): choose a new directory"
         )
     design = load_design(settings.design)
-    scene, robot = scene_for(settings.scene, settings.robot, settings.robot_overrides)
+    with progress_bar("scenes tried for the arm", "scene") as progress:  # on a terminal
+        scene, robot = scene_for(settings.scene, settings.robot, settings.robot_overrides, progress)
     plans = [make_plan(design, participant, settings.seed) for participant in range(1, settings.participants + 1)]
     started = time.monotonic()
     approaches = plan_combinations(
@@ -125,4 +128,5 @@ def simulate(settings: Simulation, log: Callable[[str], None]) -> Path:
         design.sesoi,
         summarise_questionnaires(load_questionnaires(out)),
         summarise_trackers(load_trackers(out)),
+        [f"The scene for {robot.name}: {scaling_note(scene)}."] if scaling_note(scene) else [],
     )

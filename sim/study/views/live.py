@@ -77,6 +77,8 @@ class LiveView:
         self._joint_index = {name: k for k, name in enumerate(self._urdf.get_actuated_joint_names())}
         self._configuration = np.zeros(len(self._joint_index))
         self._add_box("/table", scene.table, COLOURS["table"])
+        if scene.pedestal is not None:  # what the robot stands on, the table's colour
+            self._add_box("/pedestal", scene.pedestal, COLOURS["table"])
         self._add_box("/hand", scene.hand, COLOURS["hand"])
         # from behind the participant's seat, looking at the space above the hand where the approaches end
         server.initial_camera.position = tuple(scene.seat + 0.3 * (scene.seat - scene.hand.top) + [0.0, 0.0, 0.2])

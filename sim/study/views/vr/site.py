@@ -196,6 +196,7 @@ def page_settings(robot: RobotSpec, scene: Scene) -> dict[str, Any]:
             "base": {"xyz": scene.base_position.tolist(), "quaternion_xyzw": [x, y, z, w]},
         },
         "table": _box(scene.table),
+        "pedestal": None if scene.pedestal is None else _box(scene.pedestal),  # what the robot stands on
         "hand": _box(scene.hand),
         "seat": scene.seat.tolist(),
         "topics": {

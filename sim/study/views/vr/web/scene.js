@@ -28,6 +28,7 @@ export class View {
     this.world.position.set(-seatX, -seatZ, seatY);
     this.scene.add(this.world);
     this.world.add(box(settings.table, settings.colours.table));
+    if (settings.pedestal) this.world.add(box(settings.pedestal, settings.colours.table)); // the robot stands on it
     this.world.add(box(settings.hand, settings.colours.hand));
   }
 

@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from sim.geometry.kinematics import chain_for
+from sim.study.design.errors import DesignError
 from sim.study.design.fit import candidate_scene, proportions, scene_to_data
 from sim.study.design.scene import load_scene, parse_scene, scene_robot
 
@@ -41,3 +42,33 @@ def test_a_scene_is_written_as_its_yaml_and_read_back() -> None:
     for box in ("table", "hand"):
         assert getattr(again, box).position == pytest.approx(getattr(scene, box).position, abs=1e-6)
     assert again.seat == pytest.approx(scene.seat, abs=1e-6)
+
+
+def test_a_candidate_on_a_lowered_table_stands_the_robot_on_a_pedestal_and_reads_back_so() -> None:
+    scene = candidate_scene(TEMPLATE, PANDA, 0.7, -0.1, footprint=(0.25, 0.2))
+    assert scene.pedestal is not None and np.allclose(scene.base_position, 0.0)
+    assert scene.pedestal.size == pytest.approx([0.25, 0.2, 0.1])  # from the table top up to the base
+    assert scene.pedestal.position == pytest.approx([0.0, 0.0, -0.05])
+    data = scene_to_data(scene)
+    assert data["base"]["xyz"] == [0.0, 0.0] and data["pedestal"] == {"height": 0.1, "size": [0.25, 0.2]}
+    again = parse_scene(data)
+    assert again.base_position == pytest.approx([0.0, 0.0, 0.0]) and again.pedestal is not None
+    assert again.pedestal.position == pytest.approx(scene.pedestal.position)
+    assert candidate_scene(TEMPLATE, PANDA, 0.7, 0.0).pedestal is None  # on the table itself
+
+
+def test_lowering_the_table_lowers_the_robot_standing_on_it_unless_the_scene_places_the_base() -> None:
+    data = scene_to_data(candidate_scene(TEMPLATE, PANDA, 0.7, -0.1))
+    for box in ("table", "hand"):
+        data[box]["xyz"][2] -= 0.2
+    data["seat"]["xyz"][2] -= 0.2
+    lowered = parse_scene(data)
+    assert lowered.base_position[2] == pytest.approx(-0.2) and lowered.pedestal is not None  # on its pedestal still
+    assert lowered.pedestal.position[2] == pytest.approx(-0.25)
+    data["base"]["xyz"] = [0.0, 0.0, 0.3]  # placed, not on the pedestal's top: said
+    with pytest.raises(
+        DesignError, match=r"base.xyz puts the base at z = 0.300 m, its pedestal's top is at z = -0.200"
+    ):
+        parse_scene(data)
+    del data["pedestal"]
+    assert parse_scene(data).base_position[2] == pytest.approx(0.3)  # placed there, as the scene says
