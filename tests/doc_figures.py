@@ -220,6 +220,7 @@ def _update(path: Path, figures: FigureTable) -> None:
     environ["PYTHONPATH"] = os.pathsep.join(filter(None, [str(REPO), environ.get("PYTHONPATH")]))
     with tempfile.TemporaryDirectory(prefix="doc-figures-") as scratch:
         done = subprocess.run(argv, cwd=scratch, env=environ, stdout=subprocess.PIPE, text=True)
+    print(done.stdout, end="", flush=True)  # the whole run's output, for its other figures and its verdicts
     if done.returncode != 0:
         raise ValueError(f"{figures.where}: `{figures.command}` exited {done.returncode}")
     table = printed_for(figures, markdown_tables(done.stdout))

@@ -278,7 +278,7 @@ def worst_joint_rows(results: Sequence[TrialResult]) -> list[dict[str, str]]:
             continue
         joint = max(finite, key=lambda name: finite[name][0])
         mape, lag = finite[joint]
-        lag_cell = f"{lag * 1000:.1f}" if np.isfinite(lag) else "n/a"
+        lag_cell = f"{round(lag * 1000, 1) + 0.0:.1f}" if np.isfinite(lag) else "n/a"  # + 0.0: no "-0.0"
         rows.append({"robot": robot, "use case": use_case, "joint": joint, "MAPE %": f"{mape:.3f}", "lag ms": lag_cell})
     return rows
 

@@ -108,9 +108,11 @@ def test_the_worst_joint_per_robot_and_use_case_is_the_one_of_the_highest_mean_m
         TrialResult("panda", "base", 1, {"j1": metrics(0.010, 0.001), "j2": metrics(0.030, 0.004)}, 0),
         TrialResult("panda", "base", 2, {"j1": metrics(0.050, 0.003), "j2": metrics(0.010, 0.002)}, 0),
         TrialResult("igt", "no_ros", 1, {"x": metrics(float("nan"), float("nan"))}, 0),
+        TrialResult("igt", "auto_simulate_off", 1, {"x": metrics(0.002, -0.00004)}, 0),
     ]
     assert worst_joint_rows(results) == [
         # j1's mean 0.030 over j2's 0.020, whichever trial had the highest single figure
         {"robot": "panda", "use case": "base", "joint": "j1", "MAPE %": "0.030", "lag ms": "2.0"},
         {"robot": "igt", "use case": "no_ros", "joint": "", "MAPE %": "n/a", "lag ms": "n/a"},
+        {"robot": "igt", "use case": "auto_simulate_off", "joint": "x", "MAPE %": "0.002", "lag ms": "0.0"},
     ]
