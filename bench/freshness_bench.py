@@ -20,6 +20,8 @@ images p99 <= 2 T_img + T_buf + D + one frame period, at no less than 85 % of th
 
 `--ab REVISION` runs REVISION's endpoint (a git worktree) after this tree's; `--original DIR` also runs Unity's
 original endpoint from DIR (a directory holding its `ros_tcp_endpoint` Python package), each on the same roscore.
+`--markdown` also prints README's table of the client's side (down), each side's column, the original's "not run"
+without `--original`.
 Every loop is bounded in count and time; every process is stopped by PID.
 """
 

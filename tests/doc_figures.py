@@ -244,15 +244,16 @@ def main(argv: list[str] | None = None) -> int:
         parser.error(
             f"no figure table{' of ' + repr(args.only) if args.only else ''} in {' '.join(map(str, args.update))}"
         )
+    if args.list:
+        for _, figures in chosen:
+            print(f"{figures.where}: {figures.command}")
+        return 0
     try:
         for _, figures in chosen:  # every command's variables are there before the first long run starts
             command_argv(figures.command, _environ(), sys.executable)
     except ValueError as error:
         parser.error(str(error))
     for path, figures in chosen:
-        if args.list:
-            print(f"{figures.where}: {figures.command}")
-            continue
         try:
             _update(path, figures)
         except ValueError as error:
