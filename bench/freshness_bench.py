@@ -20,6 +20,8 @@ images p99 <= 2 T_img + T_buf + D + one frame period, at no less than 85 % of th
 
 `--ab REVISION` runs REVISION's endpoint (a git worktree) after this tree's; `--original DIR` also runs Unity's
 original endpoint from DIR (a directory holding its `ros_tcp_endpoint` Python package), each on the same roscore.
+`--markdown` also prints README's table of the client's side (down), each side's column, the original's "not run"
+without `--original`.
 Every loop is bounded in count and time; every process is stopped by PID.
 """
 
@@ -292,6 +294,52 @@ def start_original(core: RosCore, log_dir: Path, source: Path) -> ManagedProcess
     return process
 
 
+ORIGINAL = "Unity's original"
+
+
+def _ages(first_ms: float, second_ms: float) -> str:
+    """Two ages in one unit: ms, or s once the larger is a second or more."""
+    if max(first_ms, second_ms) >= 1000:
+        return f"{first_ms / 1000:.1f} / {second_ms / 1000:.1f} s"
+    return f"{first_ms:.0f} / {second_ms:.0f} ms"
+
+
+def down_table(sides: list[tuple[str, dict[str, Received] | None]], bars: Bars) -> str:
+    """README's table of the client's side (down) as markdown (pure): per topic, each side's arrivals and ages, and
+    the bar; the image's median age in the first and last window. A side that did not run (None: no --original)
+    reads "not run", so the table's columns are the same with or without it."""
+    header = ["topic", *(f"{name}: received, age p50 / p99" for name, _ in sides), "bar (p99)"]
+    rows = []
+    for kind, topic, _ in DOWN:
+        cells = [topic.rsplit("/", 1)[-1]]
+        for _, received in sides:
+            got = None if received is None else received[topic]
+            if got is None or len(got.arrivals) < 2:
+                cells.append("not run" if got is None else f"{len(got.arrivals)}/{got.sent}")
+                continue
+            ages_ms = [age / 1e6 for _, age in got.arrivals]
+            start, end = got.arrivals[0][0], got.arrivals[-1][0]
+            count = f"{(len(got.arrivals) - 1) / ((end - start) / 1e9):.1f} Hz" if kind == "vga_image" else ""
+            count = count or f"{len(got.arrivals)}/{got.sent}"
+            cells.append(f"{count}, {_ages(percentile(ages_ms, 50), percentile(ages_ms, 99))}")
+        bar_s = bars.image_p99_s if kind == "vga_image" else bars.small_p99_s
+        rows.append([*cells, f"{bar_s * 1000:.0f} ms"])
+    image = DOWN[0][1]
+    creep = [f"image age p50, first / last {WINDOW_S:g} s"]
+    for _, received in sides:
+        got = None if received is None else received[image]
+        if got is None or len(got.arrivals) < 2:
+            creep.append("not run" if got is None else "")
+            continue
+        start, end = got.arrivals[0][0], got.arrivals[-1][0]
+        first = [age / 1e6 for at, age in got.arrivals if at - start <= WINDOW_S * 1e9]
+        last = [age / 1e6 for at, age in got.arrivals if end - at <= WINDOW_S * 1e9]
+        creep.append(_ages(percentile(first, 50), percentile(last, 50)))
+    rows.append([*creep, "last <= first + 10 %"])
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    return "\n".join(lines + ["| " + " | ".join(row) + " |" for row in rows])
+
+
 def print_rows(title: str, rows: list[tuple[str, str, str, bool | None]]) -> None:
     widths = [
         max(len(name) for name, _, _, _ in rows),
@@ -319,6 +367,11 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument("--only", choices=("down", "up"), help="one direction only")
     parser.add_argument("--keep-logs", action="store_true")
+    parser.add_argument(
+        "--markdown",
+        action="store_true",
+        help="also print README's table of the client's side as markdown (tests.doc_figures rewrites README with it)",
+    )
     args = parser.parse_args(argv)
     duration = args.seconds or (15.0 if args.quick else 60.0)
     if duration <= 0 or duration > 600:
@@ -342,13 +395,14 @@ def main(argv: list[str] | None = None) -> int:
             if args.ab is not None:
                 sides.append((args.ab, stack.enter_context(worktree_of(args.ab))))
             if args.original is not None:
-                sides.append(("Unity's original", args.original))
+                sides.append((ORIGINAL, args.original))
+            downs: dict[str, dict[str, Received]] = {}
             for index, (name, where) in enumerate(sides):
                 log_dir = core.tmp / f"side{index}"
                 log_dir.mkdir()
                 endpoint = (
                     start_original(core, log_dir, where)
-                    if name == "Unity's original"
+                    if name == ORIGINAL
                     else start_endpoint(core.env, log_dir, where, (), f"fresh_endpoint_{index}")
                 )
                 try:
@@ -356,10 +410,17 @@ def main(argv: list[str] | None = None) -> int:
                     for direction in (args.only,) if args.only else ("down", "up"):
                         print(f"[{name}: {direction} ...]", file=sys.stderr, flush=True)
                         received = getattr(run, direction)()
+                        if direction == "down":
+                            downs[name] = received
                         rows = [row for topic, got in received.items() for row in summary(topic, got, bars, duration)]
                         print_rows(f"{name}, {direction}:", rows)
                 finally:
                     kill_process(endpoint.process)
+            if args.markdown:  # a side whose down direction did not run reads "not run"
+                shown = [(name, downs.get(name)) for name, _ in sides]
+                if args.original is None:
+                    shown.append((ORIGINAL, None))
+                print("\n" + down_table(shown, bars))
         failed = False
     finally:
         stop_core(core, args.keep_logs or failed)

@@ -48,7 +48,8 @@ raw (bytes-only) message class, like the endpoint, so the ceiling is rospy's tra
 `--quick` shortens every window (2 s), the RTT sample counts and the soak (10 s) for a short run; `--seconds S`
 sets the windows and the soak to S (the smoke test runs a phase with 0.5).
 `--ab REVISION` runs REVISION's endpoint (a git worktree of it) beside this tree's, phase by phase alternately on
-one roscore, and prints both tables and a comparison with the ratios.
+one roscore, and prints both tables and a comparison with the ratios. `--markdown` also prints README's performance
+and WebSocket tables of the figures (the other revision's in the last column).
 
 Percentiles are measuring.stats.percentile (numpy's linear interpolation; until the benches shared it, this bench
 took the nearest rank, which differs from it by at most one sample's spacing).
@@ -56,8 +57,9 @@ took the nearest rank, which differs from it by at most one sample's spacing).
 The modules, one concern each: settings (the run's knobs), records (a row, a client's arrivals, a flow), harness
 (the endpoint under test, its client and node processes), flows (one throughput flow each way and its references),
 throughput, large, latency (round trips, fan-out), mix (the Unity-typical mix), hardening (the 4 GiB prefix, the
-never-reading client), websocket, tables (the table and the A/B comparison), driver (the phases for one or two
-endpoints on one roscore, the A/B worktree) and __main__ (the command line).
+never-reading client), websocket, tables (the table and the A/B comparison), markdown (README's tables of the
+figures, `--markdown`), driver (the phases for one or two endpoints on one roscore, the A/B worktree) and __main__
+(the command line).
 
 Everything is loopback; every loop is bounded in count and time; every process is stopped by PID.
 """

@@ -36,6 +36,11 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument("--endpoint-arg", action="append", default=[], help="extra endpoint argument (repeatable)")
     parser.add_argument("--only", nargs="+", choices=tuple(PHASES), help="run only these phases")
+    parser.add_argument(
+        "--markdown",
+        action="store_true",
+        help="also print README's tables of these figures as markdown (tests.doc_figures rewrites README with them)",
+    )
     args = parser.parse_args(argv)
     if args.ab is not None and args.bridge_dir is not None:
         parser.error("--ab compares this tree with REVISION; it takes no --bridge-dir")
@@ -62,7 +67,7 @@ def main(argv: list[str] | None = None) -> int:
             sides.append((args.ab, stack.enter_context(worktree_of(args.ab))))
         if args.their_first:
             sides.reverse()
-        return run(settings, sides, tuple(args.only or PHASES), args.keep_logs)
+        return run(settings, sides, tuple(args.only or PHASES), args.keep_logs, args.markdown)
 
 
 if __name__ == "__main__":

@@ -16,6 +16,7 @@ from pathlib import Path
 
 from bench.endpoint_bench import hardening, large, latency, mix, throughput, websocket
 from bench.endpoint_bench.harness import Harness
+from bench.endpoint_bench.markdown import markdown
 from bench.endpoint_bench.records import Row
 from bench.endpoint_bench.settings import Settings
 from bench.endpoint_bench.tables import compare_tables, print_table
@@ -35,9 +36,16 @@ PHASES: dict[str, Callable[[Harness], None]] = {
 }
 
 
-def run(settings: Settings, sides: list[tuple[str, Path | None]], phases: tuple[str, ...], keep_logs: bool) -> int:
+def run(
+    settings: Settings,
+    sides: list[tuple[str, Path | None]],
+    phases: tuple[str, ...],
+    keep_logs: bool,
+    tables: bool = False,
+) -> int:
     """Run the phases for every endpoint in `sides` ((name, bridge directory or None for this tree)), phase by phase
-    alternately, on one roscore; print each endpoint's table, and the comparison when there are two."""
+    alternately, on one roscore; print each endpoint's table, and the comparison when there are two; with `tables`,
+    README's markdown tables of this tree's figures (and the other's beside them) last."""
     started = time.monotonic()
     load_at_start = os.getloadavg()[0]
     core = RosCore()
@@ -75,6 +83,10 @@ def run(settings: Settings, sides: list[tuple[str, Path | None]], phases: tuple[
                 zip(sides, benches), key=lambda side_bench: side_bench[0][1] is not None
             )
             compare_tables(our_bench.rows, their_bench.rows, ours[0], theirs[0])
+            if tables:
+                print("\n" + markdown(our_bench.rows, their_bench.rows))
+        elif tables:
+            print("\n" + markdown(benches[0].rows))
         failed = False
     finally:
         for bench in benches:

@@ -38,6 +38,7 @@ __all__ = [
     "align",
     "trial_metrics",
     "summary_rows",
+    "worst_joint_rows",
     "markdown_table",
     "write_report",
     "write_plots",
@@ -255,6 +256,30 @@ def summary_rows(results: Sequence[TrialResult]) -> list[dict[str, str]]:
             row[title] = _fmt(mean, std, spec, 1000.0 if attribute == "lag_s" else 1.0)
         row["lost msgs"] = str(lost[(robot, use_case)])
         rows.append(row)
+    return rows
+
+
+def worst_joint_rows(results: Sequence[TrialResult]) -> list[dict[str, str]]:
+    """Per (robot, use case), its moving joint of the highest mean MAPE over trials, with that MAPE and the joint's
+    mean lag: the campaign's figures in one line per robot and use case (README's table)."""
+    grouped: dict[tuple[str, str], dict[str, list[TrackingMetrics]]] = defaultdict(lambda: defaultdict(list))
+    for result in results:
+        for joint, metrics in result.metrics.items():
+            grouped[(result.robot, result.use_case)][joint].append(metrics)
+    rows = []
+    for (robot, use_case), joints in grouped.items():
+        means = {
+            joint: (mean_and_std([m.mape_percent for m in trials])[0], mean_and_std([m.lag_s for m in trials])[0])
+            for joint, trials in joints.items()
+        }
+        finite = {joint: figures for joint, figures in means.items() if np.isfinite(figures[0])}
+        if not finite:
+            rows.append({"robot": robot, "use case": use_case, "joint": "", "MAPE %": "n/a", "lag ms": "n/a"})
+            continue
+        joint = max(finite, key=lambda name: finite[name][0])
+        mape, lag = finite[joint]
+        lag_cell = f"{round(lag * 1000, 1) + 0.0:.1f}" if np.isfinite(lag) else "n/a"  # + 0.0: no "-0.0"
+        rows.append({"robot": robot, "use case": use_case, "joint": joint, "MAPE %": f"{mape:.3f}", "lag ms": lag_cell})
     return rows
 
 

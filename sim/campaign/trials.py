@@ -376,15 +376,18 @@ def main(argv: list[str] | None = None) -> int:
             build_motion(robot, "sweep", ScenarioConfig(dt=STEP_S))
     except SimError as error:
         return fail(PROG, error, EXIT_BAD_INPUT)
+    out = args.out.resolve()  # the processes it starts (rosbag, commander) run in folders of their own
     started = time.monotonic()
     try:
         results, skipped = run_campaign(
-            robots, args.use_cases, args.trials, args.out, args.time_scale, progress=not args.no_progress
+            robots, args.use_cases, args.trials, out, args.time_scale, progress=not args.no_progress
         )
     except (SimError, TimeoutError) as error:
         return fail(PROG, error, EXIT_FAILED)
-    report = analysis.write_report(results, args.out, title="Tracking accuracy per use case")
+    report = analysis.write_report(results, out, title="Tracking accuracy per use case")
     print(analysis.markdown_table(analysis.summary_rows(results)))
+    print("Per robot and use case, its worst moving joint (mean over trials):\n")
+    print(analysis.markdown_table(analysis.worst_joint_rows(results)))
     for line in skipped:
         print(line)
     lost = sum(result.lost_messages for result in results)

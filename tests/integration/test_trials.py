@@ -16,6 +16,7 @@ import rosbag
 
 from sim.campaign.analysis import scenario_start
 from sim.robots import load_robot
+from tests.doc_figures import figures_of, markdown_tables, shape_mismatch
 from tests.integration.sim_helpers import mean_of, report_rows, run_campaign
 
 pytestmark = pytest.mark.lane("alone", on=("project",))
@@ -63,6 +64,10 @@ def test_campaign_writes_a_report_with_every_robot_and_use_case(campaign) -> Non
                 assert row["trials"] == str(TRIALS)
                 assert row["lost msgs"] == "0"
     assert "messages lost: 0" in stdout
+    # README's campaign table has the columns sim.trials prints today (its rows are the robots the command names)
+    for figures in figures_of("python -m sim.trials"):
+        mismatch = shape_mismatch(figures, markdown_tables(stdout), same_rows=False)
+        assert mismatch is None, mismatch
     for plot in ("bars_mape.png", "bars_wape.png", "joints_panda_no_ros.png", "joints_igt_auto_simulate_off.png"):
         assert (out / plot).stat().st_size > 10_000
 

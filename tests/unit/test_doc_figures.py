@@ -10,8 +10,11 @@ from tests.doc_figures import (
     REPO,
     FigureTable,
     Table,
+    command_argv,
     figure_tables,
     markdown_tables,
+    printed_for,
+    replace_table,
     shape_mismatch,
 )
 
@@ -63,6 +66,37 @@ def test_a_renamed_column_or_row_is_a_stale_table() -> None:
     assert "regenerate the table with `python -m bench.x --long`" in message
     # rows that follow the command's arguments (robots in a campaign, say) are compared by columns only
     assert shape_mismatch(doc, row_gone, same_rows=False) is None
+
+
+def test_a_table_is_rewritten_in_place_with_what_its_command_printed() -> None:
+    printed = markdown_tables("| path | ours | ratio |\n|---|---|---|\n| images | 13 | 1.01 |\n| clouds | 8 | 0.9 |\n")
+    rewritten = replace_table(DOC, "python -m bench.x --long", printed[0])
+    assert rewritten == DOC.replace(
+        "| path | ours | ratio |\n|---|---|---|\n| images | 12 | 1.00 |\n| points | 9 | 0.98 |\n",
+        "| path | ours | ratio |\n|---|---|---|\n| images | 13 | 1.01 |\n| clouds | 8 | 0.9 |\n",
+    )
+    assert figure_tables(rewritten, "doc.md")[0].table.rows == printed[0].rows
+    with pytest.raises(ValueError, match="no figures marker names `python -m other`"):
+        replace_table(DOC, "python -m other", printed[0])
+
+
+def test_the_printed_table_taken_is_the_one_of_the_docs_shape_else_its_columns_else_the_only_one() -> None:
+    (doc,) = figure_tables(DOC, "doc.md")
+    other = Table(("a", "b"), (("1", "2"),), 1)
+    same_columns = Table(("path", "ours", "ratio"), (("images", "1", "1"),), 1)
+    same_shape = Table(("path", "ours", "ratio"), (("images", "1", "1"), ("points", "2", "2")), 1)
+    assert printed_for(doc, [other, same_columns, same_shape]) == same_shape
+    assert printed_for(doc, [other, same_columns]) == same_columns
+    assert printed_for(doc, [other]) == other  # the command's table changed shape: the new one replaces it
+    with pytest.raises(ValueError, match="doc.md:3: `python -m bench.x --long` printed no table to take its place"):
+        printed_for(doc, [other, other])
+
+
+def test_a_command_runs_on_this_python_with_its_variables_from_the_environment() -> None:
+    argv = command_argv("python -m x --robot $DATA/arm.urdf --out 'a b'", {"DATA": "/d"}, "/venv/python")
+    assert argv == ["/venv/python", "-m", "x", "--robot", "/d/arm.urdf", "--out", "a b"]
+    with pytest.raises(ValueError, match="needs UNSET set in the environment"):
+        command_argv("python -m x --original ${UNSET}", {}, "/venv/python")
 
 
 def _all_figure_tables() -> list[FigureTable]:

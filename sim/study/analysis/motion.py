@@ -160,7 +160,8 @@ class MotionSummary:
     recorded: bool  # any trial has a tracked body; else nothing else is filled
     comparisons: tuple[MotionComparison, ...]  # in MOTION_MEASURES' order, those with any value
     tracking: dict[str, ConditionTracking]  # per condition with trials
-    untracked: dict[str, dict[int, dict[str, int]]]  # body -> participant -> condition -> trials it sent no pose
+    # body -> participant -> condition -> trials without it: the head sent no pose; no tracked hand at the scene's hand
+    untracked: dict[str, dict[int, dict[str, int]]]
     gap: float  # s: the protocol's tracking gap
     notes: tuple[str, ...]
 

@@ -11,6 +11,7 @@ from sim.study.analysis.mixed_model import CROSSOVER_TERMS, formula
 from sim.study.analysis.motion import DEFINED, MODELLED, MOTION_MEASURES
 from sim.study.analysis.questionnaires import SSQ_SUSPECT_SOURCE, SSQ_SUSPECT_TOTAL
 from sim.study.design.spec import TESTS, Design
+from sim.study.motion.calibration import MIN_POINTS
 from sim.study.motion.measures import HAND_RADIUS
 from sim.study.power.sample_size import PlannedSample
 from sim.study.questionnaires.instruments import Instrument
@@ -67,6 +68,17 @@ def _motion() -> list[str]:
     for body in BODIES:
         lines.append(f"- `{POSE_TOPICS[body]}`: {PROTOCOL.data['poses']['bodies'][body]['meaning']}.")
     lines += [
+        "",
+        "The trackers: in VR, the headset's own tracking (the VR page); in reality, a tracker (a motion-capture "
+        "driver's pose topics or TF frames, or the headset worn with passthrough), its bodies mapped to the head and "
+        "hands by a configuration file. A tracker other than the headset is calibrated into the world frame at each "
+        f"session's start: the experimenter touches at least {MIN_POINTS} marked points of the table and the hand "
+        "model, the rigid transform is fitted by least squares, and a fit whose largest residual is above the bound "
+        "the configuration declares is refused; the fit and its residuals are recorded with the session. Each "
+        "tracker's jitter (the RMS distance of a body's positions from their mean while it is held still) is "
+        "measured at each session's start and reported beside the motion: the withdrawal's peak speed is sensitive "
+        "to it. The report names the tracker each condition used; where they differ, every VR − reality contrast of "
+        "a motion measure carries that caveat, as the tracker is then part of the contrast.",
         "",
         "Derived per trial, of the hand under the robot (of the two tracked hands, the one nearest the scene's hand "
         f"as the approach starts, within {HAND_RADIUS:g} m; recorded as `tracked_hand`) and the head:",

@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 from rosbags.rosbag1 import Writer
 
-from sim.campaign.analysis import controller_time_start, read_bag
+from sim.campaign.analysis import TrialResult, controller_time_start, read_bag, worst_joint_rows
+from sim.control.metrics import TrackingMetrics
 from sim.robots import load_robot
 from sim.wire import rosmsgs
 
@@ -96,3 +97,22 @@ def test_a_gap_in_the_publishers_seq_is_lost(tmp_path):
             records.append(("state", state(k, (k + 1) * DT, q[k])))
     series = read_bag(write_bag(tmp_path / "gap.bag", records), IGT)
     assert (series.states_published, series.recorded_states, series.lost_messages) == (20, 18, 2)
+
+
+def metrics(mape: float, lag_s: float) -> TrackingMetrics:
+    return TrackingMetrics(mape, 0.0, 0.0, 0.0, lag_s, 100, 100)
+
+
+def test_the_worst_joint_per_robot_and_use_case_is_the_one_of_the_highest_mean_mape() -> None:
+    results = [
+        TrialResult("panda", "base", 1, {"j1": metrics(0.010, 0.001), "j2": metrics(0.030, 0.004)}, 0),
+        TrialResult("panda", "base", 2, {"j1": metrics(0.050, 0.003), "j2": metrics(0.010, 0.002)}, 0),
+        TrialResult("igt", "no_ros", 1, {"x": metrics(float("nan"), float("nan"))}, 0),
+        TrialResult("igt", "auto_simulate_off", 1, {"x": metrics(0.002, -0.00004)}, 0),
+    ]
+    assert worst_joint_rows(results) == [
+        # j1's mean 0.030 over j2's 0.020, whichever trial had the highest single figure
+        {"robot": "panda", "use case": "base", "joint": "j1", "MAPE %": "0.030", "lag ms": "2.0"},
+        {"robot": "igt", "use case": "no_ros", "joint": "", "MAPE %": "n/a", "lag ms": "n/a"},
+        {"robot": "igt", "use case": "auto_simulate_off", "joint": "x", "MAPE %": "0.002", "lag ms": "0.0"},
+    ]
