@@ -20,6 +20,7 @@ from bridge.diagnostics import WARN, Status
 __all__ = [
     "ANSWERS",
     "PEER_CHECK_S",
+    "PEER_CHECK_SHARE",
     "PEER_GRACE_S",
     "PeerLink",
     "PeerProblem",
@@ -31,6 +32,9 @@ __all__ = [
 Client = TypeVar("Client", bound=Hashable)  # whatever stands for a client (the endpoint's sessions)
 
 PEER_CHECK_S = 2.0  # how often the master is asked which links should exist (one getSystemState)
+# ...and at most this share of the time: getSystemState's answer grows with the whole graph (80 ms for 1,000
+# topics on a loaded machine), so a check waits for at least 1/share of the time the last one took
+PEER_CHECK_SHARE = 0.05
 ANSWERS = "answers"  # what a peer's address gives from here when connecting to it works
 PEER_GRACE_S = 5.0  # how long a listed link may stay down before it is a problem (rospy connects in milliseconds)
 

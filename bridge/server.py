@@ -27,7 +27,7 @@ from bridge.diagnostics import ClientSnapshot, TopicSnapshot, parse_client_time,
 from bridge.errors import RequestRefused
 from bridge.gate import Gate
 from bridge.memory import QuietTrim, give_back_free_memory
-from bridge.peer_links import PEER_CHECK_S, PeerWatch, problem_line, problem_statuses
+from bridge.peer_links import PEER_CHECK_S, PEER_CHECK_SHARE, PeerWatch, problem_line, problem_statuses
 from bridge.protocol import (
     Auth,
     Event,
@@ -288,7 +288,8 @@ class Endpoint:
     # --- housekeeping: unused publishers, links to ROS peers, /diagnostics, memory ---------------------------------
     def _housekeeping_loop(self) -> None:
         """Once a second: unused publishers end, /diagnostics goes out, and free memory is given back when traffic
-        has gone quiet (bridge.memory); every PEER_CHECK_S, the links to ROS peers are checked."""
+        has gone quiet (bridge.memory); every PEER_CHECK_S (longer on a large graph), the links to ROS peers are
+        checked."""
         counts: dict[str, tuple[int, int]] = {}
         trim = QuietTrim()
         peers, next_peer_check = PeerWatch(), time.monotonic() + PEER_CHECK_S
@@ -300,9 +301,12 @@ class Endpoint:
             if trim.due(self.bytes_moved()):
                 give_back_free_memory()
             if time.monotonic() >= next_peer_check:
-                next_peer_check = time.monotonic() + PEER_CHECK_S
+                started = time.monotonic()
+                next_peer_check = started + PEER_CHECK_S
                 try:
                     self._check_peer_links(peers)
+                    took = time.monotonic() - started
+                    next_peer_check = max(next_peer_check, started + took / PEER_CHECK_SHARE)
                 except OSError as error:  # the master did not answer: its link says so (bridge.ros_master)
                     log.debug("links to ROS peers not checked: %s", error)
                 except Exception:
