@@ -54,8 +54,8 @@ def far_master(hosts: Namespaces) -> Iterator[RosCore]:
 
 
 class Layout:
-    """The endpoint, the ROS node on the master's machine, the client on the third, and a /diagnostics reader on the
-    endpoint's machine (the one place the endpoint's own address surely works)."""
+    """The endpoint, the ROS node on the master's machine, the client on the third, and, when asked, a /diagnostics
+    reader on the endpoint's machine (the one place the endpoint's own address surely works)."""
 
     def __init__(
         self, hosts: Namespaces, master: RosCore, tmp_path: Path, ros_env: dict[str, str], bridge_env: dict[str, str]
@@ -66,11 +66,6 @@ class Layout:
             self.endpoint = self._add(
                 EndpointProcess(bridge_env, tmp_path, host="0.0.0.0", prefix=hosts.prefix(hosts.bridge))
             )
-            self.diagnostics = self._add(
-                ManagedProcess(
-                    [PYTHON, *module, "diagnostics"], bridge_env, tmp_path, "diag", hosts.prefix(hosts.bridge)
-                )
-            )
             self.ros = self._add(
                 ManagedProcess([PYTHON, *module, "ros"], ros_env, tmp_path, "ros", hosts.prefix(hosts.ros))
             )
@@ -80,6 +75,20 @@ class Layout:
         except BaseException:
             self.stop()
             raise
+
+        self._diagnostics_command = (
+            [PYTHON, *module, "diagnostics"],
+            bridge_env,
+            tmp_path,
+            "diag",
+            hosts.prefix(hosts.bridge),
+        )
+
+    def read_diagnostics(self) -> None:
+        """Start the /diagnostics reader once the endpoint has advertised /diagnostics: the master then names the
+        publisher in its answer to the reader's registration. A reader that came first would wait for the master to
+        tell it, which a master that cannot reach the endpoint's machine (the broken layout) never does."""
+        self.diagnostics = self._add(ManagedProcess(*self._diagnostics_command))
 
     def _add(self, process: ManagedProcess) -> ManagedProcess:
         self.processes.append(process)
@@ -118,7 +127,7 @@ def test_links_that_cannot_come_up_both_ways_are_told_once_per_topic_and_shown(
             40,
             "an __error about each topic",
         )
-        # the reader may not have had an array yet when the errors came
+        layout.read_diagnostics()
         wait_for(lambda: any(to_link in a and from_link in a for a in layout.arrays()[-1:]), 20, "/diagnostics")
         layout.watch_more_arrays(MORE_ARRAYS)
         to_ros, from_ros, arrays = layout.errors_about(TO_ROS), layout.errors_about(FROM_ROS), layout.arrays()
@@ -153,6 +162,7 @@ def test_the_working_layout_gets_no_word_about_links(hosts: Namespaces, far_mast
             30,
             "topics and services both ways",
         )
+        layout.read_diagnostics()
         layout.watch_more_arrays(ARRAYS_WATCHED)
         errors, arrays = layout.errors_about(TO_ROS) + layout.errors_about(FROM_ROS), layout.arrays()
     except BaseException:
