@@ -21,6 +21,7 @@ import rospy.impl.tcpros_pubsub
 
 from bridge.diagnostics import Status
 from bridge.ros_master import MasterError, MasterLink, call_master, timed_proxy
+from bridge.ros_peers import describe_peer, peer_links
 from bridge.ros_publisher import RawPublisher
 from bridge.ros_reader import SUBSCRIBER_READ_BYTES, install_raw_reader
 from bridge.ros_service_proxy import RawServiceProxy
@@ -153,6 +154,10 @@ class RosGraph:
         """Until the master holds a new registration (see MasterLink.wait_registered), REGISTRATION_WAIT_S at most:
         called on the registering client's reader, outside the endpoint's lock."""
         self.master.wait_registered(kind, name, REGISTRATION_WAIT_S)
+
+    # The links of bridged topics to their ROS peers (bridge.ros_peers, judged by bridge.peer_links)
+    peer_links = staticmethod(peer_links)
+    describe_peer = staticmethod(describe_peer)
 
     @staticmethod
     def now() -> float:

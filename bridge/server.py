@@ -27,6 +27,7 @@ from bridge.diagnostics import ClientSnapshot, TopicSnapshot, parse_client_time,
 from bridge.errors import RequestRefused
 from bridge.gate import Gate
 from bridge.memory import QuietTrim, give_back_free_memory
+from bridge.peer_links import PEER_CHECK_S, PEER_CHECK_SHARE, PeerWatch, problem_line, problem_statuses
 from bridge.protocol import (
     Auth,
     Event,
@@ -58,6 +59,7 @@ __all__ = ["Endpoint"]
 
 log = logging.getLogger(__name__)
 DIAGNOSTICS_PERIOD_S = 1.0  # /diagnostics at 1 Hz, as ROS's diagnostic tools expect
+PEER_PROBES_PER_CHECK = 2  # links found down described per check (each may wait bridge.ros_peers.PROBE_S)
 
 
 # Requests whose answer the client must read (it is never dropped), and how they are named in a refusal
@@ -283,12 +285,14 @@ class Endpoint:
         session.note_ping(ping.round_trip, None if client_time is None else ros_time - client_time)
         session.send(protocol.encode(PingResponse(ping.request_time, ros_time)), droppable=False)
 
-    # --- housekeeping: unused publishers, /diagnostics, memory ---------------------------------------------------
+    # --- housekeeping: unused publishers, links to ROS peers, /diagnostics, memory ---------------------------------
     def _housekeeping_loop(self) -> None:
         """Once a second: unused publishers end, /diagnostics goes out, and free memory is given back when traffic
-        has gone quiet (bridge.memory)."""
+        has gone quiet (bridge.memory); every PEER_CHECK_S (longer on a large graph), the links to ROS peers are
+        checked."""
         counts: dict[str, tuple[int, int]] = {}
         trim = QuietTrim()
+        peers, next_peer_check = PeerWatch(), time.monotonic() + PEER_CHECK_S
         while not self._stopping.wait(DIAGNOSTICS_PERIOD_S):
             try:
                 self.topics.end_unused_publishers()
@@ -296,6 +300,17 @@ class Endpoint:
                 log.exception("ending unused publishers failed")
             if trim.due(self.bytes_moved()):
                 give_back_free_memory()
+            if time.monotonic() >= next_peer_check:
+                started = time.monotonic()
+                next_peer_check = started + PEER_CHECK_S
+                try:
+                    self._check_peer_links(peers)
+                    took = time.monotonic() - started
+                    next_peer_check = max(next_peer_check, started + took / PEER_CHECK_SHARE)
+                except OSError as error:  # the master did not answer: its link says so (bridge.ros_master)
+                    log.debug("links to ROS peers not checked: %s", error)
+                except Exception:
+                    log.exception("checking the links to ROS peers failed")
             try:
                 clients, topics = self._snapshot()
                 statuses, counts = report(
@@ -308,9 +323,25 @@ class Endpoint:
                     DIAGNOSTICS_PERIOD_S,
                     self._gate.refused_origins if self.config.websocket_port is not None else None,
                 )
-                self.ros.publish_diagnostics(statuses)
+                self.ros.publish_diagnostics(statuses + problem_statuses(self.ros.node_name(), peers.problems))
             except Exception:  # diagnostics must never take the endpoint down
                 log.exception("publishing /diagnostics failed")
+
+    def _check_peer_links(self, peers: PeerWatch) -> None:
+        """Links of bridged topics the master lists and rospy does not hold up (bridge.peer_links): each client
+        bridging the topic that way is told once, in an __error."""
+        with self._lock:
+            publishing = {topic: tuple(shared.clients) for topic, shared in self.topics.publishers.items()}
+            subscribing = {
+                topic: tuple(e[0] for e in shared.clients) for topic, shared in self.topics.subscribers.items()
+            }
+        listed, up = self.ros.peer_links(publishing, subscribing) if publishing or subscribing else (set(), set())
+        for link, down_s in peers.observe(time.monotonic(), listed, up)[:PEER_PROBES_PER_CHECK]:
+            problem = self.ros.describe_peer(link, down_s)
+            peers.found(problem)
+            log.warning("%s", problem_line(problem))
+        for session, line in peers.to_tell(publishing, subscribing):
+            session.send_error(line)
 
     def _snapshot(self) -> tuple[list[ClientSnapshot], list[TopicSnapshot]]:
         with self._lock:

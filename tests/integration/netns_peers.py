@@ -5,11 +5,19 @@
 - `ros`: a rospy node on the master's host. It publishes /far/from_ros (std_msgs/String), waits for
   /far/to_ros, serves /far/ros_echo (std_srvs/SetBool: success = data) and calls /far/client_echo, a service the
   client implements through the endpoint.
-- `client HOST PORT`: an endpoint client with no rospy (as Unity is): the mirror image of the above.
+- `client HOST PORT`: an endpoint client with no rospy (as Unity is): the mirror image of the above. It prints
+  each `__error` it is sent as `error <text>`.
+- `port HOST PORT TARGET_HOST TARGET_PORT`: what `docker run -p` puts on the container's host (docker-proxy): a TCP
+  relay from HOST:PORT to the container's TARGET_HOST:TARGET_PORT, closing a connection the container refuses
+  (`refused <address>`). Prints `ok listening` once it listens.
+- `diagnostics`: a rospy node printing, for each /diagnostics array, `diagnostics <n>:` and the names of its
+  warnings about links to ROS peers (bridge.peer_links), `|`-separated.
 """
 
 from __future__ import annotations
 
+import contextlib
+import socket
 import struct
 import sys
 import threading
@@ -74,7 +82,7 @@ def ros_side() -> int:
 def client_side(host: str, port: int) -> int:
     from bridge.client import TcpClient
 
-    client = TcpClient(host, port).connect(timeout=10.0)
+    client = TcpClient(host, port, on_error=lambda text: print(f"error {text}", flush=True)).connect(timeout=10.0)
     _say(f"client connected to {host}:{port}")
     heard = threading.Event()
     client.subscribe(FROM_ROS, "std_msgs/String", lambda payload: heard.set())
@@ -102,12 +110,65 @@ def client_side(host: str, port: int) -> int:
     return 0
 
 
+def diagnostics_side() -> int:
+    import rospy
+    from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+
+    rospy.init_node("far_diagnostics", disable_signals=True)
+    arrays = iter(range(1, 1_000_000))
+
+    def on_array(array: DiagnosticArray) -> None:
+        links = [s.name for s in array.status if s.level == DiagnosticStatus.WARN and ": link " in s.name]
+        print(f"diagnostics {next(arrays)}: {' | '.join(sorted(links))}", flush=True)
+
+    rospy.Subscriber("/diagnostics", DiagnosticArray, on_array)
+    time.sleep(DEADLINE_S)
+    return 0
+
+
+def _pipe(source: socket.socket, target: socket.socket) -> None:
+    with contextlib.suppress(OSError):
+        while True:
+            data = source.recv(65536)
+            if not data:
+                break
+            target.sendall(data)
+    with contextlib.suppress(OSError):
+        target.shutdown(socket.SHUT_WR)
+
+
+def published_port(host: str, port: int, target: tuple[str, int]) -> int:
+    listener = socket.create_server((host, port))
+    listener.settimeout(1.0)
+    _say("listening")
+    deadline = time.monotonic() + DEADLINE_S
+    while time.monotonic() < deadline:
+        try:
+            outside, address = listener.accept()
+        except socket.timeout:
+            continue
+        try:
+            inside = socket.create_connection(target, timeout=5.0)
+        except OSError as error:
+            print(f"refused {address[0]}:{address[1]}: {error}", flush=True)
+            outside.close()
+            continue
+        for source, sink in ((outside, inside), (inside, outside)):
+            threading.Thread(target=_pipe, args=(source, sink), daemon=True).start()
+    return 0
+
+
 def main(argv: list[str]) -> int:
     if argv[:1] == ["ros"]:
         return ros_side()
     if argv[:1] == ["client"] and len(argv) == 3:
         return client_side(argv[1], int(argv[2]))
-    print("usage: python -m tests.integration.netns_peers ros | client HOST PORT", file=sys.stderr)
+    if argv[:1] == ["port"] and len(argv) == 5:
+        return published_port(argv[1], int(argv[2]), (argv[3], int(argv[4])))
+    if argv[:1] == ["diagnostics"]:
+        return diagnostics_side()
+    usage = "ros | client HOST PORT | port HOST PORT TARGET_HOST TARGET_PORT | diagnostics"
+    print(f"usage: python -m tests.integration.netns_peers {usage}", file=sys.stderr)
     return 2
 
 

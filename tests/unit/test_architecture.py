@@ -37,6 +37,7 @@ def imported_after(module: str) -> set[str]:
         "bridge.diagnostics",
         "bridge.names",
         "bridge.registry",
+        "bridge.peer_links",
     ],
 )
 def test_pure_bridge_modules_import_neither_sockets_nor_ros(module: str) -> None:
@@ -241,7 +242,15 @@ def test_only_the_bridges_ros_modules_touch_rospy() -> None:
             )
             if any(name.split(".")[0] in ("rospy", "rosgraph") for name in names):
                 touching.add(path.stem)
-    assert touching == {"ros_graph", "ros_master", "ros_network", "ros_publisher", "ros_reader", "ros_service_proxy"}
+    assert touching == {
+        "ros_graph",
+        "ros_master",
+        "ros_network",
+        "ros_peers",
+        "ros_publisher",
+        "ros_reader",
+        "ros_service_proxy",
+    }
 
 
 # What a ROS 1 install brings for Python (ROS's own packages): the endpoint may import these and the standard library.
