@@ -160,6 +160,8 @@ class ReconnectingSlowSender(threading.Thread):
         super().__init__(daemon=True)
         self.port, self.source, self.interval_s, self.stop = port, source, interval_s, stop
         self.closed_to_make_room = 0
+        self.came_back = threading.Event()  # served again after the endpoint closed it
+        self._closed_once = False
 
     def run(self) -> None:
         header = struct.pack("<I", 4) + b"/abc" + struct.pack("<I", 1 << 20)
@@ -172,6 +174,8 @@ class ReconnectingSlowSender(threading.Thread):
                 if first is None or first.destination != "__handshake":
                     self.stop.wait(0.01)
                     continue
+                if self._closed_once:
+                    self.came_back.set()
                 sock.settimeout(self.interval_s)
                 for index in range(10_000):
                     if self.stop.is_set():
@@ -183,8 +187,9 @@ class ReconnectingSlowSender(threading.Thread):
                         continue
                     except OSError:
                         break
-                    if not data or b"closed to make room" in data:
+                    if not data or b"closing the connection" in data:
                         self.closed_to_make_room += b"closed to make room" in data
+                        self._closed_once = True
                         break
 
 
@@ -212,6 +217,28 @@ def test_a_fresh_client_is_served_while_slow_senders_come_back_at_once(roscore, 
             sender.join(10)
         for sock in newcomers:
             sock.close()
+        endpoint.stop()
+
+
+def test_a_fresh_client_is_served_right_after_slow_senders_missed_their_deadline_and_came_back(
+    roscore, ros_node, tmp_path: Path
+) -> None:
+    # As many slow senders as slots: --frame-timeout closes them all at once, and they come back at once, each too
+    # young to judge. Their addresses missed a deadline a moment ago: the newcomer from elsewhere is served.
+    endpoint = start_endpoint(roscore, tmp_path, "--max-clients", "4", "--frame-timeout", "2")
+    stop = threading.Event()
+    senders = [ReconnectingSlowSender(endpoint.port, f"127.0.0.{10 + index}", 0.25, stop) for index in range(4)]
+    try:
+        for sender in senders:
+            sender.start()
+        wait_for(lambda: all(sender.came_back.is_set() for sender in senders), 20, "every sender back")
+        sock, frame = connect_from(endpoint.port, "127.0.0.50")
+        sock.close()
+        assert frame is not None and frame.destination == "__handshake", frame
+    finally:
+        stop.set()
+        for sender in senders:
+            sender.join(10)
         endpoint.stop()
 
 
