@@ -16,6 +16,9 @@ this script measures; it judges nothing.
   master     roscore killed and started again on its port, 5 times: seconds until every registration is back
   fuzz       4 clients send mutated streams for --fuzz-s (default 120 s) beside a 100 Hz client that pings:
              RSS over time, the good client's longest gap between messages and its ping p99
+  capacity   100 slow senders that come back at once hold the 64 slots; a fresh client probes once a second
+  services   seven cases of service calls, each call ended within --service-timeout + 2 s, threads back
+             (capacity and services: bench/chaos_cases.py, best run beside CPU burners that oversubscribe the cores)
 Every loop is bounded in count and time; every process is stopped by PID.
 """
 
@@ -33,6 +36,7 @@ from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from typing import Any
 
+from bench import chaos_cases
 from bridge import protocol
 from bridge.client import TcpClient
 from measuring.abuse import LOOPBACK, FuzzStats, churn, fuzz_client
@@ -43,7 +47,7 @@ from measuring.procfs import ProcessFigures, figures
 from measuring.stats import percentile
 from sim.processes import EndpointProcess, ManagedProcess, RosCore, wait_for
 
-PHASES = ("churn", "flood", "unread", "slow", "tokens", "master", "fuzz")
+PHASES = ("churn", "flood", "unread", "slow", "tokens", "master", "fuzz", "capacity", "services")
 STRING = "std_msgs/String"
 TOKEN = "bench-secret"
 
@@ -457,6 +461,21 @@ for index in range(100 * 3600):
 """
 
 
+def phase_capacity(quick: bool, limit_s: float) -> None:
+    with endpoint_on_own_core("--frame-timeout", "10", name="capacity_endpoint") as (core, endpoint):
+        before = figures(endpoint.pid)
+        worst = Worst(endpoint.pid)
+        note = chaos_cases.phase_capacity(endpoint, min(10 if quick else 40, limit_s))
+        row("capacity", before, worst.stop(), settle(endpoint.pid, before), note)
+
+
+def phase_services() -> None:
+    timeout = f"{chaos_cases.SERVICE_TIMEOUT_S:g}"
+    with endpoint_on_own_core("--service-timeout", timeout, name="services_endpoint") as (core, endpoint):
+        for line in chaos_cases.phase_services(core, endpoint):
+            print(f"services {line}", flush=True)
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="smoke run: smaller counts, shorter windows")
@@ -481,6 +500,8 @@ def main(argv: list[str] | None = None) -> int:
         "tokens": lambda: phase_tokens(args.quick, limit_s),
         "master": lambda: phase_master(args.quick),
         "fuzz": lambda: phase_fuzz(args.quick, args.fuzz_s),
+        "capacity": lambda: phase_capacity(args.quick, limit_s),
+        "services": phase_services,
     }
     logging.getLogger("bridge.client").setLevel(logging.ERROR)  # the refusals are counted, not printed one by one
     print(f"chaos bench, {time.strftime('%Y-%m-%d %H:%M')}, {os.cpu_count()} cores", flush=True)

@@ -7,12 +7,13 @@ The Endpoint (bridge.server) owns one Gate and asks it about every new connectio
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import threading
 import time
 from typing import TYPE_CHECKING, ContextManager, Mapping
 
-from bridge.admission import to_evict
+from bridge.admission import Suspects, pace, to_evict
 from bridge.config import EndpointConfig
 from bridge.throttle import LogThrottle
 from bridge.web_clients import (
@@ -50,6 +51,7 @@ class Gate:
         self._ignored_forwards = LogThrottle(log)  # any local process may try: logged at most once a second
         self._counts_lock = threading.Lock()  # upgrades are decided on the clients' reader threads
         self._refused_origins = 0
+        self._suspects = Suspects()  # under _counts_lock
 
     @property
     def refused_origins(self) -> int:
@@ -66,6 +68,12 @@ class Gate:
     def turn_away(self, name: str, reason: str) -> None:
         """Log a client turned away for a limit (at most once a second: a crowd may come)."""
         self._turned_away.warning("turned away a client at %s: %s", name, reason)
+
+    def misused_slot(self, host: str) -> None:
+        """A connection from `host` was closed for not using its slot (a deadline passed): its address becomes a
+        suspect (bridge.admission)."""
+        with self._counts_lock:
+            self._suspects.note(host, time.monotonic())
 
     def refusal(self, host: str, per_address: bool = True, newcomer: ClientSession | None = None) -> str | None:
         """Why a new client from `host` cannot be served now (a limit reached, and no connection there not using its
@@ -87,16 +95,24 @@ class Gate:
             among = from_host
         else:
             return None
-        uses = [session.slot_use(now) for session in among]
+        with self._counts_lock:
+            if self._suspects.is_suspect(host, now):  # its own slow senders would keep every slot young
+                return f"{limit}; and {host} makes no room, one of its connections did not use its slot lately"
+            suspect = {session.host: self._suspects.is_suspect(session.host, now) for session in among}
+        uses = [dataclasses.replace(session.slot_use(now), suspect=suspect[session.host]) for session in among]
         victim = to_evict(uses)
         if victim is None:
             return limit
         use = uses[victim]
+        self.misused_slot(among[victim].host)
         doing = (
             f"{use.frame_bytes} bytes of a frame in {use.frame_for_s:.1f} s"
             if use.frame_for_s is not None
             else f"no {'__auth' if not use.authenticated else 'frame'} in {use.connected_for_s:.1f} s"
         )
+        if pace(use) is None:  # too young to judge, from a suspect address
+            doing += f" (young, from {among[victim].host}, where a connection did not use its slot in the last minute)"
+
         log.warning(
             "client %s closed to make room for a new client from %s (%s): %s", among[victim].name, host, limit, doing
         )

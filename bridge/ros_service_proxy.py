@@ -45,10 +45,11 @@ class RawServiceProxy:
         self._md5sum: str = raw_class._md5sum
         self._max_response_bytes = max_response_bytes
 
-    def call(self, request: bytes, timeout: float, abandoned: threading.Event) -> bytes:
+    def call(self, request: bytes, timeout: float, abandoned: threading.Event, asked_at: float | None = None) -> bytes:
         """The response's bytes; RosError when the service is missing, fails, or does not answer within `timeout`
-        seconds (the look-up included)."""
-        deadline = time.monotonic() + timeout
+        seconds (the look-up included) of `asked_at` (monotonic; default now): a call that waited for a worker has
+        had part of its time already."""
+        deadline = (time.monotonic() if asked_at is None else asked_at) + timeout
         try:
             host, port = rospy.core.parse_rosrpc_uri(self._look_up(deadline, timeout, abandoned))
             with socket.create_connection((host, port), timeout=_remaining(deadline)) as sock:

@@ -241,6 +241,8 @@ class Endpoint:
             registrations = self._clients.pop(session, None)
             if registrations is None:
                 return
+            if session.missed_deadline:
+                self._gate.misused_slot(session.host)
             self.topics.release(session, registrations)
             self.services.release(session, registrations)
             self.frames_in += session.frames_in

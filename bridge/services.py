@@ -87,10 +87,18 @@ class Services:
                 srv_id,
             )
         timeout = self._config.service_timeout_s
+        asked_at = time.monotonic()  # the deadline runs from here, not from when a worker of the client is free
 
         def call() -> None:
+            if time.monotonic() - asked_at >= timeout:
+                session.send_error(
+                    f"__request {srv_id}: service {request.service} not called: the call waited {timeout:g} s, its "
+                    "whole --service-timeout, behind this client's earlier calls; this call will not complete",
+                    srv_id,
+                )
+                return
             try:
-                response = proxy.call(request.payload, timeout, session.gone)
+                response = proxy.call(request.payload, timeout, session.gone, asked_at)
             except RosError as error:
                 session.send_error(f"__request {srv_id}: {error}; this call will not complete", srv_id)
                 return

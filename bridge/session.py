@@ -30,7 +30,7 @@ from bridge.protocol import Auth, Conversation, Event, IgnoredFields, InvalidInp
 from bridge.queues import ByteBudget
 from bridge.ros_publisher import RawPublisher
 from bridge.session_output import SessionOutput
-from bridge.sockets import send_now
+from bridge.sockets import send_now, unread_bytes
 from bridge.throttle import LogThrottle
 
 if TYPE_CHECKING:  # wsproto is optional: bridge.websocket is imported only for WebSocket clients
@@ -118,6 +118,7 @@ class ClientSession(SessionOutput):
         self.ping_clock_offset_s: float | None = None  # see bridge.diagnostics.ClientSnapshot
         self.ping_round_trip_s: float | None = None
         self._end_reason: str | None = None  # why the connection ended, first cause only
+        self.missed_deadline = False  # closed for a frame or __auth not in time: its address is a suspect (gate)
         self.publish_drops = 0  # this client's messages dropped before reaching ROS (publisher queue full)
         self.pongs_refused = 0  # WebSocket pongs not sent: the client left its budget of answers unread
         self._closed = threading.Event()
@@ -148,6 +149,7 @@ class ClientSession(SessionOutput):
             self._incoming.buffered_bytes,
             self.frames_in,
             self.authenticated,
+            unread_bytes(self.sock),
         )
 
     def start(self) -> None:
@@ -310,6 +312,7 @@ class ClientSession(SessionOutput):
             if time.monotonic() >= deadline:
                 self.send_error(f"closing the connection: {why}")
                 self._ended(why)
+                self.missed_deadline = True
                 return False
 
     def _account_partial_frame(self, frames_completed: bool) -> bool:

@@ -50,6 +50,14 @@ def unsent_bytes(sock: socket.socket) -> int:
         return 0
 
 
+def unread_bytes(sock: socket.socket) -> int:
+    """Bytes received by the kernel that the socket's reader has not taken yet (Linux FIONREAD); 0 if unknown."""
+    try:
+        return _INT.unpack(fcntl.ioctl(sock.fileno(), termios.FIONREAD, _INT_ZERO))[0]
+    except OSError:
+        return 0
+
+
 def takes_whole(sock: socket.socket, size: int) -> bool:
     """A socket with nothing unacknowledged takes `size` bytes in one non-blocking write: they fit in half its send
     buffer (Linux doubles SO_SNDBUF for its bookkeeping, and autotunes it to a connection's traffic)."""

@@ -152,6 +152,96 @@ def test_a_fresh_client_is_served_while_slow_senders_hold_every_slot(roscore, ro
         endpoint.stop()
 
 
+class ReconnectingSlowSender(threading.Thread):
+    """A slow-loris client from `source` that comes back at once whenever it is refused or closed, until stopped: a
+    frame that never ends, a byte every `interval_s`. `closed_to_make_room` counts the times it was evicted."""
+
+    def __init__(self, port: int, source: str, interval_s: float, stop: threading.Event) -> None:
+        super().__init__(daemon=True)
+        self.port, self.source, self.interval_s, self.stop = port, source, interval_s, stop
+        self.closed_to_make_room = 0
+        self.came_back = threading.Event()  # served again after the endpoint closed it
+        self._closed_once = False
+
+    def run(self) -> None:
+        header = struct.pack("<I", 4) + b"/abc" + struct.pack("<I", 1 << 20)
+        while not self.stop.is_set():
+            try:
+                sock, first = connect_from(self.port, self.source)
+            except OSError:
+                continue
+            with sock:
+                if first is None or first.destination != "__handshake":
+                    self.stop.wait(0.01)
+                    continue
+                if self._closed_once:
+                    self.came_back.set()
+                sock.settimeout(self.interval_s)
+                for index in range(10_000):
+                    if self.stop.is_set():
+                        return
+                    try:
+                        sock.send(header[index : index + 1] if index < len(header) else b"\0")
+                        data = sock.recv(65536)
+                    except socket.timeout:
+                        continue
+                    except OSError:
+                        break
+                    if not data or b"closing the connection" in data:
+                        self.closed_to_make_room += b"closed to make room" in data
+                        self._closed_once = True
+                        break
+
+
+def test_a_fresh_client_is_served_while_slow_senders_come_back_at_once(roscore, ros_node, tmp_path: Path) -> None:
+    # Twelve slow senders for eight slots: the four turned away come back at once and, once the frames held pass
+    # the grace, make room for themselves. Left to do so, they would keep every slot too young to judge, and a
+    # fresh client would be refused (most of the time).
+    endpoint = start_endpoint(roscore, tmp_path, "--max-clients", "8")
+    stop = threading.Event()
+    senders = [ReconnectingSlowSender(endpoint.port, f"127.0.0.{10 + index % 4}", 0.25, stop) for index in range(12)]
+    newcomers: list[socket.socket] = []
+    try:
+        for sender in senders:
+            sender.start()
+        time.sleep(3 * FRAME_GRACE_S)  # the frames held past the grace: the senders turned away make room
+        for _ in range(5):  # each newcomer stays, so the next needs room made again
+            sock, frame = connect_from(endpoint.port, "127.0.0.50")
+            newcomers.append(sock)
+            assert frame is not None and frame.destination == "__handshake", frame
+            time.sleep(0.2)
+        assert sum(sender.closed_to_make_room for sender in senders) >= 5
+    finally:
+        stop.set()
+        for sender in senders:
+            sender.join(10)
+        for sock in newcomers:
+            sock.close()
+        endpoint.stop()
+
+
+def test_a_fresh_client_is_served_right_after_slow_senders_missed_their_deadline_and_came_back(
+    roscore, ros_node, tmp_path: Path
+) -> None:
+    # As many slow senders as slots: --frame-timeout closes them all at once, and they come back at once, each too
+    # young to judge. Their addresses missed a deadline a moment ago: the newcomer from elsewhere is served.
+    endpoint = start_endpoint(roscore, tmp_path, "--max-clients", "4", "--frame-timeout", "2")
+    stop = threading.Event()
+    senders = [ReconnectingSlowSender(endpoint.port, f"127.0.0.{10 + index}", 0.25, stop) for index in range(4)]
+    try:
+        for sender in senders:
+            sender.start()
+        wait_for(lambda: all(sender.came_back.is_set() for sender in senders), 20, "every sender back")
+        sock, frame = connect_from(endpoint.port, "127.0.0.50")
+        sock.close()
+        assert frame is not None and frame.destination == "__handshake", frame
+    finally:
+        stop.set()
+        for sender in senders:
+            sender.join(10)
+        endpoint.stop()
+
+
 def test_registrations_past_the_limits_are_refused_and_the_client_stays(roscore, ros_node, tmp_path: Path) -> None:
     endpoint = start_endpoint(
         roscore, tmp_path, "--max-registrations-per-client", "5", "--max-registrations", "8", "--publisher-grace", "0"

@@ -358,6 +358,28 @@ def test_calls_in_flight_never_hold_up_the_clients_other_commands(bridge, ros_no
         hung.close()
 
 
+def test_calls_queued_behind_the_clients_workers_end_by_their_own_deadline(bridge, ros_node) -> None:
+    # Three rounds of calls for the client's four call workers: the deadline of each runs from its asking, not from
+    # when a worker is free (it was, and the third round's errors came at three times the timeout).
+    name = unique("hung_queued")
+    hung = HungService(ros_node, name)
+    try:
+        with RawConnection(bridge.port) as client:
+            client.command("__ros_service", topic=name, message_name="std_srvs/Trigger")
+            client.sync()
+            started = time.monotonic()
+            for srv_id in range(12):
+                client.command("__request", srv_id=srv_id)
+                client.send_frame(name, b"")
+            for _ in range(12):
+                client.expect_error("__request", name, "this call will not complete", timeout=30)
+            assert time.monotonic() - started < 2 + 2  # the endpoint's --service-timeout is 2 s
+            ended = sorted(json.loads(f.payload)["srv_id"] for f in client.received if f.destination == "__error")
+            assert ended == list(range(12))
+    finally:
+        hung.close()
+
+
 def test_a_departed_clients_calls_end_with_it(roscore, ros_node, tmp_path) -> None:
     endpoint = start_endpoint(roscore, tmp_path, "--service-timeout", "60", name="departed_calls_endpoint")
     name = unique("hung_departed")

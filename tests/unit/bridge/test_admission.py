@@ -2,7 +2,17 @@
 
 from __future__ import annotations
 
-from bridge.admission import FRAME_GRACE_S, SILENT_GRACE_S, SLOW_PACE, SlotUse, pace, to_evict
+from bridge.admission import (
+    FRAME_GRACE_S,
+    MAX_SUSPECTS,
+    SILENT_GRACE_S,
+    SLOW_PACE,
+    SUSPECT_S,
+    SlotUse,
+    Suspects,
+    pace,
+    to_evict,
+)
 
 
 def use(
@@ -11,8 +21,10 @@ def use(
     frame_bytes: int = 0,
     frames_completed: int = 10,
     authenticated: bool = True,
+    unread_bytes: int = 0,
+    suspect: bool = False,
 ) -> SlotUse:
-    return SlotUse(connected_for_s, frame_for_s, frame_bytes, frames_completed, authenticated)
+    return SlotUse(connected_for_s, frame_for_s, frame_bytes, frames_completed, authenticated, unread_bytes, suspect)
 
 
 def test_connections_between_whole_frames_use_their_slot_however_long_idle() -> None:
@@ -46,3 +58,37 @@ def test_no_auth_after_the_grace_or_no_frame_at_all_for_long_is_not_using_the_sl
     assert pace(use(connected_for_s=SILENT_GRACE_S * 2, frames_completed=0)) == 0.0
     silent = use(connected_for_s=SILENT_GRACE_S * 2, frames_completed=0)
     assert to_evict([use(frame_for_s=3.0, frame_bytes=30), silent]) == 1
+
+
+def test_bytes_the_reader_has_not_taken_yet_count_as_sent() -> None:
+    # A starved reader: the client's __auth, or its first frame, waits in the kernel past the grace.
+    starved = use(connected_for_s=FRAME_GRACE_S * 2, authenticated=False, frames_completed=0, unread_bytes=40)
+    assert pace(starved) is None
+    assert pace(use(connected_for_s=SILENT_GRACE_S * 2, frames_completed=0, unread_bytes=8)) is None
+    assert pace(use(frame_for_s=2.0, frame_bytes=2, unread_bytes=2 * SLOW_PACE)) is None
+    loris = use(frame_for_s=20.0, frame_bytes=20)
+    assert to_evict([starved, loris]) == 1
+
+
+def test_young_connections_from_a_suspect_address_make_room_after_proven_non_users() -> None:
+    young = use(connected_for_s=0.5, frame_for_s=0.4, frame_bytes=1, frames_completed=0)
+    young_suspect = use(connected_for_s=0.5, frame_for_s=0.4, frame_bytes=1, frames_completed=0, suspect=True)
+    older_suspect = use(connected_for_s=0.9, frames_completed=0, suspect=True)
+    assert to_evict([young, young]) is None  # no evidence at all: every slot is safe
+    assert to_evict([young, young_suspect, older_suspect]) == 2
+    assert to_evict([young_suspect, use(frame_for_s=20.0, frame_bytes=20)]) == 1  # the proven one first
+    # a client of a suspect address that uses its slot (between whole frames) is never cut
+    assert to_evict([use(suspect=True), use(connected_for_s=0.2, frames_completed=3, suspect=True)]) is None
+
+
+def test_an_address_stays_a_suspect_for_its_time_and_the_oldest_are_forgotten_first() -> None:
+    suspects = Suspects()
+    suspects.note("10.0.0.1", 100.0)
+    assert suspects.is_suspect("10.0.0.1", 100.0 + SUSPECT_S)
+    assert not suspects.is_suspect("10.0.0.1", 100.0 + SUSPECT_S + 0.1)
+    assert not suspects.is_suspect("10.0.0.2", 100.0)
+    for index in range(MAX_SUSPECTS + 1):
+        suspects.note(f"10.1.{index // 256}.{index % 256}", 200.0 + index * 1e-6)
+    assert not suspects.is_suspect("10.1.0.0", 201.0)  # the oldest, past the bound
+    assert suspects.is_suspect(f"10.1.{MAX_SUSPECTS // 256}.{MAX_SUSPECTS % 256}", 201.0)
+    assert len(suspects) <= MAX_SUSPECTS
