@@ -3,9 +3,8 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Protocol
+from typing import Callable, Protocol  # typing's: a module-level alias is evaluated, and 3.8's abc is not generic
 
 import numpy as np
 
