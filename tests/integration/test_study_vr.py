@@ -422,7 +422,7 @@ def test_the_page_shows_another_arm_with_its_meshes(roscore, tmp_path: Path, nam
     # gripper arm), unless it is kept from a run before; the arm's file is new in each run, so it is not. Fitted here
     # first, it is kept, and the server's start, which start_vr_page bounds, is the server's alone (on a machine
     # loaded tenfold the fit alone took 2 minutes, and the server was given up on).
-    scene_for(None, str(urdf))
+    scene_for(None, str(urdf), {"ee_link": ee_link} if ee_link else None)  # as the server's --ee-link gives it
     secrets = launch_secrets()
     endpoint = EndpointProcess({**roscore.env, **secrets}, tmp_path, extra=["--websocket-port", "0"])
     try:
