@@ -183,6 +183,9 @@ def test_a_vr_scene_stops_the_robot_and_answers_through_the_endpoint(roscore, en
     log = runner.output()
     assert "an answer was refused: a perceived distance must be 0..2 m, got -1.0" in log
     assert "a preference must be one of straight, vertical or 1..2, got '9'; asking again" in log
+    # the summary gives the ROS time the lockstep clock advanced: the trials' seconds, not the clock's reading
+    (ros_time,) = re.findall(r"participant 7: 3 trials .* s of wall time, ([0-9.]+) s of ROS time in lockstep", log)
+    assert 1 < float(ros_time) < 60
     assert [phase for index, phase in scene.phases if index == 1] == [
         "to_start",
         "ready",

@@ -224,6 +224,7 @@ class StudyRunner:
         self.links = make_links(robot, run, options.pacing, stop, trajectory_links or {}, watched)
         self.link: RobotLink = self.links[run[0]]
         self._started: set[int] = set()  # the links started (by id)
+        self._lockstep_began: dict[int, tuple[Any, float]] = {}  # lockstep links (by id): the link, its clock at start
         self._subscribers = [
             self.rospy.Subscriber(GO_TOPIC, Empty, lambda _: self.inputs.go()),
             self.rospy.Subscriber(STOP_TOPIC, Header, self._on_press, tcp_nodelay=True),
@@ -349,6 +350,14 @@ class StudyRunner:
         if id(self.link) not in self._started:
             self._started.add(id(self.link))
             self.link.start(self.options.pacing.step_timeout)
+            if not self.link.realtime:
+                self._lockstep_began[id(self.link)] = (self.link, self.link.clock)
+
+    def lockstep_time(self) -> float | None:
+        """s of ROS time the lockstep links' clocks have advanced (None when every link ran on wall time)."""
+        if not self._lockstep_began:
+            return None
+        return sum(link.clock - began for link, began in self._lockstep_began.values())
 
     def wait_for_input(self, what: str) -> Any:
         """Go or an answer, waited for at most --response-timeout s. In real time the robot holds its target
@@ -681,9 +690,11 @@ def run_node(
             stop_recorder(recorder, bag)
         rospy.signal_shutdown("study session done")
     presses = sum(record.pressed for record in records)
+    lockstep = runner.lockstep_time()
     print(
         f"participant {plan.participant}: {len(records)} trials ({presses} stopped by a press) in "
-        f"{time.monotonic() - started:.1f} s of wall time, {runner.clock:.1f} s of ROS time"
+        f"{time.monotonic() - started:.1f} s of wall time"
+        + ("" if lockstep is None else f", {lockstep:.1f} s of ROS time in lockstep")
     )
     print(f"records: {records_path}")
     if plan.questionnaires:

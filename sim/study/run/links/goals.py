@@ -70,6 +70,12 @@ class CommandedPath:
         """A trajectory starting at `start` (its samples at `times`, 0 its first, from its start)."""
         self.segments.append((float(start), np.asarray(times, dtype=float), np.asarray(positions, dtype=float)))
 
+    def discard_last(self) -> None:
+        """Forget the last segment: the controller refused it, so the arm was never commanded along it."""
+        if not self.segments:
+            raise RunError("nothing was commanded")
+        self.segments.pop()
+
     def at(self, when: float) -> np.ndarray:
         """The commanded joint positions at `when` (before the first segment: its first sample; after the last
         sample of a segment: held there)."""

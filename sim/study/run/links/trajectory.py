@@ -1,14 +1,18 @@
 """The trajectory-controller link: a real arm's ros_control joint_trajectory_controller (or the physics node's
 stand-in of it), on wall time. rospy and actionlib.
 
-- No /clock: the link's clock is the wall clock, the time a driver stamps with. Goals have stamp zero ("start at the
-  controller's next update"); a replacement is stamped BRAKING_LEAD ahead, since a start in the past drops its
-  first points.
+- No /clock: the link's clock is the wall clock, the time a driver stamps with. A move to a path's start has stamp
+  zero ("start at the controller's next update"). An approach is stamped START_LEAD ahead and a replacement
+  BRAKING_LEAD ahead: the controller starts it at its stamp, so the link knows when the commanded path began (with
+  stamp zero, the goal's delivery delay would count as tracking error), and a start in the past drops its first
+  points.
 - An approach is one follow_joint_trajectory goal of the planned samples (positions, velocities, accelerations).
 - A press is a replacement: sim.study.safety.braking's stop along the path at the runner's deceleration, from the
   controller's desired state at the replacement's start (query_state), continuous in position, velocity and
-  acceleration. Never a bare cancel: with franka's stop_trajectory_duration of 0 a cancel holds the measured
-  position at once, a step that makes libfranka abort with a reflex.
+  acceleration; a stop the controller refuses (it came after its last point was due) is planned and sent anew, and
+  a stop before the approach has begun is a hold (an empty trajectory). Never a bare cancel: with franka's
+  stop_trajectory_duration of 0 a cancel holds the measured position at once, a step that makes libfranka abort
+  with a reflex.
 - The arm's joint states are read at whatever rate its driver publishes them. During a motion the link stops the
   arm (the same replacement) on its own when the feed goes stale, the tracking error passes the tolerance, the
   achieved distance to the hand falls under the floor, or the controller ends the goal otherwise than by success.
@@ -40,12 +44,14 @@ from sim.study.run.trial import TrialRun
 from sim.study.safety.braking import STOP_JERK, Braking, PathGeometry, brake
 from sim.wire.contract import MessageError, positions_by_name
 
-__all__ = ["BRAKING_LEAD", "JointFeed", "TrajectoryLink"]
+__all__ = ["BRAKING_LEAD", "START_LEAD", "JointFeed", "TrajectoryLink"]
 
+START_LEAD = 0.1  # s: an approach starts this far ahead of its sending: longer than a goal takes to arrive
 BRAKING_LEAD = 0.03  # s: a replacement starts this far ahead of its sending (its stamp must not have passed)
 POLL = 0.01  # s: the longest wait for a joint state between looks at the presses and the goal
 RESULT_GRACE = 5.0  # s after a motion's planned end that the controller may take to end its goal
 SUCCEEDED = 3
+REJECTED = 5
 STAMP_WINDOW = 5.0  # s: a press stamped further from the wall clock is on another clock (the stream's /clock)
 
 
@@ -133,7 +139,8 @@ class TrajectoryLink:
         self._trajectory_type, self._point_type = JointTrajectory, JointTrajectoryPoint
         ns = spec.namespace
         self.client = actionlib.ActionClient(f"{ns}/follow_joint_trajectory", self.types.action)
-        self.query = rospy.ServiceProxy(f"{ns}/query_state", self.types.query_state)
+        # persistent: a stop's query must not wait for the master's lookup and a new connection
+        self.query = rospy.ServiceProxy(f"{ns}/query_state", self.types.query_state, persistent=True)
         self.feed = JointFeed(robot)
         self.subscriber = rospy.Subscriber(
             spec.joint_states_topic, JointState, self.feed.callback, tcp_nodelay=True, queue_size=1000
@@ -217,7 +224,8 @@ class TrajectoryLink:
         commanded = CommandedPath()
         first = self._latest()
         run.record_state(0.0, first.positions)
-        handle, start = self._send(points, 0.0)
+        start = time.time() + START_LEAD
+        handle, _ = self._send(points, start)
         commanded.add(start, np.concatenate([[0.0], points.times]), np.vstack([planned.positions[0], points.positions]))
         self._target = planned.positions[-1].copy()
         ends = start + points.duration
@@ -248,12 +256,18 @@ class TrajectoryLink:
                         applied, when = _applied(press, now)
                         press_at = min(max(when, start), now)
                     reason = why if press is None else ""
-                    run.press(min((press_at - start) * self.spec.speed_scale, planned.path.duration))
-                    braking, sent_at = self._brake(geometry, run, commanded)
-                    if braking is not None:
-                        handle = self._handles[-1]
-                        replacement_sent = sent_at - press_at
-                        ends = max(ends, sent_at + BRAKING_LEAD + braking.duration)
+                    run.press(min(max(press_at - start, 0.0) * self.spec.speed_scale, planned.path.duration))
+                    stop, braking, sent_at, stop_ends = self._stop_approach(geometry, run, commanded, start, first)
+                    if stop is not None:
+                        handle, replacement_sent, ends = stop, sent_at - press_at, max(ends, stop_ends)
+            elif handle is not self._handles[0] and self._refused(handle):
+                # The controller refused the stop (it came after its last point was due, on a starved machine), so
+                # the approach goes on: stop it anew, from where it is now commanded to be.
+                commanded.discard_last()
+                stop, braking, sent_at, stop_ends = self._stop_approach(geometry, run, commanded, start, first)
+                handle = self._handles[0] if stop is None else stop
+                if stop is not None:
+                    replacement_sent, ends = sent_at - press_at, max(ends, stop_ends)
             if now >= ends + settle and (self._done(handle) or now >= ends + RESULT_GRACE):
                 break
         status, code, text = self._outcome(handle) if self._done(handle) else (-1, None, "no result")
@@ -333,6 +347,33 @@ class TrajectoryLink:
         commanded.add(at, stop.times, stop.positions)
         self._target = stop.positions[-1].copy()
         return stop, sent
+
+    def _stop_approach(
+        self, geometry: PathGeometry, run: TrialRun, commanded: CommandedPath, start: float, first: FedState
+    ) -> tuple[Any, Braking | None, float, float]:
+        """The approach's replacement: braking, or a hold where the arm waits when the approach (starting at
+        `start`) has not begun. (Its handle, the braking, when it was sent, when it ends); handle None when the plan
+        comes to rest sooner on its own."""
+        braking, sent_at = self._brake(geometry, run, commanded)
+        if braking is not None:
+            return self._handles[-1], braking, sent_at, sent_at + BRAKING_LEAD + braking.duration
+        if sent_at < start:
+            handle, sent_at = self._hold(commanded, first.positions)
+            return handle, None, sent_at, sent_at
+        return None, None, sent_at, -math.inf
+
+    @staticmethod
+    def _refused(handle: Any) -> bool:
+        return TrajectoryLink._done(handle) and int(handle.get_goal_status()) == REJECTED
+
+    def _hold(self, commanded: CommandedPath, positions: np.ndarray) -> tuple[Any, float]:
+        """A goal with no points, which a controller takes as "hold where you are": the replacement of an approach
+        stopped before its start, where braking has nothing to slow down. Its handle and when it was sent."""
+        nothing = np.zeros((0, self.robot.dof))
+        handle, sent = self._send(GoalPoints(np.zeros(0), nothing, nothing, nothing), 0.0)
+        commanded.add(sent, np.zeros(1), np.asarray(positions, dtype=float)[None, :])
+        self._target = np.asarray(positions, dtype=float).copy()
+        return handle, sent
 
     def _send(self, points: GoalPoints, stamp: float) -> tuple[Any, float]:
         """A goal of `points` stamped `stamp` (0: the controller's next update); its handle and when it was sent."""

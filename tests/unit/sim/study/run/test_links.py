@@ -60,6 +60,11 @@ def test_a_replacement_is_in_force_from_its_start_and_the_tracking_error_is_agai
     path.add(10.5, np.array([0.0, 1.0]), np.array([[0.5, 1.0], [0.6, 1.0]]))
     assert np.allclose(path.at(11.0), [0.55, 1.0]) and np.allclose(path.at(20.0), [0.6, 1.0])
     assert path.error(11.0, np.array([0.55, 0.9])) == pytest.approx(0.1)
+    path.discard_last()  # a replacement the controller refused: the approach is what was commanded after all
+    assert np.allclose(path.at(11.0), [1.0, 2.0])
+    path.discard_last()
+    with pytest.raises(RunError, match="nothing was commanded"):
+        path.discard_last()
 
 
 def test_braking_begins_at_the_first_state_whose_speed_has_fallen() -> None:
