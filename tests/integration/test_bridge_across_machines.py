@@ -11,48 +11,25 @@ runs across machines, and a port already taken. Each machine's /etc/hosts is its
 
 from __future__ import annotations
 
-import contextlib
-import shutil
-import socket
 from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
 
-from sim.campaign.trials import NETNS_HOSTS, Namespaces, network_hosts
+from sim.campaign.trials import Namespaces, network_hosts
 from sim.processes import PYTHON, REPO, EndpointProcess, ManagedProcess, RosCore, plain_env, wait_for
+from tests.integration.three_machines import (
+    BRIDGE,
+    BRIDGE_CLIENT_SIDE,
+    ENDPOINT_NAME,
+    FAR_ENDS,
+    HOSTNAME,
+    ROS,
+    endpoint_env,
+    hosts_file,
+)
 
 pytestmark = pytest.mark.lane("endpoint", on=("noetic",))
-
-ROS, BRIDGE, BRIDGE_CLIENT_SIDE, CLIENT = (
-    NETNS_HOSTS["ros"],
-    NETNS_HOSTS["bridge"],
-    NETNS_HOSTS["bridge_engine_side"],
-    NETNS_HOSTS["engine"],
-)
-HOSTNAME = socket.gethostname()  # namespaces share the machine's hostname; each resolves it by its own hosts file
-FAR_ENDS = (
-    "ok ros heard the client",
-    "ok ros called the client's service",
-    "ok client called the ros service",
-    "ok client heard ros",
-)
-
-
-@contextlib.contextmanager
-def hosts_file(namespace: str, entries: dict[str, str]) -> Iterator[None]:
-    """/etc/hosts as processes in `namespace` see it, while the block runs: localhost plus name -> address."""
-    folder = Path("/etc/netns") / namespace
-    folder.mkdir(parents=True, exist_ok=True)
-    lines = ["127.0.0.1 localhost", "::1 localhost", *(f"{address} {name}" for name, address in entries.items())]
-    (folder / "hosts").write_text("\n".join(lines) + "\n")
-    try:
-        yield
-    finally:
-        shutil.rmtree(folder, ignore_errors=True)
-
-
-ENDPOINT_NAME = "endpoint-pc"  # the endpoint's machine by name, as every machine's hosts file has it
 
 
 @pytest.fixture(scope="module")
@@ -61,19 +38,6 @@ def hosts() -> Iterator[Namespaces]:
     ROS_HOSTNAME (a master started before it could would never reach the endpoint)."""
     with network_hosts("xm") as spaces, hosts_file(spaces.ros, {ENDPOINT_NAME: BRIDGE}):
         yield spaces
-
-
-@pytest.fixture(scope="module")
-def far_master(hosts: Namespaces) -> Iterator[RosCore]:
-    core = RosCore(host=ROS, prefix=hosts.prefix(hosts.ros))
-    yield core
-    core.stop()
-
-
-def endpoint_env(master: RosCore, **ros: str) -> dict[str, str]:
-    """The master's environment without its ROS_IP/ROS_HOSTNAME (those are the ROS host's), plus `ros`."""
-    env = {k: v for k, v in master.env.items() if k not in ("ROS_IP", "ROS_HOSTNAME")}
-    return {**env, **ros}
 
 
 def start_up_output(hosts: Namespaces, env: dict[str, str], tmp_path: Path, host: str, until: str) -> str:

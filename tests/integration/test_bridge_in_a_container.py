@@ -16,7 +16,7 @@ import pytest
 
 from sim.campaign.trials import Namespaces, network_hosts
 from sim.processes import PYTHON, REPO, EndpointProcess, ManagedProcess, RosCore, plain_env, wait_for
-from tests.integration.test_bridge_across_machines import (
+from tests.integration.three_machines import (
     BRIDGE_CLIENT_SIDE,
     FAR_ENDS,
     HOSTNAME,

@@ -20,13 +20,12 @@ import pytest
 from sim.campaign.trials import Namespaces, network_hosts
 from sim.processes import PYTHON, REPO, EndpointProcess, ManagedProcess, RosCore, plain_env, wait_for
 from tests.integration.netns_peers import FROM_ROS, TO_ROS
-from tests.integration.test_bridge_across_machines import (
+from tests.integration.three_machines import (
     BRIDGE,
     BRIDGE_CLIENT_SIDE,
     ENDPOINT_NAME,
     FAR_ENDS,
     HOSTNAME,
-    ROS,
     endpoint_env,
     hosts_file,
 )
@@ -44,13 +43,6 @@ def hosts() -> Iterator[Namespaces]:
     with network_hosts("pl") as spaces, hosts_file(spaces.ros, {HOSTNAME: "127.0.1.1"}):
         with hosts_file(spaces.bridge, {HOSTNAME: "127.0.1.1", ENDPOINT_NAME: BRIDGE}):
             yield spaces
-
-
-@pytest.fixture(scope="module")
-def far_master(hosts: Namespaces) -> Iterator[RosCore]:
-    core = RosCore(host=ROS, prefix=hosts.prefix(hosts.ros))
-    yield core
-    core.stop()
 
 
 class Layout:
