@@ -1,8 +1,9 @@
 """The reality condition on a real arm's controller, with real parts: the runner (`python -m sim.study run
 --realtime --link ...`) against the physics node's ros_control trajectory controller on wall time (franka_ros's
 topics), a real roscore, and in one session the VR condition through the engine stand-in's stream. The observer types
-at the runner's keyboard. Safety: the runner stops the arm on a stale feed and on tracking error; a runner killed
-mid-approach leaves the arm at rest short of the hand."""
+at the runner's keyboard. Safety: the runner stops the arm on a stale feed and on tracking error; a stop the
+controller refuses (delayed by a relay of the controller's topics) is sent anew; a runner killed mid-approach leaves
+the arm at rest short of the hand."""
 
 from __future__ import annotations
 
@@ -37,6 +38,7 @@ SCENE = load_scene()
 ROBOT = scene_robot(SCENE)
 NS = "/position_joint_trajectory_controller"  # franka_ros's, as its preset says
 JOINT_STATES = "/franka_state_controller/joint_states"
+PREEMPTED, SUCCEEDED, REJECTED = 2, 3, 5  # actionlib_msgs/GoalStatus
 
 
 class Watch:
@@ -260,6 +262,109 @@ def test_a_stale_joint_state_feed_stops_the_arm(roscore, ros_node, arm, tmp_path
         kill_process(runner)
         relay.unregister()
         relayed.unregister()
+
+
+RELAY = "/relayed_controller"  # the namespace the runner talks to, relayed by the test process to the stand-in's
+
+
+class ControllerRelay:
+    """The stand-in's controller as the runner sees it under RELAY: its action's five topics and query_state relayed
+    by the test process, each goal passed through `on_goal(number, action_goal)` (1 for the first goal), which may
+    change it and returns how long to hold it back (s)."""
+
+    def __init__(self, rospy: Any, on_goal: Any = None) -> None:
+        from actionlib_msgs.msg import GoalID, GoalStatusArray
+
+        from sim.wire.control_types import control_types
+
+        types = control_types()
+        self.on_goal = on_goal or (lambda number, goal: 0.0)
+        self.goals: list[Any] = []
+        self.statuses: dict[str, int] = {}  # the stand-in's last status of each goal, by its id
+        self.lock = threading.Lock()
+        self.timers: list[threading.Timer] = []
+        here, there = f"{RELAY}/follow_joint_trajectory", f"{NS}/follow_joint_trajectory"
+        self.outgoing = {  # to the stand-in
+            "goal": rospy.Publisher(f"{there}/goal", types.action_goal, queue_size=10),
+            "cancel": rospy.Publisher(f"{there}/cancel", GoalID, queue_size=10),
+        }
+        self.incoming = {  # to the runner
+            "status": rospy.Publisher(f"{here}/status", GoalStatusArray, queue_size=10),
+            "feedback": rospy.Publisher(f"{here}/feedback", types.action_feedback, queue_size=10),
+            "result": rospy.Publisher(f"{here}/result", types.action_result, queue_size=10),
+        }
+        self.query = rospy.ServiceProxy(f"{NS}/query_state", types.query_state, persistent=True)
+        self.endpoints: list[Any] = [
+            rospy.Subscriber(f"{here}/goal", types.action_goal, self._on_goal),
+            rospy.Subscriber(f"{here}/cancel", GoalID, self.outgoing["cancel"].publish),
+            rospy.Subscriber(f"{there}/status", GoalStatusArray, self._on_status),
+            rospy.Subscriber(f"{there}/feedback", types.action_feedback, self.incoming["feedback"].publish),
+            rospy.Subscriber(f"{there}/result", types.action_result, self.incoming["result"].publish),
+            rospy.Service(f"{RELAY}/query_state", types.query_state, lambda request: self.query(request.time)),
+            *self.outgoing.values(),
+            *self.incoming.values(),
+        ]
+
+    def _on_goal(self, goal: Any) -> None:
+        with self.lock:
+            self.goals.append(goal)
+            number = len(self.goals)
+        hold = self.on_goal(number, goal)
+        if hold > 0:
+            timer = threading.Timer(hold, self.outgoing["goal"].publish, (goal,))
+            self.timers.append(timer)
+            timer.start()
+        else:
+            self.outgoing["goal"].publish(goal)
+
+    def _on_status(self, message: Any) -> None:
+        with self.lock:
+            for status in message.status_list:
+                self.statuses[status.goal_id.id] = status.status
+        self.incoming["status"].publish(message)
+
+    def status(self, number: int) -> int | None:
+        """The stand-in's last status of goal `number` (None while it has not said)."""
+        with self.lock:
+            return self.statuses.get(self.goals[number - 1].goal_id.id) if len(self.goals) >= number else None
+
+    def close(self) -> None:
+        for timer in self.timers:
+            timer.cancel()
+        self.query.close()
+        for endpoint in self.endpoints:
+            endpoint.shutdown() if hasattr(endpoint, "shutdown") else endpoint.unregister()
+
+
+def test_a_stop_the_controller_refuses_is_planned_and_sent_anew(roscore, ros_node, arm, tmp_path: Path) -> None:
+    # The relay holds the first goal after the approach (the braking replacement) back for 0.5 s, longer than its
+    # braking lasts: all its points are past when it arrives, and the stand-in refuses it while the approach goes on.
+    # The runner plans the stop anew from where the arm is then commanded to be, and brakes it short of the stand-off.
+    _, watch = arm
+    watch.out = str(tmp_path / "out")
+    relay = ControllerRelay(ros_node, lambda number, goal: 0.5 if number == 3 else 0.0)  # 1: to the start, 2: approach
+    standoff = 0.1
+    plan = write_plan(tmp_path / "plan.yaml", 8, "reality", [trial(1, "reality", 1, "vertical", standoff, 0.2)])
+    runner = start_runner(roscore, plan, tmp_path / "out", ["--link", f"reality={RELAY},{JOINT_STATES}"])
+    try:
+        watch.wait((1, "moving"), runner)
+        time.sleep(0.5)
+        type_line(runner, "s\n")
+        watch.wait((1, "distance"), runner)
+        type_line(runner, "20 cm\n")
+        output, _ = runner.communicate(timeout=60)
+        rest = hand_distance(watch.resting_positions())
+        statuses = [relay.status(number) for number in range(1, len(relay.goals) + 1)]
+    finally:
+        kill_process(runner)
+        relay.close()
+    assert runner.returncode == 0, output
+    assert statuses == [SUCCEEDED, PREEMPTED, REJECTED, SUCCEEDED], statuses  # the stop refused, then sent anew
+    (row,) = read_csv(tmp_path / "out" / "participant_08.csv")
+    assert (row["pressed"], row["goal_result"], row["safety_stop"]) == ("true", "SUCCEEDED", ""), row
+    assert float(row["braking_distance"]) > 0.005
+    assert rest == pytest.approx(float(row["distance_at_rest"]), abs=0.002)
+    assert rest > standoff + 0.02  # braked well short of its stand-off
 
 
 def test_a_stop_as_the_approach_is_sent_keeps_the_arm_at_the_paths_start(roscore, arm, tmp_path: Path) -> None:
