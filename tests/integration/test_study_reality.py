@@ -1,7 +1,8 @@
 """The reality condition on a real arm's controller, with real parts: the runner (`python -m sim.study run
 --realtime --link ...`) against the physics node's ros_control trajectory controller on wall time (franka_ros's
 topics), a real roscore, and in one session the VR condition through the engine stand-in's stream. The observer types
-at the runner's keyboard. Safety: the runner stops the arm on a stale feed and on tracking error; a stop the
+at the runner's keyboard. Safety: the runner stops the arm on a stale feed, on tracking error, on an achieved distance
+under the floor and when the controller drops the goal; a stop the
 controller refuses (delayed by a relay of the controller's topics) is sent anew; a runner killed mid-approach leaves
 the arm at rest short of the hand."""
 
@@ -38,7 +39,7 @@ SCENE = load_scene()
 ROBOT = scene_robot(SCENE)
 NS = "/position_joint_trajectory_controller"  # franka_ros's, as its preset says
 JOINT_STATES = "/franka_state_controller/joint_states"
-PREEMPTED, SUCCEEDED, REJECTED = 2, 3, 5  # actionlib_msgs/GoalStatus
+PREEMPTED, SUCCEEDED, ABORTED, REJECTED = 2, 3, 4, 5  # actionlib_msgs/GoalStatus
 
 
 class Watch:
@@ -225,6 +226,8 @@ def stopped_on_its_own(
     assert rest > standoff + 0.02  # braked well short of its stand-off
     if why == "joint states stale":  # its last state seen was in motion: the arm braked on, closer, to rest
         assert rest < float(row["distance_at_rest"])
+    elif why == "achieved distance to the hand":  # the runner read the arm displaced towards the hand
+        assert rest > float(row["distance_at_rest"]) + 0.05
     else:
         assert rest == pytest.approx(float(row["distance_at_rest"]), abs=0.002)
 
@@ -365,6 +368,67 @@ def test_a_stop_the_controller_refuses_is_planned_and_sent_anew(roscore, ros_nod
     assert float(row["braking_distance"]) > 0.005
     assert rest == pytest.approx(float(row["distance_at_rest"]), abs=0.002)
     assert rest > standoff + 0.02  # braked well short of its stand-off
+
+
+def test_an_achieved_distance_under_the_floor_stops_the_arm(roscore, ros_node, arm, tmp_path: Path) -> None:
+    # The plan keeps 0.15 m from the hand, over the floor of 0.05 m. Once the arm moves, the relay of its joint states
+    # shows it displaced twice the way from the plan's end at 0.15 m to a plan's end at 0.03 m (as an arm off its
+    # calibration, or a hand closer than the scene says, would read): its distance as the runner reads it falls
+    # under the floor mid-approach, while the arm is still far. Tracking is given a tolerance the reading keeps.
+    from sensor_msgs.msg import JointState
+
+    _, watch = arm
+    watch.out = str(tmp_path / "out")
+    with Approaches(ROBOT, SCENE, 0.01) as approaches:
+        plans = approaches.plan_all([("vertical", 0.15, 0.2), ("vertical", 0.03, 0.2)])
+    shift = 2 * (plans[("vertical", 0.03, 0.2)].positions[-1] - plans[("vertical", 0.15, 0.2)].positions[-1])
+    by_name = dict(zip(ROBOT.joint_names, shift))
+    shifting = threading.Event()
+    relayed = ros_node.Publisher("/relayed/joint_states", JointState, queue_size=10)
+
+    def relay_state(message: Any) -> None:
+        if shifting.is_set():  # a copy: the test's other subscribers to the topic share the message
+            shifted = [p + by_name[n] for n, p in zip(message.name, message.position)]
+            message = JointState(message.header, message.name, shifted, message.velocity, message.effort)
+        relayed.publish(message)
+
+    relay = ros_node.Subscriber(JOINT_STATES, JointState, relay_state)
+    plan = write_plan(tmp_path / "plan.yaml", 10, "reality", [trial(1, "reality", 1, "vertical", 0.15, 0.2)])
+    extra = ["--link", f"reality={NS},/relayed/joint_states", "--floor", "0.05", "--tracking-tolerance", "3"]
+    runner = start_runner(roscore, plan, tmp_path / "out", extra)
+    try:
+        watch.wait((1, "moving"), runner)
+        shifting.set()
+        stopped_on_its_own(runner, watch, "achieved distance to the hand", 0.15, 10)
+    finally:
+        kill_process(runner)
+        relay.unregister()
+        relayed.unregister()
+
+
+def test_the_controller_dropping_the_goal_stops_the_arm(roscore, ros_node, arm, tmp_path: Path) -> None:
+    # The relay gives the approach's goal a path tolerance of 1 µrad, which the stand-in's arm (lagging its commanded
+    # path by ~0.03 mrad) violates as it starts: the stand-in aborts the goal, its trajectory running on (as
+    # ros_control's does), and the runner stops the arm.
+    from sim.wire.control_types import control_types
+
+    _, watch = arm
+    watch.out = str(tmp_path / "out")
+    tolerance = control_types().joint_tolerance
+
+    def tight(number: int, goal: Any) -> float:
+        if number == 2:  # 1: the move to the path's start, 2: the approach
+            goal.goal.path_tolerance = [tolerance(name=name, position=1e-6) for name in ROBOT.joint_names]
+        return 0.0
+
+    relay = ControllerRelay(ros_node, tight)
+    plan = write_plan(tmp_path / "plan.yaml", 11, "reality", [trial(1, "reality", 1, "vertical", 0.1, 0.2)])
+    runner = start_runner(roscore, plan, tmp_path / "out", ["--link", f"reality={RELAY},{JOINT_STATES}"])
+    try:
+        stopped_on_its_own(runner, watch, "the controller ended the goal ABORTED", 0.1, 11)
+    finally:
+        relay.close()
+    assert relay.status(2) == ABORTED
 
 
 def test_a_stop_as_the_approach_is_sent_keeps_the_arm_at_the_paths_start(roscore, arm, tmp_path: Path) -> None:
