@@ -27,6 +27,7 @@ from sim.study.design.feasibility import Approaches
 from sim.study.design.fit import scene_for
 from sim.study.design.paths import ON_TOP
 from sim.study.design.scene import load_scene, scene_robot
+from sim.study.run.cli import UNCHECKED
 from sim.study.run.protocol import STATUS_TOPIC, status_from_json
 from tests.integration.sim_helpers import start_engine, start_physics_node
 from tests.integration.study_helpers import trial, write_plan
@@ -517,6 +518,7 @@ def test_check_safety_refuses_a_plan_beyond_the_pandas_limits_or_under_the_floor
         (["--link", "reality=franka_ros"], "runs on wall time: give --realtime"),
         (["--realtime", "--link", "reality=franka"], "is neither stream, a preset"),
         (["--realtime", "--link", "reality=franka_ros", "--rehearsal-speed", "2"], "--rehearsal-speed must be"),
+        (["--realtime", "--link", "reality=franka_ros", "--margin", "1.5"], "--margin must be in (0, 1]"),
     ],
 )
 def test_a_link_the_runner_cannot_use_is_one_line_and_exit_2(tmp_path: Path, options: list[str], said: str) -> None:
@@ -525,3 +527,30 @@ def test_a_link_the_runner_cannot_use_is_one_line_and_exit_2(tmp_path: Path, opt
     done = subprocess.run(command, cwd=REPO, env=plain_env(), capture_output=True, text=True, timeout=60)
     errors = [line for line in done.stderr.splitlines() if line.startswith("sim.study run: error: ")]
     assert done.returncode == 2 and len(errors) == 1 and said in errors[0], done.stderr
+
+
+def test_the_runner_refuses_before_any_motion_a_plan_beyond_the_pandas_limits_on_a_real_arms_link(
+    roscore, tmp_path: Path
+) -> None:
+    # The bundled design's over_the_top at 0.3 m/s passes joint 4's acceleration limit itself (and joint 2's
+    # braking from a press): refused on a trajectory controller, one line per limit; on the stream it is not checked.
+    trials = [trial(1, "reality", 2, "over_the_top", 0.15, 0.3, "fast", 1)]
+    plan = write_plan(tmp_path / "plan.yaml", 12, "reality", trials)
+
+    def run(*options: str) -> subprocess.CompletedProcess[str]:
+        command = [PYTHON, "-m", "sim.study", "run", "--plan", str(plan), "--out", str(tmp_path / "out"), "--realtime"]
+        command += ["--no-record", "--connect-timeout", "1", *options]
+        return subprocess.run(command, cwd=REPO, env=roscore.env, capture_output=True, text=True, timeout=120)
+
+    refused = run("--link", "reality=franka_ros")
+    lines = [line for line in refused.stdout.splitlines() if line.startswith("refused: ")]
+    assert refused.returncode == 2 and "sim.study run: error: " in refused.stderr.splitlines()[-1], refused.stderr
+    assert any(
+        "panda_joint4 acceleration" in line and "80% of its limit 12.5 (URDF and Franka" in line for line in lines
+    )
+    assert any("braking from a press" in line and "panda_joint2 acceleration" in line for line in lines), lines
+    # overridden (for a stand-in only): said loudly, and the runner goes on to look for the controller
+    unchecked = run("--link", "reality=franka_ros", UNCHECKED)
+    assert f"WARNING: {UNCHECKED}: panda's limits are NOT checked" in unchecked.stderr
+    assert "no action server /position_joint_trajectory_controller" in unchecked.stderr
+    assert not any(line.startswith("refused: ") for line in unchecked.stdout.splitlines())
