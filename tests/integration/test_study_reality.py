@@ -554,3 +554,25 @@ def test_the_runner_refuses_before_any_motion_a_plan_beyond_the_pandas_limits_on
     assert f"WARNING: {UNCHECKED}: panda's limits are NOT checked" in unchecked.stderr
     assert "no action server /position_joint_trajectory_controller" in unchecked.stderr
     assert not any(line.startswith("refused: ") for line in unchecked.stdout.splitlines())
+
+
+def test_the_rehearsal_with_the_hand_out_of_reach_plans_every_approach_the_clearance_further(
+    roscore, tmp_path: Path
+) -> None:
+    # Planned and checked before any motion (no controller runs here: the runner then stops looking for it).
+    trials = [trial(1, "reality", 1, "vertical", 0.1, 0.2), trial(2, "reality", 2, "vertical", ON_TOP, 0.2, "slow", 1)]
+    plan = write_plan(tmp_path / "plan.yaml", 13, "reality", trials)
+    command = [PYTHON, "-m", "sim.study", "run", "--plan", str(plan), "--out", str(tmp_path / "out"), "--realtime"]
+    command += [
+        "--no-record",
+        "--connect-timeout",
+        "1",
+        "--link",
+        "reality=franka_ros",
+        "--rehearsal-clearance",
+        "0.15",
+    ]
+    done = subprocess.run(command, cwd=REPO, env=roscore.env, capture_output=True, text=True, timeout=120)
+    assert done.returncode == 4 and "no action server" in done.stderr, done.stderr
+    said = "rehearsal: every approach ends 0.15 m further from the hand than planned; the closest comes 0.1700 m"
+    assert said in done.stdout, done.stdout

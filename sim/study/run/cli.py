@@ -77,6 +77,12 @@ def register(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> N
         "--rehearsal-speed", type=float, default=1.0, help="approaches at this fraction of their speed (0..1]"
     )
     trajectory.add_argument(
+        "--rehearsal-clearance",
+        type=float,
+        metavar="M",
+        help="the rehearsal with the hand out of reach: every approach ends M m further from the hand than planned",
+    )
+    trajectory.add_argument(
         "--margin",
         type=float,
         default=DEFAULT_MARGIN,
@@ -108,6 +114,10 @@ def run_command(args: argparse.Namespace) -> int:
     from sim.study.run.links.specs import link_specs
 
     plan = plan_from_data(read_yaml(args.plan, "plan"), str(args.plan))
+    if args.rehearsal_clearance is not None:
+        from sim.study.run.rehearsal import out_of_reach
+
+        plan = out_of_reach(plan, args.rehearsal_clearance)
     links = link_specs(
         args.link, plan.conditions, args.stale_after, args.tracking_tolerance, args.floor, args.rehearsal_speed
     )
@@ -139,6 +149,12 @@ def run_command(args: argparse.Namespace) -> int:
                 + "; ".join(f"{p} to {s} m at {v} m/s: {d:.4f} m" for (p, s, v), d in close.items())
             )
         refuse_beyond_limits(robot, plan, planned, links, args)
+        if args.rehearsal_clearance is not None:
+            closest = min(float(a.distances.min()) for a in planned.values())
+            print(
+                f"rehearsal: every approach ends {args.rehearsal_clearance:g} m further from the hand than planned; "
+                f"the closest comes {closest:.4f} m from it (these rows are not data)"
+            )
         return run_node(
             robot, scene, plan, approaches, options, args.out.resolve(), not args.no_record, args.connect_timeout, links
         )
