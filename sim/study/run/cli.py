@@ -113,6 +113,8 @@ def run_command(args: argparse.Namespace) -> int:
         check_positive(getattr(args, option), f"--{option.replace('_', '-')}")
     from sim.study.run.links.specs import link_specs
 
+    if not (0 < args.margin <= 1):  # said before the planning, not after
+        raise RunError(f"--margin must be in (0, 1], got {args.margin!r}")
     plan = plan_from_data(read_yaml(args.plan, "plan"), str(args.plan))
     if args.rehearsal_clearance is not None:
         from sim.study.run.rehearsal import out_of_reach
@@ -175,8 +177,6 @@ def refuse_beyond_limits(
     from sim.study.safety.check import design_refusals
     from sim.study.safety.limits import limits_for
 
-    if not (0 < args.margin <= 1):
-        raise RunError(f"--margin must be in (0, 1], got {args.margin!r}")
     on_links = sorted({(t.path, t.standoff, t.peak_speed) for t in plan.trials if t.condition in links})
     if not on_links:
         return
