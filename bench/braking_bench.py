@@ -42,16 +42,15 @@ from typing import Any
 
 import numpy as np
 
-from sim.control.scenarios.defaults import controllable_weights
 from sim.control.trajectory_client import wait_for_action_server
-from sim.geometry.kinematics import chain_for, solve_ik, solve_path_ik
 from sim.launchers import PhysicsNode, start
 from sim.processes import RosCore
 from sim.robots import load_robot
-from sim.study.design.paths import ON_TOP, ApproachPath, approach_path
+from sim.study.design.paths import ON_TOP, ApproachPath
 from sim.study.design.scene import load_scene
-from sim.study.design.tool import approach_rotation
 from sim.study.safety.braking import Braking, PathGeometry, PathState, arc_length, brake
+from sim.study.safety.errors import SafetyError
+from sim.study.safety.kinematic_plan import kinematic_plan
 
 NS = "/panda/position_joint_trajectory_controller"
 JOINT_STATES = "/franka_state_controller/joint_states"
@@ -65,18 +64,10 @@ STOP_DT = 0.004  # s between the stop's samples
 
 def plan(name: str, speed: float) -> tuple[ApproachPath, np.ndarray]:
     """The study's approach `name` at `speed` for the Panda, tool pointing down, with the joints of every sample."""
-    scene = load_scene()
-    path = approach_path(scene, name, ON_TOP, peak_speed=speed, dt=0.02)
-    chain = chain_for(PANDA)
-    weights = controllable_weights(chain, PANDA.home)
-    targets = np.tile(chain.fk(PANDA.home), (len(path.times), 1, 1))
-    targets[:, :3, :3] = approach_rotation(chain, PANDA.home, scene.to_base_direction(np.array([0.0, 0.0, -1.0])))
-    targets[:, :3, 3] = scene.to_base(path.positions)
-    first = solve_ik(chain, targets[0], PANDA.home, weights=weights, restarts=20, rng=0)
-    solved = solve_path_ik(chain, targets, first.q, weights=weights)
-    if not solved.all_succeeded:
-        raise SystemExit(f"braking_bench: the {name} approach has no IK solution for the Panda")
-    return path, solved.q
+    try:
+        return kinematic_plan(PANDA, load_scene(), name, ON_TOP, speed, 0.02)
+    except SafetyError as error:
+        raise SystemExit(f"braking_bench: {error}") from None
 
 
 @dataclass(frozen=True)

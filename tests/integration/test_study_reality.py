@@ -1,8 +1,10 @@
 """The reality condition on a real arm's controller, with real parts: the runner (`python -m sim.study run
 --realtime --link ...`) against the physics node's ros_control trajectory controller on wall time (franka_ros's
 topics), a real roscore, and in one session the VR condition through the engine stand-in's stream. The observer types
-at the runner's keyboard. Safety: the runner stops the arm on a stale feed and on tracking error; a runner killed
-mid-approach leaves the arm at rest short of the hand."""
+at the runner's keyboard. Safety: the runner stops the arm on a stale feed, on tracking error, on an achieved distance
+under the floor and when the controller drops the goal; a stop the
+controller refuses (delayed by a relay of the controller's topics) is sent anew; a runner killed mid-approach leaves
+the arm at rest short of the hand."""
 
 from __future__ import annotations
 
@@ -25,6 +27,7 @@ from sim.study.design.feasibility import Approaches
 from sim.study.design.fit import scene_for
 from sim.study.design.paths import ON_TOP
 from sim.study.design.scene import load_scene, scene_robot
+from sim.study.run.cli import UNCHECKED
 from sim.study.run.protocol import STATUS_TOPIC, status_from_json
 from tests.integration.sim_helpers import start_engine, start_physics_node
 from tests.integration.study_helpers import trial, write_plan
@@ -37,6 +40,7 @@ SCENE = load_scene()
 ROBOT = scene_robot(SCENE)
 NS = "/position_joint_trajectory_controller"  # franka_ros's, as its preset says
 JOINT_STATES = "/franka_state_controller/joint_states"
+PREEMPTED, SUCCEEDED, ABORTED, REJECTED = 2, 3, 4, 5  # actionlib_msgs/GoalStatus
 
 
 class Watch:
@@ -223,6 +227,8 @@ def stopped_on_its_own(
     assert rest > standoff + 0.02  # braked well short of its stand-off
     if why == "joint states stale":  # its last state seen was in motion: the arm braked on, closer, to rest
         assert rest < float(row["distance_at_rest"])
+    elif why == "achieved distance to the hand":  # the runner read the arm displaced towards the hand
+        assert rest > float(row["distance_at_rest"]) + 0.05
     else:
         assert rest == pytest.approx(float(row["distance_at_rest"]), abs=0.002)
 
@@ -260,6 +266,170 @@ def test_a_stale_joint_state_feed_stops_the_arm(roscore, ros_node, arm, tmp_path
         kill_process(runner)
         relay.unregister()
         relayed.unregister()
+
+
+RELAY = "/relayed_controller"  # the namespace the runner talks to, relayed by the test process to the stand-in's
+
+
+class ControllerRelay:
+    """The stand-in's controller as the runner sees it under RELAY: its action's five topics and query_state relayed
+    by the test process, each goal passed through `on_goal(number, action_goal)` (1 for the first goal), which may
+    change it and returns how long to hold it back (s)."""
+
+    def __init__(self, rospy: Any, on_goal: Any = None) -> None:
+        from actionlib_msgs.msg import GoalID, GoalStatusArray
+
+        from sim.wire.control_types import control_types
+
+        types = control_types()
+        self.on_goal = on_goal or (lambda number, goal: 0.0)
+        self.goals: list[Any] = []
+        self.statuses: dict[str, int] = {}  # the stand-in's last status of each goal, by its id
+        self.lock = threading.Lock()
+        self.timers: list[threading.Timer] = []
+        here, there = f"{RELAY}/follow_joint_trajectory", f"{NS}/follow_joint_trajectory"
+        self.outgoing = {  # to the stand-in
+            "goal": rospy.Publisher(f"{there}/goal", types.action_goal, queue_size=10),
+            "cancel": rospy.Publisher(f"{there}/cancel", GoalID, queue_size=10),
+        }
+        self.incoming = {  # to the runner
+            "status": rospy.Publisher(f"{here}/status", GoalStatusArray, queue_size=10),
+            "feedback": rospy.Publisher(f"{here}/feedback", types.action_feedback, queue_size=10),
+            "result": rospy.Publisher(f"{here}/result", types.action_result, queue_size=10),
+        }
+        self.query = rospy.ServiceProxy(f"{NS}/query_state", types.query_state, persistent=True)
+        self.endpoints: list[Any] = [
+            rospy.Subscriber(f"{here}/goal", types.action_goal, self._on_goal),
+            rospy.Subscriber(f"{here}/cancel", GoalID, self.outgoing["cancel"].publish),
+            rospy.Subscriber(f"{there}/status", GoalStatusArray, self._on_status),
+            rospy.Subscriber(f"{there}/feedback", types.action_feedback, self.incoming["feedback"].publish),
+            rospy.Subscriber(f"{there}/result", types.action_result, self.incoming["result"].publish),
+            rospy.Service(f"{RELAY}/query_state", types.query_state, lambda request: self.query(request.time)),
+            *self.outgoing.values(),
+            *self.incoming.values(),
+        ]
+
+    def _on_goal(self, goal: Any) -> None:
+        with self.lock:
+            self.goals.append(goal)
+            number = len(self.goals)
+        hold = self.on_goal(number, goal)
+        if hold > 0:
+            timer = threading.Timer(hold, self.outgoing["goal"].publish, (goal,))
+            self.timers.append(timer)
+            timer.start()
+        else:
+            self.outgoing["goal"].publish(goal)
+
+    def _on_status(self, message: Any) -> None:
+        with self.lock:
+            for status in message.status_list:
+                self.statuses[status.goal_id.id] = status.status
+        self.incoming["status"].publish(message)
+
+    def status(self, number: int) -> int | None:
+        """The stand-in's last status of goal `number` (None while it has not said)."""
+        with self.lock:
+            return self.statuses.get(self.goals[number - 1].goal_id.id) if len(self.goals) >= number else None
+
+    def close(self) -> None:
+        for timer in self.timers:
+            timer.cancel()
+        self.query.close()
+        for endpoint in self.endpoints:
+            endpoint.shutdown() if hasattr(endpoint, "shutdown") else endpoint.unregister()
+
+
+def test_a_stop_the_controller_refuses_is_planned_and_sent_anew(roscore, ros_node, arm, tmp_path: Path) -> None:
+    # The relay holds the first goal after the approach (the braking replacement) back for 0.5 s, longer than its
+    # braking lasts: all its points are past when it arrives, and the stand-in refuses it while the approach goes on.
+    # The runner plans the stop anew from where the arm is then commanded to be, and brakes it short of the stand-off.
+    _, watch = arm
+    watch.out = str(tmp_path / "out")
+    relay = ControllerRelay(ros_node, lambda number, goal: 0.5 if number == 3 else 0.0)  # 1: to the start, 2: approach
+    standoff = 0.1
+    plan = write_plan(tmp_path / "plan.yaml", 8, "reality", [trial(1, "reality", 1, "vertical", standoff, 0.2)])
+    runner = start_runner(roscore, plan, tmp_path / "out", ["--link", f"reality={RELAY},{JOINT_STATES}"])
+    try:
+        watch.wait((1, "moving"), runner)
+        time.sleep(0.5)
+        type_line(runner, "s\n")
+        watch.wait((1, "distance"), runner)
+        type_line(runner, "20 cm\n")
+        output, _ = runner.communicate(timeout=60)
+        rest = hand_distance(watch.resting_positions())
+        statuses = [relay.status(number) for number in range(1, len(relay.goals) + 1)]
+    finally:
+        kill_process(runner)
+        relay.close()
+    assert runner.returncode == 0, output
+    assert statuses == [SUCCEEDED, PREEMPTED, REJECTED, SUCCEEDED], statuses  # the stop refused, then sent anew
+    (row,) = read_csv(tmp_path / "out" / "participant_08.csv")
+    assert (row["pressed"], row["goal_result"], row["safety_stop"]) == ("true", "SUCCEEDED", ""), row
+    assert float(row["braking_distance"]) > 0.005
+    assert rest == pytest.approx(float(row["distance_at_rest"]), abs=0.002)
+    assert rest > standoff + 0.02  # braked well short of its stand-off
+
+
+def test_an_achieved_distance_under_the_floor_stops_the_arm(roscore, ros_node, arm, tmp_path: Path) -> None:
+    # The plan keeps 0.15 m from the hand, over the floor of 0.05 m. Once the arm moves, the relay of its joint states
+    # shows it displaced twice the way from the plan's end at 0.15 m to a plan's end at 0.03 m (as an arm off its
+    # calibration, or a hand closer than the scene says, would read): its distance as the runner reads it falls
+    # under the floor mid-approach, while the arm is still far. Tracking is given a tolerance the reading keeps.
+    from sensor_msgs.msg import JointState
+
+    _, watch = arm
+    watch.out = str(tmp_path / "out")
+    with Approaches(ROBOT, SCENE, 0.01) as approaches:
+        plans = approaches.plan_all([("vertical", 0.15, 0.2), ("vertical", 0.03, 0.2)])
+    shift = 2 * (plans[("vertical", 0.03, 0.2)].positions[-1] - plans[("vertical", 0.15, 0.2)].positions[-1])
+    by_name = dict(zip(ROBOT.joint_names, shift))
+    shifting = threading.Event()
+    relayed = ros_node.Publisher("/relayed/joint_states", JointState, queue_size=10)
+
+    def relay_state(message: Any) -> None:
+        if shifting.is_set():  # a copy: the test's other subscribers to the topic share the message
+            shifted = [p + by_name[n] for n, p in zip(message.name, message.position)]
+            message = JointState(message.header, message.name, shifted, message.velocity, message.effort)
+        relayed.publish(message)
+
+    relay = ros_node.Subscriber(JOINT_STATES, JointState, relay_state)
+    plan = write_plan(tmp_path / "plan.yaml", 10, "reality", [trial(1, "reality", 1, "vertical", 0.15, 0.2)])
+    extra = ["--link", f"reality={NS},/relayed/joint_states", "--floor", "0.05", "--tracking-tolerance", "3"]
+    runner = start_runner(roscore, plan, tmp_path / "out", extra)
+    try:
+        watch.wait((1, "moving"), runner)
+        shifting.set()
+        stopped_on_its_own(runner, watch, "achieved distance to the hand", 0.15, 10)
+    finally:
+        kill_process(runner)
+        relay.unregister()
+        relayed.unregister()
+
+
+def test_the_controller_dropping_the_goal_stops_the_arm(roscore, ros_node, arm, tmp_path: Path) -> None:
+    # The relay gives the approach's goal a path tolerance of 1 µrad, which the stand-in's arm (lagging its commanded
+    # path by ~0.03 mrad) violates as it starts: the stand-in aborts the goal, its trajectory running on (as
+    # ros_control's does), and the runner stops the arm.
+    from sim.wire.control_types import control_types
+
+    _, watch = arm
+    watch.out = str(tmp_path / "out")
+    tolerance = control_types().joint_tolerance
+
+    def tight(number: int, goal: Any) -> float:
+        if number == 2:  # 1: the move to the path's start, 2: the approach
+            goal.goal.path_tolerance = [tolerance(name=name, position=1e-6) for name in ROBOT.joint_names]
+        return 0.0
+
+    relay = ControllerRelay(ros_node, tight)
+    plan = write_plan(tmp_path / "plan.yaml", 11, "reality", [trial(1, "reality", 1, "vertical", 0.1, 0.2)])
+    runner = start_runner(roscore, plan, tmp_path / "out", ["--link", f"reality={RELAY},{JOINT_STATES}"])
+    try:
+        stopped_on_its_own(runner, watch, "the controller ended the goal ABORTED", 0.1, 11)
+    finally:
+        relay.close()
+    assert relay.status(2) == ABORTED
 
 
 def test_a_stop_as_the_approach_is_sent_keeps_the_arm_at_the_paths_start(roscore, arm, tmp_path: Path) -> None:
@@ -348,6 +518,7 @@ def test_check_safety_refuses_a_plan_beyond_the_pandas_limits_or_under_the_floor
         (["--link", "reality=franka_ros"], "runs on wall time: give --realtime"),
         (["--realtime", "--link", "reality=franka"], "is neither stream, a preset"),
         (["--realtime", "--link", "reality=franka_ros", "--rehearsal-speed", "2"], "--rehearsal-speed must be"),
+        (["--realtime", "--link", "reality=franka_ros", "--margin", "1.5"], "--margin must be in (0, 1]"),
     ],
 )
 def test_a_link_the_runner_cannot_use_is_one_line_and_exit_2(tmp_path: Path, options: list[str], said: str) -> None:
@@ -356,3 +527,52 @@ def test_a_link_the_runner_cannot_use_is_one_line_and_exit_2(tmp_path: Path, opt
     done = subprocess.run(command, cwd=REPO, env=plain_env(), capture_output=True, text=True, timeout=60)
     errors = [line for line in done.stderr.splitlines() if line.startswith("sim.study run: error: ")]
     assert done.returncode == 2 and len(errors) == 1 and said in errors[0], done.stderr
+
+
+def test_the_runner_refuses_before_any_motion_a_plan_beyond_the_pandas_limits_on_a_real_arms_link(
+    roscore, tmp_path: Path
+) -> None:
+    # The bundled design's over_the_top at 0.3 m/s passes joint 4's acceleration limit itself (and joint 2's
+    # braking from a press): refused on a trajectory controller, one line per limit; on the stream it is not checked.
+    trials = [trial(1, "reality", 2, "over_the_top", 0.15, 0.3, "fast", 1)]
+    plan = write_plan(tmp_path / "plan.yaml", 12, "reality", trials)
+
+    def run(*options: str) -> subprocess.CompletedProcess[str]:
+        command = [PYTHON, "-m", "sim.study", "run", "--plan", str(plan), "--out", str(tmp_path / "out"), "--realtime"]
+        command += ["--no-record", "--connect-timeout", "1", *options]
+        return subprocess.run(command, cwd=REPO, env=roscore.env, capture_output=True, text=True, timeout=120)
+
+    refused = run("--link", "reality=franka_ros")
+    lines = [line for line in refused.stdout.splitlines() if line.startswith("refused: ")]
+    assert refused.returncode == 2 and "sim.study run: error: " in refused.stderr.splitlines()[-1], refused.stderr
+    assert any(
+        "panda_joint4 acceleration" in line and "80% of its limit 12.5 (URDF and Franka" in line for line in lines
+    )
+    assert any("braking from a press" in line and "panda_joint2 acceleration" in line for line in lines), lines
+    # overridden (for a stand-in only): said loudly, and the runner goes on to look for the controller
+    unchecked = run("--link", "reality=franka_ros", UNCHECKED)
+    assert f"WARNING: {UNCHECKED}: panda's limits are NOT checked" in unchecked.stderr
+    assert "no action server /position_joint_trajectory_controller" in unchecked.stderr
+    assert not any(line.startswith("refused: ") for line in unchecked.stdout.splitlines())
+
+
+def test_the_rehearsal_with_the_hand_out_of_reach_plans_every_approach_the_clearance_further(
+    roscore, tmp_path: Path
+) -> None:
+    # Planned and checked before any motion (no controller runs here: the runner then stops looking for it).
+    trials = [trial(1, "reality", 1, "vertical", 0.1, 0.2), trial(2, "reality", 2, "vertical", ON_TOP, 0.2, "slow", 1)]
+    plan = write_plan(tmp_path / "plan.yaml", 13, "reality", trials)
+    command = [PYTHON, "-m", "sim.study", "run", "--plan", str(plan), "--out", str(tmp_path / "out"), "--realtime"]
+    command += [
+        "--no-record",
+        "--connect-timeout",
+        "1",
+        "--link",
+        "reality=franka_ros",
+        "--rehearsal-clearance",
+        "0.15",
+    ]
+    done = subprocess.run(command, cwd=REPO, env=roscore.env, capture_output=True, text=True, timeout=120)
+    assert done.returncode == 4 and "no action server" in done.stderr, done.stderr
+    said = "rehearsal: every approach ends 0.15 m further from the hand than planned; the closest comes 0.1700 m"
+    assert said in done.stdout, done.stdout

@@ -3,15 +3,26 @@
 from __future__ import annotations
 
 import argparse
+from collections.abc import Mapping
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from sim.study.checks import check_positive
 from sim.study.design.options import add_scene_options, scene_and_robot
 from sim.study.design.plan import plan_from_data
 from sim.study.design.yamlfile import read_yaml
 from sim.study.run.errors import RunError
+from sim.study.safety.limits import DEFAULT_MARGIN
 
-__all__ = ["register"]
+if TYPE_CHECKING:
+    from sim.robots import RobotSpec
+    from sim.study.design.feasibility import PlannedApproach
+    from sim.study.design.plan import SessionPlan
+    from sim.study.run.links.specs import TrajectoryLinkSpec
+
+__all__ = ["register", "UNCHECKED"]
+
+UNCHECKED = "--unchecked-limits-stand-in-only"  # loud on purpose: it lets a real arm move beyond its limits
 
 
 def register(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -65,6 +76,24 @@ def register(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> N
     trajectory.add_argument(
         "--rehearsal-speed", type=float, default=1.0, help="approaches at this fraction of their speed (0..1]"
     )
+    trajectory.add_argument(
+        "--rehearsal-clearance",
+        type=float,
+        metavar="M",
+        help="the rehearsal with the hand out of reach: every approach ends M m further from the hand than planned",
+    )
+    trajectory.add_argument(
+        "--margin",
+        type=float,
+        default=DEFAULT_MARGIN,
+        help="the fraction of each of the robot's limits a motion on a trajectory controller may use; plans beyond "
+        f"are refused before any motion ({DEFAULT_MARGIN:g})",
+    )
+    trajectory.add_argument(
+        UNCHECKED,
+        action="store_true",
+        help="DANGER, for a stand-in only, never a real arm: run motions beyond the robot's limits and --margin",
+    )
     run.set_defaults(handler=run_command)
     tracker = commands.add_parser("tracker", help="relay a tracker's poses into the scene's world, calibrated")
     tracker.add_argument("--config", type=Path, required=True, help="the tracker's YAML (docs/study.md)")
@@ -84,7 +113,13 @@ def run_command(args: argparse.Namespace) -> int:
         check_positive(getattr(args, option), f"--{option.replace('_', '-')}")
     from sim.study.run.links.specs import link_specs
 
+    if not (0 < args.margin <= 1):  # said before the planning, not after
+        raise RunError(f"--margin must be in (0, 1], got {args.margin!r}")
     plan = plan_from_data(read_yaml(args.plan, "plan"), str(args.plan))
+    if args.rehearsal_clearance is not None:
+        from sim.study.run.rehearsal import out_of_reach
+
+        plan = out_of_reach(plan, args.rehearsal_clearance)
     links = link_specs(
         args.link, plan.conditions, args.stale_after, args.tracking_tolerance, args.floor, args.rehearsal_speed
     )
@@ -115,8 +150,52 @@ def run_command(args: argparse.Namespace) -> int:
                 f"the plan comes closer to the hand than the floor of {args.floor:g} m (none was run): "
                 + "; ".join(f"{p} to {s} m at {v} m/s: {d:.4f} m" for (p, s, v), d in close.items())
             )
+        refuse_beyond_limits(robot, plan, planned, links, args)
+        if args.rehearsal_clearance is not None:
+            closest = min(float(a.distances.min()) for a in planned.values())
+            print(
+                f"rehearsal: every approach ends {args.rehearsal_clearance:g} m further from the hand than planned; "
+                f"the closest comes {closest:.4f} m from it (these rows are not data)"
+            )
         return run_node(
             robot, scene, plan, approaches, options, args.out.resolve(), not args.no_record, args.connect_timeout, links
+        )
+
+
+def refuse_beyond_limits(
+    robot: RobotSpec,
+    plan: SessionPlan,
+    planned: Mapping[tuple[str, float, float], PlannedApproach],
+    links: Mapping[str, TrajectoryLinkSpec],
+    args: argparse.Namespace,
+) -> None:
+    """Before any motion: the trials on a trajectory controller (a real arm) against the robot's limits at --margin,
+    their braking from a press at any sample too, and the --floor (check --safety's check). One line per refusal,
+    naming the limit, then a RunError (exit 2). The stream's stand-in is not checked."""
+    import sys
+
+    from sim.study.safety.check import design_refusals
+    from sim.study.safety.limits import limits_for
+
+    on_links = sorted({(t.path, t.standoff, t.peak_speed) for t in plan.trials if t.condition in links})
+    if not on_links:
+        return
+    if getattr(args, UNCHECKED.lstrip("-").replace("-", "_")):
+        print(
+            f"sim.study run: WARNING: {UNCHECKED}: {robot.name}'s limits are NOT checked; never on a real arm",
+            file=sys.stderr,
+        )
+        return
+    limits = limits_for(robot)
+    refusals = design_refusals(
+        limits, {key: planned[key] for key in on_links}, args.margin, args.floor, args.deceleration
+    )
+    for line in refusals:
+        print(f"refused: {line}")
+    if refusals:
+        raise RunError(
+            f"{len(refusals)} refusal(s) of {robot.name}'s limits ({limits.source}) at {args.margin:.0%} on a "
+            "trajectory controller (none was run); to change: lower peak speeds, a gentler --deceleration"
         )
 
 
