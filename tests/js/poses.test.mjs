@@ -6,7 +6,7 @@ import { readFileSync } from 'node:fs';
 import { test } from 'node:test';
 
 import { WorldFrame, frameStamp, trackedBodies } from '../../sim/study/views/vr/web/poses.js';
-import { encodePoseStamped, framesIn, rosTime } from '../../sim/study/views/vr/web/rostcp.js';
+import { decodeString, encodePoseStamped, framesIn, rosTime } from '../../sim/study/views/vr/web/rostcp.js';
 import { Participant } from '../../sim/study/views/vr/web/study.js';
 import { StudyTopics } from '../../sim/study/views/vr/web/topics.js';
 
@@ -171,15 +171,24 @@ test("the participant is in a trial in its phases, not in a questionnaire's item
 });
 
 test("frames' poses go out together, from a task after the frames, each on its body's topic, numbered by body", () => {
-  // the settings as the page's server gives them (sim/study/views/vr/site.py): each topic [name, type]
+  // the settings as the page's server gives them (sim/study/views/vr/site.py): each topic [name, type], and the page's
+  // announcement as a pose source (the text is the server's; here any)
   const entry = ({ topic, type }) => [topic, type];
   const topics = {
     joint_states: ['/panda/joint_states', 'sensor_msgs/JointState'],
     trial: entry(PROTOCOL.status),
     ...Object.fromEntries(Object.entries(PROTOCOL.inputs).map(([name, input]) => [name, entry(input)])),
     ...Object.fromEntries(Object.entries(PROTOCOL.poses.bodies).map(([body, pose]) => [body, entry(pose)])),
+    tracking: ['/study/tracking', 'std_msgs/String'],
   };
-  const study = new StudyTopics({ topics, protocol: PROTOCOL }, 'ws://nowhere/ros', {});
+  const announcement = '{"source": "headset", "conditions": ["vr"]}';
+  const study = new StudyTopics({ topics, protocol: PROTOCOL, pose_source: announcement }, 'ws://nowhere/ros', {});
+  // the announcement's topic is advertised latched, the others not
+  assert.deepEqual(study.connection.publishers.get('/study/tracking'), ['std_msgs/String', true]);
+  assert.deepEqual(study.connection.publishers.get(PROTOCOL.poses.bodies.head.topic), [
+    PROTOCOL.poses.bodies.head.type,
+    false,
+  ]);
   const messages = [];
   study.connection._send = (bytes) => messages.push(bytes); // no socket: what would be sent
   const scheduled = [];
@@ -205,7 +214,9 @@ test("frames' poses go out together, from a task after the frames, each on its b
   );
   scheduled.shift()[0]();
   assert.equal(messages.length, 1);
-  const sent = framesIn(messages[0]);
+  // the connection's first send opens with the announcement, then the poses in their frames' order
+  const [said, ...sent] = framesIn(messages[0]);
+  assert.deepEqual([said[0], decodeString(said[1])], ['/study/tracking', announcement]);
   assert.deepEqual(
     sent.map(([topic]) => topic),
     [PROTOCOL.poses.bodies.head.topic, PROTOCOL.poses.bodies.right_hand.topic, PROTOCOL.poses.bodies.head.topic],
@@ -224,4 +235,16 @@ test("frames' poses go out together, from a task after the frames, each on its b
   assert.equal(scheduled.length, 1);
   scheduled.shift()[0]();
   assert.equal(messages.length, 2);
+  assert.deepEqual(
+    framesIn(messages[1]).map(([topic]) => topic),
+    [PROTOCOL.poses.bodies.left_hand.topic],
+  ); // announced once a connection
+  // connected again (the endpoint may have started again, its latched announcement lost): announced again
+  study.connection.onState('connected');
+  study.sendPoses(10.58, [['head', head]]);
+  scheduled.shift()[0]();
+  assert.deepEqual(
+    framesIn(messages[2]).map(([topic]) => topic),
+    ['/study/tracking', PROTOCOL.poses.bodies.head.topic],
+  );
 });
