@@ -182,7 +182,8 @@ test("frames' poses go out together, from a task after the frames, each on its b
     tracking: ['/study/tracking', 'std_msgs/String'],
   };
   const announcement = '{"source": "headset", "conditions": ["vr"]}';
-  const study = new StudyTopics({ topics, protocol: PROTOCOL, pose_source: announcement }, 'ws://nowhere/ros', {});
+  const settings = { topics, protocol: PROTOCOL, pose_source: { vr: announcement, reality: '{"of": "reality"}' } };
+  const study = new StudyTopics(settings, 'ws://nowhere/ros', {});
   // the announcement's topic is advertised latched, the others not
   assert.deepEqual(study.connection.publishers.get('/study/tracking'), ['std_msgs/String', true]);
   assert.deepEqual(study.connection.publishers.get(PROTOCOL.poses.bodies.head.topic), [
@@ -195,17 +196,21 @@ test("frames' poses go out together, from a task after the frames, each on its b
   study.schedule = (send, ms) => scheduled.push([send, ms]); // no timer: the test sends when it wants
   const head = { position: [0.55, -0.65, 0.45], orientation: [Math.SQRT1_2, 0, 0, Math.SQRT1_2] };
   const hand = { position: [0.5, -0.4, 0.2], orientation: [0, 0, 0, 1] };
-  assert.equal(study.sendPoses(10.5, [['head', head]]), false); // not connected: nothing sent, nothing counted
+  assert.equal(study.sendPoses(10.5, [['head', head]], 'vr'), false); // not connected: nothing sent, nothing counted
   assert.deepEqual(study.posesSent, { head: 0, left_hand: 0, right_hand: 0 });
   study.connection.connected = true;
   assert.equal(
-    study.sendPoses(10.5, [
-      ['head', head],
-      ['right_hand', hand],
-    ]),
+    study.sendPoses(
+      10.5,
+      [
+        ['head', head],
+        ['right_hand', hand],
+      ],
+      'vr',
+    ),
     true,
   );
-  assert.equal(study.sendPoses(10.52, [['head', head]]), true);
+  assert.equal(study.sendPoses(10.52, [['head', head]], 'vr'), true);
   // two frames' poses, queued: one send is scheduled, after the batch's time, and nothing has gone yet
   assert.equal(messages.length, 0);
   assert.deepEqual(
@@ -229,9 +234,9 @@ test("frames' poses go out together, from a task after the frames, each on its b
   );
   assert.deepEqual(study.posesSent, { head: 2, left_hand: 0, right_hand: 1 });
   // the next frame schedules the next send; a frame without tracked bodies queues nothing and schedules nothing
-  assert.equal(study.sendPoses(10.54, []), true);
+  assert.equal(study.sendPoses(10.54, [], 'vr'), true);
   assert.equal(scheduled.length, 0);
-  study.sendPoses(10.56, [['left_hand', hand]]);
+  study.sendPoses(10.56, [['left_hand', hand]], 'vr');
   assert.equal(scheduled.length, 1);
   scheduled.shift()[0]();
   assert.equal(messages.length, 2);
@@ -241,10 +246,17 @@ test("frames' poses go out together, from a task after the frames, each on its b
   ); // announced once a connection
   // connected again (the endpoint may have started again, its latched announcement lost): announced again
   study.connection.onState('connected');
-  study.sendPoses(10.58, [['head', head]]);
+  study.sendPoses(10.58, [['head', head]], 'vr');
   scheduled.shift()[0]();
   assert.deepEqual(
     framesIn(messages[2]).map(([topic]) => topic),
     ['/study/tracking', PROTOCOL.poses.bodies.head.topic],
   );
+  // a reality trial's poses (the headset worn there too): announced for reality, once
+  study.sendPoses(10.6, [['head', head]], 'reality');
+  study.sendPoses(10.62, [['head', head]], 'reality');
+  scheduled.shift()[0]();
+  const [realitySaid, ...realityPoses] = framesIn(messages[3]);
+  assert.deepEqual([realitySaid[0], decodeString(realitySaid[1])], ['/study/tracking', '{"of": "reality"}']);
+  assert.equal(realityPoses.length, 2);
 });

@@ -122,10 +122,16 @@ def test_the_settings_carry_the_scene_the_joints_and_the_topics(site: Site) -> N
         "right_hand": ["/study/pose/right_hand", "geometry_msgs/PoseStamped"],
     }
     assert settings["ros_path"] == "/ros" and settings["emulation"] is False
-    # the page's announcement of itself as the VR condition's pose source, as the runner reads one
+    # the page's announcement of itself as each condition's pose source, as the runner reads one
     assert settings["topics"]["tracking"] == ["/study/tracking", "std_msgs/String"]
-    said = announcement_from_json(settings["pose_source"])
-    assert (said["source"], said["conditions"], said["jitter_m"], said["calibration"]) == ("headset", ["vr"], {}, None)
+    for condition in ("vr", "reality"):
+        said = announcement_from_json(settings["pose_source"][condition])
+        assert (said["source"], said["conditions"], said["jitter_m"], said["calibration"]) == (
+            "headset",
+            [condition],
+            {},
+            None,
+        )
 
 
 @pytest.mark.parametrize(
