@@ -58,6 +58,7 @@ import sys
 import tempfile
 import threading
 import time
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -240,13 +241,8 @@ def press_latencies(browser: Any, port: int, presses: int) -> list[dict[str, flo
                 motion_start=time.time(),
             )
             client.publish(status_topic, encode_message(status_type, data=status_to_json(trial)))
-            wait_for(
-                lambda i=index: browser.execute_script(
-                    f"const s = window.vrPage.state(); return s.index === {i} && s.phase === 'moving';"
-                ),
-                PRESS_WAIT_S,
-                f"the page to show trial {index}",
-            )
+            shows_trial = f"const s = window.vrPage.state(); return s.index === {index} && s.phase === 'moving';"
+            wait_for(partial(browser.execute_script, shows_trial), PRESS_WAIT_S, f"the page to show trial {index}")
             browser.execute_async_script(
                 f"const done = arguments[arguments.length - 1]; {controller}.updateButtonValue('trigger', 1);"
                 f"setTimeout(() => {{ {controller}.updateButtonValue('trigger', 0); done(); }}, {HOLD_MS});"
