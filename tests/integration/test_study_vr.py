@@ -4,11 +4,14 @@ over HTTPS with the page's self-signed certificate, its WebSocket passed through
 immersive session, shows the robot and the hand, and answers a short session of the runner (--realtime) with the
 trigger, the controllers, the thumbstick and the buttons, as the participant would: go, a stop, a distance, a
 preference and a questionnaire's item; all through its trials it sends the participant's tracked body (the head and
-both hands), which the runner's bag records."""
+both hands), which the runner's bag records, and announces itself as the VR condition's pose source, which the
+runner's tracking record names."""
 
 from __future__ import annotations
 
+import base64
 import csv
+import json
 import os
 import socket
 import ssl
@@ -27,7 +30,9 @@ from sim.study.design.fit import scene_for
 from sim.study.design.paths import ON_TOP
 from sim.study.design.scene import load_scene, scene_robot
 from sim.study.run.protocol import BODIES, POSE_FRAME, POSE_TOPICS, STATUS_TOPIC, status_from_json
+from sim.study.run.tracking import TRACKING_TOPIC, announcement_from_json
 from sim.study.views.live import COLOURS
+from sim.study.views.vr.site import POSE_SOURCE
 from sim.wire.contract import STEP_S
 from sim.wire.rosmsgs import TYPESTORE, decode_joint_state, deserialize, to_seconds
 from tests.integration.bridge_helpers import DiagnosticsInbox, tcp_client
@@ -43,7 +48,6 @@ HEADSET_MOVED = (0.03, -0.05, 0.1)  # m in the emulator's space (three.js's axes
 RUNNER_PACE_SLACK_S = 0.25
 HOLD_MS = 150  # a person's press of a button, or push of the thumbstick, and release
 CLOCK_DRIFT_S = 0.05  # the page's clock offset, renewed every 2 s, may move by this between a frame and a status
-DELIVERY_S = 0.3  # a press from the page to the runner, on a quiet machine
 # No new phase on the page for this long means the session is stuck. On a quiet machine the whole session takes
 # ~25 s; beside two CPU burners, where the software-rendered page drew a frame every 1.5 s, the longest wait for the
 # next phase was 36 s (the press, the approach, the rest and the way back to the start).
@@ -97,6 +101,11 @@ def press_once_moving(browser: Any, index: int, hand: str, button: str) -> None:
         f" setTimeout(() => controller.updateButtonValue('{button}', 0), {HOLD_MS}); }});"
         "watch();"
     )
+
+
+def draw_robot(browser: Any, drawn: bool) -> None:
+    """Draw the robot's meshes in the page's frames, or not (its joints are applied either way)."""
+    browser.execute_script(f"window.vrPage.page.robot.model.visible = {str(drawn).lower()};")
 
 
 def push_thumbstick(browser: Any, hand: str, x: float) -> None:
@@ -208,10 +217,21 @@ def test_an_emulated_quest_enters_the_session_and_answers_the_runner(tmp_path: P
             )
             browser.find_element("id", "enter").click()
             wait_for(lambda: page_state(browser)["inSession"], 30, "the immersive session")
+            # The robot is drawn for the picture below only: its meshes (164,220 triangles) in software are nearly all
+            # of a frame's work, and nothing else here looks at a picture. Beside two CPU burners and other tests, the
+            # page drew a frame every 3-6 s with them, and fixed bounds not ours gave out (ChromeDriver's 30 s for a
+            # script, its 10 s for a screenshot) or the session outlasted the test's. Hidden, its joints are still
+            # applied every frame, and every frame still reads the controllers and sends the poses.
+            draw_robot(browser, False)
             over_frames(browser, frames=5)
             before_trials = page_state(browser)
             assert before_trials["poseFrames"] == 0 and before_trials["posesSent"] == dict.fromkeys(BODIES, 0)
-            browser.save_screenshot(str(tmp_path / "session.png"))
+            draw_robot(browser, True)
+            over_frames(browser, frames=1)
+            # DevTools' capture itself: ChromeDriver's screenshot gives the renderer a fixed 10 s to draw the frame it
+            # waits for
+            shot = browser.execute_cdp_cmd("Page.captureScreenshot", {"format": "png"})
+            (tmp_path / "session.png").write_bytes(base64.b64decode(shot["data"]))
             picture = np.asarray(Image.open(tmp_path / "session.png").convert("RGB")).astype(int)
             counts = {
                 "hand": pixels_like(picture, COLOURS["hand"]),
@@ -219,6 +239,7 @@ def test_an_emulated_quest_enters_the_session_and_answers_the_runner(tmp_path: P
                 "robot": int(((picture.max(axis=2) - picture.min(axis=2)) <= 6).sum()),  # its white and grey links
             }
             assert counts["hand"] > 400 and counts["table"] > 30_000 and counts["robot"] > 6_000, counts
+            draw_robot(browser, False)
 
             out = tmp_path / "out"
             plan = write_plan(
@@ -326,54 +347,75 @@ def test_an_emulated_quest_enters_the_session_and_answers_the_runner(tmp_path: P
     stamp = next(value for what, value in actions if what == "stop")
     motion_start = float(second["motion_start"])
     assert motion_start < stamp < motion_start + approach, (stamp, motion_start)
-    # Late by the delivery (page, endpoint, runner) and by the error of the page's clock offset, which is at most
-    # half its ping's round trip (2 ms here when quiet; 1.3 s beside two CPU burners, where a press came 0.45 s late)
+    # applied at its arrival, which is at or after its stamp (how late it comes, page to runner, is a figure of
+    # bench/vr_frame_bench.py's presses, not a bound here: it is the machine's speed)
     late = float(second["press_late"])
-    assert 0 <= late < DELIVERY_S + press_round_trip_s / 2, (late, press_round_trip_s)
+    assert late >= 0, late
     assert float(second["press_time"]) == pytest.approx(stamp - motion_start + late, abs=0.01)
     # Its latency: the input delay the page measured, from the frame that read the trigger (its selectstart's time,
     # after the test pressed it) to the stamp, is the CSV's (microseconds in the Header's seq), as the pedal's is; the
-    # arrival delay as the lateness above, and a step more (the page's clock is the endpoint's latest /clock, a step
-    # behind the runner's at most)
+    # arrival delay, from the stamp to the runner, is recorded and never earlier than the stamp by more than the error
+    # of the page's clock offset, at most half its ping's round trip (2 ms here when quiet; 1.3 s beside two CPU
+    # burners)
     (trigger,) = ended_state["triggerPresses"]
     assert pressed_at_ms <= trigger["readAt"] <= trigger["stampedAt"], (pressed_at_ms, trigger)
     assert trigger["inputDelay"] == pytest.approx((trigger["stampedAt"] - trigger["readAt"]) / 1000, abs=1e-9)
     assert float(second["press_input_delay"]) == pytest.approx(trigger["inputDelay"], abs=1e-6), (second, trigger)
-    assert (
-        -press_round_trip_s / 2 <= float(second["press_arrival_delay"]) < DELIVERY_S + press_round_trip_s / 2 + STEP_S
-    )
+    assert -press_round_trip_s / 2 <= float(second["press_arrival_delay"]), (second, press_round_trip_s)
     assert_the_bag_holds_the_tracked_body(
         out / "bags" / f"participant_{PARTICIPANT:02d}.bag",
         ended_state,
         np.array(scene.seat),
         np.subtract([CONTROLLERS_APART / 2, 1.4, -0.45], right_at_start),
-        DELIVERY_S + press_round_trip_s / 2 + RUNNER_PACE_SLACK_S,
+        press_round_trip_s / 2 + RUNNER_PACE_SLACK_S,
     )
+    assert_the_page_announced_itself(out)
+
+
+def assert_the_page_announced_itself(out: Path) -> None:
+    """The page announced itself as the VR condition's pose source, with its poses, and the runner (given no
+    --pose-source) names it in the session's tracking record; the bag holds the announcement."""
+    from rosbags.rosbag1 import Reader
+
+    record = json.loads((out / "tracking" / f"participant_{PARTICIPANT:02d}.json").read_text())
+    assert record["conditions"] == {
+        "vr": {"source": POSE_SOURCE, "jitter_m": {}, "rest_s": None, "calibration": None}
+    }, record
+    with Reader(out / "bags" / f"participant_{PARTICIPANT:02d}.bag") as reader:
+        connections = [c for c in reader.connections if c.topic == TRACKING_TOPIC]
+        said = [deserialize(raw, "std_msgs/String").data for _, _, raw in reader.messages(connections=connections)]
+    assert said and all(announcement_from_json(text)["source"] == POSE_SOURCE for text in said), said
 
 
 def assert_the_bag_holds_the_tracked_body(
-    bag: Path, page: dict[str, Any], seat: np.ndarray, right_moved: np.ndarray, clock_slack_s: float
+    bag: Path, page: dict[str, Any], seat: np.ndarray, right_moved: np.ndarray, clock_error_s: float
 ) -> None:
     """The head and both hands, one PoseStamped each in every frame the page drew in the trials (in this emulator all
-    three are always tracked), in the world frame, stamped on the runner's clock within the trials (from the first
-    trial's status, within `clock_slack_s`, to the page's own ROS time when the status after them reached it); the
+    three are always tracked), in the world frame, stamped on the runner's clock within the trials as the page knew
+    them (from its own ROS time when the first trial's status reached it to when the status after them did); the
     head where the emulated headset is, the right hand moved as the test moved its controller. `right_moved`: how far
-    the test moved the right controller (XR space); `clock_slack_s`: what the page's stamps may be off the runner's
-    clock by (its clock offset's error, and a status's delivery to the page). The emulator's poses are float32: to
-    1e-5 m."""
+    the test moved the right controller (XR space); `clock_error_s`: what the page's clock may be off the runner's
+    (its clock offset's error, and the runner's pace). The emulator's poses are float32: to 1e-5 m."""
     poses, statuses = bag_poses(bag)
     sent = page["posesSent"]
     # every frame in the trials sent each body, and the bag holds them all
     assert page["poseFrames"] > 0 and sent == dict.fromkeys(BODIES, page["poseFrames"]), page
     assert {body: len(poses[body]) for body in BODIES} == sent
-    # from the first trial's status to the questionnaire after the last trial: the trials
-    trials = [recorded for recorded, status in statuses if status.test > 0]
-    start = trials[0]
-    # the last pose comes from a frame that began before the page had the first status after the trials (a
-    # questionnaire's): its delivery to a page short of CPU took longer than any fixed slack (a pose 0.69 s after the
-    # status was recorded, frames 0.4-0.75 s apart)
+    # from the first trial's status to the questionnaire after the last trial, as they reached the page: the page's
+    # frames begin after the status they act on has come (the emulated headset's frame time is its start), and the
+    # last pose comes from a frame that began before the page had the first status after the trials (a
+    # questionnaire's). Their times at the runner (the bag's) are no bound: their delivery to the page, and to the
+    # recorder, took longer on a page short of CPU than any fixed slack (a pose 0.69 s after the status was
+    # recorded, frames 0.4-0.75 s apart)
     arrivals = page["statuses"]
+    first_trial = min(k for k, status in enumerate(arrivals) if status["test"] > 0)
     last_trial = max(k for k, status in enumerate(arrivals) if status["test"] > 0)
+    page_knew_start = arrivals[first_trial]["ros"]
+    if page_knew_start is None:
+        # the runner's /clock had not yet reached the page's pings (it starts with the runner, and the page pings
+        # every 2 s): no pose is stamped before it has, which is after the runner recorded the trial's status, up to
+        # the page's clock error
+        page_knew_start = next(recorded for recorded, status in statuses if status.test > 0) - clock_error_s
     page_knew_end = next(status["ros"] for status in arrivals[last_trial:] if status["test"] == 0)
     for body in BODIES:
         headers = [message.header for _, message in poses[body]]
@@ -381,10 +423,10 @@ def assert_the_bag_holds_the_tracked_body(
         assert [header.seq for header in headers] == list(range(len(headers)))  # none lost, none reordered
         stamps = np.array([to_seconds(header.stamp) for header in headers])
         assert np.all(np.diff(stamps) > 0), body  # one a frame, each frame's time its own
-        assert start - clock_slack_s <= stamps[0] and stamps[-1] < page_knew_end + CLOCK_DRIFT_S, (
+        assert page_knew_start - CLOCK_DRIFT_S <= stamps[0] and stamps[-1] < page_knew_end + CLOCK_DRIFT_S, (
             body,
             stamps,
-            start,
+            page_knew_start,
             page_knew_end,
         )
     # the headset: at the seat, looking ahead (the world's y, towards the hand), until the test moved it in test 1

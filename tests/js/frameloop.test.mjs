@@ -35,7 +35,8 @@ function loopWith(input, connected = true, bodies = [], clock = { offset: null }
       connected,
       state: 'connecting to wss://here/ros',
       send: (action) => action && calls.push(action),
-      sendPoses: (stamp, sent) => sent.forEach(([body, pose]) => calls.push(['pose', body, stamp, pose])),
+      sendPoses: (stamp, sent, condition) =>
+        sent.forEach(([body, pose]) => calls.push(['pose', body, stamp, pose, condition])),
       get clockOffset() {
         return clock.offset;
       },
@@ -45,7 +46,7 @@ function loopWith(input, connected = true, bodies = [], clock = { offset: null }
 }
 
 function status(phase, extra = {}) {
-  return { index: 1, total: 3, test: 1, phase, motion_start: null, group_paths: [], ...extra };
+  return { index: 1, total: 3, test: 1, condition: 'vr', phase, motion_start: null, group_paths: [], ...extra };
 }
 
 const kinds = (calls) => calls.map((call) => (Array.isArray(call) ? call[0] : call));
@@ -121,8 +122,9 @@ test("in a trial's frame, each tracked body is sent, stamped with the frame's ti
   calls.length = 0;
   loop.step(32.5, {});
   assert.deepEqual(kinds(calls), ['robot', 'controllers', 'tracking', 'pose', 'pose', 'panel', 'render']);
-  const [[, first, stamp, pose], [, second, sameStamp]] = calls.filter((call) => call[0] === 'pose');
+  const [[, first, stamp, pose, condition], [, second, sameStamp]] = calls.filter((call) => call[0] === 'pose');
   assert.deepEqual([first, second, pose], ['head', 'left_hand', head]);
+  assert.equal(condition, 'vr'); // the trial's, for the page's announcement as its pose source
   assert.ok(Math.abs(stamp - 10.0325) < 1e-6, stamp);
   assert.equal(sameStamp, stamp); // one frame, one time for every body
   assert.equal(loop.poseFrames, 1);

@@ -6,7 +6,7 @@ import { readFileSync } from 'node:fs';
 import { test } from 'node:test';
 
 import { WorldFrame, frameStamp, trackedBodies } from '../../sim/study/views/vr/web/poses.js';
-import { encodePoseStamped, framesIn, rosTime } from '../../sim/study/views/vr/web/rostcp.js';
+import { decodeString, encodePoseStamped, framesIn, rosTime } from '../../sim/study/views/vr/web/rostcp.js';
 import { Participant } from '../../sim/study/views/vr/web/study.js';
 import { StudyTopics } from '../../sim/study/views/vr/web/topics.js';
 
@@ -171,32 +171,46 @@ test("the participant is in a trial in its phases, not in a questionnaire's item
 });
 
 test("frames' poses go out together, from a task after the frames, each on its body's topic, numbered by body", () => {
-  // the settings as the page's server gives them (sim/study/views/vr/site.py): each topic [name, type]
+  // the settings as the page's server gives them (sim/study/views/vr/site.py): each topic [name, type], and the page's
+  // announcement as a pose source (the text is the server's; here any)
   const entry = ({ topic, type }) => [topic, type];
   const topics = {
     joint_states: ['/panda/joint_states', 'sensor_msgs/JointState'],
     trial: entry(PROTOCOL.status),
     ...Object.fromEntries(Object.entries(PROTOCOL.inputs).map(([name, input]) => [name, entry(input)])),
     ...Object.fromEntries(Object.entries(PROTOCOL.poses.bodies).map(([body, pose]) => [body, entry(pose)])),
+    tracking: ['/study/tracking', 'std_msgs/String'],
   };
-  const study = new StudyTopics({ topics, protocol: PROTOCOL }, 'ws://nowhere/ros', {});
+  const announcement = '{"source": "headset", "conditions": ["vr"]}';
+  const settings = { topics, protocol: PROTOCOL, pose_source: { vr: announcement, reality: '{"of": "reality"}' } };
+  const study = new StudyTopics(settings, 'ws://nowhere/ros', {});
+  // the announcement's topic is advertised latched, the others not
+  assert.deepEqual(study.connection.publishers.get('/study/tracking'), ['std_msgs/String', true]);
+  assert.deepEqual(study.connection.publishers.get(PROTOCOL.poses.bodies.head.topic), [
+    PROTOCOL.poses.bodies.head.type,
+    false,
+  ]);
   const messages = [];
   study.connection._send = (bytes) => messages.push(bytes); // no socket: what would be sent
   const scheduled = [];
   study.schedule = (send, ms) => scheduled.push([send, ms]); // no timer: the test sends when it wants
   const head = { position: [0.55, -0.65, 0.45], orientation: [Math.SQRT1_2, 0, 0, Math.SQRT1_2] };
   const hand = { position: [0.5, -0.4, 0.2], orientation: [0, 0, 0, 1] };
-  assert.equal(study.sendPoses(10.5, [['head', head]]), false); // not connected: nothing sent, nothing counted
+  assert.equal(study.sendPoses(10.5, [['head', head]], 'vr'), false); // not connected: nothing sent, nothing counted
   assert.deepEqual(study.posesSent, { head: 0, left_hand: 0, right_hand: 0 });
   study.connection.connected = true;
   assert.equal(
-    study.sendPoses(10.5, [
-      ['head', head],
-      ['right_hand', hand],
-    ]),
+    study.sendPoses(
+      10.5,
+      [
+        ['head', head],
+        ['right_hand', hand],
+      ],
+      'vr',
+    ),
     true,
   );
-  assert.equal(study.sendPoses(10.52, [['head', head]]), true);
+  assert.equal(study.sendPoses(10.52, [['head', head]], 'vr'), true);
   // two frames' poses, queued: one send is scheduled, after the batch's time, and nothing has gone yet
   assert.equal(messages.length, 0);
   assert.deepEqual(
@@ -205,7 +219,9 @@ test("frames' poses go out together, from a task after the frames, each on its b
   );
   scheduled.shift()[0]();
   assert.equal(messages.length, 1);
-  const sent = framesIn(messages[0]);
+  // the connection's first send opens with the announcement, then the poses in their frames' order
+  const [said, ...sent] = framesIn(messages[0]);
+  assert.deepEqual([said[0], decodeString(said[1])], ['/study/tracking', announcement]);
   assert.deepEqual(
     sent.map(([topic]) => topic),
     [PROTOCOL.poses.bodies.head.topic, PROTOCOL.poses.bodies.right_hand.topic, PROTOCOL.poses.bodies.head.topic],
@@ -218,10 +234,29 @@ test("frames' poses go out together, from a task after the frames, each on its b
   );
   assert.deepEqual(study.posesSent, { head: 2, left_hand: 0, right_hand: 1 });
   // the next frame schedules the next send; a frame without tracked bodies queues nothing and schedules nothing
-  assert.equal(study.sendPoses(10.54, []), true);
+  assert.equal(study.sendPoses(10.54, [], 'vr'), true);
   assert.equal(scheduled.length, 0);
-  study.sendPoses(10.56, [['left_hand', hand]]);
+  study.sendPoses(10.56, [['left_hand', hand]], 'vr');
   assert.equal(scheduled.length, 1);
   scheduled.shift()[0]();
   assert.equal(messages.length, 2);
+  assert.deepEqual(
+    framesIn(messages[1]).map(([topic]) => topic),
+    [PROTOCOL.poses.bodies.left_hand.topic],
+  ); // announced once a connection
+  // connected again (the endpoint may have started again, its latched announcement lost): announced again
+  study.connection.onState('connected');
+  study.sendPoses(10.58, [['head', head]], 'vr');
+  scheduled.shift()[0]();
+  assert.deepEqual(
+    framesIn(messages[2]).map(([topic]) => topic),
+    ['/study/tracking', PROTOCOL.poses.bodies.head.topic],
+  );
+  // a reality trial's poses (the headset worn there too): announced for reality, once
+  study.sendPoses(10.6, [['head', head]], 'reality');
+  study.sendPoses(10.62, [['head', head]], 'reality');
+  scheduled.shift()[0]();
+  const [realitySaid, ...realityPoses] = framesIn(messages[3]);
+  assert.deepEqual([realitySaid[0], decodeString(realitySaid[1])], ['/study/tracking', '{"of": "reality"}']);
+  assert.equal(realityPoses.length, 2);
 });

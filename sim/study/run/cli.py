@@ -53,7 +53,7 @@ def register(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> N
         action="append",
         default=[],
         metavar="CONDITION=NAME",
-        help="the pose source of a condition that does not announce itself on /study/tracking (e.g. vr=headset)",
+        help="a condition's pose source by name, over what announces itself on /study/tracking (e.g. reality=vicon)",
     )
     run.add_argument(
         "--link",

@@ -38,8 +38,8 @@ every body that has sent poses since the approach started has sent one stamped a
 participant, and poses travel apart from the status. Then it holds the robot at rest, its clock running, until the
 hand under the robot is at rest again (at most sim.study.motion's WITHDRAWAL_LIMIT after the robot rests), so that a
 late withdrawal is measured whole. Which pose source tracked each condition (announced on /study/tracking by the
-tracker relay, sim.study.run.tracker, or named by RunnerOptions.pose_sources), with its jitter and calibration, goes
-to tracking/participant_NN.json after every trial.
+tracker relay, sim.study.run.tracker, and by the VR page, or named by RunnerOptions.pose_sources over them), with its
+jitter and calibration, goes to tracking/participant_NN.json after every trial.
 """
 
 from __future__ import annotations
@@ -151,7 +151,7 @@ class RunnerOptions:
     # At an approach's end, how long (s of wall time) the runner waits for the poses up to its end (see the module's
     # docstring); a tracker that stops sending costs this once per trial, and its gap is measured.
     pose_grace: float = 1.0
-    # by condition, the pose source of one that does not announce itself on /study/tracking (the VR page)
+    # by condition, a pose source named by hand: over any announcement on /study/tracking (session_tracking)
     pose_sources: Mapping[str, str] = field(default_factory=dict)
 
 

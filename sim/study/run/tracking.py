@@ -8,9 +8,12 @@ poses is sim.study.run.tracker).
   marked_points     the scene's points an experimenter touches to calibrate: the hand model's two ends on its top,
                     and the table top's four corners (world coordinates, from the scene)
   announcement      what a pose source says of itself on TRACKING_TOPIC (latched, JSON): its name, the conditions it
-                    tracks, its jitter at rest and its calibration; the runner records it per condition
+                    tracks, its jitter at rest and its calibration; the runner records it per condition. The tracker
+                    relay (sim.study.run.tracker) announces itself, and so does the VR page (its settings carry its
+                    announcement, made here, which it sends with its first poses)
   session_tracking  the session's record of it: per condition whose trials had poses, the source that announced
-                    itself for it (or the one named on the runner's command line), its jitter and calibration
+                    itself for it (or the one named on the runner's command line, which overrides it), its jitter
+                    and calibration
 """
 
 from __future__ import annotations
@@ -175,11 +178,12 @@ def announcement(
     source: str,
     conditions: tuple[str, ...],
     jitter: Mapping[str, float],
-    rest: float,
+    rest: float | None,
     calibration: Mapping[str, Any] | None,
     participant: int | None = None,
 ) -> str:
-    """A pose source's announcement as JSON: its jitter by body (m; null where not measured), over `rest` s."""
+    """A pose source's announcement as JSON: its jitter by body (m; null where not measured), over `rest` s (None:
+    not measured, as the VR page, which announces the headset without a rest at the start)."""
     return json.dumps(
         {
             "source": source,
@@ -212,15 +216,18 @@ def session_tracking(
     announced: Mapping[str, Mapping[str, Any]],
     named: Mapping[str, str],
 ) -> dict[str, Any]:
-    """The session's record of its pose sources: per condition in `tracked` (its trials had poses), the source
-    `announced` for it (by condition, the latest announcement naming it), else the one `named` on the command line
-    (no jitter, no calibration), else "" (unnamed)."""
+    """The session's record of its pose sources: per condition in `tracked` (its trials had poses), the one `named`
+    on the command line, which overrides any announcement (its jitter and calibration kept only when the source
+    announced for the condition has that name), else the source `announced` for it (by condition, the latest
+    announcement naming it), else "" (unnamed)."""
     conditions: dict[str, Any] = {}
     for condition in CONDITIONS:
         if condition not in tracked:
             continue
         said = announced.get(condition)
-        if said is not None:
+        if condition in named and (said is None or said["source"] != named[condition]):
+            conditions[condition] = {"source": named[condition], "jitter_m": {}, "calibration": None}
+        elif said is not None:
             conditions[condition] = {
                 "source": said["source"],
                 "jitter_m": said.get("jitter_m") or {},
@@ -228,5 +235,5 @@ def session_tracking(
                 "calibration": said.get("calibration"),
             }
         else:
-            conditions[condition] = {"source": named.get(condition, ""), "jitter_m": {}, "calibration": None}
+            conditions[condition] = {"source": "", "jitter_m": {}, "calibration": None}
     return {"participant": participant, "conditions": conditions}

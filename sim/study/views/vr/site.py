@@ -24,13 +24,16 @@ from sim.robots import RobotSpec
 from sim.robots.meshes import resolve_shapes
 from sim.robots.urdf_model import urdf_root
 from sim.study.design.scene import Box, Scene
+from sim.study.design.spec import CONDITIONS
 from sim.study.run.protocol import BODIES, INPUTS, PROTOCOL
+from sim.study.run.tracking import TRACKING_TOPIC, announcement
 from sim.study.views.live import COLOURS
 from sim.wire.rosmsgs import JOINT_STATE
 
 __all__ = [
     "WEB_DIR",
     "ROS_PATH",
+    "POSE_SOURCE",
     "PAGE_FILES",
     "EMULATION_FILES",
     "FRAME_TIME_FILES",
@@ -48,6 +51,9 @@ __all__ = [
 
 WEB_DIR = Path(__file__).resolve().parent / "web"
 ROS_PATH = "/ros"  # the WebSocket that is passed through to the endpoint
+# What the VR page's tracked body is named as a pose source, in the session's tracking record and the report: the
+# headset (its viewer pose) and its controllers (their grips), whatever the headset's make
+POSE_SOURCE = "headset"
 PAGE_FILES = (
     "index.html",
     "page.css",
@@ -187,7 +193,10 @@ def _box(box: Box) -> dict[str, Any]:
 def page_settings(robot: RobotSpec, scene: Scene) -> dict[str, Any]:
     """What the page needs to know beyond the URDF: the scene in the world frame (ROS: x forward, z up), the
     robot's base pose, the joints it is sent, the study's topics with their types (the runner's status, the
-    participant's inputs, the tracked body's poses) and the trial protocol's table."""
+    participant's inputs, the tracked body's poses and the pose source's announcement), the trial protocol's table,
+    and the page's announcement of itself as a condition's pose source (sent, latched, with its first poses in that
+    condition's trials: it measures no jitter and has no calibration, the headset's own tracking places it in the
+    scene)."""
     x, y, z, w = matrix_to_quat(scene.base_pose[:3, :3])
     return {
         "robot": {
@@ -204,7 +213,11 @@ def page_settings(robot: RobotSpec, scene: Scene) -> dict[str, Any]:
             "trial": list(PROTOCOL.status),
             **{name: list(PROTOCOL.inputs[name]) for name in INPUTS},
             **{body: list(PROTOCOL.poses[body]) for body in BODIES},  # the tracked body's, sent during trials
+            "tracking": [TRACKING_TOPIC, "std_msgs/String"],  # the page's announcement as a pose source
         },
+        # by condition, its announcement: the page sends the tracked body in any trial it is shown, in reality too
+        # when the headset is worn there (passthrough), and announces itself for each trial's condition
+        "pose_source": {condition: announcement(POSE_SOURCE, (condition,), {}, None, None) for condition in CONDITIONS},
         "protocol": PROTOCOL.data,  # the trial protocol's table, as the runner reads it
         "stop_source": PROTOCOL.stop_source("vr"),  # what the page's presses are named
         "ros_path": ROS_PATH,

@@ -16,7 +16,7 @@ export class RosConnection {
     this.url = url;
     this.onState = onState;
     this.subscriptions = new Map(); // topic -> [type, handler(payload)]
-    this.publishers = new Map(); // topic -> type
+    this.publishers = new Map(); // topic -> [type, latch]
     this.socket = null;
     this.connected = false;
     this.lastSent = 0;
@@ -32,9 +32,10 @@ export class RosConnection {
     if (this.connected) this._send(command('__subscribe', { topic, message_name: type }));
   }
 
-  advertise(topic, type) {
-    this.publishers.set(topic, type);
-    if (this.connected) this._send(command('__publish', { topic, message_name: type, queue_size: 10, latch: false }));
+  // latch: the endpoint's publisher keeps the last message for subscribers that come later (an announcement).
+  advertise(topic, type, latch = false) {
+    this.publishers.set(topic, [type, latch]);
+    if (this.connected) this._send(command('__publish', { topic, message_name: type, queue_size: 10, latch }));
   }
 
   // Publish `payload` (a serialized message) on a topic advertised before; false when not connected.
@@ -81,8 +82,8 @@ export class RosConnection {
       this.connected = true;
       this.onState('connected');
       this._send(KEEPALIVE);
-      for (const [topic, type] of this.publishers) {
-        this._send(command('__publish', { topic, message_name: type, queue_size: 10, latch: false }));
+      for (const [topic, [type, latch]] of this.publishers) {
+        this._send(command('__publish', { topic, message_name: type, queue_size: 10, latch }));
       }
       for (const [topic, [type]] of this.subscriptions) {
         this._send(command('__subscribe', { topic, message_name: type }));

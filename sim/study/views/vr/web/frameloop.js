@@ -41,7 +41,7 @@ export class FrameLoop {
     const stamp = frameStamp(time, this.timeOrigin, this.topics.clockOffset);
     if (stamp === null) return;
     this.poseFrames += 1;
-    this.topics.sendPoses(stamp, this.tracking.read(frame));
+    this.topics.sendPoses(stamp, this.tracking.read(frame), this.participant.status.condition);
   }
 
   // The phase's instructions, and what the connection does while it is not connected.

@@ -1,5 +1,7 @@
 // The page's side of the study over ROS, through the endpoint's client (connection.js): the robot's joint states and
-// the trial's status in, the participant's answers and tracked body (poses.js) out, on the topics of the settings.
+// the trial's status in, the participant's answers and tracked body (poses.js) out, on the topics of the settings;
+// with its first poses of a condition on each connection, the page's announcement of itself as that condition's pose
+// source (the settings', latched), so that the runner names the condition's tracker as it does a tracker relay's.
 import { RosConnection } from './connection.js';
 import { stopPayload } from './presses.js';
 import {
@@ -25,7 +27,9 @@ export class StudyTopics {
     this.state = 'connecting'; // what the connection is doing, for the panel
     this.connection = new RosConnection(url, (state) => {
       this.state = state;
+      if (state === 'connected') this.announced.clear(); // an endpoint started again has lost the latched ones
     });
+    this.announced = new Set(); // the conditions whose pose-source announcement has gone out on this connection
     this.sent = []; // the answers published: [input, value], oldest first
     const topics = settings.topics;
     this.connection.subscribe(topics.joint_states[0], topics.joint_states[1], (payload) => {
@@ -44,6 +48,7 @@ export class StudyTopics {
       this.connection.advertise(...topics[body]);
       this.posesSent[body] = 0;
     }
+    this.connection.advertise(...topics.tracking, true);
   }
 
   open() {
@@ -66,9 +71,15 @@ export class StudyTopics {
 
   // Publish the bodies' poses ([body, {position, orientation}] in the world frame, poses.js) of one frame, stamped
   // with its time (s of ROS time), each on its body's topic; false when not connected. They are queued, numbered by
-  // body, and go out with the other frames' of POSE_BATCH_MS in one send, from a task of its own after the frame.
-  sendPoses(stamp, bodies) {
+  // body, and go out with the other frames' of POSE_BATCH_MS in one send, from a task of its own after the frame;
+  // the first poses of a trial's `condition` on a connection go after the page's announcement as its pose source.
+  sendPoses(stamp, bodies, condition) {
     if (!this.connected) return false;
+    const said = this.settings.pose_source[condition];
+    if (said && !this.announced.has(condition) && bodies.length > 0) {
+      this.pendingPoses.push([this.settings.topics.tracking[0], encodeString(said)]);
+      this.announced.add(condition);
+    }
     const time = rosTime(stamp);
     for (const [body, pose] of bodies) {
       const payload = encodePoseStamped(this.posesSent[body], time, this.poseFrame, pose.position, pose.orientation);

@@ -85,6 +85,14 @@ def test_the_session_records_each_conditions_source() -> None:
     assert session_tracking(4, {"vr"}, {}, {})["conditions"] == {
         "vr": {"source": "", "jitter_m": {}, "calibration": None}
     }
+    # a name on the command line overrides an announcement of another source; of the same, it keeps its figures
+    assert session_tracking(4, {"reality"}, {"reality": said}, {"reality": "vicon"})["conditions"]["reality"] == {
+        "source": "vicon",
+        "jitter_m": {},
+        "calibration": None,
+    }
+    same = session_tracking(4, {"reality"}, {"reality": said}, {"reality": "optitrack"})["conditions"]["reality"]
+    assert same["source"] == "optitrack" and same["jitter_m"] == {"head": 0.0002}
     with pytest.raises(StudyError, match="names no source"):
         announcement_from_json('{"conditions": []}')
 

@@ -10,6 +10,7 @@ import pytest
 
 from sim.robots import find_ros_package
 from sim.study.design.scene import load_scene, scene_robot
+from sim.study.run.tracking import announcement_from_json
 from sim.study.views.vr.site import WEB_DIR, Site, content_type, make_site
 
 
@@ -121,6 +122,16 @@ def test_the_settings_carry_the_scene_the_joints_and_the_topics(site: Site) -> N
         "right_hand": ["/study/pose/right_hand", "geometry_msgs/PoseStamped"],
     }
     assert settings["ros_path"] == "/ros" and settings["emulation"] is False
+    # the page's announcement of itself as each condition's pose source, as the runner reads one
+    assert settings["topics"]["tracking"] == ["/study/tracking", "std_msgs/String"]
+    for condition in ("vr", "reality"):
+        said = announcement_from_json(settings["pose_source"][condition])
+        assert (said["source"], said["conditions"], said["jitter_m"], said["calibration"]) == (
+            "headset",
+            [condition],
+            {},
+            None,
+        )
 
 
 @pytest.mark.parametrize(
