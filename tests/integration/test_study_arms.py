@@ -47,8 +47,7 @@ def robot_args(tmp_path: Path, name: str) -> list[str]:
     return ["--robot", str(arm(tmp_path, name)), *(["--ee-link", ee_link] if ee_link else [])]
 
 
-# (the LBR iiwa's proposal is made and checked in the next test; the five-joint desktop arm has no scene yet where
-# every combination of the bundled design is feasible: issue 50)
+# (the LBR iiwa's proposal is made and checked in the next test; the five-joint desktop arm in its own below)
 @pytest.mark.parametrize("name", [*(design.name for design in STUDY_ARMS), "xarm6", "ur5_like", "scara_like"])
 def test_every_combination_checks_on_the_arm_from_its_urdf_alone(tmp_path: Path, name: str) -> None:
     done = study(["check", *robot_args(tmp_path, name)], run_cache(tmp_path))
@@ -58,6 +57,19 @@ def test_every_combination_checks_on_the_arm_from_its_urdf_alone(tmp_path: Path,
     # what IK kept, per combination: the whole pose on six joints or more; the SCARA (four joints, its quill pointing
     # down by construction) the position and the tool axis
     assert kept == {"scara_like": {"position and tool axis"}}.get(name, {"position and orientation"}), kept
+
+
+def test_the_desktop_arm_checks_every_combination_with_its_tool_down_on_test_1s_paths(tmp_path: Path) -> None:
+    # five joints (its roll free): its end effector 40 mm beyond its gripper's geometry ends inside the hand for the
+    # gripper to end 20 mm from it; a path whose tool-down pose is beyond its wrist's reach keeps the position alone
+    done = study(["check", *robot_args(tmp_path, "widowx_like")], run_cache(tmp_path))
+    assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
+    assert "19 combinations planned" in done.stdout and "not feasible" not in done.stdout
+    rows = [line.split("|") for line in done.stdout.splitlines() if line.startswith("| ") and "m/s" in line]
+    kept = {(row[1].strip(), row[7].strip()) for row in rows}
+    assert {what for path, what in kept if path in ("straight", "vertical")} == {"position and tool axis"}, kept
+    assert {what for _, what in kept} <= {"position and tool axis", "position only"}, kept
+    assert "widowx_like: the paths' shapes" in done.stdout  # sized to its reach, and said so
 
 
 def test_the_proposed_scene_is_written_with_its_reasons_and_checks_as_given(tmp_path: Path) -> None:
@@ -86,7 +98,10 @@ def test_an_arm_that_cannot_reach_over_a_table_is_told_why_in_one_line(tmp_path:
 
 # In lockstep, the study's processes wait for each other, not for the clock: beside other work, as the checks.
 # The LBR iiwa's scene is proposed with the paths' shapes made smaller; the UR5's too, named by its tool0.
-@pytest.mark.parametrize("name", [*(design.name for design in STUDY_ARMS), "lbr_iiwa", "ur5_like"])
+# The SCARA (a prismatic lift, its quill pointing down) and the five-joint desktop arm (its tool's roll free) too.
+@pytest.mark.parametrize(
+    "name", [*(design.name for design in STUDY_ARMS), "lbr_iiwa", "ur5_like", "scara_like", "widowx_like"]
+)
 def test_a_simulated_study_with_the_arm_recovers_its_biases(tmp_path: Path, name: str) -> None:
     design = tmp_path / "design.yaml"
     design.write_text(yaml.safe_dump(SMALL_DESIGN))

@@ -453,10 +453,21 @@ window.vrPage.page.robot.model.traverse((child) => {
 return counted;"""
 
 
-# The test arms (primitives; OBJ and COLLADA visuals), the xArm6 (STL visuals, named by package:// URLs) and the UR5
-# (COLLADA visuals in its description package, named by its tool0)
-@pytest.mark.parametrize("name", [*(design.name for design in STUDY_ARMS), "xarm6", "ur5_like"])
-def test_the_page_shows_another_arm_with_its_meshes(roscore, tmp_path: Path, name: str) -> None:
+@pytest.fixture(scope="module")
+def arm_browser(tmp_path_factory: pytest.TempPathFactory) -> Any:
+    """One headless Chromium for every arm's page (each arm's page is a page of its own, from a server of its own):
+    a browser's start is some seconds of the machine's two cores."""
+    with chromium(tmp_path_factory.mktemp("chromium"), accept_insecure_certs=True, size="800,600") as browser:
+        yield browser
+
+
+# The test arms (primitives; OBJ and COLLADA visuals), the xArm6 (STL visuals, named by package:// URLs), the UR5
+# (COLLADA visuals in its description package, named by its tool0), the five-joint desktop arm and the SCARA (the
+# same, their ends derived from their URDFs)
+@pytest.mark.parametrize(
+    "name", [*(design.name for design in STUDY_ARMS), "xarm6", "ur5_like", "widowx_like", "scara_like"]
+)
+def test_the_page_shows_another_arm_with_its_meshes(roscore, arm_browser: Any, tmp_path: Path, name: str) -> None:
     urdf = study_arm(tmp_path, name)
     ee_link = LAB_ARM_EE_LINKS.get(name)
     visual_meshes = urdf.read_text().count("<visual")  # each a mesh on the page, a primitive or a mesh file's
@@ -471,14 +482,13 @@ def test_the_page_shows_another_arm_with_its_meshes(roscore, tmp_path: Path, nam
         robot = ("--robot", str(urdf), *(("--ee-link", ee_link) if ee_link else ()))
         vr, url = start_vr_page(endpoint.websocket_port, tmp_path, robot=robot, env=secrets)
         try:
-            with chromium(tmp_path / "chromium", accept_insecure_certs=True, size="800,600") as browser:
-                browser.get(url)
-                wait_for(
-                    lambda: (s := page_state(browser)) and (s["meshes"] or s["error"]), 60, "the page to load the arm"
-                )
-                assert page_state(browser)["error"] == ""
-                counted = browser.execute_script(MESH_COUNT)
-                assert counted["meshes"] >= visual_meshes and counted["triangles"] >= 12 * visual_meshes, counted
+            arm_browser.get(url)
+            wait_for(
+                lambda: (s := page_state(arm_browser)) and (s["meshes"] or s["error"]), 60, "the page to load the arm"
+            )
+            assert page_state(arm_browser)["error"] == ""
+            counted = arm_browser.execute_script(MESH_COUNT)
+            assert counted["meshes"] >= visual_meshes and counted["triangles"] >= 12 * visual_meshes, counted
         finally:
             vr.stop()
     finally:

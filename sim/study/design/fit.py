@@ -20,10 +20,11 @@ shoulder, and NEAR_FRACTION of it or more out from the shoulder's vertical axis.
 directions and the hand's place relative to the participant stay the design's and the template's.
 
 A candidate is first screened: by reach alone (each approach's start and end within the reach from the shoulder, no
-IK), then by IK of each approach's start, middle and end (cheap), then checked like `check` (every sample planned,
-limits, contacts, stand-offs; a candidate's planning stops at its first combination that fails); the first that
-passes is the proposal. An arm of fewer than six joints is offered the
-candidates where it keeps its tool pointing down first, then all of them again where it keeps the position alone.
+IK; for an arm keeping its tool down, the wrist above each start, middle and end within the wrist's reach), then by
+IK of each approach's start, middle and end (cheap), then checked like `check` (every sample planned, limits,
+contacts, stand-offs; a candidate's planning stops at its first combination that fails); the first that passes is
+the proposal. An arm of fewer than six joints is offered the candidates where it keeps its tool pointing down first,
+then all of them again where it keeps the position alone.
 """
 
 from __future__ import annotations
@@ -71,6 +72,8 @@ __all__ = [
     "scene_for",
     "screen",
     "scene_to_data",
+    "tool_down_out_of_reach",
+    "WRIST_SLACK",
 ]
 
 # of the proposal; one kept by another version is proposed again (2: the bundled scene names the arm; 3: sized paths;
@@ -95,6 +98,9 @@ _APPROACH_SCALES = (1.0, 0.85, 0.7)
 # ... and, out from the shoulder's vertical axis, at least this fraction of the wrist's reach (an arm reaches down
 # next to its own column badly, a SCARA not at all)
 NEAR_FRACTION = 0.25
+# A candidate's wrist beyond its reach by more than this fraction of the arm's reach rules it out for an arm that must
+# point its tool down, with no IK (tool_down_out_of_reach)
+WRIST_SLACK = 0.05
 _PATH_SCALES = tuple(round(1.0 - 0.05 * k, 2) for k in range(15))  # 1.0 .. 0.3
 
 
@@ -269,8 +275,10 @@ def fit_scene(
     total = len(passes) * len(candidates)
     for strict in passes:
         for number, (label, scene) in enumerate(candidates, start=1):
-            reason = _out_of_reach(scene, found, combinations, dt) or screen(
-                robot, chain, scene, combinations, dt, strict
+            reason = (
+                _out_of_reach(scene, found, combinations, dt)
+                or (strict and tool_down_out_of_reach(scene, found, combinations, dt))
+                or screen(robot, chain, scene, combinations, dt, strict)
             )
             if not reason:
                 reason = _first_failure(robot, scene, combinations, dt)
@@ -330,6 +338,29 @@ def _out_of_reach(scene: Scene, found: Proportions, combinations: Sequence[Combi
                 return (
                     f"the {name} path's {label} is {distance:.2f} m from the shoulder, beyond the arm's reach "
                     f"({found.reach:.2f} m)"
+                )
+    return ""
+
+
+def tool_down_out_of_reach(scene: Scene, found: Proportions, combinations: Sequence[Combination], dt: float) -> str:
+    """Why an arm cannot point its tool down along a candidate's approaches, from its proportions alone (no IK): at
+    an approach's start, middle or end, its wrist (the tool's length above the point) farther from the shoulder than
+    the wrist reaches (the arm's reach less the tool), by more than WRIST_SLACK of the reach (the reach is the most
+    that random joint states gave, a little short of the truth: a nearer case is left to IK); "" when none is."""
+    wrist_reach = found.reach - found.tool
+    for name, standoff, speed in dict.fromkeys(combinations):
+        try:
+            path = approach_path(scene, name, standoff, speed, dt)
+        except DesignError as error:
+            return str(error)
+        middle = path.positions[len(path.positions) // 2]
+        for label, point in (("start", path.start), ("middle", middle), ("end", path.end)):
+            wrist = scene.to_base(point + np.array([0.0, 0.0, found.tool]))
+            distance = float(np.linalg.norm(wrist - found.shoulder))
+            if distance > wrist_reach + WRIST_SLACK * found.reach:
+                return (
+                    f"the arm cannot point the tool down at the {name} path's {label}: its wrist would be "
+                    f"{distance:.2f} m from the shoulder, beyond the wrist's reach ({wrist_reach:.2f} m)"
                 )
     return ""
 

@@ -127,8 +127,13 @@ def hand_frame(scene: Scene) -> np.ndarray:
 
 
 def end_point(hand: Box, direction: np.ndarray, standoff: float) -> np.ndarray:
-    """The point along `direction` (world, from the hand's top centre) at `standoff` from the hand's nearest point."""
+    """The point along `direction` (world, from the hand's top centre) at `standoff` from the hand's nearest point.
+    A negative `standoff` puts it that far from the top centre the other way, into the hand: the end-effector point
+    of a tool whose surface stops short of it (a tool frame beyond the gripper's geometry) must end inside the hand
+    for that surface to end at a small stand-off."""
     unit = np.asarray(direction, dtype=float) / np.linalg.norm(direction)
+    if standoff < 0.0:
+        return hand.top + standoff * unit
     low, high = 0.0, standoff + float(np.linalg.norm(hand.size))  # distance grows monotonically along the ray
     for _ in range(80):
         middle = (low + high) / 2.0
@@ -154,7 +159,8 @@ def approach_path(
 ) -> ApproachPath:
     """Path `name` of SHAPES to `standoff` (m) from the hand, timed to peak at most at `peak_speed` (m/s). The path
     is the end-effector point's; `ee_standoff` is that point's own stand-off where the robot's nearest surface is
-    not that point (sim.study.design.feasibility finds it), else the stand-off itself."""
+    not that point (sim.study.design.feasibility finds it; negative: inside the hand, see end_point), else the
+    stand-off itself."""
     shape = SHAPES.get(name)
     if shape is None:
         raise DesignError(f"unknown path {name!r}; known paths: {', '.join(PATH_NAMES)}")

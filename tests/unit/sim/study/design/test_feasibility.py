@@ -101,3 +101,21 @@ def test_the_surface_ends_at_the_stand_off_and_the_theses_point_definition_is_ke
     assert surface.reached_standoff == pytest.approx(ON_TOP, abs=STANDOFF_TOLERANCE / 4)
     lift = world.end_effector_distance(surface.positions[-1]) - ON_TOP
     assert 0.004 < lift < 0.012, lift
+
+
+def test_a_tool_frame_beyond_the_grippers_geometry_ends_inside_the_hand_for_the_surface_to_end_on_top(tmp_path):
+    """The desktop arm's end effector (ee_gripper_link) lies 40 mm beyond its gripper's collision box: test 2's end
+    on top of the hand (the surface 20 mm from it) puts that point inside the hand, 20 mm below its top. The end
+    point could not go below the top once, and the surface stopped 39 mm from the hand on every scene (issue 50)."""
+    from sim.robots import load_robot
+    from sim.study.design.fit import candidate_scene
+    from tests.study_arms import study_arm
+
+    robot = load_robot(str(study_arm(tmp_path, "widowx_like")))
+    scene = dataclasses.replace(candidate_scene(SCENE, robot, 0.28, -0.17), approach_scale=0.7)
+    with SceneWorld(robot, scene) as arm_world:
+        planned = plan_combination(robot, scene, ("vertical", ON_TOP, 0.2), STEP_S, arm_world)
+        end = arm_world.end_effector(planned.positions[-1])
+    assert planned.feasible, planned.problems
+    assert planned.reached_standoff == pytest.approx(ON_TOP, abs=STANDOFF_TOLERANCE)
+    assert scene.hand.distance(end) == 0.0 and scene.hand.top[2] - end[2] == pytest.approx(0.02, abs=0.003)

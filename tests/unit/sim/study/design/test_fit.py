@@ -8,8 +8,9 @@ import pytest
 
 from sim.geometry.kinematics import chain_for
 from sim.study.design.errors import DesignError
-from sim.study.design.fit import candidate_scene, proportions, scene_to_data
+from sim.study.design.fit import Proportions, candidate_scene, proportions, scene_to_data, tool_down_out_of_reach
 from sim.study.design.scene import load_scene, parse_scene, scene_robot
+from sim.wire.contract import STEP_S
 
 TEMPLATE = load_scene()
 PANDA = scene_robot(TEMPLATE)
@@ -72,3 +73,21 @@ def test_lowering_the_table_lowers_the_robot_standing_on_it_unless_the_scene_pla
         parse_scene(data)
     del data["pedestal"]
     assert parse_scene(data).base_position[2] == pytest.approx(0.3)  # placed there, as the scene says
+
+
+def test_a_wrist_beyond_its_reach_with_the_tool_down_rules_a_candidate_out_with_its_figures() -> None:
+    # a desktop arm's proportions (the WidowX-like test arm's): the wrist reaches 0.57 - 0.165 = 0.405 m
+    found = Proportions(np.array([0.0, 0.0, 0.111]), 0.57, 0.165)
+    vertical = [("vertical", 0.1, 0.15)]
+    whole = candidate_scene(TEMPLATE, PANDA, 0.34, 0.0)  # the thesis's shapes: the start 0.40 m above the hand
+    assert tool_down_out_of_reach(whole, found, vertical, STEP_S) == (
+        "the arm cannot point the tool down at the vertical path's start: its wrist would be 0.60 m from the "
+        "shoulder, beyond the wrist's reach (0.40 m)"
+    )
+    wrist = np.hypot(0.34, 0.035 + 0.4 + 0.165 - 0.111)  # out, and up from the shoulder
+    assert wrist == pytest.approx(0.60, abs=0.005)
+    small = candidate_scene(TEMPLATE, PANDA, 0.28, -0.17, approach_scale=0.5)
+    assert tool_down_out_of_reach(small, found, vertical, STEP_S) == ""
+    # a wrist just beyond the estimated reach is left to IK (the reach is sampled, a little short of the truth)
+    edge = Proportions(found.shoulder, wrist - 0.02 + 0.165, 0.165)
+    assert tool_down_out_of_reach(whole, edge, vertical, STEP_S) == ""

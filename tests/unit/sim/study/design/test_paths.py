@@ -73,6 +73,17 @@ def test_the_end_point_is_found_along_any_direction():
         assert SCENE.hand.distance(point) == pytest.approx(0.07, abs=1e-9)
 
 
+def test_a_negative_stand_off_puts_the_end_point_inside_the_hand_against_the_direction():
+    # (a tool frame beyond the gripper's geometry: the point goes into the hand so that the surface ends outside)
+    for direction in ([0, 0, 1], [-1, 0, 1]):
+        unit = np.array(direction, dtype=float) / np.linalg.norm(direction)
+        point = end_point(SCENE.hand, unit, -0.015)
+        assert SCENE.hand.distance(point) == 0.0
+        np.testing.assert_allclose(point, SCENE.hand.top - 0.015 * unit)
+    # continuous through the top centre: the point at stand-off 0 from either side is the top centre
+    np.testing.assert_allclose(end_point(SCENE.hand, np.array([0.0, 0.0, 1.0]), 1e-9), SCENE.hand.top, atol=1e-8)
+
+
 @pytest.mark.parametrize(
     "args, message",
     [
