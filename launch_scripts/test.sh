@@ -57,7 +57,8 @@ run() {  # run PYTHON ROLE LANE... -- PYTEST_ARGS...: the tests of those lanes t
 # The endpoint's lane (in the background, its output shown after the foreground's) on 3.8, with the unit lane on
 # 3.10 beside it (the endpoint's tests use about half a core: ~105 CPU-s in their ~215 s), then the unit and beside
 # lanes on 3.8, which it has time for while the foreground runs the unit and beside lanes on the project's Python
-# (the longest: the benches' smoke tests and the study's command lines are there).
+# (the benches' smoke tests, the study's command lines and its arms are there; the power tests' error rates, some
+# 110 CPU-s, are on 3.8 so that the two end about together).
 endpoint_log="$(mktemp)"
 jammy_log="$(mktemp)"
 trap 'rm -rf "$endpoint_log" "$jammy_log" "$VR_SIM_CACHE"' EXIT

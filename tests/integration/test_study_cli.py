@@ -10,7 +10,8 @@ import pytest
 import yaml
 
 from sim.processes import PYTHON, REPO, plain_env
-from sim.study.design.plan import plan_from_data
+from sim.study.design.plan import make_plan, plan_from_data, plan_to_data
+from sim.study.design.spec import DEFAULT_DESIGN, load_design
 from tests.robot_files import PANDA_WITH_HAND
 
 pytestmark = pytest.mark.lane("beside", on=("project",))
@@ -50,6 +51,14 @@ def test_check_plans_every_combination_of_the_design(robot: list[str]) -> None:
 
 def write(path: Path, data: object) -> Path:
     path.write_text(yaml.safe_dump(data))
+    return path
+
+
+def bundled_plan(path: Path, participant: int, seed: int) -> Path:
+    """The bundled design's plan, written here as `plan` writes it (that command is run, and its file compared, above):
+    a bad-input case needs a plan, not another process start."""
+    plan = make_plan(load_design(DEFAULT_DESIGN), participant, seed)
+    path.write_text(yaml.safe_dump(plan_to_data(plan), sort_keys=False))
     return path
 
 
@@ -100,8 +109,7 @@ def test_bad_input_is_one_line_and_exit_2(tmp_path: Path, case: str) -> None:
         one_error_line(result, "not feasible", "straight to 0.1 m", "to change: the hand within the arm's reach")
         assert not (tmp_path / "out").exists()  # nothing was started
     elif case == "malformed plan":
-        plan = tmp_path / "plan.yaml"
-        assert study("plan", "--participant", "1", "--seed", "1", "--out", str(plan)).returncode == 0
+        plan = bundled_plan(tmp_path / "plan.yaml", 1, 1)
         data = yaml.safe_load(plan.read_text())
         data["trials"][4]["standoff"] = "near"
         one_error_line(
@@ -118,8 +126,7 @@ def test_bad_input_is_one_line_and_exit_2(tmp_path: Path, case: str) -> None:
         one_error_line(study("simulate", "--participants", "2", "--out", str(tmp_path)), "already holds participant")
         assert (tmp_path / "participant_01.csv").read_text() == "kept\n"
     elif case == "bad robot":
-        plan = tmp_path / "plan.yaml"
-        assert study("plan", "--participant", "1", "--seed", "1", "--out", str(plan)).returncode == 0
+        plan = bundled_plan(tmp_path / "plan.yaml", 1, 1)
         one_error_line(
             study("run", "--plan", str(plan), "--out", str(tmp_path / "out"), "--robot", "/no/arm.urdf"),
             "the given robot: URDF not found",
