@@ -32,7 +32,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import logging
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -212,13 +212,8 @@ def screen(
     down = scene.to_base_direction(np.array([0.0, 0.0, -1.0]))
     target[:3, :3] = approach_rotation(chain, robot.home, down)
     attempts = ik_attempts(chain, robot.home, down)[: 1 if strict else None]
-    for name, standoff, speed in dict.fromkeys(combinations):
-        try:
-            path = approach_path(scene, name, standoff, speed, dt)
-        except DesignError as error:
-            return str(error)
-        middle = path.positions[len(path.positions) // 2]
-        for label, point in (("start", path.start), ("middle", middle), ("end", path.end)):
+    try:
+        for name, label, point in _checkpoints(scene, combinations, dt):
             target[:3, 3] = scene.to_base(point)
             if not any(
                 solve_ik(chain, target, robot.home, weights=weights, restarts=8, rng=0).success
@@ -228,7 +223,19 @@ def screen(
                 if position.success:
                     return f"the arm cannot point the tool down at the {name} path's {label}"
                 return f"the {name} path's {label} is out of reach"
+    except DesignError as error:  # a path that cannot be made on this candidate
+        return str(error)
     return ""
+
+
+def _checkpoints(scene: Scene, combinations: Sequence[Combination], dt: float) -> Iterator[tuple[str, str, np.ndarray]]:
+    """Each distinct approach's start, middle and end, in the scene's world: (path name, which, point), path by path
+    (DesignError when a path cannot be made)."""
+    for name, standoff, speed in dict.fromkeys(combinations):
+        path = approach_path(scene, name, standoff, speed, dt)
+        middle = path.positions[len(path.positions) // 2]
+        for label, point in (("start", path.start), ("middle", middle), ("end", path.end)):
+            yield name, label, point
 
 
 def scene_robot_name(robot: RobotSpec) -> str:
@@ -348,13 +355,8 @@ def tool_down_out_of_reach(scene: Scene, found: Proportions, combinations: Seque
     the wrist reaches (the arm's reach less the tool), by more than WRIST_SLACK of the reach (the reach is the most
     that random joint states gave, a little short of the truth: a nearer case is left to IK); "" when none is."""
     wrist_reach = found.reach - found.tool
-    for name, standoff, speed in dict.fromkeys(combinations):
-        try:
-            path = approach_path(scene, name, standoff, speed, dt)
-        except DesignError as error:
-            return str(error)
-        middle = path.positions[len(path.positions) // 2]
-        for label, point in (("start", path.start), ("middle", middle), ("end", path.end)):
+    try:
+        for name, label, point in _checkpoints(scene, combinations, dt):
             wrist = scene.to_base(point + np.array([0.0, 0.0, found.tool]))
             distance = float(np.linalg.norm(wrist - found.shoulder))
             if distance > wrist_reach + WRIST_SLACK * found.reach:
@@ -362,6 +364,8 @@ def tool_down_out_of_reach(scene: Scene, found: Proportions, combinations: Seque
                     f"the arm cannot point the tool down at the {name} path's {label}: its wrist would be "
                     f"{distance:.2f} m from the shoulder, beyond the wrist's reach ({wrist_reach:.2f} m)"
                 )
+    except DesignError as error:  # a path that cannot be made on this candidate
+        return str(error)
     return ""
 
 
