@@ -195,6 +195,8 @@ def test_a_session_of_both_conditions_in_the_two_pages_is_analysed_as_a_pilot(tm
             headset.execute_script("window.vrPage.page.robot.model.visible = false;")
             headset.find_element("id", "enter").click()
             wait_for(lambda: vr_state(headset)["inSession"], 30, "the immersive session")
+            # the rest at its start, for the headset's jitter: the panel takes no answer until it is over
+            wait_for(lambda: vr_state(headset)["rest"]["done"], 60, "the rest at the session's start")
 
             plan = write_plan(
                 tmp_path / "plan.yaml",
