@@ -242,12 +242,12 @@ def _serve_page(args: argparse.Namespace, site: Site, name: str) -> int:
 def vr_command(args: argparse.Namespace) -> int:
     from sim.robots import find_ros_package
     from sim.study.run.tracking import REST_S
-    from sim.study.views.vr.site import WEB_DIR, make_site
+    from sim.study.views.vr.site import WEB_DIR, make_site, pose_conditions_from
 
     _check_server_options(args)
     rest = REST_S if args.rest is None else args.rest
     check_positive(rest, "--rest")
-    pose_conditions = tuple(c.strip() for c in args.pose_conditions.split(",") if c.strip() and c.strip() != "none")
+    pose_conditions = pose_conditions_from(args.pose_conditions)
     if not (WEB_DIR / "node_modules" / "three").is_dir():
         raise ViewError(f"the page's libraries are not in {WEB_DIR / 'node_modules'}: run launch_scripts/setup.sh")
     scene, robot = scene_and_robot(args)

@@ -49,6 +49,7 @@ __all__ = [
     "make_site",
     "make_button_site",
     "page_settings",
+    "pose_conditions_from",
     "button_settings",
     "content_type",
 ]
@@ -207,6 +208,22 @@ def _box(box: Box) -> dict[str, Any]:
     return {"size": box.size.tolist(), "xyz": box.position.tolist(), "yaw": box.yaw}
 
 
+def pose_conditions_from(text: str) -> tuple[str, ...]:
+    """`vr --pose-conditions`: comma-separated conditions, or none; ViewError names what is not one."""
+    conditions = tuple(c.strip() for c in text.split(",") if c.strip())
+    conditions = () if conditions == ("none",) else conditions
+    _check_pose_conditions(conditions)
+    return conditions
+
+
+def _check_pose_conditions(conditions: tuple[str, ...]) -> None:
+    if any(c not in CONDITIONS for c in conditions) or len(set(conditions)) != len(conditions):
+        raise ViewError(
+            f"--pose-conditions must be some of {', '.join(CONDITIONS)} (each once) or none, "
+            f"got {','.join(conditions)!r}"
+        )
+
+
 def page_settings(
     robot: RobotSpec, scene: Scene, pose_conditions: tuple[str, ...] = POSE_CONDITIONS, rest: float = REST_S
 ) -> dict[str, Any]:
@@ -217,9 +234,7 @@ def page_settings(
     rests not), whose trials alone it sends poses in: sent, latched, with its first poses, and again with its jitter
     once the participant has rested for `rest` s at the session's start (the page fills jitter_m and rest_s). It has
     no calibration: the headset's own tracking places it in the scene."""
-    unknown = [c for c in pose_conditions if c not in CONDITIONS]
-    if unknown or len(set(pose_conditions)) != len(pose_conditions):
-        raise ViewError(f"--pose-conditions must be some of {', '.join(CONDITIONS)}, each once: {pose_conditions!r}")
+    _check_pose_conditions(pose_conditions)
     x, y, z, w = matrix_to_quat(scene.base_pose[:3, :3])
     return {
         "robot": {

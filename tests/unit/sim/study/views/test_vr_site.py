@@ -13,7 +13,7 @@ from sim.robots import find_ros_package
 from sim.study.design.scene import load_scene, scene_robot
 from sim.study.run.tracking import REST_S, announcement_from_json
 from sim.study.views.errors import ViewError
-from sim.study.views.vr.site import WEB_DIR, Site, content_type, make_site, page_settings
+from sim.study.views.vr.site import WEB_DIR, Site, content_type, make_site, page_settings, pose_conditions_from
 
 
 @pytest.fixture(scope="module")
@@ -146,10 +146,12 @@ def test_the_page_tracks_the_conditions_it_is_given() -> None:
     assert both["pose_source"]["conditions"] == ["vr", "reality"] and both["rest"]["seconds"] == 1.5
     none = page_settings(robot, scene, ())  # another tracker tracks both: no poses, no rest
     assert none["pose_source"] is None and none["rest"] is None
-    with pytest.raises(ViewError, match="'vr', 'vr'"):
+    with pytest.raises(ViewError, match="'vr,vr'"):
         page_settings(robot, scene, ("vr", "vr"))
-    with pytest.raises(ViewError, match="'lab'"):
-        page_settings(robot, scene, ("lab",))
+    # as `vr --pose-conditions` gives them
+    assert pose_conditions_from("vr, reality") == ("vr", "reality") and pose_conditions_from("none") == ()
+    with pytest.raises(ViewError, match="'vr,lab'"):
+        pose_conditions_from("vr,lab")
 
 
 @pytest.mark.parametrize(
