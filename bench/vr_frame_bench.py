@@ -167,6 +167,8 @@ def measure(
     browser.execute_script(f"window.vrFrameTime.waitForRendering = {str(wait_for_rendering).lower()};")
     browser.find_element("id", "enter").click()
     wait_for(lambda: browser.execute_script("return window.vrPage.state().inSession;"), 60, "the immersive session")
+    # the rest at the session's start (the participant holding still for the jitter) is over before anything counts
+    wait_for(lambda: browser.execute_script("return window.vrPage.state().rest.done;"), 120, "the rest")
     time.sleep(SETTLE_S)
     figures: dict[str, dict[str, Any]] = {
         mode: {

@@ -13,6 +13,7 @@ test took over test_study_button.py's checks of the button page.)"""
 
 from __future__ import annotations
 
+import json
 import math
 import re
 import subprocess
@@ -195,6 +196,8 @@ def test_a_session_of_both_conditions_in_the_two_pages_is_analysed_as_a_pilot(tm
             headset.execute_script("window.vrPage.page.robot.model.visible = false;")
             headset.find_element("id", "enter").click()
             wait_for(lambda: vr_state(headset)["inSession"], 30, "the immersive session")
+            # the rest at its start, for the headset's jitter: the panel takes no answer until it is over
+            wait_for(lambda: vr_state(headset)["rest"]["done"], 60, "the rest at the session's start")
 
             plan = write_plan(
                 tmp_path / "plan.yaml",
@@ -281,6 +284,11 @@ def test_a_session_of_both_conditions_in_the_two_pages_is_analysed_as_a_pilot(tm
     )
     assert_the_pedal_stopped_the_reality_approach(reality_row, pedalled, pedalled_at)
     assert_the_pilot_is_analysed(out)
+    # the VR page tracks VR alone (vr --pose-conditions' default): in reality, another tracker's condition (none
+    # here), it sent no pose, so only VR was tracked, with the jitter of its rest
+    record = json.loads((out / "tracking" / f"participant_{PARTICIPANT:02d}.json").read_text())
+    assert list(record["conditions"]) == ["vr"] and reality_row["tracked_hand"] == "", (record, reality_row)
+    assert record["conditions"]["vr"]["rest_s"] == 3.0 and len(record["conditions"]["vr"]["jitter_m"]) == 3, record
 
 
 def assert_the_trigger_stopped_the_vr_approach(

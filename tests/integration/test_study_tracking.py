@@ -2,7 +2,8 @@
 rosbag record), the endpoint, the engine stand-in in lockstep, the tracker relay node (rospy) calibrated by touches
 typed at its terminal, and a scripted client of the endpoint that is both the VR scene (its poses straight on the
 study's topics, in the world) and a motion-capture system in reality (its poses on a driver's topics and on /tf, in
-a frame of its own turned and moved from the world, with jitter)."""
+a frame of its own turned and moved from the world, with jitter), and in reality also a VR page left open (its
+poses on the study's topics, through the endpoint), which the runner drops: only the announced source's count."""
 
 from __future__ import annotations
 
@@ -155,6 +156,11 @@ class TwoTrackers:
         world = {"head": HEAD, "right_hand": SCENE.hand.top - np.array([0.0, withdrawn, 0.0]), "left_hand": LEFT_HAND}
         if status.condition == "reality":
             self.mocap(stamp, world)
+            # and a VR page left open in a second browser, sending its headset's poses through the endpoint: 10 cm
+            # off, never withdrawing; the runner takes reality's poses from its announced source (the relay) alone
+            for body, position in world.items():
+                off = (SCENE.hand.top if body == "right_hand" else position) + np.array([0.1, 0.0, 0.0])
+                self.client.publish(POSE_TOPICS[body], encode_pose_stamped(stamp, POSE_FRAME, off, IDENTITY))
         else:
             for body, position in world.items():
                 self.client.publish(POSE_TOPICS[body], encode_pose_stamped(stamp, POSE_FRAME, position, IDENTITY))
@@ -179,9 +185,10 @@ def calibrate(relay: subprocess.Popen, lines: queue.Queue, trackers: TwoTrackers
             return said
 
 
-def bag_messages(bag: Path, topic: str) -> list[tuple[str, bytes]]:
+def bag_messages(bag: Path, topic: str, node: str = "") -> list[tuple[str, bytes]]:
+    """The bag's messages on `topic` (from the ROS node `node` alone, if given), as (type, bytes)."""
     with Reader(bag) as reader:
-        connections = [c for c in reader.connections if c.topic == topic]
+        connections = [c for c in reader.connections if c.topic == topic and (not node or c.ext.callerid == node)]
         return [(c.msgtype, raw) for c, _, raw in reader.messages(connections=connections)]
 
 
@@ -260,7 +267,10 @@ def test_a_session_tracked_by_the_headset_in_vr_and_a_calibrated_mocap_in_realit
     )
     assert len(bag_messages(bag, TRACKING_TOPIC)) == 1
     assert [kind for kind, _ in bag_messages(bag, TF_STATIC_TOPIC)] == ["tf2_msgs/msg/TFMessage"]
-    relayed = [TYPESTORE.deserialize_ros1(raw, kind) for kind, raw in bag_messages(bag, POSE_TOPICS["left_hand"])]
+    relayed = [
+        TYPESTORE.deserialize_ros1(raw, kind)
+        for kind, raw in bag_messages(bag, POSE_TOPICS["left_hand"], "/study_tracker_mocap_sim")
+    ]
     reality_start = float(reality["motion_start"])
     from_tf = [m for m in relayed if to_seconds(m.header.stamp) >= reality_start]
     assert from_tf and all(m.header.frame_id == POSE_FRAME for m in from_tf)

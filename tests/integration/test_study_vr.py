@@ -215,8 +215,16 @@ def test_an_emulated_quest_enters_the_session_and_answers_the_runner(tmp_path: P
                 "const device = window.emulatedHeadset; const xyz = (p) => [p.x, p.y, p.z];"
                 "return [xyz(device.position), xyz(device.controllers.right.position)];"
             )
+            # The rest at the session's start: the head and the right hand held still, the left controller moved a
+            # little in every frame of it (the robot hidden, so that the frames come quickly)
+            draw_robot(browser, False)
+            browser.execute_script(MOVE_LEFT_DURING_REST)
             browser.find_element("id", "enter").click()
             wait_for(lambda: page_state(browser)["inSession"], 30, "the immersive session")
+            wait_for(lambda: page_state(browser)["rest"]["done"], 60, "the rest at the session's start")
+            rested = page_state(browser)
+            assert "Please hold still" in browser.execute_script("return window.restPanel;")
+            jitter_m = assert_the_rest_measured_the_jitter(rested)
             # The robot is drawn for the picture below only: its meshes (164,220 triangles) in software are nearly all
             # of a frame's work, and nothing else here looks at a picture. Beside two CPU burners and other tests, the
             # page drew a frame every 3-6 s with them, and fixed bounds not ours gave out (ChromeDriver's 30 s for a
@@ -369,17 +377,58 @@ def test_an_emulated_quest_enters_the_session_and_answers_the_runner(tmp_path: P
         np.subtract([CONTROLLERS_APART / 2, 1.4, -0.45], right_at_start),
         press_round_trip_s / 2 + RUNNER_PACE_SLACK_S,
     )
-    assert_the_page_announced_itself(out)
+    assert_the_page_announced_itself(out, jitter_m)
 
 
-def assert_the_page_announced_itself(out: Path) -> None:
-    """The page announced itself as the VR condition's pose source, with its poses, and the runner (given no
-    --pose-source) names it in the session's tracking record; the bag holds the announcement."""
+# Installed before the session is entered: in each frame of the rest, the emulated left controller 2 mm further
+# along x; the panel's text during the rest kept in window.restPanel
+MOVE_LEFT_DURING_REST = """
+const page = window.vrPage.page;
+const waiting = setInterval(() => {
+  const session = window.vrPage.session();
+  if (!session) return;
+  clearInterval(waiting);
+  const left = window.emulatedHeadset.controllers.left;
+  const step = () => session.requestAnimationFrame(() => {
+    if (page.rest.done) return;
+    window.restPanel = page.panel.text;
+    left.position.x += 0.002;
+    step();
+  });
+  step();
+}, 5);
+"""
+
+
+def assert_the_rest_measured_the_jitter(state: dict[str, Any]) -> dict[str, float]:
+    """The page's jitter of each body over the rest, as it announces it: the RMS distance of the positions it kept
+    from their mean (the relay's measure, motion.calibration's jitter); the still head and right hand 0, the moved
+    left hand what its moves make. Returned, by body."""
+    from sim.study.motion.calibration import jitter
+
+    said = state["announcement"]
+    assert said["rest_s"] == 3.0  # the default, the tracker relay's
+    samples = {body: np.array(state["rest"]["samples"][body]) for body in BODIES}
+    assert all(len(samples[body]) >= 2 for body in BODIES), {body: len(s) for body, s in samples.items()}
+    for body in ("head", "right_hand"):
+        assert np.ptp(samples[body], axis=0) == pytest.approx(np.zeros(3), abs=1e-9), body
+        assert said["jitter_m"][body] == pytest.approx(0.0, abs=1e-9)
+    moves = np.diff(samples["left_hand"][:, 0])
+    assert np.all(moves >= 0) and moves.sum() > 0.001, moves  # the left hand seen moving, frame by frame
+    assert said["jitter_m"]["left_hand"] == pytest.approx(jitter(samples["left_hand"]), rel=1e-9)
+    assert said["jitter_m"]["left_hand"] > 0.0005
+    return dict(said["jitter_m"])
+
+
+def assert_the_page_announced_itself(out: Path, jitter_m: dict[str, float]) -> None:
+    """The page announced itself as the VR condition's pose source, with its poses and its jitter at rest, and the
+    runner (given no --pose-source) names it in the session's tracking record with that jitter; the bag holds the
+    announcement."""
     from rosbags.rosbag1 import Reader
 
     record = json.loads((out / "tracking" / f"participant_{PARTICIPANT:02d}.json").read_text())
     assert record["conditions"] == {
-        "vr": {"source": POSE_SOURCE, "jitter_m": {}, "rest_s": None, "calibration": None}
+        "vr": {"source": POSE_SOURCE, "jitter_m": jitter_m, "rest_s": 3.0, "calibration": None}
     }, record
     with Reader(out / "bags" / f"participant_{PARTICIPANT:02d}.bag") as reader:
         connections = [c for c in reader.connections if c.topic == TRACKING_TOPIC]

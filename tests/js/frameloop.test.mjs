@@ -5,13 +5,15 @@ import { readFileSync } from 'node:fs';
 import { test } from 'node:test';
 
 import { FrameLoop } from '../../sim/study/views/vr/web/frameloop.js';
+import { Rest } from '../../sim/study/views/vr/web/rest.js';
 import { Participant } from '../../sim/study/views/vr/web/study.js';
 
 const PROTOCOL = JSON.parse(readFileSync(new URL('../../sim/study/run/protocol.json', import.meta.url)));
 
 // A frame loop whose parts write what they are asked into `calls`; the controllers read `input` each frame, the
-// tracking `bodies` (the bodies tracked, in the world frame); the topics' clock offset is `clock.offset`.
-function loopWith(input, connected = true, bodies = [], clock = { offset: null }) {
+// tracking `bodies` (the bodies tracked, in the world frame); the topics' clock offset is `clock.offset`, and they
+// track the trials of the conditions `tracked`; `rest`: the rest at the session's start (rest.js), or none.
+function loopWith(input, connected = true, bodies = [], clock = { offset: null }, tracked = ['vr'], rest = null) {
   const calls = [];
   const participant = new Participant(PROTOCOL);
   const parts = {
@@ -37,12 +39,15 @@ function loopWith(input, connected = true, bodies = [], clock = { offset: null }
       send: (action) => action && calls.push(action),
       sendPoses: (stamp, sent, condition) =>
         sent.forEach(([body, pose]) => calls.push(['pose', body, stamp, pose, condition])),
+      tracks: (condition) => tracked.includes(condition),
+      measured: (seconds, jitters) => calls.push(['measured', seconds, jitters]),
       get clockOffset() {
         return clock.offset;
       },
     },
   };
-  return { loop: new FrameLoop(parts), calls, participant };
+  const restSays = { title: 'Hold still', lines: ['{left} s'] };
+  return { loop: new FrameLoop({ ...parts, rest, restSays }), calls, participant };
 }
 
 function status(phase, extra = {}) {
@@ -150,4 +155,54 @@ test('no pose outside a trial, outside the session, or with the poses switched o
   loop.step(80, {});
   assert.deepEqual(kinds(calls.filter((call) => call === 'tracking' || call[0] === 'pose')), ['tracking', 'pose']);
   assert.equal(loop.poseFrames, 1);
+});
+
+test("only a trial of a condition the page tracks sends poses: another tracker may track the other's", () => {
+  const bodies = [['head', { position: [0, 0, 0], orientation: [0, 0, 0, 1] }]];
+  const { loop, calls, participant } = loopWith({ distance: null, presses: [] }, true, bodies, { offset: 0 });
+  participant.onStatus(status('moving', { condition: 'reality' }));
+  loop.step(16, {});
+  assert.deepEqual(
+    calls.filter((call) => call === 'tracking' || call[0] === 'pose'),
+    [],
+  );
+  assert.equal(loop.poseFrames, 0);
+  participant.onStatus(status('moving', { index: 2 }));
+  loop.step(32, {});
+  assert.deepEqual(kinds(calls.filter((call) => call === 'tracking' || call[0] === 'pose')), ['tracking', 'pose']);
+});
+
+test("the session's first frames are the rest: the panel asks to hold still, no answer is taken, then the jitter", () => {
+  const still = { position: [0.55, -0.65, 0.45], orientation: [0, 0, 0, 1] };
+  const input = { distance: 0.1, presses: [{ confirm: true, choose: 0 }] };
+  const rest = new Rest(1, ['head', 'left_hand', 'right_hand']);
+  const { loop, calls, participant } = loopWith(input, true, [['head', still]], { offset: null }, ['vr'], rest);
+  participant.onStatus(status('distance'));
+  loop.step(100, undefined); // outside the session: no rest yet
+  loop.step(200, {});
+  loop.step(700, {});
+  // the controllers are read (a press then is not kept for later), but nothing is answered; the panel says the rest
+  assert.deepEqual(kinds(calls), [
+    'robot',
+    'panel',
+    'render',
+    'robot',
+    'tracking',
+    'controllers',
+    'panel',
+    'render',
+    'robot',
+    'tracking',
+    'controllers',
+    'panel',
+    'render',
+  ]);
+  assert.deepEqual(calls[6], ['panel', 'Hold still', ['1 s'], 'rest']);
+  calls.length = 0;
+  loop.step(1200, {}); // a second on: over, the jitter handed on, and this frame answers again
+  assert.deepEqual(kinds(calls), ['robot', 'tracking', 'measured', 'controllers', 'distance', 'panel', 'render']);
+  assert.deepEqual(calls[2], ['measured', 1, { head: 0, left_hand: null, right_hand: null }]);
+  calls.length = 0;
+  loop.step(1300, {}); // the distance was sent: a confirm again sends nothing
+  assert.deepEqual(kinds(calls), ['robot', 'controllers', 'panel', 'render']);
 });

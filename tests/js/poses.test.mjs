@@ -172,7 +172,7 @@ test("the participant is in a trial in its phases, not in a questionnaire's item
 
 test("frames' poses go out together, from a task after the frames, each on its body's topic, numbered by body", () => {
   // the settings as the page's server gives them (sim/study/views/vr/site.py): each topic [name, type], and the page's
-  // announcement as a pose source (the text is the server's; here any)
+  // announcement as the VR condition's pose source, its jitter not measured yet
   const entry = ({ topic, type }) => [topic, type];
   const topics = {
     joint_states: ['/panda/joint_states', 'sensor_msgs/JointState'],
@@ -181,8 +181,15 @@ test("frames' poses go out together, from a task after the frames, each on its b
     ...Object.fromEntries(Object.entries(PROTOCOL.poses.bodies).map(([body, pose]) => [body, entry(pose)])),
     tracking: ['/study/tracking', 'std_msgs/String'],
   };
-  const announcement = '{"source": "headset", "conditions": ["vr"]}';
-  const settings = { topics, protocol: PROTOCOL, pose_source: { vr: announcement, reality: '{"of": "reality"}' } };
+  const announcement = {
+    source: 'headset',
+    conditions: ['vr'],
+    participant: null,
+    rest_s: null,
+    jitter_m: {},
+    calibration: null,
+  };
+  const settings = { topics, protocol: PROTOCOL, pose_source: announcement };
   const study = new StudyTopics(settings, 'ws://nowhere/ros', {});
   // the announcement's topic is advertised latched, the others not
   assert.deepEqual(study.connection.publishers.get('/study/tracking'), ['std_msgs/String', true]);
@@ -221,7 +228,7 @@ test("frames' poses go out together, from a task after the frames, each on its b
   assert.equal(messages.length, 1);
   // the connection's first send opens with the announcement, then the poses in their frames' order
   const [said, ...sent] = framesIn(messages[0]);
-  assert.deepEqual([said[0], decodeString(said[1])], ['/study/tracking', announcement]);
+  assert.deepEqual([said[0], JSON.parse(decodeString(said[1]))], ['/study/tracking', announcement]);
   assert.deepEqual(
     sent.map(([topic]) => topic),
     [PROTOCOL.poses.bodies.head.topic, PROTOCOL.poses.bodies.right_hand.topic, PROTOCOL.poses.bodies.head.topic],
@@ -252,11 +259,31 @@ test("frames' poses go out together, from a task after the frames, each on its b
     framesIn(messages[2]).map(([topic]) => topic),
     ['/study/tracking', PROTOCOL.poses.bodies.head.topic],
   );
-  // a reality trial's poses (the headset worn there too): announced for reality, once
-  study.sendPoses(10.6, [['head', head]], 'reality');
-  study.sendPoses(10.62, [['head', head]], 'reality');
+  // a reality trial's poses: the page does not track reality (another tracker does), so it sends none
+  assert.equal(study.tracks('reality'), false);
+  assert.equal(study.sendPoses(10.6, [['head', head]], 'reality'), false);
+  assert.equal(scheduled.length, 0);
+  assert.deepEqual(study.posesSent, { head: 3, left_hand: 1, right_hand: 1 });
+  // the rest is over: the announcement goes out again with each body's jitter, behind the poses queued before it
+  study.sendPoses(10.62, [['head', head]], 'vr');
+  study.measured(3, { head: 0.0002, left_hand: null, right_hand: 0.0005 });
   scheduled.shift()[0]();
-  const [realitySaid, ...realityPoses] = framesIn(messages[3]);
-  assert.deepEqual([realitySaid[0], decodeString(realitySaid[1])], ['/study/tracking', '{"of": "reality"}']);
-  assert.equal(realityPoses.length, 2);
+  const [pose, again] = framesIn(messages[3]);
+  assert.equal(pose[0], PROTOCOL.poses.bodies.head.topic);
+  assert.deepEqual(
+    [again[0], JSON.parse(decodeString(again[1]))],
+    [
+      '/study/tracking',
+      { ...announcement, rest_s: 3, jitter_m: { head: 0.0002, left_hand: null, right_hand: 0.0005 } },
+    ],
+  );
+  // and with every later connection's first poses
+  study.connection.onState('connected');
+  study.sendPoses(10.64, [['head', head]], 'vr');
+  scheduled.shift()[0]();
+  assert.equal(JSON.parse(decodeString(framesIn(messages[4])[0][1])).rest_s, 3);
+  // measured while not connected: nothing goes out until the next connection's first poses
+  study.connection.connected = false;
+  study.measured(3, { head: 0.0001, left_hand: null, right_hand: null });
+  assert.equal(scheduled.length, 0);
 });

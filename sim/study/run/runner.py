@@ -39,7 +39,10 @@ participant, and poses travel apart from the status. Then it holds the robot at 
 hand under the robot is at rest again (at most sim.study.motion's WITHDRAWAL_LIMIT after the robot rests), so that a
 late withdrawal is measured whole. Which pose source tracked each condition (announced on /study/tracking by the
 tracker relay, sim.study.run.tracker, and by the VR page, or named by RunnerOptions.pose_sources over them), with its
-jitter and calibration, goes to tracking/participant_NN.json after every trial.
+jitter and calibration, goes to tracking/participant_NN.json after every trial. In a condition's trials only the
+poses of the ROS node that announced its source count (a page's come through the endpoint's node); the others are
+dropped, and said once per node: two trackers never mix in one measure. A condition without an announcement takes
+every pose.
 """
 
 from __future__ import annotations
@@ -211,6 +214,11 @@ class StudyRunner:
         self.poses = ReceivedPoses()
         self._refusals_told: set[str] = set()  # bodies whose refused poses have been logged
         self.announced: dict[str, dict[str, Any]] = {}  # by condition: the latest pose source announced for it
+        # by condition: the ROS node that announced it (the endpoint's, for a page): only its poses count in that
+        # condition's trials, so that a second tracker (a VR page left open in reality) cannot mix its own in
+        self.announcers: dict[str, str] = {}
+        self._foreign_told: set[tuple[str, str]] = set()  # (condition, node) whose dropped poses have been logged
+        self.condition = ""  # the current trial's
         self.tracked: set[str] = set()  # the conditions whose trials had poses
         self.phase = ""  # of the last status published
         self.asked: TrialStatus | None = None  # the last status published: the item asked, in phase questionnaire
@@ -283,8 +291,16 @@ class StudyRunner:
         except StudyError as error:
             _log(f"a tracker's announcement was refused: {error}")
             return
+        node = _publisher(message)
         for condition in said["conditions"]:
+            before = self.announcers.get(condition)
+            if before is not None and before != node:
+                _log(
+                    f"{condition}'s pose source is now {said['source']!r} (node {node}), was "
+                    f"{self.announced[condition]['source']!r} (node {before}): only the latest's poses count"
+                )
             self.announced[condition] = said
+            self.announcers[condition] = node
 
     def write_tracking(self, out: Path) -> None:
         """The session's pose sources per tracked condition, in `out`/tracking/participant_NN.json."""
@@ -294,6 +310,13 @@ class StudyRunner:
         path.write_text(json.dumps(record, indent=2) + "\n")
 
     def _on_pose(self, message: Any, body: str) -> None:
+        condition, node = self.condition, _publisher(message)
+        source = self.announcers.get(condition)
+        if source is not None and node != source:
+            if (condition, node) not in self._foreign_told:
+                self._foreign_told.add((condition, node))
+                _log(f"poses from node {node} dropped in {condition}'s trials: its announced pose source is {source}")
+            return
         point = message.pose.position
         self.poses.add(body, message.header.stamp.to_sec(), message.header.frame_id, (point.x, point.y, point.z))
 
@@ -464,6 +487,7 @@ class StudyRunner:
         """One trial from wherever the robot is; its record (preference still empty)."""
         planned = self.approaches.plan((trial.path, trial.standoff, trial.peak_speed))
         self.use_link(trial.condition)
+        self.condition = trial.condition  # whose announced pose source's poses count from now on
         began = self.clock  # poses from here on are this trial's
         self.publish_status(self.status(trial, "to_start"))
         self.link.move_to(planned.positions[0])
@@ -627,6 +651,11 @@ def record_session(link_topics: list[str], bag: Path, node: str, logs: Path, sim
         stop_recorder(recorder, bag)
         raise
     return recorder
+
+
+def _publisher(message: Any) -> str:
+    """The ROS node that published a message rospy delivered (its connection header's caller id)."""
+    return str(getattr(message, "_connection_header", {}).get("callerid", ""))
 
 
 def _log(text: str) -> None:

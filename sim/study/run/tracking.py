@@ -10,7 +10,8 @@ poses is sim.study.run.tracker).
   announcement      what a pose source says of itself on TRACKING_TOPIC (latched, JSON): its name, the conditions it
                     tracks, its jitter at rest and its calibration; the runner records it per condition. The tracker
                     relay (sim.study.run.tracker) announces itself, and so does the VR page (its settings carry its
-                    announcement, made here, which it sends with its first poses)
+                    announcement, made here, which it sends with its first poses, and again with its jitter when
+                    its rest at the session's start is over)
   session_tracking  the session's record of it: per condition whose trials had poses, the source that announced
                     itself for it (or the one named on the runner's command line, which overrides it), its jitter
                     and calibration
@@ -36,6 +37,7 @@ __all__ = [
     "CALIBRATION_TOPIC",
     "TF_STATIC_TOPIC",
     "FOLDER",
+    "REST_S",
     "BodySource",
     "CalibrationSettings",
     "TrackerConfig",
@@ -50,6 +52,7 @@ TRACKING_TOPIC = "/study/tracking"  # std_msgs/String, latched: a pose source's 
 CALIBRATION_TOPIC = "/study/calibration"  # std_msgs/String, latched: the calibration's fit (JSON)
 TF_STATIC_TOPIC = "/tf_static"  # the calibration as TF: world -> the tracker's frame
 FOLDER = "tracking"  # in a session's output: the trackers' calibrations and jitter, and each session's record
+REST_S = 3.0  # s of the bodies at rest at the session's start, for the jitter: the relay's default, and the VR page's
 STAMPS = ("source", "arrival")  # how a relayed pose is stamped (TrackerConfig.stamp)
 DEFAULT_POINTS = ("hand_fingertips", "hand_wrist", "table_corner_1", "table_corner_2", "table_corner_3")
 
@@ -79,7 +82,7 @@ class TrackerConfig:
     bodies: dict[str, BodySource]  # by BODIES' names: the bodies it tracks
     conditions: tuple[str, ...] = CONDITIONS
     calibration: CalibrationSettings = field(default_factory=CalibrationSettings)
-    rest: float = 3.0  # s of the bodies at rest at the start, for the jitter
+    rest: float = REST_S  # s of the bodies at rest at the start, for the jitter
     # how a relayed pose is stamped: "source", the tracker's own stamp (a driver that stamps on ROS time), or
     # "arrival", the relay's ROS time when it came (a tracker on a clock of its own; adds the way to the relay)
     stamp: str = "source"
@@ -157,7 +160,7 @@ def tracker_config(data: object, scene: Scene, where: str = "tracker config") ->
     stamp = top.get("stamp", "source")
     if stamp not in STAMPS:
         raise RunError(f"{where}: stamp must be one of {', '.join(STAMPS)}, got {stamp!r}")
-    return TrackerConfig(source, frame, bodies, conditions, calibration, _number(top, "rest", 3.0, where), stamp)
+    return TrackerConfig(source, frame, bodies, conditions, calibration, _number(top, "rest", REST_S, where), stamp)
 
 
 def marked_points(scene: Scene) -> dict[str, np.ndarray]:
@@ -183,7 +186,9 @@ def announcement(
     participant: int | None = None,
 ) -> str:
     """A pose source's announcement as JSON: its jitter by body (m; null where not measured), over `rest` s (None:
-    not measured, as the VR page, which announces the headset without a rest at the start)."""
+    not measured). The VR page gets it without jitter in its settings, and fills jitter_m and rest_s itself when
+    its rest at the session's start is over (sim/study/views/vr/web/rest.js, the same measure as motion.calibration's
+    jitter)."""
     return json.dumps(
         {
             "source": source,

@@ -42,6 +42,22 @@ def register(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> N
         action="store_true",
         help="load the frame-time instrument (window.vrFrameTime) in the page: for bench/vr_frame_bench.py",
     )
+    vr.add_argument(
+        "--pose-conditions",
+        default="vr",
+        metavar="CONDITIONS",
+        help="the conditions whose trials the page sends the headset's and controllers' poses in, comma-separated "
+        "(default vr; vr,reality: the headset worn in reality too, with passthrough; none: another tracker tracks "
+        "both)",
+    )
+    vr.add_argument(
+        "--rest",
+        type=float,
+        default=None,
+        metavar="S",
+        help="seconds the participant holds head and hands still at the session's start, for the tracking's jitter "
+        "(default 3, as the tracker relay's rest)",
+    )
     add_robot_options(vr)
     vr.set_defaults(handler=vr_command)
 
@@ -225,9 +241,13 @@ def _serve_page(args: argparse.Namespace, site: Site, name: str) -> int:
 
 def vr_command(args: argparse.Namespace) -> int:
     from sim.robots import find_ros_package
-    from sim.study.views.vr.site import WEB_DIR, make_site
+    from sim.study.run.tracking import REST_S
+    from sim.study.views.vr.site import WEB_DIR, make_site, pose_conditions_from
 
     _check_server_options(args)
+    rest = REST_S if args.rest is None else args.rest
+    check_positive(rest, "--rest")
+    pose_conditions = pose_conditions_from(args.pose_conditions)
     if not (WEB_DIR / "node_modules" / "three").is_dir():
         raise ViewError(f"the page's libraries are not in {WEB_DIR / 'node_modules'}: run launch_scripts/setup.sh")
     scene, robot = scene_and_robot(args)
@@ -238,6 +258,8 @@ def vr_command(args: argparse.Namespace) -> int:
         find_ros_package,
         emulation=args.emulate_headset,
         frame_time=args.frame_time,
+        pose_conditions=pose_conditions,
+        rest=rest,
     )
     return _serve_page(args, site, "vr")
 

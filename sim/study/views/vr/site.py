@@ -12,6 +12,7 @@ the machine can be reached, whatever the path says.
 
 from __future__ import annotations
 
+import json
 import mimetypes
 import xml.etree.ElementTree as ET
 from collections.abc import Callable
@@ -26,7 +27,8 @@ from sim.robots.urdf_model import urdf_root
 from sim.study.design.scene import Box, Scene
 from sim.study.design.spec import CONDITIONS
 from sim.study.run.protocol import BODIES, INPUTS, PROTOCOL
-from sim.study.run.tracking import TRACKING_TOPIC, announcement
+from sim.study.run.tracking import REST_S, TRACKING_TOPIC, announcement
+from sim.study.views.errors import ViewError
 from sim.study.views.live import COLOURS
 from sim.wire.rosmsgs import JOINT_STATE
 
@@ -34,6 +36,8 @@ __all__ = [
     "WEB_DIR",
     "ROS_PATH",
     "POSE_SOURCE",
+    "POSE_CONDITIONS",
+    "REST_WORDS",
     "PAGE_FILES",
     "EMULATION_FILES",
     "FRAME_TIME_FILES",
@@ -45,6 +49,7 @@ __all__ = [
     "make_site",
     "make_button_site",
     "page_settings",
+    "pose_conditions_from",
     "button_settings",
     "content_type",
 ]
@@ -54,6 +59,18 @@ ROS_PATH = "/ros"  # the WebSocket that is passed through to the endpoint
 # What the VR page's tracked body is named as a pose source, in the session's tracking record and the report: the
 # headset (its viewer pose) and its controllers (their grips), whatever the headset's make
 POSE_SOURCE = "headset"
+# The conditions whose trials the page tracks by default: VR's. In reality another tracker (a relay) is the source,
+# unless the headset is worn there too with passthrough (`vr --pose-conditions vr,reality`)
+POSE_CONDITIONS = ("vr",)
+# What the panel says during the rest at the session's start ({seconds}: as declared; {left}: whole seconds left)
+REST_WORDS = {
+    "title": "Please hold still",
+    "lines": [
+        "Keep your head and both hands still for {seconds} s:",
+        "the headset measures how steady its tracking is.",
+        "{left} s",
+    ],
+}
 PAGE_FILES = (
     "index.html",
     "page.css",
@@ -66,6 +83,7 @@ PAGE_FILES = (
     "frameloop.js",
     "tracking.js",
     "poses.js",
+    "rest.js",
     "topics.js",
     "connection.js",
     "rostcp.js",
@@ -190,13 +208,33 @@ def _box(box: Box) -> dict[str, Any]:
     return {"size": box.size.tolist(), "xyz": box.position.tolist(), "yaw": box.yaw}
 
 
-def page_settings(robot: RobotSpec, scene: Scene) -> dict[str, Any]:
+def pose_conditions_from(text: str) -> tuple[str, ...]:
+    """`vr --pose-conditions`: comma-separated conditions, or none; ViewError names what is not one."""
+    conditions = tuple(c.strip() for c in text.split(",") if c.strip())
+    conditions = () if conditions == ("none",) else conditions
+    _check_pose_conditions(conditions)
+    return conditions
+
+
+def _check_pose_conditions(conditions: tuple[str, ...]) -> None:
+    if any(c not in CONDITIONS for c in conditions) or len(set(conditions)) != len(conditions):
+        raise ViewError(
+            f"--pose-conditions must be some of {', '.join(CONDITIONS)} (each once) or none, "
+            f"got {','.join(conditions)!r}"
+        )
+
+
+def page_settings(
+    robot: RobotSpec, scene: Scene, pose_conditions: tuple[str, ...] = POSE_CONDITIONS, rest: float = REST_S
+) -> dict[str, Any]:
     """What the page needs to know beyond the URDF: the scene in the world frame (ROS: x forward, z up), the
     robot's base pose, the joints it is sent, the study's topics with their types (the runner's status, the
     participant's inputs, the tracked body's poses and the pose source's announcement), the trial protocol's table,
-    and the page's announcement of itself as a condition's pose source (sent, latched, with its first poses in that
-    condition's trials: it measures no jitter and has no calibration, the headset's own tracking places it in the
-    scene)."""
+    and the page's announcement of itself as the pose source of `pose_conditions` (none: the page sends no pose and
+    rests not), whose trials alone it sends poses in: sent, latched, with its first poses, and again with its jitter
+    once the participant has rested for `rest` s at the session's start (the page fills jitter_m and rest_s). It has
+    no calibration: the headset's own tracking places it in the scene."""
+    _check_pose_conditions(pose_conditions)
     x, y, z, w = matrix_to_quat(scene.base_pose[:3, :3])
     return {
         "robot": {
@@ -215,9 +253,11 @@ def page_settings(robot: RobotSpec, scene: Scene) -> dict[str, Any]:
             **{body: list(PROTOCOL.poses[body]) for body in BODIES},  # the tracked body's, sent during trials
             "tracking": [TRACKING_TOPIC, "std_msgs/String"],  # the page's announcement as a pose source
         },
-        # by condition, its announcement: the page sends the tracked body in any trial it is shown, in reality too
-        # when the headset is worn there (passthrough), and announces itself for each trial's condition
-        "pose_source": {condition: announcement(POSE_SOURCE, (condition,), {}, None, None) for condition in CONDITIONS},
+        # its announcement (its jitter not yet measured), or None: it tracks no condition
+        "pose_source": json.loads(announcement(POSE_SOURCE, pose_conditions, {}, None, None))
+        if pose_conditions
+        else None,
+        "rest": {"seconds": rest, **REST_WORDS} if pose_conditions else None,  # at the session's start
         "protocol": PROTOCOL.data,  # the trial protocol's table, as the runner reads it
         "stop_source": PROTOCOL.stop_source("vr"),  # what the page's presses are named
         "ros_path": ROS_PATH,
@@ -233,12 +273,14 @@ def make_site(
     emulation: bool = False,
     web_dir: Path = WEB_DIR,
     frame_time: bool = False,
+    pose_conditions: tuple[str, ...] = POSE_CONDITIONS,
+    rest: float = REST_S,
 ) -> Site:
-    """The site for `robot` (its URDF text given) in `scene`; a mesh that is nowhere is left out of the picture,
-    as in the physics (sim.robots.meshes)."""
+    """The site for `robot` (its URDF text given) in `scene`, tracking `pose_conditions` after a rest of `rest` s
+    (page_settings); a mesh that is nowhere is left out of the picture, as in the physics (sim.robots.meshes)."""
     resolved, _missing = resolve_shapes(urdf_text, robot.urdf_path.parent, find_package)
     urdf, folders = _urls_for_meshes(resolved)
-    settings = page_settings(robot, scene)
+    settings = page_settings(robot, scene, pose_conditions, rest)
     settings["emulation"] = emulation
     return Site(urdf, folders, settings, web_dir, emulation, frame_time)
 

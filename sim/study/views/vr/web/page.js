@@ -1,7 +1,8 @@
 // The VR condition's page: the robot from its URDF, the table and the hand in the headset, moved by the robot's
 // joint states at the headset's frame rate; the trial's phase and instructions on a panel in view; the trigger,
 // buttons and controllers as the participant's answers (study.js); during a trial, the headset's and the controllers'
-// poses as the participant's tracked body (tracking.js, poses.js). It is a client of the endpoint's WebSocket
+// poses as the participant's tracked body (tracking.js, poses.js), after a rest at the session's start that measures
+// its jitter (rest.js). It is a client of the endpoint's WebSocket
 // transport (connection.js), reached through this page's own server at /ros.
 //
 // This module puts the parts together; `page` holds them all, the page's whole state. The tests' probe and the
@@ -11,6 +12,7 @@ import { FrameLoop } from './frameloop.js';
 import { Headset } from './headset.js';
 import { Panel } from './panel.js';
 import { inputDelay } from './presses.js';
+import { Rest } from './rest.js';
 import { Robot } from './robot.js';
 import { View } from './scene.js';
 import { Participant } from './study.js';
@@ -37,7 +39,10 @@ async function startPage() {
   });
   topics.open();
 
-  const loop = new FrameLoop({ view, robot, panel, controllers, tracking, participant, topics });
+  // the rest at the session's start, when the page tracks a condition (the settings say how long, and its words)
+  const restSays = settings.rest;
+  const rest = restSays ? new Rest(restSays.seconds, Object.keys(settings.protocol.poses.bodies)) : null;
+  const loop = new FrameLoop({ view, robot, panel, controllers, tracking, participant, topics, rest, restSays });
   view.renderer.setAnimationLoop((time, frame) => loop.step(time, frame));
   window.addEventListener('resize', () => view.resize(window.innerWidth, window.innerHeight));
 
@@ -60,6 +65,7 @@ async function startPage() {
     participant,
     topics,
     loop,
+    rest,
     headset,
     triggers,
     statuses,

@@ -23,6 +23,10 @@ window.vrPage = {
       inTrial: page.participant.inTrial, // the page sends the tracked body in its session's frames
       poseFrames: page.loop.poseFrames, // the session's frames that sent the tracked body
       posesSent: { ...page.topics.posesSent }, // by body
+      // the rest at the session's start: over or not, each body's positions kept then (world frame) and the
+      // announcement as it stands
+      rest: page.rest ? { done: page.rest.done, samples: page.rest.samples } : null,
+      announcement: page.topics.announcement,
       triggers: page.headset.triggers,
       triggerPresses: page.triggers, // each: when it was read and stamped (ms), its input delay (s)
       statuses: page.statuses, // each status as it arrived, with the page's ROS time then

@@ -1,7 +1,9 @@
 // The page's side of the study over ROS, through the endpoint's client (connection.js): the robot's joint states and
-// the trial's status in, the participant's answers and tracked body (poses.js) out, on the topics of the settings;
-// with its first poses of a condition on each connection, the page's announcement of itself as that condition's pose
-// source (the settings', latched), so that the runner names the condition's tracker as it does a tracker relay's.
+// the trial's status in, the participant's answers and tracked body (poses.js) out, on the topics of the settings.
+// The page tracks the conditions its settings name (`vr --pose-conditions`, the VR condition by default) and sends
+// poses only in their trials; it announces itself as their pose source (latched), with its bodies' jitter once the
+// rest at the session's start has measured it (rest.js), so that the runner names the condition's tracker as it does
+// a tracker relay's: with its first poses on each connection, and again when the rest ends.
 import { RosConnection } from './connection.js';
 import { stopPayload } from './presses.js';
 import {
@@ -27,9 +29,12 @@ export class StudyTopics {
     this.state = 'connecting'; // what the connection is doing, for the panel
     this.connection = new RosConnection(url, (state) => {
       this.state = state;
-      if (state === 'connected') this.announced.clear(); // an endpoint started again has lost the latched ones
+      if (state === 'connected') this.announced = false; // an endpoint started again has lost the latched one
     });
-    this.announced = new Set(); // the conditions whose pose-source announcement has gone out on this connection
+    // the page's announcement as a pose source (the settings', the server's shape: source, conditions, jitter_m,
+    // rest_s, calibration), or null when it tracks no condition; jitter_m and rest_s are filled by the rest
+    this.announcement = settings.pose_source;
+    this.announced = false; // it has gone out on this connection
     this.sent = []; // the answers published: [input, value], oldest first
     const topics = settings.topics;
     this.connection.subscribe(topics.joint_states[0], topics.joint_states[1], (payload) => {
@@ -69,27 +74,48 @@ export class StudyTopics {
     return this.connection.clockOffset;
   }
 
+  // Whether the page tracks the trials of `condition` (sends their poses).
+  tracks(condition) {
+    return Boolean(this.announcement) && this.announcement.conditions.includes(condition);
+  }
+
+  // The rest is over: each body's jitter (m, null: not measured) over restSeconds goes into the announcement, which
+  // goes out again (the runner takes the latest): queued behind any poses, and an announcement of before, waiting.
+  measured(restSeconds, jitters) {
+    if (!this.announcement) return;
+    this.announcement = { ...this.announcement, rest_s: restSeconds, jitter_m: jitters };
+    this.announced = false;
+    if (this.connected) this.announce();
+  }
+
+  announce() {
+    this.pendingPoses.push([this.settings.topics.tracking[0], encodeString(JSON.stringify(this.announcement))]);
+    this.announced = true;
+    this.scheduleFlush();
+  }
+
+  scheduleFlush() {
+    if (this.pendingPoses.length > 0 && !this.flushScheduled) {
+      this.flushScheduled = true;
+      this.schedule(() => this.flushPoses(), POSE_BATCH_MS);
+    }
+  }
+
   // Publish the bodies' poses ([body, {position, orientation}] in the world frame, poses.js) of one frame, stamped
   // with its time (s of ROS time), each on its body's topic; false when not connected. They are queued, numbered by
   // body, and go out with the other frames' of POSE_BATCH_MS in one send, from a task of its own after the frame;
-  // the first poses of a trial's `condition` on a connection go after the page's announcement as its pose source.
+  // the first poses on a connection go after the page's announcement as their pose source. A trial of a condition
+  // the page does not track sends nothing (false).
   sendPoses(stamp, bodies, condition) {
-    if (!this.connected) return false;
-    const said = this.settings.pose_source[condition];
-    if (said && !this.announced.has(condition) && bodies.length > 0) {
-      this.pendingPoses.push([this.settings.topics.tracking[0], encodeString(said)]);
-      this.announced.add(condition);
-    }
+    if (!this.connected || !this.tracks(condition)) return false;
+    if (!this.announced && bodies.length > 0) this.announce();
     const time = rosTime(stamp);
     for (const [body, pose] of bodies) {
       const payload = encodePoseStamped(this.posesSent[body], time, this.poseFrame, pose.position, pose.orientation);
       this.pendingPoses.push([this.settings.topics[body][0], payload]);
       this.posesSent[body] += 1; // the next one's seq
     }
-    if (this.pendingPoses.length > 0 && !this.flushScheduled) {
-      this.flushScheduled = true;
-      this.schedule(() => this.flushPoses(), POSE_BATCH_MS);
-    }
+    this.scheduleFlush();
     return true;
   }
 

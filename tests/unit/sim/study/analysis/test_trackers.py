@@ -40,6 +40,16 @@ def test_differing_trackers_are_named_with_their_jitter_and_carry_the_caveat() -
     )
 
 
+def test_the_headsets_jitter_as_the_vr_page_announces_it_a_body_not_tracked_at_rest_not_measured() -> None:
+    # the page's rest: the head and the right hand measured, the left hand not tracked in it (null, never 0)
+    headset = {"source": "headset", "jitter_m": {"head": 0.0001, "left_hand": None, "right_hand": 0.0004}}
+    summary = summarise_trackers([{"participant": 1, "conditions": {"vr": {**headset, "rest_s": 3.0}}}])
+    assert summary is not None
+    assert summary.conditions["vr"].jitter == {"head": (0.0001, 0.0001, 1), "right_hand": (0.0004, 0.0004, 1)}
+    lines = "\n".join(tracker_lines(summary))
+    assert "| vr | headset (1) | 0.10 (most 0.10, n 1) | not measured | 0.40 (most 0.40, n 1) |" in lines
+
+
 def test_the_same_tracker_in_both_conditions_carries_no_caveat_and_an_unnamed_one_does() -> None:
     same = summarise_trackers([session(p, "optitrack", "optitrack") for p in (1, 2)])
     assert same is not None and same.differing == () and tracker_caveat(same) == ""

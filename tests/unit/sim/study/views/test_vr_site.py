@@ -4,14 +4,16 @@ scene."""
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import pytest
 
 from sim.robots import find_ros_package
 from sim.study.design.scene import load_scene, scene_robot
-from sim.study.run.tracking import announcement_from_json
-from sim.study.views.vr.site import WEB_DIR, Site, content_type, make_site
+from sim.study.run.tracking import REST_S, announcement_from_json
+from sim.study.views.errors import ViewError
+from sim.study.views.vr.site import WEB_DIR, Site, content_type, make_site, page_settings, pose_conditions_from
 
 
 @pytest.fixture(scope="module")
@@ -122,16 +124,34 @@ def test_the_settings_carry_the_scene_the_joints_and_the_topics(site: Site) -> N
         "right_hand": ["/study/pose/right_hand", "geometry_msgs/PoseStamped"],
     }
     assert settings["ros_path"] == "/ros" and settings["emulation"] is False
-    # the page's announcement of itself as each condition's pose source, as the runner reads one
+    # the page's announcement of itself as the VR condition's pose source (alone, by default: in reality another
+    # tracker is), as the runner reads one, its jitter not measured until the rest at the session's start
     assert settings["topics"]["tracking"] == ["/study/tracking", "std_msgs/String"]
-    for condition in ("vr", "reality"):
-        said = announcement_from_json(settings["pose_source"][condition])
-        assert (said["source"], said["conditions"], said["jitter_m"], said["calibration"]) == (
-            "headset",
-            [condition],
-            {},
-            None,
-        )
+    said = announcement_from_json(json.dumps(settings["pose_source"]))
+    assert (said["source"], said["conditions"], said["jitter_m"], said["rest_s"], said["calibration"]) == (
+        "headset",
+        ["vr"],
+        {},
+        None,
+        None,
+    )
+    assert settings["rest"]["seconds"] == REST_S == 3.0  # the tracker relay's default
+    assert "{left}" in " ".join(settings["rest"]["lines"])
+
+
+def test_the_page_tracks_the_conditions_it_is_given() -> None:
+    scene = load_scene()
+    robot = scene_robot(scene)
+    both = page_settings(robot, scene, ("vr", "reality"), 1.5)  # the headset worn in reality too (passthrough)
+    assert both["pose_source"]["conditions"] == ["vr", "reality"] and both["rest"]["seconds"] == 1.5
+    none = page_settings(robot, scene, ())  # another tracker tracks both: no poses, no rest
+    assert none["pose_source"] is None and none["rest"] is None
+    with pytest.raises(ViewError, match="'vr,vr'"):
+        page_settings(robot, scene, ("vr", "vr"))
+    # as `vr --pose-conditions` gives them
+    assert pose_conditions_from("vr, reality") == ("vr", "reality") and pose_conditions_from("none") == ()
+    with pytest.raises(ViewError, match="'vr,lab'"):
+        pose_conditions_from("vr,lab")
 
 
 @pytest.mark.parametrize(
