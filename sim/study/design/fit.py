@@ -45,7 +45,7 @@ from sim.cache import entry_path
 from sim.geometry.kinematics import POSITION_WEIGHTS, KinematicChain, chain_for, solve_ik
 from sim.robots import RobotSpec
 from sim.study.design.errors import DesignError
-from sim.study.design.feasibility import Approaches, Combination, ik_attempts
+from sim.study.design.feasibility import Approaches, Combination, check_holds_home, ik_attempts
 from sim.study.design.paths import SHAPES, approach_path, hand_frame
 from sim.study.design.plan import make_plan
 from sim.study.design.progress import Progress
@@ -77,8 +77,8 @@ __all__ = [
 ]
 
 # of the proposal; one kept by another version is proposed again (2: the bundled scene names the arm; 3: sized paths;
-# 4: the robot on a pedestal where the table is lower than its mounting)
-_VERSION = 4
+# 4: the robot on a pedestal where the table is lower than its mounting; 5: the drives hold the arm along every path)
+_VERSION = 5
 log = logging.getLogger(__name__)
 
 # The hand's distance from the base, as fractions of the reach, the Panda's first (its bundled scene has about
@@ -258,6 +258,7 @@ def fit_scene(
     sized = dataclasses.replace(bundled, approach_scale=path_scale(bundled, found, names))
     candidates = [("the bundled scene", bundled)]  # the thesis's paths, whole, where the arm can do them there
     with SceneWorld(robot, template) as world:
+        check_holds_home(robot, world)  # an arm that cannot hold itself fits no scene: said before any is tried
         mount, footprint = world.base_bottom(), world.base_footprint()
     pairs = sorted(
         ((hand, drop) for hand in HAND_FRACTIONS for drop in TABLE_DROPS),
