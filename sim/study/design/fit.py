@@ -22,9 +22,10 @@ directions and the hand's place relative to the participant stay the design's an
 A candidate is first screened: by reach alone (each approach's start and end within the reach from the shoulder, no
 IK; for an arm keeping its tool down, the wrist above each start, middle and end within the wrist's reach), then by
 IK of each approach's start, middle and end (cheap), then checked like `check` (every sample planned, limits,
-contacts, stand-offs; a candidate's planning stops at its first combination that fails); the first that passes is
-the proposal. An arm of fewer than six joints is offered the candidates where it keeps its tool pointing down first,
-then all of them again where it keeps the position alone.
+contacts, stand-offs, the drives holding the arm; a candidate's planning stops at its first combination that fails);
+the first that passes is the proposal. An arm whose drives cannot hold it at home fits none: that is said first. An
+arm of fewer than six joints is offered the candidates where it keeps its tool pointing down first, then all of them
+again where it keeps the position alone.
 """
 
 from __future__ import annotations
