@@ -163,6 +163,7 @@ class Participant:
     robot: Sequence[str] = ()  # the scene's and the robot's arguments
     dt: float | None = None
     truths: Sequence[str] = ()  # the population's known truths, as options
+    extra: Sequence[str] = ()
     ready = "connected"
 
     def argv(self) -> list[str]:
@@ -172,6 +173,7 @@ class Participant:
             *_option("--dt", self.dt),
             *self.truths,
             *self.robot,
+            *self.extra,
         ]
 
 

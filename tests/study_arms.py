@@ -5,13 +5,24 @@ lab's own robot package, and nothing else: no YAML."""
 
 from __future__ import annotations
 
+import dataclasses
 import struct
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-__all__ = ["LAB_ARMS", "LAB_ARM_EE_LINKS", "STUDY_ARMS", "ArmDesign", "Part", "study_arm", "write_arm", "write_lab_arm"]
+__all__ = [
+    "LAB_ARMS",
+    "LAB_ARM_EE_LINKS",
+    "STUDY_ARMS",
+    "ArmDesign",
+    "Part",
+    "study_arm",
+    "with_effort",
+    "write_arm",
+    "write_lab_arm",
+]
 
 
 @dataclass(frozen=True)
@@ -450,9 +461,15 @@ def _part_urdf(part: Part, package: str) -> tuple[str, str]:
     return link, joint + "</joint>"
 
 
-def write_lab_arm(directory: Path, name: str) -> Path:
-    """Arm `name` of LAB_ARMS as a description package in `directory`: <name>_description/urdf/<name>.urdf, its
-    meshes under meshes/ named by package:// URLs (found in the package above the URDF); the URDF's path."""
+def with_effort(parts: tuple[Part, ...], joint: str, effort: float) -> tuple[Part, ...]:
+    """`parts` with joint `joint`'s force limit set to `effort` (N·m or N): an arm with a drive too weak, say."""
+    return tuple(dataclasses.replace(part, effort=effort) if part.joint == joint else part for part in parts)
+
+
+def write_lab_arm(directory: Path, name: str, parts: tuple[Part, ...] | None = None) -> Path:
+    """Arm `name` of LAB_ARMS (or `parts` under that name) as a description package in `directory`:
+    <name>_description/urdf/<name>.urdf, its meshes under meshes/ named by package:// URLs (found in the package
+    above the URDF); the URDF's path."""
     package = f"{name}_description"
     folder = directory / package
     for sub in ("urdf", "meshes/collision", "meshes/visual"):
@@ -463,7 +480,7 @@ def write_lab_arm(directory: Path, name: str) -> Path:
         "<license>BSD</license><buildtool_depend>catkin</buildtool_depend></package>\n"
     )
     links, joints = ['<link name="world"/>'], []
-    for part in LAB_ARMS[name]:
+    for part in LAB_ARMS[name] if parts is None else parts:
         link, joint = _part_urdf(part, package)
         links.append(link)
         joints.append(joint)

@@ -403,6 +403,51 @@ def test_simulated_participants_answer_the_planned_questionnaires_and_the_report
     assert "**VR data suspect** when the SSQ total after VR is above 20" in report
 
 
+# In lockstep, as the simulated study above: beside other work
+@pytest.mark.lane("beside", on=("project",))
+def test_a_simulated_participant_that_fails_partway_ends_the_study_at_once_with_its_error(tmp_path: Path) -> None:
+    """The first participant fails at its second test-1 trial (the fault injected for tests, --fault-trial: its
+    distance measure gives inf, which its model refuses, as a lift that fell once made it): simulate ends there, a run
+    that failed (exit 1), with the participant's own error in one line; the runner was stopped at that trial (its
+    records end with it, its answer missing), not left to wait out its response timeout for the answer and go on."""
+    from sim.study.design.plan import make_plan
+    from sim.study.design.spec import load_design
+
+    design_path = tmp_path / "design.yaml"
+    design_path.write_text(yaml.safe_dump(SMALL_DESIGN))
+    trials = make_plan(load_design(design_path), 1, 7).trials
+    answered, fault = [t.index for t in trials if t.test == 1][:2]
+    out = tmp_path / "study"
+    command = [
+        PYTHON,
+        "-m",
+        "sim.study",
+        "simulate",
+        "--participants",
+        "2",
+        "--seed",
+        "7",
+        "--design",
+        str(design_path),
+    ]
+    process = ManagedProcess([*command, "--out", str(out), "--fault-trial", str(fault)], plain_env(), tmp_path, "sim")
+    try:
+        code = process.wait(240)
+    finally:
+        process.stop()
+    output = process.output()
+    assert code == 1, output[-3000:]
+    last = output.strip().splitlines()[-1]
+    assert last.startswith(
+        f"sim.study simulate: error: participant_01 exited with 1: trial {fault} (distance): an actual distance must "
+        "be >= 0 m, got inf (its log: "
+    ), output[-3000:]
+    rows = read_csv(out / "participant_01.csv")  # the runner, stopped, keeps the failed trial's answer missing
+    assert [int(row["index"]) for row in rows] == list(range(1, fault + 1)), rows
+    assert rows[-1]["perceived_distance"] in ("", "nan") and rows[answered - 1]["perceived_distance"] not in ("", "nan")
+    assert not (out / "participant_02.csv").exists() and not (out / "report.md").exists()
+
+
 pytestmark = [pytest.mark.lane("alone", on=("project",)), pytest.mark.timeout(400)]
 
 

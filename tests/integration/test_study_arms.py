@@ -20,7 +20,16 @@ from sim.launchers import finish
 from sim.processes import PYTHON, REPO, ManagedProcess, plain_env
 from tests.integration.study_helpers import SMALL_DESIGN
 from tests.robot_files import THIRD_PARTY_URDFS
-from tests.study_arms import LAB_ARM_EE_LINKS, STUDY_ARMS, ArmDesign, study_arm, write_arm
+from tests.study_arms import (
+    LAB_ARM_EE_LINKS,
+    SCARA_LIKE,
+    STUDY_ARMS,
+    ArmDesign,
+    study_arm,
+    with_effort,
+    write_arm,
+    write_lab_arm,
+)
 
 pytestmark = [pytest.mark.lane("beside", on=("project",)), pytest.mark.timeout(300)]
 
@@ -94,6 +103,22 @@ def test_an_arm_that_cannot_reach_over_a_table_is_told_why_in_one_line(tmp_path:
     lines = [line for line in done.stderr.splitlines() if not line.startswith("pybullet build time")]
     assert len(lines) == 1 and lines[0].startswith("sim.study check: error: no scene fits tiny_arm (reach "), lines
     assert "give a scene of your own with --scene" in lines[0]
+
+
+def test_an_arm_whose_lift_cannot_carry_it_is_refused_in_one_line_before_anything_runs(tmp_path: Path) -> None:
+    # the SCARA's lift at 100 N, under the 103 N that hangs on it: its simulated study once hung, the lift falling
+    weak = write_lab_arm(tmp_path / "arms", "scara_like", with_effort(SCARA_LIKE, "lift", 100.0))
+    out = tmp_path / "study"
+    for command in (["check"], ["simulate", "--participants", "2", "--out", str(out)]):
+        done = study([*command, "--robot", str(weak)], tmp_path / "cache", timeout=120)
+        lines = [line for line in done.stderr.splitlines() if not line.startswith("pybullet build time")]
+        # (stdout has only pybullet's own warnings: tool0 has no <inertial>)
+        assert done.returncode == 2 and "combinations" not in done.stdout and len(lines) == 1, (command, lines)
+        assert lines[0].startswith(
+            f"sim.study {command[0]}: error: scara_like: lift cannot hold the arm at home: it needs 103.0 N, its "
+            "effort limit is 100 N; to change: a joint that holds the arm"
+        ), lines
+    assert not out.exists()  # refused before anything was written or started
 
 
 # In lockstep, the study's processes wait for each other, not for the clock: beside other work, as the checks.

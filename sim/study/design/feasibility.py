@@ -26,6 +26,7 @@ from sim.control.scenarios.defaults import controllable_weights
 from sim.geometry.kinematics import POSITION_WEIGHTS, KinematicChain, PathIKResult, chain_for, solve_ik, solve_path_ik
 from sim.robots import RobotSpec
 from sim.study.design.errors import DesignError
+from sim.study.design.holding import holding_line, shortfalls
 from sim.study.design.paths import ApproachPath, approach_path
 from sim.study.design.scene import Scene
 from sim.study.design.tool import approach_rotation
@@ -43,6 +44,7 @@ __all__ = [
     "Combination",
     "PlannedApproach",
     "SceneWorld",
+    "check_holds_home",
     "ik_attempts",
     "approach_targets",
     "plan_approach",
@@ -96,6 +98,8 @@ REMEDIES = {
     "hand": "a larger stand-off, or another path",
     "self": "another path, or the hand placed elsewhere",
     "standoff": "another stand-off, or the hand placed elsewhere",
+    "effort": "a joint that holds the arm (see the URDF's effort limits and masses; a link without <inertial> "
+    "weighs 1 kg in pybullet), or the hand placed where the arm weighs less on that joint",
 }
 
 
@@ -266,6 +270,11 @@ def plan_approach(robot: RobotSpec, scene: Scene, path: ApproachPath, world: Sce
                 f"q = [{', '.join(f'{v:.2f}' for v in positions[closest])}])"
             )
             kinds.append(what)
+    solved_samples = np.flatnonzero(solved.success)
+    loads = np.array([world.gravity_loads(positions[k]) for k in solved_samples]).reshape(-1, robot.dof)
+    for short in shortfalls(robot.joint_names, robot.joint_types, loads, robot.max_effort):
+        problems.append(holding_line(short, f"at t = {path.times[solved_samples[short.sample]]:.2f} s"))
+        kinds.append("effort")
     distances = np.array([world.hand_distance(q) for q in positions])
     reached = float(distances[-1])
     if abs(reached - path.standoff) > STANDOFF_TOLERANCE:
@@ -326,6 +335,11 @@ class Approaches:
     def __init__(self, robot: RobotSpec, scene: Scene, dt: float) -> None:
         self.robot, self.scene, self.dt = robot, scene, dt
         self.world = SceneWorld(robot, scene)
+        try:
+            check_holds_home(robot, self.world)
+        except DesignError:
+            self.world.close()
+            raise
         self._planned: dict[Combination, PlannedApproach] = {}
 
     def plan(self, combination: Combination) -> PlannedApproach:
@@ -351,6 +365,18 @@ class Approaches:
 
     def __exit__(self, *_exc: object) -> None:
         self.close()
+
+
+def check_holds_home(robot: RobotSpec, world: SceneWorld) -> None:
+    """DesignError, one line per joint, where the arm's drives cannot hold it still at home, where every session
+    starts (sim.study.design.holding): no scene or path helps then, so it is said before any is tried."""
+    found = shortfalls(robot.joint_names, robot.joint_types, world.gravity_loads(robot.home)[None], robot.max_effort)
+    if found:
+        lines = "; ".join(holding_line(short, "at home") for short in found)
+        raise DesignError(
+            f"{robot.name}: {lines}; to change: a joint that holds the arm (see the URDF's effort limits and masses; "
+            "a link without <inertial> weighs 1 kg in pybullet)"
+        )
 
 
 def plan_combinations(

@@ -22,9 +22,10 @@ directions and the hand's place relative to the participant stay the design's an
 A candidate is first screened: by reach alone (each approach's start and end within the reach from the shoulder, no
 IK; for an arm keeping its tool down, the wrist above each start, middle and end within the wrist's reach), then by
 IK of each approach's start, middle and end (cheap), then checked like `check` (every sample planned, limits,
-contacts, stand-offs; a candidate's planning stops at its first combination that fails); the first that passes is
-the proposal. An arm of fewer than six joints is offered the candidates where it keeps its tool pointing down first,
-then all of them again where it keeps the position alone.
+contacts, stand-offs, the drives holding the arm; a candidate's planning stops at its first combination that fails);
+the first that passes is the proposal. An arm whose drives cannot hold it at home fits none: that is said first. An
+arm of fewer than six joints is offered the candidates where it keeps its tool pointing down first, then all of them
+again where it keeps the position alone.
 """
 
 from __future__ import annotations
@@ -45,7 +46,7 @@ from sim.cache import entry_path
 from sim.geometry.kinematics import POSITION_WEIGHTS, KinematicChain, chain_for, solve_ik
 from sim.robots import RobotSpec
 from sim.study.design.errors import DesignError
-from sim.study.design.feasibility import Approaches, Combination, ik_attempts
+from sim.study.design.feasibility import Approaches, Combination, check_holds_home, ik_attempts
 from sim.study.design.paths import SHAPES, approach_path, hand_frame
 from sim.study.design.plan import make_plan
 from sim.study.design.progress import Progress
@@ -77,8 +78,8 @@ __all__ = [
 ]
 
 # of the proposal; one kept by another version is proposed again (2: the bundled scene names the arm; 3: sized paths;
-# 4: the robot on a pedestal where the table is lower than its mounting)
-_VERSION = 4
+# 4: the robot on a pedestal where the table is lower than its mounting; 5: the drives hold the arm along every path)
+_VERSION = 5
 log = logging.getLogger(__name__)
 
 # The hand's distance from the base, as fractions of the reach, the Panda's first (its bundled scene has about
@@ -258,6 +259,7 @@ def fit_scene(
     sized = dataclasses.replace(bundled, approach_scale=path_scale(bundled, found, names))
     candidates = [("the bundled scene", bundled)]  # the thesis's paths, whole, where the arm can do them there
     with SceneWorld(robot, template) as world:
+        check_holds_home(robot, world)  # an arm that cannot hold itself fits no scene: said before any is tried
         mount, footprint = world.base_bottom(), world.base_footprint()
     pairs = sorted(
         ((hand, drop) for hand in HAND_FRACTIONS for drop in TABLE_DROPS),

@@ -11,7 +11,7 @@ import math
 import numpy as np
 import pybullet as p
 
-from sim.engine.physics import load_urdf_text
+from sim.engine.physics import GRAVITY, load_urdf_text
 from sim.engine.self_contact import CONTACT_MARGIN, link_names, self_contact
 from sim.geometry.frames import matrix_to_quat, rpy_to_matrix
 from sim.geometry.kinematics import chain_for
@@ -54,6 +54,18 @@ class SceneWorld:
             for j in range(p.getNumJoints(self._body, physicsClientId=cid))
         }
         self._joints = [index[name] for name in self.robot.joint_names]
+        # Gravity's loads on the joints (gravity_loads): pybullet's inverse dynamics takes every moving joint's
+        # position, the others' (a gripper's fingers) where the URDF leaves them, as the engine's physics locks them
+        dofs = [
+            j
+            for j in range(p.getNumJoints(self._body, physicsClientId=cid))
+            if p.getJointInfo(self._body, j, physicsClientId=cid)[2] in (p.JOINT_REVOLUTE, p.JOINT_PRISMATIC)
+        ]
+        self._controlled = np.array([dofs.index(j) for j in self._joints])
+        self._rest = np.array([p.getJointState(self._body, j, physicsClientId=cid)[0] for j in dofs])
+        # gravity as the robot's base feels it: the inverse dynamics of a fixed base work in the base's frame
+        base = rpy_to_matrix(*scene.base_rpy)
+        p.setGravity(*(base.T @ np.array([0.0, 0.0, GRAVITY])).tolist(), physicsClientId=cid)
         # Links that move: below the first controlled joint. The others (the base, bolted to the table) may touch it.
         self._moving = {
             j for j in range(p.getNumJoints(self._body, physicsClientId=cid)) if self._below(j, self._joints[0])
@@ -142,6 +154,16 @@ class SceneWorld:
         nearest = min((c for c in points if c[3] in self._moving), key=lambda c: c[8], default=None)
         return "no link" if nearest is None else names[nearest[3] + 1]
 
+    def gravity_loads(self, q: np.ndarray) -> np.ndarray:
+        """(dof,): the torque (N·m), or a prismatic joint's force (N), each of the robot's joints must exert to hold
+        it still at joint positions q against gravity (pybullet's inverse dynamics at zero velocity and acceleration,
+        from the URDF's masses: the engine's physics's own gravity feed-forward)."""
+        full = self._rest.copy()
+        full[self._controlled] = q
+        zeros = [0.0] * len(full)
+        loads = p.calculateInverseDynamics(self._body, full.tolist(), zeros, zeros, physicsClientId=self._client)
+        return np.asarray(loads, dtype=float)[self._controlled]
+
     def base_bottom(self) -> float:
         """The lowest point (world z) of the robot's base link, where it is mounted; its origin's without shapes."""
         if not p.getCollisionShapeData(self._body, -1, physicsClientId=self._client):
@@ -158,11 +180,14 @@ class SceneWorld:
 
     def hand_distance(self, q: np.ndarray) -> float:
         """The robot's distance (m) to the hand at joint positions q, by the scene's definition: from its collision
-        geometry's nearest point (negative when it is inside the hand), or from the end-effector point."""
+        geometry's nearest point (negative when it is inside the hand), or from the end-effector point. Finite,
+        however far the robot is."""
         if self._measured_from_point:
             return self.scene.hand.distance(self.scene.end_effector(self._chain, q))
         nearest = self._nearest_to_hand(q)
-        return math.inf if nearest is None else float(nearest[8])
+        if nearest is None:  # (_solid says some moving link has a shape, so pybullet found it)
+            raise ValueError("no moving link of the robot has a collision shape")
+        return float(nearest[8])
 
     def nearest_points(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(the robot's point, the hand's point) between which hand_distance is measured, in the world."""
@@ -171,7 +196,7 @@ class SceneWorld:
             return point, self.scene.hand.nearest_point(point)
         nearest = self._nearest_to_hand(q)
         if nearest is None:
-            raise ValueError(f"no link of the robot is within {FAR} m of the hand")
+            raise ValueError("no moving link of the robot has a collision shape")
         return np.array(nearest[5]), np.array(nearest[6])
 
     @property
@@ -180,9 +205,19 @@ class SceneWorld:
         return self.scene.distance == "ee_point" or not self._solid
 
     def _nearest_to_hand(self, q: np.ndarray) -> tuple | None:
-        """pybullet's closest-point record of the robot's moving links to the hand at q, within FAR; None beyond."""
+        """pybullet's closest-point record of the robot's moving links to the hand at q. Looked for within FAR, and
+        where no link is that near (a robot that fell away in a simulation, say), within the farthest any link's box
+        reaches from the hand's: a distance, however large, is never made inf. None: no moving link has a shape."""
         self._set(q)
-        points = p.getClosestPoints(self._body, self._obstacles["hand"], FAR, physicsClientId=self._client)
+        cid, hand = self._client, self._obstacles["hand"]
+        points = p.getClosestPoints(self._body, hand, FAR, physicsClientId=cid)
+        nearest = min((c for c in points if c[3] in self._moving), key=lambda c: c[8], default=None)
+        if nearest is not None:
+            return nearest
+        boxes = [np.array(p.getAABB(self._body, link, physicsClientId=cid)) for link in self._moving]
+        centre, radius = self.scene.hand.position, float(np.linalg.norm(self.scene.hand.size))
+        farthest = max(float(np.linalg.norm(np.max(np.abs(box - centre), axis=0))) for box in boxes) + radius
+        points = p.getClosestPoints(self._body, hand, farthest, physicsClientId=cid)
         return min((c for c in points if c[3] in self._moving), key=lambda c: c[8], default=None)
 
     def end_effector(self, q: np.ndarray) -> np.ndarray:

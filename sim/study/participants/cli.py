@@ -4,14 +4,13 @@ options of the simulated participants' known truths, which `simulate` takes too.
 from __future__ import annotations
 
 import argparse
-import sys
 
 from sim.entry import EXIT_FAILED, EXIT_NO_CONNECTION, EXIT_OK, fail
-from sim.study.checks import check_positive
+from sim.study.checks import check_fault_trial, check_positive
 from sim.study.design.options import add_scene_options, scene_and_robot
 from sim.study.participants.model import KNOWN_TRUTHS, Population
 
-__all__ = ["register", "add_population_options", "population_from_args"]
+__all__ = ["register", "add_fault_option", "add_population_options", "population_from_args"]
 
 
 def add_population_options(command: argparse.ArgumentParser) -> None:
@@ -34,7 +33,19 @@ def register(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> N
     add_scene_options(participant)
     add_population_options(participant)
     participant.add_argument("--timeout", type=float, default=1800.0, help="give up after this many s")
+    add_fault_option(participant)
     participant.set_defaults(handler=participant_command)
+
+
+def add_fault_option(command: argparse.ArgumentParser) -> None:
+    """--fault-trial: tests only, a fault injected into the simulated participant (`simulate` passes it on)."""
+    command.add_argument(
+        "--fault-trial",
+        type=int,
+        metavar="N",
+        help="for tests only: the simulated participant measures the robot's distance at trial N (of test 1) as inf, "
+        "a fault that ends it there with its error, and the simulated session with it",
+    )
 
 
 def participant_command(args: argparse.Namespace) -> int:
@@ -44,10 +55,11 @@ def participant_command(args: argparse.Namespace) -> int:
 
     check_positive(args.timeout, "--timeout")
     check_positive(args.dt, "--dt")
+    check_fault_trial(args.fault_trial)
     scene, robot = scene_and_robot(args)
     traits = draw_traits(population_from_args(args), args.participant, args.seed)
     client = TcpClient(args.host, args.port)
-    participant = SimulatedParticipant(client, robot, scene, traits, args.seed, args.dt)
+    participant = SimulatedParticipant(client, robot, scene, traits, args.seed, args.dt, args.fault_trial)
     participant.attach()
     try:
         client.connect(timeout=30)
@@ -68,12 +80,12 @@ def participant_command(args: argparse.Namespace) -> int:
     finally:
         client.close()
         participant.close()
-    for problem in participant.problems:
-        print(f"sim.study participant: {problem}", file=sys.stderr)
+    if participant.failure:  # its own failure ends it at once, named (a crash of a part: not bad input)
+        return fail("sim.study participant", participant.failure, EXIT_FAILED)
     if not finished:
         return fail("sim.study participant", f"the session did not end within {args.timeout:g} s", EXIT_NO_CONNECTION)
     print(
         f"participant {args.participant}: session done, {participant.presses} presses, "
         f"{participant.answers} questionnaire items answered"
     )
-    return EXIT_OK if not participant.problems else EXIT_FAILED
+    return EXIT_OK

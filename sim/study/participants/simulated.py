@@ -17,6 +17,13 @@ protocol's table, sim.study.run.protocol):
               its own levels;
   done        (the last phase; for its participant number) ends.
 
+A failure of its own (an error in acting on a status or a joint state, or a status it cannot read) ends it at once:
+`failure` says what, at which trial, and `done` is set, so that the command exits with that line and `simulate`,
+which watches every part of a session, ends the session there rather than the runner waiting out its response
+timeout for an answer that never comes. (The endpoint client only logs an error in a callback.) `fault_trial`, for
+tests only (`participant --fault-trial N`), measures the robot's distance at trial N as inf, as a distance measure
+beyond its range once did, so that tests see such a failure end a session.
+
 Its tracked body (the protocol's pose topics, one geometry_msgs/PoseStamped per body in the world frame), as the
 model's body_poses has it: from a trial's `moving` status until a status of another trial, a questionnaire's or
 done, on each joint state stamped t it publishes every body's pose on the joint states' grid (dt) from after the last
@@ -36,11 +43,12 @@ from __future__ import annotations
 
 import math
 import threading
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 
 from bridge.client import TcpClient
+from sim.errors import SimError
 from sim.robots import RobotSpec
 from sim.study.design.feasibility import Approaches
 from sim.study.design.scene import Scene
@@ -102,9 +110,17 @@ def _encode(topic: str, **fields: Any) -> bytes:
 
 class SimulatedParticipant:
     def __init__(
-        self, client: TcpClient, robot: RobotSpec, scene: Scene, traits: Traits, seed: int, dt: float = STEP_S
+        self,
+        client: TcpClient,
+        robot: RobotSpec,
+        scene: Scene,
+        traits: Traits,
+        seed: int,
+        dt: float = STEP_S,
+        fault_trial: int | None = None,
     ) -> None:
         self.client, self.robot, self.scene, self.traits, self.dt = client, robot, scene, traits, dt
+        self.fault_trial = fault_trial  # tests only: the trial whose distance is measured as inf (module doc)
         self.rng = np.random.default_rng([seed, traits.participant, 2])  # the judgements' noise
         # the questionnaires' answers: a stream apart, so that the judgements are those of a study without them
         self.answer_rng = np.random.default_rng([seed, traits.participant, 4])
@@ -118,7 +134,7 @@ class SimulatedParticipant:
         self.answers = 0
         self.done = threading.Event()
         self.presses = 0
-        self.problems: list[str] = []
+        self.failure = ""  # what ended it before the session's end; "": nothing
         self.approaches = Approaches(robot, scene, dt)  # the runner's plans, and the robot's distance to the hand
         self._status: TrialStatus | None = None
         self._press_after: float | None = None  # test 2: s after the approach starts at which this trial's press lands
@@ -134,10 +150,32 @@ class SimulatedParticipant:
             self.client.register_publisher(topic, TOPIC_TYPES[topic])
         for topic in POSE_TOPICS.values():
             self.client.register_publisher(topic, POSE_TYPE, queue_size=POSE_QUEUE)
-        self.client.subscribe(self.robot.joint_states_topic, JOINT_STATE, self._on_joint_state)
-        self.client.subscribe(STATUS_TOPIC, TOPIC_TYPES[STATUS_TOPIC], self._on_status)
+        self.client.subscribe(self.robot.joint_states_topic, JOINT_STATE, self._guarded(self._on_joint_state))
+        self.client.subscribe(STATUS_TOPIC, TOPIC_TYPES[STATUS_TOPIC], self._guarded(self._on_status))
+
+    def _guarded(self, handler: Callable[[bytes], None]) -> Callable[[bytes], None]:
+        """`handler` as the client calls it: any error in it is this participant's failure (module doc)."""
+
+        def guarded(payload: bytes) -> None:
+            if self.failure:
+                return  # failed already: it acts no more
+            try:
+                handler(payload)
+            except Exception as error:  # whatever it is, it ends the participant, named
+                self.fail(error if isinstance(error, SimError) else f"{type(error).__name__}: {error}")
+
+        return guarded
+
+    def fail(self, problem: object) -> None:
+        """End at once with `problem`, named with the trial and phase it came in."""
+        status = self._status
+        where = "" if status is None else f"trial {status.index} ({status.phase}): "
+        self.failure = self.failure or f"{where}{problem}"
+        self.done.set()
 
     def hand_distance(self, positions: np.ndarray) -> float:
+        if self._status is not None and self._status.index == self.fault_trial:
+            return math.inf  # the fault injected for tests (module doc)
         return self.approaches.hand_distance(positions)
 
     def close(self) -> None:
@@ -186,11 +224,7 @@ class SimulatedParticipant:
 
     def _on_status(self, payload: bytes) -> None:
         message: Any = deserialize(payload, TOPIC_TYPES[STATUS_TOPIC])
-        try:
-            status = status_from_json(message.data)
-        except StudyError as error:
-            self.problems.append(str(error))
-            return
+        status = status_from_json(message.data)  # a status it cannot read: its failure
         if status.participant != self.traits.participant:
             return  # another session's (a latched status from before)
         self._status = status
@@ -203,12 +237,9 @@ class SimulatedParticipant:
             self._press_after = None
             self._withdrawal, self._press_time = 0.0, math.nan
             if status.test == 2:
-                try:
-                    self._withdrawal = trial_withdrawal(self.traits, status.condition, self.withdrawal_rng)
-                    self._timing = trial_withdrawal_timing(self.traits, self.timing_rng)
-                    self._press_after = self._plan_press(status)
-                except StudyError as error:
-                    self.problems.append(f"trial {status.index}: {error}")
+                self._withdrawal = trial_withdrawal(self.traits, status.condition, self.withdrawal_rng)
+                self._timing = trial_withdrawal_timing(self.traits, self.timing_rng)
+                self._press_after = self._plan_press(status)
             self.client.publish(GO_TOPIC, _encode(GO_TOPIC))
         elif accepted == "stop":  # the approach has started
             if self._press_after is not None:
@@ -218,8 +249,7 @@ class SimulatedParticipant:
             self._start_tracking(status)
         elif accepted == "distance":
             if self._latest is None:
-                self.problems.append(f"trial {status.index}: asked for a distance before any joint state")
-                return
+                raise StudyError("asked for a distance before any joint state")
             actual = self.hand_distance(self._latest[1])
             answer = perceived_distance(self.traits, status.condition, actual, self.rng)
             self.client.publish(DISTANCE_TOPIC, _encode(DISTANCE_TOPIC, data=answer))

@@ -11,7 +11,7 @@ from sim.robots import overrides_from_args
 from sim.study.checks import check_positive
 from sim.study.design.options import add_design_option, add_scene_options
 from sim.study.errors import StudyError
-from sim.study.participants.cli import add_population_options, population_from_args
+from sim.study.participants.cli import add_fault_option, add_population_options, population_from_args
 
 __all__ = ["register"]
 
@@ -24,6 +24,7 @@ def register(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> N
     add_design_option(simulate)
     add_scene_options(simulate)
     add_population_options(simulate)
+    add_fault_option(simulate)  # tests only: handed to every simulated participant
     simulate.set_defaults(handler=simulate_command)
 
 
@@ -45,6 +46,7 @@ def simulate_command(args: argparse.Namespace) -> int:
         population_from_args(args),
         robot=args.robot,
         robot_overrides=overrides_from_args(args),
+        fault_trial=args.fault_trial,
     )
     try:
         report = simulate(settings, lambda line: print(f"simulate: {line}", flush=True))

@@ -1,7 +1,7 @@
 """sim.study.participants.simulated, its tracked body, without an endpoint: fed the runner's statuses and joint
 states as the endpoint would hand them over, it publishes every body's pose from a trial's motion on, on the joint
 states' grid up to each joint state's own stamp, with no gap where a joint state was missed; the hand withdraws
-after a test-2 press and stays in test 1."""
+after a test-2 press and stays in test 1. An error in acting on what it is handed ends it at once, named."""
 
 from __future__ import annotations
 
@@ -23,10 +23,12 @@ from sim.study.participants.simulated import SimulatedParticipant
 from sim.study.questionnaires.instruments import standard_instrument
 from sim.study.run.protocol import (
     BODIES,
+    DISTANCE_TOPIC,
     GO_TOPIC,
     POSE_FRAME,
     POSE_TOPICS,
     POSE_TYPE,
+    STATUS_TOPIC,
     STOP_TOPIC,
     TrialStatus,
     status_to_json,
@@ -120,7 +122,7 @@ def test_a_test_1_trial_publishes_every_body_on_the_grid_up_to_each_joint_state_
     assert [m.header.stamp.nanosec for m in sent["head"][-3:]] == [time_msg(t).nanosec for t in (2.06, 2.08, 2.1)]
     hands = np.array([position(m) for m in sent["right_hand"]])
     assert np.abs(hands - SCENE.hand.top).max() < JITTER
-    assert participant.poses == 6 and not participant.problems
+    assert participant.poses == 6 and not participant.failure
 
 
 def test_a_test_2_trial_withdraws_the_hand_from_the_press_until_a_questionnaire(participant) -> None:
@@ -155,3 +157,28 @@ def test_a_test_2_trial_withdraws_the_hand_from_the_press_until_a_questionnaire(
     toward_seat = (SCENE.seat - SCENE.hand.top)[:2] / np.linalg.norm((SCENE.seat - SCENE.hand.top)[:2])
     assert moved[-1, :2] == pytest.approx(withdrawal * toward_seat, abs=JITTER)
     assert all(len(sent[body]) == len(times) for body in BODIES)
+
+
+def test_an_error_in_acting_on_a_status_ends_the_participant_at_once_with_the_trial_named() -> None:
+    """Through the callback the client calls (as the endpoint's reader thread does): the fault injected for tests
+    (--fault-trial 2) measures trial 2's distance as inf, and the model refuses it; the participant answers nothing,
+    says why and which trial, is done, and acts on nothing more."""
+    client = FakeClient()
+    made = SimulatedParticipant(client, ROBOT, SCENE, draw_traits(Population(), 1, 3), 3, fault_trial=2)  # type: ignore[arg-type]
+    made.attach()
+    try:
+        on_status = client.callbacks[STATUS_TOPIC]
+        zeros = np.zeros(ROBOT.dof)
+        client.callbacks[ROBOT.joint_states_topic](
+            encode_joint_state(0, 1.0, ROBOT.joint_names, ROBOT.home, zeros, zeros)
+        )
+        first = TrialStatus(1, 1, 4, "distance", "vr", 1, "straight", 0.15, 0.15, motion_start=0.5)
+        on_status(encode_message("std_msgs/String", data=status_to_json(first)))
+        assert [topic for topic, _ in client.sent] == [DISTANCE_TOPIC] and not made.done.is_set()
+        on_status(encode_message("std_msgs/String", data=status_to_json(replace(first, index=2))))
+        assert made.done.is_set()
+        assert made.failure == "trial 2 (distance): an actual distance must be >= 0 m, got inf"
+        on_status(encode_message("std_msgs/String", data=status_to_json(replace(first, index=3))))
+        assert [topic for topic, _ in client.sent] == [DISTANCE_TOPIC]  # nothing after its failure
+    finally:
+        made.close()
