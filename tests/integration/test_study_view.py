@@ -26,10 +26,22 @@ from tests.rosenv import free_port, wait_for
 from tests.study_arms import study_arm
 
 
-@pytest.fixture
-def browser(tmp_path: Path) -> Iterator[Any]:
-    with chromium(tmp_path / "chromium") as driver:
+@pytest.fixture(scope="module")
+def shared_browser(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Any]:
+    """One headless Chromium for the module's tests: a browser's start is some seconds of the machine's two cores."""
+    with chromium(tmp_path_factory.mktemp("chromium")) as driver:
         yield driver
+
+
+@pytest.fixture
+def browser(shared_browser: Any) -> Iterator[Any]:
+    """The shared browser, on a blank page after the test: each test opens its own view's address (a server of its
+    own, on a port of its own) and reads only what that page shows, and the page it leaves stops drawing before the
+    next test starts."""
+    try:
+        yield shared_browser
+    finally:
+        shared_browser.get("about:blank")
 
 
 def settled_screenshot(driver: Any, path: Path, listed: str, timeout: float = 60.0) -> np.ndarray:
