@@ -156,12 +156,14 @@ class SceneWorld:
         low, high = p.getAABB(self._body, -1, physicsClientId=self._client)
         return (float(high[0] - low[0]), float(high[1] - low[1]))
 
-    def hand_distance(self, q: np.ndarray) -> float:
+    def hand_distance(self, q: np.ndarray, shift: np.ndarray | None = None) -> float:
         """The robot's distance (m) to the hand at joint positions q, by the scene's definition: from its collision
-        geometry's nearest point (negative when it is inside the hand), or from the end-effector point."""
+        geometry's nearest point (negative when it is inside the hand), or from the end-effector point. `shift` (m,
+        world): the hand moved that far from where the scene has it (a tracked hand's live displacement)."""
+        offset = np.zeros(3) if shift is None else np.asarray(shift, dtype=float)
         if self._measured_from_point:
-            return self.scene.hand.distance(self.scene.end_effector(self._chain, q))
-        nearest = self._nearest_to_hand(q)
+            return self.scene.hand.distance(self.scene.end_effector(self._chain, q) - offset)
+        nearest = self._nearest_to_hand(q, offset)
         return math.inf if nearest is None else float(nearest[8])
 
     def nearest_points(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -179,10 +181,17 @@ class SceneWorld:
         """The thesis's definition, or a robot whose moving links have no collision shapes."""
         return self.scene.distance == "ee_point" or not self._solid
 
-    def _nearest_to_hand(self, q: np.ndarray) -> tuple | None:
-        """pybullet's closest-point record of the robot's moving links to the hand at q, within FAR; None beyond."""
+    def _nearest_to_hand(self, q: np.ndarray, shift: np.ndarray | None = None) -> tuple | None:
+        """pybullet's closest-point record of the robot's moving links to the hand at q (moved by `shift`, m), within
+        FAR; None beyond."""
         self._set(q)
-        points = p.getClosestPoints(self._body, self._obstacles["hand"], FAR, physicsClientId=self._client)
+        cid, hand = self._client, self._obstacles["hand"]
+        offset = None if shift is None or not np.any(shift) else [float(v) for v in shift]
+        if offset is not None:  # for this query only: every other one measures to the scene's hand
+            p.resetBasePositionAndOrientation(hand, offset, [0.0, 0.0, 0.0, 1.0], physicsClientId=cid)
+        points = p.getClosestPoints(self._body, hand, FAR, physicsClientId=cid)
+        if offset is not None:
+            p.resetBasePositionAndOrientation(hand, [0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0], physicsClientId=cid)
         return min((c for c in points if c[3] in self._moving), key=lambda c: c[8], default=None)
 
     def end_effector(self, q: np.ndarray) -> np.ndarray:

@@ -332,7 +332,7 @@ class TrajectoryLink:
             return f"joint states stale: none for {age:.3f} s (limit {self.spec.stale_after:g} s)"
         if tracking > self.spec.tracking_tolerance:
             return f"tracking error {tracking:.4f} rad over the tolerance {self.spec.tracking_tolerance:g} rad"
-        distance = run.hand_distance(latest.positions)
+        distance = run.live_hand_distance(latest.positions)
         if distance < self.spec.floor:
             return f"achieved distance to the hand {distance:.4f} m under the floor {self.spec.floor:g} m"
         if self._done(handle):
