@@ -195,6 +195,9 @@ def test_a_session_runs_vr_on_the_stream_and_reality_on_the_trajectory_controlle
         engine.stop()
     assert runner.returncode == 0, output
     assert "ROS time" not in output  # both links ran on wall time
+    # the stop's lead, measured on the connection: said with its parts (a part never measured would say "unmeasured")
+    said = [line for line in output.splitlines() if f"franka_ros ({NS}): a stop stamped " in line]
+    assert len(said) == 1 and " ms: p99 query " in said[0] and "unmeasured" not in said[0], output
     vr, reality = read_csv(tmp_path / "out" / "participant_03.csv")
     assert vr["link"] == "stream" and vr["goal_result"] == "" and vr["tracking_error"] == ""
     assert float(vr["distance_at_rest"]) == pytest.approx(0.15, abs=0.005)
