@@ -207,10 +207,14 @@ def test_a_session_runs_vr_on_the_stream_and_reality_on_the_trajectory_controlle
     assert 0 < float(reality["tracking_error"]) < 0.1
     assert 0 <= float(reality["replacement_latency"]) < float(reality["braking_latency"])
     planned, achieved = float(reality["braking_distance"]), float(reality["braking_distance_achieved"])
-    assert planned > 0.005 and achieved == pytest.approx(planned, abs=0.01)
+    # The achieved distance runs from the press, the planned one from the stop's stamp, the measured lead after it
+    # (said above): the arm ran on for that long, at most at the approach's 0.2 m/s
+    lead = float(said[0].split("a stop stamped ")[1].split(" ms")[0]) / 1e3
+    assert planned > 0.005 and planned - 0.01 < achieved < planned + 0.2 * lead + 0.01, (lead, said[0])
     rest = watch.resting_positions()
     assert hand_distance(rest) == pytest.approx(float(reality["distance_at_rest"]), abs=0.002)
-    assert float(reality["distance_at_rest"]) > float(reality["distance_at_press"]) - planned - 0.01 > ON_TOP
+    ran_on = planned + 0.2 * lead  # the most the arm moved from the press to rest, as above
+    assert float(reality["distance_at_rest"]) > float(reality["distance_at_press"]) - ran_on - 0.01 > ON_TOP
 
 
 def stopped_on_its_own(
