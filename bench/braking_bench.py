@@ -1,7 +1,7 @@
 """Braking through the stand-in's trajectory controller: press-to-braking latency and braking distance, over presses.
 
     .venv/bin/python -m bench.braking_bench [--presses 20] [--seconds 180] [--path diagonal] [--speed 0.5]
-                                            [--dt 0.01] [--joint-states-rate 100] [--lead 0.1] [--seed 0]
+                                            [--dt 0.01] [--joint-states-rate 100] [--lead S] [--seed 0]
 
 What the study will do on a press with a real arm, without the study runner: a roscore, the physics node as the
 Panda's driver (`--trajectory-controller /panda/position_joint_trajectory_controller`, on wall time, physics step
@@ -9,11 +9,17 @@ Panda's driver (`--trajectory-controller /panda/position_joint_trajectory_contro
 the arm goes to the planned approach's start (a goal), the approach goes as one goal (positions, velocities and
 accelerations of the planned samples), and at a random time while the planned speed is still rising (so that a fall
 of the achieved speed is the braking's doing) the press:
-  1. asks query_state for the desired state --lead s ahead,
+  1. asks query_state for the desired state a lead ahead: the study link's own, measured on this connection
+     (sim.study.run.links.lead: query_state's round trip, probed first and at each stop; the stop's planning, timed
+     before each approach and at each stop; each goal's delivery, from send_goal to the controller's status of it),
+     or --lead s fixed;
   2. builds the stop from it (sim.study.safety.braking.brake: along the path, jerk-limited, continuous in position,
      velocity and acceleration), and sends it as a replacement goal stamped at that time;
   3. waits for the stop's result and for the arm at rest.
 Figures, per press and over all presses (median, p95, max):
+  - the delays the lead covers: query_state's round trip, the stop's planning, a goal's delivery (every goal's), and
+    the lead each stop was stamped with; how many stops were refused (all their points due on arrival: the approach
+    went on) and how many the controller reported after their stamp (an upper bound: the report is a round trip);
   - press -> replacement sent (query_state, the stop's planning, send_goal returned), ms;
   - press -> achieved speed first falls: the first joint state (its stamp) after the press whose path speed (the
     achieved joint velocity projected on the path) is below the one before it, ms. It includes the look-ahead
@@ -48,6 +54,7 @@ from sim.processes import RosCore
 from sim.robots import load_robot
 from sim.study.design.paths import ON_TOP, ApproachPath
 from sim.study.design.scene import load_scene
+from sim.study.run.links.lead import StopLead
 from sim.study.safety.braking import Braking, PathGeometry, PathState, arc_length, brake
 from sim.study.safety.errors import SafetyError
 from sim.study.safety.kinematic_plan import kinematic_plan
@@ -70,14 +77,28 @@ def plan(name: str, speed: float) -> tuple[ApproachPath, np.ndarray]:
         raise SystemExit(f"braking_bench: {error}") from None
 
 
+QUERY_PROBES = 10  # query_state round trips before the first press, as the study's link measures at connect
+
+
 @dataclass(frozen=True)
 class Press:
     at_s: float  # into the approach
+    lead_ms: float  # the stop's stamp after the press
     sent_ms: float
+    acked_ms: float  # press -> the controller's status of the stop heard
     falls_ms: float
     planned_mm: float
     achieved_mm: float
     result: str
+
+
+@dataclass
+class Sent:
+    """A goal sent: its handle, when (just before send_goal) and when the controller's first status of it came."""
+
+    handle: Any
+    at: float
+    acked: float = float("nan")
 
 
 class Client:
@@ -87,13 +108,11 @@ class Client:
         import actionlib
         import rospy
         from sensor_msgs.msg import JointState
-        from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
         from sim.wire.control_types import control_types
 
         self.rospy = rospy
         self.types = control_types()
-        self.JointTrajectory, self.JointTrajectoryPoint = JointTrajectory, JointTrajectoryPoint
         self.states: list[tuple[float, np.ndarray, np.ndarray]] = []  # (stamp, positions, velocities)
         self._lock = threading.Lock()
         self._sub = rospy.Subscriber(JOINT_STATES, JointState, self._on_state, queue_size=1000, tcp_nodelay=True)
@@ -103,6 +122,22 @@ class Client:
         rospy.wait_for_service(f"{NS}/query_state", 30)
         self.query = rospy.ServiceProxy(f"{NS}/query_state", self.types.query_state, persistent=True)
         self._handles: list[Any] = []
+        self.lead = StopLead()  # the delays measured, as the study's link keeps them
+        self.delays: dict[str, list[float]] = {"query": [], "planning": [], "delivery": []}
+        for _ in range(QUERY_PROBES):
+            self.query_at(time.time())
+
+    def measured(self, part: str, seconds: float) -> None:
+        with self._lock:
+            self.lead.add(part, seconds)
+            self.delays[part].append(seconds)
+
+    def query_at(self, at: float) -> Any:
+        """The controller's desired state at wall time `at`; its round trip measured."""
+        asked = time.time()
+        desired = self.query(self.types.query_state_request(time=self.rospy.Time.from_sec(at)))
+        self.measured("query", time.time() - asked)
+        return desired
 
     def _on_state(self, message: Any) -> None:
         with self._lock:
@@ -113,24 +148,28 @@ class Client:
             return [s for s in self.states if s[0] >= stamp]
 
     def trajectory(self, times: np.ndarray, q: np.ndarray, v: np.ndarray, a: np.ndarray, stamp: float = 0.0) -> Any:
-        message = self.JointTrajectory()
-        message.header.stamp = self.rospy.Time.from_sec(stamp)
-        message.joint_names = list(PANDA.joint_names)
-        for t, qk, vk, ak in zip(times, q, v, a):
-            point = self.JointTrajectoryPoint()
-            point.positions, point.velocities, point.accelerations = qk.tolist(), vk.tolist(), ak.tolist()
-            point.time_from_start = self.rospy.Duration.from_sec(float(t))
-            message.points.append(point)
-        return message
+        from sim.wire.control_types import joint_trajectory
 
-    def send(self, trajectory: Any, settle_s: float = 0.0) -> Any:
-        """The goal's handle; `settle_s` > 0: the goal's time tolerance (else the controller's default)."""
+        return joint_trajectory(PANDA.joint_names, times, q, v, a, stamp)
+
+    def send(self, trajectory: Any, settle_s: float = 0.0) -> Sent:
+        """The goal sent; `settle_s` > 0: the goal's time tolerance (else the controller's default). Its delivery
+        (to the controller's first status of it) is measured."""
+        from actionlib import CommState
+
         goal = self.types.goal()
         goal.trajectory = trajectory
         goal.goal_time_tolerance = self.rospy.Duration.from_sec(settle_s)
-        handle = self.client.send_goal(goal)
-        self._handles = [h for h in self._handles[-4:]] + [handle]  # actionlib tracks a goal while its handle lives
-        return handle
+        sent = Sent(None, time.time())
+
+        def transition(handle: Any) -> None:
+            if handle.get_comm_state() != CommState.WAITING_FOR_GOAL_ACK and sent.acked != sent.acked:  # NaN: not yet
+                sent.acked = time.time()
+                self.measured("delivery", sent.acked - sent.at)
+
+        sent.handle = self.client.send_goal(goal, transition_cb=transition)
+        self._handles = [h for h in self._handles[-4:]] + [sent.handle]  # actionlib tracks a goal while it lives
+        return sent
 
     def outcome(self, handle: Any) -> str:
         from actionlib import CommState
@@ -159,26 +198,34 @@ class Client:
         raise SystemExit("braking_bench: the arm did not come to rest")
 
 
-def one_press(client: Client, geometry: PathGeometry, approach: Any, start: Any, press_at: float, lead: float) -> Press:
-    rospy = client.rospy
-    reached = client.outcome(client.send(start, settle_s=WAIT_S / 2))  # not measured: time to settle
+def one_press(
+    client: Client, geometry: PathGeometry, approach: Any, start: Any, press_at: float, fastest: Any, lead: float | None
+) -> Press:
+    reached = client.outcome(client.send(start, settle_s=WAIT_S / 2).handle)  # not measured: time to settle
     if reached != "SUCCEEDED":
         raise SystemExit(f"braking_bench: the arm did not reach the approach's start: {reached}")
     client.at_rest(time.time())
-    running = client.send(approach)
+    planning = time.time()  # as the study's link does before each approach: this machine's planning time now
+    fastest_q, fastest_v, fastest_a = fastest
+    brake(geometry, fastest_q, fastest_v, fastest_a, STOP_DT)
+    client.measured("planning", time.time() - planning)
+    running = client.send(approach).handle
     begun = time.time()
     time.sleep(max(0.0, begun + press_at - time.time()))
     pressed = time.time()  # the press's stamp
-    at = pressed + lead
-    desired = client.query(client.types.query_state_request(time=rospy.Time.from_sec(at)))
+    with client._lock:
+        at = pressed + (client.lead.choose().lead if lead is None else lead)
+    desired = client.query_at(at)
+    planning = time.time()
     q, v, a = (np.array(x, dtype=float) for x in (desired.position, desired.velocity, desired.acceleration))
     stop: Braking | None = brake(geometry, q, v, a, STOP_DT)
     if stop is None:
         raise SystemExit(f"braking_bench: no stop at {press_at:.2f} s (the plan rests first)")
     replacement = client.trajectory(stop.times[1:], stop.positions[1:], stop.velocities[1:], stop.accelerations[1:], at)
     braking = client.send(replacement)
-    sent = time.time()
-    result = client.outcome(braking)
+    client.measured("planning", braking.at - planning)
+    sent = braking.at
+    result = client.outcome(braking.handle)
     client.outcome(running)
     rest_stamp, rest = client.at_rest(at)
     speeds = [
@@ -190,7 +237,9 @@ def one_press(client: Client, geometry: PathGeometry, approach: Any, start: Any,
     achieved_arc = geometry.project(rest, np.zeros_like(rest), np.zeros_like(rest)).arc
     return Press(
         at_s=press_at,
+        lead_ms=(at - pressed) * 1e3,
         sent_ms=(sent - pressed) * 1e3,
+        acked_ms=(braking.acked - pressed) * 1e3,
         falls_ms=(falls - pressed) * 1e3,
         planned_mm=stop.distance * 1e3,
         achieved_mm=(achieved_arc - stop.start.arc) * 1e3,
@@ -216,10 +265,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--speed", type=float, default=0.5, help="its peak speed in m/s (default 0.5)")
     parser.add_argument("--dt", type=float, default=0.01, help="the physics step in s (default 0.01)")
     parser.add_argument("--joint-states-rate", type=float, default=100.0, help="Hz (default 100: every step)")
-    parser.add_argument("--lead", type=float, default=0.1, help="s between the press and the stop's stamp (0.1)")
+    parser.add_argument(
+        "--lead", type=float, default=None, help="s between the press and the stop's stamp (default: measured)"
+    )
     parser.add_argument("--seed", type=int, default=0, help="of the press times (default 0)")
     args = parser.parse_args(argv)
-    if not (args.presses > 0 and args.seconds > 0 and args.dt > 0 and args.joint_states_rate > 0 and args.lead > 0):
+    lead_ok = args.lead is None or args.lead > 0
+    if not (args.presses > 0 and args.seconds > 0 and args.dt > 0 and args.joint_states_rate > 0 and lead_ok):
         parser.error("--presses, --seconds, --dt, --joint-states-rate and --lead must be > 0")
 
     path, joints = plan(args.path, args.speed)
@@ -227,11 +279,14 @@ def main(argv: list[str] | None = None) -> int:
     arc, accelerations = arc_length(path), np.gradient(path.speeds, path.dt)
     planned = [geometry.joint_state(PathState(arc[k], path.speeds[k], accelerations[k])) for k in range(len(arc))]
     q, v, a = (np.array([state[i] for state in planned]) for i in range(3))
-    rising = path.times[(accelerations > 0.05) & (path.times > args.lead + 0.05)]
+    earliest = (0.1 if args.lead is None else args.lead) + 0.05
+    rising = path.times[(accelerations > 0.05) & (path.times > earliest)]
     if not len(rising):
         raise SystemExit("braking_bench: the plan's speed never rises")
     rng = np.random.default_rng(args.seed)
     press_times = rng.uniform(rising.min(), rising.max(), args.presses)
+    k = int(np.argmax(path.speeds))
+    fastest = (q[k], v[k], a[k])  # the longest stop, timed before each approach
 
     with tempfile.TemporaryDirectory(prefix="braking-bench-") as tmp:
         core = RosCore()
@@ -266,41 +321,53 @@ def main(argv: list[str] | None = None) -> int:
             print(
                 f"Braking bench: {args.path} approach at {args.speed:g} m/s ({path.times[-1]:.2f} s), physics step "
                 f"{args.dt * 1e3:g} ms, joint states at {args.joint_states_rate:g} Hz, the stop stamped "
-                f"{args.lead * 1e3:g} ms after the press; presses at {rising.min():.2f}-{rising.max():.2f} s "
-                "(the planned speed rising)"
+                + ("a measured lead" if args.lead is None else f"{args.lead * 1e3:g} ms")
+                + f" after the press; presses at {rising.min():.2f}-{rising.max():.2f} s (the planned speed rising)"
             )
             presses: list[Press] = []
             began = time.monotonic()
             for press_at in press_times:
                 if time.monotonic() - began > args.seconds:
                     break
-                press = one_press(client, geometry, approach, start_goal, float(press_at), args.lead)
+                press = one_press(client, geometry, approach, start_goal, float(press_at), fastest, args.lead)
                 presses.append(press)
-                late = press.sent_ms > args.lead * 1e3
+                sent_late = press.sent_ms > press.lead_ms
                 print(
-                    f"  press at {press.at_s:.3f} s: sent after {press.sent_ms:.1f} ms, speed falls after "
+                    f"  press at {press.at_s:.3f} s: stamped {press.lead_ms:.1f} ms ahead, sent after "
+                    f"{press.sent_ms:.1f} ms, the controller's status after {press.acked_ms:.1f} ms, speed falls after "
                     f"{press.falls_ms:.1f} ms; distance planned {press.planned_mm:.1f} mm, achieved "
                     f"{press.achieved_mm:.1f} mm (error {press.achieved_mm - press.planned_mm:+.3f} mm); {press.result}"
-                    + (" (sent after its stamp: the controller bridged from later)" if late else "")
+                    + (" (sent after its stamp: the controller bridged from later)" if sent_late else "")
                 )
+            delays = {part: np.array(values) * 1e3 for part, values in client.delays.items()}
             rospy.signal_shutdown("braking bench done")
         finally:
             if node is not None:
                 node.stop()
             core.stop()
     sent = np.array([p.sent_ms for p in presses])
+    leads = np.array([p.lead_ms for p in presses])
     falls = np.array([p.falls_ms for p in presses])
     errors = np.array([p.achieved_mm - p.planned_mm for p in presses])
     succeeded = sum(p.result == "SUCCEEDED" for p in presses)
-    late = int(np.sum(sent > args.lead * 1e3))
-    print(f"{len(presses)} presses ({succeeded} stops SUCCEEDED, {late} replacements sent after their stamp)")
+    refused = sum(p.result.startswith("REJECTED") for p in presses)
+    late = int(np.sum(sent > leads))
+    acked_late = int(np.sum(np.array([p.acked_ms for p in presses]) > leads))
+    print(
+        f"{len(presses)} presses ({succeeded} stops SUCCEEDED, {refused} refused; {late} replacements sent after "
+        f"their stamp, {acked_late} reported by the controller after it)"
+    )
+    print("the delays a stop's lead covers [ms]:")
+    for part, values in delays.items():
+        print(summary(f"  {part} ({len(values)} measured)", values, 2))
+    print(summary("the lead each stop was stamped with [ms]", leads))
     print(summary("press -> replacement sent [ms]", sent))
     print(summary("press -> achieved speed first falls [ms]", falls))
     print(summary("braking distance planned [mm]", np.array([p.planned_mm for p in presses])))
-    print(summary("press -> achieved speed first falls, after the stop's stamp [ms]", falls - args.lead * 1e3))
+    print(summary("press -> achieved speed first falls, after the stop's stamp [ms]", falls - leads))
     print(summary("braking distance error, achieved - planned [mm]", errors, 3))
     print(summary("|braking distance error| [mm]", np.abs(errors), 3))
-    on_time = sent <= args.lead * 1e3
+    on_time = sent <= leads
     print(f"the {int(on_time.sum())} replacements sent before their stamp:")
     print(summary("  press -> achieved speed first falls [ms]", falls[on_time]))
     print(summary("  |braking distance error| [mm]", np.abs(errors[on_time]), 3))

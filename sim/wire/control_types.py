@@ -8,11 +8,16 @@ md5sums and full texts, and genpy.dynamic generates the classes in memory, as ro
 The types they use (std_msgs/Header, actionlib_msgs/GoalID and GoalStatus, trajectory_msgs) come from the installed
 Python messages' own full texts. Imports genmsg and genpy, never rospy: only the nodes that serve or call the
 controller import this module.
+
+`joint_trajectory` builds the trajectory_msgs/JointTrajectory that every client of the controller sends (the study's
+link, the braking bench, the tests) from planned samples: one builder, so that they all send the same message.
 """
 
 from __future__ import annotations
 
 import functools
+import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -20,7 +25,9 @@ from typing import Any
 import actionlib_msgs.msg
 import genmsg
 import genmsg.msg_loader
+import genpy
 import genpy.dynamic
+import numpy as np
 import std_msgs.msg
 import trajectory_msgs.msg
 
@@ -33,6 +40,7 @@ __all__ = [
     "ControlTypes",
     "action_messages",
     "control_types",
+    "joint_trajectory",
 ]
 
 PACKAGE = "control_msgs"
@@ -178,3 +186,44 @@ def control_types() -> ControlTypes:
         query_state_response=response,
         md5sums=md5sums,
     )
+
+
+def joint_trajectory(
+    joint_names: Sequence[str],
+    times: Any,
+    positions: Any,
+    velocities: Any = None,
+    accelerations: Any = None,
+    stamp: float = 0.0,
+) -> trajectory_msgs.msg.JointTrajectory:
+    """A JointTrajectory of the samples: `times` (M,) s from the start, each point's `positions` (M, dof) and, when
+    given, `velocities` and `accelerations` alike (a controller then interpolates with cubics or quintics, without
+    steps). `stamp` s of ROS time is when it starts; 0: at the controller's next update. M may be 0 (an empty
+    trajectory: "hold"). ControlTypesError names a sample array of the wrong shape or a value that is not finite."""
+    names = list(joint_names)
+    t = np.asarray(times, dtype=float).reshape(-1)
+    arrays = {"positions": positions, "velocities": velocities, "accelerations": accelerations}
+    given: dict[str, np.ndarray] = {}
+    for what, values in arrays.items():
+        if values is None:
+            continue
+        array = np.asarray(values, dtype=float)
+        if array.shape != (len(t), len(names)):
+            raise ControlTypesError(
+                f"a trajectory's {what} must be {len(t)} points of {len(names)} joints, got shape {array.shape}"
+            )
+        given[what] = array
+    if "positions" not in given:
+        raise ControlTypesError("a trajectory's points need positions")
+    if not (all(np.all(np.isfinite(array)) for array in (t, *given.values())) and math.isfinite(stamp) and stamp >= 0):
+        raise ControlTypesError(f"a trajectory's times, samples and stamp must be finite (stamp >= 0), got {stamp!r}")
+    message = trajectory_msgs.msg.JointTrajectory()
+    message.header.stamp = genpy.Time.from_sec(stamp) if stamp > 0 else genpy.Time(0)
+    message.joint_names = names
+    for k in range(len(t)):
+        point = trajectory_msgs.msg.JointTrajectoryPoint()
+        for what, array in given.items():
+            setattr(point, what, array[k].tolist())
+        point.time_from_start = genpy.Duration.from_sec(float(t[k]))
+        message.points.append(point)
+    return message

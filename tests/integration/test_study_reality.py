@@ -2,7 +2,8 @@
 --realtime --link ...`) against the physics node's ros_control trajectory controller on wall time (franka_ros's
 topics), a real roscore, and in one session the VR condition through the engine stand-in's stream. The observer types
 at the runner's keyboard. Safety: the runner stops the arm on a stale feed, on tracking error, on an achieved distance
-under the floor and when the controller drops the goal; a stop the
+under the floor (a reading displaced towards the hand, or the tracked hand reaching towards the arm) and when the
+controller drops the goal; a stop the
 controller refuses (delayed by a relay of the controller's topics) is sent anew; a runner killed mid-approach leaves
 the arm at rest short of the hand."""
 
@@ -194,6 +195,9 @@ def test_a_session_runs_vr_on_the_stream_and_reality_on_the_trajectory_controlle
         engine.stop()
     assert runner.returncode == 0, output
     assert "ROS time" not in output  # both links ran on wall time
+    # the stop's lead, measured on the connection: said with its parts (a part never measured would say "unmeasured")
+    said = [line for line in output.splitlines() if f"franka_ros ({NS}): a stop stamped " in line]
+    assert len(said) == 1 and " ms: p99 query " in said[0] and "unmeasured" not in said[0], output
     vr, reality = read_csv(tmp_path / "out" / "participant_03.csv")
     assert vr["link"] == "stream" and vr["goal_result"] == "" and vr["tracking_error"] == ""
     assert float(vr["distance_at_rest"]) == pytest.approx(0.15, abs=0.005)
@@ -203,16 +207,27 @@ def test_a_session_runs_vr_on_the_stream_and_reality_on_the_trajectory_controlle
     assert 0 < float(reality["tracking_error"]) < 0.1
     assert 0 <= float(reality["replacement_latency"]) < float(reality["braking_latency"])
     planned, achieved = float(reality["braking_distance"]), float(reality["braking_distance_achieved"])
-    assert planned > 0.005 and achieved == pytest.approx(planned, abs=0.01)
+    # The achieved distance runs from the press, the planned one from the stop's stamp, the measured lead after it
+    # (said above): the arm ran on for that long, at most at the approach's 0.2 m/s
+    lead = float(said[0].split("a stop stamped ")[1].split(" ms")[0]) / 1e3
+    assert planned > 0.005 and planned - 0.01 < achieved < planned + 0.2 * lead + 0.01, (lead, said[0])
     rest = watch.resting_positions()
     assert hand_distance(rest) == pytest.approx(float(reality["distance_at_rest"]), abs=0.002)
-    assert float(reality["distance_at_rest"]) > float(reality["distance_at_press"]) - planned - 0.01 > ON_TOP
+    ran_on = planned + 0.2 * lead  # the most the arm moved from the press to rest, as above
+    assert float(reality["distance_at_rest"]) > float(reality["distance_at_press"]) - ran_on - 0.01 > ON_TOP
 
 
 def stopped_on_its_own(
-    runner: subprocess.Popen, watch: Watch, why: str, standoff: float, participant: int, robot: Path | None = None
-) -> None:
-    """The trial's answer typed; the runner ended the session (exit 5) after stopping the arm short of the stand-off."""
+    runner: subprocess.Popen,
+    watch: Watch,
+    why: str,
+    standoff: float,
+    participant: int,
+    robot: Path | None = None,
+    displaced: bool = False,
+) -> dict[str, str]:
+    """The trial's answer typed; the runner ended the session (exit 5) after stopping the arm short of the stand-off.
+    `displaced`: the runner read the arm's joint states displaced towards the hand. The trial's row."""
     try:
         watch.wait((1, "distance"), runner)
         type_line(runner, "10 cm\n")
@@ -227,10 +242,11 @@ def stopped_on_its_own(
     assert rest > standoff + 0.02  # braked well short of its stand-off
     if why == "joint states stale":  # its last state seen was in motion: the arm braked on, closer, to rest
         assert rest < float(row["distance_at_rest"])
-    elif why == "achieved distance to the hand":  # the runner read the arm displaced towards the hand
+    elif displaced:
         assert rest > float(row["distance_at_rest"]) + 0.05
     else:
         assert rest == pytest.approx(float(row["distance_at_rest"]), abs=0.002)
+    return row
 
 
 def test_tracking_error_past_the_tolerance_stops_the_arm(roscore, built_arm, tmp_path: Path) -> None:
@@ -400,11 +416,61 @@ def test_an_achieved_distance_under_the_floor_stops_the_arm(roscore, ros_node, a
     try:
         watch.wait((1, "moving"), runner)
         shifting.set()
-        stopped_on_its_own(runner, watch, "achieved distance to the hand", 0.15, 10)
+        stopped_on_its_own(runner, watch, "achieved distance to the hand", 0.15, 10, displaced=True)
     finally:
         kill_process(runner)
         relay.unregister()
         relayed.unregister()
+
+
+def test_a_hand_reaching_towards_the_arm_mid_approach_stops_it_at_the_floor(
+    roscore, ros_node, arm, tmp_path: Path
+) -> None:
+    # A tracker follows the participant's right hand at 60 Hz (the protocol's pose topic, stamped on the wall clock,
+    # the runner's on a trajectory controller), at rest on the scene's hand. The plan keeps 0.15 m from the hand, over
+    # the floor of 0.05 m; 0.3 s into the approach the hand rises towards the arm coming down at 0.5 m/s, by up to
+    # 0.4 m, as a participant reaching out would: the arm's distance to the hand where it is now falls under the
+    # floor while the arm is still far above the hand's rest, and the runner stops it there.
+    from geometry_msgs.msg import PoseStamped
+
+    from sim.study.run.protocol import POSE_FRAME, POSE_TOPICS
+
+    _, watch = arm
+    watch.out = str(tmp_path / "out")
+    rest_place = SCENE.hand.top
+    rises_from = [math.inf]  # wall time
+    tracking = threading.Event()
+    tracking.set()
+    tracker = ros_node.Publisher(POSE_TOPICS["right_hand"], PoseStamped, queue_size=10)
+
+    def track() -> None:
+        while tracking.is_set():  # bounded: the test clears it in every case
+            now = time.time()
+            pose = PoseStamped()
+            pose.header.stamp = ros_node.Time.from_sec(now)
+            pose.header.frame_id = POSE_FRAME
+            risen = min(max(now - rises_from[0], 0.0) * 0.5, 0.4)
+            pose.pose.position.x, pose.pose.position.y = rest_place[0], rest_place[1]
+            pose.pose.position.z = rest_place[2] + risen
+            pose.pose.orientation.w = 1.0
+            tracker.publish(pose)
+            time.sleep(1 / 60)
+
+    thread = threading.Thread(target=track, name="tracker", daemon=True)
+    thread.start()
+    plan = write_plan(tmp_path / "plan.yaml", 14, "reality", [trial(1, "reality", 1, "vertical", 0.15, 0.2)])
+    runner = start_runner(roscore, plan, tmp_path / "out", ["--link", "reality=franka_ros", "--floor", "0.05"])
+    try:
+        watch.wait((1, "moving"), runner)
+        rises_from[0] = time.time() + 0.3
+        row = stopped_on_its_own(runner, watch, "achieved distance to the hand", 0.15, 14)
+    finally:
+        kill_process(runner)
+        tracking.clear()
+        thread.join(timeout=5)
+        tracker.unregister()
+    assert row["tracked_hand"] == "right_hand"  # the runner took the tracked hand for the one under the robot
+    assert float(row["distance_at_rest"]) > 0.15 + 0.05  # of the hand's rest: stopped well above it
 
 
 def test_the_controller_dropping_the_goal_stops_the_arm(roscore, ros_node, arm, tmp_path: Path) -> None:

@@ -36,7 +36,7 @@ class Arm:
     def __init__(self, rospy: Any) -> None:
         import actionlib
         from sensor_msgs.msg import JointState
-        from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+        from trajectory_msgs.msg import JointTrajectory
 
         from sim.wire.control_types import control_types
 
@@ -50,8 +50,6 @@ class Arm:
             rospy.Subscriber(f"{NS}/state", self.types.controller_state, self.controller_states.append),
         ]
         self.command = rospy.Publisher(f"{NS}/command", JointTrajectory, queue_size=1)
-        self.JointTrajectory = JointTrajectory
-        self.JointTrajectoryPoint = JointTrajectoryPoint
         self.client = actionlib.ActionClient(f"{NS}/follow_joint_trajectory", self.types.action)
         self.handles: list[Any] = []
 
@@ -90,18 +88,13 @@ class Arm:
     def trajectory(self, offsets: list[float], duration: float, names: tuple[str, ...] = PANDA.joint_names) -> Any:
         """A rest-to-rest quintic of joint 1 through `offsets` from home, every point with positions, velocities and
         accelerations (as the runner sends an approach); stamp zero."""
-        message = self.JointTrajectory()
-        message.joint_names = list(names)
-        for k, offset in enumerate(offsets, start=1):
-            target = self.JointTrajectoryPoint()
-            positions = np.array(PANDA.home, dtype=float)[: len(names)]
-            positions[JOINT] += offset
-            target.positions = positions.tolist()
-            target.velocities = [0.0] * len(names)
-            target.accelerations = [0.0] * len(names)
-            target.time_from_start = self.rospy.Duration.from_sec(duration * k / len(offsets))
-            message.points.append(target)
-        return message
+        from sim.wire.control_types import joint_trajectory
+
+        positions = np.tile(np.array(PANDA.home, dtype=float)[: len(names)], (len(offsets), 1))
+        positions[:, JOINT] += offsets
+        times = duration * np.arange(1, len(offsets) + 1) / len(offsets)
+        zeros = np.zeros_like(positions)
+        return joint_trajectory(names, times, positions, zeros, zeros)
 
     def send(self, trajectory: Any, stamp: Any = None) -> Any:
         """The goal's handle, once the goal is sent."""
@@ -208,14 +201,9 @@ def points(
     arm: Arm, times: np.ndarray, positions: np.ndarray, velocities: np.ndarray, accelerations: np.ndarray
 ) -> Any:
     """A JointTrajectory of the Panda through these samples (time_from_start, then the three per joint)."""
-    message = arm.JointTrajectory()
-    message.joint_names = list(PANDA.joint_names)
-    for t, q, v, a in zip(times, positions, velocities, accelerations):
-        point = arm.JointTrajectoryPoint()
-        point.positions, point.velocities, point.accelerations = q.tolist(), v.tolist(), a.tolist()
-        point.time_from_start = arm.rospy.Duration.from_sec(float(t))
-        message.points.append(point)
-    return message
+    from sim.wire.control_types import joint_trajectory
+
+    return joint_trajectory(PANDA.joint_names, times, positions, velocities, accelerations)
 
 
 def test_a_press_as_a_braking_replacement_stops_the_approach_smoothly_short_of_its_end(

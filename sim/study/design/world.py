@@ -178,13 +178,15 @@ class SceneWorld:
         low, high = p.getAABB(self._body, -1, physicsClientId=self._client)
         return (float(high[0] - low[0]), float(high[1] - low[1]))
 
-    def hand_distance(self, q: np.ndarray) -> float:
+    def hand_distance(self, q: np.ndarray, shift: np.ndarray | None = None) -> float:
         """The robot's distance (m) to the hand at joint positions q, by the scene's definition: from its collision
         geometry's nearest point (negative when it is inside the hand), or from the end-effector point. Finite,
-        however far the robot is."""
+        however far the robot is. `shift` (m, world): the hand moved that far from where the scene has it (a tracked
+        hand's live displacement)."""
+        offset = np.zeros(3) if shift is None else np.asarray(shift, dtype=float)
         if self._measured_from_point:
-            return self.scene.hand.distance(self.scene.end_effector(self._chain, q))
-        nearest = self._nearest_to_hand(q)
+            return self.scene.hand.distance(self.scene.end_effector(self._chain, q) - offset)
+        nearest = self._nearest_to_hand(q, offset)
         if nearest is None:  # (_solid says some moving link has a shape, so pybullet found it)
             raise ValueError("no moving link of the robot has a collision shape")
         return float(nearest[8])
@@ -204,20 +206,29 @@ class SceneWorld:
         """The thesis's definition, or a robot whose moving links have no collision shapes."""
         return self.scene.distance == "ee_point" or not self._solid
 
-    def _nearest_to_hand(self, q: np.ndarray) -> tuple | None:
-        """pybullet's closest-point record of the robot's moving links to the hand at q. Looked for within FAR, and
-        where no link is that near (a robot that fell away in a simulation, say), within the farthest any link's box
-        reaches from the hand's: a distance, however large, is never made inf. None: no moving link has a shape."""
+    def _nearest_to_hand(self, q: np.ndarray, shift: np.ndarray | None = None) -> tuple | None:
+        """pybullet's closest-point record of the robot's moving links to the hand at q (moved by `shift`, m). Looked
+        for within FAR, and where no link is that near (a robot that fell away in a simulation, say), within the
+        farthest any link's box reaches from the hand's: a distance, however large, is never made inf. None: no
+        moving link has a shape."""
         self._set(q)
         cid, hand = self._client, self._obstacles["hand"]
-        points = p.getClosestPoints(self._body, hand, FAR, physicsClientId=cid)
-        nearest = min((c for c in points if c[3] in self._moving), key=lambda c: c[8], default=None)
-        if nearest is not None:
-            return nearest
-        boxes = [np.array(p.getAABB(self._body, link, physicsClientId=cid)) for link in self._moving]
-        centre, radius = self.scene.hand.position, float(np.linalg.norm(self.scene.hand.size))
-        farthest = max(float(np.linalg.norm(np.max(np.abs(box - centre), axis=0))) for box in boxes) + radius
-        points = p.getClosestPoints(self._body, hand, farthest, physicsClientId=cid)
+        offset = None if shift is None or not np.any(shift) else [float(v) for v in shift]
+        if offset is not None:  # for this query only: every other one measures to the scene's hand
+            p.resetBasePositionAndOrientation(hand, offset, [0.0, 0.0, 0.0, 1.0], physicsClientId=cid)
+        try:
+            points = p.getClosestPoints(self._body, hand, FAR, physicsClientId=cid)
+            nearest = min((c for c in points if c[3] in self._moving), key=lambda c: c[8], default=None)
+            if nearest is not None:
+                return nearest
+            boxes = [np.array(p.getAABB(self._body, link, physicsClientId=cid)) for link in self._moving]
+            centre = self.scene.hand.position + (np.zeros(3) if offset is None else np.asarray(offset))
+            radius = float(np.linalg.norm(self.scene.hand.size))
+            farthest = max(float(np.linalg.norm(np.max(np.abs(box - centre), axis=0))) for box in boxes) + radius
+            points = p.getClosestPoints(self._body, hand, farthest, physicsClientId=cid)
+        finally:
+            if offset is not None:
+                p.resetBasePositionAndOrientation(hand, [0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0], physicsClientId=cid)
         return min((c for c in points if c[3] in self._moving), key=lambda c: c[8], default=None)
 
     def end_effector(self, q: np.ndarray) -> np.ndarray:

@@ -42,6 +42,7 @@ class TrialRun:
         planned: PlannedApproach,
         hand_distance: Callable[[np.ndarray], float],
         deceleration: float = STOP_DECELERATION,
+        live_hand_distance: Callable[[np.ndarray], float] | None = None,
     ) -> None:
         if not planned.feasible:
             raise RunError(
@@ -51,6 +52,7 @@ class TrialRun:
         self.robot, self.planned, self.deceleration = robot, planned, deceleration
         self.stopped: StoppedMotion | None = None
         self._hand_distance = hand_distance
+        self._live_hand_distance = live_hand_distance or hand_distance
         self._states: list[tuple[float, np.ndarray]] = []
 
     @property
@@ -89,6 +91,12 @@ class TrialRun:
     def hand_distance(self, positions: np.ndarray) -> float:
         """The robot's distance to the hand at joint positions `positions`."""
         return self._hand_distance(positions)
+
+    def live_hand_distance(self, positions: np.ndarray) -> float:
+        """The robot's distance to the hand where it is now (a tracked hand's live place; the scene's without one), at
+        joint positions `positions`: what the distance floor is checked against during the motion. The measures keep
+        the scene's hand."""
+        return self._live_hand_distance(positions)
 
     def positions_at(self, time_s: float) -> np.ndarray:
         """The achieved joint positions recorded nearest `time_s` (s from the motion's start)."""

@@ -2,10 +2,12 @@
 stand-in of it), on wall time. rospy and actionlib.
 
 - No /clock: the link's clock is the wall clock, the time a driver stamps with. A move to a path's start has stamp
-  zero ("start at the controller's next update"). An approach is stamped START_LEAD ahead and a replacement
-  BRAKING_LEAD ahead: the controller starts it at its stamp, so the link knows when the commanded path began (with
-  stamp zero, the goal's delivery delay would count as tracking error), and a start in the past drops its first
-  points.
+  zero ("start at the controller's next update"). An approach is stamped START_LEAD ahead and a replacement a
+  lead ahead of its preparation measured on this connection (sim.study.run.links.lead: query_state's round trip,
+  the stop's planning and a goal's delivery, each its high quantile, summed with a margin, within a floor and a
+  ceiling; said on stderr at every stop): the controller starts it at its stamp, so the link knows when the
+  commanded path began (with stamp zero, the goal's delivery delay would count as tracking error), and a start in
+  the past drops its first points.
 - An approach is one follow_joint_trajectory goal of the planned samples (positions, velocities, accelerations).
 - A press is a replacement: sim.study.safety.braking's stop along the path at the runner's deceleration, from the
   controller's desired state at the replacement's start (query_state), continuous in position, velocity and
@@ -27,6 +29,7 @@ comes before its send_goal has returned).
 from __future__ import annotations
 
 import math
+import sys
 import threading
 import time
 from dataclasses import dataclass
@@ -39,15 +42,16 @@ from sim.control.scenarios import approach
 from sim.robots import RobotSpec
 from sim.study.run.links.base import AppliedPress, ApproachOutcome, Press, TakePress
 from sim.study.run.links.goals import GOAL_STATUS, CommandedPath, GoalPoints, goal_points, speed_fell
+from sim.study.run.links.lead import StopLead
 from sim.study.run.links.specs import TrajectoryLinkSpec
 from sim.study.run.trial import TrialRun
 from sim.study.safety.braking import STOP_JERK, Braking, PathGeometry, brake
 from sim.wire.contract import MessageError, positions_by_name
 
-__all__ = ["BRAKING_LEAD", "START_LEAD", "JointFeed", "TrajectoryLink"]
+__all__ = ["START_LEAD", "QUERY_PROBES", "JointFeed", "TrajectoryLink"]
 
 START_LEAD = 0.1  # s: an approach starts this far ahead of its sending: longer than a goal takes to arrive
-BRAKING_LEAD = 0.03  # s: a replacement starts this far ahead of its sending (its stamp must not have passed)
+QUERY_PROBES = 10  # query_state round trips measured at connect, before any stop needs one
 POLL = 0.01  # s: the longest wait for a joint state between looks at the presses and the goal
 RESULT_GRACE = 5.0  # s after a motion's planned end that the controller may take to end its goal
 SUCCEEDED = 3
@@ -129,14 +133,13 @@ class TrajectoryLink:
         import actionlib
         import rospy
         from sensor_msgs.msg import JointState
-        from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
-        from sim.wire.control_types import control_types
+        from sim.wire.control_types import control_types, joint_trajectory
 
         self.rospy, self.robot, self.spec, self.dt, self.stop = rospy, robot, spec, dt, stop
         self.name = spec.label
         self.types = control_types()
-        self._trajectory_type, self._point_type = JointTrajectory, JointTrajectoryPoint
+        self._joint_trajectory = joint_trajectory
         ns = spec.namespace
         self.client = actionlib.ActionClient(f"{ns}/follow_joint_trajectory", self.types.action)
         # persistent: a stop's query must not wait for the master's lookup and a new connection
@@ -147,6 +150,9 @@ class TrajectoryLink:
         )
         self._target = robot.home.copy()
         self._handles: list[Any] = []  # actionlib tracks a goal while its handle lives
+        self.lead = StopLead()  # the delays measured on this connection, and the stops' lead they give
+        self._lead_lock = threading.Lock()  # goals' deliveries are measured on actionlib's threads
+        self._connected = False
 
     # --- RobotLink -------------------------------------------------------------------------------------------
     @property
@@ -179,8 +185,11 @@ class TrajectoryLink:
             self.query.wait_for_service(timeout)
         except self.rospy.ROSException:
             raise ControllerError(f"no service {ns}/query_state within {timeout:g} s") from None
+        for _ in range(QUERY_PROBES):
+            self._query(time.time())
         if self.feed.wait(-math.inf, timeout, self.stop) is None:
             raise ControllerError(f"no joint state on {self.spec.joint_states_topic} within {timeout:g} s")
+        self._connected = True
         return ns
 
     def start(self, timeout: float) -> np.ndarray:
@@ -224,6 +233,7 @@ class TrajectoryLink:
         commanded = CommandedPath()
         first = self._latest()
         run.record_state(0.0, first.positions)
+        self._time_planning(geometry, run)
         start = time.time() + START_LEAD
         handle, _ = self._send(points, start)
         commanded.add(start, np.concatenate([[0.0], points.times]), np.vstack([planned.positions[0], points.positions]))
@@ -297,6 +307,9 @@ class TrajectoryLink:
         )
 
     def close(self) -> None:
+        if self._connected:  # the lead the session ended with, for the lab's record
+            with self._lead_lock:
+                _say(f"{self.name}: a stop would now be stamped {self.lead.choose().describe()}")
         self.subscriber.unregister()
         self.query.close()
         self._handles.clear()
@@ -319,7 +332,7 @@ class TrajectoryLink:
             return f"joint states stale: none for {age:.3f} s (limit {self.spec.stale_after:g} s)"
         if tracking > self.spec.tracking_tolerance:
             return f"tracking error {tracking:.4f} rad over the tolerance {self.spec.tracking_tolerance:g} rad"
-        distance = run.hand_distance(latest.positions)
+        distance = run.live_hand_distance(latest.positions)
         if distance < self.spec.floor:
             return f"achieved distance to the hand {distance:.4f} m under the floor {self.spec.floor:g} m"
         if self._done(handle):
@@ -328,25 +341,58 @@ class TrajectoryLink:
                 return f"the controller ended the goal {GOAL_STATUS.get(status, status)} ({code}): {text}"
         return ""
 
-    def _brake(self, geometry: PathGeometry, run: TrialRun, commanded: CommandedPath) -> tuple[Braking | None, float]:
-        """The replacement: braking from the controller's desired state BRAKING_LEAD from now; (None, now) when the
-        plan comes to rest sooner (it goes on)."""
-        at = time.time() + BRAKING_LEAD
+    def _query(self, at: float) -> Any:
+        """query_state's answer for wall time `at`, its round trip measured for the stops' lead."""
+        asked = time.time()
         try:
             desired = self.query(self.rospy.Time.from_sec(at))
         except (self.rospy.ServiceException, self.rospy.ROSException) as error:
             raise ControllerError(f"{self.spec.namespace}/query_state failed: {error}") from None
+        with self._lead_lock:
+            self.lead.add("query", time.time() - asked)
+        return desired
+
+    def _time_planning(self, geometry: PathGeometry, run: TrialRun) -> None:
+        """Plan a stop from the approach's fastest state (the longest stop) and keep how long it took: this machine's
+        planning time now, before a press needs it."""
+        planned = run.planned
+        k = int(np.argmax(planned.path.speeds))
+        accelerations = np.gradient(planned.velocities, run.dt, axis=0)[k]
+        began = time.time()
+        brake(
+            geometry, planned.positions[k], planned.velocities[k], accelerations, self.dt, run.deceleration, STOP_JERK
+        )
+        with self._lead_lock:
+            self.lead.add("planning", time.time() - began)
+
+    def _brake(
+        self, geometry: PathGeometry, run: TrialRun, commanded: CommandedPath
+    ) -> tuple[Braking | None, float, float]:
+        """The replacement: braking from the controller's desired state a measured lead from now. (The braking,
+        when it was sent, its stamp); (None, now, its stamp) when the plan comes to rest sooner (it goes on)."""
+        began = time.time()
+        with self._lead_lock:
+            choice = self.lead.choose()
+        at = began + choice.lead
+        desired = self._query(at)
+        planning = time.time()
         q = positions_by_name(desired.name, desired.position, self.robot.joint_names)
         qd = positions_by_name(desired.name, desired.velocity, self.robot.joint_names)
         qdd = positions_by_name(desired.name, desired.acceleration, self.robot.joint_names)
         stop = brake(geometry, q, qd, qdd, self.dt, run.deceleration, STOP_JERK)
         if stop is None or len(stop.times) < 2:  # the plan rests sooner, or it rests already
-            return None, time.time()
+            return None, time.time(), at
         points = GoalPoints(stop.times[1:], stop.positions[1:], stop.velocities[1:], stop.accelerations[1:])
         _, sent = self._send(points, at)
+        with self._lead_lock:
+            self.lead.add("planning", sent - planning)
+        _say(
+            f"{self.name}: a stop stamped {choice.describe()}; sent {(sent - began) * 1e3:.1f} ms after its "
+            f"preparation began ({'before' if sent < at else 'AFTER'} its stamp)"
+        )
         commanded.add(at, stop.times, stop.positions)
         self._target = stop.positions[-1].copy()
-        return stop, sent
+        return stop, sent, at
 
     def _stop_approach(
         self, geometry: PathGeometry, run: TrialRun, commanded: CommandedPath, start: float, first: FedState
@@ -354,9 +400,9 @@ class TrajectoryLink:
         """The approach's replacement: braking, or a hold where the arm waits when the approach (starting at
         `start`) has not begun. (Its handle, the braking, when it was sent, when it ends); handle None when the plan
         comes to rest sooner on its own."""
-        braking, sent_at = self._brake(geometry, run, commanded)
+        braking, sent_at, at = self._brake(geometry, run, commanded)
         if braking is not None:
-            return self._handles[-1], braking, sent_at, sent_at + BRAKING_LEAD + braking.duration
+            return self._handles[-1], braking, sent_at, at + braking.duration
         if sent_at < start:
             handle, sent_at = self._hold(commanded, first.positions)
             return handle, None, sent_at, sent_at
@@ -377,22 +423,29 @@ class TrajectoryLink:
 
     def _send(self, points: GoalPoints, stamp: float) -> tuple[Any, float]:
         """A goal of `points` stamped `stamp` (0: the controller's next update); its handle and when it was sent."""
-        message = self._trajectory_type()
-        message.header.stamp = self.rospy.Time.from_sec(stamp) if stamp > 0 else self.rospy.Time(0)
-        message.joint_names = list(self.robot.joint_names)
-        for k in range(len(points.times)):
-            point = self._point_type()
-            point.positions = points.positions[k].tolist()
-            point.velocities = points.velocities[k].tolist()
-            point.accelerations = points.accelerations[k].tolist()
-            point.time_from_start = self.rospy.Duration.from_sec(float(points.times[k]))
-            message.points.append(point)
         goal = self.types.goal()
-        goal.trajectory = message
+        goal.trajectory = self._joint_trajectory(
+            self.robot.joint_names, points.times, points.positions, points.velocities, points.accelerations, stamp
+        )
         sent = time.time()
-        handle = self.client.send_goal(goal)
+        handle = self.client.send_goal(goal, transition_cb=self._delivered(sent))
         self._handles.append(handle)
         return handle, sent
+
+    def _delivered(self, sent: float) -> Any:
+        """actionlib's transition callback for a goal sent at `sent`: the first status of it from the controller
+        (accepted, or refused) ends its delivery, measured for the stops' lead."""
+        from actionlib import CommState
+
+        heard = threading.Event()
+
+        def transition(handle: Any) -> None:
+            if handle.get_comm_state() != CommState.WAITING_FOR_GOAL_ACK and not heard.is_set():
+                heard.set()
+                with self._lead_lock:
+                    self.lead.add("delivery", time.time() - sent)
+
+        return transition
 
     @staticmethod
     def _done(handle: Any) -> bool:
@@ -417,3 +470,7 @@ def _applied(press: Press, now: float) -> tuple[AppliedPress, float]:
         late = max(now - press.stamp, 0.0)
         return AppliedPress(press.source, late, press.input_delay, press.arrival_delay), press.stamp
     return AppliedPress(press.source, 0.0, press.input_delay, math.nan), arrived
+
+
+def _say(text: str) -> None:
+    print(f"sim.study run: {text}", file=sys.stderr, flush=True)

@@ -4,9 +4,10 @@ from __future__ import annotations
 
 import io
 
+import numpy as np
 import pytest
 
-from sim.wire.control_types import ControlTypesError, action_messages, control_types
+from sim.wire.control_types import ControlTypesError, action_messages, control_types, joint_trajectory
 
 # The md5sums of control_msgs 1.5 (ROS Noetic), as its generated code (rosserial's headers among others) publishes
 # them: a client of a real ros_control controller agrees on these or rospy refuses the connection.
@@ -59,3 +60,38 @@ def test_an_action_expands_into_its_seven_messages() -> None:
 def test_an_action_without_three_sections_is_refused() -> None:
     with pytest.raises(ControlTypesError, match="Move.action has 2 sections"):
         action_messages("Move", "float64 x\n---\nint32 code\n")
+
+
+def test_a_joint_trajectory_carries_every_sample_and_its_stamp() -> None:
+    times = np.array([0.01, 0.02])
+    q = np.array([[0.1, 0.2], [0.3, 0.4]])
+    message = joint_trajectory(("a", "b"), times, q, 2 * q, 3 * q, stamp=12.5)
+    buffer = io.BytesIO()
+    message.serialize(buffer)  # the wire's form: what a controller receives
+    back = type(message)().deserialize(buffer.getvalue())
+    assert back.joint_names == ["a", "b"] and back.header.stamp.to_sec() == 12.5
+    assert [p.time_from_start.to_sec() for p in back.points] == [0.01, 0.02]
+    assert [list(p.positions) for p in back.points] == q.tolist()
+    assert [list(p.velocities) for p in back.points] == (2 * q).tolist()
+    assert [list(p.accelerations) for p in back.points] == (3 * q).tolist()
+
+
+def test_a_joint_trajectory_stamped_zero_or_empty_or_of_positions_only() -> None:
+    hold = joint_trajectory(("a",), np.zeros(0), np.zeros((0, 1)))
+    assert hold.header.stamp.is_zero() and hold.points == []  # "hold": start at the next update, no points
+    (point,) = joint_trajectory(("a",), [1.0], [[0.5]]).points
+    assert list(point.positions) == [0.5] and list(point.velocities) == [] and list(point.accelerations) == []
+
+
+@pytest.mark.parametrize(
+    ("arguments", "said"),
+    [
+        ((("a", "b"), [1.0], [[0.1]]), "positions must be 1 points of 2 joints, got shape (1, 1)"),
+        ((("a",), [1.0, 2.0], [[0.1], [0.2]], [[0.0]]), "velocities must be 2 points of 1 joints"),
+        ((("a",), [1.0], [[float("nan")]]), "must be finite"),
+        ((("a",), [1.0], [[0.1]], None, None, -1.0), "stamp >= 0), got -1.0"),
+    ],
+)
+def test_a_joint_trajectory_of_the_wrong_shape_or_not_finite_is_refused(arguments: tuple, said: str) -> None:
+    with pytest.raises(ControlTypesError, match=said.replace("(", r"\(").replace(")", r"\)")):
+        joint_trajectory(*arguments)

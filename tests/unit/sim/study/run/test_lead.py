@@ -1,0 +1,67 @@
+"""A braking replacement's lead from the delays a link measured: each part's high quantile summed plus a margin,
+within a floor and a ceiling."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from sim.study.run.errors import RunError
+from sim.study.run.links.lead import CEILING, FLOOR, MARGIN, StopLead
+
+
+def measured(query: list[float], planning: list[float], delivery: list[float], **options: float) -> StopLead:
+    lead = StopLead(**options)
+    for part, samples in (("query", query), ("planning", planning), ("delivery", delivery)):
+        for seconds in samples:
+            lead.add(part, seconds)
+    return lead
+
+
+def test_the_lead_is_each_parts_worst_so_far_summed_plus_the_margin() -> None:
+    chosen = measured([0.002, 0.004], [0.010], [0.003, 0.020, 0.005]).choose()
+    assert chosen.lead == pytest.approx(0.004 + 0.010 + 0.020 + MARGIN)
+    assert chosen.limited == "" and chosen.samples == {"query": 2, "planning": 1, "delivery": 3}
+    assert chosen.describe().startswith(f"{chosen.lead * 1e3:.1f} ms: p99 query 4.0 ms of 2, planning 10.0 ms of 1")
+
+
+def test_with_enough_samples_the_lead_takes_the_quantile_and_a_rare_outlier_falls_out() -> None:
+    lead = measured([0.001] * 200, [0.002] * 200, [0.003] * 199 + [0.5], quantile=0.99)
+    assert lead.part("delivery") == 0.003  # 1 of 200 is above the 99th percentile
+    lead.add("delivery", 0.4)
+    lead.add("delivery", 0.45)
+    assert lead.part("delivery") == 0.4  # 3 of 202: the 99th percentile is among them
+    assert lead.choose().lead == CEILING  # 0.408 s wanted
+
+
+def test_a_lead_is_held_within_its_floor_and_ceiling() -> None:
+    quick = measured([1e-4], [1e-4], [1e-4]).choose()
+    assert (quick.lead, quick.limited) == (FLOOR, "floor")
+    slow = measured([0.1], [0.1], [0.2]).choose()
+    assert (slow.lead, slow.limited) == (CEILING, "ceiling") and "(held at the ceiling)" in slow.describe()
+
+
+def test_a_part_not_yet_measured_gives_the_ceiling() -> None:
+    chosen = measured([0.001], [], [0.002]).choose()
+    assert (chosen.lead, chosen.limited) == (CEILING, "no planning measured")
+    assert math.isnan(chosen.parts["planning"]) and "planning unmeasured" in chosen.describe()
+
+
+def test_only_the_latest_samples_are_kept() -> None:
+    lead = measured([0.001], [0.001], [0.2] + [0.003] * 10, kept=10)
+    assert lead.part("delivery") == 0.003  # the early slow one has gone
+
+
+@pytest.mark.parametrize(
+    ("part", "seconds", "said"),
+    [("network", 0.1, "not 'network'"), ("query", -0.001, "got -0.001"), ("delivery", math.nan, "got nan")],
+)
+def test_a_delay_that_is_no_delay_is_refused(part: str, seconds: float, said: str) -> None:
+    with pytest.raises(RunError, match=said):
+        StopLead().add(part, seconds)
+
+
+def test_bounds_that_make_no_lead_are_refused() -> None:
+    with pytest.raises(RunError, match=r"0 < floor <= ceiling, got 0.99, 0.005, \[0.3, 0.2\]"):
+        StopLead(floor=0.3, ceiling=0.2)
