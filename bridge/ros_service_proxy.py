@@ -99,14 +99,17 @@ class RawServiceProxy:
                     "lookupService",
                     rospy.get_caller_id(),
                     self.service,
-                    timeout_s=max(0.01, min(MASTER_TIMEOUT_S, _remaining(deadline))),
+                    timeout_s=max(0.01, min(MASTER_TIMEOUT_S, deadline - time.monotonic())),
                 )
                 return uri
             except MasterRefused:
                 why = "is not available"  # not advertised (yet)
             except MasterError as error:
                 why = f"could not be looked up: {error}"
-            if abandoned.wait(min(SERVICE_POLL_S, _remaining(deadline))):
+            # The verdict is the master's answer, however late it came: a look-up that ended at or past the
+            # deadline (a slow master, a loaded machine) says why, never "did not answer".
+            remaining = deadline - time.monotonic()
+            if remaining > 0 and abandoned.wait(min(SERVICE_POLL_S, remaining)):
                 raise _Abandoned()
             if time.monotonic() >= deadline:
                 raise RosError(f"service {self.service} {why} (waited {timeout:g} s)")

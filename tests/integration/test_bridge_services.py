@@ -222,6 +222,18 @@ def test_missing_ros_service_gives_an_error_naming_it(bridge, ros_node) -> None:
     service.shutdown()
 
 
+def test_a_missing_service_is_named_missing_when_its_look_up_ends_past_the_deadline(ros_node) -> None:
+    # The master's "no such service" can come back after the call's deadline (a slow master, a loaded machine):
+    # the verdict is still that answer, not "did not answer". A deadline of 1 us has passed before any answer.
+    from bridge.ros_service_proxy import RawServiceProxy
+    from bridge.ros_types import RosError
+
+    missing = unique("late_missing")
+    proxy = RawServiceProxy(SetBool, missing, max_response_bytes=1024)
+    with pytest.raises(RosError, match=f"service {missing} is not available"):
+        proxy.call(serialize(SetBoolRequest(data=True)), 1e-6, threading.Event())
+
+
 def test_request_for_an_unregistered_service_is_refused(bridge) -> None:
     name = unique("unregistered")
     with RawConnection(bridge.port) as client:
