@@ -5,7 +5,8 @@ their meshes overlap), or touch in none of them (they cannot reach each other). 
 real fold of the arm onto itself is still found.
 
 `classify` is the pure decision; `self_contact` samples the robot in pybullet and caches the verdict by the hash of
-the URDF's text (with its meshes' paths resolved), so each robot pays for the sampling once.
+the robot's content (sim.robots.identity: its URDF, its meshes' bytes, its default pose), so each robot pays for the
+sampling once, in whichever folder its files lie.
 """
 
 from __future__ import annotations
@@ -21,6 +22,7 @@ import pybullet as p
 from sim.cache import entry_path, keep
 from sim.engine.physics import load_urdf_text
 from sim.robots import RobotSpec, find_ros_package
+from sim.robots.identity import robot_identity
 from sim.robots.meshes import resolve_shapes
 
 __all__ = [
@@ -162,10 +164,9 @@ def sample(robot: RobotSpec, urdf_text: str, samples: int = SAMPLES, seed: int =
 
 
 def self_contact(robot: RobotSpec, samples: int = SAMPLES) -> SelfContact:
-    """`robot`'s verdict, from the cache when this URDF (and the robot's default pose) was sampled before."""
-    urdf = robot.urdf_path
-    text, _ = resolve_shapes(urdf.read_text(encoding="utf-8"), urdf.parent, find_ros_package)
-    identity = json.dumps([_VERSION, samples, CONTACT_MARGIN, text, list(robot.joint_names), robot.home.tolist()])
+    """`robot`'s verdict, from the cache when this robot (by its content, robot_identity: its URDF, meshes and
+    default pose, wherever its files lie) was sampled before."""
+    identity = json.dumps([_VERSION, samples, CONTACT_MARGIN, robot_identity(robot)])
     path = entry_path("self_contact", identity, ".json")
     try:
         data = json.loads(path.read_text(encoding="utf-8"))
@@ -175,6 +176,8 @@ def self_contact(robot: RobotSpec, samples: int = SAMPLES) -> SelfContact:
         )
     except (OSError, ValueError, KeyError, TypeError):
         pass  # not cached yet, or unreadable: computed again
+    urdf = robot.urdf_path
+    text, _ = resolve_shapes(urdf.read_text(encoding="utf-8"), urdf.parent, find_ros_package)
     verdict = sample(robot, text, samples)
     data = {
         "robot": robot.name,

@@ -45,6 +45,7 @@ from sim import cache
 from sim.cache import entry_path
 from sim.geometry.kinematics import POSITION_WEIGHTS, KinematicChain, chain_for, solve_ik
 from sim.robots import RobotSpec
+from sim.robots.identity import robot_identity
 from sim.study.design.errors import DesignError
 from sim.study.design.feasibility import Approaches, Combination, check_holds_home, ik_attempts
 from sim.study.design.paths import SHAPES, approach_path, hand_frame
@@ -405,17 +406,9 @@ def _rounded(values: np.ndarray) -> list[float]:
 
 
 def _cache_path(robot: RobotSpec, template_text: str, combinations: Sequence[Combination], dt: float) -> Path:
-    """Where the proposal for this robot, template, design and step is kept."""
-    identity = json.dumps(
-        [
-            _VERSION,
-            robot.urdf_path.read_text(encoding="utf-8"),
-            list(robot.cli_args),
-            template_text,
-            sorted(set(combinations)),
-            dt,
-        ]
-    )
+    """Where the proposal for this robot (by its content, robot_identity: the same arm in another folder shares the
+    entry, an edited mesh does not), template, design and step is kept."""
+    identity = json.dumps([_VERSION, robot_identity(robot), template_text, sorted(set(combinations)), dt])
     return entry_path("scenes", identity, ".yaml")
 
 
@@ -438,7 +431,9 @@ def fitted_scene(
     DesignError, in one line, when nothing fits."""
     path = _cache_path(robot, template_text, combinations, dt)
     try:
-        return parse_scene(yaml.safe_load(path.read_text(encoding="utf-8")), str(path))
+        kept = parse_scene(yaml.safe_load(path.read_text(encoding="utf-8")), str(path))
+        # the entry may have been fitted to this arm found elsewhere: the scene names it as --robot gave it here
+        return dataclasses.replace(kept, robot=scene_robot_name(robot))
     except (OSError, yaml.YAMLError, DesignError):
         pass  # not fitted yet, or unreadable: fitted again
     fit = fit_scene(robot, template, combinations, dt, progress)

@@ -1,16 +1,31 @@
-"""sim.study.design.fit: an arm's proportions, the candidate scenes built from them, and a scene written and read
-back (the proposals themselves, with pybullet, are in tests/integration/test_study_arms.py)."""
+"""sim.study.design.fit: an arm's proportions, the candidate scenes built from them, a scene written and read back,
+and a proposal kept by the arm's content (the proposals themselves, with pybullet, are in
+tests/integration/test_study_arms.py)."""
 
 from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from sim.geometry.kinematics import chain_for
+from sim.robots import load_robot
+from sim.study.design import fit
 from sim.study.design.errors import DesignError
-from sim.study.design.fit import Proportions, candidate_scene, proportions, scene_to_data, tool_down_out_of_reach
-from sim.study.design.scene import load_scene, parse_scene, scene_robot
+from sim.study.design.fit import (
+    Proportions,
+    candidate_scene,
+    design_combinations,
+    proportions,
+    scene_to_data,
+    tool_down_out_of_reach,
+)
+from sim.study.design.scene import DEFAULT_SCENE, load_scene, parse_scene, scene_robot
+from sim.study.design.spec import load_design
 from sim.wire.contract import STEP_S
+from tests.study_arms import STUDY_ARMS, write_arm
 
 TEMPLATE = load_scene()
 PANDA = scene_robot(TEMPLATE)
@@ -91,3 +106,29 @@ def test_a_wrist_beyond_its_reach_with_the_tool_down_rules_a_candidate_out_with_
     # a wrist just beyond the estimated reach is left to IK (the reach is sampled, a little short of the truth)
     edge = Proportions(found.shoulder, wrist - 0.02 + 0.165, 0.165)
     assert tool_down_out_of_reach(whole, edge, vertical, STEP_S) == ""
+
+
+def test_a_fitted_scene_is_kept_by_the_arms_content_shared_across_folders_and_not_past_an_edited_mesh(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    monkeypatch.setenv("VR_SIM_CACHE", str(tmp_path / "cache"))
+    design = next(design for design in STUDY_ARMS if design.overlapping_meshes)
+    here, there = (load_robot(str(write_arm(tmp_path / folder, design))) for folder in ("here", "there"))
+    combinations, text = design_combinations(load_design()), DEFAULT_SCENE.read_text(encoding="utf-8")
+    proposal = candidate_scene(TEMPLATE, here, 0.6, 0.0)
+    fit.keep(dataclasses.replace(proposal, robot=str(here.urdf_path)), here, text, combinations, STEP_S)
+    assert len(list((tmp_path / "cache" / "scenes").glob("*.yaml"))) == 1
+
+    def fitting(*_args: object, **_kwargs: object) -> fit.Fit:
+        raise AssertionError("fitted again")
+
+    monkeypatch.setattr(fit, "fit_scene", fitting)
+    kept = fit.fitted_scene(there, TEMPLATE, text, combinations, STEP_S)  # the same arm elsewhere: the same entry
+    assert kept.robot == str(there.urdf_path)  # named as this command gave it
+    assert kept.hand.position == pytest.approx(proposal.hand.position, abs=1e-6)
+    mesh = there.urdf_path.parent / "meshes" / "link2.stl"
+    mesh.write_bytes(mesh.read_bytes() + b"\0")
+    with pytest.raises(AssertionError, match="fitted again"):
+        fit.fitted_scene(there, TEMPLATE, text, combinations, STEP_S)
+    with pytest.raises(AssertionError, match="fitted again"):  # another template is another entry too
+        fit.fitted_scene(here, TEMPLATE, text + "\n", combinations, STEP_S)
