@@ -52,6 +52,7 @@ __all__ = [
     "untracked_time",
     "position_at",
     "hand_under_robot",
+    "nearest_hand",
     "withdrawal_end",
     "withdrawal",
     "motion_measures",
@@ -169,14 +170,23 @@ def _first_place(track: Track, window: Window, gap: float) -> np.ndarray | None:
 def hand_under_robot(tracks: Mapping[str, Track], window: Window, hand_point: np.ndarray, gap: float) -> str:
     """The hand (of HANDS) nearest `hand_point` (the scene's hand, world) as the approach starts, within
     HAND_RADIUS; "" when none is."""
-    found = []
+    places = {}
     for name in HANDS:
         track = tracks.get(name)
         place = _first_place(track, window, gap) if track is not None and len(track) else None
         if place is not None:
-            distance = float(np.linalg.norm(place - hand_point))
-            if distance <= HAND_RADIUS:
-                found.append((distance, name))
+            places[name] = place
+    return nearest_hand(places, hand_point)
+
+
+def nearest_hand(places: Mapping[str, np.ndarray], hand_point: np.ndarray, radius: float = HAND_RADIUS) -> str:
+    """Of the hands (HANDS) in `places` (world), the one nearest `hand_point` within `radius`; "" when none is."""
+    found = [
+        (float(np.linalg.norm(np.asarray(places[name], dtype=float) - hand_point)), name)
+        for name in HANDS
+        if name in places
+    ]
+    found = [(distance, name) for distance, name in found if distance <= radius]
     return min(found)[1] if found else ""
 
 

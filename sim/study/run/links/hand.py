@@ -16,7 +16,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from sim.study.motion.measures import HAND_RADIUS, HANDS
+from sim.study.motion.measures import HAND_RADIUS, nearest_hand
 
 __all__ = ["LiveHand"]
 
@@ -35,15 +35,9 @@ class LiveHand:
         """(3,) m, world: how far the hand under the robot has moved since it was first seen; `latest` holds each
         tracked body's latest place (bodies not seen are left out)."""
         if not self.body:
-            near = [
-                (float(np.linalg.norm(np.asarray(latest[name], dtype=float) - self.hand_point)), name)
-                for name in HANDS
-                if name in latest
-            ]
-            near = [(distance, name) for distance, name in near if distance <= self.radius]
-            if not near:
+            self.body = nearest_hand(latest, self.hand_point, self.radius)
+            if not self.body:
                 return self._shift.copy()
-            self.body = min(near)[1]
             self._origin = np.asarray(latest[self.body], dtype=float).copy()
         if self.body in latest:
             self._shift = np.asarray(latest[self.body], dtype=float) - self._origin
