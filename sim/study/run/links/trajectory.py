@@ -32,6 +32,7 @@ import math
 import sys
 import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -48,7 +49,7 @@ from sim.study.run.trial import TrialRun
 from sim.study.safety.braking import STOP_JERK, Braking, PathGeometry, brake
 from sim.wire.contract import MessageError, positions_by_name
 
-__all__ = ["START_LEAD", "QUERY_PROBES", "JointFeed", "TrajectoryLink"]
+__all__ = ["START_LEAD", "QUERY_PROBES", "JointFeed", "TrajectoryLink", "await_goal_end"]
 
 START_LEAD = 0.1  # s: an approach starts this far ahead of its sending: longer than a goal takes to arrive
 QUERY_PROBES = 10  # query_state round trips measured at connect, before any stop needs one
@@ -122,6 +123,28 @@ class JointFeed:
                     return None
                 self._changed.wait(min(remaining, 0.1))
         return None
+
+
+def await_goal_end(
+    feed: JointFeed, done: Callable[[], bool], sent: float, deadline: float, stale_after: float, stop: threading.Event
+) -> None:
+    """Until `done()` holds for a goal sent at wall time `sent`: looked at on each new joint state and at least every
+    POLL s, never in a spin (a runner spinning on a core starves the arm's driver, or its stand-in, beside it).
+    ControllerError when the feed goes stale, when stopped, or when the goal is not done by wall time `deadline`."""
+    looked = sent
+    while not done():
+        state = feed.wait(looked, POLL, stop)  # a state newer than the last one looked at, or POLL s without one
+        if stop.is_set():
+            raise ControllerError("interrupted")
+        if state is not None:
+            looked = state.arrival
+        latest = feed.latest()
+        now = time.time()
+        if latest is None or now - latest.arrival > stale_after:
+            age = "none yet" if latest is None else f"none for {now - latest.arrival:.3f} s"
+            raise ControllerError(f"joint states stale for over {stale_after:g} s on the way to a start ({age})")
+        if now > deadline:
+            raise ControllerError(f"the controller did not end the move to the start within {RESULT_GRACE:g} s")
 
 
 class TrajectoryLink:
@@ -212,15 +235,10 @@ class TrajectoryLink:
         points = goal_points(samples, speeds, self.dt)
         handle, sent = self._send(points, 0.0)
         self._target = np.asarray(positions, dtype=float).copy()
-        deadline = sent + points.duration + RESULT_GRACE
-        while not self._done(handle):
-            state = self.feed.wait(time.time() - self.spec.stale_after, POLL, self.stop)
-            if self.stop.is_set():
-                raise ControllerError("interrupted")
-            if state is None or time.time() - state.arrival > self.spec.stale_after:
-                raise ControllerError(f"joint states stale for over {self.spec.stale_after:g} s on the way to a start")
-            if time.time() > deadline:
-                raise ControllerError(f"the controller did not end the move to the start within {RESULT_GRACE:g} s")
+        await_goal_end(
+            self.feed, lambda: self._done(handle), sent, sent + points.duration + RESULT_GRACE, self.spec.stale_after,
+            self.stop,
+        )  # fmt: skip
         status, code, text = self._outcome(handle)
         if status != SUCCEEDED:
             raise ControllerError(f"the move to the path's start ended {GOAL_STATUS.get(status)} ({code}): {text}")
