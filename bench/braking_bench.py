@@ -54,7 +54,7 @@ from sim.processes import RosCore
 from sim.robots import load_robot
 from sim.study.design.paths import ON_TOP, ApproachPath
 from sim.study.design.scene import load_scene
-from sim.study.run.links.lead import StopLead
+from sim.study.run.links.lead import Leads
 from sim.study.safety.braking import Braking, PathGeometry, PathState, arc_length, brake
 from sim.study.safety.errors import SafetyError
 from sim.study.safety.kinematic_plan import kinematic_plan
@@ -122,7 +122,7 @@ class Client:
         rospy.wait_for_service(f"{NS}/query_state", 30)
         self.query = rospy.ServiceProxy(f"{NS}/query_state", self.types.query_state, persistent=True)
         self._handles: list[Any] = []
-        self.lead = StopLead()  # the delays measured, as the study's link keeps them
+        self.lead = Leads()  # the delays measured, as the study's link keeps them
         self.delays: dict[str, list[float]] = {"query": [], "planning": [], "delivery": []}
         for _ in range(QUERY_PROBES):
             self.query_at(time.time())

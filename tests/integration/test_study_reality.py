@@ -210,6 +210,8 @@ def test_a_session_runs_vr_on_the_stream_and_reality_on_the_trajectory_controlle
     # The achieved distance runs from the press, the planned one from the stop's stamp, the measured lead after it
     # (said above): the arm ran on for that long, at most at the approach's 0.2 m/s
     lead = float(said[0].split("a stop stamped ")[1].split(" ms")[0]) / 1e3
+    assert float(reality["stop_lead"]) == pytest.approx(lead, abs=5e-5)  # the one said, as recorded (0.1 ms shown)
+    assert 0.01 <= float(reality["start_lead"]) <= 0.25 and vr["start_lead"] == vr["stop_lead"] == ""
     assert planned > 0.005 and planned - 0.01 < achieved < planned + 0.2 * lead + 0.01, (lead, said[0])
     rest = watch.resting_positions()
     assert hand_distance(rest) == pytest.approx(float(reality["distance_at_rest"]), abs=0.002)

@@ -1,8 +1,8 @@
 """What the robot's trajectory controller did, per condition, from the records' link columns: the tracking error,
-the press-to-braking latency (to the replacement's sending, and to the first achieved state whose speed had fallen),
-the braking distance planned against achieved, the goals' results and the runner's own stops. Only conditions run on
-a trajectory controller (sim.study.run.links) have these; the stream's rows are left out. Pure: records in, lines
-out."""
+the leads its goals were stamped with (sim.study.run.links.lead), the press-to-braking latency (to the replacement's
+sending, and to the first achieved state whose speed had fallen), the braking distance planned against achieved, the
+goals' results and the runner's own stops. Only conditions run on a trajectory controller (sim.study.run.links) have
+these; the stream's rows are left out. Pure: records in, lines out."""
 
 from __future__ import annotations
 
@@ -34,13 +34,14 @@ def link_lines(records: Sequence[TrialRecord]) -> list[str]:
         "## The robot's trajectory controller",
         "",
         "Per condition run on a trajectory controller: each trial's largest joint error against the commanded path "
-        "(tracking, mrad), the press to the braking replacement's sending and to the first joint state whose speed "
-        "had fallen (ms), and the braking distance along the path, planned and achieved, with the achieved minus "
-        "the planned (mm). Medians / 95th percentiles.",
+        "(tracking, mrad), how far ahead of its sending the approach was stamped and ahead of its preparation the "
+        "stop was (the leads measured on the link, ms), the press to the braking replacement's sending and to the "
+        "first joint state whose speed had fallen (ms), and the braking distance along the path, planned and "
+        "achieved, with the achieved minus the planned (mm). Medians / 95th percentiles.",
         "",
-        "| condition | link | trials | goals | tracking | to replacement | to braking | braking planned | "
-        "braking achieved | achieved − planned | runner's stops |",
-        "|---|---|---|---|---|---|---|---|---|---|---|",
+        "| condition | link | trials | goals | tracking | start lead | stop lead | to replacement | to braking | "
+        "braking planned | braking achieved | achieved − planned | runner's stops |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for condition in dict.fromkeys(r.condition for r in controlled):
         rows = [r for r in controlled if r.condition == condition]
@@ -51,6 +52,7 @@ def link_lines(records: Sequence[TrialRecord]) -> list[str]:
         lines.append(
             f"| {condition} | {', '.join(dict.fromkeys(r.link for r in rows))} | {len(rows)} | {goals} | "
             f"{_cell([r.tracking_error for r in rows], 1000, 1)} | "
+            f"{_cell([r.start_lead for r in rows], 1000, 1)} | {_cell([r.stop_lead for r in rows], 1000, 1)} | "
             f"{_cell([r.replacement_latency for r in pressed], 1000, 1)} | "
             f"{_cell([r.braking_latency for r in pressed], 1000, 1)} | "
             f"{_cell([r.braking_distance for r in pressed], 1000, 1)} | "

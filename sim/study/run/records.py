@@ -2,8 +2,9 @@
 column, so the analysis never works on a half-written or edited-by-hand file without saying so.
 
 Distances are the end effector's (its FK from the achieved joint states) to the hand's surface, in metres. The
-press's latency columns, then the participant's motion (sim.study.motion), then the robot link's came last: a file
-written before any of them is still read, with them at their defaults (NaN, no tracked hand, the stream).
+press's latency columns, then the participant's motion (sim.study.motion), then the robot link's, then its goals'
+leads came last: a file written before any of them is still read, with them at their defaults (NaN, no tracked
+hand, the stream).
 """
 
 from __future__ import annotations
@@ -60,13 +61,18 @@ class TrialRecord:
     braking_latency: float = math.nan  # s from the press to the first joint state whose speed had fallen
     braking_distance_achieved: float = math.nan  # m along the path from the achieved state at the press to the rest
     safety_stop: str = ""  # why the runner stopped the arm on its own; "" when it did not
+    # How far ahead the controller's goals were stamped, measured on the link (sim.study.run.links.lead; NaN on the
+    # stream, and stop_lead without a stop):
+    start_lead: float = math.nan  # s from the approach's sending to its stamp
+    stop_lead: float = math.nan  # s from the braking replacement's preparation to its stamp
 
 
 _FIELDS = fields(TrialRecord)
 _NAMES = [field.name for field in _FIELDS]
-# The headers a file may have: the columns up to each group added later (the press's latency, the motion). A file
-# written before a group is read with that group's columns at their defaults.
-_HEADERS = [_NAMES[: _NAMES.index(first)] for first in ("press_input_delay", "tracked_hand", "link")] + [_NAMES]
+# The headers a file may have: the columns up to each group added later (the press's latency, the motion, the link,
+# its leads). A file written before a group is read with that group's columns at their defaults.
+_LATER_GROUPS = ("press_input_delay", "tracked_hand", "link", "start_lead")
+_HEADERS = [_NAMES[: _NAMES.index(first)] for first in _LATER_GROUPS] + [_NAMES]
 
 
 def write_records(path: Path, records: list[TrialRecord]) -> None:

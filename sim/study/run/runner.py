@@ -560,6 +560,8 @@ class StudyRunner:
             outcome.braking_began,
             outcome.braking_achieved,
             outcome.safety_stop,
+            outcome.start_lead,
+            outcome.stop_lead,
         )
         if outcome.safety_stop:
             self.safety_stops.append(f"trial {trial.index}: {outcome.safety_stop}")

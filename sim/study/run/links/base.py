@@ -52,6 +52,8 @@ class ApproachOutcome:
     braking_planned: float = math.nan  # m along the path: the replacement's braking distance
     braking_achieved: float = math.nan  # m along the path: from the achieved state at the press to the achieved rest
     safety_stop: str = ""  # why the runner stopped the arm on its own ("" when it did not)
+    start_lead: float = math.nan  # s the approach's goal was stamped ahead of its sending (sim.study.run.links.lead)
+    stop_lead: float = math.nan  # s the (last) braking replacement was stamped ahead of its preparation; NaN: none
 
 
 class RobotLink(Protocol):

@@ -1,4 +1,5 @@
-"""How far ahead a braking replacement is stamped, from the delays this session measured. Pure.
+"""How far ahead a link's goals are stamped, from the delays this session measured: a braking replacement, and an
+approach. Pure.
 
 A stop is a replacement stamped `lead` s after the moment its preparation begins: the controller starts it at its
 stamp, so the controller must have it by then. Sent later, the controller drops the points already due and bridges
@@ -17,6 +18,10 @@ it is measured on the link's own connection, in three parts:
 lead = each part's QUANTILE (the largest while a part has fewer than 1 / (1 - QUANTILE) samples) summed, plus MARGIN,
 within [FLOOR, CEILING]; CEILING while a part has no sample. A lead held at the ceiling is said: the stop will then
 likely come late.
+
+An approach is planned before it is sent, and its start's state is known, so only its delivery delays it: its lead
+is the same rule over the delivery alone (START). Too short, and the controller drops its first points and the
+delivery's delay counts as tracking error; too long only starts the approach later.
 """
 
 from __future__ import annotations
@@ -27,9 +32,11 @@ from dataclasses import dataclass
 
 from sim.study.run.errors import RunError
 
-__all__ = ["PARTS", "QUANTILE", "MARGIN", "FLOOR", "CEILING", "KEPT", "StopLead", "LeadChoice"]
+__all__ = ["PARTS", "STOP", "START", "QUANTILE", "MARGIN", "FLOOR", "CEILING", "KEPT", "Leads", "LeadChoice"]
 
 PARTS = ("query", "planning", "delivery")
+STOP = PARTS  # what a stop's preparation waits for
+START = ("delivery",)  # what an approach's start waits for
 QUANTILE = 0.99  # of each part's samples: a stop is rare and must not be late
 MARGIN = 0.005  # s on top: the sum's own scatter (the next delay may be the worst yet)
 FLOOR = 0.01  # s: no shorter, whatever was measured (a loopback's sub-millisecond round trips)
@@ -57,8 +64,8 @@ class LeadChoice:
         return f"{self.lead * 1e3:.1f} ms{said}: p{QUANTILE * 100:g} {parts}, margin {MARGIN * 1e3:g} ms"
 
 
-class StopLead:
-    """The measured delays of one link, and the lead they give."""
+class Leads:
+    """The measured delays of one link, and the leads they give."""
 
     def __init__(
         self,
@@ -94,9 +101,10 @@ class StopLead:
         ordered = sorted(samples)
         return ordered[math.ceil(self.quantile * (len(ordered) - 1))]  # the sample at or above the quantile
 
-    def choose(self) -> LeadChoice:
-        parts = {part: self.part(part) for part in PARTS}
-        samples = {part: len(self._samples[part]) for part in PARTS}
+    def choose(self, parts_waited_for: tuple[str, ...] = STOP) -> LeadChoice:
+        """The lead of a goal whose preparation waits for `parts_waited_for` (STOP or START)."""
+        parts = {part: self.part(part) for part in parts_waited_for}
+        samples = {part: len(self._samples[part]) for part in parts_waited_for}
         missing = [part for part, value in parts.items() if math.isnan(value)]
         if missing:
             return LeadChoice(self.ceiling, parts, samples, f"no {' or '.join(missing)} measured")

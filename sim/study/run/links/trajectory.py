@@ -2,12 +2,12 @@
 stand-in of it), on wall time. rospy and actionlib.
 
 - No /clock: the link's clock is the wall clock, the time a driver stamps with. A move to a path's start has stamp
-  zero ("start at the controller's next update"). An approach is stamped START_LEAD ahead and a replacement a
-  lead ahead of its preparation measured on this connection (sim.study.run.links.lead: query_state's round trip,
-  the stop's planning and a goal's delivery, each its high quantile, summed with a margin, within a floor and a
-  ceiling; said on stderr at every stop): the controller starts it at its stamp, so the link knows when the
-  commanded path began (with stamp zero, the goal's delivery delay would count as tracking error), and a start in
-  the past drops its first points.
+  zero ("start at the controller's next update"). An approach and a replacement are stamped ahead by leads
+  measured on this connection (sim.study.run.links.lead: a goal's delivery for an approach; query_state's round
+  trip, the stop's planning and the delivery for a stop; each its high quantile, summed with a margin, within a
+  floor and a ceiling; a stop's is said on stderr, and both are in the trial's record): the controller starts a
+  goal at its stamp, so the link knows when the commanded path began (with stamp zero, the goal's delivery delay
+  would count as tracking error), and a start in the past drops its first points.
 - An approach is one follow_joint_trajectory goal of the planned samples (positions, velocities, accelerations).
 - A press is a replacement: sim.study.safety.braking's stop along the path at the runner's deceleration, from the
   controller's desired state at the replacement's start (query_state), continuous in position, velocity and
@@ -43,15 +43,14 @@ from sim.control.scenarios import approach
 from sim.robots import RobotSpec
 from sim.study.run.links.base import AppliedPress, ApproachOutcome, Press, TakePress
 from sim.study.run.links.goals import GOAL_STATUS, CommandedPath, GoalPoints, goal_points, speed_fell
-from sim.study.run.links.lead import StopLead
+from sim.study.run.links.lead import START, Leads
 from sim.study.run.links.specs import TrajectoryLinkSpec
 from sim.study.run.trial import TrialRun
 from sim.study.safety.braking import STOP_JERK, Braking, PathGeometry, brake
 from sim.wire.contract import MessageError, positions_by_name
 
-__all__ = ["START_LEAD", "QUERY_PROBES", "JointFeed", "TrajectoryLink", "await_goal_end"]
+__all__ = ["QUERY_PROBES", "JointFeed", "TrajectoryLink", "await_goal_end"]
 
-START_LEAD = 0.1  # s: an approach starts this far ahead of its sending: longer than a goal takes to arrive
 QUERY_PROBES = 10  # query_state round trips measured at connect, before any stop needs one
 POLL = 0.01  # s: the longest wait for a joint state between looks at the presses and the goal
 RESULT_GRACE = 5.0  # s after a motion's planned end that the controller may take to end its goal
@@ -173,8 +172,9 @@ class TrajectoryLink:
         )
         self._target = robot.home.copy()
         self._handles: list[Any] = []  # actionlib tracks a goal while its handle lives
-        self.lead = StopLead()  # the delays measured on this connection, and the stops' lead they give
+        self.lead = Leads()  # the delays measured on this connection, and the leads they give
         self._lead_lock = threading.Lock()  # goals' deliveries are measured on actionlib's threads
+        self._stop_lead = math.nan  # s: the lead of the last stop planned
         self._connected = False
 
     # --- RobotLink -------------------------------------------------------------------------------------------
@@ -252,7 +252,9 @@ class TrajectoryLink:
         first = self._latest()
         run.record_state(0.0, first.positions)
         self._time_planning(geometry, run)
-        start = time.time() + START_LEAD
+        with self._lead_lock:
+            start_lead = self.lead.choose(START).lead
+        start = time.time() + start_lead
         handle, _ = self._send(points, start)
         commanded.add(start, np.concatenate([[0.0], points.times]), np.vstack([planned.positions[0], points.positions]))
         self._target = planned.positions[-1].copy()
@@ -261,6 +263,7 @@ class TrajectoryLink:
         press_at = math.nan
         braking: Braking | None = None
         replacement_sent = math.nan
+        stop_lead = math.nan
         reason = ""
         tracking = 0.0
         looked = start
@@ -286,6 +289,7 @@ class TrajectoryLink:
                     reason = why if press is None else ""
                     run.press(min(max(press_at - start, 0.0) * self.spec.speed_scale, planned.path.duration))
                     stop, braking, sent_at, stop_ends = self._stop_approach(geometry, run, commanded, start, first)
+                    stop_lead = self._stop_lead
                     if stop is not None:
                         handle, replacement_sent, ends = stop, sent_at - press_at, max(ends, stop_ends)
             elif handle is not self._handles[0] and self._refused(handle):
@@ -293,6 +297,7 @@ class TrajectoryLink:
                 # the approach goes on: stop it anew, from where it is now commanded to be.
                 commanded.discard_last()
                 stop, braking, sent_at, stop_ends = self._stop_approach(geometry, run, commanded, start, first)
+                stop_lead = self._stop_lead
                 handle = self._handles[0] if stop is None else stop
                 if stop is not None:
                     replacement_sent, ends = sent_at - press_at, max(ends, stop_ends)
@@ -322,6 +327,8 @@ class TrajectoryLink:
             braking_planned=braking.distance if braking is not None else math.nan,
             braking_achieved=achieved,
             safety_stop=reason,
+            start_lead=start_lead,
+            stop_lead=stop_lead,
         )
 
     def close(self) -> None:
@@ -391,6 +398,7 @@ class TrajectoryLink:
         began = time.time()
         with self._lead_lock:
             choice = self.lead.choose()
+        self._stop_lead = choice.lead
         at = began + choice.lead
         desired = self._query(at)
         planning = time.time()

@@ -1,5 +1,6 @@
 """sim.study.analysis.links on records of known values: per condition on a trajectory controller, the tracking
-error, the press-to-braking latencies and the braking distance planned against achieved; nothing for the stream."""
+error, the goals' leads, the press-to-braking latencies and the braking distance planned against achieved; nothing
+for the stream."""
 
 from __future__ import annotations
 
@@ -17,17 +18,22 @@ def test_only_conditions_on_a_trajectory_controller_are_reported_with_their_meas
         replace(
             PRESS, condition="reality", index=k, link=LINK, goal_result="SUCCEEDED", error_code=0,
             tracking_error=0.002 * k, replacement_latency=0.001 * k, braking_latency=0.030 + 0.001 * k,
-            braking_distance=0.020, braking_distance_achieved=0.020 + 0.001 * k,
+            braking_distance=0.020, braking_distance_achieved=0.020 + 0.001 * k, start_lead=0.010 + 0.001 * k,
+            stop_lead=0.020,
         )
         for k in (1, 2, 3)
     ]  # fmt: skip
-    stopped = replace(reality[0], index=4, pressed=False, goal_result="ABORTED", safety_stop="tracking error 0.2 rad")
+    stopped = replace(
+        reality[0], index=4, pressed=False, goal_result="ABORTED", safety_stop="tracking error 0.2 rad", stop_lead=0.030
+    )
     lines = link_lines([PRESS, *reality, stopped])
     (row,) = [line for line in lines if line.startswith("| reality |")]
     cells = [cell.strip() for cell in row.strip("|").split("|")]
     assert cells[:4] == ["reality", LINK, "4", "3 SUCCEEDED, 1 ABORTED"]
-    assert cells[5] == "2.0 / 2.9"  # to the replacement, ms: the pressed trials' 1, 2, 3
-    assert cells[6] == "32.0 / 32.9"
-    assert cells[7:11] == ["20.0 / 20.0", "22.0 / 22.9", "2.0 / 2.9", "1"]
+    assert cells[5] == "11.5 / 12.9"  # the start's lead, ms: every trial's 11, 12, 13, 11
+    assert cells[6] == "20.0 / 28.5"  # the stop's, ms: every stop's, the runner's own included (20, 20, 20, 30)
+    assert cells[7] == "2.0 / 2.9"  # to the replacement, ms: the pressed trials' 1, 2, 3
+    assert cells[8] == "32.0 / 32.9"
+    assert cells[9:13] == ["20.0 / 20.0", "22.0 / 22.9", "2.0 / 2.9", "1"]
     assert not any(line.startswith("| vr |") for line in lines)
     assert lines[-2] == "The runner stopped the arm on its own in trial 4 of participant 1: tracking error 0.2 rad."

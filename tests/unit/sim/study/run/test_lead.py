@@ -1,5 +1,5 @@
-"""A braking replacement's lead from the delays a link measured: each part's high quantile summed plus a margin,
-within a floor and a ceiling."""
+"""A braking replacement's lead, and an approach's, from the delays a link measured: each part's high quantile summed
+plus a margin, within a floor and a ceiling."""
 
 from __future__ import annotations
 
@@ -8,11 +8,11 @@ import math
 import pytest
 
 from sim.study.run.errors import RunError
-from sim.study.run.links.lead import CEILING, FLOOR, MARGIN, StopLead
+from sim.study.run.links.lead import CEILING, FLOOR, MARGIN, START, Leads
 
 
-def measured(query: list[float], planning: list[float], delivery: list[float], **options: float) -> StopLead:
-    lead = StopLead(**options)
+def measured(query: list[float], planning: list[float], delivery: list[float], **options: float) -> Leads:
+    lead = Leads(**options)
     for part, samples in (("query", query), ("planning", planning), ("delivery", delivery)):
         for seconds in samples:
             lead.add(part, seconds)
@@ -48,6 +48,14 @@ def test_a_part_not_yet_measured_gives_the_ceiling() -> None:
     assert math.isnan(chosen.parts["planning"]) and "planning unmeasured" in chosen.describe()
 
 
+def test_an_approachs_start_waits_for_its_delivery_alone() -> None:
+    lead = measured([0.030], [0.040], [0.006, 0.012])
+    chosen = lead.choose(START)
+    assert chosen.lead == pytest.approx(0.012 + MARGIN) and list(chosen.parts) == ["delivery"]
+    assert chosen.describe().endswith(f"p99 delivery 12.0 ms of 2, margin {MARGIN * 1e3:g} ms")
+    assert measured([0.030], [0.040], []).choose(START).limited == "no delivery measured"
+
+
 def test_only_the_latest_samples_are_kept() -> None:
     lead = measured([0.001], [0.001], [0.2] + [0.003] * 10, kept=10)
     assert lead.part("delivery") == 0.003  # the early slow one has gone
@@ -59,9 +67,9 @@ def test_only_the_latest_samples_are_kept() -> None:
 )
 def test_a_delay_that_is_no_delay_is_refused(part: str, seconds: float, said: str) -> None:
     with pytest.raises(RunError, match=said):
-        StopLead().add(part, seconds)
+        Leads().add(part, seconds)
 
 
 def test_bounds_that_make_no_lead_are_refused() -> None:
     with pytest.raises(RunError, match=r"0 < floor <= ceiling, got 0.99, 0.005, \[0.3, 0.2\]"):
-        StopLead(floor=0.3, ceiling=0.2)
+        Leads(floor=0.3, ceiling=0.2)

@@ -112,7 +112,7 @@ def test_a_missing_file_is_a_study_error(tmp_path: Path) -> None:
         read_records(tmp_path / "absent.csv")
 
 
-@pytest.mark.parametrize("first", ["press_input_delay", "tracked_hand"])
+@pytest.mark.parametrize("first", ["press_input_delay", "tracked_hand", "link", "start_lead"])
 def test_a_file_written_before_a_group_of_columns_is_read_with_them_at_their_defaults(
     tmp_path: Path, first: str
 ) -> None:
