@@ -237,7 +237,7 @@ def stopped_on_its_own(
     finally:
         kill_process(runner)
     assert runner.returncode == 5, output
-    assert f"trial 1: the arm was stopped: {why}" in output
+    assert f"trial 1: the arm was stopped: {why}" in output, output
     (row,) = read_csv(Path(watch.out) / f"participant_{participant:02d}.csv")
     assert row["safety_stop"].startswith(why) and row["pressed"] == "true"
     rest = hand_distance(watch.resting_positions(), robot)
