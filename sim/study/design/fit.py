@@ -302,12 +302,15 @@ def fit_scene(
 
 def _first_failure(robot: RobotSpec, scene: Scene, combinations: Sequence[Combination], dt: float) -> str:
     """Why the first combination that is not feasible in `scene` is not, planned in order; "" when all are. The
-    rest are not planned: one is enough to rule the candidate out, and planning is most of a proposal's time."""
+    rest are not planned: one is enough to rule the candidate out, and planning is most of a proposal's time. Where
+    all are, their plans are handed on (Approaches.hand_on): the command that asked for the scene plans the same
+    combinations in it next."""
     with Approaches(robot, scene, dt) as approaches:
         for name, standoff, speed in dict.fromkeys(combinations):
             approach = approaches.plan((name, standoff, speed))
             if not approach.feasible:
                 return f"{name} to {standoff} m at {speed} m/s fails: {approach.problems[0]}"
+        approaches.hand_on()
     return ""
 
 
