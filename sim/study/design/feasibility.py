@@ -356,9 +356,9 @@ class Approaches:
     def plan(self, combination: Combination) -> PlannedApproach:
         if combination not in self._planned:
             fitted = FITTED.take(self.key(combination)) if FITTED else None
-            self._planned[combination] = fitted or plan_combination(
-                self.robot, self.scene, combination, self.dt, self.world
-            )
+            if fitted is None:
+                fitted = plan_combination(self.robot, self.scene, combination, self.dt, self.world)
+            self._planned[combination] = fitted
         return self._planned[combination]
 
     def key(self, combination: Combination) -> str:
