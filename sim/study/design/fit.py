@@ -1,7 +1,8 @@
 """A scene that fits the robot: where the table and the hand go for this arm's reach and shoulder height, so that
 every combination of the design can be run. `python -m sim.study scene --robot X --out scene.yaml` proposes one;
 a study command given --robot and no --scene uses the same proposal (computed once per robot and design, kept in
-the cache beside the self-contact verdicts).
+the cache beside the self-contact verdicts), and takes the plans the fit made in it rather than planning them again
+(sim.study.design.verdicts).
 
 How. The bundled scene (the thesis's Panda) is tried first, with this robot on its base, as it is. Then the hand goes
 out
