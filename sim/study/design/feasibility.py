@@ -25,11 +25,13 @@ import numpy as np
 from sim.control.scenarios.defaults import controllable_weights
 from sim.geometry.kinematics import POSITION_WEIGHTS, KinematicChain, PathIKResult, chain_for, solve_ik, solve_path_ik
 from sim.robots import RobotSpec
+from sim.robots.identity import robot_identity
 from sim.study.design.errors import DesignError
 from sim.study.design.holding import holding_line, shortfalls
 from sim.study.design.paths import ApproachPath, approach_path
 from sim.study.design.scene import Scene
 from sim.study.design.tool import approach_rotation
+from sim.study.design.verdicts import Kept, verdict_key
 from sim.study.design.world import CONTACT_MARGIN, SceneWorld
 
 __all__ = [
@@ -42,6 +44,7 @@ __all__ = [
     "CONTACT_MARGIN",
     "STANDOFF_TOLERANCE",
     "Combination",
+    "FITTED",
     "PlannedApproach",
     "SceneWorld",
     "check_holds_home",
@@ -327,10 +330,17 @@ def plan_combination(
     return planned
 
 
+# The plans of the last scene fitted in this process (sim.study.design.verdicts): an Approaches of the same robot,
+# scene and step takes each of them instead of planning it again
+FITTED: Kept[PlannedApproach] = Kept()
+
+
 class Approaches:
     """The combinations of one robot in one scene, each planned when first asked for and kept, and the robot's
     distance to the hand by the scene's definition: what the runner, the simulated participant and the live view
-    share. It holds a SceneWorld (a pybullet client): close it."""
+    share. A combination the last fit planned for exactly this robot, scene and step is taken from it (FITTED), not
+    planned again; the drives holding the arm at home are checked here all the same. It holds a SceneWorld (a
+    pybullet client): close it."""
 
     def __init__(self, robot: RobotSpec, scene: Scene, dt: float) -> None:
         self.robot, self.scene, self.dt = robot, scene, dt
@@ -341,11 +351,26 @@ class Approaches:
             self.world.close()
             raise
         self._planned: dict[Combination, PlannedApproach] = {}
+        self._identity: str | None = None  # the robot's content, read when a key is first needed
 
     def plan(self, combination: Combination) -> PlannedApproach:
         if combination not in self._planned:
-            self._planned[combination] = plan_combination(self.robot, self.scene, combination, self.dt, self.world)
+            fitted = FITTED.take(self.key(combination)) if FITTED else None
+            if fitted is None:
+                fitted = plan_combination(self.robot, self.scene, combination, self.dt, self.world)
+            self._planned[combination] = fitted
         return self._planned[combination]
+
+    def key(self, combination: Combination) -> str:
+        """What a plan of `combination` here depends on, as FITTED's key (verdict_key)."""
+        if self._identity is None:
+            self._identity = robot_identity(self.robot)
+        return verdict_key(self._identity, self.scene, combination, self.dt)
+
+    def hand_on(self) -> None:
+        """Every combination planned here kept in FITTED (in place of what it held), for the next Approaches of
+        the same robot, scene and step: the fit's, for the command that asked for the scene."""
+        FITTED.keep({self.key(combination): planned for combination, planned in self._planned.items()})
 
     def plan_all(self, combinations: Iterable[Combination]) -> dict[Combination, PlannedApproach]:
         """Each distinct combination planned and checked once, in order."""

@@ -1,7 +1,8 @@
 """A scene that fits the robot: where the table and the hand go for this arm's reach and shoulder height, so that
 every combination of the design can be run. `python -m sim.study scene --robot X --out scene.yaml` proposes one;
 a study command given --robot and no --scene uses the same proposal (computed once per robot and design, kept in
-the cache beside the self-contact verdicts).
+the cache beside the self-contact verdicts), and takes the plans the fit made in it rather than planning them again
+(sim.study.design.verdicts).
 
 How. The bundled scene (the thesis's Panda) is tried first, with this robot on its base, as it is. Then the hand goes
 out
@@ -302,12 +303,15 @@ def fit_scene(
 
 def _first_failure(robot: RobotSpec, scene: Scene, combinations: Sequence[Combination], dt: float) -> str:
     """Why the first combination that is not feasible in `scene` is not, planned in order; "" when all are. The
-    rest are not planned: one is enough to rule the candidate out, and planning is most of a proposal's time."""
+    rest are not planned: one is enough to rule the candidate out, and planning is most of a proposal's time. Where
+    all are, their plans are handed on (Approaches.hand_on): the command that asked for the scene plans the same
+    combinations in it next."""
     with Approaches(robot, scene, dt) as approaches:
         for name, standoff, speed in dict.fromkeys(combinations):
             approach = approaches.plan((name, standoff, speed))
             if not approach.feasible:
                 return f"{name} to {standoff} m at {speed} m/s fails: {approach.problems[0]}"
+        approaches.hand_on()
     return ""
 
 
