@@ -75,6 +75,7 @@ from sim.study.motion.measures import (
     motion_measures,
     withdrawal_end,
 )
+from sim.study.run.console import say
 from sim.study.run.errors import RunError
 from sim.study.run.inputs import Inputs, answer_item
 from sim.study.run.links.base import Press, RobotLink
@@ -290,13 +291,13 @@ class StudyRunner:
         try:
             said = announcement_from_json(message.data)
         except StudyError as error:
-            _log(f"a tracker's announcement was refused: {error}")
+            say(f"a tracker's announcement was refused: {error}")
             return
         node = _publisher(message)
         for condition in said["conditions"]:
             before = self.announcers.get(condition)
             if before is not None and before != node:
-                _log(
+                say(
                     f"{condition}'s pose source is now {said['source']!r} (node {node}), was "
                     f"{self.announced[condition]['source']!r} (node {before}): only the latest's poses count"
                 )
@@ -316,7 +317,7 @@ class StudyRunner:
         if source is not None and node != source:
             if (condition, node) not in self._foreign_told:
                 self._foreign_told.add((condition, node))
-                _log(f"poses from node {node} dropped in {condition}'s trials: its announced pose source is {source}")
+                say(f"poses from node {node} dropped in {condition}'s trials: its announced pose source is {source}")
             return
         point = message.pose.position
         self.poses.add(body, message.header.stamp.to_sec(), message.header.frame_id, (point.x, point.y, point.z))
@@ -360,7 +361,7 @@ class StudyRunner:
                 # the observer answers the item asked now: the typed number names no item of its own
                 self.inputs.answer(Answer(self.asked.administration, self.asked.item, typed.answer))
             else:
-                print(f"sim.study run: {typed.text}", file=sys.stderr, flush=True)
+                say(typed.text)
 
     # --- time -----------------------------------------------------------------------------------------------
     @property
@@ -673,10 +674,6 @@ def _publisher(message: Any) -> str:
     return str(getattr(message, "_connection_header", {}).get("callerid", ""))
 
 
-def _log(text: str) -> None:
-    print(f"sim.study run: {text}", file=sys.stderr, flush=True)
-
-
 def run_node(
     robot: RobotSpec,
     scene: Scene,
@@ -714,18 +711,18 @@ def run_node(
     try:
         partner = runner.connect(connect_timeout, recorder_node if recorder else None)
         runner.wait_for_inputs(connect_timeout, recorder_node if recorder else None)
-        _log(
+        say(
             f"engine {partner} connected; participant {plan.participant}, {len(plan.trials)} trials, conditions "
             f"{' then '.join(plan.conditions)}"
         )
-        records = runner.run_session(records_path, _log)
+        records = runner.run_session(records_path, say)
         if recorder is not None:
             stop.wait(RECORDER_DRAIN)  # see RECORDER_DRAIN
     except ControllerError as error:
-        _log(f"error: {error}")
+        say(f"error: {error}")
         return EXIT_INTERRUPTED if stop.is_set() else EXIT_ROS
     except SafetyStopped as error:
-        _log(f"error: {error}")
+        say(f"error: {error}")
         print(f"records: {records_path}")
         return EXIT_SAFETY
     finally:

@@ -29,7 +29,6 @@ comes before its send_goal has returned).
 from __future__ import annotations
 
 import math
-import sys
 import threading
 import time
 from collections.abc import Callable
@@ -41,6 +40,7 @@ import numpy as np
 from sim.control.controller_node import ControllerError
 from sim.control.scenarios import approach
 from sim.robots import RobotSpec
+from sim.study.run.console import say
 from sim.study.run.links.base import AppliedPress, ApproachOutcome, Press, TakePress
 from sim.study.run.links.goals import GOAL_STATUS, CommandedPath, GoalPoints, goal_points, speed_fell
 from sim.study.run.links.lead import START, Leads
@@ -334,7 +334,7 @@ class TrajectoryLink:
     def close(self) -> None:
         if self._connected:  # the lead the session ended with, for the lab's record
             with self._lead_lock:
-                _say(f"{self.name}: a stop would now be stamped {self.lead.choose().describe()}")
+                say(f"{self.name}: a stop would now be stamped {self.lead.choose().describe()}")
         self.subscriber.unregister()
         self.query.close()
         self._handles.clear()
@@ -412,7 +412,7 @@ class TrajectoryLink:
         _, sent = self._send(points, at)
         with self._lead_lock:
             self.lead.add("planning", sent - planning)
-        _say(
+        say(
             f"{self.name}: a stop stamped {choice.describe()}; sent {(sent - began) * 1e3:.1f} ms after its "
             f"preparation began ({'before' if sent < at else 'AFTER'} its stamp)"
         )
@@ -496,7 +496,3 @@ def _applied(press: Press, now: float) -> tuple[AppliedPress, float]:
         late = max(now - press.stamp, 0.0)
         return AppliedPress(press.source, late, press.input_delay, press.arrival_delay), press.stamp
     return AppliedPress(press.source, 0.0, press.input_delay, math.nan), arrived
-
-
-def _say(text: str) -> None:
-    print(f"sim.study run: {text}", file=sys.stderr, flush=True)
