@@ -41,7 +41,8 @@ run() {  # run PYTHON ROLE LANE... -- PYTEST_ARGS...: the tests of those lanes t
   while [ "$1" != "--" ]; do lanes+=(--lane "$1"); shift; done
   shift
   echo "test.sh: on $("$python" --version) ($python): ${lanes[*]} $*" | cut -c1-200
-  "$python" -m pytest -q -p no:cacheprovider --on "$role" "${lanes[@]}" "$@" tests || status=$?
+  # --durations: each run ends with its slowest tests, where a lane's time goes (before any extra args: theirs win)
+  "$python" -m pytest -q -p no:cacheprovider --durations=25 --on "$role" "${lanes[@]}" "$@" tests || status=$?
 }
 
 # Each test file names its lane and the Pythons that run it (pytestmark = pytest.mark.lane(...); unit tests by their
@@ -54,30 +55,27 @@ run() {  # run PYTHON ROLE LANE... -- PYTEST_ARGS...: the tests of those lanes t
 # starved of CPU; and a starved endpoint forwarded a lockstep step's /clock before its command (two topics, two
 # connections).
 
-# The endpoint's lane (in the background, its output shown after the foreground's) on 3.8, with the unit lane on
-# 3.10 beside it (the endpoint's tests use about half a core: ~105 CPU-s in their ~215 s), then the unit and beside
-# lanes on 3.8, which it has time for while the foreground runs the unit and beside lanes on the project's Python
-# (the benches' smoke tests, the study's command lines and its arms are there; the power tests' error rates, some
-# 110 CPU-s, are on 3.8 so that the two end about together).
+# The endpoint's lane (in the background, its output shown after the foreground's) on 3.8, with the unit lanes beside
+# it, one after the other: 3.10's, then 3.8's (the endpoint's tests use about half a core: ~105 CPU-s in their
+# ~215 s; 3.10's unit lane alone ended some 150 s before them, leaving that half core idle). Then the beside lane on
+# 3.8, which it has time for while the foreground runs the unit and beside lanes on the project's Python (the
+# benches' smoke tests, the study's command lines and its arms are there; the power tests' error rates, some 200
+# CPU-s, and the reality condition's refusals are on 3.8 so that the two end about together).
 endpoint_log="$(mktemp)"
-jammy_log="$(mktemp)"
-trap 'rm -rf "$endpoint_log" "$jammy_log" "$VR_SIM_CACHE"' EXIT
+units_log="$(mktemp)"
+trap 'rm -rf "$endpoint_log" "$units_log" "$VR_SIM_CACHE"' EXIT
 (
   status=0
-  jammy_lane=""
-  if [ -n "$python310" ]; then
-    (
-      run "$python310" jammy unit -- "$@"
-      exit "$status"
-    ) >"$jammy_log" 2>&1 &
-    jammy_lane=$!
-  fi
+  (
+    if [ -n "$python310" ]; then run "$python310" jammy unit -- "$@"; fi
+    run .venv38/bin/python noetic unit -- "$@"
+    exit "$status"
+  ) >"$units_log" 2>&1 &
+  units=$!
   run .venv38/bin/python noetic endpoint -- "$@"
-  if [ -n "$jammy_lane" ]; then
-    wait "$jammy_lane" || status=$?
-    cat "$jammy_log"
-  fi
-  run .venv38/bin/python noetic unit beside -- "$@"
+  wait "$units" || status=$?
+  cat "$units_log"
+  run .venv38/bin/python noetic beside -- "$@"
   exit "$status"
 ) >"$endpoint_log" 2>&1 &
 endpoint_lane=$!
