@@ -8,11 +8,11 @@
 # campaigns, the study, the catkin workspaces). Extra args go to pytest (every run).
 set -euo pipefail
 repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
-# The ROS distros' venvs are made while setup.sh runs: neither writes what the other reads.
+# The ROS distros' venvs are made while setup.sh runs, and the lint below (neither writes what the other reads; the
+# linters read none of the venvs, which .gitignore and ESLint's config leave out).
 "$repo/launch_scripts/setup_ros_pythons.sh" &
 ros_pythons=$!
 "$repo/launch_scripts/setup.sh"
-wait "$ros_pythons"
 cd "$repo"
 # One BLAS thread per test process: the lanes below already fill both cores, and OpenBLAS's extra threads spin while
 # they wait for work, fighting every other process for the CPU. Measured beside two CPU burners: the 3.8 run of
@@ -23,14 +23,21 @@ export OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 MKL_NUM_THREADS=1
 # them afresh, once, and the user's ~/.cache/vr_sim is left alone.
 VR_SIM_CACHE="$(mktemp -d)"
 export VR_SIM_CACHE
-# Lint and format first (pyproject.toml): a finding fails the run before any test starts.
-.venv/bin/ruff check .
-.venv/bin/ruff format --check .
-# The same for the VR page's JavaScript and its node tests: ESLint and Prettier, at the versions of the page's
-# package-lock.json (set-up's npm ci), their configurations beside it.
+# Lint and format first (pyproject.toml): a finding fails the run before any test starts (once the venvs' set-up
+# has ended, not left running behind the failed run).
 web=sim/study/views/vr/web
-"$web/node_modules/.bin/eslint" --config "$web/eslint.config.js" "$web" tests/js
-"$web/node_modules/.bin/prettier" --config "$web/.prettierrc.json" --check "$web/*.js" "tests/js/*.mjs"
+lint() {
+  .venv/bin/ruff check . &&
+    .venv/bin/ruff format --check . &&
+    # The same for the VR page's JavaScript and its node tests: ESLint and Prettier, at the versions of the page's
+    # package-lock.json (set-up's npm ci), their configurations beside it.
+    "$web/node_modules/.bin/eslint" --config "$web/eslint.config.js" "$web" tests/js &&
+    "$web/node_modules/.bin/prettier" --config "$web/.prettierrc.json" --check "$web/*.js" "tests/js/*.mjs"
+}
+lint_status=0
+lint || lint_status=$?
+wait "$ros_pythons"
+if [ "$lint_status" -ne 0 ]; then exit "$lint_status"; fi
 
 python310=""
 [ -x .venv310/bin/python ] && python310=.venv310/bin/python
