@@ -100,7 +100,9 @@ def test_preregister_writes_the_summary_of_the_design_it_read(tmp_path):
     import hashlib
 
     out = tmp_path / "prereg.md"
-    command = [PYTHON, "-m", "sim.study", "preregister", "--participants", "8,12", "--simulations", "40"]
+    # 10 simulated studies a size: what is asserted (the summary, its design's hash, the planned size said whichever
+    # it is, the refusals) holds at any count, and 40 took four times as long
+    command = [PYTHON, "-m", "sim.study", "preregister", "--participants", "8,12", "--simulations", "10"]
     process = ManagedProcess([*command, "--out", str(out)], plain_env(), tmp_path, "preregister")  # as power's
     try:
         code = process.wait(300)
