@@ -66,7 +66,7 @@ run() {  # run PYTHON ROLE LANE... -- PYTEST_ARGS...: the tests of those lanes t
 # it, one after the other: 3.10's, then 3.8's (the endpoint's tests use about half a core: ~105 CPU-s in their
 # ~215 s; 3.10's unit lane alone ended some 150 s before them, leaving that half core idle). Then the beside lane on
 # 3.8, which it has time for while the foreground runs the unit and beside lanes on the project's Python (the
-# benches' smoke tests, the study's command lines and its arms are there; the power tests' error rates, some 200
+# benches' smoke tests, the study's command lines and its arms are there; the power tests' error rates, some 170
 # CPU-s, and the reality condition's refusals are on 3.8 so that the two end about together).
 endpoint_log="$(mktemp)"
 units_log="$(mktemp)"
