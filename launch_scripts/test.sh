@@ -8,11 +8,11 @@
 # campaigns, the study, the catkin workspaces). Extra args go to pytest (every run).
 set -euo pipefail
 repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
-# The ROS distros' venvs are made while setup.sh runs: neither writes what the other reads.
+# The ROS distros' venvs are made while setup.sh runs, and the lint below (neither writes what the other reads; the
+# linters read none of the venvs, which .gitignore and ESLint's config leave out).
 "$repo/launch_scripts/setup_ros_pythons.sh" &
 ros_pythons=$!
 "$repo/launch_scripts/setup.sh"
-wait "$ros_pythons"
 cd "$repo"
 # One BLAS thread per test process: the lanes below already fill both cores, and OpenBLAS's extra threads spin while
 # they wait for work, fighting every other process for the CPU. Measured beside two CPU burners: the 3.8 run of
@@ -23,14 +23,21 @@ export OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 MKL_NUM_THREADS=1
 # them afresh, once, and the user's ~/.cache/vr_sim is left alone.
 VR_SIM_CACHE="$(mktemp -d)"
 export VR_SIM_CACHE
-# Lint and format first (pyproject.toml): a finding fails the run before any test starts.
-.venv/bin/ruff check .
-.venv/bin/ruff format --check .
-# The same for the VR page's JavaScript and its node tests: ESLint and Prettier, at the versions of the page's
-# package-lock.json (set-up's npm ci), their configurations beside it.
+# Lint and format first (pyproject.toml): a finding fails the run before any test starts (once the venvs' set-up
+# has ended, not left running behind the failed run).
 web=sim/study/views/vr/web
-"$web/node_modules/.bin/eslint" --config "$web/eslint.config.js" "$web" tests/js
-"$web/node_modules/.bin/prettier" --config "$web/.prettierrc.json" --check "$web/*.js" "tests/js/*.mjs"
+lint() {
+  .venv/bin/ruff check . &&
+    .venv/bin/ruff format --check . &&
+    # The same for the VR page's JavaScript and its node tests: ESLint and Prettier, at the versions of the page's
+    # package-lock.json (set-up's npm ci), their configurations beside it.
+    "$web/node_modules/.bin/eslint" --config "$web/eslint.config.js" "$web" tests/js &&
+    "$web/node_modules/.bin/prettier" --config "$web/.prettierrc.json" --check "$web/*.js" "tests/js/*.mjs"
+}
+lint_status=0
+lint || lint_status=$?
+wait "$ros_pythons"
+if [ "$lint_status" -ne 0 ]; then exit "$lint_status"; fi
 
 python310=""
 [ -x .venv310/bin/python ] && python310=.venv310/bin/python
@@ -41,7 +48,8 @@ run() {  # run PYTHON ROLE LANE... -- PYTEST_ARGS...: the tests of those lanes t
   while [ "$1" != "--" ]; do lanes+=(--lane "$1"); shift; done
   shift
   echo "test.sh: on $("$python" --version) ($python): ${lanes[*]} $*" | cut -c1-200
-  "$python" -m pytest -q -p no:cacheprovider --on "$role" "${lanes[@]}" "$@" tests || status=$?
+  # --durations: each run ends with its slowest tests, where a lane's time goes (before any extra args: theirs win)
+  "$python" -m pytest -q -p no:cacheprovider --durations=25 --on "$role" "${lanes[@]}" "$@" tests || status=$?
 }
 
 # Each test file names its lane and the Pythons that run it (pytestmark = pytest.mark.lane(...); unit tests by their
@@ -54,30 +62,27 @@ run() {  # run PYTHON ROLE LANE... -- PYTEST_ARGS...: the tests of those lanes t
 # starved of CPU; and a starved endpoint forwarded a lockstep step's /clock before its command (two topics, two
 # connections).
 
-# The endpoint's lane (in the background, its output shown after the foreground's) on 3.8, with the unit lane on
-# 3.10 beside it (the endpoint's tests use about half a core: ~105 CPU-s in their ~215 s), then the unit and beside
-# lanes on 3.8, which it has time for while the foreground runs the unit and beside lanes on the project's Python
-# (the benches' smoke tests, the study's command lines and its arms are there; the power tests' error rates, some
-# 110 CPU-s, are on 3.8 so that the two end about together).
+# The endpoint's lane (in the background, its output shown after the foreground's) on 3.8, with the unit lanes beside
+# it, one after the other: 3.10's, then 3.8's (the endpoint's tests use about half a core: ~105 CPU-s in their
+# ~215 s; 3.10's unit lane alone ended some 150 s before them, leaving that half core idle). Then the beside lane on
+# 3.8, which it has time for while the foreground runs the unit and beside lanes on the project's Python (the
+# benches' smoke tests, the study's command lines and its arms are there; the power tests' error rates, some 170
+# CPU-s, and the reality condition's refusals are on 3.8 so that the two end about together).
 endpoint_log="$(mktemp)"
-jammy_log="$(mktemp)"
-trap 'rm -rf "$endpoint_log" "$jammy_log" "$VR_SIM_CACHE"' EXIT
+units_log="$(mktemp)"
+trap 'rm -rf "$endpoint_log" "$units_log" "$VR_SIM_CACHE"' EXIT
 (
   status=0
-  jammy_lane=""
-  if [ -n "$python310" ]; then
-    (
-      run "$python310" jammy unit -- "$@"
-      exit "$status"
-    ) >"$jammy_log" 2>&1 &
-    jammy_lane=$!
-  fi
+  (
+    if [ -n "$python310" ]; then run "$python310" jammy unit -- "$@"; fi
+    run .venv38/bin/python noetic unit -- "$@"
+    exit "$status"
+  ) >"$units_log" 2>&1 &
+  units=$!
   run .venv38/bin/python noetic endpoint -- "$@"
-  if [ -n "$jammy_lane" ]; then
-    wait "$jammy_lane" || status=$?
-    cat "$jammy_log"
-  fi
-  run .venv38/bin/python noetic unit beside -- "$@"
+  wait "$units" || status=$?
+  cat "$units_log"
+  run .venv38/bin/python noetic beside -- "$@"
   exit "$status"
 ) >"$endpoint_log" 2>&1 &
 endpoint_lane=$!

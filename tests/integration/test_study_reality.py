@@ -555,6 +555,10 @@ def test_a_runner_killed_mid_approach_leaves_the_arm_at_rest_short_of_the_hand(
     assert distance == pytest.approx(standoff, abs=0.005) and not math.isnan(distance)
 
 
+# The command lines' refusals below move no arm and time nothing (no controller runs: a runner that looks for one
+# gives up at its --connect-timeout whatever the machine's load): beside other work, on Noetic's Python, which runs
+# the runner's ROS node in the study's other tests.
+@pytest.mark.lane("beside", on=("noetic",))
 def test_check_safety_refuses_a_plan_beyond_the_pandas_limits_or_under_the_floor(tmp_path: Path) -> None:
     design = tmp_path / "design.yaml"
     design.write_text(
@@ -580,6 +584,7 @@ def test_check_safety_refuses_a_plan_beyond_the_pandas_limits_or_under_the_floor
     )
 
 
+@pytest.mark.lane("beside", on=("noetic",))
 @pytest.mark.parametrize(
     ("options", "said"),
     [
@@ -597,6 +602,7 @@ def test_a_link_the_runner_cannot_use_is_one_line_and_exit_2(tmp_path: Path, opt
     assert done.returncode == 2 and len(errors) == 1 and said in errors[0], done.stderr
 
 
+@pytest.mark.lane("beside", on=("noetic",))
 def test_the_runner_refuses_before_any_motion_a_plan_beyond_the_pandas_limits_on_a_real_arms_link(
     roscore, tmp_path: Path
 ) -> None:
@@ -624,6 +630,7 @@ def test_the_runner_refuses_before_any_motion_a_plan_beyond_the_pandas_limits_on
     assert not any(line.startswith("refused: ") for line in unchecked.stdout.splitlines())
 
 
+@pytest.mark.lane("beside", on=("noetic",))
 def test_the_rehearsal_with_the_hand_out_of_reach_plans_every_approach_the_clearance_further(
     roscore, tmp_path: Path
 ) -> None:
