@@ -501,9 +501,10 @@ def test_the_controller_dropping_the_goal_stops_the_arm(roscore, ros_node, arm, 
 
 
 def test_a_stop_as_the_approach_is_sent_keeps_the_arm_at_the_paths_start(roscore, arm, tmp_path: Path) -> None:
-    # The observer stops as soon as the runner says the arm moves. The approach's goal is stamped to start 0.1 s after
-    # its sending, so the stop usually comes before the arm has begun: with nothing to brake, the runner replaces
-    # the goal with a hold (no braking planned). Later, it brakes from the approach's first, slow instants.
+    # The observer stops as soon as the runner says the arm moves. The approach's goal is stamped to start a measured
+    # lead after its sending, so the stop may come before the arm has begun: with nothing to brake, the runner
+    # replaces the goal with a hold (no braking planned, no stop's lead). Later, it brakes from the approach's first,
+    # slow instants.
     _, watch = arm
     plan = write_plan(tmp_path / "plan.yaml", 7, "reality", [trial(1, "reality", 1, "vertical", 0.1, 0.2)])
     runner = start_runner(roscore, plan, tmp_path / "out", ["--link", "reality=franka_ros"], auto_go=False)
@@ -526,6 +527,7 @@ def test_a_stop_as_the_approach_is_sent_keeps_the_arm_at_the_paths_start(roscore
     (row,) = read_csv(tmp_path / "out" / "participant_07.csv")
     assert (row["pressed"], row["goal_result"], row["safety_stop"]) == ("true", "SUCCEEDED", ""), row
     held = float(row["braking_distance"]) == 0.0  # stopped at the path's start: no braking planned
+    assert (row["stop_lead"] == "") == held, row  # a lead is recorded only for a braking replacement sent
     assert len(since) > 10 and np.abs(since - at_start).max() < (1e-3 if held else 0.02), row
     assert float(row["distance_at_rest"]) == pytest.approx(hand_distance(at_start), abs=0.002 if held else 0.01)
     assert float(row["distance_at_rest"]) > 0.3  # far from the stand-off of 0.1 m

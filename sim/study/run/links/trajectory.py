@@ -174,7 +174,6 @@ class TrajectoryLink:
         self._handles: list[Any] = []  # actionlib tracks a goal while its handle lives
         self.lead = Leads()  # the delays measured on this connection, and the leads they give
         self._lead_lock = threading.Lock()  # goals' deliveries are measured on actionlib's threads
-        self._stop_lead = math.nan  # s: the lead of the last stop planned
         self._connected = False
 
     # --- RobotLink -------------------------------------------------------------------------------------------
@@ -288,16 +287,18 @@ class TrajectoryLink:
                         press_at = min(max(when, start), now)
                     reason = why if press is None else ""
                     run.press(min(max(press_at - start, 0.0) * self.spec.speed_scale, planned.path.duration))
-                    stop, braking, sent_at, stop_ends = self._stop_approach(geometry, run, commanded, start, first)
-                    stop_lead = self._stop_lead
+                    stop, braking, sent_at, stop_ends, stop_lead = self._stop_approach(
+                        geometry, run, commanded, start, first
+                    )
                     if stop is not None:
                         handle, replacement_sent, ends = stop, sent_at - press_at, max(ends, stop_ends)
             elif handle is not self._handles[0] and self._refused(handle):
                 # The controller refused the stop (it came after its last point was due, on a starved machine), so
                 # the approach goes on: stop it anew, from where it is now commanded to be.
                 commanded.discard_last()
-                stop, braking, sent_at, stop_ends = self._stop_approach(geometry, run, commanded, start, first)
-                stop_lead = self._stop_lead
+                stop, braking, sent_at, stop_ends, stop_lead = self._stop_approach(
+                    geometry, run, commanded, start, first
+                )
                 handle = self._handles[0] if stop is None else stop
                 if stop is not None:
                     replacement_sent, ends = sent_at - press_at, max(ends, stop_ends)
@@ -392,13 +393,13 @@ class TrajectoryLink:
 
     def _brake(
         self, geometry: PathGeometry, run: TrialRun, commanded: CommandedPath
-    ) -> tuple[Braking | None, float, float]:
+    ) -> tuple[Braking | None, float, float, float]:
         """The replacement: braking from the controller's desired state a measured lead from now. (The braking,
-        when it was sent, its stamp); (None, now, its stamp) when the plan comes to rest sooner (it goes on)."""
+        when it was sent, its stamp, its lead); (None, now, its stamp, NaN) when the plan comes to rest sooner (it
+        goes on)."""
         began = time.time()
         with self._lead_lock:
             choice = self.lead.choose()
-        self._stop_lead = choice.lead
         at = began + choice.lead
         desired = self._query(at)
         planning = time.time()
@@ -407,7 +408,7 @@ class TrajectoryLink:
         qdd = positions_by_name(desired.name, desired.acceleration, self.robot.joint_names)
         stop = brake(geometry, q, qd, qdd, self.dt, run.deceleration, STOP_JERK)
         if stop is None or len(stop.times) < 2:  # the plan rests sooner, or it rests already
-            return None, time.time(), at
+            return None, time.time(), at, math.nan
         points = GoalPoints(stop.times[1:], stop.positions[1:], stop.velocities[1:], stop.accelerations[1:])
         _, sent = self._send(points, at)
         with self._lead_lock:
@@ -418,21 +419,21 @@ class TrajectoryLink:
         )
         commanded.add(at, stop.times, stop.positions)
         self._target = stop.positions[-1].copy()
-        return stop, sent, at
+        return stop, sent, at, choice.lead
 
     def _stop_approach(
         self, geometry: PathGeometry, run: TrialRun, commanded: CommandedPath, start: float, first: FedState
-    ) -> tuple[Any, Braking | None, float, float]:
+    ) -> tuple[Any, Braking | None, float, float, float]:
         """The approach's replacement: braking, or a hold where the arm waits when the approach (starting at
-        `start`) has not begun. (Its handle, the braking, when it was sent, when it ends); handle None when the plan
-        comes to rest sooner on its own."""
-        braking, sent_at, at = self._brake(geometry, run, commanded)
+        `start`) has not begun. (Its handle, the braking, when it was sent, when it ends, the braking's lead: NaN
+        when nothing brakes); handle None when the plan comes to rest sooner on its own."""
+        braking, sent_at, at, lead = self._brake(geometry, run, commanded)
         if braking is not None:
-            return self._handles[-1], braking, sent_at, at + braking.duration
+            return self._handles[-1], braking, sent_at, at + braking.duration, lead
         if sent_at < start:
             handle, sent_at = self._hold(commanded, first.positions)
-            return handle, None, sent_at, sent_at
-        return None, None, sent_at, -math.inf
+            return handle, None, sent_at, sent_at, math.nan
+        return None, None, sent_at, -math.inf, math.nan
 
     @staticmethod
     def _refused(handle: Any) -> bool:
