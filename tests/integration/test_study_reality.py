@@ -251,14 +251,26 @@ def stopped_on_its_own(
     return row
 
 
-def test_tracking_error_past_the_tolerance_stops_the_arm(roscore, built_arm, tmp_path: Path) -> None:
-    # on the arm the tests build, given by namespace, whose soft drives lag its commanded path by ~7 mrad as it moves
+def test_tracking_error_past_the_tolerance_stops_the_arm_on_its_move_to_a_start(
+    roscore, built_arm, tmp_path: Path
+) -> None:
+    # On the arm the tests build, given by namespace, whose soft drives lag its commanded path by a few mrad as it
+    # moves: the move to the path's start is supervised like an approach, and stopped there, short of the start.
     urdf, watch = built_arm
-    watch.out = str(tmp_path / "out")
     plan = write_plan(tmp_path / "plan.yaml", 4, "reality", [trial(1, "reality", 1, "vertical", 0.1, 0.2)])
     extra = ["--robot", str(urdf), "--link", "reality=/arm/traj_controller,/arm/joint_states"]
     runner = start_runner(roscore, plan, tmp_path / "out", [*extra, "--tracking-tolerance", "0.002"])
-    stopped_on_its_own(runner, watch, "tracking error", 0.1, 4, urdf)
+    try:
+        output, _ = runner.communicate(timeout=90)
+    finally:
+        kill_process(runner)
+    assert runner.returncode == 5, output
+    assert "the move to the path's start was stopped: tracking error" in output, output
+    assert "/arm/traj_controller: a stop stamped" in output  # a braking replacement, not a cancel
+    with Approaches(*scene_for(None, str(urdf), None)[::-1], 0.01) as approaches:
+        start = approaches.plan(("vertical", 0.1, 0.2)).positions[0]
+    rest = watch.resting_positions()
+    assert np.abs(rest - start).max() > 0.01  # braked short of the path's start
 
 
 def test_a_stale_joint_state_feed_stops_the_arm(roscore, ros_node, arm, tmp_path: Path) -> None:

@@ -76,7 +76,7 @@ from sim.study.motion.measures import (
     withdrawal_end,
 )
 from sim.study.run.console import say
-from sim.study.run.errors import RunError
+from sim.study.run.errors import SafetyStopped
 from sim.study.run.inputs import Inputs, answer_item
 from sim.study.run.links.base import Press, RobotLink
 from sim.study.run.links.choose import make_links, unique
@@ -184,10 +184,6 @@ def recorder_topics(link_topics: Iterable[str]) -> list[str]:
         CALIBRATION_TOPIC,
         TF_STATIC_TOPIC,
     ]
-
-
-class SafetyStopped(RunError):
-    """The runner stopped the arm on its own (sim.study.run.links): the session ends after that trial's record."""
 
 
 class StudyRunner:

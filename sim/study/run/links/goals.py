@@ -61,14 +61,27 @@ def goal_points(positions: np.ndarray, velocities: np.ndarray, dt: float, speed_
 
 @dataclass
 class CommandedPath:
-    """What the arm was commanded along, on the link's clock: segments of (start, times from it, positions), each in
-    force from its start on (a replacement keeps the trajectory before its own start)."""
+    """What the arm was commanded along, on the link's clock: segments of (start, times from it, positions,
+    velocities, accelerations), each in force from its start on (a replacement keeps the trajectory before its own
+    start). Its state at a time is what the controller's desired state is then, as far as the link knows: the stop
+    brakes from it where the controller cannot be asked."""
 
-    segments: list[tuple[float, np.ndarray, np.ndarray]] = field(default_factory=list)
+    segments: list[tuple[float, np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = field(default_factory=list)
 
-    def add(self, start: float, times: np.ndarray, positions: np.ndarray) -> None:
-        """A trajectory starting at `start` (its samples at `times`, 0 its first, from its start)."""
-        self.segments.append((float(start), np.asarray(times, dtype=float), np.asarray(positions, dtype=float)))
+    def add(
+        self,
+        start: float,
+        times: np.ndarray,
+        positions: np.ndarray,
+        velocities: np.ndarray | None = None,
+        accelerations: np.ndarray | None = None,
+    ) -> None:
+        """A trajectory starting at `start` (its samples at `times`, 0 its first, from its start); velocities and
+        accelerations zero where not given (a hold)."""
+        q = np.asarray(positions, dtype=float)
+        qd = np.zeros_like(q) if velocities is None else np.asarray(velocities, dtype=float)
+        qdd = np.zeros_like(q) if accelerations is None else np.asarray(accelerations, dtype=float)
+        self.segments.append((float(start), np.asarray(times, dtype=float), q, qd, qdd))
 
     def discard_last(self) -> None:
         """Forget the last segment: the controller refused it, so the arm was never commanded along it."""
@@ -76,21 +89,48 @@ class CommandedPath:
             raise RunError("nothing was commanded")
         self.segments.pop()
 
+    def _segment(self, when: float) -> tuple[float, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        if not self.segments:
+            raise RunError("nothing was commanded")
+        chosen = self.segments[0]
+        for segment in self.segments:
+            if segment[0] <= when:
+                chosen = segment
+        return chosen
+
     def at(self, when: float) -> np.ndarray:
         """The commanded joint positions at `when` (before the first segment: its first sample; after the last
         sample of a segment: held there)."""
-        if not self.segments:
-            raise RunError("nothing was commanded")
-        start, times, positions = self.segments[0]
-        for segment in self.segments:
-            if segment[0] <= when:
-                start, times, positions = segment
-        t = when - start
-        return np.array([np.interp(t, times, positions[:, j]) for j in range(positions.shape[1])])
+        start, times, positions, _, _ = self._segment(when)
+        return _interpolate(when - start, times, positions)
 
-    def error(self, when: float, achieved: np.ndarray) -> float:
-        """rad: the largest joint error of `achieved` against the commanded positions at `when`."""
-        return float(np.max(np.abs(np.asarray(achieved, dtype=float) - self.at(when))))
+    def state(self, when: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The commanded positions, velocities and accelerations at `when`, linear between samples; held at rest
+        after the last."""
+        start, times, positions, velocities, accelerations = self._segment(when)
+        t = when - start
+        q = _interpolate(t, times, positions)
+        if t >= times[-1]:  # held at the last sample
+            return q, np.zeros_like(q), np.zeros_like(q)
+        return q, _interpolate(t, times, velocities), _interpolate(t, times, accelerations)
+
+    def error(self, when: float, achieved: np.ndarray, last_unsure: bool = False) -> float:
+        """rad: the largest joint error of `achieved` against the commanded positions at `when`. `last_unsure`: the
+        controller has not yet said whether it took the last segment (a stop on its way), so the error is the
+        smaller of the two: with it, and without it."""
+        achieved = np.asarray(achieved, dtype=float)
+        error = float(np.max(np.abs(achieved - self.at(when))))
+        if last_unsure and len(self.segments) > 1:
+            last = self.segments.pop()
+            try:
+                error = min(error, float(np.max(np.abs(achieved - self.at(when)))))
+            finally:
+                self.segments.append(last)
+        return error
+
+
+def _interpolate(t: float, times: np.ndarray, values: np.ndarray) -> np.ndarray:
+    return np.array([np.interp(t, times, values[:, j]) for j in range(values.shape[1])])
 
 
 def speed_fell(stamps: np.ndarray, speeds: np.ndarray, press: float, fall: float = 0.01, floor: float = 1e-3) -> float:

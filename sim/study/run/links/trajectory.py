@@ -1,26 +1,27 @@
 """The trajectory-controller link: a real arm's ros_control joint_trajectory_controller (or the physics node's
 stand-in of it), on wall time. rospy and actionlib.
 
-- No /clock: the link's clock is the wall clock, the time a driver stamps with. A move to a path's start has stamp
-  zero ("start at the controller's next update"). An approach and a replacement are stamped ahead by leads
-  measured on this connection (sim.study.run.links.lead: a goal's delivery for an approach; query_state's round
-  trip, the stop's planning and the delivery for a stop; each its high quantile, summed with a margin, within a
-  floor and a ceiling; a stop's is said on stderr, and both are in the trial's record): the controller starts a
-  goal at its stamp, so the link knows when the commanded path began (with stamp zero, the goal's delivery delay
-  would count as tracking error), and a start in the past drops its first points.
-- An approach is one follow_joint_trajectory goal of the planned samples (positions, velocities, accelerations).
-- A press is a replacement: sim.study.safety.braking's stop along the path at the runner's deceleration, from the
-  controller's desired state at the replacement's start (query_state), continuous in position, velocity and
-  acceleration; a stop the controller refuses (it came after its last point was due) is planned and sent anew, and
-  a stop before the approach has begun is a hold (an empty trajectory). Never a bare cancel: with franka's
-  stop_trajectory_duration of 0 a cancel holds the measured position at once, a step that makes libfranka abort
-  with a reflex.
-- The arm's joint states are read at whatever rate its driver publishes them. During a motion the link stops the
-  arm (the same replacement) on its own when the feed goes stale, the tracking error passes the tolerance, the
-  achieved distance to the hand falls under the floor, or the controller ends the goal otherwise than by success.
-  These are the toolkit's checks, never instead of the robot's own stop.
-- If the runner dies, nothing more is sent: the goal runs on to its end, at the stand-off at rest (ros_control's
-  action server does not cancel a goal when its client goes away).
+- No /clock: the link's clock is wall time carried by the monotonic clock (sim.study.run.links.clock), the time a
+  driver stamps with. A motion (a move to a path's start, an approach) and a stop are stamped ahead by leads measured
+  on this connection (sim.study.run.links.lead): the controller starts a goal at its stamp, so the link knows when
+  the commanded path began, and a start in the past drops its first points.
+- A motion is one follow_joint_trajectory goal: an approach of the planned samples, a move along the straight line
+  in joint space to a path's start.
+- A press is a replacement: sim.study.safety.braking's stop along the motion's path (the approach's, or the move's
+  line), from the controller's desired state at the replacement's start, continuous in position, velocity and
+  acceleration. The desired state comes from query_state; when the controller cannot be asked (the service gone, a
+  connection broken, no answer in time), from the path the link commanded. A stop the controller refuses (it came
+  after its last point was due) is planned and sent anew. A stop before the motion has begun is a rest at the
+  motion's start, stamped like a braking. Never a bare cancel or an empty trajectory: with franka's
+  stop_trajectory_duration of 0 either holds the measured position at once, a step that makes libfranka abort.
+- Every exit of a motion brakes (sim.study.run.links.failsafe): an error, the observer's Ctrl-C or a SIGTERM, a lost
+  query_state. During a motion, braking included, the link watches the arm until it rests: it stops it on its own
+  (the same replacement) when the feed goes stale or brings a malformed state, the tracking error passes the
+  tolerance, the achieved distance to the hand falls under the floor, the wall clock steps, or the controller ends
+  the goal otherwise than by success; such a fault during braking, or a braking that does not succeed, ends the
+  session. These are the toolkit's checks, never instead of the robot's own stop.
+- If the runner's process dies (SIGKILL), nothing more is sent: the goal runs on to its end, at the stand-off at rest
+  (ros_control's action server does not cancel a goal when its client goes away).
 
 Goals are followed through actionlib's ActionClient, each by its own handle (SimpleActionClient drops a result that
 comes before its send_goal has returned).
@@ -30,9 +31,7 @@ from __future__ import annotations
 
 import math
 import threading
-import time
-from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -41,109 +40,74 @@ from sim.control.controller_node import ControllerError
 from sim.control.scenarios import approach
 from sim.robots import RobotSpec
 from sim.study.run.console import say
+from sim.study.run.errors import SafetyStopped
 from sim.study.run.links.base import AppliedPress, ApproachOutcome, Press, TakePress
+from sim.study.run.links.clock import STEP_LIMIT, LinkClock
+from sim.study.run.links.failsafe import brakes_on_exit
+from sim.study.run.links.feed import FedState, JointFeed
 from sim.study.run.links.goals import GOAL_STATUS, CommandedPath, GoalPoints, goal_points, speed_fell
+from sim.study.run.links.joint_line import MOVE_DECELERATION, MOVE_JERK, JointLine
 from sim.study.run.links.lead import START, Leads
 from sim.study.run.links.specs import TrajectoryLinkSpec
 from sim.study.run.trial import TrialRun
 from sim.study.safety.braking import STOP_JERK, Braking, PathGeometry, brake
-from sim.wire.contract import MessageError, positions_by_name
+from sim.wire.contract import positions_by_name
 
-__all__ = ["QUERY_PROBES", "JointFeed", "TrajectoryLink", "await_goal_end"]
+__all__ = ["QUERY_PROBES", "TrajectoryLink"]
 
 QUERY_PROBES = 10  # query_state round trips measured at connect, before any stop needs one
+QUERY_TIMEOUT = 0.1  # s: a query_state answer later than this is not waited for (the stop brakes from the path)
+PROBE_TIMEOUT = 2.0  # s: query_state's answer before a motion, which waits for it (no stop does)
 POLL = 0.01  # s: the longest wait for a joint state between looks at the presses and the goal
 RESULT_GRACE = 5.0  # s after a motion's planned end that the controller may take to end its goal
 SUCCEEDED = 3
 REJECTED = 5
 STAMP_WINDOW = 5.0  # s: a press stamped further from the wall clock is on another clock (the stream's /clock)
+NO_QUERY = ("planning", "delivery")  # what a stop's preparation waits for when it brakes from the commanded path
 
 
-@dataclass(frozen=True)
-class FedState:
-    stamp: float  # s, the driver's
-    arrival: float  # s, the wall clock when it came
-    positions: np.ndarray
-    velocities: np.ndarray
+@dataclass
+class Motion:
+    """One goal's motion, supervised from its sending until the arm rests: what was commanded and the goal in force,
+    the stop once one is in force, and why the link stopped it on its own."""
+
+    what: str  # "the approach", "the move to the path's start"
+    geometry: PathGeometry | JointLine
+    deceleration: float  # along the geometry's parameter (m/s² on a path, rad/s² on a joint line)
+    jerk: float
+    start: float  # the link's clock: the goal's stamp
+    ends: float  # when its last point is due (a stop's, once one is in force)
+    commanded: CommandedPath = field(default_factory=CommandedPath)
+    handles: list[Any] = field(default_factory=list)  # the motion's goal first, then each stop sent
+    stopped: bool = False  # a stop is in force (a replacement sent, or none needed: the plan rests sooner)
+    braking: Braking | None = None
+    stop_lead: float = math.nan
+    stop_sent: float = math.nan  # the link's clock when the (last) replacement went
+    reason: str = ""  # why the link stopped the arm on its own
+    after_stop: str = ""  # a fault seen once the stop was in force: the session ends
+
+    @property
+    def handle(self) -> Any:
+        return self.handles[-1]
+
+    @property
+    def replaced(self) -> bool:
+        """The goal in force is a replacement (a stop), not the motion's own goal."""
+        return len(self.handles) > 1
 
 
-class JointFeed:
-    """The arm's joint states as they come (any rate), in the robot's joint order; thread-safe."""
+class _Guard:
+    """A motion as sim.study.run.links.failsafe sees it."""
 
-    def __init__(self, robot: RobotSpec) -> None:
-        self.robot = robot
-        self.error: str | None = None
-        self._states: list[FedState] = []
-        self._changed = threading.Condition()
+    def __init__(self, link: TrajectoryLink, motion: Motion) -> None:
+        self.link, self.motion = link, motion
 
-    def callback(self, message: Any) -> None:
-        try:
-            positions = positions_by_name(message.name, message.position, self.robot.joint_names)
-            velocities = (
-                positions_by_name(message.name, message.velocity, self.robot.joint_names)
-                if len(message.velocity)
-                else np.full(self.robot.dof, math.nan)
-            )
-        except MessageError as error:
-            with self._changed:
-                self.error = str(error)
-                self._changed.notify_all()
-            return
-        state = FedState(message.header.stamp.to_sec(), time.time(), positions, velocities)
-        with self._changed:
-            self._states.append(state)
-            del self._states[:-10000]  # a 500 Hz driver's 20 s, more than a motion takes between looks
-            self._changed.notify_all()
+    def settled(self) -> bool:
+        motion = self.motion
+        return motion.stopped or (self.link._done(motion.handle) and not self.link._failure(motion))
 
-    def count(self) -> int:
-        with self._changed:
-            return len(self._states)
-
-    def latest(self) -> FedState | None:
-        with self._changed:
-            return self._states[-1] if self._states else None
-
-    def since(self, arrival: float) -> list[FedState]:
-        """The states that came after wall time `arrival`."""
-        with self._changed:
-            return [state for state in self._states if state.arrival > arrival]
-
-    def wait(self, after: float, timeout: float, stop: threading.Event) -> FedState | None:
-        """The latest state once one has come after wall time `after` (None after `timeout` s or when stopped)."""
-        deadline = time.monotonic() + timeout
-        with self._changed:
-            while not stop.is_set():
-                if self.error is not None:
-                    raise ControllerError(f"{self.robot.name}'s joint states: {self.error}")
-                if self._states and self._states[-1].arrival > after:
-                    return self._states[-1]
-                remaining = deadline - time.monotonic()
-                if remaining <= 0:
-                    return None
-                self._changed.wait(min(remaining, 0.1))
-        return None
-
-
-def await_goal_end(
-    feed: JointFeed, done: Callable[[], bool], sent: float, deadline: float, stale_after: float, stop: threading.Event
-) -> None:
-    """Until `done()` holds for a goal sent at wall time `sent`: looked at on each new joint state and at least every
-    POLL s, never in a spin (a runner spinning on a core starves the arm's driver, or its stand-in, beside it).
-    ControllerError when the feed goes stale, when stopped, or when the goal is not done by wall time `deadline`."""
-    looked = sent
-    while not done():
-        state = feed.wait(looked, POLL, stop)  # a state newer than the last one looked at, or POLL s without one
-        if stop.is_set():
-            raise ControllerError("interrupted")
-        if state is not None:
-            looked = state.arrival
-        latest = feed.latest()
-        now = time.time()
-        if latest is None or now - latest.arrival > stale_after:
-            age = "none yet" if latest is None else f"none for {now - latest.arrival:.3f} s"
-            raise ControllerError(f"joint states stale for over {stale_after:g} s on the way to a start ({age})")
-        if now > deadline:
-            raise ControllerError(f"the controller did not end the move to the start within {RESULT_GRACE:g} s")
+    def fail_safe(self, why: str) -> None:
+        self.link._fail_safe(self.motion, why)
 
 
 class TrajectoryLink:
@@ -162,16 +126,15 @@ class TrajectoryLink:
         self.name = spec.label
         self.types = control_types()
         self._joint_trajectory = joint_trajectory
+        self._clock = LinkClock()
         ns = spec.namespace
         self.client = actionlib.ActionClient(f"{ns}/follow_joint_trajectory", self.types.action)
-        # persistent: a stop's query must not wait for the master's lookup and a new connection
-        self.query = rospy.ServiceProxy(f"{ns}/query_state", self.types.query_state, persistent=True)
-        self.feed = JointFeed(robot)
+        self._proxy: Any = None  # query_state's persistent proxy, made anew after a failure (see _query)
+        self.feed = JointFeed(robot, self._clock)
         self.subscriber = rospy.Subscriber(
             spec.joint_states_topic, JointState, self.feed.callback, tcp_nodelay=True, queue_size=1000
         )
         self._target = robot.home.copy()
-        self._handles: list[Any] = []  # actionlib tracks a goal while its handle lives
         self.lead = Leads()  # the delays measured on this connection, and the leads they give
         self._lead_lock = threading.Lock()  # goals' deliveries are measured on actionlib's threads
         self._connected = False
@@ -179,10 +142,10 @@ class TrajectoryLink:
     # --- RobotLink -------------------------------------------------------------------------------------------
     @property
     def clock(self) -> float:
-        return time.time()
+        return self._clock()
 
     def now(self) -> float:
-        return time.time()
+        return self._clock()
 
     @property
     def target(self) -> np.ndarray:
@@ -204,14 +167,15 @@ class TrajectoryLink:
         if not self.client.wait_for_server(self.rospy.Duration(timeout)):
             raise ControllerError(f"no action server {ns}/follow_joint_trajectory within {timeout:g} s")
         try:
-            self.query.wait_for_service(timeout)
+            self.rospy.wait_for_service(f"{ns}/query_state", timeout)
         except self.rospy.ROSException:
             raise ControllerError(f"no service {ns}/query_state within {timeout:g} s") from None
         for _ in range(QUERY_PROBES):
-            self._query(time.time())
+            self._query(self._clock(), timeout)
         if self.feed.wait(-math.inf, timeout, self.stop) is None:
             raise ControllerError(f"no joint state on {self.spec.joint_states_topic} within {timeout:g} s")
         self._connected = True
+        say(f"trajectory controller {ns} connected; the arm's joint states on {self.spec.joint_states_topic}")
         return ns
 
     def start(self, timeout: float) -> np.ndarray:
@@ -226,88 +190,43 @@ class TrajectoryLink:
         self.stop.wait(max(seconds, POLL * 2))
 
     def move_to(self, positions: np.ndarray) -> np.ndarray:
-        """A quintic from where the arm is, as one goal; waited for to its end (ControllerError when the feed goes
-        stale or the controller does not succeed: the move to a path's start keeps away from the hand, and its goal
-        ends at rest)."""
-        here = self._latest().positions
-        samples, speeds = approach(self.robot, here, np.asarray(positions, dtype=float), self.dt)
+        """A quintic from where the arm is along the straight line in joint space, as one goal, supervised like an
+        approach to its end; SafetyStopped when the link stopped it on its own (the arm then rests on the line)."""
+        here = self._begin_motion().positions
+        there = np.asarray(positions, dtype=float)
+        if float(np.linalg.norm(there - here)) <= 1e-6:
+            return here
+        samples, speeds = approach(self.robot, here, there, self.dt)
         points = goal_points(samples, speeds, self.dt)
-        handle, sent = self._send(points, 0.0)
-        self._target = np.asarray(positions, dtype=float).copy()
-        await_goal_end(
-            self.feed, lambda: self._done(handle), sent, sent + points.duration + RESULT_GRACE, self.spec.stale_after,
-            self.stop,
-        )  # fmt: skip
-        status, code, text = self._outcome(handle)
-        if status != SUCCEEDED:
-            raise ControllerError(f"the move to the path's start ended {GOAL_STATUS.get(status)} ({code}): {text}")
-        return self._latest().positions
+        line = JointLine(here, there)
+        accelerations = np.gradient(speeds, self.dt, axis=0)
+        self._time_planning(line, samples, speeds, accelerations, MOVE_DECELERATION, MOVE_JERK)
+        motion, _ = self._go("the move to the path's start", line, MOVE_DECELERATION, MOVE_JERK, samples[0], points)
+        self._target = there.copy()
+        with brakes_on_exit(_Guard(self, motion)):
+            self._supervise(motion, None, None, 0.0)
+        self._target = self._latest().positions.copy()
+        why = motion.reason or motion.after_stop or self._failure(motion)
+        if why:
+            raise SafetyStopped(f"{motion.what} was stopped: {why}")
+        return self._target
 
     def approach(self, run: TrialRun, take_press: TakePress, settle: float) -> ApproachOutcome:
         planned = run.planned
-        geometry = PathGeometry(planned.path, planned.positions)
-        points = goal_points(planned.positions, planned.velocities, run.dt, self.spec.speed_scale)
-        commanded = CommandedPath()
-        first = self._latest()
+        first = self._begin_motion()
         run.record_state(0.0, first.positions)
-        self._time_planning(geometry, run)
-        with self._lead_lock:
-            start_lead = self.lead.choose(START).lead
-        start = time.time() + start_lead
-        handle, _ = self._send(points, start)
-        commanded.add(start, np.concatenate([[0.0], points.times]), np.vstack([planned.positions[0], points.positions]))
+        geometry = PathGeometry(planned.path, planned.positions)
+        accelerations = np.gradient(planned.velocities, run.dt, axis=0)
+        self._time_planning(geometry, planned.positions, planned.velocities, accelerations, run.deceleration, STOP_JERK)
+        points = goal_points(planned.positions, planned.velocities, run.dt, self.spec.speed_scale)
+        rest = planned.positions[0]
+        motion, start_lead = self._go("the approach", geometry, run.deceleration, STOP_JERK, rest, points)
         self._target = planned.positions[-1].copy()
-        ends = start + points.duration
-        applied: AppliedPress | None = None
-        press_at = math.nan
-        braking: Braking | None = None
-        replacement_sent = math.nan
-        stop_lead = math.nan
-        reason = ""
-        tracking = 0.0
-        looked = start
-        while True:
-            self.feed.wait(looked, POLL, self.stop)
-            now = time.time()
-            if self.stop.is_set():
-                raise ControllerError("interrupted")
-            for fed in self.feed.since(looked):
-                looked = fed.arrival  # each state once
-                if fed.stamp >= start:
-                    run.record_state(fed.stamp - start, fed.positions)
-                    tracking = max(tracking, commanded.error(fed.stamp, fed.positions))
-            stopping = not math.isnan(press_at) or reason != ""
-            if not stopping:
-                press = take_press(now)
-                why = self._unsafe(now, tracking, run, handle)
-                if press is not None or why:
-                    press_at = now
-                    if press is not None:
-                        applied, when = _applied(press, now)
-                        press_at = min(max(when, start), now)
-                    reason = why if press is None else ""
-                    run.press(min(max(press_at - start, 0.0) * self.spec.speed_scale, planned.path.duration))
-                    stop, braking, sent_at, stop_ends, stop_lead = self._stop_approach(
-                        geometry, run, commanded, start, first
-                    )
-                    if stop is not None:
-                        handle, replacement_sent, ends = stop, sent_at - press_at, max(ends, stop_ends)
-            elif handle is not self._handles[0] and self._refused(handle):
-                # The controller refused the stop (it came after its last point was due, on a starved machine), so
-                # the approach goes on: stop it anew, from where it is now commanded to be.
-                commanded.discard_last()
-                stop, braking, sent_at, stop_ends, stop_lead = self._stop_approach(
-                    geometry, run, commanded, start, first
-                )
-                handle = self._handles[0] if stop is None else stop
-                if stop is not None:
-                    replacement_sent, ends = sent_at - press_at, max(ends, stop_ends)
-            if now >= ends + settle and (self._done(handle) or now >= ends + RESULT_GRACE):
-                break
+        with brakes_on_exit(_Guard(self, motion)):
+            applied, press_at, tracking = self._supervise(motion, run, take_press, settle)
+        handle = motion.handle
         status, code, text = self._outcome(handle) if self._done(handle) else (-1, None, "no result")
-        if not reason and status != SUCCEEDED and handle is self._handles[0]:
-            reason = f"the controller ended the goal {GOAL_STATUS.get(status, 'without a result')}: {text}"
-        seen = self.feed.since(start)
+        seen = self.feed.since(motion.start)
         stamps = np.array([s.stamp for s in seen])
         speeds = np.array([float(np.linalg.norm(s.velocities)) for s in seen])
         achieved = math.nan
@@ -317,19 +236,22 @@ class TrajectoryLink:
             rest = geometry.project(seen[-1].positions, zeros, zeros)
             achieved = rest.arc - geometry.project(at_press, zeros, zeros).arc
         self._target = seen[-1].positions.copy() if seen else self._target
-        self._handles.clear()
+        safety_stop = "; ".join(
+            why for why in (motion.reason, motion.after_stop and f"then {motion.after_stop}", self._failure(motion))
+            if why
+        )  # fmt: skip
         return ApproachOutcome(
             press=applied,
             goal_result=GOAL_STATUS.get(status, "NO RESULT"),
             error_code=code,
             tracking_error=tracking,
-            replacement_sent=replacement_sent,
+            replacement_sent=motion.stop_sent - press_at,
             braking_began=speed_fell(stamps, speeds, press_at) if seen and not math.isnan(press_at) else math.nan,
-            braking_planned=braking.distance if braking is not None else math.nan,
+            braking_planned=motion.braking.distance if motion.braking is not None else math.nan,
             braking_achieved=achieved,
-            safety_stop=reason,
+            safety_stop=safety_stop,
             start_lead=start_lead,
-            stop_lead=stop_lead,
+            stop_lead=motion.stop_lead,
         )
 
     def close(self) -> None:
@@ -337,126 +259,279 @@ class TrajectoryLink:
             with self._lead_lock:
                 say(f"{self.name}: a stop would now be stamped {self.lead.choose().describe()}")
         self.subscriber.unregister()
-        self.query.close()
-        self._handles.clear()
+        if self._proxy is not None:
+            self._proxy.close()
         client = self.client
         for endpoint in (client.pub_goal, client.pub_cancel, client.status_sub, client.result_sub, client.feedback_sub):
             endpoint.unregister()
 
-    # --- the parts -------------------------------------------------------------------------------------------
-    def _latest(self) -> Any:
-        state = self.feed.wait(time.time() - self.spec.stale_after, self.spec.stale_after, self.stop)
-        if state is None:
-            raise ControllerError(f"no joint state on {self.spec.joint_states_topic} for {self.spec.stale_after:g} s")
-        return state
+    # --- a motion --------------------------------------------------------------------------------------------
+    def _begin_motion(self) -> FedState:
+        """Before a motion: the link's clock anchored to the wall clock again, query_state answering, and a fresh
+        good joint state (which it returns). ControllerError when one is missing: no motion starts."""
+        step = self._clock.step()
+        if abs(step) > STEP_LIMIT:
+            say(f"{self.name}: the wall clock stepped {step:+.3f} s since the last motion; anchored to it again")
+        self._clock.anchor()
+        try:
+            self._query(self._clock(), PROBE_TIMEOUT)
+        except ControllerError:  # a controller restarted since: its query_state is found anew
+            self._query(self._clock(), PROBE_TIMEOUT)
+        return self._latest()
 
-    def _unsafe(self, now: float, tracking: float, run: TrialRun, handle: Any) -> str:
+    def _go(
+        self,
+        what: str,
+        geometry: PathGeometry | JointLine,
+        deceleration: float,
+        jerk: float,
+        rest: np.ndarray,
+        points: GoalPoints,
+    ) -> tuple[Motion, float]:
+        """The motion's goal, stamped a start lead ahead; the motion and its lead."""
+        with self._lead_lock:
+            lead = self.lead.choose(START).lead
+        start = self._clock() + lead
+        motion = Motion(what, geometry, deceleration, jerk, start, start + points.duration)
+        motion.commanded.add(
+            start,
+            np.concatenate([[0.0], points.times]),
+            np.vstack([rest, points.positions]),
+            np.vstack([np.zeros_like(rest), points.velocities]),
+            np.vstack([np.zeros_like(rest), points.accelerations]),
+        )
+        handle, _ = self._send(points, start)
+        motion.handles.append(handle)
+        return motion, lead
+
+    def _supervise(
+        self, motion: Motion, run: TrialRun | None, take_press: TakePress | None, settle: float
+    ) -> tuple[AppliedPress | None, float, float]:
+        """Watch the motion until it rests `settle` s after its end, stopping it on a press (`take_press`) or on its
+        own. The press applied, its time (the link's clock; NaN: none), and the largest tracking error (rad)."""
+        applied: AppliedPress | None = None
+        press_at = math.nan
+        tracking = 0.0
+        looked = self._clock() - self.spec.stale_after  # the first look takes the states of the last stale_after s
+        while True:
+            self.feed.wait(looked, POLL, self.stop)  # a new state, or POLL s without one: never a spin
+            now = self._clock()
+            if self.stop.is_set():
+                raise ControllerError("interrupted")  # the guard brakes
+            for fed in self.feed.since(looked):
+                looked = fed.arrival  # each state once
+                if fed.stamp >= motion.start:
+                    if run is not None:
+                        run.record_state(fed.stamp - motion.start, fed.positions)
+                    unsure = motion.replaced and not self._taken(motion.handle)
+                    tracking = max(tracking, motion.commanded.error(fed.stamp, fed.positions, unsure))
+            why = self._unsafe(now, tracking, run, motion)
+            if not motion.stopped:
+                press = take_press(now) if take_press is not None else None
+                if press is not None or why:
+                    press_at = now
+                    if press is not None:
+                        applied, when = _applied(press, now)
+                        press_at = min(max(when, motion.start), now)
+                    else:
+                        motion.reason = why
+                    if run is not None:
+                        elapsed = max(press_at - motion.start, 0.0) * self.spec.speed_scale
+                        run.press(min(elapsed, run.planned.path.duration))
+                    self._stop(motion)
+            else:
+                if why and not motion.after_stop:
+                    motion.after_stop = why
+                    say(f"{self.name}: while {motion.what} was stopping: {why}")
+                if motion.replaced and self._refused(motion.handle):
+                    # The controller refused the stop (it came after its last point was due, on a starved
+                    # machine), so the motion goes on: stop it anew, from where it is now commanded to be.
+                    motion.commanded.discard_last()
+                    motion.handles.pop()
+                    self._stop(motion)
+            if now >= motion.ends + settle and (self._done(motion.handle) or now >= motion.ends + RESULT_GRACE):
+                return applied, press_at, tracking
+
+    def _unsafe(self, now: float, tracking: float, run: TrialRun | None, motion: Motion) -> str:
         """Why the arm must be stopped now ("" when it need not)."""
         latest = self.feed.latest()
         if latest is None or now - latest.arrival > self.spec.stale_after:
             age = math.inf if latest is None else now - latest.arrival
             return f"joint states stale: none for {age:.3f} s (limit {self.spec.stale_after:g} s)"
+        faults = self.feed.faults_since(motion.start - self.spec.stale_after)
+        if faults:
+            return f"a malformed joint state: {faults[-1].reason}"
+        step = self._clock.step()
+        if abs(step) > STEP_LIMIT:
+            return f"the wall clock stepped {step:+.3f} s during the motion (limit {STEP_LIMIT:g} s)"
         if tracking > self.spec.tracking_tolerance:
             return f"tracking error {tracking:.4f} rad over the tolerance {self.spec.tracking_tolerance:g} rad"
-        distance = run.live_hand_distance(latest.positions)
-        if distance < self.spec.floor:
-            return f"achieved distance to the hand {distance:.4f} m under the floor {self.spec.floor:g} m"
-        if self._done(handle):
-            status, code, text = self._outcome(handle)
-            if status != SUCCEEDED:
-                return f"the controller ended the goal {GOAL_STATUS.get(status, status)} ({code}): {text}"
+        if run is not None and now < motion.ends:  # a hand that comes on once the arm rests is the person's own motion
+            distance = run.live_hand_distance(latest.positions)
+            if distance < self.spec.floor:
+                return f"achieved distance to the hand {distance:.4f} m under the floor {self.spec.floor:g} m"
+        if self._done(motion.handle):
+            failed = self._failure(motion)
+            if failed:
+                return failed
         return ""
 
-    def _query(self, at: float) -> Any:
-        """query_state's answer for wall time `at`, its round trip measured for the stops' lead."""
-        asked = time.time()
-        try:
-            desired = self.query(self.rospy.Time.from_sec(at))
-        except (self.rospy.ServiceException, self.rospy.ROSException) as error:
-            raise ControllerError(f"{self.spec.namespace}/query_state failed: {error}") from None
-        with self._lead_lock:
-            self.lead.add("query", time.time() - asked)
-        return desired
+    def _failure(self, motion: Motion) -> str:
+        """How the goal in force ended, if not by success ("" while it runs, and when it succeeded)."""
+        if not self._done(motion.handle):
+            return ""
+        status, code, text = self._outcome(motion.handle)
+        if status == SUCCEEDED or (status == REJECTED and motion.replaced):
+            return ""  # a refused stop is sent anew
+        goal = "the braking replacement" if motion.replaced else "the controller ended the goal"
+        return f"{goal} {'ended ' if motion.replaced else ''}{GOAL_STATUS.get(status, status)} ({code}): {text}"
 
-    def _time_planning(self, geometry: PathGeometry, run: TrialRun) -> None:
-        """Plan a stop from the approach's fastest state (the longest stop) and keep how long it took: this machine's
-        planning time now, before a press needs it."""
-        planned = run.planned
-        k = int(np.argmax(planned.path.speeds))
-        accelerations = np.gradient(planned.velocities, run.dt, axis=0)[k]
-        began = time.time()
-        brake(
-            geometry, planned.positions[k], planned.velocities[k], accelerations, self.dt, run.deceleration, STOP_JERK
-        )
-        with self._lead_lock:
-            self.lead.add("planning", time.time() - began)
-
-    def _brake(
-        self, geometry: PathGeometry, run: TrialRun, commanded: CommandedPath
-    ) -> tuple[Braking | None, float, float, float]:
-        """The replacement: braking from the controller's desired state a measured lead from now. (The braking,
-        when it was sent, its stamp, its lead); (None, now, its stamp, NaN) when the plan comes to rest sooner (it
-        goes on)."""
-        began = time.time()
+    # --- the stop --------------------------------------------------------------------------------------------
+    def _stop(self, motion: Motion) -> None:
+        """The motion's replacement: braking from the controller's desired state a measured lead from now (from the
+        commanded path when the controller cannot be asked), or a rest where the motion has not begun. Leaves the
+        motion stopped; sends nothing when the plan rests sooner than braking would."""
+        motion.stopped = True
+        began = self._clock()
         with self._lead_lock:
             choice = self.lead.choose()
         at = began + choice.lead
-        desired = self._query(at)
-        planning = time.time()
-        q = positions_by_name(desired.name, desired.position, self.robot.joint_names)
-        qd = positions_by_name(desired.name, desired.velocity, self.robot.joint_names)
-        qdd = positions_by_name(desired.name, desired.acceleration, self.robot.joint_names)
-        stop = brake(geometry, q, qd, qdd, self.dt, run.deceleration, STOP_JERK)
-        if stop is None or len(stop.times) < 2:  # the plan rests sooner, or it rests already
-            return None, time.time(), at, math.nan
-        points = GoalPoints(stop.times[1:], stop.positions[1:], stop.velocities[1:], stop.accelerations[1:])
-        _, sent = self._send(points, at)
+        try:
+            desired = self._query(at, QUERY_TIMEOUT)
+            q = positions_by_name(desired.name, desired.position, self.robot.joint_names)
+            qd = positions_by_name(desired.name, desired.velocity, self.robot.joint_names)
+            qdd = positions_by_name(desired.name, desired.acceleration, self.robot.joint_names)
+            source = ""
+        except Exception as error:  # the stop must go out whatever became of query_state
+            with self._lead_lock:
+                choice = self.lead.choose(NO_QUERY)
+            at = self._clock() + choice.lead
+            q, qd, qdd = motion.commanded.state(at)
+            source = f" from the commanded path ({error})"
+        planning = self._clock()
+        braking = brake(motion.geometry, q, qd, qdd, self.dt, motion.deceleration, motion.jerk)
+        if braking is not None and len(braking.times) >= 2:
+            points = GoalPoints(
+                braking.times[1:], braking.positions[1:], braking.velocities[1:], braking.accelerations[1:]
+            )
+            motion.commanded.add(at, braking.times, braking.positions, braking.velocities, braking.accelerations)
+            motion.braking, motion.stop_lead = braking, choice.lead
+            what = "a stop"
+        elif braking is not None and at < motion.ends:
+            # At rest while the link commanded motion: it has not begun, or the controller has not yet taken its
+            # goal. A rest where it waits, stamped like a braking (never a cancel, which holds with a step).
+            points = GoalPoints(np.array([self.dt]), q[None, :], np.zeros((1, len(q))), np.zeros((1, len(q))))
+            motion.commanded.add(at, np.array([0.0, self.dt]), np.vstack([q, q]))
+            motion.braking, motion.stop_lead = None, math.nan
+            what = "a rest"
+        else:
+            return  # the plan rests sooner than braking would (or rests already): it is its own stop
+        motion.ends = max(motion.ends, at + points.duration)  # watched to the motion's planned end at least
+        handle, sent = self._send(points, at)
+        motion.handles.append(handle)
+        motion.stop_sent = sent
         with self._lead_lock:
             self.lead.add("planning", sent - planning)
+        self._target = points.positions[-1].copy()
         say(
-            f"{self.name}: a stop stamped {choice.describe()}; sent {(sent - began) * 1e3:.1f} ms after its "
+            f"{self.name}: {what} stamped {choice.describe()}{source}; sent {(sent - began) * 1e3:.1f} ms after its "
             f"preparation began ({'before' if sent < at else 'AFTER'} its stamp)"
         )
-        commanded.add(at, stop.times, stop.positions)
-        self._target = stop.positions[-1].copy()
-        return stop, sent, at, choice.lead
 
-    def _stop_approach(
-        self, geometry: PathGeometry, run: TrialRun, commanded: CommandedPath, start: float, first: FedState
-    ) -> tuple[Any, Braking | None, float, float, float]:
-        """The approach's replacement: braking, or a hold where the arm waits when the approach (starting at
-        `start`) has not begun. (Its handle, the braking, when it was sent, when it ends, the braking's lead: NaN
-        when nothing brakes); handle None when the plan comes to rest sooner on its own."""
-        braking, sent_at, at, lead = self._brake(geometry, run, commanded)
-        if braking is not None:
-            return self._handles[-1], braking, sent_at, at + braking.duration, lead
-        if sent_at < start:
-            handle, sent_at = self._hold(commanded, first.positions)
-            return handle, None, sent_at, sent_at, math.nan
-        return None, None, sent_at, -math.inf, math.nan
+    def _fail_safe(self, motion: Motion, why: str) -> None:
+        """The guard's stop on an exit of the motion's code: brake, then watch the arm to rest (not stopped by the
+        stop event, which may be why). Never raises: it says what it could not do."""
+        try:
+            if not motion.stopped:
+                say(f"{self.name}: {motion.what} left ({why}): braking")
+                motion.reason = motion.reason or f"the motion's code exited: {why}"
+                self._stop(motion)
+            while self._clock() < motion.ends + RESULT_GRACE and not self._done(motion.handle):
+                self.feed.wait(self._clock(), POLL)
+                if motion.replaced and self._refused(motion.handle):
+                    motion.commanded.discard_last()
+                    motion.handles.pop()
+                    self._stop(motion)
+            failed = self._failure(motion)
+            say(f"{self.name}: {motion.what}: {failed or 'the arm braked to rest'}")
+        except BaseException as error:  # noqa: BLE001 — the exit goes on; the observer must know
+            say(f"{self.name}: could not brake {motion.what}: {type(error).__name__}: {error}")
+
+    # --- the parts -------------------------------------------------------------------------------------------
+    def _latest(self) -> FedState:
+        """The latest good joint state, once one is fresh (ControllerError after stale_after s without)."""
+        state = self.feed.wait(self._clock() - self.spec.stale_after, self.spec.stale_after, self.stop)
+        latest = self.feed.latest()
+        if state is None or latest is None or self._clock() - latest.arrival > self.spec.stale_after:
+            raise ControllerError(f"no joint state on {self.spec.joint_states_topic} for {self.spec.stale_after:g} s")
+        return latest
+
+    def _query(self, at: float, timeout: float) -> Any:
+        """query_state's answer for link time `at`, its round trip measured for the stops' lead. ControllerError when
+        it fails or has not answered within `timeout` s. rospy's persistent proxy does not reconnect: after a
+        failure it is closed (which also ends a call stuck on its socket) and the next query makes a new one."""
+        if self._proxy is None:
+            self._proxy = self.rospy.ServiceProxy(
+                f"{self.spec.namespace}/query_state", self.types.query_state, persistent=True
+            )
+        proxy, answer = self._proxy, {}
+        asked = self._clock()
+
+        def ask() -> None:
+            try:
+                answer["desired"] = proxy(self.rospy.Time.from_sec(at))
+            except Exception as error:  # rospy's ServiceException, ROSException, a closed socket's OSError
+                answer["error"] = error
+
+        worker = threading.Thread(target=ask, name="query_state", daemon=True)
+        worker.start()
+        worker.join(timeout)
+        if "desired" in answer:
+            with self._lead_lock:
+                self.lead.add("query", self._clock() - asked)
+            return answer["desired"]
+        self._proxy = None
+        proxy.close()
+        failure = answer.get("error") or f"no answer within {timeout * 1e3:.0f} ms"
+        raise ControllerError(f"{self.spec.namespace}/query_state failed: {failure}")
+
+    def _time_planning(
+        self,
+        geometry: PathGeometry | JointLine,
+        positions: np.ndarray,
+        velocities: np.ndarray,
+        accelerations: np.ndarray,
+        deceleration: float,
+        jerk: float,
+    ) -> None:
+        """Plan a stop from the motion's fastest sample (the longest stop) and keep how long it took: this machine's
+        planning time now, before a press needs it."""
+        k = int(np.argmax(np.linalg.norm(velocities, axis=1)))
+        began = self._clock()
+        brake(geometry, positions[k], velocities[k], accelerations[k], self.dt, deceleration, jerk)
+        with self._lead_lock:
+            self.lead.add("planning", self._clock() - began)
+
+    @staticmethod
+    def _taken(handle: Any) -> bool:
+        """The controller has said it took the goal (not yet heard of, or refused: not taken)."""
+        from actionlib import CommState
+
+        heard = handle.get_comm_state() != CommState.WAITING_FOR_GOAL_ACK
+        return bool(heard and not TrajectoryLink._refused(handle))
 
     @staticmethod
     def _refused(handle: Any) -> bool:
         return TrajectoryLink._done(handle) and int(handle.get_goal_status()) == REJECTED
 
-    def _hold(self, commanded: CommandedPath, positions: np.ndarray) -> tuple[Any, float]:
-        """A goal with no points, which a controller takes as "hold where you are": the replacement of an approach
-        stopped before its start, where braking has nothing to slow down. Its handle and when it was sent."""
-        nothing = np.zeros((0, self.robot.dof))
-        handle, sent = self._send(GoalPoints(np.zeros(0), nothing, nothing, nothing), 0.0)
-        commanded.add(sent, np.zeros(1), np.asarray(positions, dtype=float)[None, :])
-        self._target = np.asarray(positions, dtype=float).copy()
-        return handle, sent
-
     def _send(self, points: GoalPoints, stamp: float) -> tuple[Any, float]:
-        """A goal of `points` stamped `stamp` (0: the controller's next update); its handle and when it was sent."""
+        """A goal of `points` stamped `stamp` (the link's clock); its handle and when it was sent."""
         goal = self.types.goal()
         goal.trajectory = self._joint_trajectory(
             self.robot.joint_names, points.times, points.positions, points.velocities, points.accelerations, stamp
         )
-        sent = time.time()
+        sent = self._clock()
         handle = self.client.send_goal(goal, transition_cb=self._delivered(sent))
-        self._handles.append(handle)
         return handle, sent
 
     def _delivered(self, sent: float) -> Any:
@@ -470,7 +545,7 @@ class TrajectoryLink:
             if handle.get_comm_state() != CommState.WAITING_FOR_GOAL_ACK and not heard.is_set():
                 heard.set()
                 with self._lead_lock:
-                    self.lead.add("delivery", time.time() - sent)
+                    self.lead.add("delivery", self._clock() - sent)
 
         return transition
 
@@ -489,9 +564,9 @@ class TrajectoryLink:
 
 
 def _applied(press: Press, now: float) -> tuple[AppliedPress, float]:
-    """What is recorded of a press taken at `now` (wall time), and its time: its stamp, or when it arrived if it has
-    none or one on another clock (a page that keeps the stream's /clock in a session of both links). Its lateness
-    is from its stamp to `now`, when the replacement's braking is planned from."""
+    """What is recorded of a press taken at `now` (the link's clock), and its time: its stamp, or when it arrived if
+    it has none or one on another clock (a page that keeps the stream's /clock in a session of both links). Its
+    lateness is from its stamp to `now`, when the replacement's braking is planned from."""
     arrived = press.arrival if math.isfinite(press.arrival) else now
     if press.stamp > 0 and abs(press.stamp - arrived) <= STAMP_WINDOW:
         late = max(now - press.stamp, 0.0)

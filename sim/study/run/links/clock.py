@@ -1,0 +1,38 @@
+"""The trajectory-controller link's clock: wall time (what a driver stamps with, and what goals are stamped on)
+carried forward by the monotonic clock. No ROS.
+
+The system's wall clock can step (an NTP correction, an operator's `date`): a stale feed measured on it would look
+fresh for the step's length, a lead measured across it negative, and a stop stamped on it seconds off. The link
+therefore reads the wall clock once, when it anchors, and counts on from there by the monotonic clock. Between
+motions it anchors again (so the monotonic clock's drift from the wall clock, a few hundred ppm at most while NTP
+slews, never builds up); during a motion, the wall clock's distance from the link's clock is the step, and one
+beyond STEP_LIMIT stops the arm: the controller's clock and the runner's no longer agree on when a stop begins.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+
+__all__ = ["STEP_LIMIT", "LinkClock"]
+
+STEP_LIMIT = 0.05  # s: a wall clock this far from the link's has stepped (drift is ~0.1 ms in the longest motion)
+
+
+class LinkClock:
+    def __init__(self, wall: Callable[[], float] = time.time, monotonic: Callable[[], float] = time.monotonic) -> None:
+        self._wall, self._monotonic = wall, monotonic
+        self._offset = 0.0
+        self.anchor()
+
+    def anchor(self) -> None:
+        """Take the wall clock's time as the link's from now on."""
+        self._offset = self._wall() - self._monotonic()
+
+    def __call__(self) -> float:
+        """s: the wall time as the link keeps it."""
+        return self._monotonic() + self._offset
+
+    def step(self) -> float:
+        """s the system's wall clock now is ahead of the link's (negative: behind)."""
+        return self._wall() - self()

@@ -1,0 +1,50 @@
+"""A move to a path's start as a geometry to brake along: the straight line in joint space that the move's quintic
+follows (sim.control.scenarios.approach), parametrised by its length in joint space (rad). Pure.
+
+It answers what sim.study.safety.braking's `brake` asks of a path (project, joints, world, length), so a move is
+stopped like an approach: along its own line, continuous in position, velocity and acceleration, at MOVE_DECELERATION
+and MOVE_JERK (along the line's parameter, the norm of the joints' motion: every joint decelerates at most that). A
+move has no Cartesian path of its own to plan on: its world positions are unknown (NaN).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from sim.study.run.errors import RunError
+from sim.study.safety.braking import PathState
+
+__all__ = ["MOVE_DECELERATION", "MOVE_JERK", "JointLine"]
+
+MOVE_DECELERATION = 1.0  # rad/s² along the line: well within every supported arm's joint limits (Panda: ≥ 7.5)
+MOVE_JERK = 20.0  # rad/s³ along the line (Panda: ≥ 3750)
+
+
+class JointLine:
+    def __init__(self, start: np.ndarray, end: np.ndarray) -> None:
+        self.start = np.asarray(start, dtype=float)
+        delta = np.asarray(end, dtype=float) - self.start
+        self.length = float(np.linalg.norm(delta))
+        if self.length <= 1e-9:
+            raise RunError("a move of no length has nothing to brake along")
+        self.direction = delta / self.length
+
+    @property
+    def dof(self) -> int:
+        return len(self.start)
+
+    def joints(self, s: np.ndarray | float, derivative: int = 0) -> np.ndarray:
+        s = np.clip(np.asarray(s, dtype=float), 0.0, self.length)
+        if derivative == 0:
+            return self.start + np.multiply.outer(s, self.direction)
+        if derivative == 1:
+            return np.broadcast_to(self.direction, (*s.shape, self.dof)).copy()
+        return np.zeros((*s.shape, self.dof))
+
+    def world(self, s: np.ndarray | float) -> np.ndarray:
+        return np.full((*np.shape(s), 3), np.nan)
+
+    def project(self, positions: np.ndarray, velocities: np.ndarray, accelerations: np.ndarray) -> PathState:
+        """The line's state that best explains a joint state (least squares along the line)."""
+        s = float(np.clip((np.asarray(positions, dtype=float) - self.start) @ self.direction, 0.0, self.length))
+        return PathState(s, float(velocities @ self.direction), float(accelerations @ self.direction))
