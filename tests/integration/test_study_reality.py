@@ -585,7 +585,10 @@ def test_check_safety_refuses_a_plan_beyond_the_pandas_limits_or_under_the_floor
         return subprocess.run(command, cwd=REPO, env=plain_env(), capture_output=True, text=True, timeout=120)
 
     passed = check()
-    assert passed.returncode == 0 and "within panda's limits (URDF and Franka" in passed.stdout, passed.stderr
+    assert passed.returncode == 0, passed.stderr
+    within = "within panda's joint position limits and, at 80%, its joint velocity, acceleration and jerk limits and "
+    assert within in passed.stdout and "not checked:" not in passed.stdout.replace("(not from an arm", "")
+    assert "and the move to its start from home and from any rest on an approach's path" in passed.stdout
     # 5 % of the Panda's acceleration limits: refused, one line per limit, naming it
     refused = check("--margin", "0.05")
     lines = [line for line in refused.stdout.splitlines() if line.startswith("refused: ")]

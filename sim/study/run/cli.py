@@ -170,12 +170,13 @@ def refuse_beyond_limits(
     args: argparse.Namespace,
 ) -> None:
     """Before any motion: the trials on a trajectory controller (a real arm) against the robot's limits at --margin,
-    their braking from a press at any sample too, and the --floor (check --safety's check). One line per refusal,
-    naming the limit, then a RunError (exit 2). The stream's stand-in is not checked."""
+    their braking from a press at any sample and the moves to their starts too, and the --floor (check --safety's
+    check). One line per refusal, naming the limit, then a RunError (exit 2). The stream's stand-in is not checked."""
     import sys
 
     from sim.study.safety.check import design_refusals
     from sim.study.safety.limits import limits_for
+    from sim.study.safety.start_moves import start_move_refusals
 
     on_links = sorted({(t.path, t.standoff, t.peak_speed) for t in plan.trials if t.condition in links})
     if not on_links:
@@ -187,9 +188,9 @@ def refuse_beyond_limits(
         )
         return
     limits = limits_for(robot)
-    refusals = design_refusals(
-        limits, {key: planned[key] for key in on_links}, args.margin, args.floor, args.deceleration
-    )
+    checked = {key: planned[key] for key in on_links}
+    refusals = design_refusals(limits, checked, args.margin, args.floor, args.deceleration)
+    refusals += start_move_refusals(robot, limits, checked, args.margin)
     for line in refusals:
         print(f"refused: {line}")
     if refusals:

@@ -1,7 +1,9 @@
 """`python -m sim.study check --safety`: before a real arm moves, every combination of the design (planned and checked
 by the design's `check`) against the robot's limits with a declared margin, its braking from a press at any sample
-too, and no planned point closer to the hand than a declared floor. One line per refusal, naming the limit; exit 2
-when there is one. The toolkit's own check: it never replaces the robot's own stop."""
+too, the move to its start from home and from any rest on a path (start_moves.py), and no planned point closer to
+the hand than a declared floor. One line per refusal, naming the limit; exit 2 when there is one. Otherwise one line
+says which limits were held and, where a kind of limit is unknown for the robot, what was not checked. The toolkit's
+own check: it never replaces the robot's own stop."""
 
 from __future__ import annotations
 
@@ -31,7 +33,8 @@ def register(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> N
 def safety_check_command(args: argparse.Namespace) -> int:
     from sim.study.design.cli import checked_combinations
     from sim.study.safety.check import design_refusals
-    from sim.study.safety.limits import limits_for
+    from sim.study.safety.limits import coverage, limits_for
+    from sim.study.safety.start_moves import start_move_refusals
 
     if args.safety:  # the margin and floor are said before the planning's minute, not after
         check_positive(args.deceleration, "--deceleration")
@@ -44,11 +47,17 @@ def safety_check_command(args: argparse.Namespace) -> int:
         return EXIT_OK
     limits = limits_for(robot)
     refusals = design_refusals(limits, approaches, args.margin, args.floor, args.deceleration)
+    refusals += start_move_refusals(robot, limits, approaches, args.margin)
     for line in refusals:
         print(f"refused: {line}")
     if refusals:
         raise SafetyError(
             f"{len(refusals)} refusal(s); to change: lower peak speeds, a gentler --deceleration, a larger stand-off"
         )
-    print(f"within {robot.name}'s limits ({limits.source}) at {args.margin:.0%}, floor {args.floor:g} m")
+    within, unchecked = coverage(robot.name, limits, args.margin)
+    print(f"{within}, floor {args.floor:g} m" + (f"; not checked: {unchecked}" if unchecked else ""))
+    print(
+        "motions checked: each approach's samples, its braking from a press at any sample, and the move to its start "
+        "from home and from any rest on an approach's path (not from an arm left elsewhere than home)"
+    )
     return EXIT_OK

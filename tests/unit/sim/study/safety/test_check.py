@@ -45,3 +45,20 @@ def test_a_design_beyond_the_pandas_acceleration_limit_is_refused_and_one_under_
     assert any(re.match(r"diagonal to 0.005 m at 0.5 m/s: panda_joint\d acceleration .* 2% of its limit", line)
                for line in refusals)  # fmt: skip
     assert refusals[-1] == "diagonal to 0.005 m at 0.5 m/s: comes 0.0050 m from the hand, under the floor of 0.01 m"
+
+
+def test_a_plan_and_its_braking_past_a_joints_position_limit_are_refused_naming_the_joint() -> None:
+    import dataclasses
+
+    path, joints = panda_plan("diagonal", 0.5)
+    limits = limits_for(PANDA)
+    j = int(np.argmax(np.ptp(joints, axis=0)))  # the joint that moves most: its limit put halfway along the plan
+    halfway = float((joints[0, j] + joints[-1, j]) / 2)
+    if joints[-1, j] > joints[0, j]:
+        tight = dataclasses.replace(limits, upper=np.where(np.arange(7) == j, halfway, limits.upper))
+    else:
+        tight = dataclasses.replace(limits, lower=np.where(np.arange(7) == j, halfway, limits.lower))
+    refusals = plan_refusals("diagonal", path, joints, tight)
+    joint = f"panda_joint{j + 1} position"
+    assert any(line.startswith(f"diagonal: {joint} ") and f"limit {halfway:g} (URDF)" in line for line in refusals)
+    assert any(line.startswith("diagonal, braking from a press at t = ") and joint in line for line in refusals)
