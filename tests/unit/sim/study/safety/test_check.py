@@ -45,3 +45,28 @@ def test_a_design_beyond_the_pandas_acceleration_limit_is_refused_and_one_under_
     assert any(re.match(r"diagonal to 0.005 m at 0.5 m/s: panda_joint\d acceleration .* 2% of its limit", line)
                for line in refusals)  # fmt: skip
     assert refusals[-1] == "diagonal to 0.005 m at 0.5 m/s: comes 0.0050 m from the hand, under the floor of 0.01 m"
+
+
+def test_a_plan_the_separation_rule_would_brake_before_its_stand_off_is_refused_naming_the_time_and_the_terms() -> None:
+    from sim.study.design.feasibility import PlannedApproach
+    from sim.study.safety.check import design_refusals
+    from sim.study.safety.separation import SeparationParameters
+
+    path, joints = panda_plan("diagonal", 0.5)
+    distances = np.linspace(0.3, 0.015, len(path.times))  # ends 0.015 m from the hand: under floor + C + Z (0.019 m)
+    planned = PlannedApproach(path, joints, np.gradient(joints, path.dt, axis=0), 0.015, {}, distances)
+    limits, key = limits_for(PANDA), ("diagonal", 0.015, 0.5)
+    assert design_refusals(limits, {key: planned}) == []  # the rule not asked for: the runner's check as it was
+    refusals = design_refusals(limits, {key: planned}, floor=0.01, separation=SeparationParameters())
+    assert len(refusals) == 1
+    assert re.match(
+        r"diagonal to 0.015 m at 0.5 m/s: at t = \d+\.\d\d s the separation 0\.0\d+ m less S_p 0\.\d{3} m: "
+        r"hand 0\.000, robot 0\.\d{3}, braking 0\.\d{3}, C\+Z 0\.009 \(lead 0\.25 s, hand 0 m/s\) leaves -?0\.\d+ m, "
+        r"under the floor 0\.01 m: the monitor would brake before the stand-off$",
+        refusals[0],
+    )
+    # a stand-off that clears floor + C + Z passes with a resting hand, and is refused for a hand closing at 0.1 m/s
+    clear = PlannedApproach(path, joints, planned.velocities, 0.03, {}, np.linspace(0.3, 0.03, len(path.times)))
+    assert design_refusals(limits, {key: clear}, floor=0.01, separation=SeparationParameters()) == []
+    closing = design_refusals(limits, {key: clear}, floor=0.01, separation=SeparationParameters(), hand_speed=0.1)
+    assert len(closing) == 1 and "(lead 0.25 s, hand 0.1 m/s)" in closing[0]
