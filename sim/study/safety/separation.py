@@ -37,14 +37,18 @@ participant's own move).
 
 The live link calls the monitor on each joint state, on one monotonic clock for the hand's stamps and `now`:
 
-    monitor = SeparationMonitor(SeparationParameters(floor=spec.floor), tracked=hand_body != "")
-    # on each tracked place of the hand under the robot (stamp on the monitor's clock):
+    plan = PlannedTravel(path.times, planned.distances, braking.arc_length(path), path.speeds)
+    monitor = SeparationMonitor(SeparationParameters(floor=spec.floor), tracked=hand_body != "", plan=plan)
+    # on each tracked place of the hand under the robot (stamp on the monitor's clock), from before the motion:
     monitor.hand_seen(stamp, position)
-    # on each joint state:
-    verdict = monitor.check(now, distance, robot_speed, path.speed, path.acceleration, lead, direction, remaining)
+    # on each joint state, t s into the approach (the plan's clock), the stop's lead as it would be stamped now:
+    verdict = monitor.check(now, live_distance, lead, plan_time=t, direction=unit(robot_point - hand_point))
     if verdict.brake:
         stop(verdict.reason)
     # for the trial's record: monitor.least_predicted, monitor.least_achieved, monitor.monitored
+
+Without a plan, `check` takes the robot's speed towards the hand, its path speed and acceleration and the path left
+instead (ISO's constant-speed form, protective_separation).
 """
 
 from __future__ import annotations
