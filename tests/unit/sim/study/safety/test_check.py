@@ -62,3 +62,28 @@ def test_a_plan_and_its_braking_past_a_joints_position_limit_are_refused_naming_
     joint = f"panda_joint{j + 1} position"
     assert any(line.startswith(f"diagonal: {joint} ") and f"limit {halfway:g} (URDF)" in line for line in refusals)
     assert any(line.startswith("diagonal, braking from a press at t = ") and joint in line for line in refusals)
+
+
+def test_a_plan_the_separation_rule_would_brake_before_its_stand_off_is_refused_naming_the_time_and_the_terms() -> None:
+    from sim.study.design.feasibility import PlannedApproach
+    from sim.study.safety.check import design_refusals
+    from sim.study.safety.separation import SeparationParameters
+
+    path, joints = panda_plan("diagonal", 0.5)
+    distances = np.linspace(0.3, 0.015, len(path.times))  # ends 0.015 m from the hand: under floor + C + Z (0.019 m)
+    planned = PlannedApproach(path, joints, np.gradient(joints, path.dt, axis=0), 0.015, {}, distances)
+    limits, key = limits_for(PANDA), ("diagonal", 0.015, 0.5)
+    assert design_refusals(limits, {key: planned}) == []  # the rule not asked for: the runner's check as it was
+    refusals = design_refusals(limits, {key: planned}, floor=0.01, separation=SeparationParameters())
+    assert len(refusals) == 1
+    assert re.match(
+        r"diagonal to 0.015 m at 0.5 m/s: at t = \d+\.\d\d s the separation 0\.0\d+ m less S_p 0\.\d{3} m: "
+        r"hand 0\.000, robot 0\.\d{3}, braking 0\.\d{3}, C\+Z 0\.009 \(lead 0\.25 s, hand 0 m/s\) leaves -?0\.\d+ m, "
+        r"under the floor 0\.01 m: the monitor would brake before the stand-off$",
+        refusals[0],
+    )
+    # a stand-off that clears floor + C + Z passes with a resting hand, and is refused for a hand closing at 0.1 m/s
+    clear = PlannedApproach(path, joints, planned.velocities, 0.03, {}, np.linspace(0.3, 0.03, len(path.times)))
+    assert design_refusals(limits, {key: clear}, floor=0.01, separation=SeparationParameters()) == []
+    closing = design_refusals(limits, {key: clear}, floor=0.01, separation=SeparationParameters(), hand_speed=0.1)
+    assert len(closing) == 1 and "(lead 0.25 s, hand 0.1 m/s)" in closing[0]
