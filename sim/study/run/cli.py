@@ -218,9 +218,8 @@ def pose_sources(given: list[str]) -> dict[str, str]:
 def tracker_command(args: argparse.Namespace) -> int:
     import json
 
-    from sim.study.motion.calibration import Calibration
     from sim.study.run.tracker import run_tracker
-    from sim.study.run.tracking import marked_points, tracker_config
+    from sim.study.run.tracking import marked_points, saved_calibration, tracker_config
 
     scene, _ = scene_and_robot(args)
     config = tracker_config(read_yaml(args.config, "tracker config"), scene, str(args.config))
@@ -230,9 +229,5 @@ def tracker_command(args: argparse.Namespace) -> int:
             data = json.loads(args.calibration.read_text(encoding="utf-8"))
         except (OSError, ValueError) as error:
             raise RunError(f"cannot read the calibration {args.calibration}: {error}") from None
-        fit = data.get("calibration", data) if isinstance(data, dict) else data
-        if not isinstance(fit, dict):
-            raise RunError(f"{args.calibration} holds no calibration")
-        bound = {**fit, "bound_m": config.calibration.max_residual}  # held to this session's bound
-        saved = Calibration.from_data(bound, str(args.calibration))
+        saved = saved_calibration(data, config, marked_points(scene), str(args.calibration))
     return run_tracker(config, marked_points(scene), args.participant, args.out.resolve(), saved)

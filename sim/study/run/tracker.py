@@ -5,9 +5,11 @@ From its configuration (sim.study.run.tracking): each body's source, a motion-ca
 (vrpn_client_ros, mocap_optitrack: one per rigid body) or a TF frame (its transform from the tracker's frame on /tf).
 At the start, in this order:
   1. calibration: the experimenter touches each marked point with the calibrating body and presses Enter here; that
-     body's poses over the next `hold` s are averaged (a touch whose poses stray more than `still` is taken again);
-     the rigid transform is fitted (sim.study.motion.calibration) and refused above its bound (one line, exit 2).
-     `--calibration FILE` takes a saved one instead (fitted again from its points, and checked likewise);
+     body's poses over the next `hold` s are averaged (a touch whose poses are not all finite, or stray more than
+     `still`, is taken again); the rigid transform is fitted (sim.study.motion.calibration) and refused, one line
+     and exit 2, when it cannot be trusted: a mirrored tracker frame, touches in another unit, a residual above its
+     bound. `--calibration FILE` takes a saved one instead, if it is of this tracker, frame, tip and scene
+     (sim.study.run.tracking.saved_calibration: fitted again from its points, and checked likewise);
   2. jitter: every body at rest for `rest` s; each one's RMS distance from its mean;
   3. it saves both in DIR/tracking/<source>_participant_NN.json and publishes them, latched: the announcement on
      /study/tracking, the fit on /study/calibration (both JSON std_msgs/String) and the transform on /tf_static
@@ -45,7 +47,7 @@ from sim.study.run.tracking import (
     announcement,
 )
 
-__all__ = ["EXIT_INTERRUPTED", "Samples", "run_tracker"]
+__all__ = ["EXIT_INTERRUPTED", "Samples", "held_problem", "run_tracker"]
 
 EXIT_INTERRUPTED = 130
 
@@ -70,6 +72,17 @@ class Samples:
         with self._lock:
             taken, self._collecting = self._collecting, None
         return {body: np.array(points).reshape(-1, 3) for body, points in (taken or {}).items()}
+
+
+def held_problem(held: np.ndarray, still: float) -> str:
+    """Why a touch's poses (n, 3, at least one) cannot be taken ("" when they can): not all finite (the tracker lost
+    the body, and a NaN compares as nothing), or straying further than `still` (m) from their mean."""
+    if not np.all(np.isfinite(held)):
+        return f"{int(np.sum(~np.all(np.isfinite(held), axis=1)))} of its {len(held)} poses were not finite (lost?)"
+    spread = float(np.max(np.linalg.norm(held - held.mean(axis=0), axis=1)))
+    if spread > still:
+        return f"it moved {spread * 1000:.1f} mm"
+    return ""
 
 
 def _say(text: str) -> None:
@@ -102,10 +115,11 @@ def _touches(
             if len(held) == 0:
                 _say(f"no pose of the {body} came within {settings.hold:g} s: is the tracker running? Again:")
                 continue
-            spread = float(np.max(np.linalg.norm(held - held.mean(axis=0), axis=1)))
-            if spread > settings.still:
-                _say(f"the {body} moved {spread * 1000:.1f} mm while {name} was taken; touch it again:")
+            problem = held_problem(held, settings.still)
+            if problem:
+                _say(f"the {body} was not held still while {name} was taken ({problem}); touch it again:")
                 continue
+            spread = float(np.max(np.linalg.norm(held - held.mean(axis=0), axis=1)))
             taken.append(held.mean(axis=0))
             _say(f"{name} taken: {len(held)} poses, spread {spread * 1000:.1f} mm")
             break
@@ -210,19 +224,31 @@ def run_tracker(
             names = config.calibration.points
             touched = _touches(config, points, samples, lines, stop)
             calibration = fit_calibration(
-                names, np.array([points[n] for n in names]), touched, config.calibration.max_residual
+                names,
+                np.array([points[n] for n in names]),
+                touched,
+                config.calibration.max_residual,
+                config.calibration.tip,
             )
         else:
             calibration = saved
         _say(
             f"calibrated from {len(calibration.names)} points: residual RMS {calibration.rms * 1000:.2f} mm, max "
-            f"{calibration.max * 1000:.2f} mm at {calibration.worst} (bound {calibration.bound * 1000:.1f} mm)"
+            f"{calibration.max * 1000:.2f} mm at {calibration.worst} (bound {calibration.bound * 1000:.1f} mm); each "
+            f"point left out of the fit and predicted by the others: RMS {calibration.left_out_rms * 1000:.2f} mm, "
+            f"max {calibration.left_out_max * 1000:.2f} mm at {calibration.left_out_worst}"
         )
         _say(f"every tracked body still, please: measuring the jitter for {config.rest:g} s")
         rest = samples.collect(config.rest, stop)
         jitters = {body: jitter(rest.get(body, np.zeros((0, 3)))) for body in config.bodies}
         _say("jitter at rest: " + ", ".join(f"{body} {value * 1000:.2f} mm" for body, value in jitters.items()))
-        fit = {"source": config.source, "frame": config.frame, "world_frame": POSE_FRAME, **calibration.to_data()}
+        fit = {
+            "source": config.source,
+            "frame": config.frame,
+            "world_frame": POSE_FRAME,
+            "body": config.calibration.body,
+            **calibration.to_data(),
+        }
         said = announcement(config.source, config.conditions, jitters, config.rest, fit, participant)
         record = out / FOLDER / f"{re.sub(r'[^A-Za-z0-9_.-]', '_', config.source)}_participant_{participant:02d}.json"
         record.parent.mkdir(parents=True, exist_ok=True)

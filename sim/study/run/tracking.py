@@ -3,10 +3,14 @@ poses is sim.study.run.tracker).
 
   TrackerConfig     a tracker's YAML: its name, the frame its poses are in, the conditions it tracks, each body's
                     source (a PoseStamped topic, as a motion-capture driver publishes one per rigid body, or a TF
-                    frame, a direct child of the tracker's frame on /tf), the calibration's marked points and bound,
-                    and how long the bodies rest for the jitter
+                    frame, a direct child of the tracker's frame on /tf), the calibration's marked points (refused
+                    here already when they lie near a line or a plane), bound and tip, and how long the bodies rest
+                    for the jitter
   marked_points     the scene's points an experimenter touches to calibrate: the hand model's two ends on its top,
                     and the table top's four corners (world coordinates, from the scene)
+  saved_calibration a saved fit (--calibration FILE) taken for this session only when it is of this config's tracker
+                    and frame, made with its tip, and its points are this scene's where they are now; fitted again
+                    from its touches and checked as a new fit is
   announcement      what a pose source says of itself on TRACKING_TOPIC (latched, JSON): its name, the conditions it
                     tracks, its jitter at rest and its calibration; the runner records it per condition. The tracker
                     relay (sim.study.run.tracker) announces itself, and so does the VR page (its settings carry its
@@ -29,6 +33,8 @@ import numpy as np
 
 from sim.study.design.scene import Scene
 from sim.study.design.spec import CONDITIONS
+from sim.study.motion.calibration import MIN_POINTS, Calibration, check_spread, fit_calibration, saved_points
+from sim.study.motion.errors import MotionError
 from sim.study.run.errors import RunError
 from sim.study.run.protocol import BODIES, POSE_FRAME
 
@@ -43,6 +49,7 @@ __all__ = [
     "TrackerConfig",
     "tracker_config",
     "marked_points",
+    "saved_calibration",
     "announcement",
     "announcement_from_json",
     "session_tracking",
@@ -55,6 +62,7 @@ FOLDER = "tracking"  # in a session's output: the trackers' calibrations and jit
 REST_S = 3.0  # s of the bodies at rest at the session's start, for the jitter: the relay's default, and the VR page's
 STAMPS = ("source", "arrival")  # how a relayed pose is stamped (TrackerConfig.stamp)
 DEFAULT_POINTS = ("hand_fingertips", "hand_wrist", "table_corner_1", "table_corner_2", "table_corner_3")
+SCENE_TOLERANCE = 0.001  # m: a saved fit's point further than this from the scene's is of another scene
 
 
 @dataclass(frozen=True)
@@ -73,6 +81,7 @@ class CalibrationSettings:
     max_residual: float = 0.01  # m: the largest residual accepted
     hold: float = 0.5  # s the body is held on each point; its poses over that time are averaged
     still: float = 0.005  # m: a touch whose poses stray further from their mean is taken again (the hand moved)
+    tip: float = 0.0  # m: the tracked point's height above the surface it touches (a marker ball's radius)
 
 
 @dataclass(frozen=True)
@@ -137,7 +146,7 @@ def tracker_config(data: object, scene: Scene, where: str = "tracker config") ->
         kind = next(iter(entry))
         bodies[body] = BodySource(**{kind: _name(entry, kind, f"{where}: bodies.{body}")})
     settings = _keys(
-        top.get("calibration", {}), ("body", "points", "max_residual", "hold", "still"), f"{where}: calibration"
+        top.get("calibration", {}), ("body", "points", "max_residual", "hold", "still", "tip"), f"{where}: calibration"
     )
     defaults = CalibrationSettings()
     body = settings.get("body", defaults.body)
@@ -146,16 +155,26 @@ def tracker_config(data: object, scene: Scene, where: str = "tracker config") ->
     points = tuple(settings.get("points", defaults.points))
     known = marked_points(scene)
     wrong = [p for p in points if p not in known]
-    if wrong or len(set(points)) != len(points) or len(points) < 3:
+    if wrong or len(set(points)) != len(points) or len(points) < MIN_POINTS:
         raise RunError(
-            f"{where}: calibration.points must be 3 or more of {', '.join(known)}, each once, got {list(points)!r}"
+            f"{where}: calibration.points must be {MIN_POINTS} or more of {', '.join(known)}, each once, not all in "
+            f"one plane, got {list(points)!r}"
         )
+    bound = _number(settings, "max_residual", defaults.max_residual, f"{where}: calibration")
+    try:
+        check_spread(np.array([known[p] for p in points]), bound, "calibration's points")
+    except MotionError as error:
+        raise RunError(f"{where}: {error}") from None
+    tip = settings.get("tip", defaults.tip)
+    if isinstance(tip, bool) or not isinstance(tip, (int, float)) or not (math.isfinite(tip) and 0 <= tip < 0.1):
+        raise RunError(f"{where}: calibration: tip must be a length in m, 0 or more and under 0.1, got {tip!r}")
     calibration = CalibrationSettings(
         body,
         points,
-        _number(settings, "max_residual", defaults.max_residual, f"{where}: calibration"),
+        bound,
         _number(settings, "hold", defaults.hold, f"{where}: calibration"),
         _number(settings, "still", defaults.still, f"{where}: calibration"),
+        float(tip),
     )
     stamp = top.get("stamp", "source")
     if stamp not in STAMPS:
@@ -175,6 +194,45 @@ def marked_points(scene: Scene) -> dict[str, np.ndarray]:
         corner = table.top + table.rotation @ np.array([sx * half[0], sy * half[1], 0.0])
         points[f"table_corner_{k}"] = corner
     return points
+
+
+def _xyz(point: np.ndarray) -> str:
+    return "(" + ", ".join(f"{v:.3f}" for v in point) + ") m"
+
+
+def saved_calibration(
+    data: object, config: TrackerConfig, points: Mapping[str, np.ndarray], where: str = "the saved calibration"
+) -> Calibration:
+    """A saved fit (a tracker's tracking/*.json, or its calibration alone) for this session: refused in one line
+    (RunError, or MotionError from the fit) naming what differs when it is of another tracker or frame than
+    `config`'s, made with another tip, or its points are not this scene's `points` where they are now (a table
+    moved since would otherwise move every pose with it, the old touches fitting the old places as well as ever).
+    Fitted again from its touches, held to this config's bound."""
+    fit = data.get("calibration", data) if isinstance(data, Mapping) else data
+    if not isinstance(fit, Mapping):
+        raise RunError(f"{where} holds no calibration")
+    for key, here in (("source", config.source), ("frame", config.frame), ("world_frame", POSE_FRAME)):
+        there = fit.get(key)
+        if there != here:
+            raise RunError(
+                f"{where} is a fit of {key} {there!r}, not this session's {here!r} (the config's): calibrate again"
+            )
+    saved = saved_points(fit, where)
+    if abs(saved.tip - config.calibration.tip) > 1e-6:
+        raise RunError(
+            f"{where} was made with a tip of {saved.tip * 1000:.1f} mm, the config says "
+            f"{config.calibration.tip * 1000:.1f} mm: calibrate again"
+        )
+    for name, there in zip(saved.names, saved.world):
+        if name not in points:
+            raise RunError(f"{where} touched {name!r}, which this scene does not mark: calibrate again")
+        apart = float(np.linalg.norm(there - points[name]))
+        if apart > SCENE_TOLERANCE:
+            raise RunError(
+                f"{where} was fitted to another scene: its {name} is at {_xyz(there)}, this scene's at "
+                f"{_xyz(points[name])}, {apart * 1000:.1f} mm apart: calibrate again"
+            )
+    return fit_calibration(saved.names, saved.world, saved.touched, config.calibration.max_residual, saved.tip)
 
 
 def announcement(

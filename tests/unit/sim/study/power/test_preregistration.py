@@ -71,7 +71,7 @@ def test_the_summary_declares_what_the_analysis_will_judge_by():
         "- `/study/pose/left_hand`: ",
         "- `/study/pose/right_hand`: ",
         "each a `geometry_msgs/PoseStamped` in the `world` frame",
-        "the experimenter touches at least 3 marked points of the table and the hand model",
+        "the experimenter touches at least 4 marked points of the table and the hand model, not all in one plane",
         "a fit whose largest residual is above the bound the configuration declares is refused",
         "tracker's jitter (the RMS distance of a body's positions from their mean while it is held still)",
         "The report names the tracker each condition used; where they differ, every VR − reality contrast",
