@@ -401,11 +401,15 @@ def test_a_stop_the_controller_refuses_is_planned_and_sent_anew(roscore, ros_nod
     assert rest > standoff + 0.02  # braked well short of its stand-off
 
 
-def test_an_achieved_distance_under_the_floor_stops_the_arm(roscore, ros_node, arm, tmp_path: Path) -> None:
+def test_a_reading_displaced_towards_the_hand_stops_the_arm_before_the_floor(
+    roscore, ros_node, arm, tmp_path: Path
+) -> None:
     # The plan keeps 0.15 m from the hand, over the floor of 0.05 m. Once the arm moves, the relay of its joint states
     # shows it displaced twice the way from the plan's end at 0.15 m to a plan's end at 0.03 m (as an arm off its
-    # calibration, or a hand closer than the scene says, would read): its distance as the runner reads it falls
-    # under the floor mid-approach, while the arm is still far. Tracking is given a tolerance the reading keeps.
+    # calibration, or a hand closer than the scene says, would read): its distance as the runner reads it would fall
+    # under the floor within the stop mid-approach, while the arm is still far, and the runner brakes then, before
+    # the reading is under the floor. Tracking is given a tolerance the reading keeps. No tracker: the scene's hand,
+    # taken at rest, is said to be unmonitored.
     from sensor_msgs.msg import JointState
 
     _, watch = arm
@@ -430,21 +434,25 @@ def test_an_achieved_distance_under_the_floor_stops_the_arm(roscore, ros_node, a
     try:
         watch.wait((1, "moving"), runner)
         shifting.set()
-        stopped_on_its_own(runner, watch, "achieved distance to the hand", 0.15, 10, displaced=True)
+        row = stopped_on_its_own(runner, watch, "separation", 0.15, 10, displaced=True)
     finally:
         kill_process(runner)
         relay.unregister()
         relayed.unregister()
+    assert "the hand not monitored, taken at rest" in row["safety_stop"] and row["hand_monitored"] == "untracked"
+    assert float(row["least_separation"]) >= 0.05 and float(row["least_separation_predicted"]) < 0.05
 
 
-def test_a_hand_reaching_towards_the_arm_mid_approach_stops_it_at_the_floor(
-    roscore, ros_node, arm, tmp_path: Path
+@pytest.mark.parametrize("speed", [0.5, 1.6])  # m/s: a reach, and a fast one
+def test_a_hand_reaching_towards_the_arm_mid_approach_stops_it_before_the_floor(
+    roscore, ros_node, arm, tmp_path: Path, speed: float
 ) -> None:
     # A tracker follows the participant's right hand at 60 Hz (the protocol's pose topic, stamped on the wall clock,
     # the runner's on a trajectory controller), at rest on the scene's hand. The plan keeps 0.15 m from the hand, over
-    # the floor of 0.05 m; 0.3 s into the approach the hand rises towards the arm coming down at 0.5 m/s, by up to
-    # 0.4 m, as a participant reaching out would: the arm's distance to the hand where it is now falls under the
-    # floor while the arm is still far above the hand's rest, and the runner stops it there.
+    # the floor of 0.05 m; 0.3 s into the approach the hand rises towards the arm coming down at `speed`, by up to
+    # 0.4 m, as a participant reaching out would: the separation to the hand where it is now would fall under the
+    # floor within the stop (the hand's closing speed measured from the tracker) while the arm is still far above the
+    # hand's rest, and the runner stops it then: the separation stays over the floor while the arm moves.
     from geometry_msgs.msg import PoseStamped
 
     from sim.study.run.protocol import POSE_FRAME, POSE_TOPICS
@@ -463,7 +471,7 @@ def test_a_hand_reaching_towards_the_arm_mid_approach_stops_it_at_the_floor(
             pose = PoseStamped()
             pose.header.stamp = ros_node.Time.from_sec(now)
             pose.header.frame_id = POSE_FRAME
-            risen = min(max(now - rises_from[0], 0.0) * 0.5, 0.4)
+            risen = min(max(now - rises_from[0], 0.0) * speed, 0.4)
             pose.pose.position.x, pose.pose.position.y = rest_place[0], rest_place[1]
             pose.pose.position.z = rest_place[2] + risen
             pose.pose.orientation.w = 1.0
@@ -477,13 +485,15 @@ def test_a_hand_reaching_towards_the_arm_mid_approach_stops_it_at_the_floor(
     try:
         watch.wait((1, "moving"), runner)
         rises_from[0] = time.time() + 0.3
-        row = stopped_on_its_own(runner, watch, "achieved distance to the hand", 0.15, 14)
+        row = stopped_on_its_own(runner, watch, "separation", 0.15, 14)
     finally:
         kill_process(runner)
         tracking.clear()
         thread.join(timeout=5)
         tracker.unregister()
     assert row["tracked_hand"] == "right_hand"  # the runner took the tracked hand for the one under the robot
+    assert row["hand_monitored"] == "tracked" and "hand 0." in row["safety_stop"]
+    assert float(row["least_separation"]) >= 0.05, row["safety_stop"]
     assert float(row["distance_at_rest"]) > 0.15 + 0.05  # of the hand's rest: stopped well above it
 
 

@@ -3,8 +3,8 @@ column, so the analysis never works on a half-written or edited-by-hand file wit
 
 Distances are the end effector's (its FK from the achieved joint states) to the hand's surface, in metres. The
 press's latency columns, then the participant's motion (sim.study.motion), then the robot link's, then its goals'
-leads came last: a file written before any of them is still read, with them at their defaults (NaN, no tracked
-hand, the stream).
+leads, then the separation monitoring came last: a file written before any of them is still read, with them at their
+defaults (NaN, no tracked hand, the stream).
 """
 
 from __future__ import annotations
@@ -65,13 +65,19 @@ class TrialRecord:
     # stream, and stop_lead without a stop):
     start_lead: float = math.nan  # s from the approach's sending to its stamp
     stop_lead: float = math.nan  # s from the braking replacement's preparation to its stamp
+    # Speed and separation monitoring on a trajectory controller (sim.study.safety.separation; NaN and "" on the
+    # stream): the hand "tracked", or "untracked" (no tracker: the scene's hand, taken at rest, was not monitored)
+    hand_monitored: str = ""
+    least_separation_predicted: float = math.nan  # m: the least separation a stop decided then would have kept
+    least_separation: float = math.nan  # m: the least achieved separation to the hand's live place while moving
 
 
 _FIELDS = fields(TrialRecord)
 _NAMES = [field.name for field in _FIELDS]
 # The headers a file may have: the columns up to each group added later (the press's latency, the motion, the link,
-# its leads). A file written before a group is read with that group's columns at their defaults.
-_LATER_GROUPS = ("press_input_delay", "tracked_hand", "link", "start_lead")
+# its leads, the separation monitoring). A file written before a group is read with that group's columns at their
+# defaults.
+_LATER_GROUPS = ("press_input_delay", "tracked_hand", "link", "start_lead", "hand_monitored")
 _HEADERS = [_NAMES[: _NAMES.index(first)] for first in _LATER_GROUPS] + [_NAMES]
 
 

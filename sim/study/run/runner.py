@@ -76,11 +76,10 @@ from sim.study.motion.measures import (
     withdrawal_end,
 )
 from sim.study.run.console import say
-from sim.study.run.errors import SafetyStopped
 from sim.study.run.inputs import Inputs, answer_item
-from sim.study.run.links.base import Press, RobotLink
+from sim.study.run.links.base import Press, RobotLink, SafetyStopped
 from sim.study.run.links.choose import make_links, unique
-from sim.study.run.links.hand import LiveHand
+from sim.study.run.links.hand import HandWatch, tracks_hands
 from sim.study.run.links.specs import TrajectoryLinkSpec
 from sim.study.run.poses import ReceivedPoses
 from sim.study.run.protocol import (
@@ -492,8 +491,8 @@ class StudyRunner:
         self.publish_status(self.status(trial, "ready"))
         if not self.options.auto_go and self.wait_for_input("go") is None:
             log(f"trial {trial.index}: no go within {self.options.response_timeout:g} s; starting anyway")
-        live = self._live_hand_distance(began)
-        run = TrialRun(self.robot, planned, self.approaches.hand_distance, self.options.deceleration, live)
+        hand = self._hand_watch(began)
+        run = TrialRun(self.robot, planned, self.approaches.hand_distance, self.options.deceleration, hand)
         start = self.clock
         self.publish_status(self.status(trial, "moving", motion_start=start))
         if trial.test == 2 and not self.link.realtime and not self.options.auto_go:
@@ -559,21 +558,23 @@ class StudyRunner:
             outcome.safety_stop,
             outcome.start_lead,
             outcome.stop_lead,
+            outcome.hand_monitored,
+            outcome.least_separation_predicted,
+            outcome.least_separation,
         )
         if outcome.safety_stop:
             self.safety_stops.append(f"trial {trial.index}: {outcome.safety_stop}")
         return record
 
-    def _live_hand_distance(self, began: float) -> Callable[[Any], float]:
-        """The robot's distance to the hand where its tracker (poses since the trial `began`) sees it now, for the
-        distance floor during the approach (sim.study.run.links.hand)."""
-        live = LiveHand(self.scene.hand.position)
-
-        def distance(positions: Any) -> float:
-            places = {body: track.positions[-1] for body, track in self.poses.tracks(began).items() if len(track)}
-            return self.approaches.world.hand_distance(positions, live.shift(places))
-
-        return distance
+    def _hand_watch(self, began: float) -> HandWatch:
+        """The hand under the robot as its tracker (poses since the trial `began`) sees it, for the link's supervision
+        during the approach (sim.study.run.links.hand): the distance floor, and the speed and separation monitor."""
+        return HandWatch(
+            self.scene.hand.position,
+            lambda: self.poses.tracks(began),
+            self.approaches.world.hand_distance,
+            tracks_hands(self.poses.sending(began)),
+        )
 
     def _motion(
         self, trial: PlannedTrial, run: TrialRun, began: float, window: Window, log: Callable[[str], None]

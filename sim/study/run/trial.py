@@ -20,6 +20,7 @@ import numpy as np
 from sim.robots import RobotSpec
 from sim.study.design.feasibility import PlannedApproach
 from sim.study.run.errors import RunError
+from sim.study.run.links.hand import HandWatch
 from sim.study.run.stop import STOP_DECELERATION, StoppedMotion, stop_motion
 
 __all__ = ["TrialMeasures", "TrialRun"]
@@ -42,7 +43,7 @@ class TrialRun:
         planned: PlannedApproach,
         hand_distance: Callable[[np.ndarray], float],
         deceleration: float = STOP_DECELERATION,
-        live_hand_distance: Callable[[np.ndarray], float] | None = None,
+        hand: HandWatch | None = None,
     ) -> None:
         if not planned.feasible:
             raise RunError(
@@ -52,7 +53,7 @@ class TrialRun:
         self.robot, self.planned, self.deceleration = robot, planned, deceleration
         self.stopped: StoppedMotion | None = None
         self._hand_distance = hand_distance
-        self._live_hand_distance = live_hand_distance or hand_distance
+        self.hand = hand  # the tracked hand, for the link's supervision (None: the scene's hand, unmonitored)
         self._states: list[tuple[float, np.ndarray]] = []
 
     @property
@@ -96,7 +97,7 @@ class TrialRun:
         """The robot's distance to the hand where it is now (a tracked hand's live place; the scene's without one), at
         joint positions `positions`: what the distance floor is checked against during the motion. The measures keep
         the scene's hand."""
-        return self._live_hand_distance(positions)
+        return self._hand_distance(positions) if self.hand is None else self.hand.distance(positions)
 
     def positions_at(self, time_s: float) -> np.ndarray:
         """The achieved joint positions recorded nearest `time_s` (s from the motion's start)."""

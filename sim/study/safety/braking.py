@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 from scipy.interpolate import CubicSpline
@@ -38,6 +39,7 @@ __all__ = [
     "arc_length",
     "PathState",
     "PathGeometry",
+    "BrakingPath",
     "Braking",
     "braking_phases",
     "brake",
@@ -121,6 +123,19 @@ class PathGeometry:
         return PathState(s, speed, acceleration)
 
 
+class BrakingPath(Protocol):
+    """What `brake` asks of a path to brake along (PathGeometry; a move's line in joint space): its length, its joint
+    positions and their derivatives by its parameter, its world positions, and the projection of a joint state."""
+
+    length: float
+
+    def joints(self, s: np.ndarray | float, derivative: int = 0) -> np.ndarray: ...
+
+    def world(self, s: np.ndarray | float) -> np.ndarray: ...
+
+    def project(self, positions: np.ndarray, velocities: np.ndarray, accelerations: np.ndarray) -> PathState: ...
+
+
 def braking_phases(speed: float, acceleration: float, deceleration: float, jerk: float) -> list[tuple[float, float]]:
     """(duration, jerk) of each phase of a path stop from `speed` ≥ 0 and `acceleration` to rest with zero
     acceleration: the acceleration ramps at ±jerk to −peak (peak ≤ deceleration), holds, then ramps back to 0."""
@@ -196,7 +211,7 @@ class Braking:
 
 
 def brake(
-    geometry: PathGeometry,
+    geometry: BrakingPath,
     positions: np.ndarray,
     velocities: np.ndarray,
     accelerations: np.ndarray,

@@ -11,10 +11,14 @@ import numpy as np
 
 from sim.study.design.feasibility import PlannedApproach
 from sim.study.design.paths import ApproachPath
-from sim.study.run.links.lead import CEILING
 from sim.study.safety.braking import STOP_DECELERATION, STOP_JERK, PathGeometry, PathState, arc_length, brake
 from sim.study.safety.limits import DEFAULT_MARGIN, Exceedance, MotionLimits, motion_exceedances
-from sim.study.safety.separation import PlannedTravel, SeparationParameters, least_planned_separation
+from sim.study.safety.separation import (
+    STOP_LEAD_CEILING,
+    PlannedTravel,
+    SeparationParameters,
+    least_planned_separation,
+)
 
 __all__ = ["BRAKING_STEP", "plan_refusals", "separation_refusal", "design_refusals"]
 
@@ -78,7 +82,7 @@ def design_refusals(
     floor: float = 0.0,
     deceleration: float = STOP_DECELERATION,
     separation: SeparationParameters | None = None,
-    lead: float = CEILING,
+    lead: float = STOP_LEAD_CEILING,
     hand_speed: float = 0.0,
 ) -> list[str]:
     """Every feasible combination's refusals (plan_refusals), then, given the `separation` rule's parameters, its

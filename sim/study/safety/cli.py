@@ -13,7 +13,6 @@ import math
 
 from sim.entry import EXIT_OK
 from sim.study.checks import check_positive
-from sim.study.run.links.lead import CEILING
 from sim.study.safety.errors import SafetyError
 
 __all__ = ["register"]
@@ -33,8 +32,9 @@ def register(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> N
     check.add_argument(
         "--lead",
         type=float,
-        default=CEILING,
-        help="--safety: s a stop is stamped ahead: the separation rule's reaction time (default the lead's ceiling)",
+        default=None,
+        help="--safety: s a stop is stamped ahead: the separation rule's reaction time (default: the stop lead's "
+        "ceiling, the longest the link stamps a stop ahead)",
     )
     check.add_argument(
         "--hand-speed",
@@ -50,9 +50,11 @@ def safety_check_command(args: argparse.Namespace) -> int:
     from sim.study.design.cli import checked_combinations
     from sim.study.safety.check import design_refusals
     from sim.study.safety.limits import coverage, limits_for
-    from sim.study.safety.separation import SeparationParameters
+    from sim.study.safety.separation import STOP_LEAD_CEILING, SeparationParameters
     from sim.study.safety.start_moves import start_move_refusals
 
+    if args.lead is None:
+        args.lead = STOP_LEAD_CEILING
     if args.safety:  # the margin and floor are said before the planning's minute, not after
         check_positive(args.deceleration, "--deceleration")
         if not (0 < args.margin <= 1):

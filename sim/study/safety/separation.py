@@ -63,6 +63,7 @@ from sim.study.safety.braking import STOP_DECELERATION, STOP_JERK, braking_phase
 from sim.study.safety.errors import SafetyError
 
 __all__ = [
+    "STOP_LEAD_CEILING",
     "REACH_SPEED",
     "SeparationParameters",
     "ProtectiveSeparation",
@@ -76,6 +77,7 @@ __all__ = [
     "least_planned_separation",
 ]
 
+STOP_LEAD_CEILING = 0.25  # s: the longest a stop is stamped ahead (sim.study.run.links.lead's CEILING is this)
 REACH_SPEED = 2.0  # m/s: ISO 13855's approach speed of a hand or arm reaching (K for distances under 0.5 m)
 _AT_REST = 1e-6  # m/s, m: a speed or a path left this small is none
 
@@ -229,15 +231,26 @@ class HandMotion:
         last = self.last_seen
         return last is None or now - last > self.gap_after or len(self._samples) < 2
 
+    def latest_velocity(self) -> np.ndarray | None:
+        """(3,) m/s between the last two places; None with fewer than two."""
+        if len(self._samples) < 2:
+            return None
+        (before, there), (last, here) = self._samples[-2], self._samples[-1]
+        return np.asarray((here - there) / (last - before))
+
     def closing_speed(self, now: float, direction: np.ndarray | None = None) -> float:
         """m/s towards the robot: the velocity along `direction` (unit, from the hand to the robot's nearest point),
-        0 when moving away; its whole speed without a direction; `gap_speed` in a gap (unseen, it may close at it)."""
-        velocity = self.velocity()
-        if self.in_gap(now) or velocity is None:
+        0 when moving away; its whole speed without a direction; `gap_speed` in a gap (unseen, it may close at it).
+        The larger of two velocities: the window's slope, steady for a hand that creeps, and the last two places',
+        prompt for a hand that sets off (a reach is at speed within a frame or two, which the window's slope lags
+        by about half the window: at 1.6 m/s, 8 cm)."""
+        velocities = [self.velocity(), self.latest_velocity()]
+        if self.in_gap(now) or velocities[0] is None:
             return self.gap_speed
         if direction is None:
-            return float(np.linalg.norm(velocity))
-        return max(float(velocity @ np.asarray(direction, dtype=float)), 0.0)
+            return max(float(np.linalg.norm(v)) for v in velocities if v is not None)
+        towards = np.asarray(direction, dtype=float)
+        return max(max(float(v @ towards) for v in velocities if v is not None), 0.0)
 
     def unseen(self, now: float, direction: np.ndarray | None = None) -> float:
         """m: how far the hand may have come towards the robot since its last sample: at its closing speed while

@@ -8,9 +8,15 @@ from typing import Callable, Protocol  # typing's: a module-level alias is evalu
 
 import numpy as np
 
+from sim.study.run.errors import RunError
 from sim.study.run.trial import TrialRun
 
-__all__ = ["Press", "AppliedPress", "ApproachOutcome", "RobotLink", "TakePress"]
+__all__ = ["Press", "AppliedPress", "ApproachOutcome", "RobotLink", "SafetyStopped", "TakePress"]
+
+
+class SafetyStopped(RunError):
+    """The runner stopped the arm on its own: the session ends (after that trial's record, when the stop came in its
+    approach; at once, when it came on the move to a path's start)."""
 
 
 @dataclass(frozen=True)
@@ -54,6 +60,9 @@ class ApproachOutcome:
     safety_stop: str = ""  # why the runner stopped the arm on its own ("" when it did not)
     start_lead: float = math.nan  # s the approach's goal was stamped ahead of its sending (sim.study.run.links.lead)
     stop_lead: float = math.nan  # s the (last) braking replacement was stamped ahead of its preparation; NaN: none
+    hand_monitored: str = ""  # "tracked", "untracked" (the scene's hand taken at rest); "" on the stream
+    least_separation_predicted: float = math.nan  # m (sim.study.safety.separation)
+    least_separation: float = math.nan  # m, achieved, to the hand's live place while the arm moved
 
 
 class RobotLink(Protocol):

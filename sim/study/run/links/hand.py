@@ -7,18 +7,19 @@ protocol's pose topics), the hand under the robot is taken as sim.study.motion d
 the scene's hand, within HAND_RADIUS, when it is first seen in the approach), and the scene's hand box is moved by
 that hand's displacement since then: relative, so that a tracker worn a few centimetres off the hand's centre moves
 the box by what the hand moved, not by where the tracker sits. While it is not seen (a tracking gap), the box keeps
-its last place; without a tracker, it is the scene's.
+its last place; without a tracker, it is the scene's. (The speed and separation monitor, sim.study.safety.separation,
+lets the hand's possible places grow during a gap: HandWatch gives it the tracked places as they come.)
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 
 import numpy as np
 
-from sim.study.motion.measures import HAND_RADIUS, nearest_hand
+from sim.study.motion.measures import HAND_RADIUS, HANDS, Track, nearest_hand
 
-__all__ = ["LiveHand"]
+__all__ = ["LiveHand", "HandWatch", "tracks_hands"]
 
 
 class LiveHand:
@@ -42,3 +43,41 @@ class LiveHand:
         if self.body in latest:
             self._shift = np.asarray(latest[self.body], dtype=float) - self._origin
         return self._shift.copy()
+
+
+class HandWatch:
+    """The hand under the robot during one trial, for a link's supervision: the robot's distance to the hand's live
+    place, and the tracked places of the hand under the robot as they come. `tracks` gives each tracked body's poses
+    of the trial so far; `distance(positions, shift)` the scene world's distance to the hand moved by `shift`;
+    `tracked`: a tracker follows the hands in this trial (else the hand is the scene's, at rest, and unmonitored)."""
+
+    def __init__(
+        self,
+        hand_point: np.ndarray,
+        tracks: Callable[[], Mapping[str, Track]],
+        distance: Callable[[np.ndarray, np.ndarray], float],
+        tracked: bool,
+    ) -> None:
+        self.live = LiveHand(hand_point)
+        self.tracked = tracked
+        self._tracks, self._distance = tracks, distance
+
+    def distance(self, positions: np.ndarray) -> float:
+        """m: the robot at joint `positions` to the hand where it is now (its last tracked place)."""
+        places = {body: track.positions[-1] for body, track in self._tracks().items() if len(track.stamps)}
+        return self._distance(positions, self.live.shift(places))
+
+    def places_after(self, stamp: float) -> list[tuple[float, np.ndarray]]:
+        """The hand under the robot's tracked places stamped after `stamp` (none until it has been taken)."""
+        if not self.tracked or not self.live.body:
+            return []
+        track = self._tracks().get(self.live.body)
+        if track is None:
+            return []
+        later = track.stamps > stamp
+        return list(zip(track.stamps[later].tolist(), track.positions[later]))
+
+
+def tracks_hands(bodies: list[str]) -> bool:
+    """A tracker follows the hands: one of HANDS is among the bodies sending."""
+    return any(body in HANDS for body in bodies)

@@ -34,12 +34,12 @@ class JointLine:
         return len(self.start)
 
     def joints(self, s: np.ndarray | float, derivative: int = 0) -> np.ndarray:
-        s = np.clip(np.asarray(s, dtype=float), 0.0, self.length)
+        along = np.clip(np.asarray(s, dtype=float), 0.0, self.length)
         if derivative == 0:
-            return self.start + np.multiply.outer(s, self.direction)
+            return np.asarray(self.start + np.multiply.outer(along, self.direction))
         if derivative == 1:
-            return np.broadcast_to(self.direction, (*s.shape, self.dof)).copy()
-        return np.zeros((*s.shape, self.dof))
+            return np.broadcast_to(self.direction, (*along.shape, self.dof)).copy()
+        return np.zeros((*along.shape, self.dof))
 
     def world(self, s: np.ndarray | float) -> np.ndarray:
         return np.full((*np.shape(s), 3), np.nan)

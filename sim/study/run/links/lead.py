@@ -31,6 +31,7 @@ from collections import deque
 from dataclasses import dataclass
 
 from sim.study.run.errors import RunError
+from sim.study.safety.separation import STOP_LEAD_CEILING
 
 __all__ = ["PARTS", "STOP", "START", "QUANTILE", "MARGIN", "FLOOR", "CEILING", "KEPT", "Leads", "LeadChoice"]
 
@@ -40,7 +41,7 @@ START = ("delivery",)  # what an approach's start waits for
 QUANTILE = 0.99  # of each part's samples: a stop is rare and must not be late
 MARGIN = 0.005  # s on top: the sum's own scatter (the next delay may be the worst yet)
 FLOOR = 0.01  # s: no shorter, whatever was measured (a loopback's sub-millisecond round trips)
-CEILING = 0.25  # s: no longer; at 0.5 m/s the arm runs on 0.125 m before it brakes
+CEILING = STOP_LEAD_CEILING  # s: no longer; at 0.5 m/s the arm runs on 0.125 m before it brakes
 KEPT = 500  # the latest samples of each part: the session's recent network and load
 
 

@@ -40,8 +40,7 @@ from sim.control.controller_node import ControllerError
 from sim.control.scenarios import approach
 from sim.robots import RobotSpec
 from sim.study.run.console import say
-from sim.study.run.errors import SafetyStopped
-from sim.study.run.links.base import AppliedPress, ApproachOutcome, Press, TakePress
+from sim.study.run.links.base import AppliedPress, ApproachOutcome, Press, SafetyStopped, TakePress
 from sim.study.run.links.clock import STEP_LIMIT, LinkClock
 from sim.study.run.links.failsafe import brakes_on_exit
 from sim.study.run.links.feed import FedState, JointFeed
@@ -50,7 +49,8 @@ from sim.study.run.links.joint_line import MOVE_DECELERATION, MOVE_JERK, JointLi
 from sim.study.run.links.lead import START, Leads
 from sim.study.run.links.specs import TrajectoryLinkSpec
 from sim.study.run.trial import TrialRun
-from sim.study.safety.braking import STOP_JERK, Braking, PathGeometry, brake
+from sim.study.safety.braking import STOP_JERK, Braking, PathGeometry, arc_length, brake
+from sim.study.safety.separation import PlannedTravel, SeparationMonitor, SeparationParameters
 from sim.wire.contract import positions_by_name
 
 __all__ = ["QUERY_PROBES", "TrajectoryLink"]
@@ -76,7 +76,8 @@ class Motion:
     deceleration: float  # along the geometry's parameter (m/s² on a path, rad/s² on a joint line)
     jerk: float
     start: float  # the link's clock: the goal's stamp
-    ends: float  # when its last point is due (a stop's, once one is in force)
+    ends: float  # when the motion is watched to: its goal's last point, or a later stop's
+    moves_until: float  # when the last point of the goal in force is due: the arm rests from then
     commanded: CommandedPath = field(default_factory=CommandedPath)
     handles: list[Any] = field(default_factory=list)  # the motion's goal first, then each stop sent
     stopped: bool = False  # a stop is in force (a replacement sent, or none needed: the plan rests sooner)
@@ -85,6 +86,10 @@ class Motion:
     stop_sent: float = math.nan  # the link's clock when the (last) replacement went
     reason: str = ""  # why the link stopped the arm on its own
     after_stop: str = ""  # a fault seen once the stop was in force: the session ends
+    monitor: SeparationMonitor | None = None  # an approach's speed and separation monitoring
+    hand_seen: float = -math.inf  # the stamp of the last tracked place of the hand given to the monitor
+    least_separation: float = math.inf  # m: the least achieved separation to the hand's live place while moving
+    checked: float = math.nan  # the link's clock at the monitor's last check
 
     @property
     def handle(self) -> Any:
@@ -221,6 +226,13 @@ class TrajectoryLink:
         points = goal_points(planned.positions, planned.velocities, run.dt, self.spec.speed_scale)
         rest = planned.positions[0]
         motion, start_lead = self._go("the approach", geometry, run.deceleration, STOP_JERK, rest, points)
+        path = planned.path
+        tracked = run.hand is not None and run.hand.tracked
+        motion.monitor = SeparationMonitor(
+            SeparationParameters(floor=self.spec.floor, deceleration=run.deceleration),
+            tracked,
+            PlannedTravel(path.times, planned.distances, arc_length(path), path.speeds),
+        )
         self._target = planned.positions[-1].copy()
         with brakes_on_exit(_Guard(self, motion)):
             applied, press_at, tracking = self._supervise(motion, run, take_press, settle)
@@ -252,6 +264,9 @@ class TrajectoryLink:
             safety_stop=safety_stop,
             start_lead=start_lead,
             stop_lead=motion.stop_lead,
+            hand_monitored="tracked" if tracked else "untracked",
+            least_separation_predicted=motion.monitor.least_predicted,
+            least_separation=motion.least_separation if math.isfinite(motion.least_separation) else math.nan,
         )
 
     def close(self) -> None:
@@ -292,7 +307,7 @@ class TrajectoryLink:
         with self._lead_lock:
             lead = self.lead.choose(START).lead
         start = self._clock() + lead
-        motion = Motion(what, geometry, deceleration, jerk, start, start + points.duration)
+        motion = Motion(what, geometry, deceleration, jerk, start, start + points.duration, start + points.duration)
         motion.commanded.add(
             start,
             np.concatenate([[0.0], points.times]),
@@ -366,15 +381,39 @@ class TrajectoryLink:
             return f"the wall clock stepped {step:+.3f} s during the motion (limit {STEP_LIMIT:g} s)"
         if tracking > self.spec.tracking_tolerance:
             return f"tracking error {tracking:.4f} rad over the tolerance {self.spec.tracking_tolerance:g} rad"
-        if run is not None and now < motion.ends:  # a hand that comes on once the arm rests is the person's own motion
+        if run is not None and now < motion.moves_until:  # a hand coming on to an arm at rest is the person's own move
             distance = run.live_hand_distance(latest.positions)
+            motion.least_separation = min(motion.least_separation, distance)
             if distance < self.spec.floor:
                 return f"achieved distance to the hand {distance:.4f} m under the floor {self.spec.floor:g} m"
+            if motion.monitor is not None and not motion.stopped:
+                separation = self._separation(now, distance, run, motion, motion.monitor)
+                if separation:
+                    return separation
         if self._done(motion.handle):
             failed = self._failure(motion)
             if failed:
                 return failed
         return ""
+
+    def _separation(
+        self, now: float, distance: float, run: TrialRun, motion: Motion, monitor: SeparationMonitor
+    ) -> str:
+        """The speed and separation monitor's reason to brake now ("" when none): the hand's places tracked since the
+        last look, the separation `distance`. The reaction T_r is the lead a stop would be stamped now, plus the time
+        to the next check (the loop looks at least every POLL s; longer, if its last look was longer ago): a hand
+        that closes between two checks is seen only at the second."""
+        if run.hand is not None:
+            for stamp, place in run.hand.places_after(motion.hand_seen):
+                monitor.hand_seen(stamp, place)
+                motion.hand_seen = stamp
+        with self._lead_lock:
+            lead = self.lead.choose().lead
+        interval = POLL if math.isnan(motion.checked) else max(POLL, now - motion.checked)
+        motion.checked = now
+        scale = self.spec.speed_scale  # the plan's seconds per wall second (the rehearsal's slower motion)
+        verdict = monitor.check(now, distance, (lead + interval) * scale, plan_time=(now - motion.start) * scale)
+        return verdict.reason if verdict.brake else ""
 
     def _failure(self, motion: Motion) -> str:
         """How the goal in force ended, if not by success ("" while it runs, and when it succeeded)."""
@@ -426,7 +465,8 @@ class TrajectoryLink:
             what = "a rest"
         else:
             return  # the plan rests sooner than braking would (or rests already): it is its own stop
-        motion.ends = max(motion.ends, at + points.duration)  # watched to the motion's planned end at least
+        motion.moves_until = at + points.duration
+        motion.ends = max(motion.ends, motion.moves_until)  # watched to the motion's planned end at least
         handle, sent = self._send(points, at)
         motion.handles.append(handle)
         motion.stop_sent = sent
