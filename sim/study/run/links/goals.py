@@ -114,15 +114,6 @@ class CommandedPath:
             return q, np.zeros_like(q), np.zeros_like(q)
         return q, _interpolate(t, times, velocities), _interpolate(t, times, accelerations)
 
-    def samples_between(self, after: float, until: float) -> GoalPoints:
-        """The samples of the trajectory in force at `after` due after it and before `until` (and before any later
-        segment's start), their times from `after`: the same points the controller already has."""
-        start, times, positions, velocities, accelerations = self._segment(after)
-        later = [segment[0] for segment in self.segments if segment[0] > after]
-        due = start + times
-        keep = (due > after) & (due < min([until, *later]))
-        return GoalPoints(due[keep] - after, positions[keep], velocities[keep], accelerations[keep])
-
     def error(self, when: float, achieved: np.ndarray, last_unsure: bool = False) -> float:
         """rad: the largest joint error of `achieved` against the commanded positions at `when`. `last_unsure`: the
         controller has not yet said whether it took the last segment (a stop on its way), so the error is the

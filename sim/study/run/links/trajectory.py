@@ -450,7 +450,9 @@ class TrajectoryLink:
         planning = self._clock()
         braking = brake(motion.geometry, q, qd, qdd, self.dt, motion.deceleration, motion.jerk)
         if braking is not None and len(braking.times) >= 2:
-            points = GoalPoints(braking.times, braking.positions, braking.velocities, braking.accelerations)
+            points = GoalPoints(
+                braking.times[1:], braking.positions[1:], braking.velocities[1:], braking.accelerations[1:]
+            )
             motion.commanded.add(at, braking.times, braking.positions, braking.velocities, braking.accelerations)
             motion.braking, motion.stop_lead = braking, choice.lead
             what = "a stop"
@@ -465,8 +467,7 @@ class TrajectoryLink:
             return  # the plan rests sooner than braking would (or rests already): it is its own stop
         motion.moves_until = at + points.duration
         motion.ends = max(motion.ends, motion.moves_until)  # watched to the motion's planned end at least
-        stamp, points = self._led_in(motion.commanded, points, at)
-        handle, sent = self._send(points, stamp)
+        handle, sent = self._send(points, at)
         motion.handles.append(handle)
         motion.stop_sent = sent
         with self._lead_lock:
@@ -475,24 +476,6 @@ class TrajectoryLink:
         say(
             f"{self.name}: {what} stamped {choice.describe()}{source}; sent {(sent - began) * 1e3:.1f} ms after its "
             f"preparation began ({'before' if sent < at else 'AFTER'} its stamp)"
-        )
-
-    def _led_in(self, commanded: CommandedPath, points: GoalPoints, at: float) -> tuple[float, GoalPoints]:
-        """A replacement starting at `at` (its points' times from `at`, the first at 0) as it is sent: stamped now and
-        led in by the commanded path's own points up to `at`. Delivered late (after now, but before `at`), the
-        controller drops the lead-in's overdue points and bridges from its desired state to the next one, both on the
-        path it already follows: the same spline, no step in acceleration. Stamped `at` with nothing before it, a
-        late stop would be bridged from the path to a braking point further back, a jerk."""
-        stamp = self._clock()
-        if stamp >= at:
-            return at, points
-        lead_in = commanded.samples_between(stamp, at)
-        shift = at - stamp
-        return stamp, GoalPoints(
-            np.concatenate([lead_in.times, points.times + shift]),
-            np.vstack([lead_in.positions, points.positions]),
-            np.vstack([lead_in.velocities, points.velocities]),
-            np.vstack([lead_in.accelerations, points.accelerations]),
         )
 
     def _fail_safe(self, motion: Motion, why: str) -> None:
