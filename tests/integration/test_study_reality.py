@@ -9,14 +9,11 @@ the arm at rest short of the hand."""
 
 from __future__ import annotations
 
-import csv
 import math
-import os
 import signal
 import subprocess
 import threading
 import time
-from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -27,146 +24,31 @@ from sim.processes import plain_env
 from sim.study.design.feasibility import Approaches
 from sim.study.design.fit import scene_for
 from sim.study.design.paths import ON_TOP
-from sim.study.design.scene import load_scene, scene_robot
 from sim.study.run.cli import UNCHECKED
-from sim.study.run.protocol import STATUS_TOPIC, status_from_json
-from tests.integration.sim_helpers import start_engine, start_physics_node
+from tests.integration.reality_helpers import (
+    ABORTED,
+    JOINT_STATES,
+    NS,
+    PREEMPTED,
+    REJECTED,
+    RELAY,
+    ROBOT,
+    SCENE,
+    SUCCEEDED,
+    ControllerRelay,
+    Watch,
+    arm,  # noqa: F401 (a fixture)
+    built_arm,  # noqa: F401 (a fixture)
+    hand_distance,
+    read_csv,
+    start_runner,
+    type_line,
+)
+from tests.integration.sim_helpers import start_engine
 from tests.integration.study_helpers import trial, write_plan
-from tests.rosenv import PYTHON, REPO, kill_process, wait_for
-from tests.study_arms import study_arm
+from tests.rosenv import PYTHON, REPO, kill_process
 
 pytestmark = pytest.mark.lane("alone", on=("project",))
-
-SCENE = load_scene()
-ROBOT = scene_robot(SCENE)
-NS = "/position_joint_trajectory_controller"  # franka_ros's, as its preset says
-JOINT_STATES = "/franka_state_controller/joint_states"
-PREEMPTED, SUCCEEDED, ABORTED, REJECTED = 2, 3, 4, 5  # actionlib_msgs/GoalStatus
-
-
-class Watch:
-    """The runner's phases (its status topic) and the arm's joint states, as the test process hears them."""
-
-    def __init__(self, rospy: Any, joint_states: str = JOINT_STATES) -> None:
-        from sensor_msgs.msg import JointState
-        from std_msgs.msg import String
-
-        self.phases: list[tuple[int, str]] = []
-        self.states: list[Any] = []
-        self.changed = threading.Condition()
-        self.out = ""  # the runner's --out
-        self._subscribers = [
-            rospy.Subscriber(STATUS_TOPIC, String, self._on_status),
-            rospy.Subscriber(joint_states, JointState, self._on_state),
-        ]
-
-    def _on_status(self, message: Any) -> None:
-        status = status_from_json(message.data)
-        with self.changed:
-            self.phases.append((status.index, status.phase))
-            self.changed.notify_all()
-
-    def _on_state(self, message: Any) -> None:
-        with self.changed:
-            self.states.append(message)
-
-    def wait(self, phase: tuple[int, str], runner: subprocess.Popen, timeout: float = 60) -> None:
-        """Until the runner says `phase`; a runner that ends first fails the test with what it printed."""
-        deadline = time.monotonic() + timeout
-        with self.changed:
-            while phase not in self.phases and runner.poll() is None and time.monotonic() < deadline:
-                self.changed.wait(0.2)
-            if phase in self.phases:
-                return
-        output = runner.communicate(timeout=10)[0] if runner.poll() is not None else "(still running)"
-        raise AssertionError(f"no {phase} in {self.phases}; the runner: {output}")
-
-    def resting_positions(self) -> np.ndarray:
-        """The arm's positions once it has rested for 15 joint states (half a second at 30 Hz)."""
-
-        def resting() -> list[float] | None:
-            with self.changed:
-                recent = self.states[-15:]
-            if len(recent) < 15:
-                return None
-            positions = np.array([s.position for s in recent])
-            speeds = np.abs(np.array([s.velocity for s in recent]))
-            return positions[-1].tolist() if np.ptp(positions, axis=0).max() < 1e-4 and speeds.max() < 1e-3 else None
-
-        return np.array(wait_for(resting, 30, "the arm at rest"))
-
-    def close(self) -> None:
-        for subscriber in self._subscribers:
-            subscriber.unregister()
-
-
-def start_arm(
-    roscore, ros_node, tmp_path: Path, robot: str, namespace: str, joint_states: str, *options: str
-) -> Iterator[Watch]:
-    node = start_physics_node(
-        roscore, tmp_path, robot, "--mode", "physics", "--trajectory-controller", namespace,
-        "--joint-states-topic", joint_states, "--joint-states-rate", "30", *options,
-    )  # fmt: skip
-    watch = Watch(ros_node, joint_states)
-    try:
-        yield watch
-    finally:
-        watch.close()
-        node.stop()
-
-
-@pytest.fixture
-def arm(roscore, ros_node, tmp_path: Path) -> Iterator[tuple[None, Watch]]:
-    """The Panda's stand-in as franka_ros shows it."""
-    for watch in start_arm(roscore, ros_node, tmp_path, "panda", NS, JOINT_STATES):
-        yield None, watch
-
-
-BUILT_ARM = "meshed_arm7"  # one the tests build (tests/study_arms.py), with the scene proposed for it
-
-
-@pytest.fixture
-def built_arm(roscore, ros_node, tmp_path: Path, monkeypatch) -> Iterator[tuple[Path, Watch]]:
-    """The built arm's stand-in under a namespace of the lab's choosing, its drives 10^4 times softer than the
-    stand-in's (--stiffness 10 against 1e5 N·m/rad): it lags its commanded path by ~7 mrad on the test's approach,
-    where the stiff drives lag by ~0.03 mrad. Its scene proposed (and cached for the runner: the suite's cache where
-    test.sh gives one)."""
-    cache = os.environ.get("VR_SIM_CACHE") or str(tmp_path / "cache")
-    monkeypatch.setenv("VR_SIM_CACHE", cache)  # this process's and the runner's (start_runner passes it on)
-    urdf = study_arm(tmp_path / "arms", BUILT_ARM)
-    soft = ("--stiffness", "10")
-    for watch in start_arm(roscore, ros_node, tmp_path, str(urdf), "/arm/traj_controller", "/arm/joint_states", *soft):
-        yield urdf, watch
-
-
-def start_runner(roscore, plan: Path, out: Path, extra: Sequence[str] = (), auto_go: bool = True) -> subprocess.Popen:
-    env = dict(roscore.env)
-    if "VR_SIM_CACHE" in os.environ:
-        env["VR_SIM_CACHE"] = os.environ["VR_SIM_CACHE"]
-    command = [PYTHON, "-m", "sim.study", "run", "--plan", str(plan), "--out", str(out), "--keyboard", "--realtime"]
-    return subprocess.Popen(
-        command + ["--no-record", *(["--auto-go"] if auto_go else []), "--connect-timeout", "30", *extra],
-        env=env, cwd=REPO, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-        text=True, start_new_session=True,
-    )  # fmt: skip
-
-
-def type_line(runner: subprocess.Popen, line: str) -> None:
-    assert runner.stdin is not None
-    runner.stdin.write(line)
-    runner.stdin.flush()
-
-
-def read_csv(path: Path) -> list[dict[str, str]]:
-    with open(path, newline="") as source:
-        return list(csv.DictReader(source))
-
-
-def hand_distance(positions: np.ndarray, robot: Path | None = None) -> float:
-    """The distance to the hand of the Panda (the default scene) or of the arm at `robot` (its proposed scene)."""
-    scene, spec = (SCENE, ROBOT) if robot is None else scene_for(None, str(robot), None)
-    with Approaches(spec, scene, 0.01) as approaches:
-        return approaches.hand_distance(np.asarray(positions, dtype=float))
 
 
 def test_a_session_runs_vr_on_the_stream_and_reality_on_the_trajectory_controller(
@@ -298,78 +180,6 @@ def test_a_stale_joint_state_feed_stops_the_arm(roscore, ros_node, arm, tmp_path
         relayed.unregister()
 
 
-RELAY = "/relayed_controller"  # the namespace the runner talks to, relayed by the test process to the stand-in's
-
-
-class ControllerRelay:
-    """The stand-in's controller as the runner sees it under RELAY: its action's five topics and query_state relayed
-    by the test process, each goal passed through `on_goal(number, action_goal)` (1 for the first goal), which may
-    change it and returns how long to hold it back (s)."""
-
-    def __init__(self, rospy: Any, on_goal: Any = None) -> None:
-        from actionlib_msgs.msg import GoalID, GoalStatusArray
-
-        from sim.wire.control_types import control_types
-
-        types = control_types()
-        self.on_goal = on_goal or (lambda number, goal: 0.0)
-        self.goals: list[Any] = []
-        self.statuses: dict[str, int] = {}  # the stand-in's last status of each goal, by its id
-        self.lock = threading.Lock()
-        self.timers: list[threading.Timer] = []
-        here, there = f"{RELAY}/follow_joint_trajectory", f"{NS}/follow_joint_trajectory"
-        self.outgoing = {  # to the stand-in
-            "goal": rospy.Publisher(f"{there}/goal", types.action_goal, queue_size=10),
-            "cancel": rospy.Publisher(f"{there}/cancel", GoalID, queue_size=10),
-        }
-        self.incoming = {  # to the runner
-            "status": rospy.Publisher(f"{here}/status", GoalStatusArray, queue_size=10),
-            "feedback": rospy.Publisher(f"{here}/feedback", types.action_feedback, queue_size=10),
-            "result": rospy.Publisher(f"{here}/result", types.action_result, queue_size=10),
-        }
-        self.query = rospy.ServiceProxy(f"{NS}/query_state", types.query_state, persistent=True)
-        self.endpoints: list[Any] = [
-            rospy.Subscriber(f"{here}/goal", types.action_goal, self._on_goal),
-            rospy.Subscriber(f"{here}/cancel", GoalID, self.outgoing["cancel"].publish),
-            rospy.Subscriber(f"{there}/status", GoalStatusArray, self._on_status),
-            rospy.Subscriber(f"{there}/feedback", types.action_feedback, self.incoming["feedback"].publish),
-            rospy.Subscriber(f"{there}/result", types.action_result, self.incoming["result"].publish),
-            rospy.Service(f"{RELAY}/query_state", types.query_state, lambda request: self.query(request.time)),
-            *self.outgoing.values(),
-            *self.incoming.values(),
-        ]
-
-    def _on_goal(self, goal: Any) -> None:
-        with self.lock:
-            self.goals.append(goal)
-            number = len(self.goals)
-        hold = self.on_goal(number, goal)
-        if hold > 0:
-            timer = threading.Timer(hold, self.outgoing["goal"].publish, (goal,))
-            self.timers.append(timer)
-            timer.start()
-        else:
-            self.outgoing["goal"].publish(goal)
-
-    def _on_status(self, message: Any) -> None:
-        with self.lock:
-            for status in message.status_list:
-                self.statuses[status.goal_id.id] = status.status
-        self.incoming["status"].publish(message)
-
-    def status(self, number: int) -> int | None:
-        """The stand-in's last status of goal `number` (None while it has not said)."""
-        with self.lock:
-            return self.statuses.get(self.goals[number - 1].goal_id.id) if len(self.goals) >= number else None
-
-    def close(self) -> None:
-        for timer in self.timers:
-            timer.cancel()
-        self.query.close()
-        for endpoint in self.endpoints:
-            endpoint.shutdown() if hasattr(endpoint, "shutdown") else endpoint.unregister()
-
-
 def test_a_stop_the_controller_refuses_is_planned_and_sent_anew(roscore, ros_node, arm, tmp_path: Path) -> None:
     # The relay holds the first goal after the approach (the braking replacement) back for 0.5 s, longer than its
     # braking lasts: all its points are past when it arrives, and the stand-in refuses it while the approach goes on.
@@ -450,7 +260,8 @@ def test_a_hand_reaching_towards_the_arm_mid_approach_stops_it_before_the_floor(
     # A tracker follows the participant's right hand at 60 Hz (the protocol's pose topic, stamped on the wall clock,
     # the runner's on a trajectory controller), at rest on the scene's hand. The plan keeps 0.15 m from the hand, over
     # the floor of 0.05 m; 0.3 s into the approach the hand rises towards the arm coming down at `speed`, by up to
-    # 0.4 m, as a participant reaching out would: the separation to the hand where it is now would fall under the
+    # 0.3 m (short of where the arm, braked, rests: a hand that comes on to a resting arm is the person's own move),
+    # as a participant reaching out would: the separation to the hand where it is now would fall under the
     # floor within the stop (the hand's closing speed measured from the tracker) while the arm is still far above the
     # hand's rest, and the runner stops it then: the separation stays over the floor while the arm moves.
     from geometry_msgs.msg import PoseStamped
@@ -471,7 +282,7 @@ def test_a_hand_reaching_towards_the_arm_mid_approach_stops_it_before_the_floor(
             pose = PoseStamped()
             pose.header.stamp = ros_node.Time.from_sec(now)
             pose.header.frame_id = POSE_FRAME
-            risen = min(max(now - rises_from[0], 0.0) * speed, 0.4)
+            risen = min(max(now - rises_from[0], 0.0) * speed, 0.3)
             pose.pose.position.x, pose.pose.position.y = rest_place[0], rest_place[1]
             pose.pose.position.z = rest_place[2] + risen
             pose.pose.orientation.w = 1.0

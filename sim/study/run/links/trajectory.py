@@ -428,27 +428,36 @@ class TrajectoryLink:
     # --- the stop --------------------------------------------------------------------------------------------
     def _stop(self, motion: Motion) -> None:
         """The motion's replacement: braking from the controller's desired state a measured lead from now (from the
-        commanded path when the controller cannot be asked), or a rest where the motion has not begun. Leaves the
-        motion stopped; sends nothing when the plan rests sooner than braking would."""
+        commanded path when the controller cannot be asked in the lead's time for it), or a rest where the motion has
+        not begun. A stop whose preparation overran its stamp (it would reach the controller after its braking was
+        due, and be bridged to with a jerk) is planned anew, later, from the commanded path. Leaves the motion
+        stopped; sends nothing when the plan rests sooner than braking would."""
         motion.stopped = True
         began = self._clock()
         with self._lead_lock:
             choice = self.lead.choose()
         at = began + choice.lead
-        try:
-            desired = self._query(at, QUERY_TIMEOUT)
+        after_query = sum(value for part, value in choice.parts.items() if part != "query" and math.isfinite(value))
+        source = ""
+        try:  # the query may take what the lead left it: then planning and delivery must still fit
+            desired = self._query(at, min(max(at - after_query - began, 0.0), QUERY_TIMEOUT))
             q = positions_by_name(desired.name, desired.position, self.robot.joint_names)
             qd = positions_by_name(desired.name, desired.velocity, self.robot.joint_names)
             qdd = positions_by_name(desired.name, desired.acceleration, self.robot.joint_names)
-            source = ""
         except Exception as error:  # the stop must go out whatever became of query_state
-            with self._lead_lock:
-                choice = self.lead.choose(NO_QUERY)
-            at = self._clock() + choice.lead
             q, qd, qdd = motion.commanded.state(at)
             source = f" from the commanded path ({error})"
         planning = self._clock()
         braking = brake(motion.geometry, q, qd, qdd, self.dt, motion.deceleration, motion.jerk)
+        delivery = choice.parts.get("delivery", math.nan)
+        if self._clock() + (delivery if math.isfinite(delivery) else 0.0) > at:
+            with self._lead_lock:
+                choice = self.lead.choose(NO_QUERY)
+            left = at - self._clock()
+            at = self._clock() + choice.lead
+            q, qd, qdd = motion.commanded.state(at)
+            braking = brake(motion.geometry, q, qd, qdd, self.dt, motion.deceleration, motion.jerk)
+            source += f"; planned anew from the commanded path ({left * 1e3:.1f} ms to its stamp were too few)"
         if braking is not None and len(braking.times) >= 2:
             points = GoalPoints(
                 braking.times[1:], braking.positions[1:], braking.velocities[1:], braking.accelerations[1:]
