@@ -76,6 +76,7 @@ def test_a_session_runs_vr_on_the_stream_and_reality_on_the_trajectory_controlle
         kill_process(runner)
         engine.stop()
     assert runner.returncode == 0, output
+    assert f"trajectory controller {NS} (the arm's joint states on {JOINT_STATES})" in output  # named as such
     assert "ROS time" not in output  # both links ran on wall time
     # the stop's lead, measured on the connection: said with its parts (a part never measured would say "unmeasured")
     said = [line for line in output.splitlines() if f"franka_ros ({NS}): a stop stamped " in line]
@@ -122,6 +123,8 @@ def stopped_on_its_own(
     assert f"trial 1: the arm was stopped: {why}" in output, output
     (row,) = read_csv(Path(watch.out) / f"participant_{participant:02d}.csv")
     assert row["safety_stop"].startswith(why) and row["pressed"] == "true"
+    # a condition on the real arm with no tracker on the hands is said to be unmonitored, as its rows say
+    assert ("reality: no tracker follows the hands" in output) == (row["hand_monitored"] == "untracked"), output
     rest = hand_distance(watch.resting_positions(), robot)
     assert rest > standoff + 0.02  # braked well short of its stand-off
     if why == "joint states stale":  # its last state seen was in motion: the arm braked on, closer, to rest

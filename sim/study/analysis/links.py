@@ -1,7 +1,8 @@
 """What the robot's trajectory controller did, per condition, from the records' link columns: the tracking error,
 the leads its goals were stamped with (sim.study.run.links.lead), the press-to-braking latency (to the replacement's
 sending, and to the first achieved state whose speed had fallen), the braking distance planned against achieved, the
-goals' results and the runner's own stops. Only conditions run on a trajectory controller (sim.study.run.links) have
+goals' results and the runner's own stops; and whether a tracker followed the hand for the speed and separation
+monitoring, with the least separations. Only conditions run on a trajectory controller (sim.study.run.links) have
 these; the stream's rows are left out. Pure: records in, lines out."""
 
 from __future__ import annotations
@@ -62,4 +63,37 @@ def link_lines(records: Sequence[TrialRecord]) -> list[str]:
     reasons = [f"trial {r.index} of participant {r.participant}: {r.safety_stop}" for r in controlled if r.safety_stop]
     if reasons:
         lines += ["The runner stopped the arm on its own in " + "; ".join(reasons) + ".", ""]
-    return lines
+    return lines + _separation_lines(controlled)
+
+
+def _separation_lines(controlled: Sequence[TrialRecord]) -> list[str]:
+    """Per condition: whether a tracker followed the hand (the speed and separation monitoring's input), and the least
+    separations predicted and achieved (mm); [] for records written before the monitoring."""
+    monitored = [r for r in controlled if r.hand_monitored]
+    if not monitored:
+        return []
+    lines = [
+        "Speed and separation monitoring (sim.study.safety.separation), per condition: the trials whose hand a tracker "
+        "followed, and of the rest, whose hand was taken at the scene's place, at rest (not monitored); the least "
+        "separation to the hand a stop decided then would have kept, and the least achieved while the arm moved (mm, "
+        "the least of all trials / the median of the trials').",
+        "",
+        "| condition | hand tracked | not monitored | least predicted | least achieved |",
+        "|---|---|---|---|---|",
+    ]
+    for condition in dict.fromkeys(r.condition for r in monitored):
+        rows = [r for r in monitored if r.condition == condition]
+        tracked = sum(1 for r in rows if r.hand_monitored == "tracked")
+        cells = []
+        for values in ([r.least_separation_predicted for r in rows], [r.least_separation for r in rows]):
+            finite = [v * 1000 for v in values if math.isfinite(v)]
+            cells.append(f"{min(finite):.1f} / {float(np.median(finite)):.1f}" if finite else "–")
+        lines.append(f"| {condition} | {tracked} | {len(rows) - tracked} | {cells[0]} | {cells[1]} |")
+    unmonitored = [c for c in dict.fromkeys(r.condition for r in monitored if r.hand_monitored == "untracked")]
+    if unmonitored:
+        lines.append("")
+        lines.append(
+            f"In {', '.join(unmonitored)}, no tracker followed the hand in some trials: the arm's separation was to "
+            "the scene's hand, taken at rest; a hand that moved towards the arm was not seen."
+        )
+    return lines + [""]

@@ -80,7 +80,7 @@ from sim.study.run.inputs import Inputs, answer_item
 from sim.study.run.links.base import Press, RobotLink, SafetyStopped
 from sim.study.run.links.choose import make_links, unique
 from sim.study.run.links.hand import HandWatch, tracks_hands
-from sim.study.run.links.specs import TrajectoryLinkSpec
+from sim.study.run.links.specs import STREAM, TrajectoryLinkSpec
 from sim.study.run.poses import ReceivedPoses
 from sim.study.run.protocol import (
     ANSWER_TOPIC,
@@ -222,6 +222,7 @@ class StudyRunner:
         # per questionnaire, its administrations so far: each item's answer (None: not answered)
         self.given: dict[str, dict[str, dict[str, int | None]]] = {}
         self.safety_stops: list[str] = []  # the trials in which the runner stopped the arm on its own, and why
+        self.unmonitored: set[str] = set()  # the conditions on a real arm said to have no tracker on the hands
         self.status_pub = self.rospy.Publisher(STATUS_TOPIC, String, queue_size=10, latch=True)
         # only the conditions the plan runs have a link: a link not used waits for no arm
         run = list(dict.fromkeys(t.condition for t in plan.trials)) or list(plan.conditions[:1])
@@ -492,6 +493,12 @@ class StudyRunner:
         if not self.options.auto_go and self.wait_for_input("go") is None:
             log(f"trial {trial.index}: no go within {self.options.response_timeout:g} s; starting anyway")
         hand = self._hand_watch(began)
+        if self.link.name != STREAM and not hand.tracked and trial.condition not in self.unmonitored:
+            self.unmonitored.add(trial.condition)
+            log(
+                f"{trial.condition}: no tracker follows the hands: the arm's separation is to the scene's hand, taken "
+                "at rest (the hand is not monitored)"
+            )
         run = TrialRun(self.robot, planned, self.approaches.hand_distance, self.options.deceleration, hand)
         start = self.clock
         self.publish_status(self.status(trial, "moving", motion_start=start))
@@ -709,7 +716,7 @@ def run_node(
         partner = runner.connect(connect_timeout, recorder_node if recorder else None)
         runner.wait_for_inputs(connect_timeout, recorder_node if recorder else None)
         say(
-            f"engine {partner} connected; participant {plan.participant}, {len(plan.trials)} trials, conditions "
+            f"{partner} connected; participant {plan.participant}, {len(plan.trials)} trials, conditions "
             f"{' then '.join(plan.conditions)}"
         )
         records = runner.run_session(records_path, say)

@@ -82,7 +82,8 @@ class RobotLink(Protocol):
     def recorded_topics(self) -> list[str]: ...
 
     def connect(self, timeout: float, recorder: str | None) -> str:
-        """Wait (at most `timeout` s) until the arm's side is there and linked; its name."""
+        """Wait (at most `timeout` s) until the arm's side is there and linked; what it is, for the observer
+        ("engine NODE", "trajectory controller NS ...")."""
         ...
 
     def start(self, timeout: float) -> np.ndarray:

@@ -49,7 +49,7 @@ class StreamLink(ControllerNode):
         return [self.robot.command_topic, self.robot.joint_states_topic, "/clock"]
 
     def connect(self, timeout: float, recorder: str | None) -> str:
-        return self.wait_for_partner(timeout, [recorder] if recorder else [])
+        return f"engine {self.wait_for_partner(timeout, [recorder] if recorder else [])}"
 
     def start(self, timeout: float) -> np.ndarray:
         """/clock 0 and the engine's answer (lockstep), or its first joint state (realtime): where the robot is."""

@@ -180,8 +180,7 @@ class TrajectoryLink:
         if self.feed.wait(-math.inf, timeout, self.stop) is None:
             raise ControllerError(f"no joint state on {self.spec.joint_states_topic} within {timeout:g} s")
         self._connected = True
-        say(f"trajectory controller {ns} connected; the arm's joint states on {self.spec.joint_states_topic}")
-        return ns
+        return f"trajectory controller {ns} (the arm's joint states on {self.spec.joint_states_topic})"
 
     def start(self, timeout: float) -> np.ndarray:
         state = self.feed.wait(-math.inf, timeout, self.stop)

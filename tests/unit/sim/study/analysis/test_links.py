@@ -37,3 +37,20 @@ def test_only_conditions_on_a_trajectory_controller_are_reported_with_their_meas
     assert cells[9:13] == ["20.0 / 20.0", "22.0 / 22.9", "2.0 / 2.9", "1"]
     assert not any(line.startswith("| vr |") for line in lines)
     assert lines[-2] == "The runner stopped the arm on its own in trial 4 of participant 1: tracking error 0.2 rad."
+
+
+def test_the_separation_monitoring_is_reported_per_condition_and_an_unmonitored_hand_is_said() -> None:
+    tracked = [
+        replace(
+            PRESS, condition="reality", index=k, link=LINK, hand_monitored="tracked",
+            least_separation_predicted=0.040 + 0.01 * k, least_separation=0.060 + 0.01 * k,
+        )
+        for k in (1, 2, 3)
+    ]  # fmt: skip
+    untracked = replace(tracked[0], index=4, hand_monitored="untracked", least_separation=0.2)
+    lines = link_lines([PRESS, *tracked, untracked])
+    (row,) = [line for line in lines if line.startswith("| reality | 3 |")]
+    assert [cell.strip() for cell in row.strip("|").split("|")] == ["reality", "3", "1", "50.0 / 55.0", "70.0 / 85.0"]
+    assert any(line.startswith("In reality, no tracker followed the hand in some trials") for line in lines)
+    older = [replace(record, hand_monitored="") for record in tracked]  # written before the monitoring: nothing said
+    assert not any("separation" in line for line in link_lines(older))
