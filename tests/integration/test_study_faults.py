@@ -373,3 +373,53 @@ def test_a_tracking_gap_mid_approach_brakes_the_arm(roscore, ros_node, arm: Arm,
     assert ", unseen 0." in reason or reason.startswith("the hand untracked for "), ended.output
     assert ended.row is not None and ended.row["hand_monitored"] == "tracked"
     assert_braked(ended)
+
+
+def restamped(ros_node: Any, by: float, when: threading.Event) -> Callable[[Any], Any]:
+    """Joint states stamped `by` s later than the robot's clock says, while `when` is set: a robot PC whose clock is
+    off the runner's."""
+    from sensor_msgs.msg import JointState
+
+    def change(message: Any) -> Any:
+        if not when.is_set():
+            return message
+        header = type(message.header)(message.header.seq, message.header.stamp + ros_node.Duration(by), "")
+        return JointState(header, message.name, message.position, message.velocity, message.effort)
+
+    return change
+
+
+def test_a_robot_clock_off_the_runners_at_connect_refuses_the_session_in_one_line(
+    roscore, ros_node, arm: Arm, tmp_path: Path
+) -> None:
+    always = threading.Event()
+    always.set()
+    relayed, subscriber = relay_states(ros_node, restamped(ros_node, 0.5, always))
+    plan = write_plan(tmp_path / "plan.yaml", 30, "reality", [trial(1, "reality", 1, "vertical", STANDOFF, SPEED)])
+    runner = start_runner(roscore, plan, tmp_path / "out", ["--link", f"reality={NS},{RELAYED_STATES}"])
+    try:
+        output, _ = runner.communicate(timeout=90)
+    finally:
+        kill_process(runner)
+        subscriber.unregister()
+        relayed.unregister()
+    assert runner.returncode == 4, output
+    said = [line for line in output.splitlines() if "clock and this machine's disagree" in line]
+    assert len(said) == 1 and "limit 0.05 s" in said[0], output
+    assert float(said[0].split(" arrive ")[1].split(" s ")[0]) == pytest.approx(-0.5, abs=0.02)
+    assert "Enter to start" not in output  # nothing moved
+
+
+def test_a_robot_clock_that_steps_mid_approach_brakes_the_arm(roscore, ros_node, arm: Arm, tmp_path: Path) -> None:
+    stepped = threading.Event()
+    relayed, subscriber = relay_states(ros_node, restamped(ros_node, 0.5, stepped))
+    try:
+        ended = approach_with_fault(
+            roscore, ros_node, arm, tmp_path, 31, lambda runner: stepped.set(), f"{NS},{RELAYED_STATES}"
+        )
+    finally:
+        subscriber.unregister()
+        relayed.unregister()
+    assert ended.code == 5, ended.output
+    assert "the robot's clock and the runner's no longer agree" in ended.output, ended.output
+    assert_braked(ended)

@@ -76,7 +76,7 @@ def test_a_session_runs_vr_on_the_stream_and_reality_on_the_trajectory_controlle
         kill_process(runner)
         engine.stop()
     assert runner.returncode == 0, output
-    assert f"trajectory controller {NS} (the arm's joint states on {JOINT_STATES})" in output  # named as such
+    assert f"trajectory controller {NS} (the arm's joint states on {JOINT_STATES}, arriving " in output  # named
     assert "ROS time" not in output  # both links ran on wall time
     # the stop's lead, measured on the connection: said with its parts (a part never measured would say "unmeasured")
     said = [line for line in output.splitlines() if f"franka_ros ({NS}): a stop stamped " in line]

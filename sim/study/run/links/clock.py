@@ -7,6 +7,11 @@ therefore reads the wall clock once, when it anchors, and counts on from there b
 motions it anchors again (so the monotonic clock's drift from the wall clock, a few hundred ppm at most while NTP
 slews, never builds up); during a motion, the wall clock's distance from the link's clock is the step, and one
 beyond STEP_LIMIT stops the arm: the controller's clock and the runner's no longer agree on when a stop begins.
+
+The robot's clock (its joint states' stamps) must agree with this one: at connect, and through the session, the
+states' arrival minus their stamps is held within SKEW_LIMIT of zero at connect (a median), and of what it was at
+connect through the session: a state stamped ahead of that at once (a delivery can only make it later), one behind
+it in the last states' median (so that one late delivery does not count).
 """
 
 from __future__ import annotations
@@ -14,9 +19,12 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 
-__all__ = ["STEP_LIMIT", "LinkClock"]
+__all__ = ["STEP_LIMIT", "SKEW_LIMIT", "LinkClock"]
 
 STEP_LIMIT = 0.05  # s: a wall clock this far from the link's has stepped (drift is ~0.1 ms in the longest motion)
+# s: the most the robot's joint states may arrive after (or before) their stamps, a median of 15: the robot PC's
+# clock off this machine's by more (or a feed delayed by more) makes stamped goals and tracking wrong
+SKEW_LIMIT = 0.05
 
 
 class LinkClock:

@@ -100,6 +100,15 @@ class JointFeed:
         with self._changed:
             return [state for state in self._states if state.arrival > arrival]
 
+    def stamp_offset(self, last: int = 15) -> float | None:
+        """s: the median of the last `last` good states' arrival minus their stamp: the robot's clock behind the
+        link's, plus the states' delivery (None before any). The median: one late delivery does not move it."""
+        with self._changed:
+            recent = self._states[-last:]
+        if not recent:
+            return None
+        return float(np.median([state.arrival - state.stamp for state in recent]))
+
     def faults_since(self, arrival: float) -> list[FeedFault]:
         with self._changed:
             return [fault for fault in self._faults if fault.arrival > arrival]

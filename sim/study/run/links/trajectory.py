@@ -41,7 +41,7 @@ from sim.control.scenarios import approach
 from sim.robots import RobotSpec
 from sim.study.run.console import say
 from sim.study.run.links.base import AppliedPress, ApproachOutcome, Press, SafetyStopped, TakePress
-from sim.study.run.links.clock import STEP_LIMIT, LinkClock
+from sim.study.run.links.clock import SKEW_LIMIT, STEP_LIMIT, LinkClock
 from sim.study.run.links.failsafe import brakes_on_exit
 from sim.study.run.links.feed import FedState, JointFeed
 from sim.study.run.links.goals import GOAL_STATUS, CommandedPath, GoalPoints, goal_points, speed_fell
@@ -56,6 +56,7 @@ from sim.wire.contract import positions_by_name
 __all__ = ["QUERY_PROBES", "TrajectoryLink"]
 
 QUERY_PROBES = 10  # query_state round trips measured at connect, before any stop needs one
+SKEW_STATES = 15  # joint states whose arrival against their stamps tells at connect whether the clocks agree
 QUERY_TIMEOUT = 0.1  # s: a query_state answer later than this is not waited for (the stop brakes from the path)
 PROBE_TIMEOUT = 2.0  # s: query_state's answer before a motion, which waits for it (no stop does)
 POLL = 0.01  # s: the longest wait for a joint state between looks at the presses and the goal
@@ -143,6 +144,7 @@ class TrajectoryLink:
         self.lead = Leads()  # the delays measured on this connection, and the leads they give
         self._lead_lock = threading.Lock()  # goals' deliveries are measured on actionlib's threads
         self._connected = False
+        self._skew = 0.0  # s: the joint states' arrival minus their stamps at connect (sim.study.run.links.clock)
 
     # --- RobotLink -------------------------------------------------------------------------------------------
     @property
@@ -179,8 +181,10 @@ class TrajectoryLink:
             self._query(self._clock(), timeout)
         if self.feed.wait(-math.inf, timeout, self.stop) is None:
             raise ControllerError(f"no joint state on {self.spec.joint_states_topic} within {timeout:g} s")
+        self._skew = self._clocks_agree(timeout)
         self._connected = True
-        return f"trajectory controller {ns} (the arm's joint states on {self.spec.joint_states_topic})"
+        topic, skew = self.spec.joint_states_topic, self._skew * 1e3
+        return f"trajectory controller {ns} (the arm's joint states on {topic}, arriving {skew:+.1f} ms after stamping)"
 
     def start(self, timeout: float) -> np.ndarray:
         state = self.feed.wait(-math.inf, timeout, self.stop)
@@ -278,6 +282,23 @@ class TrajectoryLink:
         client = self.client
         for endpoint in (client.pub_goal, client.pub_cancel, client.status_sub, client.result_sub, client.feedback_sub):
             endpoint.unregister()
+
+    def _clocks_agree(self, timeout: float) -> float:
+        """s: how far the joint states arrive after their stamps (the robot's clock behind this machine's, plus their
+        delivery), the median of the first SKEW_STATES; ControllerError naming the disagreement beyond SKEW_LIMIT: a
+        goal's stamp, the tracking and every lead assume the two clocks agree."""
+        deadline = self._clock() + timeout
+        while self.feed.count() < SKEW_STATES and self._clock() < deadline and not self.stop.is_set():
+            self.feed.wait(self._clock(), POLL, self.stop)
+        skew = self.feed.stamp_offset(SKEW_STATES)
+        if skew is None:
+            raise ControllerError(f"no joint state on {self.spec.joint_states_topic} within {timeout:g} s")
+        if abs(skew) > SKEW_LIMIT:
+            raise ControllerError(
+                f"the robot's clock and this machine's disagree: its joint states on {self.spec.joint_states_topic} "
+                f"arrive {skew:+.3f} s after their stamps (limit {SKEW_LIMIT:g} s); synchronise the clocks (chrony)"
+            )
+        return skew
 
     # --- a motion --------------------------------------------------------------------------------------------
     def _begin_motion(self) -> FedState:
@@ -378,6 +399,15 @@ class TrajectoryLink:
         step = self._clock.step()
         if abs(step) > STEP_LIMIT:
             return f"the wall clock stepped {step:+.3f} s during the motion (limit {STEP_LIMIT:g} s)"
+        # A state stamped ahead of what its arrival allows is the clocks' doing at once (a delivery only delays);
+        # one stamped further behind may be a late delivery, so the last states' median is judged.
+        median = self.feed.stamp_offset()
+        for skew in (latest.arrival - latest.stamp, median if median is not None and median > self._skew else None):
+            if skew is not None and abs(skew - self._skew) > SKEW_LIMIT:
+                return (
+                    f"the joint states arrive {skew:+.3f} s after their stamps, {self._skew:+.3f} s at connect (limit "
+                    f"{SKEW_LIMIT:g} s): the robot's clock and the runner's no longer agree"
+                )
         if tracking > self.spec.tracking_tolerance:
             return f"tracking error {tracking:.4f} rad over the tolerance {self.spec.tracking_tolerance:g} rad"
         if run is not None and now < motion.moves_until:  # a hand coming on to an arm at rest is the person's own move
