@@ -11,16 +11,19 @@ it is measured on the link's own connection, in three parts:
   query      query_state's round trip (the controller's desired state at the stamp): probed at connect, and each stop
   planning   the stop's planning on this machine (sim.study.safety.braking): one timed before every approach, from its
              fastest planned state, and each stop
-  delivery   each goal the link sends (the moves to a start, the approaches, the stops), from just before send_goal
-             to the controller's status saying it took it (accepted or refused): a round trip, so it bounds the
-             goal's one-way delivery and the controller's handling from above
+  delivery   each goal the link sends, from just before send_goal to the controller's status saying it took it
+             (accepted or refused): a round trip, so it bounds the goal's one-way delivery and the controller's
+             handling from above. A stop's goal (tens of points) goes faster than a motion's (hundreds), so each is
+             kept apart: `delivery` for goals of up to STOP_SIZED points (the stops), `motion_delivery` for the
+             longer ones (the moves to a start and the approaches). Until a part has a sample, the other's stands in
+             for it (a motion's delivery bounds a stop's from above; the describe() says so)
 
 lead = each part's QUANTILE (the largest while a part has fewer than 1 / (1 - QUANTILE) samples) summed, plus MARGIN,
 within [FLOOR, CEILING]; CEILING while a part has no sample. A lead held at the ceiling is said: the stop will then
 likely come late.
 
 An approach is planned before it is sent, and its start's state is known, so only its delivery delays it: its lead
-is the same rule over the delivery alone (START). Too short, and the controller drops its first points and the
+is the same rule over a motion's delivery alone (START). Too short, and the controller drops its first points and the
 delivery's delay counts as tracking error; too long only starts the approach later.
 """
 
@@ -33,11 +36,26 @@ from dataclasses import dataclass
 from sim.study.run.errors import RunError
 from sim.study.safety.separation import STOP_LEAD_CEILING
 
-__all__ = ["PARTS", "STOP", "START", "QUANTILE", "MARGIN", "FLOOR", "CEILING", "KEPT", "Leads", "LeadChoice"]
+__all__ = [
+    "PARTS",
+    "STOP",
+    "START",
+    "STOP_SIZED",
+    "QUANTILE",
+    "MARGIN",
+    "FLOOR",
+    "CEILING",
+    "KEPT",
+    "Leads",
+    "LeadChoice",
+    "delivery_part",
+]
 
-PARTS = ("query", "planning", "delivery")
-STOP = PARTS  # what a stop's preparation waits for
-START = ("delivery",)  # what an approach's start waits for
+PARTS = ("query", "planning", "delivery", "motion_delivery")
+STOP = ("query", "planning", "delivery")  # what a stop's preparation waits for
+START = ("motion_delivery",)  # what an approach's start waits for
+STOP_SIZED = 80  # points: a stop from 0.5 m/s at 1 m/s² has ~55 of 10 ms; a motion's goal has 100 and more
+_STANDS_IN = {"delivery": "motion_delivery", "motion_delivery": "delivery"}  # until a part has a sample
 QUANTILE = 0.99  # of each part's samples: a stop is rare and must not be late
 MARGIN = 0.005  # s on top: the sum's own scatter (the next delay may be the worst yet)
 FLOOR = 0.01  # s: no shorter, whatever was measured (a loopback's sub-millisecond round trips)
@@ -104,8 +122,14 @@ class Leads:
 
     def choose(self, parts_waited_for: tuple[str, ...] = STOP) -> LeadChoice:
         """The lead of a goal whose preparation waits for `parts_waited_for` (STOP or START)."""
-        parts = {part: self.part(part) for part in parts_waited_for}
-        samples = {part: len(self._samples[part]) for part in parts_waited_for}
+        parts: dict[str, float] = {}
+        samples: dict[str, int] = {}
+        for part in parts_waited_for:
+            measured = part
+            if not self._samples[part] and self._samples.get(_STANDS_IN.get(part, part)):
+                measured = _STANDS_IN[part]  # unmeasured yet: the other goals' delivery stands in
+            name = part if measured == part else f"{part} (as {measured})"
+            parts[name], samples[name] = self.part(measured), len(self._samples[measured])
         missing = [part for part, value in parts.items() if math.isnan(value)]
         if missing:
             return LeadChoice(self.ceiling, parts, samples, f"no {' or '.join(missing)} measured")
@@ -113,3 +137,8 @@ class Leads:
         lead = min(max(wanted, self.floor), self.ceiling)
         limited = "floor" if wanted < self.floor else "ceiling" if wanted > self.ceiling else ""
         return LeadChoice(lead, parts, samples, limited)
+
+
+def delivery_part(points: int) -> str:
+    """The part a goal of `points` points measures: a stop's `delivery`, or a motion's."""
+    return "delivery" if points <= STOP_SIZED else "motion_delivery"

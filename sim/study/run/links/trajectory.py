@@ -46,7 +46,7 @@ from sim.study.run.links.failsafe import brakes_on_exit
 from sim.study.run.links.feed import FedState, JointFeed
 from sim.study.run.links.goals import GOAL_STATUS, CommandedPath, GoalPoints, goal_points, speed_fell
 from sim.study.run.links.joint_line import MOVE_DECELERATION, MOVE_JERK, JointLine
-from sim.study.run.links.lead import START, Leads
+from sim.study.run.links.lead import START, Leads, delivery_part
 from sim.study.run.links.specs import TrajectoryLinkSpec
 from sim.study.run.trial import TrialRun
 from sim.study.safety.braking import STOP_JERK, Braking, PathGeometry, arc_length, brake
@@ -609,12 +609,12 @@ class TrajectoryLink:
             self.robot.joint_names, points.times, points.positions, points.velocities, points.accelerations, stamp
         )
         sent = self._clock()
-        handle = self.client.send_goal(goal, transition_cb=self._delivered(sent))
+        handle = self.client.send_goal(goal, transition_cb=self._delivered(sent, delivery_part(len(points.times))))
         return handle, sent
 
-    def _delivered(self, sent: float) -> Any:
+    def _delivered(self, sent: float, part: str) -> Any:
         """actionlib's transition callback for a goal sent at `sent`: the first status of it from the controller
-        (accepted, or refused) ends its delivery, measured for the stops' lead."""
+        (accepted, or refused) ends its delivery, measured for the leads as `part`."""
         from actionlib import CommState
 
         heard = threading.Event()
@@ -623,7 +623,7 @@ class TrajectoryLink:
             if handle.get_comm_state() != CommState.WAITING_FOR_GOAL_ACK and not heard.is_set():
                 heard.set()
                 with self._lead_lock:
-                    self.lead.add("delivery", self._clock() - sent)
+                    self.lead.add(part, self._clock() - sent)
 
         return transition
 

@@ -8,7 +8,7 @@ import math
 import pytest
 
 from sim.study.run.errors import RunError
-from sim.study.run.links.lead import CEILING, FLOOR, MARGIN, START, Leads
+from sim.study.run.links.lead import CEILING, FLOOR, MARGIN, START, STOP_SIZED, Leads, delivery_part
 
 
 def measured(query: list[float], planning: list[float], delivery: list[float], **options: float) -> Leads:
@@ -48,12 +48,28 @@ def test_a_part_not_yet_measured_gives_the_ceiling() -> None:
     assert math.isnan(chosen.parts["planning"]) and "planning unmeasured" in chosen.describe()
 
 
-def test_an_approachs_start_waits_for_its_delivery_alone() -> None:
-    lead = measured([0.030], [0.040], [0.006, 0.012])
+def test_an_approachs_start_waits_for_a_motions_delivery_alone() -> None:
+    lead = measured([0.030], [0.040], [])
+    for seconds in (0.006, 0.012):
+        lead.add("motion_delivery", seconds)
     chosen = lead.choose(START)
-    assert chosen.lead == pytest.approx(0.012 + MARGIN) and list(chosen.parts) == ["delivery"]
-    assert chosen.describe().endswith(f"p99 delivery 12.0 ms of 2, margin {MARGIN * 1e3:g} ms")
-    assert measured([0.030], [0.040], []).choose(START).limited == "no delivery measured"
+    assert chosen.lead == pytest.approx(0.012 + MARGIN) and list(chosen.parts) == ["motion_delivery"]
+    assert chosen.describe().endswith(f"p99 motion_delivery 12.0 ms of 2, margin {MARGIN * 1e3:g} ms")
+    assert measured([0.030], [0.040], []).choose(START).limited == "no motion_delivery measured"
+
+
+def test_a_stop_is_led_by_the_stops_own_delivery_and_by_a_motions_until_one_is_measured() -> None:
+    # A motion's goal (hundreds of points) is delivered slower than a stop's (tens): the stop's lead is sized by the
+    # stops' own deliveries once there is one; before, by the motions' (an upper bound), and it says so.
+    assert (delivery_part(STOP_SIZED), delivery_part(STOP_SIZED + 1)) == ("delivery", "motion_delivery")
+    lead = measured([0.002], [0.001], [])
+    lead.add("motion_delivery", 0.040)
+    before = lead.choose()
+    assert before.lead == pytest.approx(0.002 + 0.001 + 0.040 + MARGIN)
+    assert "delivery (as motion_delivery) 40.0 ms of 1" in before.describe()
+    lead.add("delivery", 0.008)
+    assert lead.choose().lead == pytest.approx(0.002 + 0.001 + 0.008 + MARGIN)
+    assert lead.choose(START).lead == pytest.approx(0.040 + MARGIN)  # the approach's own, unchanged
 
 
 def test_only_the_latest_samples_are_kept() -> None:
