@@ -15,6 +15,7 @@ import signal
 import threading
 import time
 from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -225,8 +226,9 @@ def test_a_press_with_query_state_answering_late_is_stopped_in_time_from_the_com
     assert_braked(ended)
 
 
-def relay_states(ros_node: Any, change: Callable[[Any], Any | None]) -> Any:
-    """The arm's joint states relayed on RELAYED_STATES, each through `change` (None: not passed on)."""
+@contextmanager
+def relayed_states(ros_node: Any, change: Callable[[Any], Any | None]) -> Iterator[None]:
+    """While inside: the arm's joint states relayed on RELAYED_STATES, each through `change` (None: not passed on)."""
     from sensor_msgs.msg import JointState
 
     relayed = ros_node.Publisher(RELAYED_STATES, JointState, queue_size=10)
@@ -237,7 +239,11 @@ def relay_states(ros_node: Any, change: Callable[[Any], Any | None]) -> Any:
             relayed.publish(changed)
 
     subscriber = ros_node.Subscriber(JOINT_STATES, JointState, relay)
-    return relayed, subscriber
+    try:
+        yield
+    finally:
+        subscriber.unregister()
+        relayed.unregister()
 
 
 @pytest.mark.parametrize(
@@ -262,14 +268,10 @@ def test_a_malformed_joint_state_mid_approach_brakes_the_arm(
             return JointState(message.header, names, positions, message.velocity, message.effort)
         return message
 
-    relayed, subscriber = relay_states(ros_node, change)
-    try:
+    with relayed_states(ros_node, change):
         ended = approach_with_fault(
             roscore, ros_node, arm, tmp_path, 24, lambda runner: bad.set(), f"{NS},{RELAYED_STATES}"
         )
-    finally:
-        subscriber.unregister()
-        relayed.unregister()
     assert ended.code == 5, ended.output
     assert "the arm was stopped: a malformed joint state: " in ended.output and said in ended.output, ended.output
     assert_braked(ended)
@@ -292,18 +294,14 @@ def test_a_feed_gone_stale_while_braking_ends_the_session_with_the_arm_braked(
 ) -> None:
     passing = threading.Event()
     passing.set()
-    relayed, subscriber = relay_states(ros_node, lambda message: message if passing.is_set() else None)
 
     def press_then_stale(runner: Any) -> None:
         type_line(runner, "s\n")
         time.sleep(0.05)  # the stop on its way: the feed ends as the arm brakes
         passing.clear()
 
-    try:
+    with relayed_states(ros_node, lambda message: message if passing.is_set() else None):
         ended = approach_with_fault(roscore, ros_node, arm, tmp_path, 26, press_then_stale, f"{NS},{RELAYED_STATES}")
-    finally:
-        subscriber.unregister()
-        relayed.unregister()
     assert ended.code == 5, ended.output
     assert "while the approach was stopping: joint states stale" in ended.output, ended.output
     assert ended.row is not None and ended.row["safety_stop"].startswith("then joint states stale")
@@ -394,15 +392,13 @@ def test_a_robot_clock_off_the_runners_at_connect_refuses_the_session_in_one_lin
 ) -> None:
     always = threading.Event()
     always.set()
-    relayed, subscriber = relay_states(ros_node, restamped(ros_node, 0.5, always))
     plan = write_plan(tmp_path / "plan.yaml", 30, "reality", [trial(1, "reality", 1, "vertical", STANDOFF, SPEED)])
-    runner = start_runner(roscore, plan, tmp_path / "out", ["--link", f"reality={NS},{RELAYED_STATES}"])
-    try:
-        output, _ = runner.communicate(timeout=90)
-    finally:
-        kill_process(runner)
-        subscriber.unregister()
-        relayed.unregister()
+    with relayed_states(ros_node, restamped(ros_node, 0.5, always)):
+        runner = start_runner(roscore, plan, tmp_path / "out", ["--link", f"reality={NS},{RELAYED_STATES}"])
+        try:
+            output, _ = runner.communicate(timeout=90)
+        finally:
+            kill_process(runner)
     assert runner.returncode == 4, output
     said = [line for line in output.splitlines() if "clock and this machine's disagree" in line]
     assert len(said) == 1 and "limit 0.05 s" in said[0], output
@@ -412,14 +408,10 @@ def test_a_robot_clock_off_the_runners_at_connect_refuses_the_session_in_one_lin
 
 def test_a_robot_clock_that_steps_mid_approach_brakes_the_arm(roscore, ros_node, arm: Arm, tmp_path: Path) -> None:
     stepped = threading.Event()
-    relayed, subscriber = relay_states(ros_node, restamped(ros_node, 0.5, stepped))
-    try:
+    with relayed_states(ros_node, restamped(ros_node, 0.5, stepped)):
         ended = approach_with_fault(
             roscore, ros_node, arm, tmp_path, 31, lambda runner: stepped.set(), f"{NS},{RELAYED_STATES}"
         )
-    finally:
-        subscriber.unregister()
-        relayed.unregister()
     assert ended.code == 5, ended.output
     assert "the robot's clock and the runner's no longer agree" in ended.output, ended.output
     assert_braked(ended)
