@@ -158,6 +158,21 @@ def test_tracking_error_past_the_tolerance_stops_the_arm_on_its_move_to_a_start(
     assert np.abs(rest - start).max() > 0.01  # braked short of the path's start
 
 
+def test_tracking_error_that_changes_the_arms_distance_to_the_hand_past_its_tolerance_stops_the_approach(
+    roscore, built_arm, tmp_path: Path
+) -> None:
+    # The same soft arm, its joint error tolerated (1 rad), its move to the start let through: in the approach the lag
+    # changes its distance to the hand, where the floor is judged, by more than the 0.5 mm given.
+    urdf, watch = built_arm
+    watch.out = str(tmp_path / "out")
+    plan = write_plan(tmp_path / "plan.yaml", 9, "reality", [trial(1, "reality", 1, "vertical", 0.1, 0.2)])
+    extra = ["--robot", str(urdf), "--link", "reality=/arm/traj_controller,/arm/joint_states"]
+    extra += ["--tracking-tolerance", "1", "--surface-tolerance", "0.0005"]
+    runner = start_runner(roscore, plan, tmp_path / "out", extra)
+    row = stopped_on_its_own(runner, watch, "the arm's distance to the hand", 0.1, 9, urdf)
+    assert float(row["tracking_error"]) < 1  # the joint error alone let it run
+
+
 def test_a_stale_joint_state_feed_stops_the_arm(roscore, ros_node, arm, tmp_path: Path) -> None:
     # The runner reads the arm's joint states through a relay of the test's, given by namespace and topic; the relay
     # stops passing them on 0.5 s into the approach.
@@ -243,6 +258,7 @@ def test_a_reading_displaced_towards_the_hand_stops_the_arm_before_the_floor(
     relay = ros_node.Subscriber(JOINT_STATES, JointState, relay_state)
     plan = write_plan(tmp_path / "plan.yaml", 10, "reality", [trial(1, "reality", 1, "vertical", 0.15, 0.2)])
     extra = ["--link", f"reality={NS},/relayed/joint_states", "--floor", "0.05", "--tracking-tolerance", "3"]
+    extra += ["--surface-tolerance", "1"]
     runner = start_runner(roscore, plan, tmp_path / "out", extra)
     try:
         watch.wait((1, "moving"), runner)

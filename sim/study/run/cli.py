@@ -71,6 +71,12 @@ def register(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> N
         "--tracking-tolerance", type=float, default=0.1, help="rad of joint error in a motion: stop the arm (0.1)"
     )
     trajectory.add_argument(
+        "--surface-tolerance",
+        type=float,
+        default=0.005,
+        help="m the joint error may change the arm's distance to the hand in an approach: stop the arm (0.005)",
+    )
+    trajectory.add_argument(
         "--floor", type=float, default=0.01, help="m: plans closer to the hand are refused, the arm stopped (0.01)"
     )
     trajectory.add_argument(
@@ -121,8 +127,9 @@ def run_command(args: argparse.Namespace) -> int:
 
         plan = out_of_reach(plan, args.rehearsal_clearance)
     links = link_specs(
-        args.link, plan.conditions, args.stale_after, args.tracking_tolerance, args.floor, args.rehearsal_speed
-    )
+        args.link, plan.conditions, args.stale_after, args.tracking_tolerance, args.floor, args.rehearsal_speed,
+        args.surface_tolerance,
+    )  # fmt: skip
     if links and not args.realtime:
         raise RunError(f"--link: a trajectory controller ({', '.join(links)}) runs on wall time: give --realtime")
     scene, robot = scene_and_robot(args)

@@ -114,19 +114,23 @@ class CommandedPath:
             return q, np.zeros_like(q), np.zeros_like(q)
         return q, _interpolate(t, times, velocities), _interpolate(t, times, accelerations)
 
-    def error(self, when: float, achieved: np.ndarray, last_unsure: bool = False) -> float:
-        """rad: the largest joint error of `achieved` against the commanded positions at `when`. `last_unsure`: the
-        controller has not yet said whether it took the last segment (a stop on its way), so the error is the
-        smaller of the two: with it, and without it."""
-        achieved = np.asarray(achieved, dtype=float)
-        error = float(np.max(np.abs(achieved - self.at(when))))
+    def possible(self, when: float, last_unsure: bool = False) -> list[np.ndarray]:
+        """The commanded positions at `when`; `last_unsure`: the controller has not yet said whether it took the last
+        segment (a stop on its way), so with it and without it."""
+        positions = [self.at(when)]
         if last_unsure and len(self.segments) > 1:
             last = self.segments.pop()
             try:
-                error = min(error, float(np.max(np.abs(achieved - self.at(when)))))
+                positions.append(self.at(when))
             finally:
                 self.segments.append(last)
-        return error
+        return positions
+
+    def error(self, when: float, achieved: np.ndarray, last_unsure: bool = False) -> float:
+        """rad: the largest joint error of `achieved` against the commanded positions at `when` (the smaller of the
+        two possible ones, `last_unsure`)."""
+        achieved = np.asarray(achieved, dtype=float)
+        return min(float(np.max(np.abs(achieved - q))) for q in self.possible(when, last_unsure))
 
 
 def _interpolate(t: float, times: np.ndarray, values: np.ndarray) -> np.ndarray:

@@ -17,6 +17,7 @@ __all__ = [
     "STREAM",
     "STALE_AFTER",
     "TRACKING_TOLERANCE",
+    "SURFACE_TOLERANCE",
     "DISTANCE_FLOOR",
     "TrajectoryLinkSpec",
     "PRESETS",
@@ -27,6 +28,9 @@ __all__ = [
 STREAM = "stream"
 STALE_AFTER = 0.25  # s without a new joint state during a motion: the feed is stale and the arm is stopped
 TRACKING_TOLERANCE = 0.1  # rad: the largest joint error against the commanded path before the arm is stopped
+# m: the most the arm's tracking error may change its distance to the hand (the achieved state's against the commanded
+# one's): judged where it matters for the floor, at the robot's surface nearest the hand
+SURFACE_TOLERANCE = 0.005
 DISTANCE_FLOOR = 0.01  # m: no planned point, braked rest or achieved state may come closer to the hand
 
 
@@ -41,6 +45,7 @@ class TrajectoryLinkSpec:
     tracking_tolerance: float = TRACKING_TOLERANCE
     floor: float = DISTANCE_FLOOR
     speed_scale: float = 1.0  # the rehearsal's reduced speed: the approach's timing stretched by 1 / speed_scale
+    surface_tolerance: float = SURFACE_TOLERANCE
 
     @property
     def label(self) -> str:
@@ -88,10 +93,12 @@ def link_specs(
     tracking_tolerance: float = TRACKING_TOLERANCE,
     floor: float = DISTANCE_FLOOR,
     speed_scale: float = 1.0,
+    surface_tolerance: float = SURFACE_TOLERANCE,
 ) -> dict[str, TrajectoryLinkSpec]:
     """--link CONDITION=LINK, each condition once: the conditions on a trajectory controller (the rest stream)."""
     known = list(conditions)
-    for value, name in ((stale_after, "--stale-after"), (tracking_tolerance, "--tracking-tolerance")):
+    checked = ((stale_after, "--stale-after"), (tracking_tolerance, "--tracking-tolerance"))
+    for value, name in (*checked, (surface_tolerance, "--surface-tolerance")):
         if not (math.isfinite(value) and value > 0):
             raise RunError(f"{name} must be > 0, got {value!r}")
     if not (math.isfinite(floor) and floor >= 0):
@@ -110,6 +117,6 @@ def link_specs(
         if spec is not None:
             chosen[condition] = TrajectoryLinkSpec(
                 spec.namespace, spec.joint_states_topic, spec.preset, stale_after, tracking_tolerance, floor,
-                speed_scale,
+                speed_scale, surface_tolerance,
             )  # fmt: skip
     return chosen

@@ -410,6 +410,16 @@ class TrajectoryLink:
                 )
         if tracking > self.spec.tracking_tolerance:
             return f"tracking error {tracking:.4f} rad over the tolerance {self.spec.tracking_tolerance:g} rad"
+        if run is not None and latest.stamp >= motion.start:
+            achieved = run.hand_distance(latest.positions)
+            unsure = motion.replaced and not self._taken(motion.handle)
+            possible = motion.commanded.possible(latest.stamp, unsure)
+            off = min(abs(achieved - run.hand_distance(q)) for q in possible)
+            if off > self.spec.surface_tolerance:
+                return (
+                    f"the arm's distance to the hand {off * 1e3:.1f} mm off its commanded path's (tolerance "
+                    f"{self.spec.surface_tolerance * 1e3:g} mm)"
+                )
         if run is not None and now < motion.moves_until:  # a hand coming on to an arm at rest is the person's own move
             distance = run.live_hand_distance(latest.positions)
             motion.least_separation = min(motion.least_separation, distance)
