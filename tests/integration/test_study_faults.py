@@ -415,3 +415,34 @@ def test_a_robot_clock_that_steps_mid_approach_brakes_the_arm(roscore, ros_node,
     assert ended.code == 5, ended.output
     assert "the robot's clock and the runner's no longer agree" in ended.output, ended.output
     assert_braked(ended)
+
+
+def test_a_sweep_of_presses_over_an_approach_is_executed_within_the_limits(
+    roscore, ros_node, arm: Arm, tmp_path: Path
+) -> None:
+    # One press per trial, each later into its approach, from its slow start to its decelerating end: every stop is
+    # executed (replayed at 1 kHz as the controller runs it) within the Panda's acceleration and jerk limits.
+    watch = arm.watch
+    executed = ExecutedWatch(ros_node, NS, arm.stop_trajectory_duration)
+    presses = (0.1, 0.5, 0.9, 1.3, 1.7)  # s into the approach (2.3 s long at 0.2 m/s to 0.06 m)
+    plan = [trial(k, "reality", 1, "vertical", STANDOFF, SPEED) for k in range(1, len(presses) + 1)]
+    plan_path = write_plan(tmp_path / "plan.yaml", 32, "reality", plan)
+    home = watch.resting_positions()
+    runner = start_runner(roscore, plan_path, tmp_path / "out", ["--link", "reality=franka_ros"])
+    try:
+        for k, into in enumerate(presses, start=1):
+            watch.wait((k, "moving"), runner)
+            time.sleep(into)
+            type_line(runner, "s\n")
+            watch.wait((k, "distance"), runner)
+            type_line(runner, "20 cm\n")
+        output, _ = runner.communicate(timeout=60)
+        watch.resting_positions()
+        extremes = executed.extremes(home, time.time())
+    finally:
+        kill_process(runner)
+        executed.close()
+    assert runner.returncode == 0, output
+    rows = read_csv(tmp_path / "out" / "participant_32.csv")
+    assert [(row["pressed"], row["goal_result"]) for row in rows] == [("true", "SUCCEEDED")] * len(presses)
+    assert extremes.acceleration <= 1.0 and extremes.jerk <= 1.0, extremes.worst
