@@ -4,7 +4,7 @@ then presses and every injected fault through the study's runner: braked or not,
     .venv/bin/python -m bench.braking_bench [--presses 20] [--seconds 180] [--path diagonal] [--speed 0.5]
                                             [--dt 0.01] [--joint-states-rate 100] [--lead S] [--seed 0]
                                             [--only leads|sweep|faults ...] [--sweep 10] [--faults all|A,B]
-                                            [--fault-runs 1] [--fault-seconds 900]
+                                            [--fault-runs 1] [--fault-at S] [--fault-seconds 900]
 
 Three parts, all by default (--only picks some): the leads (below), the sweep of --sweep presses through the real
 runner and each of --faults injected into it --fault-runs times (bench.fault_bench: its table and its last line,
@@ -392,14 +392,18 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument("--fault-runs", type=int, default=1, help="runs of each fault (default 1)")
     parser.add_argument(
+        "--fault-at", type=float, default=None, help="s into the approach of each fault (default: its peak speed)"
+    )
+    parser.add_argument(
         "--fault-seconds", type=float, default=900.0, help="no fault run begins after this long (default 900)"
     )
     args = parser.parse_args(argv)
     lead_ok = args.lead is None or args.lead > 0
     if not (args.presses > 0 and args.seconds > 0 and args.dt > 0 and args.joint_states_rate > 0 and lead_ok):
         parser.error("--presses, --seconds, --dt, --joint-states-rate and --lead must be > 0")
-    if not (0 <= args.sweep <= MAX_SWEEP and args.fault_runs > 0 and args.fault_seconds > 0):
-        parser.error(f"--sweep must be 0-{MAX_SWEEP}, --fault-runs and --fault-seconds > 0")
+    fault_at_ok = args.fault_at is None or args.fault_at > 0
+    if not (0 <= args.sweep <= MAX_SWEEP and args.fault_runs > 0 and args.fault_seconds > 0 and fault_at_ok):
+        parser.error(f"--sweep must be 0-{MAX_SWEEP}; --fault-runs, --fault-seconds and --fault-at > 0")
     faults = list(fault_bench.FAULTS) if args.faults == "all" else [f for f in args.faults.split(",") if f]
     unknown = [name for name in faults if name not in fault_bench.FAULTS]
     if unknown:
@@ -419,7 +423,9 @@ def main(argv: list[str] | None = None) -> int:
             if "sweep" in sections or "faults" in sections:
                 sweep = args.sweep if "sweep" in sections else 0
                 chosen = faults if "faults" in sections else []
-                ok = fault_bench.run(rospy, core.env, Path(tmp), sweep, chosen, args.fault_runs, args.fault_seconds)
+                ok = fault_bench.run(
+                    rospy, core.env, Path(tmp), sweep, chosen, args.fault_runs, args.fault_seconds, args.fault_at
+                )
             rospy.signal_shutdown("braking bench done")
         finally:
             core.stop()

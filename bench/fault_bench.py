@@ -9,20 +9,23 @@ one fault into the approach, as tests/integration/test_study_faults.py does (ben
 
   - the sweep: one session of N trials, each pressed ("s" at the runner's keyboard) at its own time, spread over
     the approach while the arm still has 6 cm or more to go;
-  - each fault once (--fault-runs), 0.5 s into the approach: SIGINT, SIGTERM; query_state gone, then a press;
-    query_state restarted between two trials, then a press; query_state answering 0.2 s late, then a press; a joint
-    state with 6 positions for 7 joints, one with a NaN; the runner's wall clock stepped by +2 s and -2 s
-    (bench/stepped_clock.py); the feed gone stale 50 ms after a press; the braking goal aborted by the controller
-    (a path tolerance of 1 µrad); the tracked hand lost.
+  - each fault once (--fault-runs), at the approach's peak speed so that the arm brakes from its fastest
+    (--fault-at; the tests inject at 0.5 s): SIGINT, SIGTERM; query_state gone, then a press; query_state restarted
+    between two trials, then a press; query_state answering 0.2 s late, then a press; a joint state with 6 positions
+    for 7 joints, one with a NaN; the runner's wall clock stepped by +2 s and -2 s (bench/stepped_clock.py); the
+    feed gone stale 50 ms after a press; the braking goal aborted by the controller (a path tolerance of 1 µrad); the
+    tracked hand lost. Two of them also on the UR-like controller.
 
 Figures per fault: the runs, how many braked (the arm at rest at least BRAKED_SHORT short of its stand-off, where an
 arm not braked comes to rest), the runner's exit codes, the least rest short of the stand-off, the least separation
 of the arm from the scene's hand in any joint state heard while the motion ran (and the runner's own record where it
-wrote one) against the floor, the largest executed acceleration and jerk as a share of the Panda's limits (every goal
-and cancel heard beside the controller, replayed at 1 kHz through ros_control's semantics: sim.engine.executed), and
+wrote one) against the floor, the largest executed acceleration and jerk as a share of the Panda's limits from the
+approach acted on to the end (every goal and cancel heard beside the controller, replayed at 1 kHz through
+ros_control's semantics: sim.engine.executed; the whole sessions' below the table, the moves to the starts too), and
 the leads the stops were stamped with (how many were sent after their stamp, how many braked from the commanded
-path). The last line says whether every fault braked and no separation fell under the floor; run() returns False
-when not, and the bench then exits 1.
+path). The last line says whether every fault braked and no separation fell under the floor (and whether the
+executed motion stayed within the limits); run() returns False when a run did not brake, fell under the floor or
+gave no figures, and the bench then exits 1.
 
 Every wait is bounded (PHASE_WAIT_S per phase, the sessions by a time budget); every process is killed by its PID.
 """
@@ -68,7 +71,7 @@ from sim.study.safety.limits import PANDA_LIMITS
 PATH, STANDOFF, SPEED = "vertical", 0.06, 0.2  # the tests' approach: m, m/s
 FLOOR = 0.01  # m: the runner's default --floor
 BRAKED_SHORT = 0.01  # m: an arm resting this far short of its stand-off or more was braked
-INTO_S = 0.5  # s into the approach a fault is injected
+FIRST_PRESS_S = 0.5  # s into the approach of the sweep's first press (the fault tests' time)
 LEFT_AT_PRESS = 0.06  # m: the sweep presses while at least this much of the approach is left
 PHASE_WAIT_S = 60.0  # the longest wait for one of the runner's phases, or for it to end
 STEPPED_CLOCK = Path(__file__).with_name("stepped_clock.py")
@@ -81,7 +84,7 @@ SEPARATION_EVERY_S = 0.01  # the heard joint states' separations are computed at
 
 @dataclass
 class Injection:
-    """One fault as a session runs it: what to do to the runner `INTO_S` s into the last trial's approach, the link
+    """One fault as a session runs it: what to do to the runner during the last trial's approach, the link
     the runner is given, and what is done between trials and after the session."""
 
     act: Callable[[subprocess.Popen], None]
@@ -104,7 +107,8 @@ class Trial:
 class Session:
     code: int | None
     trials: list[Trial]
-    executed: Executed | None
+    executed: Executed | None  # from the first approach acted on to the end
+    whole: Executed | None  # the whole session's, the moves to the starts included
     leads: list[float] = field(default_factory=list)  # ms, each stop's
     after_stamp: int = 0
     from_path: int = 0
@@ -257,7 +261,7 @@ class Bench:
         participant, trials = self.participant, max(injection.trials, len(acts))
         home = self.watch.at_rest(30)
         if home is None:
-            return Session(None, [], None, said="the arm did not rest before the session")
+            return Session(None, [], None, None, said="the arm did not rest before the session")
         folder = self.tmp / f"session_{participant:02d}"
         folder.mkdir()
         plan = folder / "plan.yaml"
@@ -327,9 +331,9 @@ class Bench:
     ) -> Session:
         output = (folder / "runner.log").read_text(errors="replace")
         if rest is None:
-            return Session(code, [], None, said="the arm did not come to rest")
+            return Session(code, [], None, None, said="the arm did not come to rest")
         if not windows:
-            return Session(code, [], None, said=f"no approach began; the runner: {output[-400:]!r}")
+            return Session(code, [], None, None, said=f"no approach began; the runner: {output[-400:]!r}")
         records = folder / "out" / f"participant_{participant:02d}.csv"
         rows: dict[int, dict[str, str]] = {}
         if records.exists():
@@ -356,18 +360,18 @@ class Bench:
             )
         events = heard.taken()
         _, stop_duration = ARMS[arm]
-        executed = None
+        executed = whole = None
         if events:
             limits = PANDA_LIMITS
             assert limits.acceleration is not None and limits.jerk is not None
-            executed = executed_extremes(
-                events, self.joint_names, home, until, limits.acceleration, limits.jerk, stop_duration
-            )
+            replay = (events, self.joint_names, home, until, limits.acceleration, limits.jerk, stop_duration)
+            whole = executed_extremes(*replay)
+            executed = executed_extremes(*replay, since=windows[0][1])
         stops = [line for line in output.splitlines() if ": a stop stamped " in line]
         leads = [float(line.split(": a stop stamped ")[1].split(" ms")[0]) for line in stops]
         after = sum("(AFTER its stamp)" in line for line in stops)
         from_path = sum("from the commanded path" in line for line in stops)
-        return Session(code, trials, executed, leads, after, from_path)
+        return Session(code, trials, executed, whole, leads, after, from_path)
 
 
 # --- what the bench runs and prints -------------------------------------------------------------------------------
@@ -390,11 +394,18 @@ FAULTS = {  # name: (what the table says, the arm, the fault injected)
 
 
 def sweep_times(count: int) -> list[float]:
-    """`count` press times spread evenly from INTO_S s into the approach to where LEFT_AT_PRESS m of it are left."""
+    """`count` press times spread evenly from FIRST_PRESS_S s into the approach to where LEFT_AT_PRESS m of it are
+    left."""
     path = approach_path(load_scene(), PATH, STANDOFF, peak_speed=SPEED)
     arc = arc_length(path)
     last = float(path.times[np.searchsorted(arc, arc[-1] - LEFT_AT_PRESS)])
-    return [float(t) for t in np.linspace(INTO_S, last, count)] if count > 1 else [INTO_S]
+    return [float(t) for t in np.linspace(FIRST_PRESS_S, last, count)] if count > 1 else [FIRST_PRESS_S]
+
+
+def peak_time() -> float:
+    """s into the approach at its peak speed: a fault then brakes the arm from its fastest."""
+    path = approach_path(load_scene(), PATH, STANDOFF, peak_speed=SPEED)
+    return float(path.times[int(np.argmax(path.speeds))])
 
 
 @dataclass(frozen=True)
@@ -452,8 +463,8 @@ def verdict(rows: list[Row]) -> tuple[bool, str]:
         if least and min(least) < FLOOR:
             under.append(f"{row.name} ({min(least) * 1e3:.1f} mm)")
         for session in row.sessions:
-            if session.executed is not None and max(session.executed.acceleration, session.executed.jerk) > 1.0:
-                over.append(f"{row.name} ({session.executed.describe()})")
+            if session.whole is not None and max(session.whole.acceleration, session.whole.jerk) > 1.0:
+                over.append(f"{row.name} ({session.whole.describe()})")
     failed = [
         *([f"not braked: {', '.join(unbraked)}"] if unbraked else []),
         *([f"separation under the {FLOOR * 1e3:g} mm floor: {', '.join(under)}"] if under else []),
@@ -469,9 +480,20 @@ def verdict(rows: list[Row]) -> tuple[bool, str]:
     return True, f"all faults braked; separation never under the floor; {limits}"
 
 
-def run(rospy: Any, env: dict[str, str], tmp: Path, presses: int, faults: list[str], runs: int, seconds: float) -> bool:
-    """The sweep of `presses` (0: none) and each of `faults` `runs` times, within `seconds` (sessions not begun by
-    then are left out, and said); the table printed. Whether every run braked above the floor."""
+def run(
+    rospy: Any,
+    env: dict[str, str],
+    tmp: Path,
+    presses: int,
+    faults: list[str],
+    runs: int,
+    seconds: float,
+    fault_at: float | None = None,
+) -> bool:
+    """The sweep of `presses` (0: none) and each of `faults` `runs` times, `fault_at` s into the approach (None: at
+    its peak speed), within `seconds` (sessions not begun by then are left out, and said); the table printed.
+    Whether every run braked above the floor."""
+    fault_time = peak_time() if fault_at is None else fault_at
     bench = Bench(rospy, env, tmp)
     rows: list[Row] = []
     began = time.monotonic()
@@ -486,11 +508,14 @@ def run(rospy: Any, env: dict[str, str], tmp: Path, presses: int, faults: list[s
             print(f"the sweep: {presses} presses in one session, at {', '.join(f'{t:.2f}' for t in times)} s")
             session = bench.session(Injection(press, trials=presses), times, "franka")
             rows.append(Row("presses", f"press (a sweep of {presses})", [session]))
-            for at, trial in zip(times, session.trials):
+            for pressed, trial in zip(times, session.trials):
                 print(
-                    f"  press at {at:.2f} s: at rest {trial.short * 1e3:.1f} mm short of the stand-off, least "
+                    f"  press at {pressed:.2f} s: at rest {trial.short * 1e3:.1f} mm short of the stand-off, least "
                     f"separation {trial.least * 1e3:.1f} mm (the runner's {trial.recorded * 1e3:.1f} mm)"
                 )
+        if faults:
+            peak = f"its peak speed {SPEED:g} m/s at {peak_time():.2f} s"
+            print(f"the faults: each {fault_time:.2f} s into the approach ({peak})")
         for name in sorted(faults, key=lambda name: FAULTS[name][1]):  # each arm started once
             what, arm, fault = FAULTS[name]
             sessions = []
@@ -498,19 +523,26 @@ def run(rospy: Any, env: dict[str, str], tmp: Path, presses: int, faults: list[s
                 if time.monotonic() - began > seconds:
                     print(f"  {name}: left out, the bench's {seconds:g} s were spent")
                     break
-                sessions.append(bench.session(bench.injection(fault), [INTO_S], arm))
+                sessions.append(bench.session(bench.injection(fault), [fault_time], arm))
             rows.append(Row(name, what, sessions))
-            if sessions and sessions[-1].executed is not None:
-                print(f"  {what}: {sessions[-1].executed.describe()}")
     finally:
         bench.close()
     print(HEADER)
     for row in rows:
         print(row_line(row))
+    wholes = [session.whole for row in rows for session in row.sessions if session.whole is not None]
+    if wholes:
+        acc, jerk = max(wholes, key=lambda e: e.acceleration), max(wholes, key=lambda e: e.jerk)
+        print(
+            f"the whole sessions (the moves to the starts included): the largest executed acceleration "
+            f"{_percent(acc.acceleration)}% of joint {acc.acceleration_joint}'s limit, jerk {_percent(jerk.jerk)}% of "
+            f"joint {jerk.jerk_joint}'s"
+        )
     print(
         "short: the rest short of the stand-off; least: the least separation from the scene's hand in the joint "
-        "states heard while the motion ran (runner: its record's least_separation); acc, jerk: the largest executed, "
-        "as a share of the limit; lead: each stop's, as the runner said it; late/path: stops sent after their stamp "
+        "states heard while the motion ran (runner: its record's least_separation); acc, jerk: the largest executed "
+        "from the approach acted on to the end, as a share of the limit; lead: each stop's, as the runner said it; "
+        "late/path: stops sent after their stamp "
         "/ braked from the commanded path"
     )
     ok, line = verdict(rows)

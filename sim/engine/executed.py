@@ -6,7 +6,7 @@ real arm's controller runs (1 kHz). A bridge the controller makes from a late re
 in the executed accelerations and jerks; the goals as sent do not show them. The benches and the tests replay with it.
 
     events = [Heard(arrival, "goal", goal_id, trajectory_from_message(m.goal.trajectory)), Heard(t, "cancel", id)]
-    extremes = executed_extremes(events, joint_names, start, until, acceleration_limits, jerk_limits)
+    extremes = executed_extremes(events, joint_names, start, until, acceleration_limits, jerk_limits, since=t)
 """
 
 from __future__ import annotations
@@ -61,15 +61,17 @@ def executed_extremes(
     jerk_limits: Sequence[float],
     stop_trajectory_duration: float = 0.0,
     step: float = STEP,
+    since: float = -np.inf,
 ) -> Executed:
-    """The executed motion from the first event to `until`, the arm resting at `start` before it. ValueError when
-    nothing was heard (nothing to replay)."""
+    """The executed motion from the first event to `until`, the arm resting at `start` before it; its extremes from
+    wall time `since` on (what came before is replayed, not counted). ValueError when nothing was heard (nothing to
+    replay) or nothing is left to count."""
     events = sorted(events, key=lambda event: event.arrival)
     if not events:
         raise ValueError("no goal reached the controller")
     dof = len(joint_names)
     controller = TrajectoryController(joint_names, start, stop_trajectory_duration=stop_trajectory_duration)
-    times = np.arange(events[0].arrival, until, step)
+    times = np.arange(events[0].arrival, max(until, events[0].arrival + 2 * step), step)
     accelerations = np.zeros((len(times), dof))
     k = 0
     for index, now in enumerate(times):
@@ -85,16 +87,19 @@ def executed_extremes(
         desired = controller.desired_at(now)
         controller.update(now, JointState(desired.positions, desired.velocities, np.zeros(dof)))
         accelerations[index] = desired.accelerations
-    jerks = np.diff(accelerations, axis=0) / step if len(times) > 1 else np.zeros((1, dof))
-    acceleration = np.abs(accelerations) / np.asarray(acceleration_limits, dtype=float)
-    jerk = np.abs(jerks) / np.asarray(jerk_limits, dtype=float)
+    counted = times >= since
+    if counted.sum() < 2:
+        raise ValueError("fewer than two samples from `since` to `until`")
+    jerks = np.diff(accelerations, axis=0) / step  # the jerk into each sample from the one before
+    acceleration = np.abs(accelerations[counted]) / np.asarray(acceleration_limits, dtype=float)
+    jerk = np.abs(jerks[counted[1:]]) / np.asarray(jerk_limits, dtype=float)
     worst_a = np.unravel_index(int(np.argmax(acceleration)), acceleration.shape)
     worst_j = np.unravel_index(int(np.argmax(jerk)), jerk.shape)
     return Executed(
         float(acceleration[worst_a]),
         int(worst_a[1]) + 1,
-        float(times[worst_a[0]] - times[0]) if len(times) else 0.0,
+        float(times[counted][worst_a[0]] - times[0]),
         float(jerk[worst_j]),
         int(worst_j[1]) + 1,
-        float(times[worst_j[0]] - times[0]) if len(times) else 0.0,
+        float(times[1:][counted[1:]][worst_j[0]] - times[0]),
     )
