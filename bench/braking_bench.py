@@ -1,12 +1,19 @@
-"""Braking through the stand-in's trajectory controller: press-to-braking latency and braking distance, over presses.
+"""Braking through the stand-in's trajectory controller: press-to-braking latency and braking distance, over presses;
+then presses and every injected fault through the study's runner: braked or not, separation, executed limits.
 
     .venv/bin/python -m bench.braking_bench [--presses 20] [--seconds 180] [--path diagonal] [--speed 0.5]
                                             [--dt 0.01] [--joint-states-rate 100] [--lead S] [--seed 0]
+                                            [--only leads|sweep|faults ...] [--sweep 10] [--faults all|A,B]
+                                            [--fault-runs 1] [--fault-at S] [--fault-seconds 900]
 
-What the study will do on a press with a real arm, without the study runner: a roscore, the physics node as the
-Panda's driver (`--trajectory-controller /panda/position_joint_trajectory_controller`, on wall time, physics step
---dt, joint states at --joint-states-rate), and this process as the client, with actionlib's ActionClient. Each press:
-the arm goes to the planned approach's start (a goal), the approach goes as one goal (positions, velocities and
+Three parts, all by default (--only picks some): the leads (below), the sweep of --sweep presses through the real
+runner and each of --faults injected into it --fault-runs times (bench.fault_bench: its table and its last line,
+"all faults braked; separation never under the floor" or what failed; the bench then exits 1).
+
+The leads: what the study will do on a press with a real arm, without the study runner: a roscore, the physics node
+as the Panda's driver (`--trajectory-controller /panda/position_joint_trajectory_controller`, on wall time, physics
+step --dt, joint states at --joint-states-rate), and this process as the client, with actionlib's ActionClient. Each
+press: the arm goes to the planned approach's start (a goal), the approach goes as one goal (positions, velocities and
 accelerations of the planned samples), and at a random time while the planned speed is still rising (so that a fall
 of the achieved speed is the braking's doing) the press:
   1. asks query_state for the desired state a lead ahead: the study link's own, measured on this connection
@@ -48,6 +55,7 @@ from typing import Any
 
 import numpy as np
 
+from bench import fault_bench
 from sim.control.trajectory_client import wait_for_action_server
 from sim.launchers import PhysicsNode, start
 from sim.processes import RosCore
@@ -67,6 +75,7 @@ REST_SPEED = 1e-3  # rad/s: every joint slower than this for REST_STATES joint s
 REST_STATES = 10
 WAIT_S = 20.0  # the longest wait for any one thing (a result, the arm at rest)
 STOP_DT = 0.004  # s between the stop's samples
+MAX_SWEEP = 40  # presses of the runner's sweep: one session, a trial each
 
 
 def plan(name: str, speed: float) -> tuple[ApproachPath, np.ndarray]:
@@ -126,6 +135,11 @@ class Client:
         self.delays: dict[str, list[float]] = {"query": [], "planning": [], "delivery": []}
         for _ in range(QUERY_PROBES):
             self.query_at(time.time())
+
+    def close(self) -> None:
+        """Stop hearing the joint states (the fault bench's stand-in publishes on the same topic next)."""
+        self._sub.unregister()
+        self.query.close()
 
     def measured(self, part: str, seconds: float) -> None:
         with self._lock:
@@ -257,94 +271,8 @@ def summary(label: str, values: np.ndarray, digits: int = 1) -> str:
     )
 
 
-def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--presses", type=int, default=20, help="how many presses (default 20)")
-    parser.add_argument("--seconds", type=float, default=180.0, help="stop pressing after this long (default 180)")
-    parser.add_argument("--path", default="diagonal", help="the study's approach path (default diagonal)")
-    parser.add_argument("--speed", type=float, default=0.5, help="its peak speed in m/s (default 0.5)")
-    parser.add_argument("--dt", type=float, default=0.01, help="the physics step in s (default 0.01)")
-    parser.add_argument("--joint-states-rate", type=float, default=100.0, help="Hz (default 100: every step)")
-    parser.add_argument(
-        "--lead", type=float, default=None, help="s between the press and the stop's stamp (default: measured)"
-    )
-    parser.add_argument("--seed", type=int, default=0, help="of the press times (default 0)")
-    args = parser.parse_args(argv)
-    lead_ok = args.lead is None or args.lead > 0
-    if not (args.presses > 0 and args.seconds > 0 and args.dt > 0 and args.joint_states_rate > 0 and lead_ok):
-        parser.error("--presses, --seconds, --dt, --joint-states-rate and --lead must be > 0")
-
-    path, joints = plan(args.path, args.speed)
-    geometry = PathGeometry(path, joints)
-    arc, accelerations = arc_length(path), np.gradient(path.speeds, path.dt)
-    planned = [geometry.joint_state(PathState(arc[k], path.speeds[k], accelerations[k])) for k in range(len(arc))]
-    q, v, a = (np.array([state[i] for state in planned]) for i in range(3))
-    earliest = (0.1 if args.lead is None else args.lead) + 0.05
-    rising = path.times[(accelerations > 0.05) & (path.times > earliest)]
-    if not len(rising):
-        raise SystemExit("braking_bench: the plan's speed never rises")
-    rng = np.random.default_rng(args.seed)
-    press_times = rng.uniform(rising.min(), rising.max(), args.presses)
-    k = int(np.argmax(path.speeds))
-    fastest = (q[k], v[k], a[k])  # the longest stop, timed before each approach
-
-    with tempfile.TemporaryDirectory(prefix="braking-bench-") as tmp:
-        core = RosCore()
-        node = None
-        try:
-            os.environ.update(core.env)
-            node = start(
-                PhysicsNode(
-                    ("--robot", "panda"),
-                    dt=args.dt,
-                    extra=(
-                        "--trajectory-controller",
-                        NS,
-                        "--joint-states-topic",
-                        JOINT_STATES,
-                        "--joint-states-rate",
-                        str(args.joint_states_rate),
-                    ),
-                ),
-                core.env,
-                Path(tmp),
-                "panda_physics",
-                timeout=60,
-            )
-            import rospy
-
-            rospy.init_node("braking_bench", anonymous=True, disable_signals=True)
-            client = Client()
-            zero = np.zeros((1, PANDA.dof))
-            start_goal = client.trajectory(np.array([TO_START_S]), q[:1], zero, zero)
-            approach = client.trajectory(path.times[1:], q[1:], v[1:], a[1:])
-            print(
-                f"Braking bench: {args.path} approach at {args.speed:g} m/s ({path.times[-1]:.2f} s), physics step "
-                f"{args.dt * 1e3:g} ms, joint states at {args.joint_states_rate:g} Hz, the stop stamped "
-                + ("a measured lead" if args.lead is None else f"{args.lead * 1e3:g} ms")
-                + f" after the press; presses at {rising.min():.2f}-{rising.max():.2f} s (the planned speed rising)"
-            )
-            presses: list[Press] = []
-            began = time.monotonic()
-            for press_at in press_times:
-                if time.monotonic() - began > args.seconds:
-                    break
-                press = one_press(client, geometry, approach, start_goal, float(press_at), fastest, args.lead)
-                presses.append(press)
-                sent_late = press.sent_ms > press.lead_ms
-                print(
-                    f"  press at {press.at_s:.3f} s: stamped {press.lead_ms:.1f} ms ahead, sent after "
-                    f"{press.sent_ms:.1f} ms, the controller's status after {press.acked_ms:.1f} ms, speed falls after "
-                    f"{press.falls_ms:.1f} ms; distance planned {press.planned_mm:.1f} mm, achieved "
-                    f"{press.achieved_mm:.1f} mm (error {press.achieved_mm - press.planned_mm:+.3f} mm); {press.result}"
-                    + (" (sent after its stamp: the controller bridged from later)" if sent_late else "")
-                )
-            delays = {part: np.array(values) * 1e3 for part, values in client.delays.items()}
-            rospy.signal_shutdown("braking bench done")
-        finally:
-            if node is not None:
-                node.stop()
-            core.stop()
+def print_leads(presses: list[Press], delays: dict[str, np.ndarray]) -> None:
+    """The figures of the presses through this process's own client, over all presses."""
     sent = np.array([p.sent_ms for p in presses])
     leads = np.array([p.lead_ms for p in presses])
     falls = np.array([p.falls_ms for p in presses])
@@ -371,7 +299,137 @@ def main(argv: list[str] | None = None) -> int:
     print(f"the {int(on_time.sum())} replacements sent before their stamp:")
     print(summary("  press -> achieved speed first falls [ms]", falls[on_time]))
     print(summary("  |braking distance error| [mm]", np.abs(errors[on_time]), 3))
-    return 0
+
+
+def run_leads(args: argparse.Namespace, env: dict[str, str], tmp: Path) -> None:
+    """The presses through this process's own client (the stand-in under /panda/), their figures printed."""
+    path, joints = plan(args.path, args.speed)
+    geometry = PathGeometry(path, joints)
+    arc, accelerations = arc_length(path), np.gradient(path.speeds, path.dt)
+    planned = [geometry.joint_state(PathState(arc[k], path.speeds[k], accelerations[k])) for k in range(len(arc))]
+    q, v, a = (np.array([state[i] for state in planned]) for i in range(3))
+    earliest = (0.1 if args.lead is None else args.lead) + 0.05
+    rising = path.times[(accelerations > 0.05) & (path.times > earliest)]
+    if not len(rising):
+        raise SystemExit("braking_bench: the plan's speed never rises")
+    rng = np.random.default_rng(args.seed)
+    press_times = rng.uniform(rising.min(), rising.max(), args.presses)
+    k = int(np.argmax(path.speeds))
+    fastest = (q[k], v[k], a[k])  # the longest stop, timed before each approach
+
+    node = start(
+        PhysicsNode(
+            ("--robot", "panda"),
+            dt=args.dt,
+            extra=(
+                "--trajectory-controller",
+                NS,
+                "--joint-states-topic",
+                JOINT_STATES,
+                "--joint-states-rate",
+                str(args.joint_states_rate),
+            ),
+        ),
+        env,
+        tmp,
+        "panda_physics",
+        timeout=60,
+    )
+    try:
+        client = Client()
+        zero = np.zeros((1, PANDA.dof))
+        start_goal = client.trajectory(np.array([TO_START_S]), q[:1], zero, zero)
+        approach = client.trajectory(path.times[1:], q[1:], v[1:], a[1:])
+        print(
+            f"Braking bench: {args.path} approach at {args.speed:g} m/s ({path.times[-1]:.2f} s), physics step "
+            f"{args.dt * 1e3:g} ms, joint states at {args.joint_states_rate:g} Hz, the stop stamped "
+            + ("a measured lead" if args.lead is None else f"{args.lead * 1e3:g} ms")
+            + f" after the press; presses at {rising.min():.2f}-{rising.max():.2f} s (the planned speed rising)"
+        )
+        presses: list[Press] = []
+        began = time.monotonic()
+        for press_at in press_times:
+            if time.monotonic() - began > args.seconds:
+                break
+            press = one_press(client, geometry, approach, start_goal, float(press_at), fastest, args.lead)
+            presses.append(press)
+            sent_late = press.sent_ms > press.lead_ms
+            print(
+                f"  press at {press.at_s:.3f} s: stamped {press.lead_ms:.1f} ms ahead, sent after "
+                f"{press.sent_ms:.1f} ms, the controller's status after {press.acked_ms:.1f} ms, speed falls after "
+                f"{press.falls_ms:.1f} ms; distance planned {press.planned_mm:.1f} mm, achieved "
+                f"{press.achieved_mm:.1f} mm (error {press.achieved_mm - press.planned_mm:+.3f} mm); {press.result}"
+                + (" (sent after its stamp: the controller bridged from later)" if sent_late else "")
+            )
+        delays = {part: np.array(values) * 1e3 for part, values in client.delays.items()}
+        client.close()
+    finally:
+        node.stop()
+    print_leads(presses, delays)
+
+
+SECTIONS = ("leads", "sweep", "faults")
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--presses", type=int, default=20, help="how many presses (default 20)")
+    parser.add_argument("--seconds", type=float, default=180.0, help="stop pressing after this long (default 180)")
+    parser.add_argument("--path", default="diagonal", help="the study's approach path (default diagonal)")
+    parser.add_argument("--speed", type=float, default=0.5, help="its peak speed in m/s (default 0.5)")
+    parser.add_argument("--dt", type=float, default=0.01, help="the physics step in s (default 0.01)")
+    parser.add_argument("--joint-states-rate", type=float, default=100.0, help="Hz (default 100: every step)")
+    parser.add_argument(
+        "--lead", type=float, default=None, help="s between the press and the stop's stamp (default: measured)"
+    )
+    parser.add_argument("--seed", type=int, default=0, help="of the press times (default 0)")
+    parser.add_argument(
+        "--only", action="append", choices=SECTIONS, help="run only these parts (repeatable; default all three)"
+    )
+    parser.add_argument("--sweep", type=int, default=10, help="presses through the runner, one session (default 10)")
+    parser.add_argument(
+        "--faults", default="all", help=f"comma-separated, or all (default): {', '.join(fault_bench.FAULTS)}"
+    )
+    parser.add_argument("--fault-runs", type=int, default=1, help="runs of each fault (default 1)")
+    parser.add_argument(
+        "--fault-at", type=float, default=None, help="s into the approach of each fault (default: its peak speed)"
+    )
+    parser.add_argument(
+        "--fault-seconds", type=float, default=900.0, help="no fault run begins after this long (default 900)"
+    )
+    args = parser.parse_args(argv)
+    lead_ok = args.lead is None or args.lead > 0
+    if not (args.presses > 0 and args.seconds > 0 and args.dt > 0 and args.joint_states_rate > 0 and lead_ok):
+        parser.error("--presses, --seconds, --dt, --joint-states-rate and --lead must be > 0")
+    fault_at_ok = args.fault_at is None or args.fault_at > 0
+    if not (0 <= args.sweep <= MAX_SWEEP and args.fault_runs > 0 and args.fault_seconds > 0 and fault_at_ok):
+        parser.error(f"--sweep must be 0-{MAX_SWEEP}; --fault-runs, --fault-seconds and --fault-at > 0")
+    faults = list(fault_bench.FAULTS) if args.faults == "all" else [f for f in args.faults.split(",") if f]
+    unknown = [name for name in faults if name not in fault_bench.FAULTS]
+    if unknown:
+        parser.error(f"no fault {', '.join(unknown)}; the faults: {', '.join(fault_bench.FAULTS)}")
+    sections = set(args.only or SECTIONS)
+
+    ok = True
+    with tempfile.TemporaryDirectory(prefix="braking-bench-") as tmp:
+        core = RosCore()
+        try:
+            os.environ.update(core.env)
+            import rospy
+
+            rospy.init_node("braking_bench", anonymous=True, disable_signals=True)
+            if "leads" in sections:
+                run_leads(args, core.env, Path(tmp))
+            if "sweep" in sections or "faults" in sections:
+                sweep = args.sweep if "sweep" in sections else 0
+                chosen = faults if "faults" in sections else []
+                ok = fault_bench.run(
+                    rospy, core.env, Path(tmp), sweep, chosen, args.fault_runs, args.fault_seconds, args.fault_at
+                )
+            rospy.signal_shutdown("braking bench done")
+        finally:
+            core.stop()
+    return 0 if ok else 1
 
 
 if __name__ == "__main__":

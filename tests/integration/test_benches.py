@@ -132,9 +132,23 @@ def test_vr_frame_bench(tmp_path: Path) -> None:
 
 
 def test_braking_bench(tmp_path: Path) -> None:
-    output = run_bench(tmp_path, "braking_bench", "--presses", "2")
+    # one press of the leads' part, then one fault through the runner (the sweep's sessions are the faults' own)
+    args = ("--presses", "1", "--only", "leads", "--only", "faults", "--faults", "sigint")
+    bench = ManagedProcess([PYTHON, "-m", "bench.braking_bench", *args], plain_env(), tmp_path, "braking_bench")
+    try:
+        code = bench.wait(TIMEOUT_S)
+    finally:
+        bench.stop()
+    output = bench.output()
     assert "Braking bench: diagonal approach at 0.5 m/s" in output
-    assert output.count("  press at ") == 2 and "2 presses (" in output
+    assert output.count("  press at ") == 1 and "1 presses (" in output
     for figure in ("press -> replacement sent [ms]: median", "press -> achieved speed first falls [ms]: median"):
         assert figure in output
     assert "braking distance error, achieved - planned [mm]: median" in output
+    # the faults' table: its row and its verdict; the bench exits 1 when the verdict is not met
+    (row,) = [line for line in output.splitlines() if line.startswith("SIGINT to the runner ")]
+    assert len(row.split()) == 16, row  # 4 words of its name, 12 figures
+    verdict = output.splitlines()[-1]
+    met = verdict.startswith("all faults braked; separation never under the floor")
+    assert verdict.startswith("FAILED: ") or met, output[-3000:]
+    assert code == (0 if met else 1), output[-3000:]
