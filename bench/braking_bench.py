@@ -62,7 +62,7 @@ from sim.processes import RosCore
 from sim.robots import load_robot
 from sim.study.design.paths import ON_TOP, ApproachPath
 from sim.study.design.scene import load_scene
-from sim.study.run.links.lead import Leads
+from sim.study.run.links.lead import Leads, delivery_part
 from sim.study.safety.braking import Braking, PathGeometry, PathState, arc_length, brake
 from sim.study.safety.errors import SafetyError
 from sim.study.safety.kinematic_plan import kinematic_plan
@@ -132,7 +132,7 @@ class Client:
         self.query = rospy.ServiceProxy(f"{NS}/query_state", self.types.query_state, persistent=True)
         self._handles: list[Any] = []
         self.lead = Leads()  # the delays measured, as the study's link keeps them
-        self.delays: dict[str, list[float]] = {"query": [], "planning": [], "delivery": []}
+        self.delays: dict[str, list[float]] = {"query": [], "planning": [], "delivery": [], "motion_delivery": []}
         for _ in range(QUERY_PROBES):
             self.query_at(time.time())
 
@@ -175,11 +175,12 @@ class Client:
         goal.trajectory = trajectory
         goal.goal_time_tolerance = self.rospy.Duration.from_sec(settle_s)
         sent = Sent(None, time.time())
+        part = delivery_part(len(trajectory.points))  # a stop's, or a motion's (kept apart, as the link keeps them)
 
         def transition(handle: Any) -> None:
             if handle.get_comm_state() != CommState.WAITING_FOR_GOAL_ACK and sent.acked != sent.acked:  # NaN: not yet
                 sent.acked = time.time()
-                self.measured("delivery", sent.acked - sent.at)
+                self.measured(part, sent.acked - sent.at)
 
         sent.handle = self.client.send_goal(goal, transition_cb=transition)
         self._handles = [h for h in self._handles[-4:]] + [sent.handle]  # actionlib tracks a goal while it lives

@@ -12,14 +12,13 @@ import subprocess
 import threading
 import time
 from collections.abc import Iterator, Sequence
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
 
-from sim.engine.trajectory_controller import GoalTolerances, JointState, TrajectoryController
+from sim.engine.executed import Executed, Heard, executed_extremes
 from sim.engine.trajectory_server import trajectory_from_message
 from sim.study.design.feasibility import Approaches
 from sim.study.design.fit import scene_for
@@ -268,20 +267,10 @@ class ControllerRelay:
             endpoint.shutdown() if hasattr(endpoint, "shutdown") else endpoint.unregister()
 
 
-@dataclass(frozen=True)
-class Executed:
-    """The largest acceleration and jerk a controller executed, each as a fraction of the robot's limit, and where."""
-
-    acceleration: float
-    jerk: float
-    worst: str
-
-
 class ExecutedWatch:
     """What the controller executes: every goal and cancel sent to it, as a listener beside it hears them (their
     arrival on the wall clock, within a millisecond or so of the controller's), replayed through ros_control's
-    semantics (sim.engine.trajectory_controller, the stand-in's own) with the arm on its desired state, sampled at
-    1 kHz as a real arm's controller runs. A bridge the controller makes from a late replacement, or a hold's step,
+    semantics at 1 kHz (sim.engine.executed). A bridge the controller makes from a late replacement, or a hold's step,
     shows there; the goals as sent do not show them."""
 
     def __init__(self, rospy: Any, namespace: str, stop_trajectory_duration: float = 0.0) -> None:
@@ -289,59 +278,33 @@ class ExecutedWatch:
 
         from sim.wire.control_types import control_types
 
-        self.events: list[tuple[float, str, Any]] = []
+        self.heard: list[Heard] = []
         self.lock = threading.Lock()
         self.stop_trajectory_duration = stop_trajectory_duration
         action = f"{namespace}/follow_joint_trajectory"
         self._subscribers = [
-            rospy.Subscriber(f"{action}/goal", control_types().action_goal, self._on("goal"), tcp_nodelay=True),
-            rospy.Subscriber(f"{action}/cancel", GoalID, self._on("cancel"), tcp_nodelay=True),
+            rospy.Subscriber(f"{action}/goal", control_types().action_goal, self._on_goal, tcp_nodelay=True),
+            rospy.Subscriber(f"{action}/cancel", GoalID, self._on_cancel, tcp_nodelay=True),
         ]
 
-    def _on(self, kind: str) -> Any:
-        def heard(message: Any) -> None:
-            with self.lock:
-                self.events.append((time.time(), kind, message))
-
-        return heard
-
-    def extremes(self, start: np.ndarray, until: float, step: float = 0.001) -> Executed:
-        """The executed motion from the first goal heard to wall time `until`, the arm resting at `start` before."""
+    def _on_goal(self, message: Any) -> None:
+        heard = Heard(time.time(), "goal", message.goal_id.id, trajectory_from_message(message.goal.trajectory))
         with self.lock:
-            events = sorted(self.events, key=lambda event: event[0])
-        if not events:
-            raise AssertionError("no goal reached the controller")
-        controller = TrajectoryController(
-            ROBOT.joint_names, start, stop_trajectory_duration=self.stop_trajectory_duration
-        )
-        times = np.arange(events[0][0], until, step)
-        accelerations = np.zeros((len(times), ROBOT.dof))
-        k = 0
-        for index, now in enumerate(times):
-            while k < len(events) and events[k][0] <= now:
-                arrival, kind, message = events[k]
-                desired = controller.desired_at(arrival)
-                actual = JointState(desired.positions, desired.velocities, np.zeros(ROBOT.dof))
-                if kind == "goal":
-                    trajectory = trajectory_from_message(message.goal.trajectory)
-                    controller.on_goal(message.goal_id.id, trajectory, GoalTolerances(), arrival, actual)
-                else:
-                    controller.on_cancel(message.id, arrival, actual)
-                k += 1
-            desired = controller.desired_at(now)
-            controller.update(now, JointState(desired.positions, desired.velocities, np.zeros(ROBOT.dof)))
-            accelerations[index] = desired.accelerations
-        jerks = np.diff(accelerations, axis=0) / step
-        acceleration = np.abs(accelerations) / np.array(PANDA_LIMITS.acceleration)
-        jerk = np.abs(jerks) / np.array(PANDA_LIMITS.jerk)
-        worst_a = np.unravel_index(int(np.argmax(acceleration)), acceleration.shape)
-        worst_j = np.unravel_index(int(np.argmax(jerk)), jerk.shape)
-        worst = (
-            f"acceleration {acceleration[worst_a]:.0%} of joint {worst_a[1] + 1}'s limit at "
-            f"{times[worst_a[0]] - times[0]:.3f} s, jerk {jerk[worst_j]:.0%} of joint {worst_j[1] + 1}'s at "
-            f"{times[worst_j[0]] - times[0]:.3f} s"
-        )
-        return Executed(float(acceleration.max()), float(jerk.max()), worst)
+            self.heard.append(heard)
+
+    def _on_cancel(self, message: Any) -> None:
+        with self.lock:
+            self.heard.append(Heard(time.time(), "cancel", message.id))
+
+    def extremes(self, start: np.ndarray, until: float) -> Executed:
+        """The executed motion from the first goal heard to wall time `until`, the arm resting at `start` before,
+        against the Panda's limits."""
+        with self.lock:
+            heard = list(self.heard)
+        return executed_extremes(
+            heard, ROBOT.joint_names, start, until, PANDA_LIMITS.acceleration, PANDA_LIMITS.jerk,
+            self.stop_trajectory_duration,
+        )  # fmt: skip
 
     def close(self) -> None:
         for subscriber in self._subscribers:

@@ -136,7 +136,7 @@ def assert_braked(ended: Ended) -> None:
     """The arm braked to rest well short of its stand-off, the controller's motion within the Panda's limits, the
     separation never under the floor (the runner's default) while the arm moved."""
     assert ended.rest > STANDOFF + 0.03, ended.output
-    assert ended.executed.acceleration <= 1.0 and ended.executed.jerk <= 1.0, ended.executed.worst
+    assert ended.executed.acceleration <= 1.0 and ended.executed.jerk <= 1.0, ended.executed.describe()
     if ended.row is not None and ended.row["least_separation"]:
         assert float(ended.row["least_separation"]) > 0.01
 
@@ -445,4 +445,4 @@ def test_a_sweep_of_presses_over_an_approach_is_executed_within_the_limits(
     assert runner.returncode == 0, output
     rows = read_csv(tmp_path / "out" / "participant_32.csv")
     assert [(row["pressed"], row["goal_result"]) for row in rows] == [("true", "SUCCEEDED")] * len(presses)
-    assert extremes.acceleration <= 1.0 and extremes.jerk <= 1.0, extremes.worst
+    assert extremes.acceleration <= 1.0 and extremes.jerk <= 1.0, extremes.describe()

@@ -393,6 +393,10 @@ class TrajectoryLink:
         if latest is None or now - latest.arrival > self.spec.stale_after:
             age = math.inf if latest is None else now - latest.arrival
             return f"joint states stale: none for {age:.3f} s (limit {self.spec.stale_after:g} s)"
+        distance = math.nan  # the achieved separation, kept while the arm moves whichever check stops it
+        if run is not None and now < motion.moves_until:  # a hand coming on to an arm at rest is the person's own move
+            distance = run.live_hand_distance(latest.positions)
+            motion.least_separation = min(motion.least_separation, distance)
         faults = self.feed.faults_since(motion.start - self.spec.stale_after)
         if faults:
             return f"a malformed joint state: {faults[-1].reason}"
@@ -420,9 +424,7 @@ class TrajectoryLink:
                     f"the arm's distance to the hand {off * 1e3:.1f} mm off its commanded path's (tolerance "
                     f"{self.spec.surface_tolerance * 1e3:g} mm)"
                 )
-        if run is not None and now < motion.moves_until:  # a hand coming on to an arm at rest is the person's own move
-            distance = run.live_hand_distance(latest.positions)
-            motion.least_separation = min(motion.least_separation, distance)
+        if run is not None and not math.isnan(distance):
             if distance < self.spec.floor:
                 return f"achieved distance to the hand {distance:.4f} m under the floor {self.spec.floor:g} m"
             if motion.monitor is not None and not motion.stopped:
