@@ -73,6 +73,7 @@ def executed_extremes(
     controller = TrajectoryController(joint_names, start, stop_trajectory_duration=stop_trajectory_duration)
     times = np.arange(events[0].arrival, max(until, events[0].arrival + 2 * step), step)
     accelerations = np.zeros((len(times), dof))
+    velocities = np.zeros((len(times), dof))
     k = 0
     for index, now in enumerate(times):
         while k < len(events) and events[k].arrival <= now:
@@ -87,9 +88,14 @@ def executed_extremes(
         desired = controller.desired_at(now)
         controller.update(now, JointState(desired.positions, desired.velocities, np.zeros(dof)))
         accelerations[index] = desired.accelerations
+        velocities[index] = desired.velocities
     counted = times >= since
     if counted.sum() < 2:
         raise ValueError("fewer than two samples from `since` to `until`")
+    # A step in the desired velocity (a hold from the measured state) has no acceleration of its own in the desired
+    # state: the velocity's change over a step shows it, and the larger of the two is what the arm is asked for.
+    stepped = np.vstack([accelerations[:1], np.diff(velocities, axis=0) / step])
+    accelerations = np.where(np.abs(stepped) > np.abs(accelerations), stepped, accelerations)
     jerks = np.diff(accelerations, axis=0) / step  # the jerk into each sample from the one before
     acceleration = np.abs(accelerations[counted]) / np.asarray(acceleration_limits, dtype=float)
     jerk = np.abs(jerks[counted[1:]]) / np.asarray(jerk_limits, dtype=float)
