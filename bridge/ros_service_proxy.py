@@ -20,10 +20,14 @@ from bridge.ros_types import RosError
 
 _U32 = struct.Struct("<I")
 
-__all__ = ["SERVICE_POLL_S", "RawServiceProxy"]
+__all__ = ["OPENING_AT_ONCE", "SERVICE_POLL_S", "RawServiceProxy"]
 
 # A ROS service call looks this often whether its client has gone, and whether the service has been advertised.
 SERVICE_POLL_S = 0.2
+# Connections a proxy opens to its service at once. rospy's service servers listen with a backlog of 5: a burst of
+# connections past it has SYNs dropped and waits for their retransmission, 1 s and then 3 s (a burst of 64 calls to
+# a rospy service answering in 1 s had its last answers after 3 s). Opening is fast: the rest waits little.
+OPENING_AT_ONCE = 4
 
 
 class _Abandoned(Exception):
@@ -44,6 +48,7 @@ class RawServiceProxy:
         self.service_type: str = raw_class._type
         self._md5sum: str = raw_class._md5sum
         self._max_response_bytes = max_response_bytes
+        self._opening = threading.BoundedSemaphore(OPENING_AT_ONCE)
 
     def call(self, request: bytes, timeout: float, abandoned: threading.Event, asked_at: float | None = None) -> bytes:
         """The response's bytes; RosError when the service is missing, fails, or does not answer within `timeout`
@@ -51,25 +56,8 @@ class RawServiceProxy:
         had part of its time already."""
         deadline = (time.monotonic() if asked_at is None else asked_at) + timeout
         try:
-            host, port = rospy.core.parse_rosrpc_uri(self._look_up(deadline, timeout, abandoned))
-            with socket.create_connection((host, port), timeout=_remaining(deadline)) as sock:
-                sock.sendall(
-                    rosgraph.network.encode_ros_handshake_header(
-                        {
-                            "callerid": rospy.get_caller_id(),
-                            "service": self.service,
-                            "md5sum": self._md5sum,
-                            "type": self.service_type,
-                            "persistent": "0",
-                        }
-                    )
-                )
-                size = _U32.unpack(_receive(sock, 4, deadline, abandoned))[0]
-                if size > 65536:
-                    raise RosError(f"service {self.service} sent a connection header of {size} bytes")
-                header = rosgraph.network.decode_ros_handshake_header(
-                    _U32.pack(size) + _receive(sock, size, deadline, abandoned)
-                )
+            sock, header = self._open(self._look_up(deadline, timeout, abandoned), deadline, abandoned)
+            with sock:
                 if "error" in header:
                     raise RosError(f"service {self.service} refused the call: {header['error']}")
                 sock.sendall(_U32.pack(len(request)) + request)
@@ -90,6 +78,38 @@ class RawServiceProxy:
         if not ok:
             raise RosError(f"service {self.service} failed: {body.decode('utf-8', 'replace')}")
         return body
+
+    def _open(self, uri: str, deadline: float, abandoned: threading.Event) -> tuple[socket.socket, dict]:
+        """A connection to the service and its answer to our connection header, opened when fewer than
+        OPENING_AT_ONCE of this proxy's are: a burst of calls must not overflow the server's backlog (see there)."""
+        while not self._opening.acquire(timeout=min(_remaining(deadline), SERVICE_POLL_S)):
+            if abandoned.is_set():
+                raise _Abandoned()
+        try:
+            sock = socket.create_connection(rospy.core.parse_rosrpc_uri(uri), timeout=_remaining(deadline))
+            try:
+                sock.sendall(
+                    rosgraph.network.encode_ros_handshake_header(
+                        {
+                            "callerid": rospy.get_caller_id(),
+                            "service": self.service,
+                            "md5sum": self._md5sum,
+                            "type": self.service_type,
+                            "persistent": "0",
+                        }
+                    )
+                )
+                size = _U32.unpack(_receive(sock, 4, deadline, abandoned))[0]
+                if size > 65536:
+                    raise RosError(f"service {self.service} sent a connection header of {size} bytes")
+                return sock, rosgraph.network.decode_ros_handshake_header(
+                    _U32.pack(size) + _receive(sock, size, deadline, abandoned)
+                )
+            except BaseException:
+                sock.close()
+                raise
+        finally:
+            self._opening.release()
 
     def _look_up(self, deadline: float, timeout: float, abandoned: threading.Event) -> str:
         """The service's rosrpc URI, waiting for it to be advertised until the deadline."""
