@@ -49,6 +49,8 @@ class RawServiceProxy:
         self._md5sum: str = raw_class._md5sum
         self._max_response_bytes = max_response_bytes
         self._opening = threading.BoundedSemaphore(OPENING_AT_ONCE)
+        self._asking_lock = threading.Lock()
+        self._asking: _Asking | None = None  # the look-up in flight, shared (_ask_master)
 
     def call(self, request: bytes, timeout: float, abandoned: threading.Event, asked_at: float | None = None) -> bytes:
         """The response's bytes; RosError when the service is missing, fails, or does not answer within `timeout`
@@ -115,13 +117,7 @@ class RawServiceProxy:
         """The service's rosrpc URI, waiting for it to be advertised until the deadline."""
         while True:
             try:
-                uri: str = call_master(
-                    "lookupService",
-                    rospy.get_caller_id(),
-                    self.service,
-                    timeout_s=max(0.01, min(MASTER_TIMEOUT_S, deadline - time.monotonic())),
-                )
-                return uri
+                return self._ask_master(deadline, abandoned)
             except MasterRefused:
                 why = "is not available"  # not advertised (yet)
             except MasterError as error:
@@ -133,6 +129,46 @@ class RawServiceProxy:
                 raise _Abandoned()
             if time.monotonic() >= deadline:
                 raise RosError(f"service {self.service} {why} (waited {timeout:g} s)")
+
+    def _ask_master(self, deadline: float, abandoned: threading.Event) -> str:
+        """The master's answer to lookupService, or its MasterError. The calls of a burst share one question in
+        flight: 64 calls to a missing service would ask 320 times a second, 5 each, for as long as they wait."""
+        with self._asking_lock:
+            asking, ours = self._asking, self._asking is None
+            if asking is None:
+                asking = self._asking = _Asking()
+        if ours:
+            try:
+                asking.uri = call_master(
+                    "lookupService",
+                    rospy.get_caller_id(),
+                    self.service,
+                    timeout_s=max(0.01, min(MASTER_TIMEOUT_S, deadline - time.monotonic())),
+                )
+            except MasterError as error:
+                asking.error = error
+            finally:
+                with self._asking_lock:
+                    self._asking = None
+                asking.answered.set()
+        while not asking.answered.wait(min(SERVICE_POLL_S, max(0.0, deadline - time.monotonic()))):
+            if abandoned.is_set():
+                raise _Abandoned()
+            if time.monotonic() >= deadline:  # a safety net: the question has its asker's deadline, no later than ours
+                raise MasterError(f"the ROS master did not answer lookupService ({self.service}) in time")
+        if asking.error is not None:
+            raise asking.error
+        assert asking.uri is not None
+        return asking.uri
+
+
+class _Asking:
+    """A lookupService in flight, its answer for every call that waits for it."""
+
+    def __init__(self) -> None:
+        self.answered = threading.Event()
+        self.uri: str | None = None
+        self.error: MasterError | None = None
 
 
 def _remaining(deadline: float) -> float:
