@@ -8,6 +8,7 @@ import socket
 import struct
 import threading
 import time
+import weakref
 from typing import Any
 
 import rosgraph
@@ -24,10 +25,33 @@ __all__ = ["OPENING_AT_ONCE", "SERVICE_POLL_S", "RawServiceProxy"]
 
 # A ROS service call looks this often whether its client has gone, and whether the service has been advertised.
 SERVICE_POLL_S = 0.2
-# Connections a proxy opens to its service at once. rospy's service servers listen with a backlog of 5: a burst of
-# connections past it has SYNs dropped and waits for their retransmission, 1 s and then 3 s (a burst of 64 calls to
-# a rospy service answering in 1 s had its last answers after 3 s). Opening is fast: the rest waits little.
+# Connections opened to one service at once, by all clients' proxies. rospy's service servers listen with a backlog
+# of 5: a burst of connections past it has SYNs dropped and waits for their retransmission, 1 s and then 3 s (a
+# burst of 64 calls to a rospy service answering in 1 s had its last answers after 3 s). Opening is fast: the rest
+# waits little.
 OPENING_AT_ONCE = 4
+
+
+class _Service:
+    """What every proxy of one service shares: the gate of the connections opening, and the look-up in flight."""
+
+    def __init__(self) -> None:
+        self.opening = threading.BoundedSemaphore(OPENING_AT_ONCE)
+        self.asking_lock = threading.Lock()
+        self.asking: _Asking | None = None
+
+
+# By service name, for as long as a proxy of it lives (each holds its own)
+_SERVICES: weakref.WeakValueDictionary[str, _Service] = weakref.WeakValueDictionary()
+_SERVICES_LOCK = threading.Lock()
+
+
+def _shared(service: str) -> _Service:
+    with _SERVICES_LOCK:
+        shared = _SERVICES.get(service)
+        if shared is None:
+            shared = _SERVICES[service] = _Service()
+        return shared
 
 
 class _Abandoned(Exception):
@@ -48,9 +72,7 @@ class RawServiceProxy:
         self.service_type: str = raw_class._type
         self._md5sum: str = raw_class._md5sum
         self._max_response_bytes = max_response_bytes
-        self._opening = threading.BoundedSemaphore(OPENING_AT_ONCE)
-        self._asking_lock = threading.Lock()
-        self._asking: _Asking | None = None  # the look-up in flight, shared (_ask_master)
+        self._shared = _shared(service)
 
     def call(self, request: bytes, timeout: float, abandoned: threading.Event, asked_at: float | None = None) -> bytes:
         """The response's bytes; RosError when the service is missing, fails, or does not answer within `timeout`
@@ -83,8 +105,8 @@ class RawServiceProxy:
 
     def _open(self, uri: str, deadline: float, abandoned: threading.Event) -> tuple[socket.socket, dict]:
         """A connection to the service and its answer to our connection header, opened when fewer than
-        OPENING_AT_ONCE of this proxy's are: a burst of calls must not overflow the server's backlog (see there)."""
-        while not self._opening.acquire(timeout=min(_remaining(deadline), SERVICE_POLL_S)):
+        OPENING_AT_ONCE to the service are: a burst of calls must not overflow the server's backlog (see there)."""
+        while not self._shared.opening.acquire(timeout=min(_remaining(deadline), SERVICE_POLL_S)):
             if abandoned.is_set():
                 raise _Abandoned()
         try:
@@ -111,7 +133,7 @@ class RawServiceProxy:
                 sock.close()
                 raise
         finally:
-            self._opening.release()
+            self._shared.opening.release()
 
     def _look_up(self, deadline: float, timeout: float, abandoned: threading.Event) -> str:
         """The service's rosrpc URI, waiting for it to be advertised until the deadline."""
@@ -131,12 +153,13 @@ class RawServiceProxy:
                 raise RosError(f"service {self.service} {why} (waited {timeout:g} s)")
 
     def _ask_master(self, deadline: float, abandoned: threading.Event) -> str:
-        """The master's answer to lookupService, or its MasterError. The calls of a burst share one question in
-        flight: 64 calls to a missing service would ask 320 times a second, 5 each, for as long as they wait."""
-        with self._asking_lock:
-            asking, ours = self._asking, self._asking is None
+        """The master's answer to lookupService, or its MasterError. The calls of the service (every client's) share
+        one question in flight: 64 calls to a missing one would ask 320 times a second, 5 each, as long as they wait."""
+        shared = self._shared
+        with shared.asking_lock:
+            asking, ours = shared.asking, shared.asking is None
             if asking is None:
-                asking = self._asking = _Asking()
+                asking = shared.asking = _Asking()
         if ours:
             try:
                 asking.uri = call_master(
@@ -148,8 +171,8 @@ class RawServiceProxy:
             except MasterError as error:
                 asking.error = error
             finally:
-                with self._asking_lock:
-                    self._asking = None
+                with shared.asking_lock:
+                    shared.asking = None
                 asking.answered.set()
         while not asking.answered.wait(min(SERVICE_POLL_S, max(0.0, deadline - time.monotonic()))):
             if abandoned.is_set():

@@ -1,4 +1,5 @@
-"""bridge.ros_service_proxy: the calls of a burst share one lookupService in flight, its answer or its refusal."""
+"""bridge.ros_service_proxy: the calls of a service, every client's proxy's, share one lookupService in flight, its
+answer or its refusal."""
 
 from __future__ import annotations
 
@@ -51,22 +52,22 @@ class _CountedAsking(_Asking):
 
 
 @pytest.mark.parametrize("answer", ["rosrpc://127.0.0.1:1", MasterRefused("no provider")])
-def test_a_burst_of_calls_asks_the_master_once(monkeypatch, answer: object) -> None:
+def test_a_burst_of_calls_from_two_clients_asks_the_master_once(monkeypatch, answer: object) -> None:
     master = Master(answer)
     monkeypatch.setattr(ros_service_proxy, "call_master", master)
     monkeypatch.setattr(ros_service_proxy, "_Asking", _CountedAsking)
     _Waiters.threads = set()
-    proxy = RawServiceProxy(_Raw, "/burst", 1 << 20)
+    proxies = [RawServiceProxy(_Raw, "/burst", 1 << 20) for _ in range(2)]  # two clients'
     deadline = time.monotonic() + 30
     outcomes: list[object] = []
 
-    def ask() -> None:
+    def ask(proxy: RawServiceProxy) -> None:
         try:
             outcomes.append(proxy._ask_master(deadline, threading.Event()))
         except MasterRefused as error:
             outcomes.append(error)
 
-    callers = [threading.Thread(target=ask) for _ in range(8)]
+    callers = [threading.Thread(target=ask, args=(proxies[index % 2],)) for index in range(8)]
     for caller in callers:
         caller.start()
     for _ in range(1000):  # the seven that came while the first asks wait for its answer
