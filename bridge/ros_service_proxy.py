@@ -169,7 +169,9 @@ class RawServiceProxy:
                     timeout_s=max(0.01, min(MASTER_TIMEOUT_S, deadline - time.monotonic())),
                 )
             except MasterError as error:
-                asking.error = error
+                # Its kind and text, not the error itself: its traceback holds the master's connection, and a
+                # cycle through this frame would keep it open until the garbage collector runs.
+                asking.failure = (type(error), str(error))
             finally:
                 with shared.asking_lock:
                     shared.asking = None
@@ -179,8 +181,9 @@ class RawServiceProxy:
                 raise _Abandoned()
             if time.monotonic() >= deadline:  # a safety net: the question has its asker's deadline, no later than ours
                 raise MasterError(f"the ROS master did not answer lookupService ({self.service}) in time")
-        if asking.error is not None:
-            raise asking.error
+        if asking.failure is not None:
+            kind, text = asking.failure
+            raise kind(text)
         assert asking.uri is not None
         return asking.uri
 
@@ -191,7 +194,7 @@ class _Asking:
     def __init__(self) -> None:
         self.answered = threading.Event()
         self.uri: str | None = None
-        self.error: MasterError | None = None
+        self.failure: tuple[type[MasterError], str] | None = None
 
 
 def _remaining(deadline: float) -> float:
