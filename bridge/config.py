@@ -49,9 +49,10 @@ class EndpointConfig:
     # A client that publishes and subscribes on one topic gets the others' messages, not its own back (what Unity's
     # users asked for in ROS-TCP-Endpoint PR #159); True sends them back as the original endpoint does.
     echo_own_publications: bool = False
-    # Per client: ROS service calls and topic-list look-ups in flight at once, and queued behind them. Each client
-    # has its own workers, so one client calling missing services (each waiting service_timeout_s) delays only
-    # its own later calls.
+    # Per client: ROS service calls in flight at once that no other client can take (past them, calls borrow from a
+    # room of max_clients x client_call_workers that all clients share: bridge.calls), and calls and topic-list
+    # look-ups in progress or waiting. So a burst of calls starts at once, and one client calling missing services
+    # (each waiting service_timeout_s) delays no other client's calls.
     client_call_workers: int = 4
     client_max_pending_calls: int = 64
     # Limits, so that no client (nor a crowd of them) can take what the others need: descriptors, threads, memory.

@@ -22,6 +22,7 @@ from typing import TYPE_CHECKING, Any, Callable
 from bridge import protocol
 from bridge.auth import AuthGuard
 from bridge.bridged import Bridged, ClientRegistrations
+from bridge.calls import CallRoom
 from bridge.config import EndpointConfig
 from bridge.diagnostics import ClientSnapshot, TopicSnapshot, parse_client_time, report
 from bridge.errors import RequestRefused
@@ -88,6 +89,7 @@ class Endpoint:
         self._stopping = threading.Event()
         self._auth = AuthGuard(config.auth_token) if config.auth_token is not None else None
         self._partial_frames = ByteBudget(config.max_partial_frame_bytes)
+        self.call_room = CallRoom(config.max_clients * config.client_call_workers)  # room to borrow (bridge.calls)
         self._accept_failures = LogThrottle(log)
         self._gate = Gate(config, self._clients, self._lock)
         # Totals of the clients that have left (those still connected are summed in stats()).

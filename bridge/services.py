@@ -87,13 +87,14 @@ class Services:
                 srv_id,
             )
         timeout = self._config.service_timeout_s
-        asked_at = time.monotonic()  # the deadline runs from here, not from when a worker of the client is free
+        asked_at = time.monotonic()  # the deadline runs from here, not from when the call finds room (bridge.calls)
 
         def call() -> None:
             if time.monotonic() - asked_at >= timeout:
                 session.send_error(
                     f"__request {srv_id}: service {request.service} not called: the call waited {timeout:g} s, its "
-                    "whole --service-timeout, behind this client's earlier calls; this call will not complete",
+                    "whole --service-timeout, for room among the calls in flight (--call-workers, --max-clients); "
+                    "this call will not complete",
                     srv_id,
                 )
                 return

@@ -6,7 +6,7 @@ The connection carries ROS-TCP frames directly (TCP), or one frame per binary me
 A reader thread feeds the client's bytes to its Conversation and hands the events to the session's owner (the
 Endpoint, which owns every registration and everything clients share): topic messages go to their ROS publisher,
 a read's worth at a time; commands and service bodies to `owner.handle`. The way out to the client (direct sends,
-the queue and its writer) is bridge.session_output's, the workers of its ROS calls bridge.calls', and a WebSocket
+the queue and its writer) is bridge.session_output's, the threads of its ROS calls bridge.calls', and a WebSocket
 client's session bridge.web_session's.
 """
 
@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING, Callable, Protocol
 from bridge import protocol
 from bridge.admission import SlotUse
 from bridge.auth import AuthGuard
-from bridge.calls import ClientCalls
+from bridge.calls import CallRoom, ClientCalls
 from bridge.config import EndpointConfig
 from bridge.errors import RequestRefused
 from bridge.protocol import Auth, Conversation, Event, IgnoredFields, InvalidInput, Role, TopicMessage, Warn
@@ -55,6 +55,8 @@ _AUTH_FAILURES_LOG = LogThrottle(log)  # wrong tokens may come thousands a secon
 class SessionOwner(Protocol):
     """What a session needs from the endpoint that accepted it."""
 
+    call_room: CallRoom  # where the ROS calls of every client find their threads
+
     def publisher_for(self, session: ClientSession, message: TopicMessage) -> RawPublisher:
         """The ROS publisher for a client's message; RequestRefused when it may not be published."""
 
@@ -69,8 +71,7 @@ class SessionOwner(Protocol):
 
 
 class ClientSession(SessionOutput):
-    """One connected client: its conversation and reader, its outgoing queue and writer (SessionOutput), and the
-    workers of its ROS calls."""
+    """One connected client: its conversation and reader, its outgoing queue and writer (SessionOutput), its calls."""
 
     websocket = False  # the transport: ROS-TCP frames directly; WebSocketSession's are WebSocket messages
 
@@ -124,7 +125,7 @@ class ClientSession(SessionOutput):
         self._closed = threading.Event()
         # Set once the reader has ended: the client will read no more answers, so its ROS calls may give up.
         self.gone = threading.Event()
-        self._calls = ClientCalls(self.name, config.client_call_workers, config.client_max_pending_calls)
+        self._calls = ClientCalls(self.name, config, owner.call_room)
         # Topic messages of the current read that go to one publisher, handed over together (_publish_pending)
         self._pending_publisher: RawPublisher | None = None
         self._pending_payloads: list[bytes] = []
@@ -164,8 +165,7 @@ class ClientSession(SessionOutput):
         self._reader.start()
 
     def run_call(self, what: str, call: Callable[[], None], srv_id: int | None = None) -> None:
-        """Run a ROS service call on this client's own workers, so a slow ROS side holds up only this client's
-        calls; RequestRefused when too many are waiting already."""
+        """Start a ROS service call when there is room (bridge.calls); RequestRefused when there cannot be."""
         self._calls.run_call(what, call, srv_id)
 
     def run_lookup(self, what: str, look_up: Callable[[], None]) -> None:

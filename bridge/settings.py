@@ -266,7 +266,8 @@ SETTINGS: tuple[Setting, ...] = (
         "--call-workers",
         "~call_workers",
         "count",
-        "ROS service calls in flight at once, per client (topic-list look-ups have a worker of their own)",
+        "ROS service calls a client may always have in flight; past them it borrows from a room all clients share "
+        "(--max-clients x this): a call starts when asked (topic-list look-ups have a worker of their own)",
         positive=True,
         group="limits",
     ),
@@ -275,7 +276,7 @@ SETTINGS: tuple[Setting, ...] = (
         "--max-pending-calls",
         "~max_pending_calls",
         "count",
-        "service calls and topic-list look-ups waiting behind those, per client",
+        "service calls and topic-list look-ups in progress or waiting (for room), per client",
         positive=True,
         group="limits",
     ),

@@ -359,7 +359,7 @@ def test_calls_in_flight_never_hold_up_the_clients_other_commands(bridge, ros_no
     try:
         with RawConnection(bridge.port) as client:
             client.command("__ros_service", topic=name, message_name="std_srvs/Trigger")
-            for srv_id in range(10, 16):  # more than the client's call workers
+            for srv_id in range(10, 16):  # more than the client's own share of calls at once (--call-workers)
                 client.command("__request", srv_id=srv_id)
                 client.send_frame(name, b"")
             wait_for(lambda: hung.started >= 4, 10, "calls in flight")
@@ -371,8 +371,9 @@ def test_calls_in_flight_never_hold_up_the_clients_other_commands(bridge, ros_no
 
 
 def test_calls_queued_behind_the_clients_workers_end_by_their_own_deadline(bridge, ros_node) -> None:
-    # Three rounds of calls for the client's four call workers: the deadline of each runs from its asking, not from
-    # when a worker is free (it was, and the third round's errors came at three times the timeout).
+    # Three times the client's own share of calls at once (--call-workers): the deadline of each runs from its
+    # asking, not from when it starts (once a call waited for a worker, and the third round's errors came at three
+    # times the timeout).
     name = unique("hung_queued")
     hung = HungService(ros_node, name)
     try:
