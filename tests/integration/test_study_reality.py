@@ -67,7 +67,7 @@ def test_a_session_runs_vr_on_the_stream_and_reality_on_the_trajectory_controlle
         watch.wait((1, "distance"), runner)
         type_line(runner, "12 cm\n")
         watch.wait((2, "moving"), runner)
-        time.sleep(0.8)  # well into the approach, at speed
+        time.sleep(1.05)  # well into the approach, at speed (it starts START_FLOOR, 0.25 s, after "moving")
         type_line(runner, "s\n")
         watch.wait((2, "preference"), runner)
         type_line(runner, "1\n")

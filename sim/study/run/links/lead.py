@@ -46,6 +46,7 @@ __all__ = [
     "FLOOR",
     "CEILING",
     "KEPT",
+    "START_FLOOR",
     "Leads",
     "LeadChoice",
     "delivery_part",
@@ -61,6 +62,11 @@ MARGIN = 0.005  # s on top: the sum's own scatter (the next delay may be the wor
 FLOOR = 0.01  # s: no shorter, whatever was measured (a loopback's sub-millisecond round trips)
 CEILING = STOP_LEAD_CEILING  # s: no longer; at 0.5 m/s the arm runs on 0.125 m before it brakes
 KEPT = 500  # the latest samples of each part: the session's recent network and load
+# s: the least a motion's start is stamped ahead. A motion delivered after its stamp has its first points dropped and
+# is bridged from rest to the first one left, over what may be a fraction of a millisecond: an arbitrary acceleration
+# (seen: 16x joint 4's limit on a loaded machine). Nothing waits on a motion's start as a stop's brake does, so it is
+# given room beyond the measured delivery's tail: it only starts later.
+START_FLOOR = 0.25
 
 
 @dataclass(frozen=True)

@@ -46,7 +46,7 @@ from sim.study.run.links.failsafe import brakes_on_exit
 from sim.study.run.links.feed import FedState, JointFeed
 from sim.study.run.links.goals import GOAL_STATUS, CommandedPath, GoalPoints, goal_points, speed_fell
 from sim.study.run.links.joint_line import MOVE_DECELERATION, MOVE_JERK, JointLine
-from sim.study.run.links.lead import START, Leads, delivery_part
+from sim.study.run.links.lead import START, START_FLOOR, Leads, delivery_part
 from sim.study.run.links.specs import TrajectoryLinkSpec
 from sim.study.run.trial import TrialRun
 from sim.study.safety.braking import STOP_JERK, Braking, PathGeometry, arc_length, brake
@@ -325,7 +325,7 @@ class TrajectoryLink:
     ) -> tuple[Motion, float]:
         """The motion's goal, stamped a start lead ahead; the motion and its lead."""
         with self._lead_lock:
-            lead = self.lead.choose(START).lead
+            lead = max(self.lead.choose(START).lead, START_FLOOR)
         start = self._clock() + lead
         motion = Motion(what, geometry, deceleration, jerk, start, start + points.duration, start + points.duration)
         motion.commanded.add(
@@ -580,9 +580,9 @@ class TrajectoryLink:
             with self._lead_lock:
                 self.lead.add("query", self._clock() - asked)
             return answer["desired"]
+        failure = answer.get("error") or f"no answer within {timeout * 1e3:.0f} ms"  # before closing fails the call
         self._proxy = None
         proxy.close()
-        failure = answer.get("error") or f"no answer within {timeout * 1e3:.0f} ms"
         raise ControllerError(f"{self.spec.namespace}/query_state failed: {failure}")
 
     def _time_planning(
