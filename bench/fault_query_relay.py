@@ -1,6 +1,7 @@
 """`python -m bench.fault_query_relay FROM TO`: a node of its own offering TO/query_state, answered by
-FROM/query_state: the controller's query_state as the runner sees it, in a process the fault bench can kill (the
-service gone, its connections closed) or start anew (a controller restarted). Prints "ready" once it serves."""
+FROM/query_state: the controller's query_state as the runner sees it, in a process the fault bench and the fault
+tests can kill (the service gone, its connections closed) or start anew (a controller restarted). Prints "ready" once
+it serves."""
 
 from __future__ import annotations
 

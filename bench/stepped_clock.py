@@ -1,7 +1,8 @@
 """`python bench/stepped_clock.py ARGS...`: `python -m sim.study ARGS...` in a process whose wall clock steps, +2 s on
-SIGUSR1 and -2 s on SIGUSR2, as an NTP step on the runner's machine would: a fault the fault bench injects into the
-real runner, with nothing in the runner's code for it. time.time, which rospy's time and every wall-clock reading go
-through, is stepped before anything else is imported; the monotonic clock is not, as the kernel's is not."""
+SIGUSR1 and -2 s on SIGUSR2, as an NTP step on the runner's machine would: a fault the fault bench and the fault
+tests inject into the real runner, with nothing in the runner's code for it. time.time, which rospy's time and every
+wall-clock reading go through, is stepped before anything else is imported; the monotonic clock is not, as the
+kernel's is not."""
 
 from __future__ import annotations
 

@@ -18,8 +18,8 @@ from typing import Any
 import numpy as np
 import pytest
 
-from sim.engine.executed import Executed, Heard, executed_extremes
-from sim.engine.trajectory_server import trajectory_from_message
+from bench.fault_relays import HeardGoals
+from sim.engine.executed import Executed, executed_extremes
 from sim.study.design.feasibility import Approaches
 from sim.study.design.fit import scene_for
 from sim.study.design.scene import load_scene, scene_robot
@@ -135,14 +135,14 @@ def built_arm(roscore, ros_node, tmp_path: Path, monkeypatch) -> Iterator[tuple[
         yield urdf, watch
 
 
-STEPPED_CLOCK = Path(__file__).with_name("stepped_clock.py")
+STEPPED_CLOCK = REPO / "bench" / "stepped_clock.py"  # the fault bench's, which the tests share
 
 
 def start_runner(
     roscore, plan: Path, out: Path, extra: Sequence[str] = (), auto_go: bool = True, stepped_clock: bool = False
 ) -> subprocess.Popen:
     """The runner on the plan, the observer at its keyboard; `stepped_clock`: its wall clock steps on SIGUSR1 (+2 s)
-    and SIGUSR2 (-2 s), as an NTP step on the runner's machine would (stepped_clock.py)."""
+    and SIGUSR2 (-2 s), as an NTP step on the runner's machine would (bench/stepped_clock.py)."""
     env = dict(roscore.env)
     if "VR_SIM_CACHE" in os.environ:
         env["VR_SIM_CACHE"] = os.environ["VR_SIM_CACHE"]
@@ -268,52 +268,33 @@ class ControllerRelay:
 
 
 class ExecutedWatch:
-    """What the controller executes: every goal and cancel sent to it, as a listener beside it hears them (their
-    arrival on the wall clock, within a millisecond or so of the controller's), replayed through ros_control's
-    semantics at 1 kHz (sim.engine.executed). A bridge the controller makes from a late replacement, or a hold's step,
-    shows there; the goals as sent do not show them."""
+    """What the controller executes: every goal and cancel sent to it, as a listener beside it hears them
+    (bench.fault_relays.HeardGoals, the fault bench's), replayed through ros_control's semantics at 1 kHz
+    (sim.engine.executed). A bridge the controller makes from a late replacement, or a hold's step, shows there; the
+    goals as sent do not show them."""
 
     def __init__(self, rospy: Any, namespace: str, stop_trajectory_duration: float = 0.0) -> None:
-        from actionlib_msgs.msg import GoalID
-
         from sim.wire.control_types import control_types
 
-        self.heard: list[Heard] = []
-        self.lock = threading.Lock()
+        self.goals = HeardGoals(rospy, control_types(), namespace)
         self.stop_trajectory_duration = stop_trajectory_duration
-        action = f"{namespace}/follow_joint_trajectory"
-        self._subscribers = [
-            rospy.Subscriber(f"{action}/goal", control_types().action_goal, self._on_goal, tcp_nodelay=True),
-            rospy.Subscriber(f"{action}/cancel", GoalID, self._on_cancel, tcp_nodelay=True),
-        ]
-
-    def _on_goal(self, message: Any) -> None:
-        heard = Heard(time.time(), "goal", message.goal_id.id, trajectory_from_message(message.goal.trajectory))
-        with self.lock:
-            self.heard.append(heard)
-
-    def _on_cancel(self, message: Any) -> None:
-        with self.lock:
-            self.heard.append(Heard(time.time(), "cancel", message.id))
 
     def extremes(self, start: np.ndarray, until: float) -> Executed:
         """The executed motion from the first goal heard to wall time `until`, the arm resting at `start` before,
         against the Panda's limits."""
-        with self.lock:
-            heard = list(self.heard)
         return executed_extremes(
-            heard, ROBOT.joint_names, start, until, PANDA_LIMITS.acceleration, PANDA_LIMITS.jerk,
+            self.goals.taken(), ROBOT.joint_names, start, until, PANDA_LIMITS.acceleration, PANDA_LIMITS.jerk,
             self.stop_trajectory_duration,
         )  # fmt: skip
 
     def close(self) -> None:
-        for subscriber in self._subscribers:
-            subscriber.unregister()
+        self.goals.close()
 
 
 class QueryNode:
-    """The controller's query_state offered under RELAY by a node of its own (query_relay.py), which a test can kill
-    (the service gone, its connections closed) and start anew (a controller restarted)."""
+    """The controller's query_state offered under RELAY by a node of its own (bench.fault_query_relay, the fault
+    bench's), which a test can kill (the service gone, its connections closed) and start anew (a controller
+    restarted)."""
 
     def __init__(self, roscore: Any, rospy: Any) -> None:
         self.roscore, self.rospy = roscore, rospy
@@ -321,10 +302,9 @@ class QueryNode:
         self.start()
 
     def start(self) -> None:
-        script = Path(__file__).with_name("query_relay.py")
         self.process = subprocess.Popen(
-            [PYTHON, str(script), NS, RELAY], env=dict(self.roscore.env), cwd=REPO, stdout=subprocess.PIPE,
-            stderr=subprocess.STDOUT, text=True, start_new_session=True,
+            [PYTHON, "-m", "bench.fault_query_relay", NS, RELAY], env=dict(self.roscore.env), cwd=REPO,
+            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, start_new_session=True,
         )  # fmt: skip
         assert self.process.stdout is not None and self.process.stdout.readline().strip() == "ready"
         self.rospy.wait_for_service(f"{RELAY}/query_state", 30)
