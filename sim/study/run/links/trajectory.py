@@ -378,12 +378,7 @@ class TrajectoryLink:
                 if why and not motion.after_stop:
                     motion.after_stop = why
                     say(f"{self.name}: while {motion.what} was stopping: {why}")
-                if motion.replaced and self._refused(motion.handle):
-                    # The controller refused the stop (it came after its last point was due, on a starved
-                    # machine), so the motion goes on: stop it anew, from where it is now commanded to be.
-                    motion.commanded.discard_last()
-                    motion.handles.pop()
-                    self._stop(motion)
+                self._stop_anew_if_refused(motion)
             if now >= motion.ends + settle and (self._done(motion.handle) or now >= motion.ends + RESULT_GRACE):
                 return applied, press_at, tracking
 
@@ -528,6 +523,14 @@ class TrajectoryLink:
             f"preparation began ({'before' if sent < at else 'AFTER'} its stamp)"
         )
 
+    def _stop_anew_if_refused(self, motion: Motion) -> None:
+        """The controller refused the stop (it came after its last point was due, on a starved machine), so the
+        motion goes on: forget it was commanded, and stop the motion anew from where it is now commanded to be."""
+        if motion.replaced and self._refused(motion.handle):
+            motion.commanded.discard_last()
+            motion.handles.pop()
+            self._stop(motion)
+
     def _fail_safe(self, motion: Motion, why: str) -> None:
         """The guard's stop on an exit of the motion's code: brake, then watch the arm to rest (not stopped by the
         stop event, which may be why). Never raises: it says what it could not do."""
@@ -538,10 +541,7 @@ class TrajectoryLink:
                 self._stop(motion)
             while self._clock() < motion.ends + RESULT_GRACE and not self._done(motion.handle):
                 self.feed.wait(self._clock(), POLL)
-                if motion.replaced and self._refused(motion.handle):
-                    motion.commanded.discard_last()
-                    motion.handles.pop()
-                    self._stop(motion)
+                self._stop_anew_if_refused(motion)
             failed = self._failure(motion)
             say(f"{self.name}: {motion.what}: {failed or 'the arm braked to rest'}")
         except BaseException as error:  # noqa: BLE001 — the exit goes on; the observer must know
