@@ -92,7 +92,7 @@ def approach_with_fault(
     link: str = "franka_ros",
     trials: int = 1,
     stepped_clock: bool = False,
-    into: float = 0.5,
+    into: float = 0.75,  # s: well into the approach, which starts START_FLOOR (0.25 s) after "moving"
     between: Callable[[], None] = lambda: None,
 ) -> Ended:
     """The plan's last approach (of `trials`, each vertical to STANDOFF at SPEED) with `fault(runner)` `into` s after
