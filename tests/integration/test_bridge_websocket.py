@@ -8,6 +8,7 @@ import os
 import select
 import signal
 import subprocess
+import threading
 from collections.abc import Iterator
 
 import pytest
@@ -247,9 +248,15 @@ def test_past_the_unread_answers_budget_pongs_are_dropped_and_the_client_is_told
 
     name = unique("ws_big_answers")
     answered = []
+    all_asked = threading.Event()
 
     def big(request):
+        # No answer before all 24 are asked: the endpoint refuses a request once 4 MiB of answers wait unread, and
+        # calls run at once, so early answers could otherwise get there before the last requests are read.
         answered.append(request)
+        if len(answered) == 24:
+            all_asked.set()
+        all_asked.wait(30)
         return TriggerResponse(True, "x" * 1_000_000)
 
     service = ros_node.Service(name, Trigger, big)
