@@ -37,7 +37,6 @@ import math
 import os
 import signal
 import subprocess
-import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -214,27 +213,15 @@ class Bench:
 
             return Injection(slow_then_press, f"{RELAY},{JOINT_STATES}", close=slow.close)
         if name in ("six-positions", "nan"):
-            bad = threading.Event()
-
-            def change(message: Any) -> Any:
-                if not bad.is_set():
-                    return message
-                bad.clear()
-                positions = list(message.position)
-                positions = positions[:-1] if name == "six-positions" else [math.nan, *positions[1:]]
-                return type(message)(message.header, message.name, positions, message.velocity, message.effort)
-
-            states = StateRelay(self.rospy, change)
-            return Injection(lambda runner: bad.set(), f"{NS},{RELAYED_STATES}", close=states.close)
+            states = StateRelay(self.env, self.tmp / "state_relay.log", name)
+            return Injection(lambda runner: states.inject(), f"{NS},{RELAYED_STATES}", close=states.close)
         if name == "stale-braking":
-            passing = threading.Event()
-            passing.set()
-            feed = StateRelay(self.rospy, lambda message: message if passing.is_set() else None)
+            feed = StateRelay(self.env, self.tmp / "state_relay.log", "silence")
 
             def press_then_stale(runner: subprocess.Popen) -> None:
                 press(runner)
                 time.sleep(0.05)  # the stop on its way: the feed ends as the arm brakes
-                passing.clear()
+                feed.inject()
 
             return Injection(press_then_stale, f"{NS},{RELAYED_STATES}", close=feed.close)
         if name == "braking-aborted":

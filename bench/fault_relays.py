@@ -1,18 +1,20 @@
 """What the fault bench (bench.fault_bench) runs beside the study's runner, in its own rospy node: the runner's phases
 and the arm's joint states as heard; every goal and cancel the controller hears (for sim.engine.executed's replay);
 the controller's topics and query_state relayed under RELAY, each goal passable through a hook and query_state
-droppable or slowed; the joint states relayed through a change; a tracker of the resting hand that can be lost; and
-query_state served by a node of its own (bench.fault_query_relay) that can be killed and started anew.
+droppable or slowed; a tracker of the resting hand that can be lost. In nodes of their own: the joint states relayed
+with a fault (bench.fault_state_relay), and query_state served (bench.fault_query_relay), killed and started anew.
 
 Every relay here is a real rospy endpoint on loopback; each one's close() unregisters what it made.
 """
 
 from __future__ import annotations
 
+import os
 import subprocess
 import threading
 import time
 from collections.abc import Callable
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -107,18 +109,23 @@ class Watch:
 
 
 class HeardGoals:
-    """Every goal and cancel on the controller's action topics, as a listener beside it hears them (their arrival
-    within a millisecond or so of the controller's), for sim.engine.executed's replay."""
+    """Every goal and cancel on the controller's action topics, for sim.engine.executed's replay. A goal's arrival is
+    when the controller took it: the stamp of the first status that lists it (actionlib's server publishes one as it
+    accepts or rejects a goal, stamped on the controller's clock), which a listener's own hearing is not: on a
+    loaded machine, a listener that hears the stop late would replay a late bridge the controller never made. A goal
+    whose status was not heard keeps its hearing; so does a cancel."""
 
     def __init__(self, rospy: Any, types: Any, namespace: str = NS) -> None:
-        from actionlib_msgs.msg import GoalID
+        from actionlib_msgs.msg import GoalID, GoalStatusArray
 
         self.lock = threading.Lock()
         self.events: list[Heard] = []
+        self._taken_at: dict[str, float] = {}  # goal id: the stamp of its first status
         action = f"{namespace}/follow_joint_trajectory"
         self._subscribers = [
             rospy.Subscriber(f"{action}/goal", types.action_goal, self._on_goal, tcp_nodelay=True),
             rospy.Subscriber(f"{action}/cancel", GoalID, self._on_cancel, tcp_nodelay=True),
+            rospy.Subscriber(f"{action}/status", GoalStatusArray, self._on_status, tcp_nodelay=True),
         ]
 
     def _on_goal(self, message: Any) -> None:
@@ -130,9 +137,22 @@ class HeardGoals:
         with self.lock:
             self.events.append(Heard(time.time(), "cancel", message.id))
 
-    def taken(self) -> list[Heard]:
+    def _on_status(self, message: Any) -> None:
+        stamp = message.header.stamp.to_sec()
         with self.lock:
-            return list(self.events)
+            for status in message.status_list:
+                self._taken_at.setdefault(status.goal_id.id, stamp)
+
+    def taken(self) -> list[Heard]:
+        """The goals and cancels in the order the controller took them."""
+        with self.lock:
+            events = [
+                replace(event, arrival=self._taken_at[event.goal_id])
+                if event.kind == "goal" and event.goal_id in self._taken_at
+                else event
+                for event in self.events
+            ]
+        return sorted(events, key=lambda event: event.arrival)
 
     def close(self) -> None:
         for subscriber in self._subscribers:
@@ -234,23 +254,28 @@ class QueryNode:
 
 
 class StateRelay:
-    """The arm's joint states relayed on RELAYED_STATES, each through `change` (None: not passed on)."""
+    """The arm's joint states relayed on RELAYED_STATES by a node of its own (bench.fault_state_relay), `fault` injected
+    on `inject()` (or from the first state with `from_start`); `close()` ends it."""
 
-    def __init__(self, rospy: Any, change: Callable[[Any], Any | None]) -> None:
-        from sensor_msgs.msg import JointState
+    def __init__(self, env: dict[str, str], log: Path, fault: str, from_start: bool = False) -> None:
+        with open(log, "a") as output:
+            self.process = subprocess.Popen(
+                [PYTHON, "-m", "bench.fault_state_relay", JOINT_STATES, RELAYED_STATES, fault,
+                 *(["--from-start"] if from_start else [])],
+                env=env, cwd=REPO, stdout=subprocess.PIPE, stderr=output, text=True, start_new_session=True,
+            )  # fmt: skip
+        assert self.process.stdout is not None
+        if self.process.stdout.readline().strip() != "ready":
+            self.close()
+            raise RuntimeError(f"the joint-state relay did not start (see {log})")
 
-        self.change = change
-        self._out = rospy.Publisher(RELAYED_STATES, JointState, queue_size=10)
-        self._in = rospy.Subscriber(JOINT_STATES, JointState, self._relay, tcp_nodelay=True)
+    def inject(self) -> None:
+        import signal
 
-    def _relay(self, message: Any) -> None:
-        changed = self.change(message)
-        if changed is not None:
-            self._out.publish(changed)
+        os.kill(self.process.pid, signal.SIGUSR1)
 
     def close(self) -> None:
-        self._in.unregister()
-        self._out.unregister()
+        kill_process(self.process)
 
 
 class Tracker:

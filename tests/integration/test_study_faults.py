@@ -9,7 +9,6 @@ cancel that takes 0.5 s to rest, joint states at 500 Hz as ur_robot_driver publi
 
 from __future__ import annotations
 
-import math
 import os
 import signal
 import threading
@@ -22,6 +21,7 @@ from typing import Any
 
 import pytest
 
+from bench.fault_relays import RELAYED_STATES, StateRelay
 from tests.integration.reality_helpers import (
     ABORTED,
     JOINT_STATES,
@@ -47,7 +47,6 @@ pytestmark = pytest.mark.lane("alone", on=("project",))
 
 STANDOFF = 0.06  # m: the approach's end, which an arm not braked would reach
 SPEED = 0.2  # m/s
-RELAYED_STATES = "/relayed/joint_states"
 
 
 @dataclass(frozen=True)
@@ -136,7 +135,8 @@ def assert_braked(ended: Ended) -> None:
     """The arm braked to rest well short of its stand-off, the controller's motion within the Panda's limits, the
     separation never under the floor (the runner's default) while the arm moved."""
     assert ended.rest > STANDOFF + 0.03, ended.output
-    assert ended.executed.acceleration <= 1.0 and ended.executed.jerk <= 1.0, ended.executed.describe()
+    stops = [line for line in ended.output.splitlines() if " stamped " in line]  # how each stop was timed
+    assert ended.executed.acceleration <= 1.0 and ended.executed.jerk <= 1.0, (ended.executed.describe(), stops)
     if ended.row is not None and ended.row["least_separation"]:
         assert float(ended.row["least_separation"]) > 0.01
 
@@ -227,50 +227,27 @@ def test_a_press_with_query_state_answering_late_is_stopped_in_time_from_the_com
 
 
 @contextmanager
-def relayed_states(ros_node: Any, change: Callable[[Any], Any | None]) -> Iterator[None]:
-    """While inside: the arm's joint states relayed on RELAYED_STATES, each through `change` (None: not passed on)."""
-    from sensor_msgs.msg import JointState
-
-    relayed = ros_node.Publisher(RELAYED_STATES, JointState, queue_size=10)
-
-    def relay(message: Any) -> None:
-        changed = change(message)
-        if changed is not None:
-            relayed.publish(changed)
-
-    subscriber = ros_node.Subscriber(JOINT_STATES, JointState, relay)
+def relayed_states(roscore: Any, tmp_path: Path, fault: str, from_start: bool = False) -> Iterator[StateRelay]:
+    """While inside: the arm's joint states relayed on RELAYED_STATES by a node of its own, `fault` injected on its
+    inject() (bench.fault_state_relay)."""
+    relay = StateRelay(dict(roscore.env), tmp_path / "state_relay.log", fault, from_start)
     try:
-        yield
+        yield relay
     finally:
-        subscriber.unregister()
-        relayed.unregister()
+        relay.close()
 
 
 @pytest.mark.parametrize(
-    "malformed,said",
-    [
-        (lambda m: (m.name, list(m.position)[:-1]), "positions, not covering"),  # 6 positions for 7 joints
-        (lambda m: (m.name, [math.nan, *list(m.position)[1:]]), "non-finite position of panda_joint1"),
-    ],
+    "fault,said",
+    [("six-positions", "positions, not covering"), ("nan", "non-finite position of panda_joint1")],
     ids=["six_positions", "nan"],
 )
 def test_a_malformed_joint_state_mid_approach_brakes_the_arm(
-    roscore, ros_node, arm: Arm, tmp_path: Path, malformed: Callable[[Any], tuple], said: str
+    roscore, ros_node, arm: Arm, tmp_path: Path, fault: str, said: str
 ) -> None:
-    from sensor_msgs.msg import JointState
-
-    bad = threading.Event()
-
-    def change(message: Any) -> Any:
-        if bad.is_set():
-            bad.clear()
-            names, positions = malformed(message)
-            return JointState(message.header, names, positions, message.velocity, message.effort)
-        return message
-
-    with relayed_states(ros_node, change):
+    with relayed_states(roscore, tmp_path, fault) as states:
         ended = approach_with_fault(
-            roscore, ros_node, arm, tmp_path, 24, lambda runner: bad.set(), f"{NS},{RELAYED_STATES}"
+            roscore, ros_node, arm, tmp_path, 24, lambda runner: states.inject(), f"{NS},{RELAYED_STATES}"
         )
     assert ended.code == 5, ended.output
     assert "the arm was stopped: a malformed joint state: " in ended.output and said in ended.output, ended.output
@@ -292,15 +269,13 @@ def test_a_step_of_the_runners_wall_clock_mid_approach_brakes_the_arm(
 def test_a_feed_gone_stale_while_braking_ends_the_session_with_the_arm_braked(
     roscore, ros_node, arm: Arm, tmp_path: Path
 ) -> None:
-    passing = threading.Event()
-    passing.set()
+    with relayed_states(roscore, tmp_path, "silence") as states:
 
-    def press_then_stale(runner: Any) -> None:
-        type_line(runner, "s\n")
-        time.sleep(0.05)  # the stop on its way: the feed ends as the arm brakes
-        passing.clear()
+        def press_then_stale(runner: Any) -> None:
+            type_line(runner, "s\n")
+            time.sleep(0.05)  # the stop on its way: the feed ends as the arm brakes
+            states.inject()
 
-    with relayed_states(ros_node, lambda message: message if passing.is_set() else None):
         ended = approach_with_fault(roscore, ros_node, arm, tmp_path, 26, press_then_stale, f"{NS},{RELAYED_STATES}")
     assert ended.code == 5, ended.output
     assert "while the approach was stopping: joint states stale" in ended.output, ended.output
@@ -373,27 +348,11 @@ def test_a_tracking_gap_mid_approach_brakes_the_arm(roscore, ros_node, arm: Arm,
     assert_braked(ended)
 
 
-def restamped(ros_node: Any, by: float, when: threading.Event) -> Callable[[Any], Any]:
-    """Joint states stamped `by` s later than the robot's clock says, while `when` is set: a robot PC whose clock is
-    off the runner's."""
-    from sensor_msgs.msg import JointState
-
-    def change(message: Any) -> Any:
-        if not when.is_set():
-            return message
-        header = type(message.header)(message.header.seq, message.header.stamp + ros_node.Duration(by), "")
-        return JointState(header, message.name, message.position, message.velocity, message.effort)
-
-    return change
-
-
 def test_a_robot_clock_off_the_runners_at_connect_refuses_the_session_in_one_line(
     roscore, ros_node, arm: Arm, tmp_path: Path
 ) -> None:
-    always = threading.Event()
-    always.set()
     plan = write_plan(tmp_path / "plan.yaml", 30, "reality", [trial(1, "reality", 1, "vertical", STANDOFF, SPEED)])
-    with relayed_states(ros_node, restamped(ros_node, 0.5, always)):
+    with relayed_states(roscore, tmp_path, "restamp", from_start=True):
         runner = start_runner(roscore, plan, tmp_path / "out", ["--link", f"reality={NS},{RELAYED_STATES}"])
         try:
             output, _ = runner.communicate(timeout=90)
@@ -407,10 +366,9 @@ def test_a_robot_clock_off_the_runners_at_connect_refuses_the_session_in_one_lin
 
 
 def test_a_robot_clock_that_steps_mid_approach_brakes_the_arm(roscore, ros_node, arm: Arm, tmp_path: Path) -> None:
-    stepped = threading.Event()
-    with relayed_states(ros_node, restamped(ros_node, 0.5, stepped)):
+    with relayed_states(roscore, tmp_path, "restamp") as states:
         ended = approach_with_fault(
-            roscore, ros_node, arm, tmp_path, 31, lambda runner: stepped.set(), f"{NS},{RELAYED_STATES}"
+            roscore, ros_node, arm, tmp_path, 31, lambda runner: states.inject(), f"{NS},{RELAYED_STATES}"
         )
     assert ended.code == 5, ended.output
     assert "the robot's clock and the runner's no longer agree" in ended.output, ended.output

@@ -8,10 +8,12 @@ motions it anchors again (so the monotonic clock's drift from the wall clock, a 
 slews, never builds up); during a motion, the wall clock's distance from the link's clock is the step, and one
 beyond STEP_LIMIT stops the arm: the controller's clock and the runner's no longer agree on when a stop begins.
 
-The robot's clock (its joint states' stamps) must agree with this one: at connect, and through the session, the
-states' arrival minus their stamps is held within SKEW_LIMIT of zero at connect (a median), and of what it was at
-connect through the session: a state stamped ahead of that at once (a delivery can only make it later), one behind
-it in the last states' median (so that one late delivery does not count).
+The robot's clock (its joint states' stamps) must agree with this one. The states' arrival minus their stamps is
+the robot's clock behind this machine's plus each state's delivery; a delivery only ever adds, so the least of the
+last states' offsets is the clock's (NTP's minimum filter), and a starved machine or a slow network that delays
+some states does not move it. At connect the least of the first states must be within SKEW_LIMIT of zero; through
+the session, within SKEW_LIMIT of what it was at connect: a state stamped ahead of that at once, the least of the
+last states behind it (a robot clock stepped back).
 """
 
 from __future__ import annotations
@@ -22,7 +24,7 @@ from collections.abc import Callable
 __all__ = ["STEP_LIMIT", "SKEW_LIMIT", "LinkClock"]
 
 STEP_LIMIT = 0.05  # s: a wall clock this far from the link's has stepped (drift is ~0.1 ms in the longest motion)
-# s: the most the robot's joint states may arrive after (or before) their stamps, a median of 15: the robot PC's
+# s: the most the robot's joint states may arrive after (or before) their stamps, the least of 15: the robot PC's
 # clock off this machine's by more (or a feed delayed by more) makes stamped goals and tracking wrong
 SKEW_LIMIT = 0.05
 

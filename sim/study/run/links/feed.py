@@ -100,14 +100,21 @@ class JointFeed:
         with self._changed:
             return [state for state in self._states if state.arrival > arrival]
 
-    def stamp_offset(self, last: int = 15) -> float | None:
-        """s: the median of the last `last` good states' arrival minus their stamp: the robot's clock behind the
-        link's, plus the states' delivery (None before any). The median: one late delivery does not move it."""
+    def least_offset(self, over: float = 0.5) -> float | None:
+        """s: the least arrival minus stamp of the good states that came within `over` s of the latest: the robot's
+        clock behind the link's, plus the quickest delivery among them (None before any). A delivery only ever adds
+        to a state's offset, so a starved machine or a slow network raises the others, not the least, as long as one
+        state in `over` s came promptly; a clock that steps raises them all."""
         with self._changed:
-            recent = self._states[-last:]
-        if not recent:
-            return None
-        return float(np.median([state.arrival - state.stamp for state in recent]))
+            if not self._states:
+                return None
+            since = self._states[-1].arrival - over
+            least = math.inf
+            for state in reversed(self._states):  # newest first: a 500 Hz feed keeps 10,000
+                if state.arrival < since:
+                    break
+                least = min(least, state.arrival - state.stamp)
+            return least
 
     def faults_since(self, arrival: float) -> list[FeedFault]:
         with self._changed:

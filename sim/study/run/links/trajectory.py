@@ -57,6 +57,7 @@ __all__ = ["QUERY_PROBES", "TrajectoryLink"]
 
 QUERY_PROBES = 10  # query_state round trips measured at connect, before any stop needs one
 SKEW_STATES = 15  # joint states whose arrival against their stamps tells at connect whether the clocks agree
+SKEW_WINDOW = 1.0  # s: the robot's clock is the least offset of the states that came in this long (feed.least_offset)
 QUERY_TIMEOUT = 0.1  # s: a query_state answer later than this is not waited for (the stop brakes from the path)
 PROBE_TIMEOUT = 2.0  # s: query_state's answer before a motion, which waits for it (no stop does)
 POLL = 0.01  # s: the longest wait for a joint state between looks at the presses and the goal
@@ -285,12 +286,12 @@ class TrajectoryLink:
 
     def _clocks_agree(self, timeout: float) -> float:
         """s: how far the joint states arrive after their stamps (the robot's clock behind this machine's, plus their
-        delivery), the median of the first SKEW_STATES; ControllerError naming the disagreement beyond SKEW_LIMIT: a
-        goal's stamp, the tracking and every lead assume the two clocks agree."""
+        quickest delivery), the least of the first SKEW_STATES and more; ControllerError naming the disagreement beyond
+        SKEW_LIMIT: a goal's stamp, the tracking and every lead assume the two clocks agree."""
         deadline = self._clock() + timeout
         while self.feed.count() < SKEW_STATES and self._clock() < deadline and not self.stop.is_set():
             self.feed.wait(self._clock(), POLL, self.stop)
-        skew = self.feed.stamp_offset(SKEW_STATES)
+        skew = self.feed.least_offset(SKEW_WINDOW)
         if skew is None:
             raise ControllerError(f"no joint state on {self.spec.joint_states_topic} within {timeout:g} s")
         if abs(skew) > SKEW_LIMIT:
@@ -399,13 +400,13 @@ class TrajectoryLink:
         if abs(step) > STEP_LIMIT:
             return f"the wall clock stepped {step:+.3f} s during the motion (limit {STEP_LIMIT:g} s)"
         # A state stamped ahead of what its arrival allows is the clocks' doing at once (a delivery only delays);
-        # one stamped further behind may be a late delivery, so the last states' median is judged.
-        median = self.feed.stamp_offset()
-        for skew in (latest.arrival - latest.stamp, median if median is not None and median > self._skew else None):
-            if skew is not None and abs(skew - self._skew) > SKEW_LIMIT:
+        # one stamped further behind may be a late delivery, so the least offset of the last states is judged.
+        least = self.feed.least_offset(SKEW_WINDOW)
+        for offset, beyond in ((latest.arrival - latest.stamp, -1.0), (least, 1.0)):  # ahead, then behind
+            if offset is not None and (offset - self._skew) * beyond > SKEW_LIMIT:
                 return (
-                    f"the joint states arrive {skew:+.3f} s after their stamps, {self._skew:+.3f} s at connect (limit "
-                    f"{SKEW_LIMIT:g} s): the robot's clock and the runner's no longer agree"
+                    f"the joint states arrive {offset:+.3f} s after their stamps, {self._skew:+.3f} s at connect "
+                    f"(limit {SKEW_LIMIT:g} s): the robot's clock and the runner's no longer agree"
                 )
         if tracking > self.spec.tracking_tolerance:
             return f"tracking error {tracking:.4f} rad over the tolerance {self.spec.tracking_tolerance:g} rad"

@@ -9,6 +9,7 @@ import time
 from types import SimpleNamespace
 
 import numpy as np
+import pytest
 
 from sim.robots import load_robot
 from sim.study.run.links.feed import JointFeed
@@ -79,3 +80,25 @@ def test_a_wait_with_nothing_new_blocks_until_its_timeout_instead_of_spinning() 
     feed.callback(joint_state(100.0))
     assert feed.wait(clock(), 0.3) is None
     assert calls[0] < 50  # a spin reads the clock hundreds of thousands of times in 0.3 s
+
+
+def test_the_clocks_offset_is_the_least_of_the_last_states_so_late_deliveries_do_not_move_it() -> None:
+    now = [0.0]
+    feed = JointFeed(ROBOT, lambda: now[0])
+    assert feed.least_offset() is None
+
+    def arrive(k: int, delivery: float, clock_behind: float = 0.010) -> None:  # states every 33 ms
+        now[0] = 100.0 + k * 0.033 + clock_behind + delivery
+        feed.callback(joint_state(100.0 + k * 0.033))
+
+    for k in range(15):
+        arrive(k, 0.001)
+    assert feed.least_offset(0.5) == pytest.approx(0.011)
+    # a starved stretch: states late by 40 to 105 ms, delivered in bursts as a loaded machine does
+    for k in range(15, 25):
+        arrive(k, 0.040 + 0.005 * (k - 15))
+    assert feed.least_offset(0.5) == pytest.approx(0.011)  # one prompt state in the last 0.5 s tells the clock
+    assert feed.least_offset(0.2) > 0.05  # ...which a window shorter than the stretch misses
+    for k in range(25, 45):  # the robot's clock steps 0.2 s back: every offset rises
+        arrive(k, 0.001, clock_behind=0.210)
+    assert feed.least_offset(0.5) == pytest.approx(0.211)
