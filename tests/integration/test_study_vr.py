@@ -312,8 +312,9 @@ def test_an_emulated_quest_enters_the_session_and_answers_the_runner(tmp_path: P
                     refused = page_state(browser)
                     assert "Choose an answer with the thumbstick first" in refused["panel"], refused["panel"]
                     assert [what for what, _ in refused["actions"]][-1] == "preference"  # nothing sent
-                    push_thumbstick(browser, "left", -0.9)  # the first push: the middle of 1..5
-                    push_thumbstick(browser, "left", -0.9)  # one point down
+                    push_thumbstick(browser, "left", 0.9)  # the first push, right: in from the left end, 1
+                    assert "< 1: not at all >" in page_state(browser)["panel"]
+                    push_thumbstick(browser, "left", 0.9)  # one point up
                     assert "< 2: between not at all and fully >" in page_state(browser)["panel"]
                     press(browser, "left", "x-button")
             if not ended:
