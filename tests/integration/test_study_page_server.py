@@ -165,6 +165,7 @@ def test_a_browser_that_opened_the_printed_address_is_served_and_one_without_its
         server = start(launcher, {**plain_env(), **secrets}, tmp_path, "button")
         processes.append(server)
         url = launcher.page_url(server.output())
+        key = url.split("?key=")[1]
         with chromium(tmp_path / "chromium", accept_insecure_certs=True) as browser:
             browser.get(url.split("?")[0])
             assert "does not carry this launch's key" in browser.page_source
@@ -176,6 +177,11 @@ def test_a_browser_that_opened_the_printed_address_is_served_and_one_without_its
                 60,
                 "the page to connect and its clock to be answered",
             )
+            # the page has used the key (its settings came by the cookie), so the key has left the tab's address and
+            # its back/forward list (DevTools' view of it): the entry was replaced
+            assert browser.execute_script("return location.href;") == url.split("?")[0]
+            visited = [entry["url"] for entry in browser.execute_cdp_cmd("Page.getNavigationHistory", {})["entries"]]
+            assert visited[-2:] == [url.split("?")[0]] * 2 and not any(key in entry for entry in visited), visited
             # the address without its key now works too, by the cookie: a reload of the page, or a bookmark of it
             browser.get(url.split("?")[0])
             wait_for(lambda: (s := browser.execute_script(state)) and s["connected"], 60, "the page by its cookie")
