@@ -241,8 +241,10 @@ def test_a_session_of_both_conditions_in_the_two_pages_is_analysed_as_a_pilot(tm
                     if state["phase"] == "distance":
                         press(headset, "left", "x-button")  # the controllers CONTROLLERS_APART apart
                     elif state["phase"] == "questionnaire":
-                        # unanswered until chosen: the first push chooses the scale's middle, then one press
-                        push_thumbstick(headset, "left", 0.9)
+                        # unanswered until chosen: the first push enters the scale from the end it comes from, then
+                        # one press; after VR a push left (the highest point), after reality a push right (the lowest)
+                        asked = sum(phase == "questionnaire" for _, phase in seen)
+                        push_thumbstick(headset, "left", -0.9 if asked == 1 else 0.9)
                         press(headset, "left", "x-button")
                     elif state["phase"] == "preference":
                         # each group is of one approach, and is asked all the same; in reality the observer asks,
@@ -275,8 +277,8 @@ def test_a_session_of_both_conditions_in_the_two_pages_is_analysed_as_a_pilot(tm
     assert float(perceived_row["perceived_distance"]) == pytest.approx(CONTROLLERS_APART, abs=0.001)
     answers = read_csv(out / "questionnaires" / "answers" / f"comfort_participant_{PARTICIPANT:02d}.csv")
     assert [(a["administration"], a["item"], a["answer"]) for a in answers] == [
-        ("comfort_after_vr", "comfort", "3"),  # the middle of 1..5, chosen by the first push
-        ("comfort_after_reality", "comfort", "3"),
+        ("comfort_after_vr", "comfort", "5"),  # 1..5 entered from its right end by a push left
+        ("comfort_after_reality", "comfort", "1"),  # and from its left end by a push right
     ]
     assert_the_trigger_stopped_the_vr_approach(vr_row, ended, vr_round_trip_s, vr_pressed_at_ms)
     assert_the_hand_withdrew(
@@ -417,7 +419,8 @@ def assert_the_pilot_is_analysed(out: Path) -> None:
     assert "| button | 1 |" in report and "| vr_trigger | 1 |" in report
     assert "The button path minus the vr_trigger path, medians: input delay " in report
     assert "## Questionnaires" in report
-    assert "| comfort_after_vr | comfort | 1 | 3.00 (–) |" in report and "| comfort_after_reality |" in report
+    assert "| comfort_after_vr | comfort | 1 | 5.00 (–) |" in report
+    assert "| comfort_after_reality | comfort | 1 | 1.00 (–) |" in report
     assert "## The mixed models: not fitted in a pilot" in report
     assert "distance at the press (m) ~ condition × speed set × path + period + sequence" in report
     assert "Period (first block − second) is condition × sequence" in report

@@ -165,6 +165,7 @@ def test_a_browser_that_opened_the_printed_address_is_served_and_one_without_its
         server = start(launcher, {**plain_env(), **secrets}, tmp_path, "button")
         processes.append(server)
         url = launcher.page_url(server.output())
+        key = url.split("?key=")[1]
         with chromium(tmp_path / "chromium", accept_insecure_certs=True) as browser:
             browser.get(url.split("?")[0])
             assert "does not carry this launch's key" in browser.page_source
@@ -176,6 +177,11 @@ def test_a_browser_that_opened_the_printed_address_is_served_and_one_without_its
                 60,
                 "the page to connect and its clock to be answered",
             )
+            # the page has used the key (its settings came by the cookie), so the key has left the tab's address and
+            # its back/forward list (DevTools' view of it): the entry was replaced
+            assert browser.execute_script("return location.href;") == url.split("?")[0]
+            visited = [entry["url"] for entry in browser.execute_cdp_cmd("Page.getNavigationHistory", {})["entries"]]
+            assert visited[-2:] == [url.split("?")[0]] * 2 and not any(key in entry for entry in visited), visited
             # the address without its key now works too, by the cookie: a reload of the page, or a bookmark of it
             browser.get(url.split("?")[0])
             wait_for(lambda: (s := browser.execute_script(state)) and s["connected"], 60, "the page by its cookie")
@@ -186,14 +192,19 @@ def test_a_browser_that_opened_the_printed_address_is_served_and_one_without_its
 
 
 # What a headset on the LAN asks the lab machine's page server, run in the headset's network namespace: the status of
-# each GET (argv: the server's address, its port, then Host and target pairs), or "refused" when the connection is
-# refused
+# each GET (argv: the scheme, the server's address, its port, then Host and target pairs), or "refused" when the
+# connection is refused; over HTTPS it accepts the server's self-signed certificate, as the headset's user does once
 _HEADSET = """
-import http.client, json, sys
-address, port, asks = sys.argv[1], int(sys.argv[2]), sys.argv[3:]
+import http.client, json, ssl, sys
+scheme, address, port, asks = sys.argv[1], sys.argv[2], int(sys.argv[3]), sys.argv[4:]
 answers = []
 for host, target in zip(asks[::2], asks[1::2]):
-    connection = http.client.HTTPConnection(address, port, timeout=10)
+    if scheme == "https":
+        connection = http.client.HTTPSConnection(
+            address, port, timeout=10, context=ssl._create_unverified_context()
+        )
+    else:
+        connection = http.client.HTTPConnection(address, port, timeout=10)
     try:
         connection.putrequest("GET", target, skip_host=True)
         connection.putheader("Host", host)
@@ -252,28 +263,29 @@ def lan(tmp_path: Path):
 def test_a_headset_on_the_lan_gets_the_page_by_the_machines_address_only_when_the_server_is_told_to_listen(
     lan, tmp_path: Path
 ) -> None:
-    """By default the server is not on the LAN at all; with --host 0.0.0.0 a headset that names the machine's LAN
-    address (which the server finds itself) and carries the key gets the page, and one that names another address,
-    or carries no key, gets a 403."""
+    """By default the server is not on the LAN at all; with --host 0.0.0.0 (over HTTPS: plain HTTP is for loopback
+    only) a headset that names the machine's LAN address (which the server finds itself) and carries the key gets the
+    page, and one that names another address, or carries no key, gets a 403."""
     lab, headset, lab_address, _ = lan
     inside = ("ip", "netns", "exec", lab)
     processes: list[ManagedProcess] = []
     try:
         default = ButtonServer(9, plain_http=True)
-        everywhere = ButtonServer(9, host="0.0.0.0", plain_http=True)
+        # on the LAN over HTTPS only: plain HTTP is refused with any host but a loopback one
+        everywhere = ButtonServer(9, host="0.0.0.0", certificate_dir=tmp_path / "certificate")
         closed = start(default, plain_env(), tmp_path, "default", prefix=inside)
         processes.append(closed)
         opened = start(everywhere, plain_env(), tmp_path, "everywhere", prefix=inside)
         processes.append(opened)
         closed_port = int(default.page_url(closed.output()).split(":")[2].split("/")[0])
         printed = [line.split("the page: ")[1] for line in opened.output().splitlines() if "the page: " in line]
-        assert f"http://{lab_address}:" in " ".join(printed), printed  # the machine's LAN address, found and printed
+        assert f"https://{lab_address}:" in " ".join(printed), printed  # the machine's LAN address, found and printed
         url = next(address for address in printed if lab_address in address)
         port, key = int(url.split(":")[2].split("/")[0]), url.split("?key=")[1]
 
-        def from_headset(address: str, port: int, *asks: str) -> list[object]:
+        def from_headset(scheme: str, address: str, port: int, *asks: str) -> list[object]:
             done = subprocess.run(
-                ["ip", "netns", "exec", headset, PYTHON, "-c", _HEADSET, address, str(port), *asks],
+                ["ip", "netns", "exec", headset, PYTHON, "-c", _HEADSET, scheme, address, str(port), *asks],
                 capture_output=True,
                 text=True,
                 timeout=60,
@@ -281,9 +293,10 @@ def test_a_headset_on_the_lan_gets_the_page_by_the_machines_address_only_when_th
             assert done.returncode == 0, done.stderr
             return json.loads(done.stdout)
 
-        assert from_headset(lab_address, closed_port, f"{lab_address}:{closed_port}", "/") == ["refused"]
+        assert from_headset("http", lab_address, closed_port, f"{lab_address}:{closed_port}", "/") == ["refused"]
         here = f"{lab_address}:{port}"
         assert from_headset(
+            "https",
             lab_address,
             port,
             *(here, f"/?key={key}"),  # the machine's LAN address, with the key

@@ -312,8 +312,9 @@ def test_an_emulated_quest_enters_the_session_and_answers_the_runner(tmp_path: P
                     refused = page_state(browser)
                     assert "Choose an answer with the thumbstick first" in refused["panel"], refused["panel"]
                     assert [what for what, _ in refused["actions"]][-1] == "preference"  # nothing sent
-                    push_thumbstick(browser, "left", -0.9)  # the first push: the middle of 1..5
-                    push_thumbstick(browser, "left", -0.9)  # one point down
+                    push_thumbstick(browser, "left", 0.9)  # the first push, right: in from the left end, 1
+                    assert "< 1: not at all >" in page_state(browser)["panel"]
+                    push_thumbstick(browser, "left", 0.9)  # one point up
                     assert "< 2: between not at all and fully >" in page_state(browser)["panel"]
                     press(browser, "left", "x-button")
             if not ended:
@@ -493,6 +494,59 @@ def assert_the_bag_holds_the_tracked_body(
 
 
 pytestmark = [pytest.mark.lane("alone", on=("project",)), pytest.mark.timeout(400)]
+
+
+# A questionnaire item's status as the runner says it (sim.study.run's status), of COMFORT's 1..5 scale: given to the
+# page's participant directly, with no runner, so that the page's first push is seen alone
+ITEM_STATUS = (
+    "{participant: 4, index: 1, total: 1, phase: 'questionnaire', condition: 'vr', test: 0, group_paths: [],"
+    " motion_start: null, administration: 'comfort_after_vr', item: %r, item_text: 'How comfortable?',"
+    " item_number: 1, item_count: 2, scale_low: 1, scale_high: 5, scale_labels: ['not at all', '', '', '', 'fully']}"
+)
+
+
+def test_the_first_push_enters_an_unanswered_scale_at_the_end_it_comes_from_and_the_key_leaves_the_address(
+    roscore, tmp_path: Path
+) -> None:
+    """In the headset, an unanswered item's first thumbstick push favours no point: a push right lands on the scale's
+    lowest point, a push left on its highest, never on the middle (the old page put both on 3 of 1..5). And once the
+    page has its settings (by the cookie), the launch's key is out of the tab's address."""
+    secrets = launch_secrets()
+    endpoint = EndpointProcess({**roscore.env, **secrets}, tmp_path, extra=["--websocket-port", "0"])
+    try:
+        vr, url = start_vr_page(endpoint.websocket_port, tmp_path, env=secrets)
+        try:
+            with chromium(tmp_path / "chromium", accept_insecure_certs=True, size="800,600") as browser:
+                browser.get(url)
+                wait_for(
+                    lambda: (s := page_state(browser)) and s["meshes"] and s["connected"] and s["enterable"],
+                    60,
+                    "the page to load the robot and connect",
+                )
+                key = url.split("?key=")[1]
+                address = browser.execute_script("return location.href;")
+                assert address == url.split("?")[0] and key not in address, address
+                # nor in the tab's back/forward list (DevTools' view of it): its entry was replaced
+                visited = [e["url"] for e in browser.execute_cdp_cmd("Page.getNavigationHistory", {})["entries"]]
+                assert visited[-1] == address and not any(key in entry for entry in visited), visited
+                draw_robot(browser, False)  # quicker frames: nothing here looks at the picture
+                browser.find_element("id", "enter").click()
+                wait_for(lambda: page_state(browser)["inSession"], 30, "the immersive session")
+                wait_for(lambda: page_state(browser)["rest"]["done"], 60, "the rest at the session's start")
+                first = {}
+                for item, x in (("pushed_right", 0.9), ("pushed_left", -0.9)):
+                    over_frames(browser, f"window.vrPage.page.participant.onStatus({ITEM_STATUS % item})")
+                    assert browser.execute_script("return window.vrPage.page.participant.answer;") is None
+                    push_thumbstick(browser, "right", x)
+                    first[item] = browser.execute_script("return window.vrPage.page.participant.answer;")
+                    panel = page_state(browser)["panel"]
+                    assert f"< {first[item]}: " in panel, panel
+                assert first == {"pushed_right": 1, "pushed_left": 5}, first
+                assert browser.execute_script("return location.href;") == url.split("?")[0]
+        finally:
+            vr.stop()
+    finally:
+        endpoint.stop()
 
 
 MESH_COUNT = """const counted = {meshes: 0, triangles: 0};

@@ -101,7 +101,7 @@ test("a questionnaire's answer: pushes walk the scale frame by frame, then a con
   loop.step(2, {});
   assert.deepEqual(
     calls.filter((call) => call[0] === 'answer'),
-    [['answer', { administration: 'ssq_after_vr', item: 'fatigue', answer: 3 }]],
+    [['answer', { administration: 'ssq_after_vr', item: 'fatigue', answer: 1 }]], // in at 0 from the left, then 1
   );
 });
 

@@ -95,13 +95,13 @@ test("a questionnaire's item starts unanswered, and a confirm without a choice i
   assert.equal(participant.onConfirm(null), null); // no default answer: nothing is sent
   assert.equal(participant.answered, false);
   assert.match(participant.instructions()[1].at(-1), /Choose an answer with the thumbstick first/);
-  participant.onChoose(-1); // from no choice: the middle of 0..3, on the side pushed
-  assert.equal(participant.instructions()[1][1], '< 1: slight >');
+  participant.onChoose(-1); // from no choice: in from the right end of 0..3, its highest point
+  assert.equal(participant.instructions()[1][1], '< 3: severe >');
   assert.doesNotMatch(participant.instructions()[1].at(-1), /Choose an answer/); // the notice goes once chosen
   participant.onChoose(-1);
   assert.deepEqual(participant.onConfirm(null), [
     'answer',
-    { administration: 'ssq_before_vr', item: 'nausea', answer: 0 },
+    { administration: 'ssq_before_vr', item: 'nausea', answer: 2 },
   ]);
   assert.equal(participant.onConfirm(null), null); // answered once
   assert.deepEqual(participant.instructions()[1], ['Thank you.']);
@@ -126,7 +126,7 @@ function pick({ administration, item }) {
   return { administration, item };
 }
 
-test("the thumbstick walks an item's scale from its middle, one point a push, and stops at its ends", () => {
+test("the thumbstick walks an item's scale from the end it enters by, one point a push, and stops at its ends", () => {
   const participant = new Participant(PROTOCOL);
   const safety = {
     administration: 'perceived_safety_after_vr',
@@ -137,10 +137,12 @@ test("the thumbstick walks an item's scale from its middle, one point a push, an
   };
   participant.onStatus(status('questionnaire', safety));
   assert.equal(participant.answer, null);
-  participant.onChoose(+1); // the first push chooses the middle
-  assert.equal(participant.answer, 4);
-  assert.equal(participant.instructions()[1][1], '< 4: between not at all safe and completely safe >');
-  for (let push = 0; push < 5; push += 1) participant.onChoose(+1);
+  participant.onChoose(+1); // the first push right enters from the left: the lowest point
+  assert.equal(participant.answer, 1);
+  assert.equal(participant.instructions()[1][1], '< 1: not at all safe >');
+  participant.onChoose(+1);
+  assert.equal(participant.instructions()[1][1], '< 2: between not at all safe and completely safe >');
+  for (let push = 0; push < 8; push += 1) participant.onChoose(+1);
   assert.equal(participant.instructions()[1][1], '< 7: completely safe >');
   participant.onChoose(-1);
   assert.deepEqual(participant.onConfirm(null), ['answer', { ...pick(safety), answer: 6 }]);
@@ -150,12 +152,35 @@ test("the thumbstick walks an item's scale from its middle, one point a push, an
   assert.equal(participant.answer, 6);
 });
 
-test('the middle of each scale, and the labels of points between labelled ones', () => {
-  assert.equal(firstAnswer({ scale_low: 0, scale_high: 3 }, -1), 1);
-  assert.equal(firstAnswer({ scale_low: 0, scale_high: 3 }, +1), 2);
-  assert.equal(firstAnswer({ scale_low: 0, scale_high: 6 }, -1), 3);
-  assert.equal(firstAnswer({ scale_low: 0, scale_high: 6 }, +1), 3);
-  assert.equal(firstAnswer({ scale_low: 1, scale_high: 5 }, +1), 3);
+test('the first push favours no point: each direction enters at its own end, never the middle', () => {
+  for (const [low, high] of [
+    [0, 3],
+    [0, 6],
+    [1, 5],
+    [1, 7],
+  ]) {
+    const scale = { scale_low: low, scale_high: high };
+    assert.equal(firstAnswer(scale, +1), low);
+    assert.equal(firstAnswer(scale, -1), high);
+  }
+  // pushes in one direction walk the whole scale from the end they entered by, the two directions mirrored
+  const participant = new Participant(PROTOCOL);
+  const walked = (direction, pushes) => {
+    participant.onStatus(status('questionnaire', { ...SYMPTOM, item: `walk ${direction} ${pushes}` }));
+    for (let push = 0; push < pushes; push += 1) participant.onChoose(direction);
+    return participant.answer;
+  };
+  assert.deepEqual(
+    [1, 2, 3, 4, 5].map((pushes) => walked(+1, pushes)),
+    [0, 1, 2, 3, 3],
+  );
+  assert.deepEqual(
+    [1, 2, 3, 4, 5].map((pushes) => walked(-1, pushes)),
+    [3, 2, 1, 0, 0],
+  );
+});
+
+test('the labels of points between labelled ones', () => {
   const aware = {
     scale_low: 0,
     scale_labels: ['extremely aware', '', '', 'moderately aware', '', '', 'not aware at all'],
@@ -172,12 +197,12 @@ test('an item said again after its answer was refused is asked again, from the p
   participant.onStatus(nausea);
   participant.onChoose(+1);
   participant.onChoose(+1);
-  assert.deepEqual(participant.onConfirm(null)[1].answer, 3);
+  assert.deepEqual(participant.onConfirm(null)[1].answer, 1);
   participant.onStatus({ ...nausea }); // the runner refused it and says the item again
   assert.equal(participant.answered, false);
-  assert.equal(participant.instructions()[1][1], '< 3: severe >');
+  assert.equal(participant.instructions()[1][1], '< 1: slight >');
   assert.match(participant.instructions()[1].at(-1), /not taken/);
-  assert.deepEqual(participant.onConfirm(null)[1].answer, 3);
+  assert.deepEqual(participant.onConfirm(null)[1].answer, 1);
   assert.equal(participant.notice, '');
   // a preference's status said again is not a question asked again
   participant.onStatus(status('preference', { group_paths: ['straight'] }));

@@ -233,8 +233,8 @@ def withdrawal(track: Track, window: Window, gap: float, robot_point: np.ndarray
     from it (m/s)) over the withdrawal's window (withdrawal_end; to window.limit when the track stops short of its
     end). `robot_point`: the end effector's point (world) at the press, or at rest without one; the part of a move
     towards it is not counted (None: every move counts). Both NaN when they cannot be told: no place at the start, a
-    gap in the tracking inside the window (the hand may have moved unseen: missing, never 0); the speed also without
-    two poses SPEED_SPAN apart."""
+    gap in the tracking inside the window, no pose inside it at all (the hand may have moved unseen: missing, never
+    0); the speed also without two poses SPEED_SPAN apart."""
     reference = position_at(track, window.start, gap)
     end = withdrawal_end(track, window, gap)
     end = window.limit if end is None else end
@@ -247,9 +247,11 @@ def withdrawal(track: Track, window: Window, gap: float, robot_point: np.ndarray
         away = out / norm if norm > 1e-9 else None
     inside = (track.stamps >= window.start) & (track.stamps <= end)
     stamps, positions = track.stamps[inside], track.positions[inside]
-    speed = _peak_speed(stamps, positions, gap, away)
     if stamps.size == 0:
-        return 0.0, speed
+        # no pose inside the window: the hand was never seen in it, however close the poses around it, so its
+        # withdrawal is missing, never 0
+        return math.nan, math.nan
+    speed = _peak_speed(stamps, positions, gap, away)
     moved = _not_towards(positions - reference, away)
     return float(np.max(np.linalg.norm(moved, axis=1))), speed
 

@@ -104,7 +104,8 @@ def _add_server_options(parser: argparse.ArgumentParser, port: int) -> None:
     parser.add_argument(
         "--plain-http",
         action="store_true",
-        help="HTTP without TLS: only for a browser on this machine or behind `adb reverse` (localhost is secure)",
+        help="HTTP without TLS: only for a browser on this machine or behind `adb reverse` (localhost is secure); "
+        "refused with a --host other than localhost or a loopback address",
     )
     parser.add_argument("--certificate", type=Path, help="your own TLS certificate (PEM), with --key")
     parser.add_argument("--key", type=Path, help="the key of --certificate (PEM)")
@@ -158,7 +159,13 @@ def _check_server_options(args: argparse.Namespace) -> None:
         raise ViewError("--certificate and --key go together")
     if args.plain_http and args.certificate is not None:
         raise ViewError("--plain-http serves no TLS: leave out --certificate and --key")
-    from sim.study.views.vr.access import is_host_name
+    from sim.study.views.vr.access import is_host_name, is_loopback
+
+    if args.plain_http and not is_loopback(args.host):
+        raise ViewError(
+            f"--plain-http with --host {args.host}: the key and its cookie would cross the network in clear; plain "
+            "HTTP is for 127.0.0.1 or localhost only (a headset behind `adb reverse`), a LAN address needs HTTPS"
+        )
 
     for name in args.allow_host:
         if not is_host_name(name):

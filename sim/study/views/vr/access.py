@@ -23,7 +23,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 from urllib.parse import parse_qs
 
-__all__ = ["SECRET_PARAMETER", "Access", "host_name", "is_host_name", "normal_names"]
+__all__ = ["SECRET_PARAMETER", "Access", "host_name", "is_host_name", "is_loopback", "normal_names"]
 
 SECRET_PARAMETER = "key"  # the query parameter of the printed address that carries the secret
 _HOST_NAME = re.compile(r"[A-Za-z0-9](?:[A-Za-z0-9-]*[A-Za-z0-9])?(?:\.[A-Za-z0-9-]+)*\.?")
@@ -44,6 +44,12 @@ def host_name(host: str) -> str:
 def is_host_name(text: str) -> bool:
     """`text` is a host name (letters, digits, hyphens, dots) or an IP address: no scheme, port or path."""
     return _is_ip(text) or _HOST_NAME.fullmatch(text) is not None
+
+
+def is_loopback(host: str) -> bool:
+    """`host` (a listening address) reaches this machine only: localhost or a loopback address. Plain HTTP is for
+    such a host alone: on any other, the key and its cookie would cross the network in clear."""
+    return host.strip().lower() in LOCAL_NAMES or (_is_ip(host) and ipaddress.ip_address(host.strip()).is_loopback)
 
 
 def normal_names(names: Iterable[str]) -> frozenset[str]:

@@ -30,6 +30,7 @@ from sim.study.run.protocol import BODIES, INPUTS, PROTOCOL
 from sim.study.run.tracking import REST_S, TRACKING_TOPIC, announcement
 from sim.study.views.errors import ViewError
 from sim.study.views.live import COLOURS
+from sim.study.views.vr.access import SECRET_PARAMETER
 from sim.wire.rosmsgs import JOINT_STATE
 
 __all__ = [
@@ -90,6 +91,7 @@ PAGE_FILES = (
     "clock.js",
     "study.js",
     "presses.js",
+    "address.js",
 )
 # Modules served and loaded only when the server is started for them, in the order the page loads them: the emulated
 # headset before the page asks for WebXR, then the tests' probe (window.vrPage); the bench's frame-time instrument.
@@ -114,6 +116,7 @@ BUTTON_PAGE_FILES = (
     "rostcp.js",
     "clock.js",
     "study.js",
+    "address.js",
 )
 # The emulated gamepad before the page reads any, then the tests' probe (window.buttonPage)
 GAMEPAD_EMULATION_FILES = ("gamepademulation.js", "buttonprobe.js")
@@ -261,6 +264,7 @@ def page_settings(
         "protocol": PROTOCOL.data,  # the trial protocol's table, as the runner reads it
         "stop_source": PROTOCOL.stop_source("vr"),  # what the page's presses are named
         "ros_path": ROS_PATH,
+        "key_parameter": SECRET_PARAMETER,  # which part of the page's address is the launch's key, to take out of it
         "colours": {name: list(COLOURS[name]) for name in ("table", "hand")},
     }
 
@@ -293,6 +297,7 @@ def button_settings(emulation: bool = False) -> dict[str, Any]:
         "protocol": PROTOCOL.data,
         "stop_source": PROTOCOL.stop_source("reality"),
         "ros_path": ROS_PATH,
+        "key_parameter": SECRET_PARAMETER,
         "emulation": emulation,
     }
 

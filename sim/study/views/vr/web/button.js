@@ -5,7 +5,11 @@
 // whether ROS is connected, which gamepads it sees, the trial's phase, whether a press now would count, and each
 // press's timing. The phases, topics and stop source are the trial protocol's table, from the settings.
 //
+// Once its settings have come (by the cookie that keeps the launch's key), the key leaves the page's address
+// (address.js).
+//
 // `page` holds its whole state; the tests' probe imports it, served only when the server is started for it.
+import { forgetKey } from './address.js';
 import { RosConnection } from './connection.js';
 import { GamepadPresses } from './gamepad.js';
 import { stopPayload } from './presses.js';
@@ -125,6 +129,7 @@ function show(page, elements) {
 
 async function startPage() {
   const settings = await (await fetch('/settings.json')).json();
+  forgetKey(location, history, settings.key_parameter); // the settings came by the cookie: the key is not needed
   const url = `${location.protocol === 'https:' ? 'wss' : 'ws'}://${location.host}${settings.ros_path}`;
   const page = new ButtonPage(settings, url);
   page.connection.open();

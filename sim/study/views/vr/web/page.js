@@ -5,8 +5,12 @@
 // its jitter (rest.js). It is a client of the endpoint's WebSocket
 // transport (connection.js), reached through this page's own server at /ros.
 //
+// Once its settings have come (by the cookie that keeps the launch's key), the key leaves the page's address
+// (address.js).
+//
 // This module puts the parts together; `page` holds them all, the page's whole state. The tests' probe and the
 // frame-time instrument import it, and are served only when the page's server is started for them.
+import { forgetKey } from './address.js';
 import { Controllers } from './controllers.js';
 import { FrameLoop } from './frameloop.js';
 import { Headset } from './headset.js';
@@ -21,6 +25,7 @@ import { Tracking } from './tracking.js';
 
 async function startPage() {
   const settings = await (await fetch('/settings.json')).json();
+  forgetKey(location, history, settings.key_parameter); // the settings came by the cookie: the key is not needed
   const statusLine = document.getElementById('status');
   const view = new View(settings, document.body);
   const robot = new Robot(settings.robot, view.world);

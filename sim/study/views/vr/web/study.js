@@ -8,8 +8,8 @@
 //                                 shown) or answer (the point of the item's scale shown), whichever it accepts
 //   thumbstick left / right       while a preference is asked: show the previous / next path of the group; while a
 //                                 questionnaire's item is asked: one point down / up its scale, stopping at its ends;
-//                                 an item starts with no answer chosen, and the first push chooses the scale's middle
-//                                 (on the side pushed, when the middle falls between two points)
+//                                 an item starts with no answer chosen, and the first push enters the scale from the
+//                                 end it comes from: right, its lowest point; left, its highest (firstAnswer)
 
 // An action is [input, value]: ['stop', stamp s or 0], ['go'], ['distance', m], ['preference', path name],
 // ['answer', {administration, item, answer}], named by the table's inputs.
@@ -172,13 +172,16 @@ export class Participant {
 export const NO_ANSWER = '?';
 export const NO_ANSWER_LABEL = 'no answer yet';
 
-// Where the first push of the thumbstick lands on an item's scale, which starts unanswered: its middle (3 of the IPQ's
-// 0..6, 4 of a 1..7 item), and where the middle falls between two points (the SSQ's 0..3), the one on the side pushed
-// (step -1: 1, +1: 2). The same rule for every scale, so that the page needs to know no instrument; no point is taken
-// without a push and a confirm, as on paper nothing is ticked until the participant ticks it.
+// Where the first push of the thumbstick lands on an item's scale, which starts unanswered: the cursor waits just off
+// the end the push comes from and steps onto the scale's first point from there, so a push right (+1) lands on the
+// lowest point and a push left (-1) on the highest. Starting from the middle put every first push there, and a
+// participant who confirmed at once answered "neutral": a pull to the centre. Here no point is where the page puts
+// the cursor by itself: which end it enters from is the participant's choice, the two ends alike, and every other
+// point is reached only by walking to it (at most half the scale's pushes, from the nearer end). The same rule for
+// every scale, so that the page needs to know no instrument; no point is taken without a push and a confirm, as on
+// paper nothing is ticked until the participant ticks it.
 export function firstAnswer(status, step) {
-  const middle = (status.scale_low + status.scale_high) / 2;
-  return step < 0 ? Math.floor(middle) : Math.ceil(middle);
+  return step > 0 ? status.scale_low : status.scale_high;
 }
 
 // What the panel says of a point of the item's scale: its label, or, for a point without one (the IPQ labels only

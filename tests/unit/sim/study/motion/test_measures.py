@@ -156,6 +156,17 @@ def test_a_gap_inside_the_withdrawals_window_makes_it_missing_never_zero() -> No
     assert math.isnan(distance) and math.isnan(speed)
 
 
+def test_a_window_without_a_pose_inside_is_missing_never_zero() -> None:
+    """Poses only before and after the withdrawal's window, closer than a (long) gap: nothing is counted as a gap,
+    yet the hand was never seen in the window, so its withdrawal is missing, not "it did not move"."""
+    long_gap = 2 * WITHDRAWAL_LIMIT + 1.0
+    track = Track(np.array([9.0, 14.5]), np.array([HAND, HAND + np.array([0.0, -0.3, 0.0])]))
+    window = Window(10.0, 10.5)
+    assert untracked_time(track, Window(window.start, window.limit), long_gap) == 0.0
+    distance, speed = withdrawal(track, window, long_gap, ROBOT)
+    assert math.isnan(distance) and math.isnan(speed)
+
+
 def test_speed_needs_two_poses_a_span_apart() -> None:
     times = WINDOW.start + np.arange(0, 8.0, 0.04)  # every pose 40 ms from the next: none SPEED_SPAN after another
     times = np.sort(np.concatenate([times, times + 0.045]))

@@ -13,6 +13,7 @@ from sim.robots import find_ros_package
 from sim.study.design.scene import load_scene, scene_robot
 from sim.study.run.tracking import REST_S, announcement_from_json
 from sim.study.views.errors import ViewError
+from sim.study.views.vr.access import SECRET_PARAMETER
 from sim.study.views.vr.site import WEB_DIR, Site, content_type, make_site, page_settings, pose_conditions_from
 
 
@@ -109,6 +110,7 @@ def test_the_button_page_is_its_own_entry_with_the_vr_pages_ros_modules_and_noth
     assert (
         settings["stop_source"] == "button" and settings["protocol"]["stop_sources"]["button"]["condition"] == "reality"
     )
+    assert settings["key_parameter"] == SECRET_PARAMETER  # the part of the address address.js takes out
 
 
 def test_the_settings_carry_the_scene_the_joints_and_the_topics(site: Site) -> None:
@@ -124,6 +126,7 @@ def test_the_settings_carry_the_scene_the_joints_and_the_topics(site: Site) -> N
         "right_hand": ["/study/pose/right_hand", "geometry_msgs/PoseStamped"],
     }
     assert settings["ros_path"] == "/ros" and settings["emulation"] is False
+    assert settings["key_parameter"] == SECRET_PARAMETER  # the part of the address address.js takes out
     # the page's announcement of itself as the VR condition's pose source (alone, by default: in reality another
     # tracker is), as the runner reads one, its jitter not measured until the rest at the session's start
     assert settings["topics"]["tracking"] == ["/study/tracking", "std_msgs/String"]
