@@ -299,8 +299,8 @@ UNTRACKED = PoseSource("")
 
 def calibration_id(fit: Mapping[str, Any] | None) -> str:
     """A short id of a calibration's fit (its JSON data, as announced): the first hex digits of the SHA-256 of its
-    canonical JSON, so the same fit has the same id in every trial and session, and a fit made again has another;
-    "" without one."""
+    canonical JSON, so a fit has the same id in every trial and session that used it, and one from other touches
+    another; "" without one."""
     if not fit:
         return ""
     canonical = json.dumps(fit, sort_keys=True, separators=(",", ":"))
