@@ -3,7 +3,11 @@ rosbag record), the endpoint, the engine stand-in in lockstep, the tracker relay
 typed at its terminal, and a scripted client of the endpoint that is both the VR scene (its poses straight on the
 study's topics, in the world) and a motion-capture system in reality (its poses on a driver's topics and on /tf, in
 a frame of its own turned and moved from the world, with jitter), and in reality also a VR page left open (its
-poses on the study's topics, through the endpoint), which the runner drops: only the announced source's count."""
+poses on the study's topics, through the endpoint), which the runner drops: only the announced source's count.
+And pose sources that change mid-session, all scripted through the endpoint: the VR page tracking VR, a calibrated
+tracker announced for reality's first trial, then the page started anew with `--pose-conditions vr,reality` (a
+headset worn in reality too): each trial's row names the source that tracked it, the headset's uncalibrated poses in
+reality as a source of their own, and the report's caveat follows from the rows, not the session's record."""
 
 from __future__ import annotations
 
@@ -41,7 +45,15 @@ from sim.study.run.protocol import (
     TOPIC_TYPES,
     status_from_json,
 )
-from sim.study.run.tracking import CALIBRATION_TOPIC, TF_STATIC_TOPIC, TRACKING_TOPIC, marked_points
+from sim.study.run.tracking import (
+    CALIBRATION_TOPIC,
+    TF_STATIC_TOPIC,
+    TRACKING_TOPIC,
+    announcement,
+    calibration_id,
+    marked_points,
+)
+from sim.study.views.vr.site import page_settings, pose_conditions_from
 from sim.wire.rosmsgs import (
     JOINT_STATE,
     TYPESTORE,
@@ -258,6 +270,10 @@ def test_a_session_tracked_by_the_headset_in_vr_and_a_calibrated_mocap_in_realit
     for row, within in ((vr, 1e-6), (reality, 0.003)):
         assert row["tracked_hand"] == "right_hand" and float(row["hand_untracked"]) == 0.0, row
         assert float(row["withdrawal_distance"]) == pytest.approx(WITHDRAWAL, abs=within), row
+    # each row names its source: VR's by the command line (no calibration), reality's the relay, with its fit's id
+    fit_id = calibration_id(fit)
+    assert (vr["pose_source"], vr["calibration_id"]) == ("headset", "")
+    assert (reality["pose_source"], reality["calibration_id"]) == ("mocap_sim", fit_id) and len(fit_id) == 8
     # The session's record names each condition's source; the bag holds the fit, the announcement and the TF
     record = json.loads((out / "tracking" / "participant_05.json").read_text())
     assert record["conditions"]["vr"]["source"] == "headset"
@@ -286,4 +302,122 @@ def test_a_session_tracked_by_the_headset_in_vr_and_a_calibrated_mocap_in_realit
     assert "| vr | headset (1) | not measured |" in report
     assert re.search(r"^\| reality \| mocap_sim \(1\) \| 0\.[3-7]\d \(most ", report, re.M), report
     assert "**Caveat on every VR − reality contrast here** (test 2's withdrawal distance" in report
-    assert "vr: headset (1); reality: mocap_sim (1)" in report
+    assert f"vr: headset (1 participant, 1 trial); reality: mocap_sim (calibration {fit_id}) (1 participant" in report
+
+
+# What the VR page announces of itself: by default (VR alone), and with `vr --pose-conditions vr,reality` (a headset
+# worn with passthrough in reality too); neither with a calibration
+PAGE = page_settings(ROBOT, SCENE)["pose_source"]
+PAGE_IN_BOTH = page_settings(ROBOT, SCENE, pose_conditions_from("vr,reality"))["pose_source"]
+# A calibrated tracker for reality, announced through the endpoint (the runner records its announcement; its
+# residuals go to the report's table)
+MOCAP_FIT = {"residual_rms_m": 0.0011, "residual_max_m": 0.0019}
+MOCAP_ANNOUNCED = announcement("mocap_sim", ("reality",), {}, None, MOCAP_FIT)
+# As each trial goes to its start, what is announced then: the tracker for reality's first trial, then the page
+# started anew with `--pose-conditions vr,reality`, which takes reality over from it
+ANNOUNCED_AT = {2: MOCAP_ANNOUNCED, 3: json.dumps(PAGE_IN_BOTH)}
+
+
+class SourcesChanging:
+    """A VR page, scripted through the endpoint, and what else announces itself as a pose source through it: PAGE
+    (latched) from the start, then ANNOUNCED_AT each trial's start. It sends the bodies' poses in the world at each
+    joint state's stamp from every approach's start, in both conditions, the right hand withdrawing from the press
+    (PRESS_AFTER s in)."""
+
+    def __init__(self, port: int) -> None:
+        self.client = TcpClient("127.0.0.1", port)
+        self.done = threading.Event()
+        self.status: Any = None
+        for topic in (GO_TOPIC, STOP_TOPIC, PREFERENCE_TOPIC):
+            self.client.register_publisher(topic, TOPIC_TYPES[topic])
+        for topic in POSE_TOPICS.values():
+            self.client.register_publisher(topic, POSE_TYPE, queue_size=100)
+        self.client.register_publisher(TRACKING_TOPIC, "std_msgs/String", latch=True)
+        self.client.subscribe(STATUS_TOPIC, TOPIC_TYPES[STATUS_TOPIC], self.on_status)
+        self.client.subscribe(ROBOT.joint_states_topic, JOINT_STATE, self.on_joint_state)
+
+    def announce(self, text: str) -> None:
+        self.client.publish(TRACKING_TOPIC, encode_message("std_msgs/String", data=text))
+
+    def on_status(self, payload: bytes) -> None:
+        status = status_from_json(deserialize(payload, TOPIC_TYPES[STATUS_TOPIC]).data)
+        self.status = status if status.phase in ("moving", "at_rest") else None
+        if status.phase == "to_start" and status.index in ANNOUNCED_AT:
+            self.announce(ANNOUNCED_AT[status.index])
+        elif status.phase == "ready":
+            self.client.publish(GO_TOPIC, encode_message(TOPIC_TYPES[GO_TOPIC]))
+        elif status.phase == "moving":
+            stamp = time_msg(status.motion_start + PRESS_AFTER)
+            source = PROTOCOL.stop_source(status.condition)
+            stop = encode_message(TOPIC_TYPES[STOP_TOPIC], seq=0, stamp=stamp, frame_id=source)
+            self.client.publish(STOP_TOPIC, stop)
+            self.poses(status, status.motion_start)
+        elif status.phase == "preference":
+            self.client.publish(PREFERENCE_TOPIC, encode_message(TOPIC_TYPES[PREFERENCE_TOPIC], data="1"))
+        elif status.phase == "done":
+            self.done.set()
+
+    def on_joint_state(self, payload: bytes) -> None:
+        status = self.status
+        if status is not None:
+            self.poses(status, to_seconds(deserialize(payload, JOINT_STATE).header.stamp))
+
+    def poses(self, status: Any, stamp: float) -> None:
+        withdrawn = min(max(stamp - status.motion_start - PRESS_AFTER, 0.0) * WITHDRAWAL_SPEED, WITHDRAWAL)
+        world = {"head": HEAD, "right_hand": SCENE.hand.top - np.array([0.0, withdrawn, 0.0]), "left_hand": LEFT_HAND}
+        for body, position in world.items():
+            self.client.publish(POSE_TOPICS[body], encode_pose_stamped(stamp, POSE_FRAME, position, IDENTITY))
+
+
+def test_the_headset_worn_in_reality_and_a_source_changing_mid_session_are_named_trial_by_trial(
+    roscore, endpoint, tmp_path: Path
+) -> None:
+    assert PAGE["conditions"] == ["vr"] and PAGE_IN_BOTH["conditions"] == ["vr", "reality"]
+    assert PAGE["calibration"] is None and PAGE_IN_BOTH["calibration"] is None
+    plan = write_plan(
+        tmp_path / "plan.yaml",
+        6,
+        "vr",
+        [
+            trial(1, "vr", 2, "straight", ON_TOP, 0.3, "fast", 1),
+            trial(2, "reality", 2, "straight", ON_TOP, 0.3, "fast", 1),
+            trial(3, "reality", 2, "straight", ON_TOP, 0.3, "fast", 1),
+        ],
+    )
+    out = tmp_path / "out"
+    engine = start_engine(roscore, tmp_path, "panda", endpoint.port, "--no-auto-simulate")
+    page = SourcesChanging(endpoint.port)
+    runner = None
+    try:
+        page.client.connect(timeout=30)
+        page.announce(json.dumps(PAGE))
+        runner = start(Runner(plan, out), roscore.env, tmp_path, "runner")
+        finish(runner, 120)
+        assert page.done.wait(10)
+    finally:
+        if runner is not None:
+            runner.stop()
+        page.done.set()
+        page.client.close()
+        engine.stop()
+    with open(out / "participant_06.csv", newline="") as source:
+        rows = list(csv.DictReader(source))
+    assert all(row["tracked_hand"] == "right_hand" for row in rows), rows
+    mocap_id = calibration_id(MOCAP_FIT)
+    assert [(row["condition"], row["pose_source"], row["calibration_id"]) for row in rows] == [
+        ("vr", "headset", ""),
+        ("reality", "mocap_sim", mocap_id),  # its trial's, though reality's source changed after it
+        ("reality", "headset (uncalibrated)", ""),  # the headset's own tracking, not calibrated to the real table
+    ]
+    # the session's record keeps each condition's latest source: by it alone, both conditions had the headset
+    record = json.loads((out / "tracking" / "participant_06.json").read_text())
+    assert record["conditions"]["vr"]["source"] == "headset"
+    assert record["conditions"]["reality"]["source"] == "headset (uncalibrated)"
+    # the report's caveat follows from the rows
+    assert main(["analyse", str(out)]) == 0
+    report = (out / "report.md").read_text()
+    assert "**Caveat on every VR − reality contrast here**" in report, report
+    assert (
+        "for 1 of 1 participants, by their trials' records (vr: headset (1 participant, 1 trial); reality: headset "
+        f"(uncalibrated) (1 participant, 1 trial), mocap_sim (calibration {mocap_id}) (1 participant, 1 trial))"
+    ) in report, report

@@ -23,7 +23,7 @@ from sim.study.analysis.motion import MotionSummary, motion_lines, summarise_mot
 from sim.study.analysis.questionnaires import QuestionnaireSummary, questionnaire_lines
 from sim.study.analysis.statistics import Estimate, PairedComparison
 from sim.study.analysis.summary import StudySummary, cell, per_participant, perceived_ratio, summarise
-from sim.study.analysis.trackers import TrackerSummary, tracker_caveat, tracker_lines
+from sim.study.analysis.trackers import TrackerSummary, TrialSources, tracker_caveat, tracker_lines, trial_sources
 from sim.study.design.spec import CONDITIONS
 from sim.study.run.records import TrialRecord, read_records
 
@@ -194,6 +194,7 @@ def _markdown(
     trackers: TrackerSummary | None = None,
     links: Sequence[str] = (),
     notes: Sequence[str] = (),
+    sources: TrialSources | None = None,
 ) -> str:
     flag = keyboard_flag(latency)  # first, as it biases the contrast
     lines = [f"# {title}", "", *([flag, ""] if flag else []), *(line for note in notes for line in (note, ""))]
@@ -205,7 +206,7 @@ def _markdown(
                 f"at the press by {summary.extrapolation_error.mean * 1000:.1f} mm on average.",
                 "",
             ]
-        return _rest(lines, summary, latency, motion, plots, questionnaires, trackers, links)
+        return _rest(lines, summary, latency, motion, plots, questionnaires, trackers, links, sources)
     assert summary.distance_ratio_vr_vs_reality and summary.stop_distance_vr_vs_reality  # 2+ participants
     assert summary.extrapolation_error
     lines += [
@@ -269,7 +270,7 @@ def _markdown(
         f"at the press by {_estimate_cell(error, 1000.0, 1)} mm on average.",
         "",
     ]
-    return _rest(lines, summary, latency, motion, plots, questionnaires, trackers, links)
+    return _rest(lines, summary, latency, motion, plots, questionnaires, trackers, links, sources)
 
 
 def _rest(
@@ -281,10 +282,13 @@ def _rest(
     questionnaires: QuestionnaireSummary | None,
     trackers: TrackerSummary | None = None,
     links: Sequence[str] = (),
+    sources: TrialSources | None = None,
 ) -> str:
-    """The sections after the tests', a pilot's as well: the motion (with its trackers), the latency, the robot's
-    trajectory controller (`links`, where one ran), the notes, the questionnaires and the plots."""
-    motion_section = motion_lines(motion, tracker_caveat(trackers), tracker_lines(trackers) if motion.recorded else [])
+    """The sections after the tests', a pilot's as well: the motion (with its trackers, and the caveat when the
+    trials' `sources` differ between the conditions), the latency, the robot's trajectory controller (`links`, where
+    one ran), the notes, the questionnaires and the plots."""
+    trackers_section = tracker_lines(trackers, sources) if motion.recorded else []
+    motion_section = motion_lines(motion, tracker_caveat(sources), trackers_section)
     lines += [*motion_section, *latency_lines(latency), *links]
     if summary.notes:
         lines += ["Notes:", ""] + [f"- {note}" for note in summary.notes] + [""]
@@ -406,7 +410,8 @@ def write_report(
 ) -> Path:
     """report.md and its plots in `out`; with `sesoi` (per test, the design's), the verdicts, mixed models (the
     withdrawal's among them) and Bland–Altman plot too; with `questionnaires`, their section; with `trackers` (the
-    sessions' pose sources), which tracked each condition and the caveat when they differ; `notes`, paragraphs
+    sessions' pose sources), which tracked each condition; the caveat when the conditions' trackers differ comes from
+    the rows' pose sources (those of rows written before them from `trackers`); `notes`, paragraphs
     under the title (what the scene changed for the arm). AnalysisError when the records cannot be analysed."""
     import matplotlib
 
@@ -424,7 +429,9 @@ def write_report(
     motion = summarise_motion(records, model=sesoi is not None)
     latency = summarise_latency(records)
     links = link_lines(records)
+    sources = trial_sources(records, trackers)
+    modelled = sesoi is not None
     report.write_text(
-        _markdown(summary, latency, motion, plots, title, questionnaires, sesoi is not None, trackers, links, notes)
+        _markdown(summary, latency, motion, plots, title, questionnaires, modelled, trackers, links, notes, sources)
     )
     return report

@@ -80,8 +80,11 @@ def _motion() -> list[str]:
         "with the session. Each "
         "tracker's jitter (the RMS distance of a body's positions from their mean while it is held still) is "
         "measured at each session's start and reported beside the motion: the withdrawal's peak speed is sensitive "
-        "to it. The report names the tracker each condition used; where they differ, every VR − reality contrast of "
-        "a motion measure carries that caveat, as the tracker is then part of the contrast.",
+        "to it. Each trial records the tracker that tracked it and its calibration (the headset worn in reality, "
+        "not calibrated to the real table, counts as a tracker of its own); the report names the tracker each "
+        "condition used, and where a participant's conditions were not tracked by one tracker with one calibration, "
+        "every VR − reality contrast of a motion measure carries that caveat, as the tracker is then part of the "
+        "contrast.",
         "",
         "Derived per trial, of the hand under the robot (of the two tracked hands, the one nearest the scene's hand "
         f"as the approach starts, within {HAND_RADIUS:g} m; recorded as `tracked_hand`) and the head:",

@@ -3,8 +3,8 @@ column, so the analysis never works on a half-written or edited-by-hand file wit
 
 Distances are the end effector's (its FK from the achieved joint states) to the hand's surface, in metres. The
 press's latency columns, then the participant's motion (sim.study.motion), then the robot link's, then its goals'
-leads, then the separation monitoring came last: a file written before any of them is still read, with them at their
-defaults (NaN, no tracked hand, the stream).
+leads, then the separation monitoring, then the trial's pose source came last: a file written before any of them is
+still read, with them at their defaults (NaN, no tracked hand, the stream, no source named).
 """
 
 from __future__ import annotations
@@ -70,14 +70,18 @@ class TrialRecord:
     hand_monitored: str = ""
     least_separation_predicted: float = math.nan  # m: the least separation a stop decided then would have kept
     least_separation: float = math.nan  # m: the least achieved separation to the hand's live place while moving
+    # What tracked the trial's head and hands (sim.study.run.tracking.trial_source): the source's name ("" when no pose
+    # came, or the file was written before these columns) and its calibration's id ("" without one)
+    pose_source: str = ""
+    calibration_id: str = ""
 
 
 _FIELDS = fields(TrialRecord)
 _NAMES = [field.name for field in _FIELDS]
 # The headers a file may have: the columns up to each group added later (the press's latency, the motion, the link,
-# its leads, the separation monitoring). A file written before a group is read with that group's columns at their
-# defaults.
-_LATER_GROUPS = ("press_input_delay", "tracked_hand", "link", "start_lead", "hand_monitored")
+# its leads, the separation monitoring, the pose source). A file written before a group is read with that group's
+# columns at their defaults.
+_LATER_GROUPS = ("press_input_delay", "tracked_hand", "link", "start_lead", "hand_monitored", "pose_source")
 _HEADERS = [_NAMES[: _NAMES.index(first)] for first in _LATER_GROUPS] + [_NAMES]
 
 

@@ -39,7 +39,9 @@ participant, and poses travel apart from the status. Then it holds the robot at 
 hand under the robot is at rest again (at most sim.study.motion's WITHDRAWAL_LIMIT after the robot rests), so that a
 late withdrawal is measured whole. Which pose source tracked each condition (announced on /study/tracking by the
 tracker relay, sim.study.run.tracker, and by the VR page, or named by RunnerOptions.pose_sources over them), with its
-jitter and calibration, goes to tracking/participant_NN.json after every trial. In a condition's trials only the
+jitter and calibration, goes to tracking/participant_NN.json after every trial; each trial's row records the source
+that tracked it and its calibration's id (sim.study.run.tracking.trial_source), so a source that changed mid-session
+is attributed trial by trial. In a condition's trials only the
 poses of the ROS node that announced its source count (a page's come through the endpoint's node); the others are
 dropped, and said once per node: two trackers never mix in one measure. A condition without an announcement takes
 every pose.
@@ -107,8 +109,11 @@ from sim.study.run.tracking import (
     CALIBRATION_TOPIC,
     TF_STATIC_TOPIC,
     TRACKING_TOPIC,
+    UNTRACKED,
+    PoseSource,
     announcement_from_json,
     session_tracking,
+    trial_source,
 )
 from sim.study.run.tracking import FOLDER as TRACKING
 from sim.study.run.trial import TrialRun
@@ -510,7 +515,7 @@ class StudyRunner:
         self.publish_status(self.status(trial, "at_rest", motion_start=start))
         measures = run.measures()
         press = outcome.press
-        motion = self._motion(trial, run, began, Window(start, self.clock, start + measures.press_time), log)
+        motion, source = self._motion(trial, run, began, Window(start, self.clock, start + measures.press_time), log)
         perceived = math.nan
         if trial.test == 1:
             self.publish_status(self.status(trial, "distance", motion_start=start))
@@ -568,6 +573,8 @@ class StudyRunner:
             outcome.hand_monitored,
             outcome.least_separation_predicted,
             outcome.least_separation,
+            source.name,
+            source.calibration_id,
         )
         if outcome.safety_stop:
             self.safety_stops.append(f"trial {trial.index}: {outcome.safety_stop}")
@@ -585,11 +592,12 @@ class StudyRunner:
 
     def _motion(
         self, trial: PlannedTrial, run: TrialRun, began: float, window: Window, log: Callable[[str], None]
-    ) -> MotionMeasures:
+    ) -> tuple[MotionMeasures, PoseSource]:
         """The approach's motion measures from the poses of the bodies sending since it started (none: unmeasured),
-        once they are in up to its end; their poses since the trial `began` count (where a body was as it started)."""
+        once they are in up to its end; their poses since the trial `began` count (where a body was as it started).
+        With them, the source that tracked it: the one announced (or named) for its condition as they are taken."""
         if not self.poses.sending(window.start):
-            return UNMEASURED
+            return UNMEASURED, UNTRACKED
         self.tracked.add(trial.condition)
         late = self._await_poses(window.start, window.end)
         if late:
@@ -612,7 +620,8 @@ class StudyRunner:
         self.poses.forget(before=window.end)
         if not measures.tracked_hand:
             log(f"trial {trial.index}: no tracked hand was at the scene's hand as the approach started")
-        return measures
+        said, named = self.announced.get(trial.condition), self.options.pose_sources.get(trial.condition)
+        return measures, trial_source(trial.condition, said, named)
 
     def _follow_withdrawal(self, began: float, window: Window) -> None:
         """Hold the robot at rest, its clock running, until the hand under the robot is at rest again after its

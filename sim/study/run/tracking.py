@@ -16,13 +16,18 @@ poses is sim.study.run.tracker).
                     relay (sim.study.run.tracker) announces itself, and so does the VR page (its settings carry its
                     announcement, made here, which it sends with its first poses, and again with its jitter when
                     its rest at the session's start is over)
+  trial_source      one trial's pose source, recorded on its row: its name and its calibration's id (a short hash
+                    of the fit in use; "" uncalibrated). An announced source without a calibration is named apart
+                    in reality ("headset (uncalibrated)"): the headset's own tracking places its poses in the
+                    virtual scene, not at the real table, so they are a source of their own there
   session_tracking  the session's record of it: per condition whose trials had poses, the source that announced
-                    itself for it (or the one named on the runner's command line, which overrides it), its jitter
-                    and calibration
+                    itself for it last (or the one named on the runner's command line, which overrides it), its
+                    jitter and calibration
 """
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 from collections.abc import Mapping
@@ -52,6 +57,12 @@ __all__ = [
     "saved_calibration",
     "announcement",
     "announcement_from_json",
+    "UNNAMED",
+    "PoseSource",
+    "UNTRACKED",
+    "calibration_id",
+    "announced_name",
+    "trial_source",
     "session_tracking",
 ]
 
@@ -63,6 +74,8 @@ REST_S = 3.0  # s of the bodies at rest at the session's start, for the jitter: 
 STAMPS = ("source", "arrival")  # how a relayed pose is stamped (TrackerConfig.stamp)
 DEFAULT_POINTS = ("hand_fingertips", "hand_wrist", "table_corner_1", "table_corner_2", "table_corner_3")
 SCENE_TOLERANCE = 0.001  # m: a saved fit's point further than this from the scene's is of another scene
+UNNAMED = "unnamed"  # a tracked trial's source when neither an announcement nor the command line named one
+CALIBRATION_ID_LENGTH = 8  # hex digits of the fit's hash: a few fits per study, told apart at a glance
 
 
 @dataclass(frozen=True)
@@ -273,6 +286,47 @@ def announcement_from_json(text: str) -> dict[str, Any]:
     return data
 
 
+@dataclass(frozen=True)
+class PoseSource:
+    """What tracked one trial, as its row records it."""
+
+    name: str  # "" when the trial had no poses
+    calibration_id: str = ""  # the fit's calibration_id; "" without a calibration
+
+
+UNTRACKED = PoseSource("")
+
+
+def calibration_id(fit: Mapping[str, Any] | None) -> str:
+    """A short id of a calibration's fit (its JSON data, as announced): the first hex digits of the SHA-256 of its
+    canonical JSON, so a fit has the same id in every trial and session that used it, and one from other touches
+    another; "" without one."""
+    if not fit:
+        return ""
+    canonical = json.dumps(fit, sort_keys=True, separators=(",", ":"))
+    return hashlib.sha256(canonical.encode()).hexdigest()[:CALIBRATION_ID_LENGTH]
+
+
+def announced_name(condition: str, said: Mapping[str, Any]) -> str:
+    """The name an announced source goes by in `condition`'s trials: its own, but in reality "<name> (uncalibrated)"
+    when it has no calibration (the VR page's headset worn with passthrough, `vr --pose-conditions vr,reality`):
+    its own tracking places it in the virtual scene, which is not calibrated to the real table, so its poses there
+    are neither a calibrated tracker's nor the same source as the headset in VR."""
+    source = str(said["source"])
+    return f"{source} (uncalibrated)" if condition == "reality" and not said.get("calibration") else source
+
+
+def trial_source(condition: str, said: Mapping[str, Any] | None, named: str | None) -> PoseSource:
+    """The source of a trial of `condition` that had poses: the one `named` on the command line, which overrides the
+    announcement `said` for the condition unless that one has the same name (whose calibration it then keeps), else
+    the announced one (announced_name), else UNNAMED."""
+    if named is not None and (said is None or said["source"] != named):
+        return PoseSource(named)
+    if said is None:
+        return PoseSource(UNNAMED)
+    return PoseSource(announced_name(condition, said), calibration_id(said.get("calibration")))
+
+
 def session_tracking(
     participant: int,
     tracked: set[str],
@@ -282,7 +336,8 @@ def session_tracking(
     """The session's record of its pose sources: per condition in `tracked` (its trials had poses), the one `named`
     on the command line, which overrides any announcement (its jitter and calibration kept only when the source
     announced for the condition has that name), else the source `announced` for it (by condition, the latest
-    announcement naming it), else "" (unnamed)."""
+    announcement naming it, by announced_name), else "" (unnamed). Its trials' rows say which source tracked each
+    (trial_source): an announcement that came mid-session is the record's, not every trial's."""
     conditions: dict[str, Any] = {}
     for condition in CONDITIONS:
         if condition not in tracked:
@@ -292,7 +347,7 @@ def session_tracking(
             conditions[condition] = {"source": named[condition], "jitter_m": {}, "calibration": None}
         elif said is not None:
             conditions[condition] = {
-                "source": said["source"],
+                "source": announced_name(condition, said),
                 "jitter_m": said.get("jitter_m") or {},
                 "rest_s": said.get("rest_s"),
                 "calibration": said.get("calibration"),

@@ -41,6 +41,8 @@ PRESSED = TrialRecord(
     0.52,
     0.0,
     0.016,
+    pose_source="headset (uncalibrated)",
+    calibration_id="",
 )
 RESTED = TrialRecord(
     4,
@@ -112,7 +114,9 @@ def test_a_missing_file_is_a_study_error(tmp_path: Path) -> None:
         read_records(tmp_path / "absent.csv")
 
 
-@pytest.mark.parametrize("first", ["press_input_delay", "tracked_hand", "link", "start_lead"])
+@pytest.mark.parametrize(
+    "first", ["press_input_delay", "tracked_hand", "link", "start_lead", "hand_monitored", "pose_source"]
+)
 def test_a_file_written_before_a_group_of_columns_is_read_with_them_at_their_defaults(
     tmp_path: Path, first: str
 ) -> None:

@@ -1,5 +1,6 @@
 """sim.study.run.tracking: a tracker's configuration (its calibration's points refused when they lie in one plane),
-the scene's marked points, the announcement and the session's record of its pose sources; a touch whose poses are
+the scene's marked points, the announcement, each trial's pose source (the headset's uncalibrated poses in reality
+named apart, a fit by its id) and the session's record of its pose sources; a touch whose poses are
 not finite is taken again; a saved fit of another scene, tracker, frame or tip is refused naming what differs; and
 the tracker command's refusals of a saved fit (above the bound, mirrored, malformed): one line, exit 2."""
 
@@ -14,20 +15,24 @@ import pytest
 import yaml
 
 from sim.study.__main__ import main
-from sim.study.design.scene import load_scene
+from sim.study.design.scene import load_scene, scene_robot
 from sim.study.errors import StudyError
 from sim.study.motion.calibration import fit_calibration
 from sim.study.run.tracker import held_problem
 from sim.study.run.tracking import (
     DEFAULT_POINTS,
     BodySource,
+    PoseSource,
     announcement,
     announcement_from_json,
+    calibration_id,
     marked_points,
     saved_calibration,
     session_tracking,
     tracker_config,
+    trial_source,
 )
+from sim.study.views.vr.site import page_settings, pose_conditions_from
 
 SCENE = load_scene()
 POINTS = marked_points(SCENE)
@@ -115,6 +120,36 @@ def test_the_session_records_each_conditions_source() -> None:
     assert same["source"] == "optitrack" and same["jitter_m"] == {"head": 0.0002}
     with pytest.raises(StudyError, match="names no source"):
         announcement_from_json('{"conditions": []}')
+
+
+# what the VR page announces of itself with `vr --pose-conditions vr,reality` (a headset worn with passthrough)
+HEADSET = page_settings(scene_robot(SCENE), SCENE, pose_conditions_from("vr,reality"))["pose_source"]
+FIT = {"source": "optitrack", "frame": "mocap", "residual_rms_m": 0.001, "rotation": [[1.0, 0.0, 0.0]] * 3}
+
+
+def test_the_headsets_poses_in_reality_are_a_source_of_their_own_uncalibrated() -> None:
+    said = announcement_from_json(json.dumps(HEADSET))
+    assert trial_source("vr", said, None) == PoseSource("headset", "")
+    assert trial_source("reality", said, None) == PoseSource("headset (uncalibrated)", "")
+    # named by hand as what it announces, it is still its uncalibrated poses; named otherwise, the name is taken
+    assert trial_source("reality", said, "headset") == PoseSource("headset (uncalibrated)", "")
+    assert trial_source("reality", said, "vicon") == PoseSource("vicon", "")
+    assert trial_source("reality", None, None) == PoseSource("unnamed", "")
+    record = session_tracking(4, {"vr", "reality"}, {"vr": said, "reality": said}, {})["conditions"]
+    assert record["vr"]["source"] == "headset" and record["reality"]["source"] == "headset (uncalibrated)"
+
+
+def test_a_calibrated_source_is_recorded_with_its_fits_id() -> None:
+    said = announcement_from_json(announcement("optitrack", ("vr", "reality"), {}, 3.0, FIT))
+    fit_id = calibration_id(FIT)
+    assert len(fit_id) == 8 and int(fit_id, 16) >= 0
+    assert trial_source("reality", said, None) == PoseSource("optitrack", fit_id)
+    assert trial_source("vr", said, "optitrack") == PoseSource("optitrack", fit_id)  # named as it is: its fit kept
+    assert trial_source("reality", said, "vicon") == PoseSource("vicon", "")
+    # the id is the fit's: the same whatever the order of its keys, another for another fit, none without one
+    assert calibration_id(dict(reversed(list(FIT.items())))) == fit_id
+    assert calibration_id({**FIT, "residual_rms_m": 0.0011}) != fit_id
+    assert calibration_id(None) == "" and calibration_id({}) == ""
 
 
 def held(*positions: list[float]) -> np.ndarray:
