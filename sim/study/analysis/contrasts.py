@@ -1,6 +1,8 @@
-"""VR against reality, per test, the way a reviewer accepts it: the mixed model's VR − reality contrast judged against
-the design's SESOI (different, equivalent or inconclusive), the paired TOST on per-participant means beside it, and
-their Bland–Altman agreement. Pure logic; `analyse` and `power` both judge through `judge`, so a simulated study is
+"""VR against reality, per test, the way a reviewer accepts it: the mixed model's VR − reality contrast, fitted to
+every trial with a measure (unbiased when trials are missing at random given condition, factor and path), judged
+against the design's SESOI (different, equivalent or inconclusive); the sensitivity analysis of the missing trials
+(sim.study.analysis.missing) beside it; and, descriptive only, the paired TOST on per-participant means and their
+Bland–Altman agreement. Pure logic; `analyse` and `power` both judge through `judge`, so a simulated study is
 analysed exactly as a real one.
 
 The measures: test 1, perceived / actual distance (actual: the robot at rest); test 2, the distance at the press.
@@ -16,7 +18,7 @@ import numpy as np
 
 from sim.study.analysis.equivalence import Agreement, PairedTost, Verdict, agreement, paired_tost, verdict
 from sim.study.analysis.errors import AnalysisError
-from sim.study.analysis.missing import Sensitivity, delta_adjusted
+from sim.study.analysis.missing import IMPUTATIONS, Sensitivity, delta_adjusted
 from sim.study.analysis.mixed_model import ModelDesign, ModelFit, Trials, fit_model, model_design
 from sim.study.run.records import TrialRecord
 
@@ -112,14 +114,17 @@ def _means(trials: Trials, in_vr: bool) -> dict[int, float]:
     }
 
 
-def contrast(records: Sequence[TrialRecord], test: int, sesoi: float) -> TestContrast:
-    """VR against reality in `test`; AnalysisError when its trials cannot be modelled (e.g. fewer than 3 participants
-    with both conditions)."""
+def contrast(records: Sequence[TrialRecord], test: int, sesoi: float, imputations: int = IMPUTATIONS) -> TestContrast:
+    """VR against reality in `test`: the mixed model on every trial with a measure, and the sensitivity analysis of
+    the trials without one (`imputations` per scenario); AnalysisError when its trials cannot be modelled (e.g. fewer
+    than 3 participants with both conditions)."""
     trials = trials_for(records, test)
     fit, judged = judge(model_design(trials, FACTOR_NAMES[test]), trials.value, sesoi)
     sensitivity, problem = None, ""
     try:  # the primary verdict stands without it; the report says why it is missing
-        sensitivity = delta_adjusted(every_trial(records, test), FACTOR_NAMES[test], sesoi, primary=fit)
+        sensitivity = delta_adjusted(
+            every_trial(records, test), FACTOR_NAMES[test], sesoi, primary=fit, imputations=imputations
+        )
     except AnalysisError as error:
         problem = str(error)
     vr, reality = _means(trials, True), _means(trials, False)

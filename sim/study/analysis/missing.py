@@ -76,7 +76,7 @@ class Sensitivity:
             return "no trial missing"
         missing = f"{self.missing['vr']} VR and {self.missing['reality']} reality trial(s) missing"
         if self.holds:
-            deltas = ", ".join(sorted({f"{s.delta:+g}{units}" for s in self.scenarios}))
+            deltas = ", ".join(f"{delta:+g}{units}" for delta in sorted({s.delta for s in self.scenarios}))
             return f"{missing}: {self.primary.label} under every δ tried ({deltas})"
         changed = [
             f"{s.verdict.label} with {s.shifted or 'neither'}'s shifted by {s.delta:+g}{units}"
@@ -156,18 +156,22 @@ def delta_adjusted(
     draws = [_imputed(full_design, columns, missing_rows, trials.value, basis, rng) for _ in range(imputations)]
     in_vr = trials.vr[rows]
     results = []
+    by_shift: dict[bytes, tuple[float, float, float]] = {}  # a condition without missing trials shifts nothing
     for shifted, delta in chosen:
         if shifted not in ("", "vr", "reality"):
             raise AnalysisError(f"a scenario shifts 'vr' or 'reality', got {shifted!r}")
         shift = np.where(in_vr == (shifted == "vr"), delta, 0.0) if shifted else np.zeros(rows.size)
-        estimates, errors = [], []
-        for imputed in draws:
-            completed = trials.value.copy()
-            completed[rows] = imputed + shift
-            fit = fit_model(full_design, completed)
-            estimates.append(fit.contrast.estimate)
-            errors.append(fit.contrast.se)
-        estimate, se, df = pooled(estimates, errors, full_design.df)
+        key = shift.tobytes()
+        if key not in by_shift:
+            estimates, errors = [], []
+            for imputed in draws:
+                completed = trials.value.copy()
+                completed[rows] = imputed + shift
+                fit = fit_model(full_design, completed)
+                estimates.append(fit.contrast.estimate)
+                errors.append(fit.contrast.se)
+            by_shift[key] = pooled(estimates, errors, full_design.df)
+        estimate, se, df = by_shift[key]
         results.append(Scenario(shifted, delta, verdict(estimate, se, df, sesoi)))
     return Sensitivity(missing, int(trials.value.size), imputations, primary_verdict, tuple(results))
 
