@@ -264,12 +264,12 @@ def _markdown(
     assert summary.extrapolation_error
     lines += [
         *_verdict_lines(summary.contrasts),
-        f"{len(summary.participants)} participants, {summary.trials} trials. Descriptive, beside the verdicts: "
-        "each participant's trials with a value are averaged per condition (and per speed set or path in their "
-        "rows), then VR and reality are compared in pairs (paired t-test with Cohen's d_z; Wilcoxon signed-rank with "
-        "the matched-pairs rank-biserial r). Where trials are missing unevenly across the cells these means are "
-        "biased; the verdicts above are the trial-level model's. Intervals are 95 % t intervals across "
-        "participants. Distances are the end effector's to the hand's surface, from FK of the achieved "
+        f"{len(summary.participants)} participants, {summary.trials} trials. Descriptive: each participant's "
+        "trials with a value are averaged per condition (and per speed set or path in their rows), then VR and "
+        "reality are compared in pairs (paired t-test with Cohen's d_z; Wilcoxon signed-rank with the matched-pairs "
+        "rank-biserial r). Where trials are missing unevenly across the cells these means are biased"
+        + ("; the verdicts above are the trial-level model's" if summary.contrasts else "")
+        + ". Intervals are 95 % t intervals across participants. Distances are the end effector's to the hand's surface, from FK of the achieved "
         "joint states.",
         "",
         "## Test 1: distance perception",
