@@ -36,6 +36,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+
 from sim.study.analysis.equivalence import Verdict, verdict
 from sim.study.analysis.errors import AnalysisError
 from sim.study.analysis.mixed_model import ModelDesign, ModelFit, Predictive, Trials, fit_model, model_design
@@ -211,4 +212,3 @@ def _imputed(
 
 def _columns(trials: Trials) -> tuple[np.ndarray, ...]:
     return (trials.participant, trials.vr, trials.vr_first, trials.factor, trials.path, trials.value)
-

@@ -1,11 +1,11 @@
 """The study's report: every participant's CSV in a directory, summarised (sim.study.analysis.summary) into `report.md`
 with its plots beside it (`python -m sim.study analyse DIR`): the verdicts on VR against reality first (the trial-level
 mixed model's, with the sensitivity analysis of the missing trials beside them), then each test's mixed model, the
-missing trials' scenarios (sim.study.analysis.missing), the paired comparisons, the participant's motion (sim.study.analysis.motion), the stop presses'
-latency per path (sim.study.analysis.latency), the questionnaires' scores (sim.study.analysis.questionnaires), and
-the plots (Bland–Altman among them). A pilot (one participant) gets that participant's means per condition and a note
-in place of all that needs more participants (intervals, comparisons, models, verdicts), with the model it would
-fit."""
+missing trials' scenarios (sim.study.analysis.missing), the paired comparisons, the participant's motion
+(sim.study.analysis.motion), the stop presses' latency per path (sim.study.analysis.latency), the questionnaires' scores
+(sim.study.analysis.questionnaires), and the plots (Bland–Altman among them). A pilot (one participant) gets that
+participant's means per condition and a note in place of all that needs more participants (intervals, comparisons,
+models, verdicts), with the model it would fit."""
 
 from __future__ import annotations
 
@@ -80,7 +80,7 @@ _COMPARISON_HEAD = (
 _UNITS = {1: "", 2: " m"}
 
 
-def _sensitivity_cell(c: TestContrast, test: int) -> str:
+def _sensitivity_text(c: TestContrast, test: int) -> str:
     if c.sensitivity is None:
         return f"not run: {c.sensitivity_problem}"
     return c.sensitivity.summary(_UNITS[test])
@@ -135,26 +135,30 @@ def _verdict_lines(contrasts: Mapping[int, TestContrast]) -> list[str]:
         "much as one that kept them: unbiased when trials are missing at random given condition, factor and path. "
         "It is judged against the SESOI declared in the design: **equivalent** if its 90 % CI lies inside ±SESOI, "
         "**different** if its 95 % CI excludes 0, else **inconclusive**. Beside it: the sensitivity analysis of the "
-        "missing trials (delta-adjusted multiple imputation, below), and, descriptive only, the paired TOST on "
-        "per-participant means and their Bland–Altman agreement (a participant's mean weighs the cells by the trials "
-        "each kept, so it is biased where trials are missing unevenly).",
+        "missing trials (delta-adjusted multiple imputation: the line under the table, its scenarios below), and, "
+        "descriptive only, the paired TOST on per-participant means and their Bland–Altman agreement (a "
+        "participant's mean weighs the cells by the trials each kept, so it is biased where trials are missing "
+        "unevenly).",
         "",
-        "| test | measure | SESOI | VR − reality [95 % CI] | 90 % CI | verdict | missing trials: sensitivity | "
-        "paired TOST p | Bland–Altman bias [95 % limits of agreement] |",
-        "|---|---|---|---|---|---|---|---|---|",
+        "| test | measure | SESOI | VR − reality [95 % CI] | 90 % CI | verdict | paired TOST p | "
+        "Bland–Altman bias [95 % limits of agreement] |",
+        "|---|---|---|---|---|---|---|---|",
     ]
     for test, c in sorted(contrasts.items()):
         v, a = c.verdict, c.agreement
         lines.append(
             f"| {test} | {MEASURES[test]} | ±{v.sesoi:g} | {v.estimate:+.4f} [{v.ci95[0]:+.4f}, {v.ci95[1]:+.4f}] | "
-            f"[{v.ci90[0]:+.4f}, {v.ci90[1]:+.4f}] | **{v.label}** | {_sensitivity_cell(c, test)} | {_p(c.tost.p)} "
+            f"[{v.ci90[0]:+.4f}, {v.ci90[1]:+.4f}] | **{v.label}** | {_p(c.tost.p)} "
             f"({'equivalent' if c.tost.equivalent else 'not shown equivalent'}) | "
             f"{a.bias:+.4f} [{a.low:+.4f}, {a.high:+.4f}] |"
         )
     lines.append("")
-    lines += [f"- Test {test}: {c.verdict.label}: {c.verdict.explanation}." for test, c in sorted(contrasts.items())]
+    lines += [
+        f"- Test {test}: {c.verdict.label}: {c.verdict.explanation}. Missing trials' sensitivity: "
+        f"{_sensitivity_text(c, test)}."
+        for test, c in sorted(contrasts.items())
+    ]
     lines.append("")
-    lines += _sensitivity_lines(contrasts)
     for test, c in sorted(contrasts.items()):
         fit = c.fit
         lines += [
@@ -179,7 +183,7 @@ def _verdict_lines(contrasts: Mapping[int, TestContrast]) -> list[str]:
             "Variances: " + ", ".join(f"{name} {value:.3g}" for name, value in fit.variances.items()) + ".",
             "",
         ]
-    return lines
+    return lines + _sensitivity_lines(contrasts)
 
 
 def _pilot_means(estimates: Mapping[str, Estimate], scale: float, digits: int) -> list[str]:
@@ -269,8 +273,8 @@ def _markdown(
         "reality are compared in pairs (paired t-test with Cohen's d_z; Wilcoxon signed-rank with the matched-pairs "
         "rank-biserial r). Where trials are missing unevenly across the cells these means are biased"
         + ("; the verdicts above are the trial-level model's" if summary.contrasts else "")
-        + ". Intervals are 95 % t intervals across participants. Distances are the end effector's to the hand's surface, from FK of the achieved "
-        "joint states.",
+        + ". Intervals are 95 % t intervals across participants. Distances are the end effector's to the hand's "
+        "surface, from FK of the achieved joint states.",
         "",
         "## Test 1: distance perception",
         "",

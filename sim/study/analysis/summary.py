@@ -4,7 +4,8 @@ The verdicts are the trial-level mixed model's (sim.study.analysis.contrasts), w
 missing trials. The figures here are descriptive: each participant's trials are first averaged per cell (condition,
 and speed set or path), then the per-participant means are compared in pairs, VR against reality. A mean of the
 trials a participant kept weighs the design's cells by how many each kept, so where trials are missing unevenly (fast
-withdrawals lose more) these figures are biased, and the model's are not.
+withdrawals lose more) these figures are biased, and the model's are not (when trials are missing at random given
+their cell).
   test 1   the ratio perceived / actual distance (actual: FK of the robot at rest) per condition, with its interval
            across participants, and the paired VR − reality difference of the ratio;
   test 2   the end effector's distance to the hand at the press (FK of the achieved state) per condition, and the

@@ -12,7 +12,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sim.study.analysis.contrasts import every_trial
 from sim.study.analysis.missing import delta_adjusted, pooled
 from sim.study.analysis.mixed_model import Trials, fit_model, model_design
 from sim.study.analysis.report import write_report
@@ -111,9 +110,9 @@ def test_the_report_states_the_sensitivity_beside_the_verdict(tmp_path: Path) ->
             lost += 1
     assert lost > 10
     report = write_report(records, tmp_path, "A study", {1: 0.05, 2: 0.02}, imputations=2).read_text()
-    row = next(line for line in report.splitlines() if line.startswith("| 2 | distance at"))
-    assert f"0 VR and {lost} reality trial(s) missing: " in row and "| 1 | perceived" in report
-    assert "no trial missing" in next(line for line in report.splitlines() if line.startswith("| 1 | perceived"))
+    beside = next(line for line in report.splitlines() if line.startswith("- Test 2: "))
+    assert f". Missing trials' sensitivity: 0 VR and {lost} reality trial(s) missing: " in beside
+    assert "- Test 1: different: " in report and "Missing trials' sensitivity: no trial missing." in report
     section = report.split("### Missing trials: the sensitivity analysis")[1].split("###")[0]
     scenario_rows = [line for line in section.splitlines() if line.startswith("| 2 |")]
     assert len(scenario_rows) == 5 and f"| 0 / {lost} of " in scenario_rows[0]

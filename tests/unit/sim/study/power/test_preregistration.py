@@ -1,6 +1,7 @@
 """sim.study.power.preregistration and sample_size.plan_sample: the summary says what the design declares (hypotheses,
-measures, the participant's motion as secondary measures, SESOIs with their reasons, the planned N and its power,
-the models at the trial level, the missing trials' sensitivity analysis, the decision rules), and the sample is the first size at which every test reaches the planned power."""
+measures, the participant's motion as secondary measures, SESOIs with their reasons, the planned N and its power, the
+models at the trial level, the missing trials' sensitivity analysis, the decision rules), and the sample is the first
+size at which every test reaches the planned power."""
 
 from __future__ import annotations
 
