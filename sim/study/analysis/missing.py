@@ -111,6 +111,11 @@ def pooled(estimates: Sequence[float], errors: Sequence[float], df_complete: flo
 
 
 def _fixed_columns(observed_names: tuple[str, ...], full_names: tuple[str, ...]) -> list[int]:
+    """Where the observed trials' terms are among the whole layout's: AnalysisError when the layout has a term that
+    only missing trials inform (a cell that lost every trial), as nothing observed predicts them."""
+    unseen = [name for name in full_names if name not in observed_names]
+    if unseen:
+        raise AnalysisError(f"no observed trial informs {', '.join(unseen)}: its missing trials cannot be imputed")
     absent = [name for name in observed_names if name not in full_names]
     if absent:  # cannot happen with one layout, but a prediction on other columns would be silently wrong
         raise AnalysisError(f"the observed trials' terms {absent} are not in the whole layout's")

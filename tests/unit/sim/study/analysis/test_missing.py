@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from sim.study.analysis.errors import AnalysisError
 from sim.study.analysis.missing import delta_adjusted, pooled
 from sim.study.analysis.mixed_model import Trials, fit_model, model_design
 from sim.study.analysis.report import write_report
@@ -91,6 +92,14 @@ def test_without_missing_trials_there_is_nothing_to_impute() -> None:
     complete = dataclasses.replace(complete, value=np.nan_to_num(complete.value, nan=0.12))
     result = delta_adjusted(complete, "speed set", SESOI)
     assert result.scenarios == () and result.holds and result.summary() == "no trial missing"
+
+
+def test_a_cell_that_lost_every_trial_cannot_be_imputed() -> None:
+    trials = simulated_study()
+    values = trials.value.copy()
+    values[(trials.factor == "fast") & (trials.path == "straight") & ~trials.vr] = math.nan
+    with pytest.raises(AnalysisError, match="no observed trial informs VR − reality × speed set.*cannot be imputed"):
+        delta_adjusted(dataclasses.replace(trials, value=values), "speed set", SESOI, imputations=2)
 
 
 def test_rubins_rules_pool_within_and_between_imputation_variance() -> None:
