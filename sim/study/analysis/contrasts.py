@@ -1,6 +1,8 @@
-"""VR against reality, per test, the way a reviewer accepts it: the mixed model's VR − reality contrast judged against
-the design's SESOI (different, equivalent or inconclusive), the paired TOST on per-participant means beside it, and
-their Bland–Altman agreement. Pure logic; `analyse` and `power` both judge through `judge`, so a simulated study is
+"""VR against reality, per test, the way a reviewer accepts it: the mixed model's VR − reality contrast, fitted to
+every trial with a measure (unbiased when trials are missing at random given condition, factor and path), judged
+against the design's SESOI (different, equivalent or inconclusive); the sensitivity analysis of the missing trials
+(sim.study.analysis.missing) beside it; and, descriptive only, the paired TOST on per-participant means and their
+Bland–Altman agreement. Pure logic; `analyse` and `power` both judge through `judge`, so a simulated study is
 analysed exactly as a real one.
 
 The measures: test 1, perceived / actual distance (actual: the robot at rest); test 2, the distance at the press.
@@ -16,6 +18,7 @@ import numpy as np
 
 from sim.study.analysis.equivalence import Agreement, PairedTost, Verdict, agreement, paired_tost, verdict
 from sim.study.analysis.errors import AnalysisError
+from sim.study.analysis.missing import IMPUTATIONS, Sensitivity, delta_adjusted
 from sim.study.analysis.mixed_model import ModelDesign, ModelFit, Trials, fit_model, model_design
 from sim.study.run.records import TrialRecord
 
@@ -27,6 +30,7 @@ __all__ = [
     "measure",
     "factor_level",
     "trials_for",
+    "every_trial",
     "judge",
     "contrast",
 ]
@@ -40,10 +44,12 @@ class TestContrast:
     test: int
     fit: ModelFit
     verdict: Verdict
-    tost: PairedTost  # the cross-check on per-participant means
+    tost: PairedTost  # the cross-check on per-participant means (descriptive: biased where trials are missing)
     agreement: Agreement
     vr_means: dict[int, float]  # per participant
     reality_means: dict[int, float]
+    sensitivity: Sensitivity | None  # the verdict under missing trials not at random (sim.study.analysis.missing)
+    sensitivity_problem: str = ""  # why there is none
 
 
 def perceived_ratio(record: TrialRecord) -> float:
@@ -71,13 +77,26 @@ def trials_for(records: Sequence[TrialRecord], test: int, value: Callable[[Trial
     rows = [r for r in records if r.test == test and math.isfinite(value(r))]
     if not rows:
         raise AnalysisError(f"test {test} has no trial with a measure")
+    return _trials(rows, value)
+
+
+def every_trial(records: Sequence[TrialRecord], test: int, value: Callable[[TrialRecord], float] = measure) -> Trials:
+    """Every trial of `test`, its value NaN where it has none: the missing trials' places, for the sensitivity
+    analysis (sim.study.analysis.missing)."""
+    rows = [r for r in records if r.test == test]
+    if not rows:
+        raise AnalysisError(f"test {test} has no trial")
+    return _trials(rows, value)
+
+
+def _trials(rows: Sequence[TrialRecord], value: Callable[[TrialRecord], float]) -> Trials:
     return Trials(
         participant=np.array([r.participant for r in rows]),
         vr=np.array([r.condition == "vr" for r in rows]),
         vr_first=np.array([(r.condition == "vr") == (r.condition_position == 1) for r in rows]),
         factor=np.array([factor_level(r.test, r.standoff, r.speed_set) for r in rows]),
         path=np.array([r.path for r in rows]),
-        value=np.array([value(r) for r in rows], dtype=float),
+        value=np.array([value(r) if math.isfinite(value(r)) else math.nan for r in rows], dtype=float),
     )
 
 
@@ -95,11 +114,19 @@ def _means(trials: Trials, in_vr: bool) -> dict[int, float]:
     }
 
 
-def contrast(records: Sequence[TrialRecord], test: int, sesoi: float) -> TestContrast:
-    """VR against reality in `test`; AnalysisError when its trials cannot be modelled (e.g. fewer than 3 participants
-    with both conditions)."""
+def contrast(records: Sequence[TrialRecord], test: int, sesoi: float, imputations: int = IMPUTATIONS) -> TestContrast:
+    """VR against reality in `test`: the mixed model on every trial with a measure, and the sensitivity analysis of
+    the trials without one (`imputations` per scenario); AnalysisError when its trials cannot be modelled (e.g. fewer
+    than 3 participants with both conditions)."""
     trials = trials_for(records, test)
     fit, judged = judge(model_design(trials, FACTOR_NAMES[test]), trials.value, sesoi)
+    sensitivity, problem = None, ""
+    try:  # the primary verdict stands without it; the report says why it is missing
+        sensitivity = delta_adjusted(
+            every_trial(records, test), FACTOR_NAMES[test], sesoi, primary=fit, imputations=imputations
+        )
+    except AnalysisError as error:
+        problem = str(error)
     vr, reality = _means(trials, True), _means(trials, False)
     both = sorted(set(vr) & set(reality))
     vr_list, reality_list = [vr[p] for p in both], [reality[p] for p in both]
@@ -111,4 +138,6 @@ def contrast(records: Sequence[TrialRecord], test: int, sesoi: float) -> TestCon
         agreement=agreement(vr_list, reality_list),
         vr_means={p: vr[p] for p in both},
         reality_means={p: reality[p] for p in both},
+        sensitivity=sensitivity,
+        sensitivity_problem=problem,
     )

@@ -33,7 +33,7 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -49,6 +49,7 @@ __all__ = [
     "Coefficient",
     "ModelDesign",
     "ModelFit",
+    "Predictive",
     "Trials",
     "fit_model",
     "formula",
@@ -116,6 +117,18 @@ class Coefficient:
 
 
 @dataclass(frozen=True)
+class Predictive:
+    """What imputing a missing trial needs of a fit (sim.study.analysis.missing), in the measure's units: the fixed
+    effects (in the design's column order) with their covariance, the random effects' covariance (the intercept's
+    and, with the slope, the condition slope's) and the residual SD."""
+
+    fixed: np.ndarray
+    fixed_cov: np.ndarray
+    random_cov: np.ndarray  # 1×1 or 2×2, as exog_re's first columns
+    residual_sd: float
+
+
+@dataclass(frozen=True)
 class ModelFit:
     coefficients: tuple[Coefficient, ...]
     contrast: Coefficient  # the condition's coefficient: VR − reality, averaged over the cells
@@ -125,6 +138,7 @@ class ModelFit:
     participants: int
     trials: int
     notes: tuple[str, ...]  # a random slope that did not converge, terms left out
+    predictive: Predictive | None = field(default=None, compare=False, repr=False)
 
     @property
     def with_slope(self) -> bool:
@@ -264,6 +278,12 @@ def fit_model(design: ModelDesign, values: np.ndarray) -> ModelFit:
     if random_effects == _WITH_SLOPE:
         variances["participant condition slope"] = float(cov_re[1, 1])
     variances["residual"] = float(result.scale) * unit**2
+    predictive = Predictive(
+        fixed=estimates,
+        fixed_cov=np.asarray(result.cov_params())[: len(design.names), : len(design.names)] * unit**2,
+        random_cov=cov_re,
+        residual_sd=float(np.sqrt(result.scale)) * unit,
+    )
     return ModelFit(
         coefficients=coefficients,
         contrast=coefficients[design.names.index(CONTRAST)],
@@ -273,4 +293,5 @@ def fit_model(design: ModelDesign, values: np.ndarray) -> ModelFit:
         participants=design.participants,
         trials=int(values.shape[0]),
         notes=tuple(notes),
+        predictive=predictive,
     )

@@ -1,10 +1,11 @@
 """The study's report: every participant's CSV in a directory, summarised (sim.study.analysis.summary) into `report.md`
-with its plots beside it (`python -m sim.study analyse DIR`): the verdicts on VR against reality first, then each
-test's mixed model, the paired comparisons, the participant's motion (sim.study.analysis.motion), the stop presses'
-latency per path (sim.study.analysis.latency), the questionnaires' scores (sim.study.analysis.questionnaires), and
-the plots (Bland–Altman among them). A pilot (one participant) gets that participant's means per condition and a note
-in place of all that needs more participants (intervals, comparisons, models, verdicts), with the model it would
-fit."""
+with its plots beside it (`python -m sim.study analyse DIR`): the verdicts on VR against reality first (the trial-level
+mixed model's, with the sensitivity analysis of the missing trials beside them), then each test's mixed model, the
+missing trials' scenarios (sim.study.analysis.missing), the paired comparisons, the participant's motion
+(sim.study.analysis.motion), the stop presses' latency per path (sim.study.analysis.latency), the questionnaires' scores
+(sim.study.analysis.questionnaires), and the plots (Bland–Altman among them). A pilot (one participant) gets that
+participant's means per condition and a note in place of all that needs more participants (intervals, comparisons,
+models, verdicts), with the model it would fit."""
 
 from __future__ import annotations
 
@@ -18,6 +19,7 @@ from sim.study.analysis.contrasts import FACTOR_NAMES, MEASURES, TestContrast
 from sim.study.analysis.errors import AnalysisError
 from sim.study.analysis.latency import LatencySummary, keyboard_flag, latency_lines, summarise_latency
 from sim.study.analysis.links import link_lines
+from sim.study.analysis.missing import IMPUTATIONS, Scenario
 from sim.study.analysis.mixed_model import CROSSOVER_TERMS, formula
 from sim.study.analysis.motion import MotionSummary, motion_lines, summarise_motion
 from sim.study.analysis.questionnaires import QuestionnaireSummary, questionnaire_lines
@@ -75,16 +77,68 @@ _COMPARISON_HEAD = (
 )
 
 
+_UNITS = {1: "", 2: " m"}
+
+
+def _sensitivity_text(c: TestContrast, test: int) -> str:
+    if c.sensitivity is None:
+        return f"not run: {c.sensitivity_problem}"
+    return c.sensitivity.summary(_UNITS[test])
+
+
+def _scenario_name(scenario: Scenario, units: str) -> str:
+    if not scenario.shifted:
+        return "δ = 0: missing at random"
+    return f"{'VR' if scenario.shifted == 'vr' else 'reality'}'s missing trials {scenario.delta:+g}{units}"
+
+
+def _sensitivity_lines(contrasts: Mapping[int, TestContrast]) -> list[str]:
+    """Each test's delta-adjusted scenarios (sim.study.analysis.missing), where trials are missing."""
+    run = {test: c.sensitivity for test, c in sorted(contrasts.items()) if c.sensitivity and c.sensitivity.scenarios}
+    if not run:
+        return []
+    imputations = next(iter(run.values())).imputations
+    lines = [
+        "### Missing trials: the sensitivity analysis",
+        "",
+        "The verdict above holds if the missing trials (no answer, no press, a trial voided) are missing at random "
+        "given condition, factor and path. Were they not (fast withdrawals and hands near the arm lose more trials), "
+        "how far would they have to differ to change it? Each missing trial is imputed from the primary model (fixed "
+        "effects drawn from their sampling distribution, the participant's random effects given their observed "
+        f"trials, a residual), {imputations} times; in each scenario one condition's imputed trials are shifted by δ; "
+        "the model is refitted to each completed set and the contrasts pooled by Rubin's rules (Barnard–Rubin "
+        "degrees of freedom), then judged by the same rules. δ = ±SESOI moves every missing trial of one condition "
+        "by the whole margin.",
+        "",
+        "| test | missing (VR / reality) | scenario | VR − reality [95 % CI] | 90 % CI | verdict |",
+        "|---|---|---|---|---|---|",
+    ]
+    for test, sensitivity in run.items():
+        missing = f"{sensitivity.missing['vr']} / {sensitivity.missing['reality']} of {sensitivity.trials}"
+        for scenario in sensitivity.scenarios:
+            v = scenario.verdict
+            lines.append(
+                f"| {test} | {missing} | {_scenario_name(scenario, _UNITS[test])} | {v.estimate:+.4f} "
+                f"[{v.ci95[0]:+.4f}, {v.ci95[1]:+.4f}] | [{v.ci90[0]:+.4f}, {v.ci90[1]:+.4f}] | {v.label} |"
+            )
+    return lines + [""]
+
+
 def _verdict_lines(contrasts: Mapping[int, TestContrast]) -> list[str]:
     if not contrasts:
         return []
     lines = [
         "## VR against reality: the verdicts",
         "",
-        "Each test's VR − reality contrast is the condition's coefficient in its mixed model (below), averaged over "
-        "the design's cells. It is judged against the SESOI declared in the design: **equivalent** if its 90 % CI "
-        "lies inside ±SESOI, **different** if its 95 % CI excludes 0, else **inconclusive**. The paired TOST on "
-        "per-participant means and the Bland–Altman agreement are beside it.",
+        "Each test's VR − reality contrast is the condition's coefficient in its mixed model (below), fitted to "
+        "every trial with a measure and averaged over the design's cells, so that a cell that lost trials weighs as "
+        "much as one that kept them: unbiased when trials are missing at random given condition, factor and path. "
+        "It is judged against the SESOI declared in the design: **equivalent** if its 90 % CI lies inside ±SESOI, "
+        "**different** if its 95 % CI excludes 0, else **inconclusive**. Beside it: the sensitivity analysis of the "
+        "missing trials (delta-adjusted multiple imputation: the line under the table, its scenarios below), and, "
+        "descriptive only, the paired TOST on per-participant means and their Bland–Altman agreement (a "
+        "participant's mean weighs the cells by the trials each kept, so it is biased where trials are missing "
+        "unevenly).",
         "",
         "| test | measure | SESOI | VR − reality [95 % CI] | 90 % CI | verdict | paired TOST p | "
         "Bland–Altman bias [95 % limits of agreement] |",
@@ -99,7 +153,11 @@ def _verdict_lines(contrasts: Mapping[int, TestContrast]) -> list[str]:
             f"{a.bias:+.4f} [{a.low:+.4f}, {a.high:+.4f}] |"
         )
     lines.append("")
-    lines += [f"- Test {test}: {c.verdict.label}: {c.verdict.explanation}." for test, c in sorted(contrasts.items())]
+    lines += [
+        f"- Test {test}: {c.verdict.label}: {c.verdict.explanation}. Missing trials' sensitivity: "
+        f"{_sensitivity_text(c, test)}."
+        for test, c in sorted(contrasts.items())
+    ]
     lines.append("")
     for test, c in sorted(contrasts.items()):
         fit = c.fit
@@ -125,7 +183,7 @@ def _verdict_lines(contrasts: Mapping[int, TestContrast]) -> list[str]:
             "Variances: " + ", ".join(f"{name} {value:.3g}" for name, value in fit.variances.items()) + ".",
             "",
         ]
-    return lines
+    return lines + _sensitivity_lines(contrasts)
 
 
 def _pilot_means(estimates: Mapping[str, Estimate], scale: float, digits: int) -> list[str]:
@@ -211,11 +269,13 @@ def _markdown(
     assert summary.extrapolation_error
     lines += [
         *_verdict_lines(summary.contrasts),
-        f"{len(summary.participants)} participants, {summary.trials} trials. Within subjects: each participant's "
-        "trials are averaged per cell, then VR and reality are compared in pairs (paired t-test with Cohen's "
-        "d_z; Wilcoxon signed-rank with the matched-pairs rank-biserial r). Intervals are 95 % t intervals "
-        "across participants. Distances are the end effector's to the hand's surface, from FK of the achieved "
-        "joint states.",
+        f"{len(summary.participants)} participants, {summary.trials} trials. Descriptive: each participant's "
+        "trials with a value are averaged per condition (and per speed set or path in their rows), then VR and "
+        "reality are compared in pairs (paired t-test with Cohen's d_z; Wilcoxon signed-rank with the matched-pairs "
+        "rank-biserial r). Where trials are missing unevenly across the cells these means are biased"
+        + ("; the verdicts above are the trial-level model's" if summary.contrasts else "")
+        + ". Intervals are 95 % t intervals across participants. Distances are the end effector's to the hand's "
+        "surface, from FK of the achieved joint states.",
         "",
         "## Test 1: distance perception",
         "",
@@ -407,16 +467,18 @@ def write_report(
     questionnaires: QuestionnaireSummary | None = None,
     trackers: TrackerSummary | None = None,
     notes: Sequence[str] = (),
+    imputations: int = IMPUTATIONS,
 ) -> Path:
     """report.md and its plots in `out`; with `sesoi` (per test, the design's), the verdicts, mixed models (the
     withdrawal's among them) and Bland–Altman plot too; with `questionnaires`, their section; with `trackers` (the
     sessions' pose sources), which tracked each condition; the caveat when the conditions' trackers differ comes from
-    the rows' pose sources (those of rows written before them from `trackers`); `notes`, paragraphs
-    under the title (what the scene changed for the arm). AnalysisError when the records cannot be analysed."""
+    the rows' pose sources (those of rows written before them from `trackers`); `notes`, paragraphs under the title
+    (what the scene changed for the arm); `imputations`: per scenario of the missing trials' sensitivity analysis.
+    AnalysisError when the records cannot be analysed."""
     import matplotlib
 
     matplotlib.use("Agg")
-    summary = summarise(records, sesoi)
+    summary = summarise(records, sesoi, imputations)
     out.mkdir(parents=True, exist_ok=True)
     plots = [
         _plot_test1(records, summary, out / "test1_distance_perception.png"),

@@ -1,7 +1,11 @@
 """The study's results across participants, from their trial records. Pure logic (sim.study.analysis.statistics).
 
-Every comparison is within subjects: each participant's trials are first averaged per cell (condition, and speed
-set or path), then the per-participant means are compared in pairs, VR against reality.
+The verdicts are the trial-level mixed model's (sim.study.analysis.contrasts), with the sensitivity analysis of the
+missing trials. The figures here are descriptive: each participant's trials are first averaged per cell (condition,
+and speed set or path), then the per-participant means are compared in pairs, VR against reality. A mean of the
+trials a participant kept weighs the design's cells by how many each kept, so where trials are missing unevenly (fast
+withdrawals lose more) these figures are biased, and the model's are not (when trials are missing at random given
+their cell).
   test 1   the ratio perceived / actual distance (actual: FK of the robot at rest) per condition, with its interval
            across participants, and the paired VR − reality difference of the ratio;
   test 2   the end effector's distance to the hand at the press (FK of the achieved state) per condition, and the
@@ -24,6 +28,7 @@ import numpy as np
 
 from sim.study.analysis.contrasts import TestContrast, contrast, perceived_ratio
 from sim.study.analysis.errors import AnalysisError
+from sim.study.analysis.missing import IMPUTATIONS
 from sim.study.analysis.statistics import Estimate, PairedComparison, mean_estimate, one_value, paired_comparison
 from sim.study.design.spec import CONDITIONS, TESTS
 from sim.study.errors import StudyError
@@ -58,7 +63,8 @@ class StudySummary:
 def per_participant(
     records: Sequence[TrialRecord], keep: Callable[[TrialRecord], bool], value: Callable[[TrialRecord], float]
 ) -> dict[int, float]:
-    """Each participant's mean of `value` over their records that `keep` selects and that have a finite value."""
+    """Each participant's mean of `value` over their records that `keep` selects and that have a finite value
+    (descriptive: biased where the cells lost trials unevenly; see the module's doc)."""
     sums: dict[int, list[float]] = {}
     for record in records:
         if keep(record):
@@ -147,18 +153,23 @@ def cell(test: int, condition: str = "", speed_set: str = "", path: str = "") ->
     return keep
 
 
-def _contrasts(records: Sequence[TrialRecord], sesoi: Mapping[int, float], notes: list[str]) -> dict[int, TestContrast]:
+def _contrasts(
+    records: Sequence[TrialRecord], sesoi: Mapping[int, float], notes: list[str], imputations: int
+) -> dict[int, TestContrast]:
     found = {}
     for test in TESTS:
         try:
-            found[test] = contrast(records, test, sesoi[test])
+            found[test] = contrast(records, test, sesoi[test], imputations)
         except StudyError as error:
             notes.append(f"test {test}: no mixed model or verdict: {error}")
     return found
 
 
-def summarise(records: Sequence[TrialRecord], sesoi: Mapping[int, float] | None = None) -> StudySummary:
-    """The study's results; with `sesoi` (per test, the design's), each test's mixed model and verdicts too. One
+def summarise(
+    records: Sequence[TrialRecord], sesoi: Mapping[int, float] | None = None, imputations: int = IMPUTATIONS
+) -> StudySummary:
+    """The study's results; with `sesoi` (per test, the design's), each test's mixed model and verdicts too, and the
+    sensitivity analysis of its missing trials (`imputations` per scenario, sim.study.analysis.missing). One
     participant's records make a pilot's summary (StudySummary.pilot), without comparisons, models or verdicts."""
     if not records:
         raise AnalysisError("no trial records to analyse")
@@ -186,7 +197,7 @@ def summarise(records: Sequence[TrialRecord], sesoi: Mapping[int, float] | None 
             preferences[record.condition][record.preferred_path] += 1
     if len({r.participant for r in records}) == 1:
         return _pilot(records, notes, preferences)
-    contrasts = {} if sesoi is None else _contrasts(records, sesoi, notes)
+    contrasts = {} if sesoi is None else _contrasts(records, sesoi, notes, imputations)
     return StudySummary(
         participants=tuple(sorted({r.participant for r in records})),
         trials=len(records),

@@ -1,12 +1,14 @@
 """The pre-registration summary, written from the design file (`python -m sim.study preregister`): hypotheses,
 measures, the participant's input devices, the participant's motion, the questionnaires, the SESOIs with their
-reasoning, the planned sample and its power, the models and the decision rules. Pure logic: what is analysed is what
+reasoning, the planned sample and its power, the models (the primary analysis at the trial level), the missing trials'
+sensitivity analysis and the decision rules. Pure logic: what is analysed is what
 the design declares, and the summary names the file and its SHA-256 so that a reader can check the analysis used
 that very file."""
 
 from __future__ import annotations
 
 from sim.study.analysis.contrasts import FACTOR_NAMES, MEASURES
+from sim.study.analysis.missing import IMPUTATIONS, SEED
 from sim.study.analysis.mixed_model import CROSSOVER_TERMS, formula
 from sim.study.analysis.motion import DEFINED, MODELLED, MOTION_MEASURES
 from sim.study.analysis.questionnaires import SSQ_SUSPECT_SOURCE, SSQ_SUSPECT_TOTAL
@@ -227,7 +229,8 @@ def preregistration(design: Design, source: str, digest: str, sample: PlannedSam
         "",
         "## Models",
         "",
-        "A linear mixed model per test (statsmodels MixedLM, REML), fitted to every trial with a measure:",
+        "The primary analysis: a linear mixed model per test (statsmodels MixedLM, REML), fitted at the trial level "
+        "to every trial with a measure, never to per-participant means:",
         "",
     ]
     for test in TESTS:
@@ -241,6 +244,23 @@ def preregistration(design: Design, source: str, digest: str, sample: PlannedSam
         *(f"- {line}" for line in CROSSOVER_TERMS),
         "- Intervals: Student's t with participants − 2 degrees of freedom.",
         "",
+        "## Missing trials",
+        "",
+        "A trial can lack its measure (no answer, no press, a trial voided by a tracking loss), and not at random: "
+        "fast withdrawals and hands near the arm lose more trials, in some cells more than in others. A mean of the "
+        "trials a participant kept would weigh the cells by how many each kept, and be biased. The trial-level model "
+        "above has condition × factor × path as fixed effects, so its contrast is unbiased when the trials are "
+        "missing at random given those (MAR). The report counts the missing trials per condition.",
+        "",
+        f"Sensitivity analysis (delta-adjusted multiple imputation, a pattern-mixture model): each missing trial is "
+        f"imputed {IMPUTATIONS} times from the primary model (its fixed effects drawn from their sampling "
+        "distribution, the participant's random effects given their observed trials, a residual); in each scenario "
+        "one condition's imputed trials are shifted by δ; the model is refitted to each completed set, the "
+        "contrasts pooled by Rubin's rules (Barnard–Rubin degrees of freedom) and judged by the decision rules "
+        f"below. Scenarios: δ = 0 (MAR), and each condition's missing trials shifted by −SESOI and +SESOI "
+        f"(seed {SEED}). The report states the verdict under each beside the primary one; the primary verdict is "
+        "the one drawn, and a scenario that changes it is reported as a limit on it.",
+        "",
         "## Decision rules",
         "",
         "For each test, on the condition's coefficient:",
@@ -250,8 +270,9 @@ def preregistration(design: Design, source: str, digest: str, sample: PlannedSam
         "- **inconclusive** otherwise. A coefficient both equivalent and non-zero is reported as equivalent, and as "
         "non-zero.",
         "",
-        "Secondary, reported beside the verdicts: the paired TOST on each participant's mean per condition against "
-        "the same SESOI, and Bland–Altman agreement (bias and 95 % limits). No verdict is drawn from fewer than 3 "
+        "Secondary and descriptive, reported beside the verdicts: the paired TOST on each participant's mean per "
+        "condition against the same SESOI, and Bland–Altman agreement (bias and 95 % limits); biased where trials "
+        "are missing unevenly, so no verdict rests on them. No verdict is drawn from fewer than 3 "
         "participants with both conditions.",
     ]
     return "\n".join(lines) + "\n"

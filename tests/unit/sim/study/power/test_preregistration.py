@@ -1,6 +1,7 @@
 """sim.study.power.preregistration and sample_size.plan_sample: the summary says what the design declares (hypotheses,
-measures, the participant's motion as secondary measures, SESOIs with their reasons, the planned N and its power,
-the models, the decision rules), and the sample is the first size at which every test reaches the planned power."""
+measures, the participant's motion as secondary measures, SESOIs with their reasons, the planned N and its power, the
+models at the trial level, the missing trials' sensitivity analysis, the decision rules), and the sample is the first
+size at which every test reaches the planned power."""
 
 from __future__ import annotations
 
@@ -84,6 +85,14 @@ def test_the_summary_declares_what_the_analysis_will_judge_by():
         "withdrawal distance",
         "withdrawal distance (m) ~ condition × speed set × path + period + sequence",
         "no equivalence margin is declared for them and no verdict is drawn",
+        # the primary analysis at the trial level, and the missing trials' sensitivity analysis beside it
+        "fitted at the trial level to every trial with a measure, never to per-participant means",
+        "## Missing trials",
+        "unbiased when the trials are missing at random given those (MAR)",
+        "Sensitivity analysis (delta-adjusted multiple imputation, a pattern-mixture model): each missing trial is "
+        "imputed 10 times",
+        "each condition's missing trials shifted by −SESOI and +SESOI (seed 59)",
+        "Secondary and descriptive, reported beside the verdicts: the paired TOST",
     ):
         assert expected in text, expected
     none = preregistration(design, "design.yaml", "0" * 64, PlannedSample(None, rows, 500, 1))
