@@ -10,8 +10,8 @@ import re
 from dataclasses import dataclass
 from typing import Any
 
+from bridge.admission.web_clients import is_address
 from bridge.errors import BridgeError
-from bridge.web_clients import is_address
 
 __all__ = [
     "ConfigError",

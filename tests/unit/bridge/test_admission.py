@@ -1,8 +1,8 @@
-"""bridge.admission, pure: which connection makes room for a newcomer when the endpoint is full."""
+"""bridge.admission.room, pure: which connection makes room for a newcomer when the endpoint is full."""
 
 from __future__ import annotations
 
-from bridge.admission import (
+from bridge.admission.room import (
     FRAME_GRACE_S,
     MAX_SUSPECTS,
     SILENT_GRACE_S,

@@ -1,8 +1,9 @@
-"""The shared token's guard (bridge.auth): constant-time comparison, and a back-off per address for wrong tokens."""
+"""The shared token's guard (bridge.admission.auth): constant-time comparison, and a back-off per address for wrong
+tokens."""
 
 from __future__ import annotations
 
-from bridge.auth import BACKOFF_FIRST_S, BACKOFF_MAX_S, AuthGuard
+from bridge.admission.auth import BACKOFF_FIRST_S, BACKOFF_MAX_S, AuthGuard
 
 
 class Clock:

@@ -1,5 +1,6 @@
-"""bridge.calls: a call starts when it is asked while there is room (a client's own share, then the room all share),
-waits otherwise and starts as a call ends, clients waiting take turns, and a departed client's waiting calls go."""
+"""bridge.connection.calls: a call starts when it is asked while there is room (a client's own share, then the room all
+share), waits otherwise and starts as a call ends, clients waiting take turns, and a departed client's waiting calls
+go."""
 
 from __future__ import annotations
 
@@ -8,8 +9,8 @@ import time
 
 import pytest
 
-from bridge.calls import CallRoom, ClientCalls
 from bridge.config import EndpointConfig
+from bridge.connection.calls import CallRoom, ClientCalls
 from bridge.errors import RequestRefused
 
 

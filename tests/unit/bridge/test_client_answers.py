@@ -1,9 +1,9 @@
-"""bridge.client_answers: each answer from the endpoint goes to whoever asked for it."""
+"""bridge.protocol.client_answers: each answer from the endpoint goes to whoever asked for it."""
 
 from __future__ import annotations
 
-from bridge.client_answers import Answers
 from bridge.protocol import Log, PingResponse, ServiceResponse, TopicList
+from bridge.protocol.client_answers import Answers
 
 
 def test_a_service_response_goes_to_its_call_and_no_other() -> None:

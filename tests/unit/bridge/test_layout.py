@@ -1,4 +1,4 @@
-"""bridge.layout: a payload passes exactly when it is one whole message of the type (no truncation, no trailing
+"""bridge.protocol.layout: a payload passes exactly when it is one whole message of the type (no truncation, no trailing
 bytes), checked against genpy's own serialization of populated messages of many shapes."""
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ from std_msgs.msg import Empty, Header, String
 from tf2_msgs.msg import TFMessage  # noqa: E402
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint  # noqa: E402
 
-from bridge.layout import Layout, LayoutError  # noqa: E402
+from bridge.protocol.layout import Layout, LayoutError  # noqa: E402
 
 
 def resolve(name: str):

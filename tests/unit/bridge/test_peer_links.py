@@ -1,9 +1,9 @@
-"""The links of bridged topics to their ROS peers that never come up (bridge.peer_links, pure)."""
+"""The links of bridged topics to their ROS peers that never come up (bridge.ros.peer_links, pure)."""
 
 from __future__ import annotations
 
 from bridge.diagnostics import WARN
-from bridge.peer_links import ANSWERS, PeerLink, PeerProblem, PeerWatch, problem_line, problem_statuses
+from bridge.ros.peer_links import ANSWERS, PeerLink, PeerProblem, PeerWatch, problem_line, problem_statuses
 
 ME = "http://endpoint-pc:40001/"
 TO_LISTENER = PeerLink("/cmd", "/listener", outgoing=True)  # the endpoint publishes /cmd, /listener subscribes

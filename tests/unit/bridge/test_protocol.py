@@ -16,7 +16,6 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from bridge import protocol
-from bridge.framing import LARGE_PAYLOAD_BYTES
 from bridge.protocol import (
     MAX_JSON_NESTING,
     Auth,
@@ -50,6 +49,7 @@ from bridge.protocol import (
     encode,
     encode_frame,
 )
+from bridge.protocol.framing import LARGE_PAYLOAD_BYTES
 from measuring.frames import BadFrame, Frame, feed
 
 

@@ -1,4 +1,5 @@
-"""bridge.queues.OutgoingQueue: bounded by frames and bytes, drop-oldest-droppable, close/timeout semantics."""
+"""bridge.connection.queues.OutgoingQueue: bounded by frames and bytes, drop-oldest-droppable, close/timeout
+semantics."""
 
 from __future__ import annotations
 
@@ -7,7 +8,7 @@ import time
 
 import pytest
 
-from bridge.queues import ByteBudget, OutgoingQueue
+from bridge.connection.queues import ByteBudget, OutgoingQueue
 
 
 def test_limits_must_be_positive() -> None:

@@ -1,10 +1,10 @@
-"""What the endpoint says at start-up about being reached across machines (bridge.reachability, pure)."""
+"""What the endpoint says at start-up about being reached across machines (bridge.ros.reachability, pure)."""
 
 from __future__ import annotations
 
 from dataclasses import replace
 
-from bridge.reachability import NetworkFacts, findings, is_loopback, reachable_at, summary
+from bridge.ros.reachability import NetworkFacts, findings, is_loopback, reachable_at, summary
 
 # The endpoint's machine: on the master's network (10.0.0.0/24) and a second one (192.168.5.0/24)
 FACTS = NetworkFacts(

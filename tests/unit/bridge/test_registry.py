@@ -1,8 +1,8 @@
-"""The book of the endpoint node's registrations with the ROS master (bridge.registry): pure, no master needed."""
+"""The book of the endpoint node's registrations with the ROS master (bridge.ros.registry): pure, no master needed."""
 
 from __future__ import annotations
 
-from bridge.registry import Registration, RegistrationBook
+from bridge.ros.registry import Registration, RegistrationBook
 
 PUB = Registration("publisher", "/a", "std_msgs/String")
 SUB = Registration("subscriber", "/b", "std_msgs/String")

@@ -1,4 +1,4 @@
-"""bridge.ros_service_proxy: the calls of a service, every client's proxy's, share one lookupService in flight, its
+"""bridge.ros.service_proxy: the calls of a service, every client's proxy's, share one lookupService in flight, its
 answer or its refusal."""
 
 from __future__ import annotations
@@ -8,9 +8,9 @@ import time
 
 import pytest
 
-from bridge import ros_service_proxy
-from bridge.ros_master import MasterRefused
-from bridge.ros_service_proxy import RawServiceProxy, _Asking
+from bridge.ros import service_proxy as ros_service_proxy
+from bridge.ros.master import MasterRefused
+from bridge.ros.service_proxy import RawServiceProxy, _Asking
 
 
 class _Raw:

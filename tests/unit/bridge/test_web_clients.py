@@ -1,10 +1,16 @@
-"""bridge.web_clients: which pages may open a WebSocket, and the client's address behind a trusted proxy."""
+"""bridge.admission.web_clients: which pages may open a WebSocket, and the client's address behind a trusted proxy."""
 
 from __future__ import annotations
 
 import pytest
 
-from bridge.web_clients import forwarded_client, normal_address, origin_allowed, proxy_doubt, trusted_addresses
+from bridge.admission.web_clients import (
+    forwarded_client,
+    normal_address,
+    origin_allowed,
+    proxy_doubt,
+    trusted_addresses,
+)
 
 
 @pytest.mark.parametrize(

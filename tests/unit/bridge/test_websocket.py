@@ -1,4 +1,4 @@
-"""bridge.websocket without I/O: two links (endpoint and client) handing bytes to each other."""
+"""bridge.protocol.websocket without I/O: two links (endpoint and client) handing bytes to each other."""
 
 from __future__ import annotations
 
@@ -21,7 +21,7 @@ from bridge.protocol import (
     Subscribe,
     TopicMessage,
 )
-from bridge.websocket import UpgradeRequest, WebSocketLink, refusal_response, split_frames
+from bridge.protocol.websocket import UpgradeRequest, WebSocketLink, refusal_response, split_frames
 
 
 def upgraded_pair(max_payload_bytes: int = protocol.DEFAULT_MAX_PAYLOAD_BYTES) -> tuple[WebSocketLink, WebSocketLink]:

@@ -3,7 +3,7 @@
 rospy tells its registration listeners of every publisher, subscriber and service the process creates or drops;
 its own listener (RegManager) calls the master right there, under rospy's topic manager lock, retrying forever
 while the master does not answer. `MasterLink` takes that listener's place: it only notes the change in a
-RegistrationBook (bridge.registry) and wakes its thread, which makes the calls with a timeout, watches the master's
+RegistrationBook (bridge.ros.registry) and wakes its thread, which makes the calls with a timeout, watches the master's
 identity (its pid and /run_id) once a second, and registers everything again when another master answers. rospy's
 RegManager keeps its other job, connecting subscribers to the publishers the master names.
 
@@ -27,7 +27,7 @@ import rospy.impl.statistics as rospy_statistics
 from rospy.impl.registration import Registration as RospyRegistration
 
 from bridge.errors import BridgeError
-from bridge.registry import Registration, RegistrationBook
+from bridge.ros.registry import Registration, RegistrationBook
 
 __all__ = [
     "MASTER_TIMEOUT_S",

@@ -1,13 +1,13 @@
 """One client connection of the endpoint: the socket, the conversation on it, and the connection's life.
 
 The connection carries ROS-TCP frames directly (TCP), or one frame per binary message of a WebSocket
-(bridge.websocket, for browsers and Unity WebGL builds); everything above the frames is the same.
+(bridge.protocol.websocket, for browsers and Unity WebGL builds); everything above the frames is the same.
 
 A reader thread feeds the client's bytes to its Conversation and hands the events to the session's owner (the
 Endpoint, which owns every registration and everything clients share): topic messages go to their ROS publisher,
 a read's worth at a time; commands and service bodies to `owner.handle`. The way out to the client (direct sends,
-the queue and its writer) is bridge.session_output's, the threads of its ROS calls bridge.calls', and a WebSocket
-client's session bridge.web_session's.
+the queue and its writer) is bridge.connection.output's, the threads of its ROS calls bridge.connection.calls', and
+a WebSocket client's session bridge.connection.web_session's (which builds on this module, never the other way).
 """
 
 from __future__ import annotations
@@ -21,21 +21,20 @@ import time
 from typing import TYPE_CHECKING, Callable, Protocol
 
 from bridge import protocol
-from bridge.admission import SlotUse
-from bridge.auth import AuthGuard
-from bridge.calls import CallRoom, ClientCalls
+from bridge.admission.auth import AuthGuard
+from bridge.admission.room import SlotUse
+from bridge.admission.throttle import LogThrottle
 from bridge.config import EndpointConfig
+from bridge.connection.calls import CallRoom, ClientCalls
+from bridge.connection.output import SessionOutput
+from bridge.connection.queues import ByteBudget
+from bridge.connection.sockets import send_now, unread_bytes
 from bridge.errors import RequestRefused
 from bridge.protocol import Auth, Conversation, Event, IgnoredFields, InvalidInput, Role, TopicMessage, Warn
-from bridge.queues import ByteBudget
-from bridge.ros_publisher import RawPublisher
-from bridge.session_output import SessionOutput
-from bridge.sockets import send_now, unread_bytes
-from bridge.throttle import LogThrottle
+from bridge.ros.publisher import RawPublisher
 
-if TYPE_CHECKING:  # wsproto is optional: bridge.websocket is imported only for WebSocket clients
-    from bridge.web_session import WebSocketSession
-    from bridge.websocket import UpgradeRequest, WebSocketLink
+if TYPE_CHECKING:  # wsproto is optional: bridge.protocol.websocket is imported only for WebSocket clients
+    from bridge.protocol.websocket import UpgradeRequest, WebSocketLink
 
 __all__ = ["ClientSession", "SessionOwner", "CLOSE_TIMEOUT_S"]
 
@@ -66,9 +65,6 @@ class SessionOwner(Protocol):
     def release(self, session: ClientSession) -> None:
         """The client has gone: undo its registrations."""
 
-    def upgrade_refusal(self, session: WebSocketSession, request: UpgradeRequest) -> tuple[str, str] | None:
-        """Why a WebSocket client's upgrade request is refused, as (HTTP status, reason); None to accept it."""
-
 
 class ClientSession(SessionOutput):
     """One connected client: its conversation and reader, its outgoing queue and writer (SessionOutput), its calls."""
@@ -97,7 +93,7 @@ class ClientSession(SessionOutput):
         self._link: WebSocketLink | None = None
         self._incoming: Conversation | WebSocketLink = self.conversation
         if self.websocket:
-            from bridge.websocket import WebSocketLink
+            from bridge.protocol.websocket import WebSocketLink
 
             self._link = self._incoming = WebSocketLink(Role.ENDPOINT, self.conversation, protocol.handshake())
         self._auth = auth
@@ -142,7 +138,7 @@ class ClientSession(SessionOutput):
         return self._closed.is_set()
 
     def slot_use(self, now: float) -> SlotUse:
-        """What this connection has done with its slot so far (for bridge.admission); `now` is monotonic time."""
+        """What this connection has done with its slot so far (for bridge.admission.room); `now` is monotonic time."""
         frame_started = self._frame_started
         return SlotUse(
             now - self._connected_monotonic,
@@ -165,7 +161,8 @@ class ClientSession(SessionOutput):
         self._reader.start()
 
     def run_call(self, what: str, call: Callable[[], None], srv_id: int | None = None) -> None:
-        """Start a ROS service call when there is room (bridge.calls); RequestRefused when there cannot be."""
+        """Start a ROS service call when there is room (bridge.connection.calls); RequestRefused when there cannot
+        be."""
         self._calls.run_call(what, call, srv_id)
 
     def run_lookup(self, what: str, look_up: Callable[[], None]) -> None:
@@ -275,13 +272,9 @@ class ClientSession(SessionOutput):
         )
 
     def _decide_upgrade(self, request: UpgradeRequest) -> None:
-        """Accept or refuse a WebSocket client's upgrade request, as the owner says."""
-        assert self._link is not None
-        refusal = self.owner.upgrade_refusal(self, request)  # type: ignore[arg-type]
-        if refusal is None:
-            self._link.accept()
-        else:
-            self._link.refuse(*refusal)
+        """Accept or refuse a WebSocket client's upgrade request: WebSocketSession's (bridge.connection.web_session),
+        whose owner judges it; only a session with a WebSocket link has one to decide, so a TCP session never does."""
+        raise NotImplementedError("a TCP session has no upgrade request to decide")
 
     def _readable_in_time(self, readable: select.poll) -> bool:
         """Wait for bytes while a deadline runs (a frame begun, __auth due); False when it passed (the client was

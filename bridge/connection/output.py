@@ -2,8 +2,8 @@
 bounded queue drained by a writer thread, so a slow reader loses its oldest topic frames, never the endpoint's
 memory; and the warnings that tell the client what was lost.
 
-SessionOutput is the half of a ClientSession (bridge.session) that writes; the session, which reads, closes and owns
-the connection's life, is made of it.
+SessionOutput is the half of a ClientSession (bridge.connection.session) that writes; the session, which reads,
+closes and owns the connection's life, is made of it.
 """
 
 from __future__ import annotations
@@ -15,14 +15,14 @@ import time
 from typing import TYPE_CHECKING
 
 from bridge import protocol
+from bridge.admission.throttle import LogThrottle
 from bridge.config import EndpointConfig
-from bridge.framing import LARGE_PAYLOAD_BYTES
-from bridge.queues import OutgoingQueue
-from bridge.sockets import UnsentLimit, send_now, takes_whole, unsent_bytes, wait_writable
-from bridge.throttle import LogThrottle
+from bridge.connection.queues import OutgoingQueue
+from bridge.connection.sockets import UnsentLimit, send_now, takes_whole, unsent_bytes, wait_writable
+from bridge.protocol.framing import LARGE_PAYLOAD_BYTES
 
-if TYPE_CHECKING:  # wsproto is optional: bridge.websocket is imported only for WebSocket clients
-    from bridge.websocket import WebSocketLink
+if TYPE_CHECKING:  # wsproto is optional: bridge.protocol.websocket is imported only for WebSocket clients
+    from bridge.protocol.websocket import WebSocketLink
 
 __all__ = ["SessionOutput", "DIRECT_SEND_MAX_UNSENT", "DROP_WARNING_INTERVAL_S"]
 

@@ -1,19 +1,32 @@
-"""A client of the endpoint over WebSocket (browsers, Unity WebGL builds): a ClientSession (bridge.session) whose
-frames go out as binary messages of their own, and whose close is the WebSocket's handshake."""
+"""A client of the endpoint over WebSocket (browsers, Unity WebGL builds): a ClientSession
+(bridge.connection.session) whose frames go out as binary messages of their own, whose upgrade request its owner
+judges, and whose close is the WebSocket's handshake."""
 
 from __future__ import annotations
 
 import logging
 import select
 import time
+from typing import TYPE_CHECKING, Protocol
 
 from bridge import protocol
+from bridge.connection.session import CLOSE_TIMEOUT_S, RECV_BYTES, ClientSession, SessionOwner
 from bridge.protocol import Warn
-from bridge.session import CLOSE_TIMEOUT_S, RECV_BYTES, ClientSession
 
-__all__ = ["WebSocketSession"]
+if TYPE_CHECKING:  # wsproto is optional: bridge.protocol.websocket is imported only for WebSocket clients
+    from bridge.protocol.websocket import UpgradeRequest
+
+__all__ = ["WebSocketOwner", "WebSocketSession"]
 
 log = logging.getLogger(__name__)
+
+
+class WebSocketOwner(SessionOwner, Protocol):
+    """What a WebSocket session needs from the endpoint that accepted it: a session's needs, and a judge of its
+    upgrade request."""
+
+    def upgrade_refusal(self, session: WebSocketSession, request: UpgradeRequest) -> tuple[str, str] | None:
+        """Why a WebSocket client's upgrade request is refused, as (HTTP status, reason); None to accept it."""
 
 
 class WebSocketSession(ClientSession):
@@ -25,6 +38,7 @@ class WebSocketSession(ClientSession):
     Only the reader touches the socket's reading side, so a close made on another thread never races it."""
 
     websocket = True
+    owner: WebSocketOwner
 
     def send(self, frame: bytes, droppable: bool = True, key: str | None = None, key_limit: int = 0) -> None:
         link = self._link
@@ -38,6 +52,15 @@ class WebSocketSession(ClientSession):
         back-off and /diagnostics go by it from now on."""
         self.name = f"#{self.client_id} {host} via {self.name.split(' ', 1)[1]}"
         self.host = host
+
+    def _decide_upgrade(self, request: UpgradeRequest) -> None:
+        """Accept or refuse the client's upgrade request, as the owner says."""
+        assert self._link is not None
+        refusal = self.owner.upgrade_refusal(self, request)
+        if refusal is None:
+            self._link.accept()
+        else:
+            self._link.refuse(*refusal)
 
     def _say_goodbye(self, text: str | None) -> None:
         """The __warn with `text` and the Close (1001, going away), after the frame on the wire; what is queued and

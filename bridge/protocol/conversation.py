@@ -1,25 +1,12 @@
-"""The ROS-TCP protocol v0.7.0 (ROS 1 flavour), sans I/O: framing, events, and the conversation of both ends.
-
-A frame is `u32 LE length + destination (UTF-8) + u32 LE length + payload`. Destination "" with an empty payload
-is a keepalive; destinations starting with "__" are system commands whose payload is one JSON object; anything
-else is a topic or service name with a plain ROS 1 serialized payload. A `__request` or `__response` header says
-that the very next frame is a service body.
-
-The system commands' JSON, and every event's bytes, are bridge.commands'.
-
-`Conversation(Role.ENDPOINT)` or `Conversation(Role.CLIENT)` holds the state of one connection (has the handshake
-been seen, is a service body due) and nothing else: `receive_data(bytes)` gives typed events, `send(event)` gives
-bytes. It never reads a socket or touches ROS (this module imports neither socket nor rospy), so every rule of the
-protocol is tested here without I/O. Lengths are checked against their limits *before* anything is allocated.
-"""
+"""The conversation of either end of a ROS-TCP connection, sans I/O: `Conversation(Role.ENDPOINT)` or
+`Conversation(Role.CLIENT)` turns the peer's bytes into typed events and ours into bytes (bridge.protocol says the
+protocol's rules; its framing is bridge.protocol.framing's, its system commands bridge.protocol.commands')."""
 
 from __future__ import annotations
 
 import enum
 
-from bridge.commands import (
-    CLIENT_COMMANDS,
-    MAX_JSON_NESTING,
+from bridge.protocol.commands import (
     SENT_BY_CLIENT,
     SENT_BY_ENDPOINT,
     SERVICE_HEADER,
@@ -27,16 +14,12 @@ from bridge.commands import (
     ServiceEvent,
     command_params,
     encode,
-    handshake,
     json_object,
 )
-from bridge.events import (
-    PROTOCOL_VERSION,
-    ROS_DISTRO_PROTOCOL,
+from bridge.protocol.events import (
     Auth,
     Error,
     Event,
-    FramingError,
     Handshake,
     IgnoredFields,
     InvalidInput,
@@ -59,60 +42,16 @@ from bridge.events import (
     UnityService,
     Warn,
 )
-from bridge.framing import (
+from bridge.protocol.framing import (
     DEFAULT_MAX_PAYLOAD_BYTES,
-    KEEPALIVE_FRAME,
     MAX_DESTINATION_BYTES,
     FrameDecoder,
     decode_destination,
-    encode_frame,
-    encode_syscommand,
     not_utf8,
 )
-from bridge.names import graph_name_problem
+from bridge.protocol.names import graph_name_problem
 
-# The protocol's whole public surface, in one place (the events and framing modules hold the parts).
-__all__ = [
-    "PROTOCOL_VERSION",
-    "ROS_DISTRO_PROTOCOL",
-    "MAX_DESTINATION_BYTES",
-    "MAX_JSON_NESTING",
-    "DEFAULT_MAX_PAYLOAD_BYTES",
-    "ProtocolError",
-    "LocalProtocolError",
-    "RemoteProtocolError",
-    "FramingError",
-    "FrameDecoder",
-    "encode_frame",
-    "encode_syscommand",
-    "KEEPALIVE_FRAME",
-    "Event",
-    "Keepalive",
-    "Handshake",
-    "TopicMessage",
-    "ServiceRequest",
-    "ServiceResponse",
-    "Subscribe",
-    "Publish",
-    "RosService",
-    "UnityService",
-    "Remove",
-    "TopicListQuery",
-    "TopicList",
-    "Auth",
-    "Ping",
-    "PingResponse",
-    "Log",
-    "Warn",
-    "Error",
-    "IgnoredFields",
-    "InvalidInput",
-    "Role",
-    "Conversation",
-    "encode",
-    "handshake",
-    "CLIENT_COMMANDS",
-]
+__all__ = ["Role", "Conversation"]
 
 
 # --- the conversation --------------------------------------------------------------------------------------------

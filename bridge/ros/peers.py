@@ -1,4 +1,4 @@
-"""The facts bridge.peer_links judges: which TCPROS links of the bridged topics the master's registrations call for
+"""The facts bridge.ros.peer_links judges: which TCPROS links of the bridged topics the master's registrations call for
 (one getSystemState), which rospy holds up, and for a link down too long, the peer's address (lookupNode) and what
 connecting to it from here gives.
 """
@@ -13,8 +13,8 @@ import rospy
 import rospy.core
 import rospy.impl.registration
 
-from bridge.peer_links import ANSWERS, PeerLink, PeerProblem
-from bridge.ros_master import MasterError, call_master
+from bridge.ros.master import MasterError, call_master
+from bridge.ros.peer_links import ANSWERS, PeerLink, PeerProblem
 
 __all__ = ["PROBE_S", "peer_links", "describe_peer"]
 

@@ -10,7 +10,7 @@ import re
 from dataclasses import dataclass
 from typing import Any, Callable, Dict, Type, Union
 
-from bridge.events import (
+from bridge.protocol.events import (
     PROTOCOL_VERSION,
     REMOVE_KINDS,
     ROS_DISTRO_PROTOCOL,
@@ -36,8 +36,8 @@ from bridge.events import (
     UnityService,
     Warn,
 )
-from bridge.framing import KEEPALIVE_FRAME, encode_frame, encode_syscommand
-from bridge.names import graph_name_problem, type_name_problem
+from bridge.protocol.framing import KEEPALIVE_FRAME, encode_frame, encode_syscommand
+from bridge.protocol.names import graph_name_problem, type_name_problem
 
 __all__ = [
     "CLIENT_COMMANDS",

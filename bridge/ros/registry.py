@@ -3,7 +3,7 @@
 rospy registers a publisher, subscriber or service with the master once, on the thread that creates it, retrying
 forever while the master does not answer, and never again: a master restarted on the same port (an everyday event
 in a lab) knows none of them, and a frozen one blocks whoever creates the next one. The book records what the node
-wants registered and what the master in front of it has accepted; bridge.ros_master runs the calls it asks for, on a
+wants registered and what the master in front of it has accepted; bridge.ros.master runs the calls it asks for, on a
 thread of its own, and tells it what the master said. A different master (another identity) owes everything again.
 """
 

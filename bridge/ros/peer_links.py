@@ -1,4 +1,4 @@
-"""The ROS links of bridged topics that never come up, while the endpoint runs (pure; bridge.ros_peers gathers the
+"""The ROS links of bridged topics that never come up, while the endpoint runs (pure; bridge.ros.peers gathers the
 facts, bridge.server's housekeeping acts on them).
 
 In ROS 1 a subscriber connects to its publisher's advertised address. So when a client publishes a topic through the

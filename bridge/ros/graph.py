@@ -1,5 +1,5 @@
 """The endpoint's node on the ROS graph: node lifecycle, parameters, names, and every rospy publisher, subscriber,
-service and proxy the endpoint makes, raw throughout (bridge.ros_types). With the other bridge.ros_* modules, the
+service and proxy the endpoint makes, raw throughout (bridge.ros.raw_types). With the other bridge.ros_* modules, the
 only code of the endpoint that touches rospy.
 """
 
@@ -20,12 +20,12 @@ import rospy
 import rospy.impl.tcpros_pubsub
 
 from bridge.diagnostics import Status
-from bridge.ros_master import MasterError, MasterLink, call_master, timed_proxy
-from bridge.ros_peers import describe_peer, peer_links
-from bridge.ros_publisher import RawPublisher
-from bridge.ros_reader import SUBSCRIBER_READ_BYTES, install_raw_reader
-from bridge.ros_service_proxy import RawServiceProxy
-from bridge.ros_types import RawMessage, RosError, TypeRegistry
+from bridge.ros.master import MasterError, MasterLink, call_master, timed_proxy
+from bridge.ros.peers import describe_peer, peer_links
+from bridge.ros.publisher import RawPublisher
+from bridge.ros.raw_types import RawMessage, RosError, TypeRegistry
+from bridge.ros.reader import SUBSCRIBER_READ_BYTES, install_raw_reader
+from bridge.ros.service_proxy import RawServiceProxy
 
 log = logging.getLogger(__name__)
 
@@ -94,7 +94,7 @@ class RosGraph:
         # disable_signals: the endpoint installs its own SIGINT/SIGTERM handling and shuts rospy down itself.
         rospy.init_node(name, anonymous=False, disable_signals=True)
         install_raw_reader()
-        self.master.install()  # from now on, registrations never wait for the master (bridge.ros_master)
+        self.master.install()  # from now on, registrations never wait for the master (bridge.ros.master)
 
     @staticmethod
     def get_param(name: str, default: Any) -> Any:
@@ -155,7 +155,7 @@ class RosGraph:
         called on the registering client's reader, outside the endpoint's lock."""
         self.master.wait_registered(kind, name, REGISTRATION_WAIT_S)
 
-    # The links of bridged topics to their ROS peers (bridge.ros_peers, judged by bridge.peer_links)
+    # The links of bridged topics to their ROS peers (bridge.ros.peers, judged by bridge.ros.peer_links)
     peer_links = staticmethod(peer_links)
     describe_peer = staticmethod(describe_peer)
 

@@ -1,6 +1,6 @@
 """Who comes in: the endpoint's limits on clients, checked at connect (room made where a connection does not use its
-slot: bridge.admission), and a WebSocket client's upgrade request (its page's Origin, the address a proxy that
-proved itself says it has: bridge.web_clients).
+slot: bridge.admission.room), and a WebSocket client's upgrade request (its page's Origin, the address a proxy that
+proved itself says it has: bridge.admission.web_clients).
 
 The Endpoint (bridge.server) owns one Gate and asks it about every new connection and every upgrade request.
 """
@@ -13,10 +13,9 @@ import threading
 import time
 from typing import TYPE_CHECKING, ContextManager, Mapping
 
-from bridge.admission import Suspects, pace, to_evict
-from bridge.config import EndpointConfig
-from bridge.throttle import LogThrottle
-from bridge.web_clients import (
+from bridge.admission.room import Suspects, pace, to_evict
+from bridge.admission.throttle import LogThrottle
+from bridge.admission.web_clients import (
     forwarded_client,
     normal_address,
     normal_origin,
@@ -24,11 +23,12 @@ from bridge.web_clients import (
     proxy_doubt,
     trusted_addresses,
 )
+from bridge.config import EndpointConfig
 
-if TYPE_CHECKING:  # wsproto is optional: bridge.websocket is imported only for WebSocket clients
-    from bridge.session import ClientSession
-    from bridge.web_session import WebSocketSession
-    from bridge.websocket import UpgradeRequest
+if TYPE_CHECKING:  # wsproto is optional: bridge.protocol.websocket is imported only for WebSocket clients
+    from bridge.connection.session import ClientSession
+    from bridge.connection.web_session import WebSocketSession
+    from bridge.protocol.websocket import UpgradeRequest
 
 __all__ = ["Gate"]
 
@@ -71,13 +71,13 @@ class Gate:
 
     def misused_slot(self, host: str) -> None:
         """A connection from `host` was closed for not using its slot (a deadline passed): its address becomes a
-        suspect (bridge.admission)."""
+        suspect (bridge.admission.room)."""
         with self._counts_lock:
             self._suspects.note(host, time.monotonic())
 
     def refusal(self, host: str, per_address: bool = True, newcomer: ClientSession | None = None) -> str | None:
         """Why a new client from `host` cannot be served now (a limit reached, and no connection there not using its
-        slot: bridge.admission); None when it can, room having been made if needed. With `per_address` False, only
+        slot: bridge.admission.room); None when it can, room having been made if needed. With `per_address` False, only
         the endpoint's limit is checked; for a `newcomer` already connected (a WebSocket client whose address its
         proxy has just said), only its address's."""
         now = time.monotonic()

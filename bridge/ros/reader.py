@@ -14,8 +14,8 @@ import rospy
 import rospy.impl.tcpros_pubsub
 from rospy.exceptions import TransportTerminated
 
-from bridge.framing import LARGE_PAYLOAD_BYTES
-from bridge.ros_types import RawMessage
+from bridge.protocol.framing import LARGE_PAYLOAD_BYTES
+from bridge.ros.raw_types import RawMessage
 
 _U32 = struct.Struct("<I")
 

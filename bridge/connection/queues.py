@@ -1,7 +1,7 @@
 """Bounded frame queues: drop the oldest topic frame when full, never a service frame.
 
 Used per client for frames going out to it, and per bridged topic for client payloads waiting for the ROS
-publisher's pump thread (bridge.ros_publisher.RawPublisher).
+publisher's pump thread (bridge.ros.publisher.RawPublisher).
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""The network as the endpoint sees it at start-up: the facts bridge.reachability judges, and whether the ROS master
+"""The network as the endpoint sees it at start-up: the facts bridge.ros.reachability judges, and whether the ROS master
 answers at all. Only the standard library and rosgraph (how ROS itself names this node's host and finds the master).
 
 Local addresses come from the kernel (an ioctl per interface for IPv4, /proc/net/if_inet6 for IPv6), not from
@@ -21,7 +21,7 @@ from urllib.parse import urlsplit
 import rosgraph
 import rosgraph.network
 
-from bridge.reachability import NetworkFacts
+from bridge.ros.reachability import NetworkFacts
 
 __all__ = ["MASTER_PROBE_S", "MasterProblem", "gather_facts", "master_problem", "port_problem"]
 

@@ -13,7 +13,9 @@ from typing import Any, Callable
 
 import genpy
 
-from bridge.definitions import (
+from bridge.errors import BridgeError
+from bridge.protocol.layout import Layout, LayoutError
+from bridge.ros.definitions import (
     DefinitionError,
     RosPackages,
     message_class_from_files,
@@ -21,8 +23,6 @@ from bridge.definitions import (
     service_class_from_files,
     split_type_name,
 )
-from bridge.errors import BridgeError
-from bridge.layout import Layout, LayoutError
 
 __all__ = ["RosError", "RawMessage", "TypeRegistry"]
 
@@ -61,7 +61,7 @@ def _split_name(message_name: str) -> tuple[str, str]:
 
 def _import_generated(message_name: str, kind: str, packages: RosPackages) -> Any:
     """The generated class of a message (kind "msg") or service ("srv"): the package's Python module, else one built
-    from the definition files on ROS_PACKAGE_PATH (bridge.definitions). Only a ROS package's own generated module is
+    from the definition files on ROS_PACKAGE_PATH (bridge.ros.definitions). Only a ROS package's own generated module is
     ever imported (see RosPackages). RosError says what to build or source."""
     package, type_name = _split_name(message_name)
     what = "message" if kind == "msg" else "service"
@@ -156,8 +156,8 @@ class TypeRegistry:
 
     def validate(self, message_name: str, payload: bytes) -> None:
         """Prove the bytes are exactly one `message_name` (no truncation, no trailing bytes); RosError says why
-        not. Walks the length prefixes only (bridge.layout), ~1 µs for a JointState instead of ~4 µs for a genpy
-        deserialize, which would also need a bounds-checking wrapper (~11 µs) to catch truncated strings."""
+        not. Walks the length prefixes only (bridge.protocol.layout), ~1 µs for a JointState instead of ~4 µs for a
+        genpy deserialize, which would also need a bounds-checking wrapper (~11 µs) to catch truncated strings."""
         layout = self._layouts.get(message_name)
         if layout is None:
             layout = self._layout(message_name, lambda: self.message_class(message_name))

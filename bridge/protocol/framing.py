@@ -8,7 +8,7 @@ import json
 import struct
 from typing import Any, Tuple
 
-from bridge.events import FramingError, LocalProtocolError
+from bridge.protocol.events import FramingError, LocalProtocolError
 
 __all__ = [
     "MAX_DESTINATION_BYTES",

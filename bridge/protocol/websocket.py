@@ -34,8 +34,8 @@ from wsproto.events import (
 from wsproto.frame_protocol import CloseReason
 from wsproto.utilities import RemoteProtocolError as WsRemoteProtocolError
 
-from bridge.events import Event, FramingError, InvalidInput, RemoteProtocolError
 from bridge.protocol import Conversation, Role
+from bridge.protocol.events import Event, FramingError, InvalidInput, RemoteProtocolError
 
 __all__ = [
     "WebSocketLink",

@@ -3,8 +3,9 @@
 It connects, checks the handshake, sends a keepalive after each second without sending, registers topics and
 services, and on a lost connection reconnects (fixed delay) and re-sends every registration. Payloads are plain
 ROS 1 serialized bytes; (de)serialize them with rosbags or any ROS 1 serializer. With `websocket=True` it speaks
-the same protocol over a WebSocket (bridge.websocket; needs wsproto), as a browser or a Unity WebGL build would.
-Callbacks run on the client's reader thread: keep them short. The answers it waits for are bridge.client_answers'.
+the same protocol over a WebSocket (bridge.protocol.websocket; needs wsproto), as a browser or a Unity WebGL build
+would. Callbacks run on the client's reader thread: keep them short. The answers it waits for are
+bridge.protocol.client_answers'.
 """
 
 from __future__ import annotations
@@ -17,9 +18,8 @@ import time
 from datetime import datetime, timezone
 from typing import TYPE_CHECKING, Any, Callable
 
-from bridge.client_answers import Answers, PingResult
+from bridge.connection.sockets import UnsentLimit, unpaced_on_loopback
 from bridge.errors import BridgeError
-from bridge.framing import LARGE_PAYLOAD_BYTES
 from bridge.protocol import (
     Auth,
     Conversation,
@@ -43,10 +43,11 @@ from bridge.protocol import (
     UnityService,
     Warn,
 )
-from bridge.sockets import UnsentLimit, unpaced_on_loopback
+from bridge.protocol.client_answers import Answers, PingResult
+from bridge.protocol.framing import LARGE_PAYLOAD_BYTES
 
-if TYPE_CHECKING:  # wsproto is optional: bridge.websocket is imported only by WebSocket clients
-    from bridge.websocket import WebSocketLink
+if TYPE_CHECKING:  # wsproto is optional: bridge.protocol.websocket is imported only by WebSocket clients
+    from bridge.protocol.websocket import WebSocketLink
 
 __all__ = ["ClientError", "PingResult", "TcpClient"]
 
@@ -182,7 +183,7 @@ class TcpClient:
     def _upgrade(self, sock: socket.socket) -> list[Event]:
         """The WebSocket upgrade (the first messages may come with its answer: their events are returned); OSError
         when the endpoint refuses it or does not answer in time."""
-        from bridge.websocket import WebSocketLink
+        from bridge.protocol.websocket import WebSocketLink
 
         link = WebSocketLink(Role.CLIENT, self._conversation)
         sock.settimeout(5.0)
@@ -222,7 +223,7 @@ class TcpClient:
         with self._write_lock:
             if len(data) >= LARGE_PAYLOAD_BYTES and self._unsent_limit is not None:
                 # As the endpoint does: on a slow link a large publish waits until it is nearly on the wire, instead
-                # of piling seconds of messages into the kernel's send buffer (bridge.sockets.UnsentLimit).
+                # of piling seconds of messages into the kernel's send buffer (bridge.connection.sockets.UnsentLimit).
                 self._unsent_limit.before_large_write()
             sock.sendall(data)
             self._last_send = time.monotonic()

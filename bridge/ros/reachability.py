@@ -1,4 +1,4 @@
-"""Whether the endpoint can be reached across machines, from facts gathered at start-up (pure; bridge.ros_network
+"""Whether the endpoint can be reached across machines, from facts gathered at start-up (pure; bridge.ros.network
 gathers them).
 
 ROS 1 has a quiet trap: every node tells the master an address of its own (the host in its URIs: ROS_HOSTNAME,

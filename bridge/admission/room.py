@@ -17,8 +17,8 @@ A connection too young to judge is safe, unless its address is a suspect: one of
 SUSPECT_S for not using its slot (to make room, or past a deadline). Without that, slow senders that reconnect at
 once, evicting each other, keep every slot too young to judge, and a well-behaved newcomer finds none to free.
 Proven non-users still go first; then young connections from suspect addresses, the longest connected first. A
-newcomer from a suspect address makes no room at all (bridge.gate): it is served where there is room, so the slow
-senders stop churning each other and grow old enough to judge.
+newcomer from a suspect address makes no room at all (bridge.admission.gate): it is served where there is room, so
+the slow senders stop churning each other and grow old enough to judge.
 """
 
 from __future__ import annotations

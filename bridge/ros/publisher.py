@@ -13,10 +13,10 @@ from typing import Any
 import rospy
 import rospy.impl.tcpros_pubsub
 
-from bridge.framing import LARGE_PAYLOAD_BYTES
-from bridge.queues import OutgoingQueue
-from bridge.ros_types import RawMessage
-from bridge.sockets import send_to_all, takes_whole, unsent_bytes
+from bridge.connection.queues import OutgoingQueue
+from bridge.connection.sockets import send_to_all, takes_whole, unsent_bytes
+from bridge.protocol.framing import LARGE_PAYLOAD_BYTES
+from bridge.ros.raw_types import RawMessage
 
 log = logging.getLogger(__name__)
 _U32 = struct.Struct("<I")
@@ -51,9 +51,9 @@ class RawPublisher:
     Two ways to ROS, one writer at a time (`_write_lock`), so messages keep their order:
     - direct: a message that arrived alone (not in a burst), with nothing queued and every subscriber connection's
       sent bytes acknowledged, is written at once on the reader's thread, when each connection's send buffer takes
-      it whole (bridge.sockets.takes_whole: any small message; a camera image once the kernel has grown the buffer
-      for it). That saves the pump's wake-up, one thread hop of every 1 kHz round trip and ~0.15 ms of a 1 MiB one,
-      and never blocks.
+      it whole (bridge.connection.sockets.takes_whole: any small message; a camera image once the kernel has grown
+      the buffer for it). That saves the pump's wake-up, one thread hop of every 1 kHz round trip and ~0.15 ms of a
+      1 MiB one, and never blocks.
     - queued: everything else goes to a bounded drop-oldest queue of the client's `queue_size` (as rospy's queued
       publisher keeps per subscriber). One pump thread per topic drains it a batch at a time into rospy's
       *synchronous* publisher: one hand-off per batch instead of rospy's wake-up, sleep(0) and socket write per
@@ -151,7 +151,8 @@ class RawPublisher:
     def _write_batch(self, payloads: list[bytes]) -> None:
         """What rospy's _PublisherImpl.publish does for one message (same lock, same stats; a connection whose write
         fails is closed, and rospy then removes it), done once for the whole batch, and without letting one ROS
-        subscriber that stopped reading hold up the others: see bridge.sockets.send_to_all and SUBSCRIBER_STALL_S."""
+        subscriber that stopped reading hold up the others: see bridge.connection.sockets.send_to_all and
+        SUBSCRIBER_STALL_S."""
         impl = self._publisher.impl
         if impl is None or impl.closed:
             return

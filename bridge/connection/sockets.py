@@ -1,4 +1,5 @@
-"""Socket helpers shared by the endpoint's client side (bridge.session) and ROS side (bridge.ros_publisher)."""
+"""Socket helpers shared by the endpoint's client side (bridge.connection.session), its ROS side
+(bridge.ros.publisher) and the Python client (bridge.client)."""
 
 from __future__ import annotations
 

@@ -16,8 +16,8 @@ import rosgraph.network
 import rospy
 import rospy.impl.tcpros_pubsub
 
-from bridge.ros_master import MASTER_TIMEOUT_S, MasterError, MasterRefused, call_master
-from bridge.ros_types import RosError
+from bridge.ros.master import MASTER_TIMEOUT_S, MasterError, MasterRefused, call_master
+from bridge.ros.raw_types import RosError
 
 _U32 = struct.Struct("<I")
 
