@@ -5,7 +5,7 @@ services, and on a lost connection reconnects (fixed delay) and re-sends every r
 ROS 1 serialized bytes; (de)serialize them with rosbags or any ROS 1 serializer. With `websocket=True` it speaks
 the same protocol over a WebSocket (bridge.protocol.websocket; needs wsproto), as a browser or a Unity WebGL build
 would. Callbacks run on the client's reader thread: keep them short. The answers it waits for are
-bridge.protocol.client_answers'.
+bridge.protocol.client_answers'. One concern, and a long one: every command of the protocol, and the reconnection.
 """
 
 from __future__ import annotations

@@ -8,6 +8,7 @@ Endpoint, which owns every registration and everything clients share): topic mes
 a read's worth at a time; commands and service bodies to `owner.handle`. The way out to the client (direct sends,
 the queue and its writer) is bridge.connection.output's, the threads of its ROS calls bridge.connection.calls', and
 a WebSocket client's session bridge.connection.web_session's (which builds on this module, never the other way).
+What is left is long because a connection's life is: its reader, with the deadlines, authentication and close.
 """
 
 from __future__ import annotations
