@@ -1,5 +1,5 @@
 """The endpoint's node on the ROS graph: node lifecycle, parameters, names, and every rospy publisher, subscriber,
-service and proxy the endpoint makes, raw throughout (bridge.ros.raw_types). With the other bridge.ros_* modules, the
+service and proxy the endpoint makes, raw throughout (bridge.ros.raw_types). With the other modules of bridge.ros, the
 only code of the endpoint that touches rospy.
 """
 
