@@ -20,7 +20,7 @@ import time
 from collections.abc import Callable
 
 from bridge import protocol
-from bridge.framing import encode_frame, encode_syscommand
+from bridge.protocol.framing import encode_frame, encode_syscommand
 from measuring.frames import Frame, feed
 from measuring.procfs import figures
 from sim.processes import EndpointProcess, ManagedProcess, RosCore, wait_for

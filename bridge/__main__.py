@@ -18,7 +18,7 @@ from typing import Any, Mapping
 
 from bridge.config import ConfigError, EndpointConfig
 from bridge.memory import keep_large_buffers
-from bridge.reachability import findings, summary
+from bridge.ros.reachability import findings, summary
 from bridge.server import Endpoint
 from bridge.settings import SETTINGS, describe
 
@@ -78,7 +78,7 @@ def _missing_websocket_library(config: EndpointConfig) -> str | None:
     if config.websocket_port is None:
         return None
     try:
-        import bridge.websocket  # noqa: F401  (wsproto, through it)
+        import bridge.protocol.websocket  # noqa: F401  (wsproto, through it)
     except ImportError as error:
         return (
             f"{_SOURCES['websocket_port'].source()} needs the WebSocket library wsproto, which this Python cannot "
@@ -111,9 +111,9 @@ def main(argv: list[str] | None = None) -> int:
     sys.setswitchinterval(GIL_SWITCH_INTERVAL_S)
     keep_large_buffers()
 
-    # bridge.ros_graph (rospy) is imported here, not at module level, so `--help` works without a ROS install.
-    from bridge.ros_graph import RosGraph
-    from bridge.ros_network import gather_facts, master_problem, port_problem
+    # bridge.ros.graph (rospy) is imported here, not at module level, so `--help` works without a ROS install.
+    from bridge.ros.graph import RosGraph
+    from bridge.ros.network import gather_facts, master_problem, port_problem
 
     # Arguments we do not know are ignored with a warning, never an exit: launch files written for other endpoints
     # pass their own. A known option with a bad value is still an error (exit 2).

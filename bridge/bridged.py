@@ -12,12 +12,12 @@ from typing import TYPE_CHECKING, Any, Callable, TypeVar
 
 from bridge.config import EndpointConfig
 from bridge.errors import RequestRefused
-from bridge.ros_publisher import RawPublisher
-from bridge.ros_service_proxy import RawServiceProxy
-from bridge.ros_types import RosError
+from bridge.ros.publisher import RawPublisher
+from bridge.ros.raw_types import RosError
+from bridge.ros.service_proxy import RawServiceProxy
 
 if TYPE_CHECKING:
-    from bridge.session import ClientSession
+    from bridge.connection.session import ClientSession
 
 __all__ = ["ClientRegistrations", "RoomCheck", "Bridged", "made_for_client"]
 
@@ -47,7 +47,7 @@ class Bridged:
     """The state the endpoint's tables share: its lock (guards every table and registration), each client's
     registrations, the ROS graph, the settings and the room check."""
 
-    ros: Any  # bridge.ros_graph.RosGraph
+    ros: Any  # bridge.ros.graph.RosGraph
     config: EndpointConfig
     room: RoomCheck
     lock: threading.RLock = field(default_factory=threading.RLock)

@@ -7,8 +7,8 @@ from __future__ import annotations
 import fnmatch
 from dataclasses import dataclass
 
-from bridge.framing import LARGE_PAYLOAD_BYTES
 from bridge.protocol import DEFAULT_MAX_PAYLOAD_BYTES, MAX_DESTINATION_BYTES
+from bridge.protocol.framing import LARGE_PAYLOAD_BYTES
 from bridge.settings import MAX_FRAME_LENGTH, SETTINGS, ConfigError, markdown_table
 
 __all__ = ["ConfigError", "EndpointConfig", "MAX_FRAME_LENGTH"]
@@ -50,9 +50,9 @@ class EndpointConfig:
     # users asked for in ROS-TCP-Endpoint PR #159); True sends them back as the original endpoint does.
     echo_own_publications: bool = False
     # Per client: ROS service calls in flight at once that no other client can take (past them, calls borrow from a
-    # room of max_clients x client_call_workers that all clients share: bridge.calls), and calls and topic-list
-    # look-ups in progress or waiting. So a burst of calls starts at once, and one client calling missing services
-    # (each waiting service_timeout_s) delays no other client's calls.
+    # room of max_clients x client_call_workers that all clients share: bridge.connection.calls), and calls and
+    # topic-list look-ups in progress or waiting. So a burst of calls starts at once, and one client calling missing
+    # services (each waiting service_timeout_s) delays no other client's calls.
     client_call_workers: int = 4
     client_max_pending_calls: int = 64
     # Limits, so that no client (nor a crowd of them) can take what the others need: descriptors, threads, memory.

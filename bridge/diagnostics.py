@@ -1,6 +1,6 @@
 """What the endpoint reports on /diagnostics, as plain data: one status for the endpoint, one per client, one per
-bridged topic (bridge.ros_graph publishes them as diagnostic_msgs/DiagnosticArray, which rqt_runtime_monitor and
-`rostopic echo /diagnostics` show; bridge.peer_links adds one per link to a ROS peer that does not come up). Pure:
+bridged topic (bridge.ros.graph publishes them as diagnostic_msgs/DiagnosticArray, which rqt_runtime_monitor and
+`rostopic echo /diagnostics` show; bridge.ros.peer_links adds one per link to a ROS peer that does not come up). Pure:
 snapshots in, statuses out; imports neither socket nor rospy.
 """
 

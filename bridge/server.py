@@ -1,12 +1,12 @@
-"""The endpoint's TCP server: accepts clients as its gate lets them in (bridge.gate), starts their sessions
-(bridge.session, bridge.web_session) and dispatches what they ask to the topic and service tables (bridge.topics,
-bridge.services), which it owns; housekeeping once a second. With a WebSocket port, a second
+"""The endpoint's TCP server: accepts clients as its gate lets them in (bridge.admission.gate), starts their sessions
+(bridge.connection.session, bridge.connection.web_session) and dispatches what they ask to the topic and service
+tables (bridge.topics, bridge.services), which it owns; housekeeping once a second. With a WebSocket port, a second
 listener admits WebSocket clients (browsers, Unity WebGL builds) to the same tables, under the same rules.
 
 Threads: one accept thread per listener; per client a reader (frames in), a writer (drains the client's bounded
 queue when a direct send could not write everything, see SessionOutput.send) and a few workers for its ROS service
 calls and topic-list look-ups (so a slow service never stalls a reader, nor another client's calls); per published
-topic a pump thread (bridge.ros_publisher.RawPublisher); rospy's own threads deliver ROS messages, which are fanned
+topic a pump thread (bridge.ros.publisher.RawPublisher); rospy's own threads deliver ROS messages, which are fanned
 out to the subscribed clients (bridge.topics.Topics.fan_out); one housekeeping thread.
 """
 
@@ -20,15 +20,19 @@ import time
 from typing import TYPE_CHECKING, Any, Callable
 
 from bridge import protocol
-from bridge.auth import AuthGuard
+from bridge.admission.auth import AuthGuard
+from bridge.admission.gate import Gate
+from bridge.admission.throttle import LogThrottle
 from bridge.bridged import Bridged, ClientRegistrations
-from bridge.calls import CallRoom
 from bridge.config import EndpointConfig
+from bridge.connection.calls import CallRoom
+from bridge.connection.queues import ByteBudget
+from bridge.connection.session import CLOSE_TIMEOUT_S, ClientSession
+from bridge.connection.sockets import send_now, tune_socket
+from bridge.connection.web_session import WebSocketSession
 from bridge.diagnostics import ClientSnapshot, TopicSnapshot, parse_client_time, report
 from bridge.errors import RequestRefused
-from bridge.gate import Gate
 from bridge.memory import QuietTrim, give_back_free_memory
-from bridge.peer_links import PEER_CHECK_S, PEER_CHECK_SHARE, PeerWatch, problem_line, problem_statuses
 from bridge.protocol import (
     Auth,
     Event,
@@ -44,23 +48,19 @@ from bridge.protocol import (
     TopicListQuery,
     UnityService,
 )
-from bridge.queues import ByteBudget
-from bridge.ros_graph import RosGraph
+from bridge.ros.graph import RosGraph
+from bridge.ros.peer_links import PEER_CHECK_S, PEER_CHECK_SHARE, PeerWatch, problem_line, problem_statuses
 from bridge.services import Services
-from bridge.session import CLOSE_TIMEOUT_S, ClientSession
-from bridge.sockets import send_now, tune_socket
-from bridge.throttle import LogThrottle
 from bridge.topics import Topics
-from bridge.web_session import WebSocketSession
 
-if TYPE_CHECKING:  # wsproto is optional: bridge.websocket is imported only for WebSocket clients
-    from bridge.websocket import UpgradeRequest
+if TYPE_CHECKING:  # wsproto is optional: bridge.protocol.websocket is imported only for WebSocket clients
+    from bridge.protocol.websocket import UpgradeRequest
 
 __all__ = ["Endpoint"]
 
 log = logging.getLogger(__name__)
 DIAGNOSTICS_PERIOD_S = 1.0  # /diagnostics at 1 Hz, as ROS's diagnostic tools expect
-PEER_PROBES_PER_CHECK = 2  # links found down described per check (each may wait bridge.ros_peers.PROBE_S)
+PEER_PROBES_PER_CHECK = 2  # links found down described per check (each may wait bridge.ros.peers.PROBE_S)
 
 
 # Requests whose answer the client must read (it is never dropped), and how they are named in a refusal
@@ -89,7 +89,8 @@ class Endpoint:
         self._stopping = threading.Event()
         self._auth = AuthGuard(config.auth_token) if config.auth_token is not None else None
         self._partial_frames = ByteBudget(config.max_partial_frame_bytes)
-        self.call_room = CallRoom(config.max_clients * config.client_call_workers)  # room to borrow (bridge.calls)
+        # room to borrow (bridge.connection.calls)
+        self.call_room = CallRoom(config.max_clients * config.client_call_workers)
         self._accept_failures = LogThrottle(log)
         self._gate = Gate(config, self._clients, self._lock)
         # Totals of the clients that have left (those still connected are summed in stats()).
@@ -234,7 +235,7 @@ class Endpoint:
         handler(session, event)
 
     def upgrade_refusal(self, session: WebSocketSession, request: UpgradeRequest) -> tuple[str, str] | None:
-        """A WebSocket client's upgrade request, as the gate decides it (bridge.gate)."""
+        """A WebSocket client's upgrade request, as the gate decides it (bridge.admission.gate)."""
         return self._gate.upgrade_refusal(session, request)
 
     def release(self, session: ClientSession) -> None:
@@ -311,7 +312,7 @@ class Endpoint:
                     self._check_peer_links(peers)
                     took = time.monotonic() - started
                     next_peer_check = max(next_peer_check, started + took / PEER_CHECK_SHARE)
-                except OSError as error:  # the master did not answer: its link says so (bridge.ros_master)
+                except OSError as error:  # the master did not answer: its link says so (bridge.ros.master)
                     log.debug("links to ROS peers not checked: %s", error)
                 except Exception:
                     log.exception("checking the links to ROS peers failed")
@@ -332,7 +333,7 @@ class Endpoint:
                 log.exception("publishing /diagnostics failed")
 
     def _check_peer_links(self, peers: PeerWatch) -> None:
-        """Links of bridged topics the master lists and rospy does not hold up (bridge.peer_links): each client
+        """Links of bridged topics the master lists and rospy does not hold up (bridge.ros.peer_links): each client
         bridging the topic that way is told once, in an __error."""
         with self._lock:
             publishing = {topic: tuple(shared.clients) for topic, shared in self.topics.publishers.items()}
@@ -429,7 +430,7 @@ def _turn_away(sock: socket.socket, reason: str, websocket: bool) -> None:
     """Tell a client that cannot be served why (an __error in place of the handshake; a WebSocket client, an HTTP
     503 in place of the upgrade's answer, sent without waiting for its request), and close."""
     if websocket:
-        from bridge.websocket import refusal_response
+        from bridge.protocol.websocket import refusal_response
 
         refusal = refusal_response(f"connection refused: {reason}")
     else:

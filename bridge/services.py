@@ -12,10 +12,10 @@ from typing import Any
 
 from bridge import protocol
 from bridge.bridged import Bridged, ClientRegistrations, made_for_client
+from bridge.connection.session import ClientSession
 from bridge.errors import RequestRefused
 from bridge.protocol import RosService, ServiceRequest, ServiceResponse, UnityService
-from bridge.ros_types import RosError
-from bridge.session import ClientSession
+from bridge.ros.raw_types import RosError
 
 __all__ = ["Services"]
 
@@ -87,7 +87,8 @@ class Services:
                 srv_id,
             )
         timeout = self._config.service_timeout_s
-        asked_at = time.monotonic()  # the deadline runs from here, not from when the call finds room (bridge.calls)
+        # the deadline runs from here, not from when the call finds room (bridge.connection.calls)
+        asked_at = time.monotonic()
 
         def call() -> None:
             if time.monotonic() - asked_at >= timeout:

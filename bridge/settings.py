@@ -1,7 +1,7 @@
-"""The endpoint's settings as one table: for each EndpointConfig field, its option, its rosparam, its kind (which
-says how a value is read, checked and shown) and its help. The command line, the rosparams, the checks and the
-README's table are all derived from SETTINGS; the defaults are EndpointConfig's (bridge.config, which imports this
-table and never the other way round). `python -m bridge.config` prints the README's table."""
+"""The endpoint's settings as one table: for each EndpointConfig field, its option, its rosparam, its kind (which says
+how a value is read, checked and shown) and its help; the table is most of this module, one entry a setting. The command
+line, the rosparams, the checks and the README's table are all derived from SETTINGS; the defaults are EndpointConfig's
+(bridge.config, which imports this table, never the reverse). `python -m bridge.config` prints the README's table."""
 
 from __future__ import annotations
 
@@ -10,8 +10,8 @@ import re
 from dataclasses import dataclass
 from typing import Any
 
+from bridge.admission.web_clients import is_address
 from bridge.errors import BridgeError
-from bridge.web_clients import is_address
 
 __all__ = [
     "ConfigError",

@@ -12,10 +12,10 @@ from typing import Any, Iterable, Tuple
 
 from bridge import protocol
 from bridge.bridged import Bridged, ClientRegistrations, made_for_client
+from bridge.connection.session import ClientSession
 from bridge.errors import RequestRefused
 from bridge.protocol import Publish, Subscribe, TopicMessage, Warn
-from bridge.ros_publisher import RawPublisher, end_topic
-from bridge.session import ClientSession
+from bridge.ros.publisher import RawPublisher, end_topic
 
 __all__ = ["ECHO_RECORD_MAX", "EchoFilter", "SharedSubscriber", "SharedPublisher", "Topics"]
 

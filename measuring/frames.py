@@ -1,11 +1,11 @@
 """Frames as a raw client (a test, a bench) reads them: the decoder's raw frames with their destinations decoded
-(the endpoint itself never needs more than bridge.framing.FrameDecoder.feed_raw)."""
+(the endpoint itself never needs more than bridge.protocol.framing.FrameDecoder.feed_raw)."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
-from bridge.framing import FrameDecoder, decode_destination, not_utf8
+from bridge.protocol.framing import FrameDecoder, decode_destination, not_utf8
 
 
 @dataclass(frozen=True)

@@ -364,9 +364,9 @@ def status_values(status) -> dict:
 
 
 class RawWebSocket(FrameReader):
-    """A WebSocket client of the endpoint written with wsproto alone (not bridge.websocket, which is under test): it
-    upgrades, sends what it is told (ROS-TCP frames as binary messages, or any WebSocket bytes), and keeps every
-    frame it reads in `received`, checking that each binary message carries exactly one frame. `close_code` and
+    """A WebSocket client of the endpoint written with wsproto alone (not bridge.protocol.websocket, which is under
+    test): it upgrades, sends what it is told (ROS-TCP frames as binary messages, or any WebSocket bytes), and keeps
+    every frame it reads in `received`, checking that each binary message carries exactly one frame. `close_code` and
     `close_reason` say how the endpoint closed the WebSocket; `refusal` holds the body of an HTTP refusal."""
 
     def __init__(

@@ -11,7 +11,7 @@
   relay from HOST:PORT to the container's TARGET_HOST:TARGET_PORT, closing a connection the container refuses
   (`refused <address>`). Prints `ok listening` once it listens.
 - `diagnostics`: a rospy node printing, for each /diagnostics array, `diagnostics <n>:` and the names of its
-  warnings about links to ROS peers (bridge.peer_links), `|`-separated.
+  warnings about links to ROS peers (bridge.ros.peer_links), `|`-separated.
 """
 
 from __future__ import annotations

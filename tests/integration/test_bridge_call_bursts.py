@@ -1,5 +1,5 @@
 """A burst of ROS service calls from one client, as a game engine asks for many IK solutions at once: each call has
-its --service-timeout from its asking, and starts when it is asked (bridge.calls), so a burst up to
+its --service-timeout from its asking, and starts when it is asked (bridge.connection.calls), so a burst up to
 --max-pending-calls to a service that answers in time is answered in full, and every call to a service that never
 answers ends by its deadline; beside CPU burners both. The room a burst borrows is bounded, and never another
 client's own share."""

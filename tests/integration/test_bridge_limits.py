@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 
 from bridge import protocol
-from bridge.admission import FRAME_GRACE_S
+from bridge.admission.room import FRAME_GRACE_S
 from bridge.protocol import FrameDecoder
 from measuring.endpoint import settled
 from measuring.frames import Frame, feed

@@ -167,7 +167,7 @@ def test_a_stalled_ros_subscriber_costs_its_topic_old_messages_never_the_clients
         for _ in range(count):
             client.send_frame(stuck_topic, big)
         client.send_frame(other_topic, serialize(String("still served")))
-        # One wait for room (bridge.ros_publisher.PUBLISH_WAIT_S), then the stuck topic drops oldest without waiting.
+        # One wait for room (bridge.ros.publisher.PUBLISH_WAIT_S), then the stuck topic drops oldest without waiting.
         assert other.wait_count(1, timeout=10) == [serialize(String("still served"))]
         warning = client.wait_command("__warn", timeout=10)["text"]
         assert "ROS subscribers take this client's messages too slowly" in warning

@@ -1,5 +1,5 @@
 """While the endpoint runs: a ROS link of a bridged topic that never comes up is told once to each client bridging
-the topic, in an __error naming the topic, the peer and its address, and shown on /diagnostics (bridge.peer_links).
+the topic, in an __error naming the topic, the peer and its address, and shown on /diagnostics (bridge.ros.peer_links).
 The three machines of tests/integration/test_bridge_across_machines.py (namespaces made and removed here, tag `pl`):
 ROS on one, the endpoint on a second, its client on the third; each machine's hosts file maps the hostname they share
 to 127.0.1.1, as Ubuntu's does.

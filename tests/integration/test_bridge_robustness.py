@@ -434,7 +434,7 @@ def test_a_client_that_cannot_be_set_up_is_closed_and_the_endpoint_keeps_accepti
     """Fault injection, in this process's endpoint: the first client's session fails to start (as when no thread
     can be had). That client is closed; the next one is served as usual."""
     from bridge import server
-    from bridge.ros_graph import RosGraph
+    from bridge.ros.graph import RosGraph
 
     failures = iter([RuntimeError("can't start new thread")])
     real_session = server.ClientSession

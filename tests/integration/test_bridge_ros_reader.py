@@ -1,4 +1,4 @@
-"""bridge.ros_reader.read_raw_messages, the endpoint's read of TCPROS messages from ROS publishers, on real sockets:
+"""bridge.ros.reader.read_raw_messages, the endpoint's read of TCPROS messages from ROS publishers, on real sockets:
 every message comes out whole and in order however the stream was split between rospy's read buffer and the socket,
 and a publisher that goes mid-message ends the connection as rospy's own reads do."""
 
@@ -13,10 +13,10 @@ import pytest
 import rospy.impl.tcpros_pubsub
 from rospy.exceptions import TransportTerminated
 
-from bridge import ros_reader
-from bridge.framing import LARGE_PAYLOAD_BYTES
-from bridge.ros_reader import FLOOD_READ_BYTES, SUBSCRIBER_READ_BYTES, next_read_size, read_raw_messages
-from bridge.ros_types import RawMessage
+from bridge.protocol.framing import LARGE_PAYLOAD_BYTES
+from bridge.ros import reader as ros_reader
+from bridge.ros.raw_types import RawMessage
+from bridge.ros.reader import FLOOD_READ_BYTES, SUBSCRIBER_READ_BYTES, next_read_size, read_raw_messages
 
 pytestmark = pytest.mark.lane("endpoint", on=("noetic",))
 

@@ -225,8 +225,8 @@ def test_missing_ros_service_gives_an_error_naming_it(bridge, ros_node) -> None:
 def test_a_missing_service_is_named_missing_when_its_look_up_ends_past_the_deadline(ros_node) -> None:
     # The master's "no such service" can come back after the call's deadline (a slow master, a loaded machine):
     # the verdict is still that answer, not "did not answer". A deadline of 1 us has passed before any answer.
-    from bridge.ros_service_proxy import RawServiceProxy
-    from bridge.ros_types import RosError
+    from bridge.ros.raw_types import RosError
+    from bridge.ros.service_proxy import RawServiceProxy
 
     missing = unique("late_missing")
     proxy = RawServiceProxy(SetBool, missing, max_response_bytes=1024)

@@ -1,5 +1,5 @@
-"""bridge.sockets.send_to_all on real loopback TCP connections: healthy peers get every byte at once, a steady
-slow reader is waited for, a peer that stopped reading (or hung up) fails alone. Every case runs with the senders
+"""bridge.connection.sockets.send_to_all on real loopback TCP connections: healthy peers get every byte at once, a
+steady slow reader is waited for, a peer that stopped reading (or hung up) fails alone. Every case runs with the senders
 in blocking mode and in timeout mode (rospy sets a process-wide default socket timeout that new sockets inherit)."""
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ from contextlib import contextmanager
 
 import pytest
 
-from bridge.sockets import (
+from bridge.connection.sockets import (
     BEHIND_BYTES,
     NOTSENT_LOWAT_BYTES,
     PACING_CONGESTION_CONTROLS,
@@ -28,7 +28,7 @@ from bridge.sockets import (
 pytestmark = pytest.mark.lane("endpoint", on=("noetic",))
 
 DATA = bytes(range(256)) * (32 * 1024)  # 8 MiB: more than loopback's socket buffers hold
-STALL_S = 1.0  # as the endpoint uses (bridge.ros_publisher.SUBSCRIBER_STALL_S)
+STALL_S = 1.0  # as the endpoint uses (bridge.ros.publisher.SUBSCRIBER_STALL_S)
 
 
 @pytest.fixture(params=[None, 60.0], ids=["blocking", "timeout-mode"])
@@ -164,7 +164,8 @@ def congestion_control(sock: socket.socket) -> bytes:
 
 @pytest.mark.parametrize("host", ["127.0.0.1", "::1"])
 def test_tune_socket_does_not_pace_a_client_on_this_machine(host: str) -> None:
-    """BBR's pacing stalled 1 MiB round trips to a local client for 40-115 ms (bridge.sockets.unpaced_on_loopback)."""
+    """BBR's pacing stalled 1 MiB round trips to a local client for 40-115 ms
+    (bridge.connection.sockets.unpaced_on_loopback)."""
     if not socket.has_ipv6 and ":" in host:
         pytest.skip("no IPv6")
     with tcp_pairs(1, None, host) as [(accepted, _)]:

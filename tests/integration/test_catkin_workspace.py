@@ -151,7 +151,9 @@ def test_the_user_workspace_has_bridge_from_devel_and_install_space(workspace: P
         assert result.returncode == 0, result.stderr
         assert result.stdout.startswith(str(workspace / space)), result.stdout
     # The install space is a copy: it works without the sources.
-    assert (workspace / "install" / "lib" / "python3" / "dist-packages" / "bridge" / "protocol.py").is_file()
+    assert (
+        workspace / "install" / "lib" / "python3" / "dist-packages" / "bridge" / "protocol" / "conversation.py"
+    ).is_file()
 
 
 def test_a_tutorial_launch_file_waits_for_the_master_serves_user_types_both_ways_and_respawns(

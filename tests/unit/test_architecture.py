@@ -23,21 +23,62 @@ def imported_after(module: str) -> set[str]:
     return set(result.stdout.split())
 
 
+# bridge/'s packages by concern, and whether each is pure (imports neither socket nor ROS); at the top, the server
+# with the topic and service tables and what the whole endpoint shares (docs/architecture.md).
+BRIDGE_PACKAGES = {
+    "protocol": True,  # the ROS-TCP protocol, sans I/O
+    "admission": True,  # who may come in
+    "connection": False,  # one client's connection: sockets, threads
+    "ros": False,  # the endpoint on the ROS graph: rospy, rosgraph, genpy
+    "client": False,  # the Python client of the protocol: a socket
+}
+BRIDGE_TOP_MODULES = {
+    "__main__",
+    "server",
+    "topics",
+    "services",
+    "bridged",
+    "diagnostics",
+    "settings",
+    "config",
+    "errors",
+    "memory",
+}
+# The pure modules of the impure packages, each beside the I/O it feeds, and the pure modules at the top.
+BRIDGE_PURE_MODULES = (
+    "bridge.connection.queues",
+    "bridge.ros.registry",
+    "bridge.ros.peer_links",
+    "bridge.ros.reachability",
+    "bridge.memory",
+    "bridge.diagnostics",
+    "bridge.settings",
+    "bridge.config",
+    "bridge.errors",
+)
+
+
+def package_modules(package: str) -> list[str]:
+    """Every module of a package under bridge/ (its __init__ as the package itself)."""
+    folder = REPO / "bridge" / package
+    return sorted(
+        f"bridge.{package}" if path.stem == "__init__" else f"bridge.{package}.{path.stem}"
+        for path in folder.glob("*.py")
+    )
+
+
+def test_every_bridge_package_and_top_module_is_listed() -> None:
+    bridge = REPO / "bridge"
+    assert {path.parent.name for path in bridge.glob("*/__init__.py")} == set(BRIDGE_PACKAGES)
+    assert {path.stem for path in bridge.glob("*.py") if path.stem != "__init__"} == BRIDGE_TOP_MODULES
+    assert not [path for path in bridge.glob("*/*/") if path.name != "__pycache__"], "one level of packages"
+
+
 @pytest.mark.parametrize(
     "module",
     [
-        "bridge.protocol",
-        "bridge.commands",
-        "bridge.client_answers",
-        "bridge.events",
-        "bridge.framing",
-        "bridge.layout",
-        "bridge.queues",
-        "bridge.memory",
-        "bridge.diagnostics",
-        "bridge.names",
-        "bridge.registry",
-        "bridge.peer_links",
+        *(module for package, pure in BRIDGE_PACKAGES.items() if pure for module in package_modules(package)),
+        *BRIDGE_PURE_MODULES,
     ],
 )
 def test_pure_bridge_modules_import_neither_sockets_nor_ros(module: str) -> None:
@@ -49,6 +90,7 @@ def test_pure_bridge_modules_import_neither_sockets_nor_ros(module: str) -> None
     "module",
     [
         "bridge.client",
+        "bridge.client.connector",
         "sim.engine.stand_in",
         "sim.campaign.analysis",
         "sim.geometry.kinematics",
@@ -175,26 +217,57 @@ BRIDGE_MODULE_MAX_LINES = 450
 
 
 def test_no_bridge_module_is_over_its_size() -> None:
-    sizes = {path.name: len(path.read_text().splitlines()) for path in (REPO / "bridge").glob("*.py")}
+    sizes = {
+        str(path.relative_to(REPO)): len(path.read_text().splitlines()) for path in (REPO / "bridge").rglob("*.py")
+    }
     assert {name: lines for name, lines in sizes.items() if lines > BRIDGE_MODULE_MAX_LINES} == {}
 
 
-def runtime_imports(path: Path, package: str) -> set[str]:
-    """The modules of `package` that the module at `path` imports when it runs, even in functions; not those it
-    imports for its annotations alone (under `if TYPE_CHECKING:`), which never run."""
-    tree = ast.parse(path.read_text())
-    for node in ast.walk(tree):
-        if isinstance(node, ast.If) and isinstance(node.test, ast.Name) and node.test.id == "TYPE_CHECKING":
-            node.body = []
-    found = set()
-    for node in ast.walk(tree):
-        if isinstance(node, ast.ImportFrom) and node.module and node.module.split(".")[0] == package:
-            found.update(
-                [node.module] if node.module != package else [f"{package}.{alias.name}" for alias in node.names]
-            )
-        elif isinstance(node, ast.Import):
-            found.update(alias.name for alias in node.names if alias.name.split(".")[0] == package)
-    return found
+# Where the house's code lives: no import circle may run through it, across its packages or within them.
+HOUSE = ("bridge", "sim", "bench", "measuring")
+
+
+def house_modules() -> dict[str, Path]:
+    """Every module of the house by its dotted name (a package by its own name, for its __init__.py)."""
+    modules = {}
+    for package in HOUSE:
+        for path in (REPO / package).rglob("*.py"):
+            parts = path.relative_to(REPO).with_suffix("").parts
+            modules[".".join(parts[:-1] if parts[-1] == "__init__" else parts)] = path
+    return modules
+
+
+def imports_of(module: str, path: Path, modules: set[str]) -> set[str]:
+    """The house's modules that `module` (at `path`) makes Python load: those it imports, anywhere in it, type-only
+    ones (under `if TYPE_CHECKING:`) included, as a circle among them would be one the day they ran; and for each,
+    the packages above it whose __init__.py runs first (not those above `module` itself: they are loading already)."""
+    is_package = path.stem == "__init__"
+    named: set[str] = set()
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.Import):
+            named.update(alias.name for alias in node.names)
+        elif isinstance(node, ast.ImportFrom):
+            base = node.module or ""
+            if node.level:  # relative: from the package of `module`
+                here = module.split(".") if is_package else module.split(".")[:-1]
+                base = ".".join(here[: len(here) - node.level + 1] + ([base] if base else []))
+            for alias in node.names:
+                submodule = f"{base}.{alias.name}"
+                named.add(submodule if submodule in modules else base)
+    own_packages = {".".join(module.split(".")[:i]) for i in range(1, module.count(".") + (1 if is_package else 0) + 1)}
+    loaded = set()
+    for name in named:
+        parts = name.split(".")
+        for i in range(1, len(parts) + 1):
+            prefix = ".".join(parts[:i])
+            if prefix in modules and prefix not in own_packages and prefix != module:
+                loaded.add(prefix)
+    return loaded
+
+
+def house_import_graph() -> dict[str, set[str]]:
+    modules = house_modules()
+    return {module: imports_of(module, path, set(modules)) for module, path in modules.items()}
 
 
 def import_circles(graph: dict[str, set[str]]) -> list[list[str]]:
@@ -220,18 +293,26 @@ def test_import_circles_are_found() -> None:
     assert import_circles({"a": {"b"}, "b": set()}) == []
 
 
-def test_bridge_has_no_import_circle() -> None:
-    graph = {
-        ".".join(path.relative_to(REPO).with_suffix("").parts): runtime_imports(path, "bridge")
-        for path in (REPO / "bridge").glob("*.py")
-    }
-    assert import_circles(graph) == []
+def test_the_house_has_no_import_circle() -> None:
+    """No module of bridge/, sim/, bench/ or measuring/ imports itself through others, type-only imports included."""
+    circles = import_circles(house_import_graph())
+    assert circles == [], "import circles: " + "; ".join(" -> ".join(circle) for circle in circles)
+
+
+def test_the_import_graph_sees_type_only_imports_and_the_packages_loaded_on_the_way() -> None:
+    graph = house_import_graph()
+    assert "bridge.connection.session" in graph["bridge.admission.gate"]  # under TYPE_CHECKING
+    assert "bridge.admission" in graph["bridge.settings"]  # the package runs before its module web_clients
+    assert "bridge.protocol" not in graph["bridge.protocol.conversation"]  # its own package is loading already
+    assert "bridge.protocol" in graph["bridge.server"]  # from bridge import protocol
 
 
 def test_only_the_bridges_ros_modules_touch_rospy() -> None:
-    """The endpoint's rospy code is in the modules named ros_*, and only there."""
-    touching = set()
-    for path in (REPO / "bridge").glob("*.py"):
+    """The endpoint's rospy code is in bridge/ros/, and only there; so is every import of genpy (and of the ROS
+    tools it stands on)."""
+    touching: dict[str, set[str]] = {}
+    for path in (REPO / "bridge").rglob("*.py"):
+        module = ".".join(path.relative_to(REPO).with_suffix("").parts)
         for node in ast.walk(ast.parse(path.read_text())):
             names = (
                 [alias.name for alias in node.names]
@@ -240,17 +321,19 @@ def test_only_the_bridges_ros_modules_touch_rospy() -> None:
                 if isinstance(node, ast.ImportFrom) and node.module
                 else []
             )
-            if any(name.split(".")[0] in ("rospy", "rosgraph") for name in names):
-                touching.add(path.stem)
-    assert touching == {
-        "ros_graph",
-        "ros_master",
-        "ros_network",
-        "ros_peers",
-        "ros_publisher",
-        "ros_reader",
-        "ros_service_proxy",
+            for name in names:
+                touching.setdefault(name.split(".")[0], set()).add(module)
+    assert touching["rospy"] | touching["rosgraph"] == {
+        "bridge.ros.graph",
+        "bridge.ros.master",
+        "bridge.ros.network",
+        "bridge.ros.peers",
+        "bridge.ros.publisher",
+        "bridge.ros.reader",
+        "bridge.ros.service_proxy",
     }
+    ros_tools = set().union(*(touching.get(name, set()) for name in ("genpy", "genmsg", "rospkg", "roslib")))
+    assert ros_tools and all(module.startswith("bridge.ros.") for module in ros_tools), ros_tools
 
 
 # What a ROS 1 install brings for Python (ROS's own packages): the endpoint may import these and the standard library.
@@ -286,15 +369,15 @@ def foreign_imports(package: str, ours: set[str]) -> dict[str, list[str]]:
 
 def test_the_bridge_needs_only_python_and_ros() -> None:
     """No pip dependency: a Noetic user runs the endpoint with what ROS installed. The one other package, the
-    distribution's python3-wsproto, is optional (WebSocket clients only): imported by bridge.websocket alone, which
-    the rest loads only when a WebSocket is asked for, and named by ros_tcp_endpoint's package.xml by a rosdep key
+    distribution's python3-wsproto, is optional (WebSocket clients only): imported by bridge.protocol.websocket alone,
+    which the rest loads only when a WebSocket is asked for, and named by ros_tcp_endpoint's package.xml by a rosdep key
     the package defines (rosdistro has none)."""
     import xml.etree.ElementTree as ET
 
     import yaml
 
     foreign = foreign_imports("bridge", ROS_PYTHON_PACKAGES | {"bridge"})
-    assert set(foreign) == {"wsproto"} and set(foreign["wsproto"]) == {"bridge/websocket.py"}, foreign
+    assert set(foreign) == {"wsproto"} and set(foreign["wsproto"]) == {"bridge/protocol/websocket.py"}, foreign
     loaded = imported_after("bridge.server") | imported_after("bridge.client") | imported_after("bridge.__main__")
     assert "wsproto" not in loaded
     package = REPO / "catkin_ws" / "src" / "ros_tcp_endpoint"

@@ -1,6 +1,6 @@
-"""bridge/ runs on ROS Noetic's Python 3.8: every module, and the catkin package's node script and setup.py,
-compile and import there (no 3.9+ syntax, nor library API at import time). 3.9+ calls made only at run time are
-caught by the bridge's tests, which launch_scripts/test.sh runs under 3.8 too."""
+"""bridge/ runs on ROS Noetic's Python 3.8: every module and package, and the catkin package's node script and
+setup.py, compile and import there (no 3.9+ syntax, nor library API at import time). 3.9+ calls made only at run
+time are caught by the bridge's tests, which launch_scripts/test.sh runs under 3.8 too."""
 
 from __future__ import annotations
 
@@ -15,10 +15,10 @@ CATKIN_PACKAGE = REPO / "catkin_ws" / "src" / "ros_tcp_endpoint"
 
 def test_every_bridge_module_imports_on_python_3_8() -> None:
     assert PYTHON38.exists(), "no .venv38 with Python 3.8: run launch_scripts/setup_ros_pythons.sh"
-    modules = [
-        "bridge",
-        *sorted(f"bridge.{path.stem}" for path in (REPO / "bridge").glob("*.py") if path.stem != "__init__"),
-    ]
+    modules = sorted(
+        ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+        for parts in (path.relative_to(REPO).with_suffix("").parts for path in (REPO / "bridge").rglob("*.py"))
+    )
     files = [str(CATKIN_PACKAGE / "scripts" / "default_server_endpoint.py"), str(CATKIN_PACKAGE / "setup.py")]
     code = (
         "import importlib, sys\n"

@@ -7,7 +7,7 @@ from pathlib import Path
 from sim.study.simulation.failures import failed_line, one_line, problem_line
 
 PARTICIPANT_LOG = """participant 1: connected; comfort 0.120 m (VR 0.100 m)
-[WARNING] [bridge.client] endpoint: something said on the way
+[WARNING] [bridge.client.connector] endpoint: something said on the way
 sim.study participant: error: trial 3 (distance): an actual distance must be >= 0 m, got inf
 """
 TRACEBACK = """Traceback (most recent call last):

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bridge.framing import FrameDecoder, encode_frame, encode_syscommand
+from bridge.protocol.framing import FrameDecoder, encode_frame, encode_syscommand
 from sim.study.run.protocol import input_delay_from_seq
 from sim.wire.rosmsgs import TYPESTORE, Header, deserialize, encode_joint_state, encode_message, time_msg
 
