@@ -15,7 +15,7 @@ from sim.study.design.paths import ON_TOP, approach_path
 from sim.study.design.scene import load_scene, scene_robot
 from sim.study.errors import StudyError
 from sim.study.run.stop import STOP_DECELERATION
-from sim.study.run.trial import TrialRun
+from sim.study.run.trial import TrialRun, state_at
 from sim.wire.contract import STEP_S
 
 SCENE = load_scene()
@@ -90,3 +90,29 @@ def test_bad_trials_and_states_are_named(planned, world):
         trial.measures()
     with pytest.raises(StudyError, match="needs 7 finite positions"):
         trial.record_state(0.0, [0.0] * 6)
+
+
+def test_the_achieved_state_at_a_press_is_interpolated_between_the_samples_around_it(planned, world):
+    # Joint states 1/30 s apart (franka's feed), the arm moving linearly in time: the state at a press between two of
+    # them is on the line between them, per joint, not the nearest sample (which would be up to half a step off).
+    trial = trial_of(planned, world)
+    h = 1 / 30
+    start, step = planned.positions[0], np.linspace(0.001, 0.007, ROBOT.dof)
+    for k in (0, 2, 1, 3):  # out of order: a late delivery
+        trial.record_state(k * h, start + k * step)
+    np.testing.assert_allclose(trial.positions_at(1.5 * h), start + 1.5 * step, atol=1e-12)
+    np.testing.assert_allclose(trial.positions_at(0.2 * h), start + 0.2 * step, atol=1e-12)
+    np.testing.assert_allclose(trial.positions_at(2 * h), start + 2 * step, atol=1e-12)  # on a sample: that one
+    np.testing.assert_allclose(trial.positions_at(-1.0), start)  # before the first and after the last: held
+    np.testing.assert_allclose(trial.positions_at(10 * h), start + 3 * step)
+    trial.press(1.5 * h)
+    distance = trial.measures().distance_at_press
+    assert distance == pytest.approx(world.hand_distance(start + 1.5 * step), abs=1e-9)
+
+
+def test_of_samples_at_one_time_the_last_recorded_counts():
+    # a trajectory link records the arm at rest at its start, then the controller's first state stamped there too
+    q0, q1, q2 = np.zeros(2), np.ones(2), np.full(2, 3.0)
+    np.testing.assert_allclose(state_at([(0.0, q0), (0.0, q1), (1.0, q2)], 0.5), np.full(2, 2.0))
+    with pytest.raises(StudyError, match="no joint state"):
+        state_at([], 0.0)
