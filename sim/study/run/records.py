@@ -31,7 +31,7 @@ class TrialRecord:
     peak_speed: float  # m/s
     speed_set: str
     group: int
-    motion_start: float  # s, ROS time
+    motion_start: float  # s on the link's clock (ROS time, or wall time): when the arm began to move
     pressed: bool
     press_time: float  # s from the motion's start; NaN without a press
     press_source: str  # the press's frame_id; "" without a press

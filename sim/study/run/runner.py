@@ -32,7 +32,10 @@ time when it came, minus its stamp).
 
 The participant's tracked head and hands (the protocol's pose topics: the VR page's headset and controllers, or a
 tracker in reality) are measured per approach (sim.study.motion): the hand's withdrawal, the head's distance to the
-end effector at the press, the time tracking was lost; an approach during which no pose came is unmeasured. At an
+end effector at the press, the time tracking was lost; an approach during which no pose came is unmeasured. The approach's
+window, its press and every measure are placed on the instant the arm began to move, as its link reports it
+(ApproachOutcome.motion_start; the record's motion_start): the stream's first step, at the `moving` status; a
+trajectory controller's approach goal stamp, its planning and start lead later. At an
 approach's end the runner waits (at most RunnerOptions.pose_grace of wall time, holding the robot in real time) until
 every body that has sent poses since the approach started has sent one stamped at its end: a lockstep outruns its
 participant, and poses travel apart from the status. Then it holds the robot at rest, its clock running, until the
@@ -505,7 +508,7 @@ class StudyRunner:
                 "at rest (the hand is not monitored)"
             )
         run = TrialRun(self.robot, planned, self.approaches.hand_distance, self.options.deceleration, hand)
-        start = self.clock
+        start = self.clock  # presses count from here; the arm starts at the link's reported start, later in reality
         self.publish_status(self.status(trial, "moving", motion_start=start))
         if trial.test == 2 and not self.link.realtime and not self.options.auto_go:
             self.inputs.wait_for_press(self.options.press_grace, self.stop)  # see RunnerOptions.press_grace
@@ -515,7 +518,8 @@ class StudyRunner:
         self.publish_status(self.status(trial, "at_rest", motion_start=start))
         measures = run.measures()
         press = outcome.press
-        motion, source = self._motion(trial, run, began, Window(start, self.clock, start + measures.press_time), log)
+        window = outcome.window(self.clock, measures.press_time)  # the run's times are from the arm's actual start
+        motion, source = self._motion(trial, run, began, window, log)
         perceived = math.nan
         if trial.test == 1:
             self.publish_status(self.status(trial, "distance", motion_start=start))
@@ -541,7 +545,7 @@ class StudyRunner:
             trial.peak_speed,
             trial.speed_set,
             trial.group,
-            start,
+            window.start,
             measures.pressed,
             measures.press_time,
             press.source if press else "",

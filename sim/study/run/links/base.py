@@ -8,6 +8,7 @@ from typing import Callable, Protocol  # typing's: a module-level alias is evalu
 
 import numpy as np
 
+from sim.study.motion.measures import Window
 from sim.study.run.errors import RunError
 from sim.study.run.trial import TrialRun
 
@@ -49,6 +50,10 @@ class ApproachOutcome:
     """What an approach did, beyond the TrialRun's own record. The trajectory controller's fields are NaN or empty
     on the stream, which has no goal and no replacement."""
 
+    # s on the link's clock: when the arm began to move, the time every state and press of the approach is from (the
+    # stream's clock at its first step; a trajectory controller's goal stamp, which it starts the arm at, a planning
+    # and a start lead after the runner asked). NaN: a link that did not say, which no window can be placed on.
+    motion_start: float = math.nan
     press: AppliedPress | None = None
     goal_result: str = ""  # the last goal's final status: SUCCEEDED, ABORTED, PREEMPTED, REJECTED...; "" stream
     error_code: int | None = None  # its result's control_msgs error code
@@ -63,6 +68,13 @@ class ApproachOutcome:
     hand_monitored: str = ""  # "tracked", "untracked" (the scene's hand taken at rest); "" on the stream
     least_separation_predicted: float = math.nan  # m (sim.study.safety.separation)
     least_separation: float = math.nan  # m, achieved, to the hand's live place while the arm moved
+
+    def window(self, end: float, press_time: float) -> Window:
+        """The approach's motion window on the link's clock, placed on the arm's actual start: from it to `end`, the
+        press `press_time` s after it (NaN: none). RunError when the link did not report its start."""
+        if not math.isfinite(self.motion_start):
+            raise RunError(f"the link did not report when its motion started (got {self.motion_start!r})")
+        return Window(self.motion_start, end, self.motion_start + press_time)
 
 
 class RobotLink(Protocol):

@@ -84,8 +84,8 @@ class StreamLink(ControllerNode):
             self.step(self._target[0], np.zeros(self.robot.dof))
 
     def approach(self, run: TrialRun, take_press: TakePress, settle: float) -> ApproachOutcome:
-        """Sample by sample; a press (its stamp, or its arrival when unstamped, never before the last sample
-        commanded) switches to the stop."""
+        """Sample by sample from the clock at the call (the motion's start: its first step begins there); a press (its
+        stamp, or its arrival when unstamped, never before the last sample commanded) switches to the stop."""
         dt = self.pacing.dt
         start = self.clock
         run.record_state(0.0, self.positions)
@@ -104,4 +104,4 @@ class StreamLink(ControllerNode):
             target, velocity = run.target(k)
             self.step(target, velocity)
             run.record_state(k * dt, self.positions)
-        return ApproachOutcome(applied)
+        return ApproachOutcome(motion_start=start, press=applied)

@@ -257,6 +257,7 @@ class TrajectoryLink:
             if why
         )  # fmt: skip
         return ApproachOutcome(
+            motion_start=motion.start,  # the goal's stamp: the controller starts the arm there
             press=applied,
             goal_result=GOAL_STATUS.get(status, "NO RESULT"),
             error_code=code,

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from sim.study.run.errors import RunError
+from sim.study.run.links.base import ApproachOutcome
 from sim.study.run.links.goals import CommandedPath, goal_points, speed_fell
 from sim.study.run.links.specs import PRESETS, link_specs
 
@@ -71,3 +72,14 @@ def test_braking_begins_at_the_first_state_whose_speed_has_fallen() -> None:
     stamps = np.array([0.0, 0.1, 0.2, 0.3, 0.4])
     assert speed_fell(stamps, np.array([1.0, 1.0, 1.0, 0.5, 0.0]), 0.15) == pytest.approx(0.15)
     assert math.isnan(speed_fell(stamps, np.zeros(5), 0.15))  # at rest: nothing to fall
+
+
+def test_an_approachs_window_is_placed_on_the_start_its_link_reports() -> None:
+    # A trajectory controller starts the arm at its goal's stamp, a planning and a start lead (10-250 ms) after the
+    # runner asked at 100.0 s: the window, and the press 1.5 s into the motion, are on that stamp.
+    outcome = ApproachOutcome(motion_start=100.26)
+    window = outcome.window(end=104.0, press_time=1.5)
+    assert (window.start, window.end) == (100.26, 104.0) and window.press == pytest.approx(101.76, abs=1e-12)
+    assert math.isnan(outcome.window(104.0, math.nan).press)  # no press
+    with pytest.raises(RunError, match="did not report when its motion started"):
+        ApproachOutcome().window(104.0, 1.5)
