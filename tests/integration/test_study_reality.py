@@ -102,6 +102,69 @@ def test_a_session_runs_vr_on_the_stream_and_reality_on_the_trajectory_controlle
     assert float(reality["distance_at_rest"]) > float(reality["distance_at_press"]) - ran_on - 0.01 > ON_TOP
 
 
+
+def test_the_press_and_its_distance_are_on_the_arms_own_start_and_between_its_joint_states(
+    roscore, ros_node, arm, tmp_path: Path
+) -> None:
+    # A button press stamped halfway between two of the arm's joint states (30 Hz), 0.8 s after the runner says the
+    # arm moves at 0.3 m/s. The controller starts the arm at the approach goal's stamp, a planning and a start lead
+    # after that: the row's motion start is that stamp, and its press time is from it. The distance at the press is
+    # the truth's, the arm's joint states heard here interpolated at the press's stamp, within 1 mm; the nearest of
+    # the two samples (the old measure) is half a sample's travel, ~5 mm, off.
+    from std_msgs.msg import Header
+
+    from sim.study.run.protocol import STOP_TOPIC
+    from sim.wire.control_types import control_types
+
+    _, watch = arm
+    goal_stamps: list[float] = []  # each goal's trajectory stamp: 1 the move to the start, 2 the approach, 3 the stop
+    goals = ros_node.Subscriber(
+        f"{NS}/follow_joint_trajectory/goal",
+        control_types().action_goal,
+        lambda message: goal_stamps.append(message.goal.trajectory.header.stamp.to_sec()),
+    )
+    button = ros_node.Publisher(STOP_TOPIC, Header, queue_size=10)  # linked before the runner's session starts
+    plan = write_plan(tmp_path / "plan.yaml", 15, "reality", [trial(1, "reality", 1, "vertical", 0.1, 0.3)])
+    runner = start_runner(roscore, plan, tmp_path / "out", ["--link", "reality=franka_ros"])
+    try:
+        watch.wait((1, "moving"), runner)
+        time.sleep(0.8)
+        with watch.changed:
+            before, after = watch.states[-2:]
+        press = (before.header.stamp.to_sec() + after.header.stamp.to_sec()) / 2
+        button.publish(Header(stamp=ros_node.Time.from_sec(press), frame_id="button"))
+        watch.wait((1, "distance"), runner)
+        type_line(runner, "10 cm\n")
+        output, _ = runner.communicate(timeout=60)
+    finally:
+        kill_process(runner)
+        goals.unregister()
+        button.unregister()
+    assert runner.returncode == 0, output
+    (row,) = read_csv(tmp_path / "out" / "participant_15.csv")
+    assert (row["pressed"], row["press_source"], row["safety_stop"]) == ("true", "button", ""), row
+    assert len(goal_stamps) == 3, goal_stamps
+    (t0, q0), (t1, q1) = ((s.header.stamp.to_sec(), by_joint(s)) for s in (before, after))
+    assert t0 > goal_stamps[1], (t0, goal_stamps)  # both samples in the motion
+    truth = hand_distance(q0 + (press - t0) / (t1 - t0) * (q1 - q0))
+    measured, nearest = float(row["distance_at_press"]), hand_distance(q0)  # the nearest sample: either is as near
+    said = (
+        f"measured {(measured - truth) * 1e3:+.2f} mm off the truth, the nearest sample {(nearest - truth) * 1e3:+.2f} "
+        f"mm; the motion's start {(float(row['motion_start']) - goal_stamps[1]) * 1e3:+.1f} ms off the goal's stamp"
+    )
+    print(f"the press's distance: {said}")
+    assert measured == pytest.approx(truth, abs=0.001), said
+    assert abs(nearest - truth) > 0.001, said  # the nearest sample would not do: this test tells them apart
+    assert 0.01 <= float(row["start_lead"]) <= 0.25 + 1e-9
+    assert float(row["motion_start"]) == pytest.approx(goal_stamps[1], abs=1e-6), said  # the arm's own start
+    assert float(row["motion_start"]) + float(row["press_time"]) == pytest.approx(press, abs=1e-6)
+
+
+def by_joint(state: Any) -> np.ndarray:
+    """A JointState's positions in the robot's joint order."""
+    return np.array([state.position[list(state.name).index(name)] for name in ROBOT.joint_names])
+
+
 def stopped_on_its_own(
     runner: subprocess.Popen,
     watch: Watch,
