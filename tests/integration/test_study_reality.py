@@ -102,7 +102,6 @@ def test_a_session_runs_vr_on_the_stream_and_reality_on_the_trajectory_controlle
     assert float(reality["distance_at_rest"]) > float(reality["distance_at_press"]) - ran_on - 0.01 > ON_TOP
 
 
-
 def test_the_press_and_its_distance_are_on_the_arms_own_start_and_between_its_joint_states(
     roscore, ros_node, arm, tmp_path: Path
 ) -> None:

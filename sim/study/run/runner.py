@@ -32,22 +32,21 @@ time when it came, minus its stamp).
 
 The participant's tracked head and hands (the protocol's pose topics: the VR page's headset and controllers, or a
 tracker in reality) are measured per approach (sim.study.motion): the hand's withdrawal, the head's distance to the
-end effector at the press, the time tracking was lost; an approach during which no pose came is unmeasured. The approach's
-window, its press and every measure are placed on the instant the arm began to move, as its link reports it
-(ApproachOutcome.motion_start; the record's motion_start): the stream's first step, at the `moving` status; a
-trajectory controller's approach goal stamp, its planning and start lead later. At an
-approach's end the runner waits (at most RunnerOptions.pose_grace of wall time, holding the robot in real time) until
-every body that has sent poses since the approach started has sent one stamped at its end: a lockstep outruns its
-participant, and poses travel apart from the status. Then it holds the robot at rest, its clock running, until the
-hand under the robot is at rest again (at most sim.study.motion's WITHDRAWAL_LIMIT after the robot rests), so that a
-late withdrawal is measured whole. Which pose source tracked each condition (announced on /study/tracking by the
-tracker relay, sim.study.run.tracker, and by the VR page, or named by RunnerOptions.pose_sources over them), with its
-jitter and calibration, goes to tracking/participant_NN.json after every trial; each trial's row records the source
-that tracked it and its calibration's id (sim.study.run.tracking.trial_source), so a source that changed mid-session
-is attributed trial by trial. In a condition's trials only the
-poses of the ROS node that announced its source count (a page's come through the endpoint's node); the others are
-dropped, and said once per node: two trackers never mix in one measure. A condition without an announcement takes
-every pose.
+end effector at the press, the time tracking was lost; an approach during which no pose came is unmeasured. The
+approach's window, its press and every measure are placed on the instant the arm began to move, as its link reports
+it (ApproachOutcome.motion_start; the record's motion_start): the stream's first step, at the `moving` status; a
+trajectory controller's approach goal stamp, its planning and start lead later. At an approach's end the runner
+waits (at most RunnerOptions.pose_grace of wall time, holding the robot in real time) until every body that has sent
+poses since the approach started has sent one stamped at its end: a lockstep outruns its participant, and poses
+travel apart from the status. Then it holds the robot at rest, its clock running, until the hand under the robot is
+at rest again (at most sim.study.motion's WITHDRAWAL_LIMIT after the robot rests), so that a late withdrawal is
+measured whole. Which pose source tracked each condition (announced on /study/tracking by the tracker relay,
+sim.study.run.tracker, and by the VR page, or named by RunnerOptions.pose_sources over them), with its jitter and
+calibration, goes to tracking/participant_NN.json after every trial; each trial's row records the source that
+tracked it and its calibration's id (sim.study.run.tracking.trial_source), so a source that changed mid-session is
+attributed trial by trial. In a condition's trials only the poses of the ROS node that announced its source count (a
+page's come through the endpoint's node); the others are dropped, and said once per node: two trackers never mix in
+one measure. A condition without an announcement takes every pose.
 """
 
 from __future__ import annotations
