@@ -4,7 +4,7 @@ scene proposed for the arm) and warm (the same cache again: both read back), and
 
     .venv/bin/python -m bench.check_bench [--arms ur5_like widowx_like ...] [--design DESIGN.yaml]
 
-The arms are the tests' (tests/study_arms.py, written into a temporary folder as description packages): the three
+The arms are the example arms the tests run on too (sim.robots.examples, written into a temporary folder): the three
 LAB_ARMS, the STUDY_ARMS and the Panda of the bundled scene. Target: cold within 30 s on 2 cores for a 6-joint arm.
 Each check runs as its own process, as a user runs it, with $VR_SIM_CACHE pointing into the temporary folder.
 """
@@ -20,7 +20,7 @@ import time
 from pathlib import Path
 
 from sim.processes import PYTHON, REPO, plain_env
-from tests.study_arms import LAB_ARM_EE_LINKS, LAB_ARMS, STUDY_ARMS, study_arm
+from sim.robots.examples import LAB_ARM_EE_LINKS, LAB_ARMS, STUDY_ARMS, write_example_arm
 
 COLD_TARGET_S = 30.0
 ARMS = ("panda", *LAB_ARMS, *(design.name for design in STUDY_ARMS))
@@ -61,7 +61,7 @@ def main(argv: list[str] | None = None) -> int:
             if name == "panda":
                 robot_args: list[str] = []
             else:
-                robot_args = ["--robot", str(study_arm(Path(folder) / "arms", name))]
+                robot_args = ["--robot", str(write_example_arm(Path(folder) / "arms", name))]
                 if name in LAB_ARM_EE_LINKS:
                     robot_args += ["--ee-link", LAB_ARM_EE_LINKS[name]]
             cache = Path(folder) / "cache" / name

@@ -18,18 +18,18 @@ import yaml
 
 from sim.launchers import finish
 from sim.processes import PYTHON, REPO, ManagedProcess, plain_env
-from tests.integration.study_helpers import SMALL_DESIGN
-from tests.robot_files import THIRD_PARTY_URDFS
-from tests.study_arms import (
+from sim.robots.examples import (
     LAB_ARM_EE_LINKS,
     SCARA_LIKE,
     STUDY_ARMS,
     ArmDesign,
-    study_arm,
     with_effort,
     write_arm,
     write_lab_arm,
 )
+from tests.integration.study_helpers import SMALL_DESIGN
+from tests.robot_files import THIRD_PARTY_URDFS
+from tests.study_arms import study_arm
 
 pytestmark = [pytest.mark.lane("beside", on=("project",)), pytest.mark.timeout(300)]
 

@@ -25,6 +25,7 @@ import pytest
 from PIL import Image
 
 from measuring.browser import chromium, launch_secrets, start_vr_page
+from sim.robots.examples import LAB_ARM_EE_LINKS, STUDY_ARMS
 from sim.study.design.feasibility import Approaches
 from sim.study.design.fit import scene_for
 from sim.study.design.paths import ON_TOP
@@ -40,7 +41,7 @@ from tests.integration.pixels import pixels_like
 from tests.integration.sim_helpers import start_engine
 from tests.integration.study_helpers import questionnaire, trial, write_plan
 from tests.rosenv import PYTHON, EndpointProcess, ManagedProcess, RosCore, wait_for
-from tests.study_arms import LAB_ARM_EE_LINKS, STUDY_ARMS, study_arm
+from tests.study_arms import study_arm
 
 PARTICIPANT = 4
 CONTROLLERS_APART = 0.12  # m

@@ -49,6 +49,11 @@ MIN_STANDOFF, MAX_STANDOFF = 0.01, 0.3  # m
 MIN_TRAVEL = 0.05  # m: every path starts at least this much farther from the hand than it ends
 _PEAK_FACTOR = 1.875  # minimum jerk: peak speed = 1.875 · length / duration
 _DENSE = 4001  # samples of the curve for its arc length
+# End points already found, by their exact inputs (the hand's box, the direction, the stand-off): a scene's fit asks
+# for the same ones again and again (every speed of a stand-off, each screen of a candidate, its plans), some four
+# times over for one found, and each is 80 halvings. Emptied when full.
+_END_POINTS: dict[tuple[bytes, bytes, float, bytes, float], np.ndarray] = {}
+_END_POINTS_KEPT = 4096
 
 
 @dataclass(frozen=True)
@@ -134,11 +139,19 @@ def end_point(hand: Box, direction: np.ndarray, standoff: float) -> np.ndarray:
     unit = np.asarray(direction, dtype=float) / np.linalg.norm(direction)
     if standoff < 0.0:
         return hand.top + standoff * unit
-    low, high = 0.0, standoff + float(np.linalg.norm(hand.size))  # distance grows monotonically along the ray
-    for _ in range(80):
-        middle = (low + high) / 2.0
-        low, high = (middle, high) if hand.distance(hand.top + middle * unit) < standoff else (low, middle)
-    return hand.top + (low + high) / 2.0 * unit
+    size, position = np.asarray(hand.size, dtype=float), np.asarray(hand.position, dtype=float)
+    key = (size.tobytes(), position.tobytes(), float(hand.yaw), unit.tobytes(), float(standoff))
+    found = _END_POINTS.get(key)
+    if found is None:
+        low, high = 0.0, standoff + float(np.linalg.norm(hand.size))  # distance grows monotonically along the ray
+        for _ in range(80):
+            middle = (low + high) / 2.0
+            low, high = (middle, high) if hand.distance(hand.top + middle * unit) < standoff else (low, middle)
+        found = hand.top + (low + high) / 2.0 * unit
+        if len(_END_POINTS) >= _END_POINTS_KEPT:
+            _END_POINTS.clear()
+        _END_POINTS[key] = found
+    return found.copy()  # (the caller's own: the one kept is never handed out)
 
 
 def minimum_jerk(tau: np.ndarray) -> np.ndarray:

@@ -7,8 +7,8 @@ import shutil
 from pathlib import Path
 
 from sim.robots import load_robot
+from sim.robots.examples import STUDY_ARMS, write_arm, write_lab_arm
 from sim.robots.identity import derived_fields, robot_identity, shape_filenames
-from tests.study_arms import STUDY_ARMS, write_arm, write_lab_arm
 
 MESHED = next(design for design in STUDY_ARMS if design.overlapping_meshes)  # relative meshes/... paths
 

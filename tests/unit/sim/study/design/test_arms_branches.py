@@ -1,4 +1,4 @@
-"""The approaches' IK on every test arm (the Panda, the arms labs have and the study's own, tests/study_arms.py):
+"""The approaches' IK on every test arm (the Panda, the arms labs have and the study's own, sim.robots.examples):
 one branch per approach, continuous along every bundled path; what an arm of fewer than six joints keeps; and the
 paths sized to each arm. Pure logic: the arms' URDFs are written, their scenes built without pybullet."""
 
@@ -12,6 +12,7 @@ import pytest
 
 from sim.geometry.kinematics import chain_for
 from sim.robots import RobotSpec, load_robot
+from sim.robots.examples import LAB_ARM_EE_LINKS, LAB_ARMS, STUDY_ARMS
 from sim.study.design.feasibility import BRANCH_JUMP, approach_targets, solve_approach
 from sim.study.design.fit import (
     HAND_FRACTIONS,
@@ -27,7 +28,7 @@ from sim.study.design.scene import Scene, load_scene, scene_robot
 from sim.study.design.tool import tool_axis
 from sim.wire.contract import STEP_S
 from tests.robot_files import LIFT_ARM
-from tests.study_arms import LAB_ARM_EE_LINKS, LAB_ARMS, STUDY_ARMS, study_arm
+from tests.study_arms import study_arm
 
 TEMPLATE = load_scene()
 ARMS = ("panda", *LAB_ARMS, *(design.name for design in STUDY_ARMS))

@@ -12,6 +12,7 @@ import pytest
 
 from sim.geometry.kinematics import chain_for
 from sim.robots import load_robot
+from sim.robots.examples import STUDY_ARMS, write_arm
 from sim.study.design import fit
 from sim.study.design.errors import DesignError
 from sim.study.design.fit import (
@@ -25,7 +26,6 @@ from sim.study.design.fit import (
 from sim.study.design.scene import DEFAULT_SCENE, load_scene, parse_scene, scene_robot
 from sim.study.design.spec import load_design
 from sim.wire.contract import STEP_S
-from tests.study_arms import STUDY_ARMS, write_arm
 
 TEMPLATE = load_scene()
 PANDA = scene_robot(TEMPLATE)

@@ -12,10 +12,10 @@ import numpy as np
 import pytest
 
 from sim.robots import load_robot
+from sim.robots.examples import STUDY_ARMS, write_arm
 from sim.study.design.feasibility import FITTED, Approaches, PlannedApproach, plan_combinations
 from sim.study.design.scene import load_scene, scene_robot
 from sim.wire.contract import STEP_S
-from tests.study_arms import STUDY_ARMS, write_arm
 
 SCENE = load_scene()
 PANDA = scene_robot(SCENE)

@@ -12,12 +12,12 @@ import numpy as np
 import pytest
 
 from sim.robots import RobotSpec, load_robot
+from sim.robots.examples import SCARA_LIKE, write_lab_arm
 from sim.study.design.errors import DesignError
 from sim.study.design.feasibility import Approaches, plan_combination
 from sim.study.design.scene import Box, load_scene, scene_robot
 from sim.study.design.world import FAR, SceneWorld
 from sim.wire.contract import STEP_S
-from tests.study_arms import SCARA_LIKE, write_lab_arm
 
 SCENE = load_scene()
 PANDA = scene_robot(SCENE)

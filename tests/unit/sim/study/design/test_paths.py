@@ -3,6 +3,8 @@ and ends at rest, peaks at the requested speed, stays above the table; bad input
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -71,6 +73,21 @@ def test_the_end_point_is_found_along_any_direction():
     for direction in ([0, 0, 1], [-1, 0, 1], [0.2, 0.5, 0.3]):
         point = end_point(SCENE.hand, np.array(direction, dtype=float), 0.07)
         assert SCENE.hand.distance(point) == pytest.approx(0.07, abs=1e-9)
+
+
+def test_an_end_point_asked_for_again_is_the_same_the_callers_own_and_moves_with_the_hand():
+    # (end points are kept by their exact inputs, sim.study.design.paths._END_POINTS: a fit asks for each many times)
+    direction = np.array([-1.0, 0.0, 1.0])
+    first = end_point(SCENE.hand, direction, 0.07)
+    found = first.copy()
+    first[:] = 0.0  # the caller's to change: what is kept is not
+    np.testing.assert_array_equal(end_point(SCENE.hand, direction, 0.07), found)
+    shift = np.array([0.1, -0.05, 0.02])
+    moved = dataclasses.replace(SCENE.hand, position=SCENE.hand.position + shift)
+    np.testing.assert_allclose(end_point(moved, direction, 0.07), found + shift, atol=1e-12)
+    turned = dataclasses.replace(SCENE.hand, yaw=np.pi / 2)  # the hand's longer side now across the direction
+    assert turned.distance(end_point(turned, direction, 0.07)) == pytest.approx(0.07, abs=1e-9)
+    assert end_point(SCENE.hand, direction, 0.08) != pytest.approx(found)
 
 
 def test_a_negative_stand_off_puts_the_end_point_inside_the_hand_against_the_direction():

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from sim.robots import load_robot
+from sim.robots.examples import write_lab_arm
 from sim.study.safety.errors import SafetyError
 from sim.study.safety.limits import (
     IIWA7_LIMITS,
@@ -27,7 +28,6 @@ from sim.study.safety.limits import (
     table_for,
 )
 from tests.robot_files import THIRD_PARTY_URDFS
-from tests.study_arms import write_lab_arm
 from tests.unit.sim.study.safety.plans import PANDA, panda_plan
 
 TIMES = np.arange(0.0, 2.0, 0.002)
