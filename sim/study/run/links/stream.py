@@ -30,7 +30,7 @@ from sim.control.stepper import Pacing, Stepper
 from sim.robots import RobotSpec
 from sim.study.run.console import say
 from sim.study.run.links.base import AppliedPress, ApproachOutcome, TakePress
-from sim.study.run.links.supervision import brakes_on_exit, stale
+from sim.study.run.links.supervision import LatestWatch, brakes_on_exit
 from sim.study.run.trial import TrialRun
 
 __all__ = ["StreamLink"]
@@ -71,8 +71,7 @@ class StreamLink(ControllerNode):
         self.watched_publishers.extend(watched)
         self._target = (robot.home.copy(), np.zeros(robot.dof))
         self.positions = robot.home.copy()
-        self._state: object | None = None  # the last joint state a step took, and when (monotonic s) it was new
-        self._state_seen = time.monotonic()
+        self._states = LatestWatch(time.monotonic())  # the joint states the steps take, on the monotonic clock
 
     @property
     def clock(self) -> float:
@@ -107,10 +106,7 @@ class StreamLink(ControllerNode):
         state = self.stepper.step(positions, velocities)
         if state is None:
             raise ControllerError(f"no {self.robot.joint_states_topic} message received")
-        now = time.monotonic()
-        if state is not self._state:
-            self._state, self._state_seen = state, now
-        why = stale(now, self._state_seen, self.pacing.step_timeout)
+        why = self._states.took(state, time.monotonic(), self.pacing.step_timeout)
         if why:
             raise ControllerError(f"{self.robot.joint_states_topic}: {why}")
         self.positions = state.positions
@@ -125,7 +121,7 @@ class StreamLink(ControllerNode):
     def _watch_from_now(self) -> None:
         """The stale feed is judged from now: between the runner's calls it may wait long without a step, and an
         engine on /clock need not publish meanwhile."""
-        self._state_seen = time.monotonic()
+        self._states.restart(time.monotonic())
 
     def _begin(self, what: str) -> _Streamed:
         """A motion begins, watched from now."""

@@ -17,8 +17,8 @@ a stale feed, a malformed joint state, a step of the wall clock, the robot's clo
 error in joint space, the achieved distance to the hand off the commanded path's, the achieved distance to the hand
 under the floor, speed and separation monitoring (sim.study.safety.separation; while no stop is in force), and the
 goal in force ending otherwise than by success. The trajectory link runs them all, on every look until the arm
-rests; the stream link runs the stale feed's (`stale`), the one that applies to a stand-in with no arm near anyone
-(docs/safety.md says which link runs which).
+rests; the stream link runs the stale feed's alone (`LatestWatch`), the one that applies to a stand-in with no arm
+near anyone (docs/safety.md says which link runs which).
 """
 
 from __future__ import annotations
@@ -41,6 +41,7 @@ from sim.study.safety.separation import SeparationMonitor
 __all__ = [
     "POLL",
     "RESULT_GRACE",
+    "LatestWatch",
     "Look",
     "Motion",
     "Stoppable",
@@ -153,6 +154,25 @@ def stale(now: float, arrival: float | None, limit: float) -> str:
         age = math.inf if arrival is None else now - arrival
         return f"joint states stale: none for {age:.3f} s (limit {limit:g} s)"
     return ""
+
+
+class LatestWatch:
+    """The stale feed's watchdog for a link that takes its feed's latest state without noting when it came (the
+    stream's, with --realtime): a state is new when it is another than the last taken, and the feed is stale once
+    none has been new for the limit. `restart` judges it from now on (a motion begins after a wait without steps)."""
+
+    def __init__(self, now: float) -> None:
+        self.since = now  # when the last new state was taken, or the watch restarted
+        self._last: object | None = None
+
+    def restart(self, now: float) -> None:
+        self.since = now
+
+    def took(self, state: object, now: float, limit: float) -> str:
+        """`state` taken at `now`: why the feed is stale ("" when it is not)."""
+        if state is not self._last:
+            self._last, self.since = state, now
+        return stale(now, self.since, limit)
 
 
 class Watchdogs:

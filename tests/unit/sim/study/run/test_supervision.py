@@ -18,6 +18,7 @@ from sim.study.run.links.stream import _Streamed
 from sim.study.run.links.supervision import (
     POLL,
     RESULT_GRACE,
+    LatestWatch,
     Look,
     Motion,
     Tolerances,
@@ -92,6 +93,19 @@ def test_no_state_at_all_is_a_stale_feed() -> None:
     assert stale(NOW, None, 0.1) == "joint states stale: none for inf s (limit 0.1 s)"
     assert stale(NOW, NOW - 0.099, 0.1) == "" and stale(NOW, NOW - 0.101, 0.1).startswith("joint states stale")
     assert Watchdogs(TOLERANCES, SKEW, 1.0).reason(look(latest=None), motion()).startswith("joint states stale")
+
+
+def test_a_feed_read_by_its_latest_state_is_stale_once_no_state_has_been_new_for_the_limit() -> None:
+    first, second = object(), object()
+    watch = LatestWatch(0.0)
+    assert watch.took(first, 0.5, 1.0) == ""
+    assert watch.took(first, 1.4, 1.0) == ""
+    assert watch.took(first, 1.6, 1.0) == "joint states stale: none for 1.100 s (limit 1 s)"
+    assert watch.took(second, 1.7, 1.0) == ""
+    assert watch.took(second, 2.8, 1.0).startswith("joint states stale")
+    watch.restart(10.0)  # a motion begins after a wait without steps: judged from now
+    assert watch.took(second, 10.5, 1.0) == ""
+    assert watch.took(second, 11.1, 1.0).startswith("joint states stale")
 
 
 def test_a_step_of_the_wall_clock_within_its_limit_and_a_late_delivery_do_not_fire() -> None:
