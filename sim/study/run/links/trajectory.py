@@ -14,12 +14,14 @@ stand-in of it), on wall time. rospy and actionlib.
   after its last point was due) is planned and sent anew. A stop before the motion has begun is a rest at the
   motion's start, stamped like a braking. Never a bare cancel or an empty trajectory: with franka's
   stop_trajectory_duration of 0 either holds the measured position at once, a step that makes libfranka abort.
-- Every exit of a motion brakes (sim.study.run.links.failsafe): an error, the observer's Ctrl-C or a SIGTERM, a lost
-  query_state. During a motion, braking included, the link watches the arm until it rests: it stops it on its own
-  (the same replacement) when the feed goes stale or brings a malformed state, the tracking error passes the
-  tolerance, the achieved distance to the hand falls under the floor, the wall clock steps, or the controller ends
-  the goal otherwise than by success; such a fault during braking, or a braking that does not succeed, ends the
-  session. These are the toolkit's checks, never instead of the robot's own stop.
+- Every exit of a motion brakes (sim.study.run.links.supervision's brakes_on_exit): an error, the observer's Ctrl-C
+  or a SIGTERM, a lost query_state. During a motion, braking included, the link watches the arm until it rests: on
+  each look it reads its feed, its clocks and the goal in force, and sim.study.run.links.supervision's watchdogs say
+  whether to stop it on its own (the same replacement): the feed gone stale or bringing a malformed state, the wall
+  clock stepped, the robot's clock off, the tracking error past the tolerance, the achieved distance to the hand off
+  the commanded path's or under the floor, the speed and separation monitor, or the controller ending the goal
+  otherwise than by success. Such a fault during braking, or a braking that does not succeed, ends the session.
+  These are the toolkit's checks, never instead of the robot's own stop.
 - If the runner's process dies (SIGKILL), nothing more is sent: the goal runs on to its end, at the stand-off at rest
   (ros_control's action server does not cancel a goal when its client goes away).
 
@@ -31,7 +33,6 @@ from __future__ import annotations
 
 import math
 import threading
-from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -42,14 +43,23 @@ from sim.robots import RobotSpec
 from sim.study.run.console import say
 from sim.study.run.links.base import AppliedPress, ApproachOutcome, Press, SafetyStopped, TakePress
 from sim.study.run.links.clock import SKEW_LIMIT, STEP_LIMIT, LinkClock
-from sim.study.run.links.failsafe import brakes_on_exit
 from sim.study.run.links.feed import FedState, JointFeed
-from sim.study.run.links.goals import GOAL_STATUS, CommandedPath, GoalPoints, goal_points, speed_fell
+from sim.study.run.links.goals import GOAL_STATUS, GoalPoints, goal_points, speed_fell
 from sim.study.run.links.joint_line import MOVE_DECELERATION, MOVE_JERK, JointLine
 from sim.study.run.links.lead import START, START_FLOOR, Leads, delivery_part
 from sim.study.run.links.specs import TrajectoryLinkSpec
+from sim.study.run.links.supervision import (
+    POLL,
+    RESULT_GRACE,
+    Look,
+    Motion,
+    Tolerances,
+    Watchdogs,
+    brakes_on_exit,
+    watched_to_rest,
+)
 from sim.study.run.trial import TrialRun
-from sim.study.safety.braking import STOP_JERK, Braking, PathGeometry, arc_length, brake
+from sim.study.safety.braking import STOP_JERK, PathGeometry, arc_length, brake
 from sim.study.safety.separation import PlannedTravel, SeparationMonitor, SeparationParameters
 from sim.wire.contract import positions_by_name
 
@@ -60,51 +70,14 @@ SKEW_STATES = 15  # joint states whose arrival against their stamps tells at con
 SKEW_WINDOW = 1.0  # s: the robot's clock is the least offset of the states that came in this long (feed.least_offset)
 QUERY_TIMEOUT = 0.1  # s: a query_state answer later than this is not waited for (the stop brakes from the path)
 PROBE_TIMEOUT = 2.0  # s: query_state's answer before a motion, which waits for it (no stop does)
-POLL = 0.01  # s: the longest wait for a joint state between looks at the presses and the goal
-RESULT_GRACE = 5.0  # s after a motion's planned end that the controller may take to end its goal
 SUCCEEDED = 3
 REJECTED = 5
 STAMP_WINDOW = 5.0  # s: a press stamped further from the wall clock is on another clock (the stream's /clock)
 NO_QUERY = ("planning", "delivery")  # what a stop's preparation waits for when it brakes from the commanded path
 
 
-@dataclass
-class Motion:
-    """One goal's motion, supervised from its sending until the arm rests: what was commanded and the goal in force,
-    the stop once one is in force, and why the link stopped it on its own."""
-
-    what: str  # "the approach", "the move to the path's start"
-    geometry: PathGeometry | JointLine
-    deceleration: float  # along the geometry's parameter (m/s² on a path, rad/s² on a joint line)
-    jerk: float
-    start: float  # the link's clock: the goal's stamp
-    ends: float  # when the motion is watched to: its goal's last point, or a later stop's
-    moves_until: float  # when the last point of the goal in force is due: the arm rests from then
-    commanded: CommandedPath = field(default_factory=CommandedPath)
-    handles: list[Any] = field(default_factory=list)  # the motion's goal first, then each stop sent
-    stopped: bool = False  # a stop is in force (a replacement sent, or none needed: the plan rests sooner)
-    braking: Braking | None = None
-    stop_lead: float = math.nan
-    stop_sent: float = math.nan  # the link's clock when the (last) replacement went
-    reason: str = ""  # why the link stopped the arm on its own
-    after_stop: str = ""  # a fault seen once the stop was in force: the session ends
-    monitor: SeparationMonitor | None = None  # an approach's speed and separation monitoring
-    hand_seen: float = -math.inf  # the stamp of the last tracked place of the hand given to the monitor
-    least_separation: float = math.inf  # m: the least achieved separation to the hand's live place while moving
-    checked: float = math.nan  # the link's clock at the monitor's last check
-
-    @property
-    def handle(self) -> Any:
-        return self.handles[-1]
-
-    @property
-    def replaced(self) -> bool:
-        """The goal in force is a replacement (a stop), not the motion's own goal."""
-        return len(self.handles) > 1
-
-
 class _Guard:
-    """A motion as sim.study.run.links.failsafe sees it."""
+    """A motion as sim.study.run.links.supervision's brakes_on_exit sees it."""
 
     def __init__(self, link: TrajectoryLink, motion: Motion) -> None:
         self.link, self.motion = link, motion
@@ -146,6 +119,8 @@ class TrajectoryLink:
         self._lead_lock = threading.Lock()  # goals' deliveries are measured on actionlib's threads
         self._connected = False
         self._skew = 0.0  # s: the joint states' arrival minus their stamps at connect (sim.study.run.links.clock)
+        tolerances = Tolerances(spec.stale_after, spec.tracking_tolerance, spec.surface_tolerance, spec.floor)
+        self._watchdogs = Watchdogs(tolerances, self._skew, spec.speed_scale)  # the skew is measured at connect
 
     # --- RobotLink -------------------------------------------------------------------------------------------
     @property
@@ -183,6 +158,7 @@ class TrajectoryLink:
         if self.feed.wait(-math.inf, timeout, self.stop) is None:
             raise ControllerError(f"no joint state on {self.spec.joint_states_topic} within {timeout:g} s")
         self._skew = self._clocks_agree(timeout)
+        self._watchdogs = Watchdogs(self._watchdogs.tolerances, self._skew, self.spec.speed_scale)
         self._connected = True
         topic, skew = self.spec.joint_states_topic, self._skew * 1e3
         return f"trajectory controller {ns} (the arm's joint states on {topic}, arriving {skew:+.1f} ms after stamping)"
@@ -381,77 +357,41 @@ class TrajectoryLink:
                     motion.after_stop = why
                     say(f"{self.name}: while {motion.what} was stopping: {why}")
                 self._stop_anew_if_refused(motion)
-            if now >= motion.ends + settle and (self._done(motion.handle) or now >= motion.ends + RESULT_GRACE):
+            if watched_to_rest(now, motion, settle, self._done(motion.handle)):
                 return applied, press_at, tracking
 
     def _unsafe(self, now: float, tracking: float, run: TrialRun | None, motion: Motion) -> str:
-        """Why the arm must be stopped now ("" when it need not)."""
-        latest = self.feed.latest()
-        if latest is None or now - latest.arrival > self.spec.stale_after:
-            age = math.inf if latest is None else now - latest.arrival
-            return f"joint states stale: none for {age:.3f} s (limit {self.spec.stale_after:g} s)"
-        distance = math.nan  # the achieved separation, kept while the arm moves whichever check stops it
-        if run is not None and now < motion.moves_until:  # a hand coming on to an arm at rest is the person's own move
-            distance = run.live_hand_distance(latest.positions)
-            motion.least_separation = min(motion.least_separation, distance)
-        faults = self.feed.faults_since(motion.start - self.spec.stale_after)
-        if faults:
-            return f"a malformed joint state: {faults[-1].reason}"
-        step = self._clock.step()
-        if abs(step) > STEP_LIMIT:
-            return f"the wall clock stepped {step:+.3f} s during the motion (limit {STEP_LIMIT:g} s)"
-        # A state stamped ahead of what its arrival allows is the clocks' doing at once (a delivery only delays);
-        # one stamped further behind may be a late delivery, so the least offset of the last states is judged.
-        least = self.feed.least_offset(SKEW_WINDOW)
-        for offset, beyond in ((latest.arrival - latest.stamp, -1.0), (least, 1.0)):  # ahead, then behind
-            if offset is not None and (offset - self._skew) * beyond > SKEW_LIMIT:
-                return (
-                    f"the joint states arrive {offset:+.3f} s after their stamps, {self._skew:+.3f} s at connect "
-                    f"(limit {SKEW_LIMIT:g} s): the robot's clock and the runner's no longer agree"
-                )
-        if tracking > self.spec.tracking_tolerance:
-            return f"tracking error {tracking:.4f} rad over the tolerance {self.spec.tracking_tolerance:g} rad"
-        if run is not None and latest.stamp >= motion.start:
-            achieved = run.hand_distance(latest.positions)
-            unsure = motion.replaced and not self._taken(motion.handle)
-            possible = motion.commanded.possible(latest.stamp, unsure)
-            off = min(abs(achieved - run.hand_distance(q)) for q in possible)
-            if off > self.spec.surface_tolerance:
-                return (
-                    f"the arm's distance to the hand {off * 1e3:.1f} mm off its commanded path's (tolerance "
-                    f"{self.spec.surface_tolerance * 1e3:g} mm)"
-                )
-        if run is not None and not math.isnan(distance):
-            if distance < self.spec.floor:
-                return f"achieved distance to the hand {distance:.4f} m under the floor {self.spec.floor:g} m"
-            if motion.monitor is not None and not motion.stopped:
-                separation = self._separation(now, distance, run, motion, motion.monitor)
-                if separation:
-                    return separation
-        if self._done(motion.handle):
-            failed = self._failure(motion)
-            if failed:
-                return failed
-        return ""
+        """Why the arm must be stopped now ("" when it need not): what the link sees, judged by the watchdogs."""
+        return self._watchdogs.reason(self._look(now, tracking, run, motion), motion)
 
-    def _separation(
-        self, now: float, distance: float, run: TrialRun, motion: Motion, monitor: SeparationMonitor
-    ) -> str:
-        """The speed and separation monitor's reason to brake now ("" when none): the hand's places tracked since the
-        last look, the separation `distance`. The reaction T_r is the lead a stop would be stamped now, plus the time
-        to the next check (the loop looks at least every POLL s; longer, if its last look was longer ago): a hand
-        that closes between two checks is seen only at the second."""
-        if run.hand is not None:
-            for stamp, place in run.hand.places_after(motion.hand_seen):
-                monitor.hand_seen(stamp, place)
-                motion.hand_seen = stamp
+    def _look(self, now: float, tracking: float, run: TrialRun | None, motion: Motion) -> Look:
+        """What the link sees of `motion` at `now`, the largest tracking error so far `tracking` (rad)."""
+        latest = self.feed.latest()
+        surface_off = distance = math.nan
+        if run is not None and latest is not None:
+            if latest.stamp >= motion.start:
+                achieved = run.hand_distance(latest.positions)
+                unsure = motion.replaced and not self._taken(motion.handle)
+                possible = motion.commanded.possible(latest.stamp, unsure)
+                surface_off = min(abs(achieved - run.hand_distance(q)) for q in possible)
+            if now < motion.moves_until:  # a hand coming on to an arm at rest is the person's own move
+                distance = run.live_hand_distance(latest.positions)
+        hand = run.hand if run is not None else None
         with self._lead_lock:
-            lead = self.lead.choose().lead
-        interval = POLL if math.isnan(motion.checked) else max(POLL, now - motion.checked)
-        motion.checked = now
-        scale = self.spec.speed_scale  # the plan's seconds per wall second (the rehearsal's slower motion)
-        verdict = monitor.check(now, distance, (lead + interval) * scale, plan_time=(now - motion.start) * scale)
-        return verdict.reason if verdict.brake else ""
+            stop_lead = self.lead.choose().lead
+        return Look(
+            now=now,
+            latest=latest,
+            faults=self.feed.faults_since(motion.start - self.spec.stale_after),
+            clock_step=self._clock.step(),
+            least_offset=self.feed.least_offset(SKEW_WINDOW),
+            tracking=tracking,
+            surface_off=surface_off,
+            distance=distance,
+            hand_places=hand.places_after(motion.hand_seen) if hand is not None else [],
+            stop_lead=stop_lead,
+            goal_failure=self._failure(motion),
+        )
 
     def _failure(self, motion: Motion) -> str:
         """How the goal in force ended, if not by success ("" while it runs, and when it succeeded)."""
