@@ -207,7 +207,8 @@ class Watchdogs:
             )
         if not math.isnan(look.distance):
             if look.distance < self.tolerances.floor:
-                return f"achieved distance to the hand {look.distance:.4f} m under the floor {self.tolerances.floor:g} m"
+                floor = self.tolerances.floor
+                return f"achieved distance to the hand {look.distance:.4f} m under the floor {floor:g} m"
             if motion.monitor is not None and not motion.stopped:
                 separation = self.separation(look, motion, motion.monitor)
                 if separation:

@@ -58,7 +58,7 @@ from sim.study.run.links.supervision import (
     brakes_on_exit,
     watched_to_rest,
 )
-from sim.study.run.trial import TrialRun
+from sim.study.run.trial import TrialRun, state_at
 from sim.study.safety.braking import STOP_JERK, PathGeometry, arc_length, brake
 from sim.study.safety.separation import PlannedTravel, SeparationMonitor, SeparationParameters
 from sim.wire.contract import positions_by_name
@@ -223,7 +223,7 @@ class TrajectoryLink:
         speeds = np.array([float(np.linalg.norm(s.velocities)) for s in seen])
         achieved = math.nan
         if not math.isnan(press_at) and seen:
-            at_press = min(seen, key=lambda s: abs(s.stamp - press_at)).positions
+            at_press = state_at([(s.stamp, s.positions) for s in seen], press_at)  # as the trial's measures are
             zeros = np.zeros(self.robot.dof)
             rest = geometry.project(seen[-1].positions, zeros, zeros)
             achieved = rest.arc - geometry.project(at_press, zeros, zeros).arc

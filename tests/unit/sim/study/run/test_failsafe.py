@@ -9,8 +9,8 @@ import pytest
 
 from sim.study.run.errors import RunError
 from sim.study.run.links.clock import LinkClock
-from sim.study.run.links.supervision import brakes_on_exit
 from sim.study.run.links.joint_line import MOVE_DECELERATION, MOVE_JERK, JointLine
+from sim.study.run.links.supervision import brakes_on_exit
 from sim.study.safety.braking import brake
 
 
