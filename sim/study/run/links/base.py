@@ -54,6 +54,9 @@ class ApproachOutcome:
     # stream's clock at its first step; a trajectory controller's goal stamp, which it starts the arm at, a planning
     # and a start lead after the runner asked). NaN: a link that did not say, which no window can be placed on.
     motion_start: float = math.nan
+    # the plan's seconds per second of the link's clock: the TrialRun's times (its states', its press's) are the
+    # plan's, and the rehearsal runs the plan slower (--rehearsal-speed < 1)
+    speed_scale: float = 1.0
     press: AppliedPress | None = None
     goal_result: str = ""  # the last goal's final status: SUCCEEDED, ABORTED, PREEMPTED, REJECTED...; "" stream
     error_code: int | None = None  # its result's control_msgs error code
@@ -71,10 +74,10 @@ class ApproachOutcome:
 
     def window(self, end: float, press_time: float) -> Window:
         """The approach's motion window on the link's clock, placed on the arm's actual start: from it to `end`, the
-        press `press_time` s after it (NaN: none). RunError when the link did not report its start."""
+        press `press_time` s of the plan after it (NaN: none). RunError when the link did not report its start."""
         if not math.isfinite(self.motion_start):
             raise RunError(f"the link did not report when its motion started (got {self.motion_start!r})")
-        return Window(self.motion_start, end, self.motion_start + press_time)
+        return Window(self.motion_start, end, self.motion_start + press_time / self.speed_scale)
 
 
 class RobotLink(Protocol):

@@ -234,6 +234,7 @@ class TrajectoryLink:
         )  # fmt: skip
         return ApproachOutcome(
             motion_start=motion.start,  # the goal's stamp: the controller starts the arm there
+            speed_scale=self.spec.speed_scale,
             press=applied,
             goal_result=GOAL_STATUS.get(status, "NO RESULT"),
             error_code=code,
@@ -334,8 +335,8 @@ class TrajectoryLink:
             for fed in self.feed.since(looked):
                 looked = fed.arrival  # each state once
                 if fed.stamp >= motion.start:
-                    if run is not None:
-                        run.record_state(fed.stamp - motion.start, fed.positions)
+                    if run is not None:  # on the plan's time, as the press is (slower in the rehearsal)
+                        run.record_state((fed.stamp - motion.start) * self.spec.speed_scale, fed.positions)
                     unsure = motion.replaced and not self._taken(motion.handle)
                     tracking = max(tracking, motion.commanded.error(fed.stamp, fed.positions, unsure))
             why = self._unsafe(now, tracking, run, motion)

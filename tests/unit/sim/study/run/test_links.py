@@ -83,3 +83,9 @@ def test_an_approachs_window_is_placed_on_the_start_its_link_reports() -> None:
     assert math.isnan(outcome.window(104.0, math.nan).press)  # no press
     with pytest.raises(RunError, match="did not report when its motion started"):
         ApproachOutcome().window(104.0, 1.5)
+
+
+def test_a_rehearsals_press_is_placed_on_the_links_clock_from_the_plans_seconds() -> None:
+    # The rehearsal runs the plan at half speed: a press 1.5 s into the plan came 3 s after the arm started.
+    window = ApproachOutcome(motion_start=100.0, speed_scale=0.5).window(end=110.0, press_time=1.5)
+    assert window.press == pytest.approx(103.0, abs=1e-12)
