@@ -259,7 +259,12 @@ def test_past_the_unread_answers_budget_pongs_are_dropped_and_the_client_is_told
         all_asked.wait(30)
         return TriggerResponse(True, "x" * 1_000_000)
 
+    def queued_answers() -> int:  # the most frames a client of the endpoint has queued, on /diagnostics
+        clients = [status for status_name, status in diagnostics.statuses.items() if "client #" in status_name]
+        return max((int(status_values(status)["queued frames"].split("/")[0]) for status in clients), default=0)
+
     service = ros_node.Service(name, Trigger, big)
+    diagnostics = DiagnosticsInbox(ros_node, "/" + bridge.name)
     try:
         with RawWebSocket(bridge.websocket_port) as ws:
             ws.command("__ros_service", topic=name, message_name="std_srvs/Trigger")
@@ -268,6 +273,8 @@ def test_past_the_unread_answers_budget_pongs_are_dropped_and_the_client_is_told
                 ws.command("__request", srv_id=srv_id)
                 ws.send_frame(name, b"")
             wait_for(lambda: len(answered) == 24, 30, "the 24 calls answered")
+            # the answers on their way back; the ping once more than the budget of them waits in the client's queue
+            wait_for(lambda: queued_answers() >= 5, 30, "5 answers of 1 MB (over 4 MiB) queued for the client")
             ws.send_event(Ping(b"answer me"))
             wait_for(lambda: "WebSocket pong not sent" in bridge.output(), 10, "the dropped pong in the log")
             warning = ws.wait_frame(
@@ -283,6 +290,7 @@ def test_past_the_unread_answers_budget_pongs_are_dropped_and_the_client_is_told
             ws.sync()
             assert ws.pongs == 1
     finally:
+        diagnostics.close()
         service.shutdown()
 
 
