@@ -391,9 +391,11 @@ def test_a_subscription_with_queue_size_keeps_only_that_many_waiting_for_a_slow_
         latest_only.sync()
         all_of_it.sync()
         wait_subscribers(publisher, count=1)
-        sent = [serialize(String(f"sample {index:04d} " + "x" * 200)) for index in range(600)]
+        # 6 MB: more than the sockets can ever hold for a client that does not read (Linux autotunes a loopback
+        # connection's send buffer to its traffic, up to tcp_wmem's 4 MiB: 600 messages of 200 B all fitted once)
+        sent = [serialize(String(f"sample {index:04d} " + "x" * 10_000)) for index in range(600)]
         for index in range(600):
-            publisher.publish(String(f"sample {index:04d} " + "x" * 200))
+            publisher.publish(String(f"sample {index:04d} " + "x" * 10_000))
         # neither client reads until the endpoint has handed every message to them (sent, or queued): it counts them
         # on /diagnostics
         wait_for(
