@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import math
 import threading
+from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -27,6 +28,7 @@ from sim.wire.contract import MessageError, positions_by_name
 __all__ = ["FedState", "FeedFault", "JointFeed", "KEPT_STATES"]
 
 KEPT_STATES = 10000  # a 500 Hz driver's 20 s, more than a motion takes between looks
+OFFSET_HORIZON = 10.0  # s: the longest window least_offset may be asked about
 
 
 @dataclass(frozen=True)
@@ -69,6 +71,9 @@ class JointFeed:
         self.robot = robot
         self._clock = clock
         self._states: list[FedState] = []
+        # (arrival, offset) of the states that may still be a window's least offset: each one's offset under every
+        # later one's, so the first within a window is its least (a sliding minimum: the link looks at every state)
+        self._least: deque[tuple[float, float]] = deque()
         self._faults: list[FeedFault] = []
         self._changed = threading.Condition()
 
@@ -85,6 +90,12 @@ class JointFeed:
         with self._changed:
             self._states.append(state)
             del self._states[:-KEPT_STATES]
+            offset = state.arrival - state.stamp
+            while self._least and self._least[-1][1] >= offset:
+                self._least.pop()
+            self._least.append((state.arrival, offset))
+            while self._least[0][0] < state.arrival - OFFSET_HORIZON:
+                self._least.popleft()
             self._changed.notify_all()
 
     def count(self) -> int:
@@ -105,16 +116,13 @@ class JointFeed:
         clock behind the link's, plus the quickest delivery among them (None before any). A delivery only ever adds
         to a state's offset, so a starved machine or a slow network raises the others, not the least, as long as one
         state in `over` s came promptly; a clock that steps raises them all."""
+        if not 0.0 <= over <= OFFSET_HORIZON:
+            raise ValueError(f"a window of {over!r} s: least_offset looks back at most {OFFSET_HORIZON:g} s")
         with self._changed:
             if not self._states:
                 return None
             since = self._states[-1].arrival - over
-            least = math.inf
-            for state in reversed(self._states):  # newest first: a 500 Hz feed keeps 10,000
-                if state.arrival < since:
-                    break
-                least = min(least, state.arrival - state.stamp)
-            return least
+            return next(offset for arrival, offset in self._least if arrival >= since)  # the latest is in it
 
     def faults_since(self, arrival: float) -> list[FeedFault]:
         with self._changed:
