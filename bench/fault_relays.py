@@ -10,6 +10,7 @@ Every relay here is a real rospy endpoint on loopback; each one's close() unregi
 from __future__ import annotations
 
 import os
+import signal
 import subprocess
 import threading
 import time
@@ -247,8 +248,6 @@ class QueryNode:
 
     def stop(self) -> None:
         if self.process is not None:
-            import signal
-
             kill_process(self.process, first_signal=signal.SIGKILL)
             self.process = None
 
@@ -270,8 +269,6 @@ class StateRelay:
             raise RuntimeError(f"the joint-state relay did not start (see {log})")
 
     def inject(self) -> None:
-        import signal
-
         os.kill(self.process.pid, signal.SIGUSR1)
 
     def close(self) -> None:

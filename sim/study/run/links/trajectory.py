@@ -118,9 +118,8 @@ class TrajectoryLink:
         self.lead = Leads()  # the delays measured on this connection, and the leads they give
         self._lead_lock = threading.Lock()  # goals' deliveries are measured on actionlib's threads
         self._connected = False
-        self._skew = 0.0  # s: the joint states' arrival minus their stamps at connect (sim.study.run.links.clock)
         tolerances = Tolerances(spec.stale_after, spec.tracking_tolerance, spec.surface_tolerance, spec.floor)
-        self._watchdogs = Watchdogs(tolerances, self._skew, spec.speed_scale)  # the skew is measured at connect
+        self._watchdogs = Watchdogs(tolerances, 0.0, spec.speed_scale)  # its skew is measured at connect
 
     # --- RobotLink -------------------------------------------------------------------------------------------
     @property
@@ -157,10 +156,10 @@ class TrajectoryLink:
             self._query(self._clock(), timeout)
         if self.feed.wait(-math.inf, timeout, self.stop) is None:
             raise ControllerError(f"no joint state on {self.spec.joint_states_topic} within {timeout:g} s")
-        self._skew = self._clocks_agree(timeout)
-        self._watchdogs = Watchdogs(self._watchdogs.tolerances, self._skew, self.spec.speed_scale)
+        skew = self._clocks_agree(timeout)
+        self._watchdogs = Watchdogs(self._watchdogs.tolerances, skew, self.spec.speed_scale)
         self._connected = True
-        topic, skew = self.spec.joint_states_topic, self._skew * 1e3
+        topic, skew = self.spec.joint_states_topic, skew * 1e3
         return f"trajectory controller {ns} (the arm's joint states on {topic}, arriving {skew:+.1f} ms after stamping)"
 
     def start(self, timeout: float) -> np.ndarray:
