@@ -79,6 +79,8 @@ from sim.study.motion.measures import (
     motion_measures,
     withdrawal_end,
 )
+from sim.study.run.clocks import FOLDER as CLOCKS
+from sim.study.run.clocks import ClockError, PageClocks, write_session_clocks
 from sim.study.run.console import say
 from sim.study.run.inputs import Inputs, answer_item
 from sim.study.run.links.base import Press, RobotLink, SafetyStopped
@@ -90,6 +92,7 @@ from sim.study.run.protocol import (
     ANSWER_TOPIC,
     DISTANCE_TOPIC,
     GO_TOPIC,
+    PAGE_CLOCK_TOPIC,
     POSE_TOPICS,
     PREFERENCE_TOPIC,
     PROTOCOL,
@@ -186,6 +189,7 @@ def recorder_topics(link_topics: Iterable[str]) -> list[str]:
         PREFERENCE_TOPIC,
         ANSWER_TOPIC,
         *POSE_TOPICS.values(),
+        PAGE_CLOCK_TOPIC,
         TRACKING_TOPIC,
         CALIBRATION_TOPIC,
         TF_STATIC_TOPIC,
@@ -246,6 +250,10 @@ class StudyRunner:
             self.rospy.Subscriber(ANSWER_TOPIC, String, lambda message: self.inputs.answer_json(message.data)),
         ]
         self._subscribers.append(self.rospy.Subscriber(TRACKING_TOPIC, String, self._on_tracker))
+        self.page_clocks = PageClocks()  # the pages' clocks (sim.study.run.clocks), judged before every trial
+        self._subscribers.append(
+            self.rospy.Subscriber(PAGE_CLOCK_TOPIC, String, lambda m: self.page_clocks.heard_json(m.data, say))
+        )
         for body, topic in POSE_TOPICS.items():
             self._subscribers.append(
                 self.rospy.Subscriber(topic, PoseStamped, self._on_pose, callback_args=body, tcp_nodelay=True)
@@ -423,6 +431,7 @@ class StudyRunner:
         records: list[TrialRecord] = []
         self._administer(0, records_path.parent, log)
         for trial in self.plan.trials:
+            self.page_clocks.refuse()  # a page's clock that cannot be trusted: refused before the trial
             record = self.run_trial(trial, log)
             records.append(record)
             group = self._group_of(trial)
@@ -433,6 +442,9 @@ class StudyRunner:
             write_records(records_path, records)  # after every trial: a crash loses at most the one running
             if self.tracked:
                 self.write_tracking(records_path.parent)
+            robots = {link.name: link.clock_offset for link in unique(self.links.values())}
+            clocks = records_path.parent / CLOCKS / f"participant_{self.plan.participant:02d}.json"
+            write_session_clocks(clocks, self.plan.participant, robots, self.page_clocks)
             if self.safety_stops:
                 raise SafetyStopped(f"the session ends: the runner stopped the arm in {'; '.join(self.safety_stops)}")
             self._administer(trial.index, records_path.parent, log)
@@ -514,6 +526,7 @@ class StudyRunner:
         outcome = self.link.approach(run, lambda until: self.inputs.take_press(until), self.options.settle)
         if outcome.safety_stop:
             log(f"trial {trial.index}: the arm was stopped: {outcome.safety_stop}")
+        start = outcome.motion_start  # from now on the arm's own start, as the link reports it (the row's)
         self.publish_status(self.status(trial, "at_rest", motion_start=start))
         measures = run.measures()
         press = outcome.press
@@ -578,6 +591,9 @@ class StudyRunner:
             outcome.least_separation,
             source.name,
             source.calibration_id,
+            outcome.robot_clock_offset,
+            outcome.robot_clock_drift,
+            *self.page_clocks.trial(PROTOCOL.stop_source(trial.condition)),
         )
         if outcome.safety_stop:
             self.safety_stops.append(f"trial {trial.index}: {outcome.safety_stop}")
@@ -737,6 +753,9 @@ def run_node(
     except ControllerError as error:
         say(f"error: {error}")
         return EXIT_INTERRUPTED if stop.is_set() else EXIT_ROS
+    except ClockError as error:  # a page's clock (sim.study.run.clocks), refused as a robot's is at connect
+        say(f"error: {error}")
+        return EXIT_ROS
     except SafetyStopped as error:
         say(f"error: {error}")
         print(f"records: {records_path}")
