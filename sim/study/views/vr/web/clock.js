@@ -21,9 +21,10 @@ export class ClockOffset {
     this.applied = null; // [browser ms, offset s]: the offset last read (offsetAt), null until read or after a jump
   }
 
-  // A ping sent at sentAtMs (browser clock, ms) was answered at receivedAtMs with ROS time rosTime (s).
+  // A ping sent at sentAtMs (browser clock, ms) was answered at receivedAtMs with ROS time rosTime (s); whether it
+  // gave a sample.
   add(sentAtMs, receivedAtMs, rosTime) {
-    if (!(rosTime > 0)) return;
+    if (!(rosTime > 0)) return false;
     const roundTripMs = receivedAtMs - sentAtMs;
     const offset = rosTime - (sentAtMs + roundTripMs / 2) / 1000;
     const best = this.best();
@@ -33,6 +34,7 @@ export class ClockOffset {
     }
     this.samples.push([roundTripMs, offset]);
     this.samples = this.samples.slice(-SAMPLES_KEPT);
+    return true;
   }
 
   best() {
@@ -44,6 +46,17 @@ export class ClockOffset {
   get offset() {
     const best = this.best();
     return best === null ? null : best[1];
+  }
+
+  // What the page says of its clock at nowMs (browser clock, ms; not before the last read), or null before any
+  // answer: the estimate (s) and its round trip (s), the offset it stamps with now (s) and the samples it is of. The
+  // runner judges the page's stamps by it (sim/study/run/clocks.py): off by at most half the round trip plus the
+  // applied offset's distance from the estimate.
+  report(nowMs) {
+    const best = this.best();
+    if (best === null) return null;
+    const applied = this.offsetAt(nowMs);
+    return { offset: best[1], round_trip: best[0] / 1000, applied, samples: this.samples.length };
   }
 
   // The offset to read ROS time by at nowMs (browser clock, ms; not before the last read): the estimate, reached

@@ -130,6 +130,7 @@ def test_the_settings_carry_the_scene_the_joints_and_the_topics(site: Site) -> N
     # the page's announcement of itself as the VR condition's pose source (alone, by default: in reality another
     # tracker is), as the runner reads one, its jitter not measured until the rest at the session's start
     assert settings["topics"]["tracking"] == ["/study/tracking", "std_msgs/String"]
+    assert settings["topics"]["page_clock"] == ["/study/page_clock", "std_msgs/String"]  # its clock, to be judged
     said = announcement_from_json(json.dumps(settings["pose_source"]))
     assert (said["source"], said["conditions"], said["jitter_m"], said["rest_s"], said["calibration"]) == (
         "headset",
