@@ -41,9 +41,9 @@ export class RosConnection {
   }
 
   // Announce the clock offset's estimate (clock.js's report, with `source`: the stop source the page's presses are
-  // named by) on `topic`, a std_msgs/String of JSON, after each ping answer that gave a sample.
-  announceClock(topic, source) {
-    this.advertise(topic, 'std_msgs/String');
+  // named by) on `topic` (of `type`, a std_msgs/String: JSON), after each ping answer that gave a sample.
+  announceClock(topic, type, source) {
+    this.advertise(topic, type);
     this.clockAnnouncement = [topic, source];
   }
 

@@ -54,7 +54,7 @@ export class StudyTopics {
       this.posesSent[body] = 0;
     }
     this.connection.advertise(...topics.tracking, true);
-    this.connection.announceClock(topics.page_clock[0], settings.stop_source); // the runner judges its stamps by it
+    this.connection.announceClock(...topics.page_clock, settings.stop_source); // the runner judges its stamps by it
   }
 
   open() {

@@ -106,6 +106,7 @@ def test_the_button_page_is_its_own_entry_with_the_vr_pages_ros_modules_and_noth
     assert settings["topics"] == {
         "trial": ["/study/trial", "std_msgs/String"],
         "stop": ["/study/stop", "std_msgs/Header"],
+        "page_clock": ["/study/page_clock", "std_msgs/String"],  # its clock's estimate, for the runner to judge
     }
     assert (
         settings["stop_source"] == "button" and settings["protocol"]["stop_sources"]["button"]["condition"] == "reality"
