@@ -431,7 +431,6 @@ class StudyRunner:
         records: list[TrialRecord] = []
         self._administer(0, records_path.parent, log)
         for trial in self.plan.trials:
-            self.page_clocks.refuse()  # a page's clock that cannot be trusted: refused before the trial
             record = self.run_trial(trial, log)
             records.append(record)
             group = self._group_of(trial)
@@ -511,6 +510,7 @@ class StudyRunner:
         self.publish_status(self.status(trial, "ready"))
         if not self.options.auto_go and self.wait_for_input("go") is None:
             log(f"trial {trial.index}: no go within {self.options.response_timeout:g} s; starting anyway")
+        self.page_clocks.refuse()  # a page's clock that cannot be trusted ends the session before the approach
         hand = self._hand_watch(began)
         if self.link.name != STREAM and not hand.tracked and trial.condition not in self.unmonitored:
             self.unmonitored.add(trial.condition)
@@ -632,7 +632,9 @@ class StudyRunner:
         if not late:
             self._follow_withdrawal(began, window)
         pressed = math.isfinite(window.press)
-        end_effector = self.approaches.end_effector(run.positions_at(window.press - window.start)) if pressed else None
+        # the run's states are on the plan's seconds, as its press is (the window's are wall seconds: a rehearsal's
+        # are slower)
+        end_effector = self.approaches.end_effector(run.positions_at(run.measures().press_time)) if pressed else None
         measures = motion_measures(
             self.poses.tracks(began), window, self.scene.hand.position, end_effector, TRACKING_GAP, at_rest
         )
