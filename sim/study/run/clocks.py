@@ -7,8 +7,8 @@ the quickest recent round trip (views/vr/web/clock.js). It announces its estimat
 PAGE_CLOCK_TOPIC (sim.study.run.protocol): the estimate, that round trip, the offset it stamps with now (slewed
 towards the estimate, so its readings never run backwards) and how many samples it has. A stamp it makes is off the
 runner's clock by at most half the round trip plus the applied offset's lag behind the estimate: its uncertainty.
-Two estimates further apart than their half round trips explain mean a clock stepped (the page's, or ROS time
-restarted): its stamps in between were off by the step.
+Two estimates further apart than their half round trips (and ROS time's own step) explain mean a clock stepped (the
+page's, or ROS time restarted): its stamps in between were off by the step.
 
 The runner judges everything heard before the session's first trial, and again before each next trial: a page whose
 uncertainty, or a step between its estimates, exceeds PAGE_CLOCK_LIMIT refuses the session (ClockError, one line).
@@ -88,9 +88,11 @@ def page_clock_from_json(text: str) -> PageClock:
                      data["samples"])  # fmt: skip
 
 
-def step_between(before: PageClock, after: PageClock) -> float:
-    """s the estimate moved from `before` to `after` beyond what their half round trips explain (0: within them)."""
-    return max(0.0, abs(after.offset - before.offset) - (before.round_trip + after.round_trip) / 2)
+def step_between(before: PageClock, after: PageClock, quantum: float = 0.0) -> float:
+    """s the estimate moved from `before` to `after` beyond what their half round trips and ROS time's own step
+    (`quantum`) explain (0: within them)."""
+    explained = (before.round_trip + after.round_trip) / 2 + quantum
+    return max(0.0, abs(after.offset - before.offset) - explained)
 
 
 def _ms(seconds: float) -> str:
@@ -100,8 +102,11 @@ def _ms(seconds: float) -> str:
 class PageClocks:
     """The pages' announcements heard in a session, by page; what they say of each trial, and whether to go on."""
 
-    def __init__(self, limit: float = PAGE_CLOCK_LIMIT) -> None:
-        self.limit = limit
+    def __init__(self, limit: float = PAGE_CLOCK_LIMIT, quantum: float = 0.0) -> None:
+        # quantum, s: ROS time's own step as the endpoint answers pings with it (the runner's /clock in real time
+        # steps every dt, and the endpoint answers with its latest, up to a step behind): two estimates may differ by
+        # it with no clock stepping
+        self.limit, self.quantum = limit, quantum
         self._lock = threading.Lock()
         self._heard: dict[str, list[PageClock]] = {}  # by source, in order
         self._checked: dict[str, int] = {}  # by source: announcements judged by check()
@@ -127,7 +132,7 @@ class PageClocks:
                             f"applied offset {_ms(abs(clock.applied - clock.offset))} off its estimate; limit "
                             f"{_ms(self.limit)}): bring the page nearer the runner (a quieter network)"
                         )
-                    step = step_between(clocks[k - 1], clock) if k > 0 else 0.0
+                    step = step_between(clocks[k - 1], clock, self.quantum) if k > 0 else 0.0
                     if step > self.limit:
                         return (
                             f"the {source} page's clock stepped {_ms(step)} beyond its round trips (its offset "
@@ -174,7 +179,9 @@ class PageClocks:
                 "offset_last_s": clocks[-1].offset,
                 "round_trip_least_s": min(clock.round_trip for clock in clocks),
                 "uncertainty_largest_s": max(clock.uncertainty for clock in clocks),
-                "step_largest_s": max((step_between(a, b) for a, b in zip(clocks, clocks[1:])), default=0.0),
+                "step_largest_s": max(
+                    (step_between(a, b, self.quantum) for a, b in zip(clocks, clocks[1:])), default=0.0
+                ),
             }
             for source, clocks in heard.items()
         }

@@ -250,7 +250,7 @@ class StudyRunner:
             self.rospy.Subscriber(ANSWER_TOPIC, String, lambda message: self.inputs.answer_json(message.data)),
         ]
         self._subscribers.append(self.rospy.Subscriber(TRACKING_TOPIC, String, self._on_tracker))
-        self.page_clocks = PageClocks()  # the pages' clocks (sim.study.run.clocks), judged before every trial
+        self.page_clocks = PageClocks(quantum=options.pacing.dt)  # the pages' clocks (sim.study.run.clocks)
         self._subscribers.append(
             self.rospy.Subscriber(PAGE_CLOCK_TOPIC, String, lambda m: self.page_clocks.heard_json(m.data, say))
         )

@@ -81,6 +81,14 @@ def test_a_step_between_estimates_beyond_their_round_trips_refuses_and_a_drift_w
     clocks.heard(page(12.040, 0.010))  # 32 ms from the last: 22 ms beyond their round trips
     reason = clocks.check()
     assert reason.startswith("the vr_trigger page's clock stepped 22.0 ms beyond its round trips"), reason
+    # ROS time that steps every 20 ms (the runner's /clock in real time): an estimate may move by a step more
+    stepping = PageClocks(quantum=0.02)
+    stepping.heard(page(12.0, 0.001))
+    stepping.heard(page(12.0205, 0.001))  # 20.5 ms apart: the pings caught /clock early in a step, then late
+    stepping.heard(page(12.0, 0.001))
+    assert stepping.check() == ""
+    stepping.heard(page(12.045, 0.001))  # 45 ms: 24 ms beyond a step and the round trips
+    assert "stepped 24.0 ms" in stepping.check()
 
 
 def test_each_trial_records_the_conditions_page_its_offset_as_it_ended_and_its_worst_uncertainty() -> None:
