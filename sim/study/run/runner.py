@@ -53,7 +53,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
 import signal
 import sys
 import threading
@@ -64,7 +63,7 @@ from typing import Any, Callable, Iterable, Mapping
 
 from sim.control.controller_node import DRAIN_TIMEOUT_S, ControllerError, unwritten_subscribers
 from sim.control.stepper import Pacing
-from sim.processes import ManagedProcess, ProcessError, start_recorder, stop_recorder
+from sim.processes import stop_recorder
 from sim.robots import RobotSpec
 from sim.study.design.feasibility import Approaches
 from sim.study.design.plan import PlannedTrial, SessionPlan
@@ -79,6 +78,7 @@ from sim.study.motion.measures import (
     motion_measures,
     withdrawal_end,
 )
+from sim.study.run.bag import RECORDER_DRAIN, record_session
 from sim.study.run.console import say
 from sim.study.run.inputs import Inputs, answer_item
 from sim.study.run.links.base import Press, RobotLink, SafetyStopped
@@ -107,9 +107,8 @@ from sim.study.run.protocol import (
 from sim.study.run.questionnaires import FOLDER as QUESTIONNAIRES
 from sim.study.run.questionnaires import asked_after, item_status, write_questionnaire
 from sim.study.run.records import TrialRecord, write_records
+from sim.study.run.tracking import FOLDER as TRACKING
 from sim.study.run.tracking import (
-    CALIBRATION_TOPIC,
-    TF_STATIC_TOPIC,
     TRACKING_TOPIC,
     UNTRACKED,
     PoseSource,
@@ -117,7 +116,6 @@ from sim.study.run.tracking import (
     session_tracking,
     trial_source,
 )
-from sim.study.run.tracking import FOLDER as TRACKING
 from sim.study.run.trial import TrialRun
 
 __all__ = [
@@ -132,17 +130,11 @@ __all__ = [
     "Inputs",
     "answer_item",
     "StudyRunner",
-    "recorder_topics",
-    "record_session",
     "run_node",
 ]
 
 
 EXIT_OK, EXIT_ROS, EXIT_SAFETY, EXIT_INTERRUPTED = 0, 4, 5, 130
-# s of wall time between the session's end and stopping rosbag record: it reads its links on threads of its own, and
-# SIGINT drops what is still in its sockets; the last answer, which the runner took a few ms before, was lost so
-# beside other work (a loopback link delivers in well under a millisecond on a quiet machine)
-RECORDER_DRAIN = 0.25
 
 
 @dataclass(frozen=True)
@@ -173,23 +165,6 @@ _PROMPTS = {
     "distance": "the perceived distance (0.12, 0.12 m or 12 cm)?",
     "preference": "preferred approach: {paths}?",
 }
-
-
-def recorder_topics(link_topics: Iterable[str]) -> list[str]:
-    """The links' topics (the stream's command, joint states and /clock; a controller's), then the study's."""
-    return [
-        *link_topics,
-        STATUS_TOPIC,
-        GO_TOPIC,
-        STOP_TOPIC,
-        DISTANCE_TOPIC,
-        PREFERENCE_TOPIC,
-        ANSWER_TOPIC,
-        *POSE_TOPICS.values(),
-        TRACKING_TOPIC,
-        CALIBRATION_TOPIC,
-        TF_STATIC_TOPIC,
-    ]
 
 
 class StudyRunner:
@@ -669,20 +644,6 @@ class StudyRunner:
         for link in unique(self.links.values()):
             link.close()
         self.status_pub.unregister()
-
-
-def record_session(link_topics: list[str], bag: Path, node: str, logs: Path, sim_time: bool) -> ManagedProcess:
-    """`rosbag record` of the session's topics into `bag` (in this process's ROS environment), once it records; or,
-    under /use_sim_time (`sim_time`), once it has subscribed to them all: it then opens the bag only when /clock has
-    moved past 0, and /clock is the runner's to publish (wait_for_partner waits for the recorder's links)."""
-    topics = recorder_topics(link_topics)
-    recorder = start_recorder(bag, topics, node, dict(os.environ), logs)
-    try:
-        recorder.wait_for_output(f"Subscribing to {topics[-1]}" if sim_time else "Recording to", timeout=30)
-    except (ProcessError, TimeoutError):
-        stop_recorder(recorder, bag)
-        raise
-    return recorder
 
 
 def _publisher(message: Any) -> str:
