@@ -1,12 +1,12 @@
-"""The study runner: a rospy node that executes a participant's session plan trial by trial
-(`python -m sim.study run --plan PLAN --out DIR`).
+"""The study runner: a participant's session plan run trial by trial, in the runner's rospy node
+(sim.study.run.node: `python -m sim.study run --plan PLAN --out DIR`).
 
 Per trial: move to the path's start (a quintic in joint space), wait for go (`/study/go`, the observer's keyboard,
 or at once with --auto-go), run the approach sample by sample (sim.study.run.trial), stopping along the path when a
 press comes (`/study/stop`), rest, then ask for test 1's perceived distance, and after each group of test 2 for the
 preference. The trial's phase goes out on `/study/trial` (sim.study.run.protocol has the whole interface). Every row is
-written to the participant's CSV as soon as its trial ends, and `rosbag record` (started and stopped here) records
-the robot's topics, /clock and every /study topic.
+written to the participant's CSV as soon as its trial ends; the session's bag (sim.study.run.bag) records the
+robot's topics, /clock and every /study topic.
 
 The plan's questionnaires are asked at their places, before the first trial or after the trial they follow, one
 item at a time (phase questionnaire, answers on `/study/answer`); an item without an answer within the response
@@ -53,7 +53,6 @@ from __future__ import annotations
 
 import json
 import math
-import signal
 import sys
 import threading
 import time
@@ -63,7 +62,6 @@ from typing import Any, Callable, Iterable, Mapping
 
 from sim.control.controller_node import DRAIN_TIMEOUT_S, ControllerError, unwritten_subscribers
 from sim.control.stepper import Pacing
-from sim.processes import stop_recorder
 from sim.robots import RobotSpec
 from sim.study.design.feasibility import Approaches
 from sim.study.design.plan import PlannedTrial, SessionPlan
@@ -78,7 +76,6 @@ from sim.study.motion.measures import (
     motion_measures,
     withdrawal_end,
 )
-from sim.study.run.bag import RECORDER_DRAIN, record_session
 from sim.study.run.console import say
 from sim.study.run.inputs import Inputs, answer_item
 from sim.study.run.links.base import Press, RobotLink, SafetyStopped
@@ -104,7 +101,6 @@ from sim.study.run.protocol import (
     observer_input,
     status_to_json,
 )
-from sim.study.run.questionnaires import FOLDER as QUESTIONNAIRES
 from sim.study.run.questionnaires import asked_after, item_status, write_questionnaire
 from sim.study.run.records import TrialRecord, write_records
 from sim.study.run.tracking import FOLDER as TRACKING
@@ -119,10 +115,6 @@ from sim.study.run.tracking import (
 from sim.study.run.trial import TrialRun
 
 __all__ = [
-    "EXIT_OK",
-    "EXIT_ROS",
-    "EXIT_SAFETY",
-    "EXIT_INTERRUPTED",
     "SafetyStopped",
     "make_links",
     "RunnerOptions",
@@ -130,11 +122,7 @@ __all__ = [
     "Inputs",
     "answer_item",
     "StudyRunner",
-    "run_node",
 ]
-
-
-EXIT_OK, EXIT_ROS, EXIT_SAFETY, EXIT_INTERRUPTED = 0, 4, 5, 130
 
 
 @dataclass(frozen=True)
@@ -649,74 +637,3 @@ class StudyRunner:
 def _publisher(message: Any) -> str:
     """The ROS node that published a message rospy delivered (its connection header's caller id)."""
     return str(getattr(message, "_connection_header", {}).get("callerid", ""))
-
-
-def run_node(
-    robot: RobotSpec,
-    scene: Scene,
-    plan: SessionPlan,
-    approaches: Approaches,
-    options: RunnerOptions,
-    out: Path,
-    record: bool = True,
-    connect_timeout: float = 60.0,
-    trajectory_links: Mapping[str, TrajectoryLinkSpec] | None = None,
-) -> int:
-    """The runner as a ROS node (rospy.init_node: once per process): the session, its CSV and its bag in `out`."""
-    import rospy
-
-    from sim.wire.rosnode import init_node
-
-    stop = threading.Event()
-    init_node("study_runner")
-    for signum in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(signum, lambda *_: stop.set())
-    stem = f"participant_{plan.participant:02d}"
-    bag, records_path = out / "bags" / f"{stem}.bag", out / f"{stem}.csv"
-    recorder_node = f"study_recorder_{plan.participant}"
-    sim_time = bool(rospy.get_param("/use_sim_time", False))
-    runner = StudyRunner(robot, scene, plan, approaches, options, stop, trajectory_links)
-    try:
-        topics = runner.recorded_topics()
-        recorder = record_session(topics, bag, recorder_node, out / "logs", sim_time) if record else None
-    except BaseException:
-        runner.close()
-        raise
-    if options.keyboard:
-        threading.Thread(target=runner.read_keyboard, args=(sys.stdin,), name="keyboard", daemon=True).start()
-    started = time.monotonic()
-    try:
-        partner = runner.connect(connect_timeout, recorder_node if recorder else None)
-        runner.wait_for_inputs(connect_timeout, recorder_node if recorder else None)
-        say(
-            f"{partner} connected; participant {plan.participant}, {len(plan.trials)} trials, conditions "
-            f"{' then '.join(plan.conditions)}"
-        )
-        records = runner.run_session(records_path, say)
-        if recorder is not None:
-            stop.wait(RECORDER_DRAIN)  # see RECORDER_DRAIN
-    except ControllerError as error:
-        say(f"error: {error}")
-        return EXIT_INTERRUPTED if stop.is_set() else EXIT_ROS
-    except SafetyStopped as error:
-        say(f"error: {error}")
-        print(f"records: {records_path}")
-        return EXIT_SAFETY
-    finally:
-        runner.close()
-        if recorder is not None:
-            stop_recorder(recorder, bag)
-        rospy.signal_shutdown("study session done")
-    presses = sum(record.pressed for record in records)
-    lockstep = runner.lockstep_time()
-    print(
-        f"participant {plan.participant}: {len(records)} trials ({presses} stopped by a press) in "
-        f"{time.monotonic() - started:.1f} s of wall time"
-        + ("" if lockstep is None else f", {lockstep:.1f} s of ROS time in lockstep")
-    )
-    print(f"records: {records_path}")
-    if plan.questionnaires:
-        print(f"questionnaires: {out / QUESTIONNAIRES}")
-    if recorder is not None:
-        print(f"bag:     {bag}")
-    return EXIT_OK
