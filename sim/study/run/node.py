@@ -63,11 +63,11 @@ def run_node(
         runner.close()
         raise
     if options.keyboard:
-        threading.Thread(target=runner.read_keyboard, args=(sys.stdin,), name="keyboard", daemon=True).start()
+        threading.Thread(target=runner.dialogue.read_keyboard, args=(sys.stdin,), name="keyboard", daemon=True).start()
     started = time.monotonic()
     try:
         partner = runner.connect(connect_timeout, recorder_node if recorder else None)
-        runner.wait_for_inputs(connect_timeout, recorder_node if recorder else None)
+        runner.dialogue.wait_for_inputs(connect_timeout, recorder_node if recorder else None)
         say(
             f"{partner} connected; participant {plan.participant}, {len(plan.trials)} trials, conditions "
             f"{' then '.join(plan.conditions)}"

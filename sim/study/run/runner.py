@@ -53,14 +53,13 @@ from __future__ import annotations
 
 import json
 import math
-import sys
 import threading
 import time
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any, Callable, Iterable, Mapping
+from typing import Any, Callable, Mapping
 
-from sim.control.controller_node import DRAIN_TIMEOUT_S, ControllerError, unwritten_subscribers
+from sim.control.controller_node import DRAIN_TIMEOUT_S, unwritten_subscribers
 from sim.control.stepper import Pacing
 from sim.robots import RobotSpec
 from sim.study.design.feasibility import Approaches
@@ -77,6 +76,7 @@ from sim.study.motion.measures import (
     withdrawal_end,
 )
 from sim.study.run.console import say
+from sim.study.run.dialogue import Dialogue
 from sim.study.run.inputs import Inputs, answer_item
 from sim.study.run.links.base import Press, RobotLink, SafetyStopped
 from sim.study.run.links.choose import make_links, unique
@@ -84,22 +84,11 @@ from sim.study.run.links.hand import HandWatch, tracks_hands
 from sim.study.run.links.specs import STREAM, TrajectoryLinkSpec
 from sim.study.run.poses import ReceivedPoses
 from sim.study.run.protocol import (
-    ANSWER_TOPIC,
-    DISTANCE_TOPIC,
-    GO_TOPIC,
     POSE_TOPICS,
-    PREFERENCE_TOPIC,
-    PROTOCOL,
     STATUS_TOPIC,
-    STOP_TOPIC,
     TRACKING_GAP,
-    Answer,
     TrialStatus,
     chosen_path,
-    input_delay_from_seq,
-    item_prompt,
-    observer_input,
-    status_to_json,
 )
 from sim.study.run.questionnaires import asked_after, item_status, write_questionnaire
 from sim.study.run.records import TrialRecord, write_records
@@ -146,15 +135,6 @@ class RunnerOptions:
     pose_sources: Mapping[str, str] = field(default_factory=dict)
 
 
-# what the observer is told at the terminal (--keyboard), by the input the phase accepts
-_PROMPTS = {
-    "go": "Enter to start the approach",
-    "stop": "s + Enter to stop",
-    "distance": "the perceived distance (0.12, 0.12 m or 12 cm)?",
-    "preference": "preferred approach: {paths}?",
-}
-
-
 class StudyRunner:
     """The session's node: the participant's inputs, the status, and the robot link of each condition (the stream
     unless `trajectory_links` names a trajectory controller for it)."""
@@ -171,11 +151,10 @@ class StudyRunner:
     ) -> None:
         import rospy
         from geometry_msgs.msg import PoseStamped
-        from std_msgs.msg import Empty, Float32, Header, String
+        from std_msgs.msg import String
 
         self.rospy = rospy
         self.robot, self.stop = robot, stop
-        self._string_type = String
         self.scene, self.plan, self.approaches, self.options = scene, plan, approaches, options
         self.inputs = Inputs()
         self.poses = ReceivedPoses()
@@ -187,8 +166,6 @@ class StudyRunner:
         self._foreign_told: set[tuple[str, str]] = set()  # (condition, node) whose dropped poses have been logged
         self.condition = ""  # the current trial's
         self.tracked: set[str] = set()  # the conditions whose trials had poses
-        self.phase = ""  # of the last status published
-        self.asked: TrialStatus | None = None  # the last status published: the item asked, in phase questionnaire
         # per questionnaire, its administrations so far: each item's answer (None: not answered)
         self.given: dict[str, dict[str, dict[str, int | None]]] = {}
         self.safety_stops: list[str] = []  # the trials in which the runner stopped the arm on its own, and why
@@ -201,56 +178,14 @@ class StudyRunner:
         self.link: RobotLink = self.links[run[0]]
         self._started: set[int] = set()  # the links started (by id)
         self._lockstep_began: dict[int, tuple[Any, float]] = {}  # lockstep links (by id): the link, its clock at start
-        self._subscribers = [
-            self.rospy.Subscriber(GO_TOPIC, Empty, lambda _: self.inputs.go()),
-            self.rospy.Subscriber(STOP_TOPIC, Header, self._on_press, tcp_nodelay=True),
-            self.rospy.Subscriber(DISTANCE_TOPIC, Float32, lambda message: self.inputs.distance(message.data)),
-            self.rospy.Subscriber(PREFERENCE_TOPIC, String, lambda message: self.inputs.preference(message.data)),
-            self.rospy.Subscriber(ANSWER_TOPIC, String, lambda message: self.inputs.answer_json(message.data)),
-        ]
-        self._subscribers.append(self.rospy.Subscriber(TRACKING_TOPIC, String, self._on_tracker))
+        self.dialogue = Dialogue(
+            self.status_pub, self.inputs, lambda: self.link, options.keyboard, options.response_timeout, stop
+        )
+        self._subscribers = [self.rospy.Subscriber(TRACKING_TOPIC, String, self._on_tracker)]
         for body, topic in POSE_TOPICS.items():
             self._subscribers.append(
                 self.rospy.Subscriber(topic, PoseStamped, self._on_pose, callback_args=body, tcp_nodelay=True)
             )
-
-    def _on_press(self, message: Any) -> None:
-        arrival = self.link.now()  # first: the press's latency ends here
-        self.inputs.press(
-            message.stamp.to_sec(), message.frame_id or "unnamed", input_delay_from_seq(message.seq), arrival
-        )
-
-    def wait_for_inputs(self, timeout: float, recorder: str | None) -> None:
-        """Wait (at most `timeout` s) until every node that publishes an input or pose topic writes it to this runner
-        and to the recorder: rospy keeps nothing for a subscriber whose link is not up yet, and a simulated
-        participant answers the first questionnaire's first item at once (its answer was lost, and the session hung
-        until the response timeout). Nodes that come later (a VR page opened after the start) link as they come."""
-        import rosgraph
-
-        from sim.processes import writes_to
-
-        me = self.rospy.get_name()
-        readers = [me] + ([recorder if recorder.startswith("/") else "/" + recorder] if recorder else [])
-        topics = {GO_TOPIC, STOP_TOPIC, DISTANCE_TOPIC, PREFERENCE_TOPIC, ANSWER_TOPIC, *POSE_TOPICS.values()}
-        master = rosgraph.Master(me)
-        deadline = time.monotonic() + timeout
-        while not self.stop.is_set():
-            publishers, _, _ = master.getSystemState()
-            missing = [
-                f"{topic}: {node} -> {reader}"
-                for topic, nodes in publishers
-                if topic in topics
-                for node in nodes
-                if node != me
-                for reader in readers
-                if not writes_to(master.lookupNode(node), topic, reader)
-            ]
-            if not missing:
-                return
-            if time.monotonic() > deadline:
-                raise ControllerError(f"the participant's topics are not linked after {timeout:g} s: {missing}")
-            self.stop.wait(0.05)
-        raise ControllerError("interrupted while waiting for the participant's topics")
 
     def _on_tracker(self, message: Any) -> None:
         """A pose source's announcement: it serves its conditions from now on."""
@@ -288,47 +223,6 @@ class StudyRunner:
         point = message.pose.position
         self.poses.add(body, message.header.stamp.to_sec(), message.header.frame_id, (point.x, point.y, point.z))
 
-    def publish_status(self, status: TrialStatus) -> None:
-        """Enter the status's phase (what it accepts from now on), then say so."""
-        self.inputs.enter(status.phase)
-        self.phase, self.asked = status.phase, status
-        self.say(status)
-
-    def say(self, status: TrialStatus) -> None:
-        """Publish the status (and prompt the observer) without entering its phase again: said again, it keeps what
-        has come in since it was entered."""
-        self.status_pub.publish(self._string_type(data=status_to_json(status)))
-        accepted = PROTOCOL.accepts(status.phase)
-        if self.options.keyboard and accepted == "answer":
-            print(item_prompt(status), file=sys.stderr, flush=True)
-        elif self.options.keyboard and accepted is not None:
-            print(
-                f"trial {status.index}/{status.total} ({status.condition}, test {status.test}, {status.path}): "
-                + _PROMPTS[accepted].format(
-                    paths=", ".join(f"{k} {p}" for k, p in enumerate(status.group_paths, start=1))
-                ),
-                file=sys.stderr,
-                flush=True,
-            )
-
-    def read_keyboard(self, lines: Iterable[str]) -> None:
-        """The observer's lines (sim.study.run.protocol.observer_input), read in the phase they come in."""
-        for line in lines:
-            typed = observer_input(line, self.phase)
-            if typed.kind == "go":
-                self.inputs.go()
-            elif typed.kind == "stop":
-                self.inputs.press(0.0, "keyboard")
-            elif typed.kind == "distance":
-                self.inputs.distance(typed.distance)
-            elif typed.kind == "preference":
-                self.inputs.preference(typed.text)
-            elif typed.kind == "answer" and self.asked is not None:
-                # the observer answers the item asked now: the typed number names no item of its own
-                self.inputs.answer(Answer(self.asked.administration, self.asked.item, typed.answer))
-            else:
-                say(typed.text)
-
     # --- time -----------------------------------------------------------------------------------------------
     @property
     def clock(self) -> float:
@@ -349,19 +243,6 @@ class StudyRunner:
         if not self._lockstep_began:
             return None
         return sum(link.clock - began for link, began in self._lockstep_began.values())
-
-    def wait_for_input(self, what: str) -> Any:
-        """Go or an answer, waited for at most --response-timeout s. In real time the robot holds its target
-        meanwhile (the controller keeps streaming); in lockstep the clock stands still."""
-        if not self.link.realtime:
-            return self.inputs.wait(what, self.options.response_timeout, self.stop)
-        deadline = time.monotonic() + self.options.response_timeout
-        while time.monotonic() < deadline and not self.stop.is_set():
-            value = self.inputs.wait(what, 0.0, self.stop)
-            if value is not None:
-                return value
-            self.link.idle()
-        return None
 
     # --- trials ---------------------------------------------------------------------------------------------
     def status(self, trial: PlannedTrial, phase: str, **extra: Any) -> TrialStatus:
@@ -399,7 +280,7 @@ class StudyRunner:
             if self.safety_stops:
                 raise SafetyStopped(f"the session ends: the runner stopped the arm in {'; '.join(self.safety_stops)}")
             self._administer(trial.index, records_path.parent, log)
-        self.publish_status(TrialStatus(self.plan.participant, 0, len(self.plan.trials), "done"))
+        self.dialogue.publish_status(TrialStatus(self.plan.participant, 0, len(self.plan.trials), "done"))
         return records
 
     def _administer(self, after_trial: int, out: Path, log: Callable[[str], None]) -> None:
@@ -421,12 +302,12 @@ class StudyRunner:
 
     def _ask_item(self, status: TrialStatus, log: Callable[[str], None]) -> int | None:
         """The item's answer, or None when none on its scale came within the response timeout (`answer_item`)."""
-        self.publish_status(status)
+        self.dialogue.publish_status(status)
         return answer_item(
             status,
             self.inputs,
-            lambda: self.wait_for_input("answer"),
-            lambda: self.say(status),
+            lambda: self.dialogue.wait_for_input("answer"),
+            lambda: self.dialogue.say(status),
             log,
             self.options.response_timeout,
         )
@@ -440,9 +321,9 @@ class StudyRunner:
         ]
 
     def _ask_preference(self, trial: PlannedTrial, paths: tuple[str, ...], log: Callable[[str], None]) -> str:
-        self.publish_status(self.status(trial, "preference", group_paths=paths))
+        self.dialogue.publish_status(self.status(trial, "preference", group_paths=paths))
         while True:
-            answer = self.wait_for_input("preference")
+            answer = self.dialogue.wait_for_input("preference")
             if answer is None:
                 log(f"trial {trial.index}: no preference within {self.options.response_timeout:g} s; left empty")
                 return ""
@@ -457,10 +338,10 @@ class StudyRunner:
         self.use_link(trial.condition)
         self.condition = trial.condition  # whose announced pose source's poses count from now on
         began = self.clock  # poses from here on are this trial's
-        self.publish_status(self.status(trial, "to_start"))
+        self.dialogue.publish_status(self.status(trial, "to_start"))
         self.link.move_to(planned.positions[0])
-        self.publish_status(self.status(trial, "ready"))
-        if not self.options.auto_go and self.wait_for_input("go") is None:
+        self.dialogue.publish_status(self.status(trial, "ready"))
+        if not self.options.auto_go and self.dialogue.wait_for_input("go") is None:
             log(f"trial {trial.index}: no go within {self.options.response_timeout:g} s; starting anyway")
         hand = self._hand_watch(began)
         if self.link.name != STREAM and not hand.tracked and trial.condition not in self.unmonitored:
@@ -471,21 +352,21 @@ class StudyRunner:
             )
         run = TrialRun(self.robot, planned, self.approaches.hand_distance, self.options.deceleration, hand)
         start = self.clock  # presses count from here; the arm starts at the link's reported start, later in reality
-        self.publish_status(self.status(trial, "moving", motion_start=start))
+        self.dialogue.publish_status(self.status(trial, "moving", motion_start=start))
         if trial.test == 2 and not self.link.realtime and not self.options.auto_go:
             self.inputs.wait_for_press(self.options.press_grace, self.stop)  # see RunnerOptions.press_grace
         outcome = self.link.approach(run, lambda until: self.inputs.take_press(until), self.options.settle)
         if outcome.safety_stop:
             log(f"trial {trial.index}: the arm was stopped: {outcome.safety_stop}")
-        self.publish_status(self.status(trial, "at_rest", motion_start=start))
+        self.dialogue.publish_status(self.status(trial, "at_rest", motion_start=start))
         measures = run.measures()
         press = outcome.press
         window = outcome.window(self.clock, measures.press_time)  # the run's times are from the arm's actual start
         motion, source = self._motion(trial, run, began, window, log)
         perceived = math.nan
         if trial.test == 1:
-            self.publish_status(self.status(trial, "distance", motion_start=start))
-            answer = self.wait_for_input("distance")
+            self.dialogue.publish_status(self.status(trial, "distance", motion_start=start))
+            answer = self.dialogue.wait_for_input("distance")
             if answer is None:
                 log(
                     f"trial {trial.index}: no perceived distance within {self.options.response_timeout:g} s; left empty"
@@ -622,6 +503,7 @@ class StudyRunner:
         return [topic for link in unique(self.links.values()) for topic in link.recorded_topics()]
 
     def close(self) -> None:
+        self.dialogue.close()
         for subscriber in self._subscribers:
             subscriber.unregister()
         # the last status to its slow subscribers (a recorder) before it goes: a stream link drains it too, a
