@@ -30,28 +30,14 @@ the approach begins, and the lockstep would otherwise outrun it. Each press's la
 is recorded in two parts: its input delay (the client's, in the Header's seq) and its arrival delay (the runner's ROS
 time when it came, minus its stamp).
 
-The participant's tracked head and hands (the protocol's pose topics: the VR page's headset and controllers, or a
-tracker in reality) are measured per approach (sim.study.motion): the hand's withdrawal, the head's distance to the
-end effector at the press, the time tracking was lost; an approach during which no pose came is unmeasured. The
-approach's window, its press and every measure are placed on the instant the arm began to move, as its link reports
-it (ApproachOutcome.motion_start; the record's motion_start): the stream's first step, at the `moving` status; a
-trajectory controller's approach goal stamp, its planning and start lead later. At an approach's end the runner
-waits (at most RunnerOptions.pose_grace of wall time, holding the robot in real time) until every body that has sent
-poses since the approach started has sent one stamped at its end: a lockstep outruns its participant, and poses
-travel apart from the status. Then it holds the robot at rest, its clock running, until the hand under the robot is
-at rest again (at most sim.study.motion's WITHDRAWAL_LIMIT after the robot rests), so that a late withdrawal is
-measured whole. Which pose source tracked each condition (announced on /study/tracking by the tracker relay,
-sim.study.run.tracker, and by the VR page, or named by RunnerOptions.pose_sources over them), with its jitter and
-calibration, goes to tracking/participant_NN.json after every trial; each trial's row records the source that
-tracked it and its calibration's id (sim.study.run.tracking.trial_source), so a source that changed mid-session is
-attributed trial by trial. In a condition's trials only the poses of the ROS node that announced its source count (a
-page's come through the endpoint's node); the others are dropped, and said once per node: two trackers never mix in
-one measure. A condition without an announcement takes every pose.
+The participant's tracked head and hands are measured per approach, and their pose sources recorded per condition
+(sim.study.run.bodies). The approach's window, its press and every measure are placed on the instant the arm began to
+move, as its link reports it (ApproachOutcome.motion_start; the record's motion_start): the stream's first step, at
+the `moving` status; a trajectory controller's approach goal stamp, its planning and start lead later.
 """
 
 from __future__ import annotations
 
-import json
 import math
 import threading
 import time
@@ -66,41 +52,19 @@ from sim.study.design.feasibility import Approaches
 from sim.study.design.plan import PlannedTrial, SessionPlan
 from sim.study.design.scene import Scene
 from sim.study.errors import StudyError
-from sim.study.motion.measures import (
-    REST_DURATION,
-    UNMEASURED,
-    MotionMeasures,
-    Window,
-    hand_under_robot,
-    motion_measures,
-    withdrawal_end,
-)
-from sim.study.run.console import say
+from sim.study.run.bodies import TrackedBodies
 from sim.study.run.dialogue import Dialogue
 from sim.study.run.inputs import Inputs, answer_item
 from sim.study.run.links.base import Press, RobotLink, SafetyStopped
 from sim.study.run.links.choose import make_links, unique
-from sim.study.run.links.hand import HandWatch, tracks_hands
 from sim.study.run.links.specs import STREAM, TrajectoryLinkSpec
-from sim.study.run.poses import ReceivedPoses
 from sim.study.run.protocol import (
-    POSE_TOPICS,
     STATUS_TOPIC,
-    TRACKING_GAP,
     TrialStatus,
     chosen_path,
 )
 from sim.study.run.questionnaires import asked_after, item_status, write_questionnaire
 from sim.study.run.records import TrialRecord, write_records
-from sim.study.run.tracking import FOLDER as TRACKING
-from sim.study.run.tracking import (
-    TRACKING_TOPIC,
-    UNTRACKED,
-    PoseSource,
-    announcement_from_json,
-    session_tracking,
-    trial_source,
-)
 from sim.study.run.trial import TrialRun
 
 __all__ = [
@@ -128,8 +92,8 @@ class RunnerOptions:
     # work: presses 0.1-0.3 s late in wall time). Waiting keeps ROS time still until the press is in; a participant
     # who does not press costs this once per trial.
     press_grace: float = 2.0
-    # At an approach's end, how long (s of wall time) the runner waits for the poses up to its end (see the module's
-    # docstring); a tracker that stops sending costs this once per trial, and its gap is measured.
+    # At an approach's end, how long (s of wall time) the runner waits for the poses up to its end (see
+    # sim.study.run.bodies); a tracker that stops sending costs this once per trial, and its gap is measured.
     pose_grace: float = 1.0
     # by condition, a pose source named by hand: over any announcement on /study/tracking (session_tracking)
     pose_sources: Mapping[str, str] = field(default_factory=dict)
@@ -150,22 +114,12 @@ class StudyRunner:
         trajectory_links: Mapping[str, TrajectoryLinkSpec] | None = None,
     ) -> None:
         import rospy
-        from geometry_msgs.msg import PoseStamped
         from std_msgs.msg import String
 
         self.rospy = rospy
         self.robot, self.stop = robot, stop
         self.scene, self.plan, self.approaches, self.options = scene, plan, approaches, options
         self.inputs = Inputs()
-        self.poses = ReceivedPoses()
-        self._refusals_told: set[str] = set()  # bodies whose refused poses have been logged
-        self.announced: dict[str, dict[str, Any]] = {}  # by condition: the latest pose source announced for it
-        # by condition: the ROS node that announced it (the endpoint's, for a page): only its poses count in that
-        # condition's trials, so that a second tracker (a VR page left open in reality) cannot mix its own in
-        self.announcers: dict[str, str] = {}
-        self._foreign_told: set[tuple[str, str]] = set()  # (condition, node) whose dropped poses have been logged
-        self.condition = ""  # the current trial's
-        self.tracked: set[str] = set()  # the conditions whose trials had poses
         # per questionnaire, its administrations so far: each item's answer (None: not answered)
         self.given: dict[str, dict[str, dict[str, int | None]]] = {}
         self.safety_stops: list[str] = []  # the trials in which the runner stopped the arm on its own, and why
@@ -181,47 +135,9 @@ class StudyRunner:
         self.dialogue = Dialogue(
             self.status_pub, self.inputs, lambda: self.link, options.keyboard, options.response_timeout, stop
         )
-        self._subscribers = [self.rospy.Subscriber(TRACKING_TOPIC, String, self._on_tracker)]
-        for body, topic in POSE_TOPICS.items():
-            self._subscribers.append(
-                self.rospy.Subscriber(topic, PoseStamped, self._on_pose, callback_args=body, tcp_nodelay=True)
-            )
-
-    def _on_tracker(self, message: Any) -> None:
-        """A pose source's announcement: it serves its conditions from now on."""
-        try:
-            said = announcement_from_json(message.data)
-        except StudyError as error:
-            say(f"a tracker's announcement was refused: {error}")
-            return
-        node = _publisher(message)
-        for condition in said["conditions"]:
-            before = self.announcers.get(condition)
-            if before is not None and before != node:
-                say(
-                    f"{condition}'s pose source is now {said['source']!r} (node {node}), was "
-                    f"{self.announced[condition]['source']!r} (node {before}): only the latest's poses count"
-                )
-            self.announced[condition] = said
-            self.announcers[condition] = node
-
-    def write_tracking(self, out: Path) -> None:
-        """The session's pose sources per tracked condition, in `out`/tracking/participant_NN.json."""
-        record = session_tracking(self.plan.participant, self.tracked, self.announced, self.options.pose_sources)
-        path = out / TRACKING / f"participant_{self.plan.participant:02d}.json"
-        path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(json.dumps(record, indent=2) + "\n")
-
-    def _on_pose(self, message: Any, body: str) -> None:
-        condition, node = self.condition, _publisher(message)
-        source = self.announcers.get(condition)
-        if source is not None and node != source:
-            if (condition, node) not in self._foreign_told:
-                self._foreign_told.add((condition, node))
-                say(f"poses from node {node} dropped in {condition}'s trials: its announced pose source is {source}")
-            return
-        point = message.pose.position
-        self.poses.add(body, message.header.stamp.to_sec(), message.header.frame_id, (point.x, point.y, point.z))
+        self.bodies = TrackedBodies(
+            scene, approaches, lambda: self.link, options.pose_grace, options.pose_sources, options.pacing.dt, stop
+        )
 
     # --- time -----------------------------------------------------------------------------------------------
     @property
@@ -275,8 +191,8 @@ class StudyRunner:
                 indices = {t.index for t in group}
                 records = [replace(r, preferred_path=preferred) if r.index in indices else r for r in records]
             write_records(records_path, records)  # after every trial: a crash loses at most the one running
-            if self.tracked:
-                self.write_tracking(records_path.parent)
+            if self.bodies.tracked:
+                self.bodies.write_tracking(records_path.parent, self.plan.participant)
             if self.safety_stops:
                 raise SafetyStopped(f"the session ends: the runner stopped the arm in {'; '.join(self.safety_stops)}")
             self._administer(trial.index, records_path.parent, log)
@@ -336,14 +252,14 @@ class StudyRunner:
         """One trial from wherever the robot is; its record (preference still empty)."""
         planned = self.approaches.plan((trial.path, trial.standoff, trial.peak_speed))
         self.use_link(trial.condition)
-        self.condition = trial.condition  # whose announced pose source's poses count from now on
+        self.bodies.condition = trial.condition  # whose announced pose source's poses count from now on
         began = self.clock  # poses from here on are this trial's
         self.dialogue.publish_status(self.status(trial, "to_start"))
         self.link.move_to(planned.positions[0])
         self.dialogue.publish_status(self.status(trial, "ready"))
         if not self.options.auto_go and self.dialogue.wait_for_input("go") is None:
             log(f"trial {trial.index}: no go within {self.options.response_timeout:g} s; starting anyway")
-        hand = self._hand_watch(began)
+        hand = self.bodies.hand_watch(began)
         if self.link.name != STREAM and not hand.tracked and trial.condition not in self.unmonitored:
             self.unmonitored.add(trial.condition)
             log(
@@ -362,7 +278,7 @@ class StudyRunner:
         measures = run.measures()
         press = outcome.press
         window = outcome.window(self.clock, measures.press_time)  # the run's times are from the arm's actual start
-        motion, source = self._motion(trial, run, began, window, log)
+        motion, source = self.bodies.motion(trial, run, began, window, log)
         perceived = math.nan
         if trial.test == 1:
             self.dialogue.publish_status(self.status(trial, "distance", motion_start=start))
@@ -427,74 +343,6 @@ class StudyRunner:
             self.safety_stops.append(f"trial {trial.index}: {outcome.safety_stop}")
         return record
 
-    def _hand_watch(self, began: float) -> HandWatch:
-        """The hand under the robot as its tracker (poses since the trial `began`) sees it, for the link's supervision
-        during the approach (sim.study.run.links.hand): the distance floor, and the speed and separation monitor."""
-        return HandWatch(
-            self.scene.hand.position,
-            lambda: self.poses.tracks(began),
-            self.approaches.world.hand_distance,
-            tracks_hands(self.poses.sending(began)),
-        )
-
-    def _motion(
-        self, trial: PlannedTrial, run: TrialRun, began: float, window: Window, log: Callable[[str], None]
-    ) -> tuple[MotionMeasures, PoseSource]:
-        """The approach's motion measures from the poses of the bodies sending since it started (none: unmeasured),
-        once they are in up to its end; their poses since the trial `began` count (where a body was as it started).
-        With them, the source that tracked it: the one announced (or named) for its condition as they are taken."""
-        if not self.poses.sending(window.start):
-            return UNMEASURED, UNTRACKED
-        self.tracked.add(trial.condition)
-        late = self._await_poses(window.start, window.end)
-        if late:
-            log(
-                f"trial {trial.index}: no pose of {', '.join(late)} up to the approach's end within "
-                f"{self.options.pose_grace:g} s; measured as a gap"
-            )
-        for body, why in self.poses.refused().items():
-            if body not in self._refusals_told:
-                self._refusals_told.add(body)
-                log(f"poses of {body} refused: {why}")
-        at_rest = self.approaches.end_effector(self.link.target)
-        if not late:
-            self._follow_withdrawal(began, window)
-        pressed = math.isfinite(window.press)
-        end_effector = self.approaches.end_effector(run.positions_at(window.press - window.start)) if pressed else None
-        measures = motion_measures(
-            self.poses.tracks(began), window, self.scene.hand.position, end_effector, TRACKING_GAP, at_rest
-        )
-        self.poses.forget(before=window.end)
-        if not measures.tracked_hand:
-            log(f"trial {trial.index}: no tracked hand was at the scene's hand as the approach started")
-        said, named = self.announced.get(trial.condition), self.options.pose_sources.get(trial.condition)
-        return measures, trial_source(trial.condition, said, named)
-
-    def _follow_withdrawal(self, began: float, window: Window) -> None:
-        """Hold the robot at rest, its clock running, until the hand under the robot is at rest again after its
-        withdrawal (sim.study.motion's withdrawal_end), at most to the window's limit: a participant who pulls back
-        late is measured whole. Stops early when no hand is under the robot, or a body's poses fall behind."""
-        hold = max(1, round(REST_DURATION / 2 / self.options.pacing.dt))  # steps between looks: a quarter second
-        hand_point = self.scene.hand.position
-        while self.clock < window.limit and not self.stop.is_set():
-            tracks = self.poses.tracks(began)
-            hand = hand_under_robot(tracks, window, hand_point, TRACKING_GAP)
-            if not hand or withdrawal_end(tracks[hand], window, TRACKING_GAP) is not None:
-                return
-            self.link.idle(hold * self.options.pacing.dt)
-            if self._await_poses(window.start, self.clock):
-                return  # a body stopped sending: its gap is measured, and no longer waited for
-
-    def _await_poses(self, since: float, end: float) -> list[str]:
-        """Wait (at most pose_grace s of wall time; in real time holding the robot) until every body that has sent
-        poses since `since` has one at `end`; the bodies still short of it."""
-        if not self.link.realtime:
-            return self.poses.wait_covered(since, end, self.options.pose_grace, self.stop)
-        deadline = time.monotonic() + self.options.pose_grace
-        while (late := self.poses.uncovered(since, end)) and time.monotonic() < deadline and not self.stop.is_set():
-            self.link.idle()
-        return late
-
     def connect(self, timeout: float, recorder: str | None) -> str:
         """Wait until every link's arm is there and linked (and the status reaches the engine); their names."""
         return ", ".join(link.connect(timeout, recorder) for link in unique(self.links.values()))
@@ -504,8 +352,7 @@ class StudyRunner:
 
     def close(self) -> None:
         self.dialogue.close()
-        for subscriber in self._subscribers:
-            subscriber.unregister()
+        self.bodies.close()
         # the last status to its slow subscribers (a recorder) before it goes: a stream link drains it too, a
         # trajectory controller's link does not know it
         deadline = time.monotonic() + DRAIN_TIMEOUT_S
@@ -514,8 +361,3 @@ class StudyRunner:
         for link in unique(self.links.values()):
             link.close()
         self.status_pub.unregister()
-
-
-def _publisher(message: Any) -> str:
-    """The ROS node that published a message rospy delivered (its connection header's caller id)."""
-    return str(getattr(message, "_connection_header", {}).get("callerid", ""))
