@@ -8,11 +8,8 @@ preference. The trial's phase goes out on `/study/trial` (sim.study.run.protocol
 written to the participant's CSV as soon as its trial ends; the session's bag (sim.study.run.bag) records the
 robot's topics, /clock and every /study topic.
 
-The plan's questionnaires are asked at their places, before the first trial or after the trial they follow, one
-item at a time (phase questionnaire, answers on `/study/answer`); an item without an answer within the response
-timeout is recorded as missing, and an answer refused (off the item's scale, or to another item) has the item's
-status published again, so that a client which took its answer as given asks again. Their answers and scores are
-written as soon as each administration ends (sim.study.run.questionnaires).
+The plan's questionnaires are asked at their places, before the first trial or after the trial they follow; the
+questions go out and the answers come in through sim.study.run.asking.
 
 The robot is driven through each condition's link (sim.study.run.links): the stream (the commander's topics, through
 the same controller node and stepper, for the engine stand-in or Unity), or a real arm's ros_control trajectory
@@ -51,7 +48,7 @@ from sim.robots import RobotSpec
 from sim.study.design.feasibility import Approaches
 from sim.study.design.plan import PlannedTrial, SessionPlan
 from sim.study.design.scene import Scene
-from sim.study.errors import StudyError
+from sim.study.run.asking import Asking
 from sim.study.run.bodies import TrackedBodies
 from sim.study.run.dialogue import Dialogue
 from sim.study.run.inputs import Inputs, answer_item
@@ -61,9 +58,7 @@ from sim.study.run.links.specs import STREAM, TrajectoryLinkSpec
 from sim.study.run.protocol import (
     STATUS_TOPIC,
     TrialStatus,
-    chosen_path,
 )
-from sim.study.run.questionnaires import asked_after, item_status, write_questionnaire
 from sim.study.run.records import TrialRecord, write_records
 from sim.study.run.trial import TrialRun
 
@@ -120,8 +115,6 @@ class StudyRunner:
         self.robot, self.stop = robot, stop
         self.scene, self.plan, self.approaches, self.options = scene, plan, approaches, options
         self.inputs = Inputs()
-        # per questionnaire, its administrations so far: each item's answer (None: not answered)
-        self.given: dict[str, dict[str, dict[str, int | None]]] = {}
         self.safety_stops: list[str] = []  # the trials in which the runner stopped the arm on its own, and why
         self.unmonitored: set[str] = set()  # the conditions on a real arm said to have no tracker on the hands
         self.status_pub = self.rospy.Publisher(STATUS_TOPIC, String, queue_size=10, latch=True)
@@ -135,6 +128,7 @@ class StudyRunner:
         self.dialogue = Dialogue(
             self.status_pub, self.inputs, lambda: self.link, options.keyboard, options.response_timeout, stop
         )
+        self.asking = Asking(plan, self.dialogue, options.response_timeout)
         self.bodies = TrackedBodies(
             scene, approaches, lambda: self.link, options.pose_grace, options.pose_sources, options.pacing.dt, stop
         )
@@ -181,13 +175,14 @@ class StudyRunner:
         """The session: the trials' records in `records_path`, the questionnaires' beside it (in its folder)."""
         self.use_link(next(iter(self.links)))
         records: list[TrialRecord] = []
-        self._administer(0, records_path.parent, log)
+        self.asking.administer(0, records_path.parent, log)
         for trial in self.plan.trials:
             record = self.run_trial(trial, log)
             records.append(record)
             group = self._group_of(trial)
             if group and group[-1] is trial:  # the group's last trial: which approach was preferred?
-                preferred = self._ask_preference(trial, tuple(t.path for t in group), log)
+                paths = tuple(t.path for t in group)
+                preferred = self.asking.ask_preference(self.status(trial, "preference", group_paths=paths), log)
                 indices = {t.index for t in group}
                 records = [replace(r, preferred_path=preferred) if r.index in indices else r for r in records]
             write_records(records_path, records)  # after every trial: a crash loses at most the one running
@@ -195,38 +190,9 @@ class StudyRunner:
                 self.bodies.write_tracking(records_path.parent, self.plan.participant)
             if self.safety_stops:
                 raise SafetyStopped(f"the session ends: the runner stopped the arm in {'; '.join(self.safety_stops)}")
-            self._administer(trial.index, records_path.parent, log)
+            self.asking.administer(trial.index, records_path.parent, log)
         self.dialogue.publish_status(TrialStatus(self.plan.participant, 0, len(self.plan.trials), "done"))
         return records
-
-    def _administer(self, after_trial: int, out: Path, log: Callable[[str], None]) -> None:
-        """Ask the questionnaires placed after trial `after_trial` (0: before the first), item by item; write each
-        one's records as soon as it has been asked."""
-        for planned in asked_after(self.plan, after_trial):
-            instrument = self.plan.instrument(planned.name)
-            answers: dict[str, int | None] = {}
-            for number in range(1, len(instrument.items) + 1):
-                status = item_status(self.plan, planned, number)
-                answers[status.item] = self._ask_item(status, log)
-            given = self.given.setdefault(planned.name, {})
-            given[planned.administration] = answers
-            for note in write_questionnaire(out, self.plan.participant, instrument, given):
-                if note.startswith(f"{planned.administration} "):  # an earlier administration's was logged then
-                    log(note)
-            answered = sum(answer is not None for answer in answers.values())
-            log(f"{planned.administration}: {answered} of {len(answers)} items answered")
-
-    def _ask_item(self, status: TrialStatus, log: Callable[[str], None]) -> int | None:
-        """The item's answer, or None when none on its scale came within the response timeout (`answer_item`)."""
-        self.dialogue.publish_status(status)
-        return answer_item(
-            status,
-            self.inputs,
-            lambda: self.dialogue.wait_for_input("answer"),
-            lambda: self.dialogue.say(status),
-            log,
-            self.options.response_timeout,
-        )
 
     def _group_of(self, trial: PlannedTrial) -> list[PlannedTrial]:
         """Test 2's group that `trial` belongs to, in the order run; empty for test 1."""
@@ -235,18 +201,6 @@ class StudyRunner:
         return [
             t for t in self.plan.trials if t.test == 2 and t.condition == trial.condition and t.group == trial.group
         ]
-
-    def _ask_preference(self, trial: PlannedTrial, paths: tuple[str, ...], log: Callable[[str], None]) -> str:
-        self.dialogue.publish_status(self.status(trial, "preference", group_paths=paths))
-        while True:
-            answer = self.dialogue.wait_for_input("preference")
-            if answer is None:
-                log(f"trial {trial.index}: no preference within {self.options.response_timeout:g} s; left empty")
-                return ""
-            try:
-                return chosen_path(answer, paths)
-            except StudyError as error:
-                log(f"trial {trial.index}: {error}; asking again")
 
     def run_trial(self, trial: PlannedTrial, log: Callable[[str], None]) -> TrialRecord:
         """One trial from wherever the robot is; its record (preference still empty)."""
@@ -281,17 +235,7 @@ class StudyRunner:
         motion, source = self.bodies.motion(trial, run, began, window, log)
         perceived = math.nan
         if trial.test == 1:
-            self.dialogue.publish_status(self.status(trial, "distance", motion_start=start))
-            answer = self.dialogue.wait_for_input("distance")
-            if answer is None:
-                log(
-                    f"trial {trial.index}: no perceived distance within {self.options.response_timeout:g} s; left empty"
-                )
-            else:
-                perceived = float(answer)
-            for problem in self.inputs.rejected:
-                log(f"trial {trial.index}: an answer was refused: {problem}")
-            self.inputs.rejected.clear()
+            perceived = self.asking.ask_distance(self.status(trial, "distance", motion_start=start), log)
         position = self.plan.conditions.index(trial.condition) + 1
         record = TrialRecord(
             self.plan.participant,
