@@ -4,9 +4,9 @@
 Per trial: move to the path's start (a quintic in joint space), wait for go (`/study/go`, the observer's keyboard,
 or at once with --auto-go), run the approach sample by sample (sim.study.run.trial), stopping along the path when a
 press comes (`/study/stop`), rest, then ask for test 1's perceived distance, and after each group of test 2 for the
-preference. The trial's phase goes out on `/study/trial` (sim.study.run.protocol has the whole interface). Every row is
-written to the participant's CSV as soon as its trial ends; the session's bag (sim.study.run.bag) records the
-robot's topics, /clock and every /study topic.
+preference. The trial's phase goes out on `/study/trial` and the inputs come back (sim.study.run.dialogue;
+sim.study.run.protocol has the whole interface). Every row is written to the participant's CSV as soon as its trial
+ends; the session's bag (sim.study.run.bag) records the robot's topics, /clock and every /study topic.
 
 The plan's questionnaires are asked at their places, before the first trial or after the trial they follow; the
 questions go out and the answers come in through sim.study.run.asking.
@@ -23,9 +23,9 @@ A press's time is its stamp on ROS time (a zero stamp: when it arrives); a press
 applied at once, and how late it was is logged. Presses before the approach starts are ignored. In lockstep the
 runner holds the clock at a test-2 approach's start until the participant's press is in (at most
 RunnerOptions.press_grace of wall time): a simulated participant plans its press and sends it, stamped ahead, when
-the approach begins, and the lockstep would otherwise outrun it. Each press's latency
-is recorded in two parts: its input delay (the client's, in the Header's seq) and its arrival delay (the runner's ROS
-time when it came, minus its stamp).
+the approach begins, and the lockstep would otherwise outrun it. Each press's latency is recorded in two parts: its
+input delay (the client's, in the Header's seq) and its arrival delay (the runner's ROS time when it came, minus its
+stamp).
 
 The participant's tracked head and hands are measured per approach, and their pose sources recorded per condition
 (sim.study.run.bodies). The approach's window, its press and every measure are placed on the instant the arm began to
@@ -51,26 +51,15 @@ from sim.study.design.scene import Scene
 from sim.study.run.asking import Asking
 from sim.study.run.bodies import TrackedBodies
 from sim.study.run.dialogue import Dialogue
-from sim.study.run.inputs import Inputs, answer_item
-from sim.study.run.links.base import Press, RobotLink, SafetyStopped
+from sim.study.run.inputs import Inputs
+from sim.study.run.links.base import RobotLink, SafetyStopped
 from sim.study.run.links.choose import make_links, unique
 from sim.study.run.links.specs import STREAM, TrajectoryLinkSpec
-from sim.study.run.protocol import (
-    STATUS_TOPIC,
-    TrialStatus,
-)
+from sim.study.run.protocol import STATUS_TOPIC, TrialStatus
 from sim.study.run.records import TrialRecord, write_records
 from sim.study.run.trial import TrialRun
 
-__all__ = [
-    "SafetyStopped",
-    "make_links",
-    "RunnerOptions",
-    "Press",
-    "Inputs",
-    "answer_item",
-    "StudyRunner",
-]
+__all__ = ["RunnerOptions", "StudyRunner"]
 
 
 @dataclass(frozen=True)
@@ -95,8 +84,9 @@ class RunnerOptions:
 
 
 class StudyRunner:
-    """The session's node: the participant's inputs, the status, and the robot link of each condition (the stream
-    unless `trajectory_links` names a trajectory controller for it)."""
+    """A participant's session, trial after trial: the robot link of each condition (the stream unless
+    `trajectory_links` names a trajectory controller for it), the dialogue with the participant and the observer,
+    what is asked of them, and their tracked bodies; the rows."""
 
     def __init__(
         self,
