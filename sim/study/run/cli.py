@@ -113,7 +113,8 @@ def register(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> N
 def run_command(args: argparse.Namespace) -> int:
     from sim.control.stepper import Pacing
     from sim.study.design.feasibility import Approaches, remedies
-    from sim.study.run.runner import RunnerOptions, run_node
+    from sim.study.run.node import run_node
+    from sim.study.run.runner import RunnerOptions
 
     for option in ("dt", "settle", "deceleration", "response_timeout", "step_timeout", "connect_timeout"):
         check_positive(getattr(args, option), f"--{option.replace('_', '-')}")

@@ -1,18 +1,15 @@
-"""The study runner: a rospy node that executes a participant's session plan trial by trial
-(`python -m sim.study run --plan PLAN --out DIR`).
+"""The study runner: a participant's session plan run trial by trial, in the runner's rospy node
+(sim.study.run.node: `python -m sim.study run --plan PLAN --out DIR`).
 
 Per trial: move to the path's start (a quintic in joint space), wait for go (`/study/go`, the observer's keyboard,
 or at once with --auto-go), run the approach sample by sample (sim.study.run.trial), stopping along the path when a
 press comes (`/study/stop`), rest, then ask for test 1's perceived distance, and after each group of test 2 for the
-preference. The trial's phase goes out on `/study/trial` (sim.study.run.protocol has the whole interface). Every row is
-written to the participant's CSV as soon as its trial ends, and `rosbag record` (started and stopped here) records
-the robot's topics, /clock and every /study topic.
+preference. The trial's phase goes out on `/study/trial` and the inputs come back (sim.study.run.dialogue;
+sim.study.run.protocol has the whole interface). Every row is written to the participant's CSV as soon as its trial
+ends; the session's bag (sim.study.run.bag) records the robot's topics, /clock and every /study topic.
 
-The plan's questionnaires are asked at their places, before the first trial or after the trial they follow, one
-item at a time (phase questionnaire, answers on `/study/answer`); an item without an answer within the response
-timeout is recorded as missing, and an answer refused (off the item's scale, or to another item) has the item's
-status published again, so that a client which took its answer as given asks again. Their answers and scores are
-written as soon as each administration ends (sim.study.run.questionnaires).
+The plan's questionnaires are asked at their places, before the first trial or after the trial they follow; the
+questions go out and the answers come in through sim.study.run.asking.
 
 The robot is driven through each condition's link (sim.study.run.links): the stream (the commander's topics, through
 the same controller node and stepper, for the engine stand-in or Unity), or a real arm's ros_control trajectory
@@ -26,126 +23,46 @@ A press's time is its stamp on ROS time (a zero stamp: when it arrives); a press
 applied at once, and how late it was is logged. Presses before the approach starts are ignored. In lockstep the
 runner holds the clock at a test-2 approach's start until the participant's press is in (at most
 RunnerOptions.press_grace of wall time): a simulated participant plans its press and sends it, stamped ahead, when
-the approach begins, and the lockstep would otherwise outrun it. Each press's latency
-is recorded in two parts: its input delay (the client's, in the Header's seq) and its arrival delay (the runner's ROS
-time when it came, minus its stamp).
+the approach begins, and the lockstep would otherwise outrun it. Each press's latency is recorded in two parts: its
+input delay (the client's, in the Header's seq) and its arrival delay (the runner's ROS time when it came, minus its
+stamp).
 
-The participant's tracked head and hands (the protocol's pose topics: the VR page's headset and controllers, or a
-tracker in reality) are measured per approach (sim.study.motion): the hand's withdrawal, the head's distance to the
-end effector at the press, the time tracking was lost; an approach during which no pose came is unmeasured. The
-approach's window, its press and every measure are placed on the instant the arm began to move, as its link reports
-it (ApproachOutcome.motion_start; the record's motion_start): the stream's first step, at the `moving` status; a
-trajectory controller's approach goal stamp, its planning and start lead later. At an approach's end the runner
-waits (at most RunnerOptions.pose_grace of wall time, holding the robot in real time) until every body that has sent
-poses since the approach started has sent one stamped at its end: a lockstep outruns its participant, and poses
-travel apart from the status. Then it holds the robot at rest, its clock running, until the hand under the robot is
-at rest again (at most sim.study.motion's WITHDRAWAL_LIMIT after the robot rests), so that a late withdrawal is
-measured whole. Which pose source tracked each condition (announced on /study/tracking by the tracker relay,
-sim.study.run.tracker, and by the VR page, or named by RunnerOptions.pose_sources over them), with its jitter and
-calibration, goes to tracking/participant_NN.json after every trial; each trial's row records the source that
-tracked it and its calibration's id (sim.study.run.tracking.trial_source), so a source that changed mid-session is
-attributed trial by trial. In a condition's trials only the poses of the ROS node that announced its source count (a
-page's come through the endpoint's node); the others are dropped, and said once per node: two trackers never mix in
-one measure. A condition without an announcement takes every pose.
+The participant's tracked head and hands are measured per approach, and their pose sources recorded per condition
+(sim.study.run.bodies). The approach's window, its press and every measure are placed on the instant the arm began to
+move, as its link reports it (ApproachOutcome.motion_start; the record's motion_start): the stream's first step, at
+the `moving` status; a trajectory controller's approach goal stamp, its planning and start lead later.
 """
 
 from __future__ import annotations
 
-import json
 import math
-import os
-import signal
-import sys
 import threading
 import time
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any, Callable, Iterable, Mapping
+from typing import Any, Callable, Mapping
 
-from sim.control.controller_node import DRAIN_TIMEOUT_S, ControllerError, unwritten_subscribers
+from sim.control.controller_node import DRAIN_TIMEOUT_S, unwritten_subscribers
 from sim.control.stepper import Pacing
-from sim.processes import ManagedProcess, ProcessError, start_recorder, stop_recorder
 from sim.robots import RobotSpec
 from sim.study.design.feasibility import Approaches
 from sim.study.design.plan import PlannedTrial, SessionPlan
 from sim.study.design.scene import Scene
-from sim.study.errors import StudyError
-from sim.study.motion.measures import (
-    REST_DURATION,
-    UNMEASURED,
-    MotionMeasures,
-    Window,
-    hand_under_robot,
-    motion_measures,
-    withdrawal_end,
-)
+from sim.study.run.asking import Asking
+from sim.study.run.bodies import TrackedBodies
 from sim.study.run.clocks import FOLDER as CLOCKS
-from sim.study.run.clocks import ClockError, PageClocks, write_session_clocks
+from sim.study.run.clocks import PageClocks, write_session_clocks
 from sim.study.run.console import say
-from sim.study.run.inputs import Inputs, answer_item
-from sim.study.run.links.base import Press, RobotLink, SafetyStopped
+from sim.study.run.dialogue import Dialogue
+from sim.study.run.inputs import Inputs
+from sim.study.run.links.base import RobotLink, SafetyStopped
 from sim.study.run.links.choose import make_links, unique
-from sim.study.run.links.hand import HandWatch, tracks_hands
 from sim.study.run.links.specs import STREAM, TrajectoryLinkSpec
-from sim.study.run.poses import ReceivedPoses
-from sim.study.run.protocol import (
-    ANSWER_TOPIC,
-    DISTANCE_TOPIC,
-    GO_TOPIC,
-    PAGE_CLOCK_TOPIC,
-    POSE_TOPICS,
-    PREFERENCE_TOPIC,
-    PROTOCOL,
-    STATUS_TOPIC,
-    STOP_TOPIC,
-    TRACKING_GAP,
-    Answer,
-    TrialStatus,
-    chosen_path,
-    input_delay_from_seq,
-    item_prompt,
-    observer_input,
-    status_to_json,
-)
-from sim.study.run.questionnaires import FOLDER as QUESTIONNAIRES
-from sim.study.run.questionnaires import asked_after, item_status, write_questionnaire
+from sim.study.run.protocol import PAGE_CLOCK_TOPIC, PROTOCOL, STATUS_TOPIC, TrialStatus
 from sim.study.run.records import TrialRecord, write_records
-from sim.study.run.tracking import (
-    CALIBRATION_TOPIC,
-    TF_STATIC_TOPIC,
-    TRACKING_TOPIC,
-    UNTRACKED,
-    PoseSource,
-    announcement_from_json,
-    session_tracking,
-    trial_source,
-)
-from sim.study.run.tracking import FOLDER as TRACKING
 from sim.study.run.trial import TrialRun
 
-__all__ = [
-    "EXIT_OK",
-    "EXIT_ROS",
-    "EXIT_SAFETY",
-    "EXIT_INTERRUPTED",
-    "SafetyStopped",
-    "make_links",
-    "RunnerOptions",
-    "Press",
-    "Inputs",
-    "answer_item",
-    "StudyRunner",
-    "recorder_topics",
-    "record_session",
-    "run_node",
-]
-
-
-EXIT_OK, EXIT_ROS, EXIT_SAFETY, EXIT_INTERRUPTED = 0, 4, 5, 130
-# s of wall time between the session's end and stopping rosbag record: it reads its links on threads of its own, and
-# SIGINT drops what is still in its sockets; the last answer, which the runner took a few ms before, was lost so
-# beside other work (a loopback link delivers in well under a millisecond on a quiet machine)
-RECORDER_DRAIN = 0.25
+__all__ = ["RunnerOptions", "StudyRunner"]
 
 
 @dataclass(frozen=True)
@@ -162,43 +79,17 @@ class RunnerOptions:
     # work: presses 0.1-0.3 s late in wall time). Waiting keeps ROS time still until the press is in; a participant
     # who does not press costs this once per trial.
     press_grace: float = 2.0
-    # At an approach's end, how long (s of wall time) the runner waits for the poses up to its end (see the module's
-    # docstring); a tracker that stops sending costs this once per trial, and its gap is measured.
+    # At an approach's end, how long (s of wall time) the runner waits for the poses up to its end (see
+    # sim.study.run.bodies); a tracker that stops sending costs this once per trial, and its gap is measured.
     pose_grace: float = 1.0
     # by condition, a pose source named by hand: over any announcement on /study/tracking (session_tracking)
     pose_sources: Mapping[str, str] = field(default_factory=dict)
 
 
-# what the observer is told at the terminal (--keyboard), by the input the phase accepts
-_PROMPTS = {
-    "go": "Enter to start the approach",
-    "stop": "s + Enter to stop",
-    "distance": "the perceived distance (0.12, 0.12 m or 12 cm)?",
-    "preference": "preferred approach: {paths}?",
-}
-
-
-def recorder_topics(link_topics: Iterable[str]) -> list[str]:
-    """The links' topics (the stream's command, joint states and /clock; a controller's), then the study's."""
-    return [
-        *link_topics,
-        STATUS_TOPIC,
-        GO_TOPIC,
-        STOP_TOPIC,
-        DISTANCE_TOPIC,
-        PREFERENCE_TOPIC,
-        ANSWER_TOPIC,
-        *POSE_TOPICS.values(),
-        PAGE_CLOCK_TOPIC,
-        TRACKING_TOPIC,
-        CALIBRATION_TOPIC,
-        TF_STATIC_TOPIC,
-    ]
-
-
 class StudyRunner:
-    """The session's node: the participant's inputs, the status, and the robot link of each condition (the stream
-    unless `trajectory_links` names a trajectory controller for it)."""
+    """A participant's session, trial after trial: the robot link of each condition (the stream unless
+    `trajectory_links` names a trajectory controller for it), the dialogue with the participant and the observer,
+    what is asked of them, and their tracked bodies; the rows."""
 
     def __init__(
         self,
@@ -211,27 +102,12 @@ class StudyRunner:
         trajectory_links: Mapping[str, TrajectoryLinkSpec] | None = None,
     ) -> None:
         import rospy
-        from geometry_msgs.msg import PoseStamped
-        from std_msgs.msg import Empty, Float32, Header, String
+        from std_msgs.msg import String
 
         self.rospy = rospy
         self.robot, self.stop = robot, stop
-        self._string_type = String
         self.scene, self.plan, self.approaches, self.options = scene, plan, approaches, options
         self.inputs = Inputs()
-        self.poses = ReceivedPoses()
-        self._refusals_told: set[str] = set()  # bodies whose refused poses have been logged
-        self.announced: dict[str, dict[str, Any]] = {}  # by condition: the latest pose source announced for it
-        # by condition: the ROS node that announced it (the endpoint's, for a page): only its poses count in that
-        # condition's trials, so that a second tracker (a VR page left open in reality) cannot mix its own in
-        self.announcers: dict[str, str] = {}
-        self._foreign_told: set[tuple[str, str]] = set()  # (condition, node) whose dropped poses have been logged
-        self.condition = ""  # the current trial's
-        self.tracked: set[str] = set()  # the conditions whose trials had poses
-        self.phase = ""  # of the last status published
-        self.asked: TrialStatus | None = None  # the last status published: the item asked, in phase questionnaire
-        # per questionnaire, its administrations so far: each item's answer (None: not answered)
-        self.given: dict[str, dict[str, dict[str, int | None]]] = {}
         self.safety_stops: list[str] = []  # the trials in which the runner stopped the arm on its own, and why
         self.unmonitored: set[str] = set()  # the conditions on a real arm said to have no tracker on the hands
         self.status_pub = self.rospy.Publisher(STATUS_TOPIC, String, queue_size=10, latch=True)
@@ -242,137 +118,17 @@ class StudyRunner:
         self.link: RobotLink = self.links[run[0]]
         self._started: set[int] = set()  # the links started (by id)
         self._lockstep_began: dict[int, tuple[Any, float]] = {}  # lockstep links (by id): the link, its clock at start
-        self._subscribers = [
-            self.rospy.Subscriber(GO_TOPIC, Empty, lambda _: self.inputs.go()),
-            self.rospy.Subscriber(STOP_TOPIC, Header, self._on_press, tcp_nodelay=True),
-            self.rospy.Subscriber(DISTANCE_TOPIC, Float32, lambda message: self.inputs.distance(message.data)),
-            self.rospy.Subscriber(PREFERENCE_TOPIC, String, lambda message: self.inputs.preference(message.data)),
-            self.rospy.Subscriber(ANSWER_TOPIC, String, lambda message: self.inputs.answer_json(message.data)),
-        ]
-        self._subscribers.append(self.rospy.Subscriber(TRACKING_TOPIC, String, self._on_tracker))
+        self.dialogue = Dialogue(
+            self.status_pub, self.inputs, lambda: self.link, options.keyboard, options.response_timeout, stop
+        )
+        self.asking = Asking(plan, self.dialogue, options.response_timeout)
+        self.bodies = TrackedBodies(
+            scene, approaches, lambda: self.link, options.pose_grace, options.pose_sources, options.pacing.dt, stop
+        )
         self.page_clocks = PageClocks(quantum=options.pacing.dt)  # the pages' clocks (sim.study.run.clocks)
-        self._subscribers.append(
-            self.rospy.Subscriber(PAGE_CLOCK_TOPIC, String, lambda m: self.page_clocks.heard_json(m.data, say))
+        self._page_clock_sub = rospy.Subscriber(
+            PAGE_CLOCK_TOPIC, String, lambda message: self.page_clocks.heard_json(message.data, say)
         )
-        for body, topic in POSE_TOPICS.items():
-            self._subscribers.append(
-                self.rospy.Subscriber(topic, PoseStamped, self._on_pose, callback_args=body, tcp_nodelay=True)
-            )
-
-    def _on_press(self, message: Any) -> None:
-        arrival = self.link.now()  # first: the press's latency ends here
-        self.inputs.press(
-            message.stamp.to_sec(), message.frame_id or "unnamed", input_delay_from_seq(message.seq), arrival
-        )
-
-    def wait_for_inputs(self, timeout: float, recorder: str | None) -> None:
-        """Wait (at most `timeout` s) until every node that publishes an input or pose topic writes it to this runner
-        and to the recorder: rospy keeps nothing for a subscriber whose link is not up yet, and a simulated
-        participant answers the first questionnaire's first item at once (its answer was lost, and the session hung
-        until the response timeout). Nodes that come later (a VR page opened after the start) link as they come."""
-        import rosgraph
-
-        from sim.processes import writes_to
-
-        me = self.rospy.get_name()
-        readers = [me] + ([recorder if recorder.startswith("/") else "/" + recorder] if recorder else [])
-        topics = {GO_TOPIC, STOP_TOPIC, DISTANCE_TOPIC, PREFERENCE_TOPIC, ANSWER_TOPIC, *POSE_TOPICS.values()}
-        master = rosgraph.Master(me)
-        deadline = time.monotonic() + timeout
-        while not self.stop.is_set():
-            publishers, _, _ = master.getSystemState()
-            missing = [
-                f"{topic}: {node} -> {reader}"
-                for topic, nodes in publishers
-                if topic in topics
-                for node in nodes
-                if node != me
-                for reader in readers
-                if not writes_to(master.lookupNode(node), topic, reader)
-            ]
-            if not missing:
-                return
-            if time.monotonic() > deadline:
-                raise ControllerError(f"the participant's topics are not linked after {timeout:g} s: {missing}")
-            self.stop.wait(0.05)
-        raise ControllerError("interrupted while waiting for the participant's topics")
-
-    def _on_tracker(self, message: Any) -> None:
-        """A pose source's announcement: it serves its conditions from now on."""
-        try:
-            said = announcement_from_json(message.data)
-        except StudyError as error:
-            say(f"a tracker's announcement was refused: {error}")
-            return
-        node = _publisher(message)
-        for condition in said["conditions"]:
-            before = self.announcers.get(condition)
-            if before is not None and before != node:
-                say(
-                    f"{condition}'s pose source is now {said['source']!r} (node {node}), was "
-                    f"{self.announced[condition]['source']!r} (node {before}): only the latest's poses count"
-                )
-            self.announced[condition] = said
-            self.announcers[condition] = node
-
-    def write_tracking(self, out: Path) -> None:
-        """The session's pose sources per tracked condition, in `out`/tracking/participant_NN.json."""
-        record = session_tracking(self.plan.participant, self.tracked, self.announced, self.options.pose_sources)
-        path = out / TRACKING / f"participant_{self.plan.participant:02d}.json"
-        path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(json.dumps(record, indent=2) + "\n")
-
-    def _on_pose(self, message: Any, body: str) -> None:
-        condition, node = self.condition, _publisher(message)
-        source = self.announcers.get(condition)
-        if source is not None and node != source:
-            if (condition, node) not in self._foreign_told:
-                self._foreign_told.add((condition, node))
-                say(f"poses from node {node} dropped in {condition}'s trials: its announced pose source is {source}")
-            return
-        point = message.pose.position
-        self.poses.add(body, message.header.stamp.to_sec(), message.header.frame_id, (point.x, point.y, point.z))
-
-    def publish_status(self, status: TrialStatus) -> None:
-        """Enter the status's phase (what it accepts from now on), then say so."""
-        self.inputs.enter(status.phase)
-        self.phase, self.asked = status.phase, status
-        self.say(status)
-
-    def say(self, status: TrialStatus) -> None:
-        """Publish the status (and prompt the observer) without entering its phase again: said again, it keeps what
-        has come in since it was entered."""
-        self.status_pub.publish(self._string_type(data=status_to_json(status)))
-        accepted = PROTOCOL.accepts(status.phase)
-        if self.options.keyboard and accepted == "answer":
-            print(item_prompt(status), file=sys.stderr, flush=True)
-        elif self.options.keyboard and accepted is not None:
-            print(
-                f"trial {status.index}/{status.total} ({status.condition}, test {status.test}, {status.path}): "
-                + _PROMPTS[accepted].format(
-                    paths=", ".join(f"{k} {p}" for k, p in enumerate(status.group_paths, start=1))
-                ),
-                file=sys.stderr,
-                flush=True,
-            )
-
-    def read_keyboard(self, lines: Iterable[str]) -> None:
-        """The observer's lines (sim.study.run.protocol.observer_input), read in the phase they come in."""
-        for line in lines:
-            typed = observer_input(line, self.phase)
-            if typed.kind == "go":
-                self.inputs.go()
-            elif typed.kind == "stop":
-                self.inputs.press(0.0, "keyboard")
-            elif typed.kind == "distance":
-                self.inputs.distance(typed.distance)
-            elif typed.kind == "preference":
-                self.inputs.preference(typed.text)
-            elif typed.kind == "answer" and self.asked is not None:
-                # the observer answers the item asked now: the typed number names no item of its own
-                self.inputs.answer(Answer(self.asked.administration, self.asked.item, typed.answer))
-            else:
-                say(typed.text)
 
     # --- time -----------------------------------------------------------------------------------------------
     @property
@@ -395,19 +151,6 @@ class StudyRunner:
             return None
         return sum(link.clock - began for link, began in self._lockstep_began.values())
 
-    def wait_for_input(self, what: str) -> Any:
-        """Go or an answer, waited for at most --response-timeout s. In real time the robot holds its target
-        meanwhile (the controller keeps streaming); in lockstep the clock stands still."""
-        if not self.link.realtime:
-            return self.inputs.wait(what, self.options.response_timeout, self.stop)
-        deadline = time.monotonic() + self.options.response_timeout
-        while time.monotonic() < deadline and not self.stop.is_set():
-            value = self.inputs.wait(what, 0.0, self.stop)
-            if value is not None:
-                return value
-            self.link.idle()
-        return None
-
     # --- trials ---------------------------------------------------------------------------------------------
     def status(self, trial: PlannedTrial, phase: str, **extra: Any) -> TrialStatus:
         return TrialStatus(
@@ -429,55 +172,27 @@ class StudyRunner:
         """The session: the trials' records in `records_path`, the questionnaires' beside it (in its folder)."""
         self.use_link(next(iter(self.links)))
         records: list[TrialRecord] = []
-        self._administer(0, records_path.parent, log)
+        self.asking.administer(0, records_path.parent, log)
         for trial in self.plan.trials:
             record = self.run_trial(trial, log)
             records.append(record)
             group = self._group_of(trial)
             if group and group[-1] is trial:  # the group's last trial: which approach was preferred?
-                preferred = self._ask_preference(trial, tuple(t.path for t in group), log)
+                paths = tuple(t.path for t in group)
+                preferred = self.asking.ask_preference(self.status(trial, "preference", group_paths=paths), log)
                 indices = {t.index for t in group}
                 records = [replace(r, preferred_path=preferred) if r.index in indices else r for r in records]
             write_records(records_path, records)  # after every trial: a crash loses at most the one running
-            if self.tracked:
-                self.write_tracking(records_path.parent)
+            if self.bodies.tracked:
+                self.bodies.write_tracking(records_path.parent, self.plan.participant)
             robots = {link.name: link.clock_offset for link in unique(self.links.values())}
             clocks = records_path.parent / CLOCKS / f"participant_{self.plan.participant:02d}.json"
             write_session_clocks(clocks, self.plan.participant, robots, self.page_clocks)
             if self.safety_stops:
                 raise SafetyStopped(f"the session ends: the runner stopped the arm in {'; '.join(self.safety_stops)}")
-            self._administer(trial.index, records_path.parent, log)
-        self.publish_status(TrialStatus(self.plan.participant, 0, len(self.plan.trials), "done"))
+            self.asking.administer(trial.index, records_path.parent, log)
+        self.dialogue.publish_status(TrialStatus(self.plan.participant, 0, len(self.plan.trials), "done"))
         return records
-
-    def _administer(self, after_trial: int, out: Path, log: Callable[[str], None]) -> None:
-        """Ask the questionnaires placed after trial `after_trial` (0: before the first), item by item; write each
-        one's records as soon as it has been asked."""
-        for planned in asked_after(self.plan, after_trial):
-            instrument = self.plan.instrument(planned.name)
-            answers: dict[str, int | None] = {}
-            for number in range(1, len(instrument.items) + 1):
-                status = item_status(self.plan, planned, number)
-                answers[status.item] = self._ask_item(status, log)
-            given = self.given.setdefault(planned.name, {})
-            given[planned.administration] = answers
-            for note in write_questionnaire(out, self.plan.participant, instrument, given):
-                if note.startswith(f"{planned.administration} "):  # an earlier administration's was logged then
-                    log(note)
-            answered = sum(answer is not None for answer in answers.values())
-            log(f"{planned.administration}: {answered} of {len(answers)} items answered")
-
-    def _ask_item(self, status: TrialStatus, log: Callable[[str], None]) -> int | None:
-        """The item's answer, or None when none on its scale came within the response timeout (`answer_item`)."""
-        self.publish_status(status)
-        return answer_item(
-            status,
-            self.inputs,
-            lambda: self.wait_for_input("answer"),
-            lambda: self.say(status),
-            log,
-            self.options.response_timeout,
-        )
 
     def _group_of(self, trial: PlannedTrial) -> list[PlannedTrial]:
         """Test 2's group that `trial` belongs to, in the order run; empty for test 1."""
@@ -487,31 +202,19 @@ class StudyRunner:
             t for t in self.plan.trials if t.test == 2 and t.condition == trial.condition and t.group == trial.group
         ]
 
-    def _ask_preference(self, trial: PlannedTrial, paths: tuple[str, ...], log: Callable[[str], None]) -> str:
-        self.publish_status(self.status(trial, "preference", group_paths=paths))
-        while True:
-            answer = self.wait_for_input("preference")
-            if answer is None:
-                log(f"trial {trial.index}: no preference within {self.options.response_timeout:g} s; left empty")
-                return ""
-            try:
-                return chosen_path(answer, paths)
-            except StudyError as error:
-                log(f"trial {trial.index}: {error}; asking again")
-
     def run_trial(self, trial: PlannedTrial, log: Callable[[str], None]) -> TrialRecord:
         """One trial from wherever the robot is; its record (preference still empty)."""
         planned = self.approaches.plan((trial.path, trial.standoff, trial.peak_speed))
         self.use_link(trial.condition)
-        self.condition = trial.condition  # whose announced pose source's poses count from now on
+        self.bodies.condition = trial.condition  # whose announced pose source's poses count from now on
         began = self.clock  # poses from here on are this trial's
-        self.publish_status(self.status(trial, "to_start"))
+        self.dialogue.publish_status(self.status(trial, "to_start"))
         self.link.move_to(planned.positions[0])
-        self.publish_status(self.status(trial, "ready"))
-        if not self.options.auto_go and self.wait_for_input("go") is None:
+        self.dialogue.publish_status(self.status(trial, "ready"))
+        if not self.options.auto_go and self.dialogue.wait_for_input("go") is None:
             log(f"trial {trial.index}: no go within {self.options.response_timeout:g} s; starting anyway")
         self.page_clocks.refuse()  # a page's clock that cannot be trusted ends the session before the approach
-        hand = self._hand_watch(began)
+        hand = self.bodies.hand_watch(began)
         if self.link.name != STREAM and not hand.tracked and trial.condition not in self.unmonitored:
             self.unmonitored.add(trial.condition)
             log(
@@ -520,31 +223,21 @@ class StudyRunner:
             )
         run = TrialRun(self.robot, planned, self.approaches.hand_distance, self.options.deceleration, hand)
         start = self.clock  # presses count from here; the arm starts at the link's reported start, later in reality
-        self.publish_status(self.status(trial, "moving", motion_start=start))
+        self.dialogue.publish_status(self.status(trial, "moving", motion_start=start))
         if trial.test == 2 and not self.link.realtime and not self.options.auto_go:
             self.inputs.wait_for_press(self.options.press_grace, self.stop)  # see RunnerOptions.press_grace
         outcome = self.link.approach(run, lambda until: self.inputs.take_press(until), self.options.settle)
         if outcome.safety_stop:
             log(f"trial {trial.index}: the arm was stopped: {outcome.safety_stop}")
         start = outcome.motion_start  # from now on the arm's own start, as the link reports it (the row's)
-        self.publish_status(self.status(trial, "at_rest", motion_start=start))
+        self.dialogue.publish_status(self.status(trial, "at_rest", motion_start=start))
         measures = run.measures()
         press = outcome.press
         window = outcome.window(self.clock, measures.press_time)  # the run's times are from the arm's actual start
-        motion, source = self._motion(trial, run, began, window, log)
+        motion, source = self.bodies.motion(trial, run, began, window, log)
         perceived = math.nan
         if trial.test == 1:
-            self.publish_status(self.status(trial, "distance", motion_start=start))
-            answer = self.wait_for_input("distance")
-            if answer is None:
-                log(
-                    f"trial {trial.index}: no perceived distance within {self.options.response_timeout:g} s; left empty"
-                )
-            else:
-                perceived = float(answer)
-            for problem in self.inputs.rejected:
-                log(f"trial {trial.index}: an answer was refused: {problem}")
-            self.inputs.rejected.clear()
+            perceived = self.asking.ask_distance(self.status(trial, "distance", motion_start=start), log)
         position = self.plan.conditions.index(trial.condition) + 1
         record = TrialRecord(
             self.plan.participant,
@@ -599,76 +292,6 @@ class StudyRunner:
             self.safety_stops.append(f"trial {trial.index}: {outcome.safety_stop}")
         return record
 
-    def _hand_watch(self, began: float) -> HandWatch:
-        """The hand under the robot as its tracker (poses since the trial `began`) sees it, for the link's supervision
-        during the approach (sim.study.run.links.hand): the distance floor, and the speed and separation monitor."""
-        return HandWatch(
-            self.scene.hand.position,
-            lambda: self.poses.tracks(began),
-            self.approaches.world.hand_distance,
-            tracks_hands(self.poses.sending(began)),
-        )
-
-    def _motion(
-        self, trial: PlannedTrial, run: TrialRun, began: float, window: Window, log: Callable[[str], None]
-    ) -> tuple[MotionMeasures, PoseSource]:
-        """The approach's motion measures from the poses of the bodies sending since it started (none: unmeasured),
-        once they are in up to its end; their poses since the trial `began` count (where a body was as it started).
-        With them, the source that tracked it: the one announced (or named) for its condition as they are taken."""
-        if not self.poses.sending(window.start):
-            return UNMEASURED, UNTRACKED
-        self.tracked.add(trial.condition)
-        late = self._await_poses(window.start, window.end)
-        if late:
-            log(
-                f"trial {trial.index}: no pose of {', '.join(late)} up to the approach's end within "
-                f"{self.options.pose_grace:g} s; measured as a gap"
-            )
-        for body, why in self.poses.refused().items():
-            if body not in self._refusals_told:
-                self._refusals_told.add(body)
-                log(f"poses of {body} refused: {why}")
-        at_rest = self.approaches.end_effector(self.link.target)
-        if not late:
-            self._follow_withdrawal(began, window)
-        pressed = math.isfinite(window.press)
-        # the run's states are on the plan's seconds, as its press is (the window's are wall seconds: a rehearsal's
-        # are slower)
-        end_effector = self.approaches.end_effector(run.positions_at(run.measures().press_time)) if pressed else None
-        measures = motion_measures(
-            self.poses.tracks(began), window, self.scene.hand.position, end_effector, TRACKING_GAP, at_rest
-        )
-        self.poses.forget(before=window.end)
-        if not measures.tracked_hand:
-            log(f"trial {trial.index}: no tracked hand was at the scene's hand as the approach started")
-        said, named = self.announced.get(trial.condition), self.options.pose_sources.get(trial.condition)
-        return measures, trial_source(trial.condition, said, named)
-
-    def _follow_withdrawal(self, began: float, window: Window) -> None:
-        """Hold the robot at rest, its clock running, until the hand under the robot is at rest again after its
-        withdrawal (sim.study.motion's withdrawal_end), at most to the window's limit: a participant who pulls back
-        late is measured whole. Stops early when no hand is under the robot, or a body's poses fall behind."""
-        hold = max(1, round(REST_DURATION / 2 / self.options.pacing.dt))  # steps between looks: a quarter second
-        hand_point = self.scene.hand.position
-        while self.clock < window.limit and not self.stop.is_set():
-            tracks = self.poses.tracks(began)
-            hand = hand_under_robot(tracks, window, hand_point, TRACKING_GAP)
-            if not hand or withdrawal_end(tracks[hand], window, TRACKING_GAP) is not None:
-                return
-            self.link.idle(hold * self.options.pacing.dt)
-            if self._await_poses(window.start, self.clock):
-                return  # a body stopped sending: its gap is measured, and no longer waited for
-
-    def _await_poses(self, since: float, end: float) -> list[str]:
-        """Wait (at most pose_grace s of wall time; in real time holding the robot) until every body that has sent
-        poses since `since` has one at `end`; the bodies still short of it."""
-        if not self.link.realtime:
-            return self.poses.wait_covered(since, end, self.options.pose_grace, self.stop)
-        deadline = time.monotonic() + self.options.pose_grace
-        while (late := self.poses.uncovered(since, end)) and time.monotonic() < deadline and not self.stop.is_set():
-            self.link.idle()
-        return late
-
     def connect(self, timeout: float, recorder: str | None) -> str:
         """Wait until every link's arm is there and linked (and the status reaches the engine); their names."""
         return ", ".join(link.connect(timeout, recorder) for link in unique(self.links.values()))
@@ -677,8 +300,9 @@ class StudyRunner:
         return [topic for link in unique(self.links.values()) for topic in link.recorded_topics()]
 
     def close(self) -> None:
-        for subscriber in self._subscribers:
-            subscriber.unregister()
+        self.dialogue.close()
+        self._page_clock_sub.unregister()
+        self.bodies.close()
         # the last status to its slow subscribers (a recorder) before it goes: a stream link drains it too, a
         # trajectory controller's link does not know it
         deadline = time.monotonic() + DRAIN_TIMEOUT_S
@@ -687,96 +311,3 @@ class StudyRunner:
         for link in unique(self.links.values()):
             link.close()
         self.status_pub.unregister()
-
-
-def record_session(link_topics: list[str], bag: Path, node: str, logs: Path, sim_time: bool) -> ManagedProcess:
-    """`rosbag record` of the session's topics into `bag` (in this process's ROS environment), once it records; or,
-    under /use_sim_time (`sim_time`), once it has subscribed to them all: it then opens the bag only when /clock has
-    moved past 0, and /clock is the runner's to publish (wait_for_partner waits for the recorder's links)."""
-    topics = recorder_topics(link_topics)
-    recorder = start_recorder(bag, topics, node, dict(os.environ), logs)
-    try:
-        recorder.wait_for_output(f"Subscribing to {topics[-1]}" if sim_time else "Recording to", timeout=30)
-    except (ProcessError, TimeoutError):
-        stop_recorder(recorder, bag)
-        raise
-    return recorder
-
-
-def _publisher(message: Any) -> str:
-    """The ROS node that published a message rospy delivered (its connection header's caller id)."""
-    return str(getattr(message, "_connection_header", {}).get("callerid", ""))
-
-
-def run_node(
-    robot: RobotSpec,
-    scene: Scene,
-    plan: SessionPlan,
-    approaches: Approaches,
-    options: RunnerOptions,
-    out: Path,
-    record: bool = True,
-    connect_timeout: float = 60.0,
-    trajectory_links: Mapping[str, TrajectoryLinkSpec] | None = None,
-) -> int:
-    """The runner as a ROS node (rospy.init_node: once per process): the session, its CSV and its bag in `out`."""
-    import rospy
-
-    from sim.wire.rosnode import init_node
-
-    stop = threading.Event()
-    init_node("study_runner")
-    for signum in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(signum, lambda *_: stop.set())
-    stem = f"participant_{plan.participant:02d}"
-    bag, records_path = out / "bags" / f"{stem}.bag", out / f"{stem}.csv"
-    recorder_node = f"study_recorder_{plan.participant}"
-    sim_time = bool(rospy.get_param("/use_sim_time", False))
-    runner = StudyRunner(robot, scene, plan, approaches, options, stop, trajectory_links)
-    try:
-        topics = runner.recorded_topics()
-        recorder = record_session(topics, bag, recorder_node, out / "logs", sim_time) if record else None
-    except BaseException:
-        runner.close()
-        raise
-    if options.keyboard:
-        threading.Thread(target=runner.read_keyboard, args=(sys.stdin,), name="keyboard", daemon=True).start()
-    started = time.monotonic()
-    try:
-        partner = runner.connect(connect_timeout, recorder_node if recorder else None)
-        runner.wait_for_inputs(connect_timeout, recorder_node if recorder else None)
-        say(
-            f"{partner} connected; participant {plan.participant}, {len(plan.trials)} trials, conditions "
-            f"{' then '.join(plan.conditions)}"
-        )
-        records = runner.run_session(records_path, say)
-        if recorder is not None:
-            stop.wait(RECORDER_DRAIN)  # see RECORDER_DRAIN
-    except ControllerError as error:
-        say(f"error: {error}")
-        return EXIT_INTERRUPTED if stop.is_set() else EXIT_ROS
-    except ClockError as error:  # a page's clock (sim.study.run.clocks), refused as a robot's is at connect
-        say(f"error: {error}")
-        return EXIT_ROS
-    except SafetyStopped as error:
-        say(f"error: {error}")
-        print(f"records: {records_path}")
-        return EXIT_SAFETY
-    finally:
-        runner.close()
-        if recorder is not None:
-            stop_recorder(recorder, bag)
-        rospy.signal_shutdown("study session done")
-    presses = sum(record.pressed for record in records)
-    lockstep = runner.lockstep_time()
-    print(
-        f"participant {plan.participant}: {len(records)} trials ({presses} stopped by a press) in "
-        f"{time.monotonic() - started:.1f} s of wall time"
-        + ("" if lockstep is None else f", {lockstep:.1f} s of ROS time in lockstep")
-    )
-    print(f"records: {records_path}")
-    if plan.questionnaires:
-        print(f"questionnaires: {out / QUESTIONNAIRES}")
-    if recorder is not None:
-        print(f"bag:     {bag}")
-    return EXIT_OK

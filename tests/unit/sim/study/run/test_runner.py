@@ -1,4 +1,4 @@
-"""The runner's inputs (sim.study.run.runner.Inputs): only what the phase accepts (the protocol's table) is kept,
+"""The runner's inputs (sim.study.run.inputs.Inputs): only what the phase accepts (the protocol's table) is kept,
 presses by their stamps, answers in order, waits bounded; a questionnaire item's answer checked, and the item said
 again on a refused one (answer_item)."""
 
@@ -11,9 +11,10 @@ import pytest
 
 from sim.study.design.plan import make_plan
 from sim.study.design.spec import load_design
+from sim.study.run.inputs import Inputs, answer_item
+from sim.study.run.links.base import Press
 from sim.study.run.protocol import PHASES, PROTOCOL, Answer, answer_to_json
 from sim.study.run.questionnaires import item_status
-from sim.study.run.runner import Inputs, Press, answer_item
 
 
 def entered(phase: str) -> Inputs:
