@@ -12,6 +12,7 @@ import subprocess
 import threading
 import time
 from collections.abc import Iterator, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -20,6 +21,7 @@ import pytest
 
 from bench.fault_relays import HeardGoals
 from sim.engine.executed import Executed, executed_extremes
+from sim.launchers import Launcher, PhysicsNode, start
 from sim.study.design.feasibility import Approaches
 from sim.study.design.fit import scene_for
 from sim.study.design.scene import load_scene, scene_robot
@@ -96,13 +98,47 @@ class Watch:
             subscriber.unregister()
 
 
+OFFSET_CLOCK = REPO / "bench" / "offset_clock.py"  # a process whose wall clock is off this machine's
+
+
+@dataclass(frozen=True)
+class _OffsetClock:
+    """A program's launcher run with its wall clock `offset` s off (bench/offset_clock.py)."""
+
+    program: Launcher
+    offset: float
+
+    @property
+    def ready(self) -> str | None:
+        return self.program.ready
+
+    def argv(self) -> list[str]:
+        argv = self.program.argv()
+        module = argv.index("-m")
+        return [argv[0], str(OFFSET_CLOCK), repr(self.offset), *argv[module + 1 :]]
+
+
 def start_arm(
-    roscore, ros_node, tmp_path: Path, robot: str, namespace: str, joint_states: str, *options: str
+    roscore,
+    ros_node,
+    tmp_path: Path,
+    robot: str,
+    namespace: str,
+    joint_states: str,
+    *options: str,
+    clock_offset: float = 0.0,
 ) -> Iterator[Watch]:
-    node = start_physics_node(
-        roscore, tmp_path, robot, "--mode", "physics", "--trajectory-controller", namespace,
+    """The stand-in's trajectory controller; `clock_offset` s: its wall clock off this machine's (its goals started
+    and its joint states stamped on it), as a robot PC's that is not synchronised."""
+    args = (
+        "--mode", "physics", "--trajectory-controller", namespace,
         "--joint-states-topic", joint_states, "--joint-states-rate", "30", *options,
     )  # fmt: skip
+    if clock_offset == 0.0:
+        node = start_physics_node(roscore, tmp_path, robot, *args)
+    else:
+        program = _OffsetClock(PhysicsNode(("--robot", robot), extra=args), clock_offset)
+        node = start(program, roscore.env, tmp_path, f"{robot}_physics", timeout=30)
     watch = Watch(ros_node, joint_states)
     try:
         yield watch

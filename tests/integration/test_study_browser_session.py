@@ -31,6 +31,7 @@ from sim.study.design.feasibility import Approaches
 from sim.study.design.paths import ON_TOP
 from sim.study.design.scene import load_scene, scene_robot
 from sim.study.motion.measures import WITHDRAWAL_LIMIT
+from sim.study.run.clocks import PAGE_CLOCK_LIMIT
 from sim.study.run.protocol import BODIES, TRACKING_GAP
 from sim.wire.contract import STEP_S
 from sim.wire.rosmsgs import decode_joint_state, to_seconds
@@ -291,6 +292,14 @@ def test_a_session_of_both_conditions_in_the_two_pages_is_analysed_as_a_pilot(tm
     record = json.loads((out / "tracking" / f"participant_{PARTICIPANT:02d}.json").read_text())
     assert list(record["conditions"]) == ["vr"] and reality_row["tracked_hand"] == "", (record, reality_row)
     assert record["conditions"]["vr"]["rest_s"] == 3.0 and len(record["conditions"]["vr"]["jitter_m"]) == 3, record
+    # both pages announced their clocks, each recorded with the trials its presses stop (the VR page's with VR's, the
+    # button's with reality's) within the bound the runner holds them to, and for the session
+    clocks = json.loads((out / "clocks" / f"participant_{PARTICIPANT:02d}.json").read_text())
+    print("the pages' clocks:", json.dumps(clocks["pages"]))
+    assert sorted(clocks["pages"]) == ["button", "vr_trigger"], clocks
+    for row, source in ((vr_row, "vr_trigger"), (reality_row, "button")):
+        assert 0 < float(row["page_clock_uncertainty"]) <= PAGE_CLOCK_LIMIT, (source, row)
+        assert math.isfinite(float(row["page_clock_offset"])), (source, row)
 
 
 def assert_the_trigger_stopped_the_vr_approach(

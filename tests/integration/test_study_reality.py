@@ -9,6 +9,7 @@ the arm at rest short of the hand."""
 
 from __future__ import annotations
 
+import json
 import math
 import signal
 import subprocess
@@ -41,6 +42,7 @@ from tests.integration.reality_helpers import (
     built_arm,  # noqa: F401 (a fixture)
     hand_distance,
     read_csv,
+    start_arm,
     start_runner,
     type_line,
 )
@@ -102,65 +104,184 @@ def test_a_session_runs_vr_on_the_stream_and_reality_on_the_trajectory_controlle
     assert float(reality["distance_at_rest"]) > float(reality["distance_at_press"]) - ran_on - 0.01 > ON_TOP
 
 
-@pytest.mark.parametrize("speed", [1.0, 0.5], ids=["session", "rehearsal_at_half_speed"])
+ROBOT_BEHIND = 0.03  # s: a robot PC's clock this far behind the runner's, within the link's 50 ms bound
+HEAD = np.array([0.9, -0.35, 0.55])  # m, in the world: the observer's head, swaying along y (HEAD_SWAY)
+HEAD_SWAY = (0.05, 0.5)  # m, Hz
+
+
+def head_at(t: float) -> np.ndarray:
+    """The head's place at `t` s of the runner's (this machine's) clock."""
+    amplitude, frequency = HEAD_SWAY
+    return HEAD + np.array([0.0, amplitude * math.sin(2 * math.pi * frequency * t), 0.0])
+
+
+@pytest.mark.parametrize(
+    "speed, behind",
+    [(1.0, 0.0), (0.5, 0.0), (1.0, ROBOT_BEHIND)],
+    ids=["session", "rehearsal_at_half_speed", "robot_clock_30ms_behind"],
+)
 def test_the_press_and_its_distance_are_on_the_arms_own_start_and_between_its_joint_states(
-    roscore, ros_node, arm, tmp_path: Path, speed: float
+    roscore, ros_node, tmp_path: Path, speed: float, behind: float
 ) -> None:
     # A button press stamped halfway between two of the arm's joint states (30 Hz), 0.8 s after the runner says the
-    # arm moves at 0.3 m/s. The controller starts the arm at the approach goal's stamp, a planning and a start lead
-    # after that: the row's motion start is that stamp, and its press time is from it. The distance at the press is
-    # the truth's, the arm's joint states heard here interpolated at the press's stamp, within 1 mm; the nearest of
-    # the two samples (the old measure) is half a sample's travel, ~5 mm, off. A rehearsal at half speed keeps its
-    # times on the plan's seconds (the joint states' as the press's: they were wall seconds, the press the plan's).
-    from std_msgs.msg import Header
+    # arm moves at 0.3 m/s, the head swaying meanwhile. The controller starts the arm at the approach goal's stamp, a
+    # planning and a start lead after that: the row's motion start is that stamp, and its press time is from it. The
+    # distance at the press is the truth's, the arm's joint states heard here interpolated at the press's stamp, within
+    # 1 mm, and so is the head's distance to the end effector at the press; the nearest of the two samples (the old
+    # measure) is half a sample's travel, ~5 mm, off. A rehearsal at half speed keeps its times on the plan's seconds
+    # (the joint states' as the press's: they were wall seconds, the press the plan's). A robot PC whose clock is 30 ms
+    # behind the runner's starts the goal, and stamps its states, 30 ms late on the runner's clock: the runner takes
+    # its offset as the approach begins and places the arm's start and the press by it (unapplied, the arm is read
+    # 30 ms late: 9 mm at 0.3 m/s). Its offset, as recorded, is the one it applied.
+    from geometry_msgs.msg import PoseStamped
+    from std_msgs.msg import Header, String
 
-    from sim.study.run.protocol import STOP_TOPIC
+    from sim.study.run.clocks import PageClock, page_clock_to_json
+    from sim.study.run.protocol import PAGE_CLOCK_TOPIC, POSE_FRAME, POSE_TOPICS, STOP_TOPIC
     from sim.wire.control_types import control_types
 
-    _, watch = arm
-    goal_stamps: list[float] = []  # each goal's trajectory stamp: 1 the move to the start, 2 the approach, 3 the stop
+    arms = start_arm(roscore, ros_node, tmp_path, "panda", NS, JOINT_STATES, clock_offset=-behind)
+    watch = next(arms)
+    goal_stamps: list[float] = []  # each goal's stamp: 1 the move to the start, 2 the approach, 3 the stop
     goals = ros_node.Subscriber(
         f"{NS}/follow_joint_trajectory/goal",
         control_types().action_goal,
         lambda message: goal_stamps.append(message.goal.trajectory.header.stamp.to_sec()),
     )
     button = ros_node.Publisher(STOP_TOPIC, Header, queue_size=10)  # linked before the runner's session starts
+    head = ros_node.Publisher(POSE_TOPICS["head"], PoseStamped, queue_size=100)
+    # the stop button's page, as it announces its clock after each ping answer: 6 ms round trips, no lag
+    page = ros_node.Publisher(PAGE_CLOCK_TOPIC, String, queue_size=10)
+    page_clock = page_clock_to_json(PageClock("button", 0.0021, 0.006, 0.0021, 4))
+    tracking = threading.Event()
+    tracking.set()
+
+    def track() -> None:  # the head at 60 Hz, stamped on this machine's clock, the runner's
+        while tracking.is_set():
+            now = time.time()
+            pose = PoseStamped()
+            pose.header.stamp, pose.header.frame_id = ros_node.Time.from_sec(now), POSE_FRAME
+            pose.pose.position.x, pose.pose.position.y, pose.pose.position.z = head_at(now)
+            pose.pose.orientation.w = 1.0
+            head.publish(pose)
+            if round(now * 60) % 30 == 0:
+                page.publish(String(data=page_clock))
+            time.sleep(1 / 60)
+
+    tracker = threading.Thread(target=track, name="head", daemon=True)
     plan = write_plan(tmp_path / "plan.yaml", 15, "reality", [trial(1, "reality", 1, "vertical", 0.1, 0.3)])
     rehearsal = [] if speed == 1.0 else ["--rehearsal-speed", f"{speed:g}"]
     runner = start_runner(roscore, plan, tmp_path / "out", ["--link", "reality=franka_ros", *rehearsal])
+    tracker.start()
     try:
         watch.wait((1, "moving"), runner)
         time.sleep(0.8)
         with watch.changed:
             before, after = watch.states[-2:]
-        press = (before.header.stamp.to_sec() + after.header.stamp.to_sec()) / 2
+        on_robot = (before.header.stamp.to_sec() + after.header.stamp.to_sec()) / 2
+        press = on_robot + behind  # the same instant on the runner's clock
         button.publish(Header(stamp=ros_node.Time.from_sec(press), frame_id="button"))
         watch.wait((1, "distance"), runner)
         type_line(runner, "10 cm\n")
         output, _ = runner.communicate(timeout=60)
     finally:
         kill_process(runner)
-        goals.unregister()
-        button.unregister()
+        tracking.clear()
+        tracker.join(timeout=5)
+        for endpoint in (goals, button, head, page):
+            endpoint.unregister()
+        arms.close()  # the arm's node stopped
     assert runner.returncode == 0, output
     (row,) = read_csv(tmp_path / "out" / "participant_15.csv")
     assert (row["pressed"], row["press_source"], row["safety_stop"]) == ("true", "button", ""), row
     assert len(goal_stamps) == 3, goal_stamps
     (t0, q0), (t1, q1) = ((s.header.stamp.to_sec(), by_joint(s)) for s in (before, after))
     assert t0 > goal_stamps[1], (t0, goal_stamps)  # both samples in the motion
-    truth = hand_distance(q0 + (press - t0) / (t1 - t0) * (q1 - q0))
-    measured, nearest = float(row["distance_at_press"]), hand_distance(q0)  # the nearest sample: either is as near
+    q_truth = q0 + (on_robot - t0) / (t1 - t0) * (q1 - q0)
+    truth, nearest = hand_distance(q_truth), hand_distance(q0)  # the nearest sample: either is as near
+    with Approaches(ROBOT, SCENE, 0.01) as approaches:
+        head_truth = float(np.linalg.norm(head_at(press) - approaches.end_effector(q_truth)))
+    measured, head_measured = float(row["distance_at_press"]), float(row["head_distance_at_press"])
+    offset = float(row["robot_clock_offset"])  # s: applied
     said = (
-        f"measured {(measured - truth) * 1e3:+.2f} mm off the truth, the nearest sample {(nearest - truth) * 1e3:+.2f} "
-        f"mm; the motion's start {(float(row['motion_start']) - goal_stamps[1]) * 1e3:+.1f} ms off the goal's stamp"
+        f"measured {(measured - truth) * 1e3:+.2f} mm off the truth, the head's "
+        f"{(head_measured - head_truth) * 1e3:+.2f} mm, the nearest sample {(nearest - truth) * 1e3:+.2f} mm; the "
+        f"robot's clock {offset * 1e3:+.2f} ms behind "
+        f"(truly {behind * 1e3:+.1f} ms); the motion's start {(float(row['motion_start']) - goal_stamps[1]) * 1e3:+.1f}"
+        " ms off the goal's stamp"
     )
     print(f"the press's distance: {said}")
     assert measured == pytest.approx(truth, abs=0.001), said
+    assert head_measured == pytest.approx(head_truth, abs=0.001), said
     if speed == 1.0:  # at full speed, the nearest sample would not do: this test tells them apart
         assert abs(nearest - truth) > 0.001, said
     assert 0.01 <= float(row["start_lead"]) <= 0.25 + 1e-9
-    assert float(row["motion_start"]) == pytest.approx(goal_stamps[1], abs=1e-6), said  # the arm's own start
+    # the arm's own start: the goal's stamp on the robot's clock, on the runner's by the offset applied; that offset
+    # the robot's clock behind plus the quickest delivery of a joint state (on this machine, well under 3 ms)
+    assert behind <= offset < behind + 0.003 and 0 <= float(row["robot_clock_drift"]) < 0.003, said
+    assert float(row["motion_start"]) == pytest.approx(goal_stamps[1] + offset, abs=1e-6), said
     assert float(row["motion_start"]) + float(row["press_time"]) / speed == pytest.approx(press, abs=1e-6)
+    # the button's page's clock, as it said it, recorded with the trial and the session
+    assert (float(row["page_clock_offset"]), float(row["page_clock_uncertainty"])) == (0.0021, 0.003)
+    clocks = json.loads((tmp_path / "out" / "clocks" / "participant_15.json").read_text())
+    (at_connect,) = clocks["robot_clock_offset_at_connect_s"].values()
+    assert behind <= at_connect < behind + 0.003 and list(clocks["pages"]) == ["button"], clocks
+
+
+def test_a_robot_pc_whose_clock_is_beyond_the_bound_refuses_the_session_in_one_line(
+    roscore, ros_node, tmp_path: Path
+) -> None:
+    # The robot PC's clock 80 ms behind, its controller and its stamps on it (test_study_faults has a relay that
+    # restamps the states alone): refused at connect, nothing moved
+    plan = write_plan(tmp_path / "plan.yaml", 16, "reality", [trial(1, "reality", 1, "vertical", 0.1, 0.3)])
+    arms = start_arm(roscore, ros_node, tmp_path, "panda", NS, JOINT_STATES, clock_offset=-0.08)
+    next(arms)
+    runner = start_runner(roscore, plan, tmp_path / "out", ["--link", "reality=franka_ros"])
+    try:
+        output, _ = runner.communicate(timeout=90)
+    finally:
+        kill_process(runner)
+        arms.close()
+    assert runner.returncode == 4, output
+    said = [line for line in output.splitlines() if "clock and this machine's disagree" in line]
+    assert len(said) == 1 and "limit 0.05 s" in said[0], output
+    assert float(said[0].split(" arrive ")[1].split(" s ")[0]) == pytest.approx(0.08, abs=0.005)
+    assert "trial 1" not in output and not (tmp_path / "out" / "participant_16.csv").exists()
+
+
+def test_a_page_whose_clock_cannot_be_trusted_refuses_the_session_before_its_first_trial(
+    roscore, ros_node, arm, tmp_path: Path
+) -> None:
+    # The stop button's page announces its clock from a slow network (best round trip 60 ms: its stamps up to 30 ms
+    # off): at go, the session is refused in one line naming it, before the approach
+    from std_msgs.msg import String
+
+    from sim.study.run.clocks import PageClock, page_clock_to_json
+    from sim.study.run.protocol import PAGE_CLOCK_TOPIC
+
+    _, watch = arm
+    page = ros_node.Publisher(PAGE_CLOCK_TOPIC, String, queue_size=10)
+    plan = write_plan(tmp_path / "plan.yaml", 17, "reality", [trial(1, "reality", 1, "vertical", 0.1, 0.3)])
+    runner = start_runner(roscore, plan, tmp_path / "out", ["--link", "reality=franka_ros"], auto_go=False)
+    announced = page_clock_to_json(PageClock("button", 0.0021, 0.060, 0.0021, 8))
+    try:
+        watch.wait((1, "ready"), runner)
+        for _ in range(5):  # as a page does, after each ping
+            page.publish(String(data=announced))
+            time.sleep(0.2)
+        type_line(runner, "\n")  # go
+        output, _ = runner.communicate(timeout=60)
+    finally:
+        kill_process(runner)
+        page.unregister()
+    assert runner.returncode == 4, output
+    said = [line for line in output.splitlines() if "page's clock" in line]
+    assert said == [
+        "sim.study run: error: the button page's clock cannot be trusted: its stamps may be off by 30.0 ms (half its "
+        "best round trip 30.0 ms, its applied offset 0.0 ms off its estimate; limit 20.0 ms): bring the page nearer "
+        "the runner (a quieter network)"
+    ], output
+    assert (1, "moving") not in watch.phases
 
 
 def by_joint(state: Any) -> np.ndarray:

@@ -63,3 +63,17 @@ test('a jump is read at once, not slewed', () => {
   clock.add(3_000, 3_050, 0.525); // /clock restarted
   assert.ok(Math.abs(clock.offsetAt(3_100) - -2.5) < 1e-9);
 });
+
+test('a report says the offset a read would give without reading it: the stamps are as without it', () => {
+  const clock = new ClockOffset();
+  assert.equal(clock.report(0), null);
+  clock.add(0, 300, 10.15); // 10 s ahead, by a 300 ms round trip
+  assert.ok(Math.abs(clock.offsetAt(1_000) - 10.0) < 1e-9);
+  clock.add(2_000, 2_020, 11.845); // quicker, 0.165 s lower: the estimate steps back, the applied slews
+  const report = clock.report(3_000);
+  assert.ok(Math.abs(report.offset - 9.835) < 1e-9 && Math.abs(report.round_trip - 0.02) < 1e-12, report);
+  assert.ok(Math.abs(report.applied - (10.0 - 0.1)) < 1e-9, report); // 5 % of the 2 s since the read
+  assert.equal(report.samples, 2);
+  assert.deepEqual(clock.applied, [1_000, 10.0]); // not read: a read later slews from the last read
+  assert.ok(Math.abs(clock.offsetAt(5_000) - 9.835) < 1e-9); // 4 s of slew covers the 0.165 s
+});

@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
+from sim.study.analysis.clocks import clock_lines
 from sim.study.analysis.contrasts import FACTOR_NAMES, MEASURES, TestContrast
 from sim.study.analysis.errors import AnalysisError
 from sim.study.analysis.latency import LatencySummary, keyboard_flag, latency_lines, summarise_latency
@@ -490,7 +491,7 @@ def write_report(
     # the withdrawal's mixed model with the design's, as the full analysis is asked for with the design
     motion = summarise_motion(records, model=sesoi is not None)
     latency = summarise_latency(records)
-    links = link_lines(records)
+    links = link_lines(records) + clock_lines(records)  # the robot's controller, then the session's clocks
     sources = trial_sources(records, trackers)
     modelled = sesoi is not None
     report.write_text(

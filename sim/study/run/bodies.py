@@ -167,7 +167,9 @@ class TrackedBodies:
         if not late:
             self._follow_withdrawal(began, window)
         pressed = math.isfinite(window.press)
-        end_effector = self.approaches.end_effector(run.positions_at(window.press - window.start)) if pressed else None
+        # the run's states are on the plan's seconds, as its press is (the window's are wall seconds: a rehearsal's
+        # are slower)
+        end_effector = self.approaches.end_effector(run.positions_at(run.measures().press_time)) if pressed else None
         measures = motion_measures(
             self.poses.tracks(began), window, self.scene.hand.position, end_effector, TRACKING_GAP, at_rest
         )

@@ -19,6 +19,7 @@ from sim.study.design.feasibility import Approaches
 from sim.study.design.plan import SessionPlan
 from sim.study.design.scene import Scene
 from sim.study.run.bag import RECORDER_DRAIN, record_session
+from sim.study.run.clocks import ClockError
 from sim.study.run.console import say
 from sim.study.run.links.base import SafetyStopped
 from sim.study.run.links.specs import TrajectoryLinkSpec
@@ -78,6 +79,9 @@ def run_node(
     except ControllerError as error:
         say(f"error: {error}")
         return EXIT_INTERRUPTED if stop.is_set() else EXIT_ROS
+    except ClockError as error:  # a page's clock (sim.study.run.clocks), refused as a robot's is at connect
+        say(f"error: {error}")
+        return EXIT_ROS
     except SafetyStopped as error:
         say(f"error: {error}")
         print(f"records: {records_path}")

@@ -22,6 +22,9 @@ checks it and gives it to Python. Pure logic, but for reading that file once.
   /study/pose/left_hand     the headset's and the controllers' poses (the VR page), or a tracker's in reality; stamp =
   /study/pose/right_hand    when, on the runner's clock; frame_id = the scene's world frame ("world"). A body that is
                             not tracked in a frame sends nothing: a gap in tracking (sim.study.motion)
+  /study/page_clock         std_msgs/String, to the runner, after each of a page's clock samples: its estimate of
+                            ROS time minus its own clock as JSON (sim.study.run.clocks.PageClock: source, offset,
+                            round_trip, applied, samples), by which the runner judges its stamps
 
 Phases of a trial, in order: to_start (moving to the path's start), ready (accepts go), moving (accepts a stop),
 at_rest (the motion has ended or stopped), distance (test 1: accepts the perceived distance), preference (after a
@@ -61,6 +64,7 @@ __all__ = [
     "POSE_TYPE",
     "POSE_FRAME",
     "TRACKING_GAP",
+    "PAGE_CLOCK_TOPIC",
     "TOPIC_TYPES",
     "PHASES",
     "MAX_PERCEIVED_DISTANCE",
@@ -198,6 +202,7 @@ GO_TOPIC, STOP_TOPIC, DISTANCE_TOPIC, PREFERENCE_TOPIC, ANSWER_TOPIC = (PROTOCOL
 POSE_TOPICS = {body: topic for body, (topic, _) in PROTOCOL.poses.items()}
 POSE_FRAME = PROTOCOL.pose_frame
 TRACKING_GAP = PROTOCOL.tracking_gap
+PAGE_CLOCK_TOPIC = "/study/page_clock"  # std_msgs/String: a page's clock (sim.study.run.clocks)
 TOPIC_TYPES = {topic: kind for topic, kind in (PROTOCOL.status, *PROTOCOL.inputs.values(), *PROTOCOL.poses.values())}
 PHASES = tuple(phase.name for phase in PROTOCOL.phases)
 MAX_PERCEIVED_DISTANCE = PROTOCOL.max_perceived_distance
@@ -216,7 +221,9 @@ class TrialStatus:
     peak_speed: float = math.nan  # m/s
     speed_set: str = ""
     group: int = 0
-    motion_start: float = math.nan  # s of ROS time when the approach started (phase moving and later)
+    # s of ROS time when the approach started (phase moving: when the runner asked for it; at_rest and later: the
+    # arm's own start as its link reports it, the row's motion_start, later by the start lead on a real arm)
+    motion_start: float = math.nan
     group_paths: tuple[str, ...] = ()  # phase preference: the group's paths in the order they were run
     # phase questionnaire: the item asked, with all an answerer needs (condition: the block it is asked around)
     administration: str = ""  # e.g. ssq_after_vr

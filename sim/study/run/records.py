@@ -3,8 +3,8 @@ column, so the analysis never works on a half-written or edited-by-hand file wit
 
 Distances are the end effector's (its FK from the achieved joint states) to the hand's surface, in metres. The
 press's latency columns, then the participant's motion (sim.study.motion), then the robot link's, then its goals'
-leads, then the separation monitoring, then the trial's pose source came last: a file written before any of them is
-still read, with them at their defaults (NaN, no tracked hand, the stream, no source named).
+leads, then the separation monitoring, then the trial's pose source, then the clocks came last: a file written before
+any of them is still read, with them at their defaults (NaN, no tracked hand, the stream, no source named).
 """
 
 from __future__ import annotations
@@ -74,14 +74,31 @@ class TrialRecord:
     # came, or the file was written before these columns) and its calibration's id ("" without one)
     pose_source: str = ""
     calibration_id: str = ""
+    # The clocks (sim.study.run.links.clock, sim.study.run.clocks; NaN where there is none): the robot's clock behind
+    # the runner's as the approach began (applied to its start and press) and how far that moved during it, on a
+    # trajectory controller; the clock of the page whose presses stop this condition: its offset to ROS time (its
+    # estimate as the trial ended) and the most its stamps could be off during the trial (half its best round trip
+    # plus its lag)
+    robot_clock_offset: float = math.nan  # s
+    robot_clock_drift: float = math.nan  # s
+    page_clock_offset: float = math.nan  # s: ROS time minus the page's clock
+    page_clock_uncertainty: float = math.nan  # s
 
 
 _FIELDS = fields(TrialRecord)
 _NAMES = [field.name for field in _FIELDS]
 # The headers a file may have: the columns up to each group added later (the press's latency, the motion, the link,
-# its leads, the separation monitoring, the pose source). A file written before a group is read with that group's
-# columns at their defaults.
-_LATER_GROUPS = ("press_input_delay", "tracked_hand", "link", "start_lead", "hand_monitored", "pose_source")
+# its leads, the separation monitoring, the pose source, the clocks). A file written before a group is read with that
+# group's columns at their defaults.
+_LATER_GROUPS = (
+    "press_input_delay",
+    "tracked_hand",
+    "link",
+    "start_lead",
+    "hand_monitored",
+    "pose_source",
+    "robot_clock_offset",
+)
 _HEADERS = [_NAMES[: _NAMES.index(first)] for first in _LATER_GROUPS] + [_NAMES]
 
 

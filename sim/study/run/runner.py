@@ -50,12 +50,15 @@ from sim.study.design.plan import PlannedTrial, SessionPlan
 from sim.study.design.scene import Scene
 from sim.study.run.asking import Asking
 from sim.study.run.bodies import TrackedBodies
+from sim.study.run.clocks import FOLDER as CLOCKS
+from sim.study.run.clocks import PageClocks, write_session_clocks
+from sim.study.run.console import say
 from sim.study.run.dialogue import Dialogue
 from sim.study.run.inputs import Inputs
 from sim.study.run.links.base import RobotLink, SafetyStopped
 from sim.study.run.links.choose import make_links, unique
 from sim.study.run.links.specs import STREAM, TrajectoryLinkSpec
-from sim.study.run.protocol import STATUS_TOPIC, TrialStatus
+from sim.study.run.protocol import PAGE_CLOCK_TOPIC, PROTOCOL, STATUS_TOPIC, TrialStatus
 from sim.study.run.records import TrialRecord, write_records
 from sim.study.run.trial import TrialRun
 
@@ -122,6 +125,10 @@ class StudyRunner:
         self.bodies = TrackedBodies(
             scene, approaches, lambda: self.link, options.pose_grace, options.pose_sources, options.pacing.dt, stop
         )
+        self.page_clocks = PageClocks(quantum=options.pacing.dt)  # the pages' clocks (sim.study.run.clocks)
+        self._page_clock_sub = rospy.Subscriber(
+            PAGE_CLOCK_TOPIC, String, lambda message: self.page_clocks.heard_json(message.data, say)
+        )
 
     # --- time -----------------------------------------------------------------------------------------------
     @property
@@ -178,6 +185,9 @@ class StudyRunner:
             write_records(records_path, records)  # after every trial: a crash loses at most the one running
             if self.bodies.tracked:
                 self.bodies.write_tracking(records_path.parent, self.plan.participant)
+            robots = {link.name: link.clock_offset for link in unique(self.links.values())}
+            clocks = records_path.parent / CLOCKS / f"participant_{self.plan.participant:02d}.json"
+            write_session_clocks(clocks, self.plan.participant, robots, self.page_clocks)
             if self.safety_stops:
                 raise SafetyStopped(f"the session ends: the runner stopped the arm in {'; '.join(self.safety_stops)}")
             self.asking.administer(trial.index, records_path.parent, log)
@@ -203,6 +213,7 @@ class StudyRunner:
         self.dialogue.publish_status(self.status(trial, "ready"))
         if not self.options.auto_go and self.dialogue.wait_for_input("go") is None:
             log(f"trial {trial.index}: no go within {self.options.response_timeout:g} s; starting anyway")
+        self.page_clocks.refuse()  # a page's clock that cannot be trusted ends the session before the approach
         hand = self.bodies.hand_watch(began)
         if self.link.name != STREAM and not hand.tracked and trial.condition not in self.unmonitored:
             self.unmonitored.add(trial.condition)
@@ -218,6 +229,7 @@ class StudyRunner:
         outcome = self.link.approach(run, lambda until: self.inputs.take_press(until), self.options.settle)
         if outcome.safety_stop:
             log(f"trial {trial.index}: the arm was stopped: {outcome.safety_stop}")
+        start = outcome.motion_start  # from now on the arm's own start, as the link reports it (the row's)
         self.dialogue.publish_status(self.status(trial, "at_rest", motion_start=start))
         measures = run.measures()
         press = outcome.press
@@ -272,6 +284,9 @@ class StudyRunner:
             outcome.least_separation,
             source.name,
             source.calibration_id,
+            outcome.robot_clock_offset,
+            outcome.robot_clock_drift,
+            *self.page_clocks.trial(PROTOCOL.stop_source(trial.condition)),
         )
         if outcome.safety_stop:
             self.safety_stops.append(f"trial {trial.index}: {outcome.safety_stop}")
@@ -286,6 +301,7 @@ class StudyRunner:
 
     def close(self) -> None:
         self.dialogue.close()
+        self._page_clock_sub.unregister()
         self.bodies.close()
         # the last status to its slow subscribers (a recorder) before it goes: a stream link drains it too, a
         # trajectory controller's link does not know it

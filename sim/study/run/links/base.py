@@ -71,6 +71,11 @@ class ApproachOutcome:
     hand_monitored: str = ""  # "tracked", "untracked" (the scene's hand taken at rest); "" on the stream
     least_separation_predicted: float = math.nan  # m (sim.study.safety.separation)
     least_separation: float = math.nan  # m, achieved, to the hand's live place while the arm moved
+    # s: the robot's clock behind the runner's as the approach began (its joint states' least arrival minus stamp,
+    # sim.study.run.links.clock), applied: motion_start and the press are on the runner's clock by it; and how far
+    # that least offset moved during the approach. NaN on the stream, which has no clock of its own
+    robot_clock_offset: float = math.nan
+    robot_clock_drift: float = math.nan
 
     def window(self, end: float, press_time: float) -> Window:
         """The approach's motion window on the link's clock, placed on the arm's actual start: from it to `end`, the
@@ -92,6 +97,11 @@ class RobotLink(Protocol):
     @property
     def target(self) -> np.ndarray:
         """The joint positions last commanded to rest at."""
+        ...
+
+    @property
+    def clock_offset(self) -> float:
+        """s: the robot's clock behind the runner's as measured at connect; NaN: a link with no clock of its own."""
         ...
 
     def recorded_topics(self) -> list[str]: ...

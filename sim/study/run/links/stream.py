@@ -17,6 +17,7 @@ and its hand is the scene's, in VR; the VR condition's stops are the participant
 
 from __future__ import annotations
 
+import math
 import threading
 import time
 from collections.abc import Sequence
@@ -77,6 +78,11 @@ class StreamLink(ControllerNode):
     def clock(self) -> float:
         """The controller's ROS time: the last step's end."""
         return self.stepper.clock
+
+    @property
+    def clock_offset(self) -> float:
+        """NaN: the stream's clock is the runner's own (its /clock)."""
+        return math.nan
 
     @property
     def target(self) -> np.ndarray:

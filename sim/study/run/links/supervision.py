@@ -31,7 +31,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from sim.study.run.links.clock import SKEW_LIMIT, STEP_LIMIT
+from sim.study.run.links.clock import SKEW_LIMIT, STEP_LIMIT, RobotClockSpan
 from sim.study.run.links.feed import FedState, FeedFault
 from sim.study.run.links.goals import CommandedPath
 from sim.study.run.links.joint_line import JointLine
@@ -104,6 +104,7 @@ class Motion:
     hand_seen: float = -math.inf  # the stamp of the last tracked place of the hand given to the monitor
     least_separation: float = math.inf  # m: the least achieved separation to the hand's live place while moving
     checked: float = math.nan  # the link's clock at the monitor's last check
+    robot_clock: RobotClockSpan | None = None  # an approach's robot clock: its offset applied, its range watched
 
     @property
     def handle(self) -> Any:

@@ -42,7 +42,7 @@ from sim.control.scenarios import approach
 from sim.robots import RobotSpec
 from sim.study.run.console import say
 from sim.study.run.links.base import AppliedPress, ApproachOutcome, Press, SafetyStopped, TakePress
-from sim.study.run.links.clock import SKEW_LIMIT, STEP_LIMIT, LinkClock
+from sim.study.run.links.clock import SKEW_LIMIT, STEP_LIMIT, LinkClock, RobotClockSpan
 from sim.study.run.links.feed import FedState, JointFeed
 from sim.study.run.links.goals import GOAL_STATUS, GoalPoints, goal_points, speed_fell
 from sim.study.run.links.joint_line import MOVE_DECELERATION, MOVE_JERK, JointLine
@@ -198,6 +198,7 @@ class TrajectoryLink:
     def approach(self, run: TrialRun, take_press: TakePress, settle: float) -> ApproachOutcome:
         planned = run.planned
         first = self._begin_motion()
+        robot_clock = RobotClockSpan(self._robot_offset())  # the press and the start are placed on this machine's clock
         run.record_state(0.0, first.positions)
         geometry = PathGeometry(planned.path, planned.positions)
         accelerations = np.gradient(planned.velocities, run.dt, axis=0)
@@ -213,8 +214,10 @@ class TrajectoryLink:
             PlannedTravel(path.times, planned.distances, arc_length(path), path.speeds),
         )
         self._target = planned.positions[-1].copy()
+        motion.robot_clock = robot_clock
         with brakes_on_exit(_Guard(self, motion)):
             applied, press_at, tracking = self._supervise(motion, run, take_press, settle)
+        press_stamp = robot_clock.on_robot_clock(press_at)  # as the joint states are stamped (NaN stays NaN)
         handle = motion.handle
         status, code, text = self._outcome(handle) if self._done(handle) else (-1, None, "no result")
         seen = self.feed.since(motion.start)
@@ -222,7 +225,7 @@ class TrajectoryLink:
         speeds = np.array([float(np.linalg.norm(s.velocities)) for s in seen])
         achieved = math.nan
         if not math.isnan(press_at) and seen:
-            at_press = state_at([(s.stamp, s.positions) for s in seen], press_at)  # as the trial's measures are
+            at_press = state_at([(s.stamp, s.positions) for s in seen], press_stamp)  # as the trial's measures are
             zeros = np.zeros(self.robot.dof)
             rest = geometry.project(seen[-1].positions, zeros, zeros)
             achieved = rest.arc - geometry.project(at_press, zeros, zeros).arc
@@ -232,14 +235,15 @@ class TrajectoryLink:
             if why
         )  # fmt: skip
         return ApproachOutcome(
-            motion_start=motion.start,  # the goal's stamp: the controller starts the arm there
+            # the goal's stamp, at which the controller starts the arm on the robot's clock, on the runner's
+            motion_start=motion.start + robot_clock.offset,
             speed_scale=self.spec.speed_scale,
             press=applied,
             goal_result=GOAL_STATUS.get(status, "NO RESULT"),
             error_code=code,
             tracking_error=tracking,
             replacement_sent=motion.stop_sent - press_at,
-            braking_began=speed_fell(stamps, speeds, press_at) if seen and not math.isnan(press_at) else math.nan,
+            braking_began=speed_fell(stamps, speeds, press_stamp) if seen and not math.isnan(press_at) else math.nan,
             braking_planned=motion.braking.distance if motion.braking is not None else math.nan,
             braking_achieved=achieved,
             safety_stop=safety_stop,
@@ -248,7 +252,21 @@ class TrajectoryLink:
             hand_monitored="tracked" if tracked else "untracked",
             least_separation_predicted=motion.monitor.least_predicted,
             least_separation=motion.least_separation if math.isfinite(motion.least_separation) else math.nan,
+            robot_clock_offset=robot_clock.offset,
+            robot_clock_drift=robot_clock.drift,
         )
+
+    @property
+    def clock_offset(self) -> float:
+        """s: the robot's clock behind this machine's as measured at connect (NaN before)."""
+        return self._watchdogs.skew if self._connected else math.nan
+
+    def _robot_offset(self) -> float:
+        """s: the robot's clock behind this machine's now, the least offset of the last joint states."""
+        offset = self.feed.least_offset(SKEW_WINDOW)
+        if offset is None:
+            raise ControllerError(f"no joint state on {self.spec.joint_states_topic}")
+        return offset
 
     def close(self) -> None:
         if self._connected:  # the lead the session ended with, for the lab's record
@@ -348,8 +366,9 @@ class TrajectoryLink:
                         press_at = min(max(when, motion.start), now)
                     else:
                         motion.reason = why
-                    if run is not None:
-                        elapsed = max(press_at - motion.start, 0.0) * self.spec.speed_scale
+                    if run is not None:  # the press on the robot's clock, as the arm's start and states are
+                        on_robot = motion.robot_clock.on_robot_clock(press_at) if motion.robot_clock else press_at
+                        elapsed = max(on_robot - motion.start, 0.0) * self.spec.speed_scale
                         run.press(min(elapsed, run.planned.path.duration))
                     self._stop(motion)
             else:
@@ -379,12 +398,15 @@ class TrajectoryLink:
         hand = run.hand if run is not None else None
         with self._lead_lock:
             stop_lead = self.lead.choose().lead
+        least_offset = self.feed.least_offset(SKEW_WINDOW)
+        if motion.robot_clock is not None:
+            motion.robot_clock.looked(least_offset)
         return Look(
             now=now,
             latest=latest,
             faults=self.feed.faults_since(motion.start - self.spec.stale_after),
             clock_step=self._clock.step(),
-            least_offset=self.feed.least_offset(SKEW_WINDOW),
+            least_offset=least_offset,
             tracking=tracking,
             surface_off=surface_off,
             distance=distance,

@@ -26,7 +26,7 @@ from sim.robots.meshes import resolve_shapes
 from sim.robots.urdf_model import urdf_root
 from sim.study.design.scene import Box, Scene
 from sim.study.design.spec import CONDITIONS
-from sim.study.run.protocol import BODIES, INPUTS, PROTOCOL
+from sim.study.run.protocol import BODIES, INPUTS, PAGE_CLOCK_TOPIC, PROTOCOL
 from sim.study.run.tracking import REST_S, TRACKING_TOPIC, announcement
 from sim.study.views.errors import ViewError
 from sim.study.views.live import COLOURS
@@ -255,6 +255,7 @@ def page_settings(
             **{name: list(PROTOCOL.inputs[name]) for name in INPUTS},
             **{body: list(PROTOCOL.poses[body]) for body in BODIES},  # the tracked body's, sent during trials
             "tracking": [TRACKING_TOPIC, "std_msgs/String"],  # the page's announcement as a pose source
+            "page_clock": [PAGE_CLOCK_TOPIC, "std_msgs/String"],  # its clock's, after each sample
         },
         # its announcement (its jitter not yet measured), or None: it tracks no condition
         "pose_source": json.loads(announcement(POSE_SOURCE, pose_conditions, {}, None, None))
@@ -293,7 +294,11 @@ def button_settings(emulation: bool = False) -> dict[str, Any]:
     """What the stop button's page needs: the trial's status and the stop's topics with their types, the trial
     protocol's table, the stop source its presses are named by (the reality condition's) and the WebSocket's path."""
     return {
-        "topics": {"trial": list(PROTOCOL.status), "stop": list(PROTOCOL.inputs["stop"])},
+        "topics": {
+            "trial": list(PROTOCOL.status),
+            "stop": list(PROTOCOL.inputs["stop"]),
+            "page_clock": [PAGE_CLOCK_TOPIC, "std_msgs/String"],
+        },
         "protocol": PROTOCOL.data,
         "stop_source": PROTOCOL.stop_source("reality"),
         "ros_path": ROS_PATH,

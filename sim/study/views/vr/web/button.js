@@ -31,6 +31,7 @@ class ButtonPage {
       this.participant.onStatus(JSON.parse(decodeString(payload)));
     });
     this.connection.advertise(...settings.topics.stop);
+    this.connection.announceClock(...settings.topics.page_clock, settings.stop_source); // for the runner to judge
     this.gamepads = new GamepadPresses();
     // every press, oldest first: {gamepad, control, inputDelay, readingGap, stamp, phase, index, sent}; readingGap
     // (s) since the reading before the one that saw it: the input changed within it, so it bounds the input delay

@@ -21,9 +21,10 @@ export class ClockOffset {
     this.applied = null; // [browser ms, offset s]: the offset last read (offsetAt), null until read or after a jump
   }
 
-  // A ping sent at sentAtMs (browser clock, ms) was answered at receivedAtMs with ROS time rosTime (s).
+  // A ping sent at sentAtMs (browser clock, ms) was answered at receivedAtMs with ROS time rosTime (s); whether it
+  // gave a sample.
   add(sentAtMs, receivedAtMs, rosTime) {
-    if (!(rosTime > 0)) return;
+    if (!(rosTime > 0)) return false;
     const roundTripMs = receivedAtMs - sentAtMs;
     const offset = rosTime - (sentAtMs + roundTripMs / 2) / 1000;
     const best = this.best();
@@ -33,6 +34,7 @@ export class ClockOffset {
     }
     this.samples.push([roundTripMs, offset]);
     this.samples = this.samples.slice(-SAMPLES_KEPT);
+    return true;
   }
 
   best() {
@@ -46,19 +48,33 @@ export class ClockOffset {
     return best === null ? null : best[1];
   }
 
+  // What the page says of its clock at nowMs (browser clock, ms; not before the last read), or null before any
+  // answer: the estimate (s) and its round trip (s), the offset it stamps with now (s) and the samples it is of. The
+  // runner judges the page's stamps by it (sim/study/run/clocks.py): off by at most half the round trip plus the
+  // applied offset's distance from the estimate.
+  // Reporting reads nothing: the offset a read would give is not kept, so the stamps are as without the report (a
+  // page that reads ROS time only at a press, the stop button's, takes the estimate then).
+  report(nowMs) {
+    const best = this.best();
+    if (best === null) return null;
+    const applied = this._slewed(nowMs)[1];
+    return { offset: best[1], round_trip: best[0] / 1000, applied, samples: this.samples.length };
+  }
+
   // The offset to read ROS time by at nowMs (browser clock, ms; not before the last read): the estimate, reached
   // at no more than SLEW of the time passed since the last read, so that readings never run backwards.
   offsetAt(nowMs) {
+    if (this.offset === null) return null;
+    this.applied = this._slewed(nowMs);
+    return this.applied[1];
+  }
+
+  // [read at, offset] for a read at nowMs, the estimate not null.
+  _slewed(nowMs) {
     const target = this.offset;
-    if (target === null) return null;
-    if (this.applied === null) {
-      this.applied = [nowMs, target];
-      return target;
-    }
+    if (this.applied === null) return [nowMs, target];
     const [readAt, applied] = this.applied;
     const most = (SLEW * Math.max(0, nowMs - readAt)) / 1000;
-    const offset = applied + Math.min(most, Math.max(-most, target - applied));
-    this.applied = [Math.max(readAt, nowMs), offset];
-    return offset;
+    return [Math.max(readAt, nowMs), applied + Math.min(most, Math.max(-most, target - applied))];
   }
 }

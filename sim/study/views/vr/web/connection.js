@@ -1,10 +1,11 @@
 // The page as a client of the endpoint, over its WebSocket transport: one ROS-TCP frame per binary message.
 // Like Unity's connector it registers its topics after connecting, sends a keepalive after each quiet second, and
 // connects again (and registers again) when the connection drops. `__ping` measures how far ROS time is ahead of
-// this browser's clock (clock.js), for the stamps of the participant's presses.
+// this browser's clock (clock.js), for the stamps of the participant's presses; after each answer that gave a sample,
+// the estimate is announced to the runner (announceClock), which judges the page's stamps by it.
 
 import { ClockOffset } from './clock.js';
-import { KEEPALIVE, command, commandFields, frame, framesIn } from './rostcp.js';
+import { KEEPALIVE, command, commandFields, encodeString, frame, framesIn } from './rostcp.js';
 
 const RECONNECT_DELAY_MS = 1000;
 const KEEPALIVE_AFTER_MS = 1000;
@@ -23,6 +24,7 @@ export class RosConnection {
     this.pings = new Map(); // request_time -> when sent (ms, Date.now())
     this.pingCount = 0;
     this.clock = new ClockOffset();
+    this.clockAnnouncement = null; // [topic, source]: where the clock's estimate goes, and the page it names
     this.errors = []; // the endpoint's __error texts, newest last
     this.timers = [];
   }
@@ -36,6 +38,13 @@ export class RosConnection {
   advertise(topic, type, latch = false) {
     this.publishers.set(topic, [type, latch]);
     if (this.connected) this._send(command('__publish', { topic, message_name: type, queue_size: 10, latch }));
+  }
+
+  // Announce the clock offset's estimate (clock.js's report, with `source`: the stop source the page's presses are
+  // named by) on `topic` (of `type`, a std_msgs/String: JSON), after each ping answer that gave a sample.
+  announceClock(topic, type, source) {
+    this.advertise(topic, type);
+    this.clockAnnouncement = [topic, source];
   }
 
   // Publish `payload` (a serialized message) on a topic advertised before; false when not connected.
@@ -138,7 +147,10 @@ export class RosConnection {
       const sentAt = this.pings.get(fields.request_time);
       this.pings.delete(fields.request_time);
       if (sentAt === undefined || typeof fields.ros_time !== 'number') return;
-      this.clock.add(sentAt, Date.now(), fields.ros_time);
+      if (this.clock.add(sentAt, Date.now(), fields.ros_time) && this.clockAnnouncement) {
+        const [topic, source] = this.clockAnnouncement;
+        this.publish(topic, encodeString(JSON.stringify({ source, ...this.clock.report(Date.now()) })));
+      }
     } else if (name === '__error' || name === '__warn') {
       this.errors.push(`${name}: ${fields.text}`);
       console.warn(`endpoint ${name}: ${fields.text}`);

@@ -54,6 +54,7 @@ export class StudyTopics {
       this.posesSent[body] = 0;
     }
     this.connection.advertise(...topics.tracking, true);
+    this.connection.announceClock(...topics.page_clock, settings.stop_source); // the runner judges its stamps by it
   }
 
   open() {

@@ -43,6 +43,8 @@ PRESSED = TrialRecord(
     0.016,
     pose_source="headset (uncalibrated)",
     calibration_id="",
+    page_clock_offset=-3.5e-3,
+    page_clock_uncertainty=1.25e-3,
 )
 RESTED = TrialRecord(
     4,
@@ -115,7 +117,8 @@ def test_a_missing_file_is_a_study_error(tmp_path: Path) -> None:
 
 
 @pytest.mark.parametrize(
-    "first", ["press_input_delay", "tracked_hand", "link", "start_lead", "hand_monitored", "pose_source"]
+    "first",
+    ["press_input_delay", "tracked_hand", "link", "start_lead", "hand_monitored", "pose_source", "robot_clock_offset"],
 )
 def test_a_file_written_before_a_group_of_columns_is_read_with_them_at_their_defaults(
     tmp_path: Path, first: str

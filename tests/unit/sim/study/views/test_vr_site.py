@@ -106,6 +106,7 @@ def test_the_button_page_is_its_own_entry_with_the_vr_pages_ros_modules_and_noth
     assert settings["topics"] == {
         "trial": ["/study/trial", "std_msgs/String"],
         "stop": ["/study/stop", "std_msgs/Header"],
+        "page_clock": ["/study/page_clock", "std_msgs/String"],  # its clock's estimate, for the runner to judge
     }
     assert (
         settings["stop_source"] == "button" and settings["protocol"]["stop_sources"]["button"]["condition"] == "reality"
@@ -130,6 +131,7 @@ def test_the_settings_carry_the_scene_the_joints_and_the_topics(site: Site) -> N
     # the page's announcement of itself as the VR condition's pose source (alone, by default: in reality another
     # tracker is), as the runner reads one, its jitter not measured until the rest at the session's start
     assert settings["topics"]["tracking"] == ["/study/tracking", "std_msgs/String"]
+    assert settings["topics"]["page_clock"] == ["/study/page_clock", "std_msgs/String"]  # its clock, to be judged
     said = announcement_from_json(json.dumps(settings["pose_source"]))
     assert (said["source"], said["conditions"], said["jitter_m"], said["rest_s"], said["calibration"]) == (
         "headset",
