@@ -21,7 +21,9 @@ stand-in of it), on wall time. rospy and actionlib.
   clock stepped, the robot's clock off, the tracking error past the tolerance, the achieved distance to the hand off
   the commanded path's or under the floor, the speed and separation monitor, or the controller ending the goal
   otherwise than by success. Such a fault during braking, or a braking that does not succeed, ends the session.
-  These are the toolkit's checks, never instead of the robot's own stop.
+  The move to a path's start is watched against the trial's hand as the approach is: its live place, and the speed
+  and separation monitor with the move's own samples along its joint line as the plan. These are the toolkit's
+  checks, never instead of the robot's own stop.
 - If the runner's process dies (SIGKILL), nothing more is sent: the goal runs on to its end, at the stand-off at rest
   (ros_control's action server does not cancel a goal when its client goes away).
 
@@ -33,7 +35,7 @@ from __future__ import annotations
 
 import math
 import threading
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -45,6 +47,7 @@ from sim.study.run.links.base import AppliedPress, ApproachOutcome, Press, Safet
 from sim.study.run.links.clock import SKEW_LIMIT, STEP_LIMIT, LinkClock
 from sim.study.run.links.feed import FedState, JointFeed
 from sim.study.run.links.goals import GOAL_STATUS, GoalPoints, goal_points, speed_fell
+from sim.study.run.links.hand import HandWatch
 from sim.study.run.links.joint_line import MOVE_DECELERATION, MOVE_JERK, JointLine
 from sim.study.run.links.lead import START, START_FLOOR, Leads, delivery_part
 from sim.study.run.links.specs import TrajectoryLinkSpec
@@ -74,6 +77,15 @@ SUCCEEDED = 3
 REJECTED = 5
 STAMP_WINDOW = 5.0  # s: a press stamped further from the wall clock is on another clock (the stream's /clock)
 NO_QUERY = ("planning", "delivery")  # what a stop's preparation waits for when it brakes from the commanded path
+
+
+class _Against(Protocol):
+    """What a motion is supervised against: the robot's distance to the scene's hand and to the hand's live place (an
+    approach's TrialRun, a move's HandWatch)."""
+
+    def hand_distance(self, positions: np.ndarray) -> float: ...
+
+    def live_hand_distance(self, positions: np.ndarray) -> float: ...
 
 
 class _Guard:
@@ -119,7 +131,8 @@ class TrajectoryLink:
         self._lead_lock = threading.Lock()  # goals' deliveries are measured on actionlib's threads
         self._connected = False
         tolerances = Tolerances(spec.stale_after, spec.tracking_tolerance, spec.surface_tolerance, spec.floor)
-        self._watchdogs = Watchdogs(tolerances, 0.0, spec.speed_scale)  # its skew is measured at connect
+        self._watchdogs = Watchdogs(tolerances, 0.0)  # its skew is measured at connect
+        self._move_least = math.nan  # m: the last move's least separation, for the next approach's outcome
 
     # --- RobotLink -------------------------------------------------------------------------------------------
     @property
@@ -157,7 +170,7 @@ class TrajectoryLink:
         if self.feed.wait(-math.inf, timeout, self.stop) is None:
             raise ControllerError(f"no joint state on {self.spec.joint_states_topic} within {timeout:g} s")
         skew = self._clocks_agree(timeout)
-        self._watchdogs = Watchdogs(self._watchdogs.tolerances, skew, self.spec.speed_scale)
+        self._watchdogs = Watchdogs(self._watchdogs.tolerances, skew)
         self._connected = True
         topic, skew = self.spec.joint_states_topic, skew * 1e3
         return f"trajectory controller {ns} (the arm's joint states on {topic}, arriving {skew:+.1f} ms after stamping)"
@@ -173,9 +186,12 @@ class TrajectoryLink:
         """The controller holds the last point on its own: only wait."""
         self.stop.wait(max(seconds, POLL * 2))
 
-    def move_to(self, positions: np.ndarray) -> np.ndarray:
+    def move_to(self, positions: np.ndarray, hand: HandWatch | None = None) -> np.ndarray:
         """A quintic from where the arm is along the straight line in joint space, as one goal, supervised like an
-        approach to its end; SafetyStopped when the link stopped it on its own (the arm then rests on the line)."""
+        approach to its end, against the trial's `hand` when given (its live place for the floor, and speed and
+        separation monitoring with the move's own samples as the plan, from the goal's start); SafetyStopped when the
+        link stopped it on its own (the arm then rests on the line)."""
+        self._move_least = math.nan
         here = self._begin_motion().positions
         there = np.asarray(positions, dtype=float)
         if float(np.linalg.norm(there - here)) <= 1e-6:
@@ -185,10 +201,14 @@ class TrajectoryLink:
         line = JointLine(here, there)
         accelerations = np.gradient(speeds, self.dt, axis=0)
         self._time_planning(line, samples, speeds, accelerations, MOVE_DECELERATION, MOVE_JERK)
+        travel = None
+        if hand is not None:
+            travel = line.travel(samples, speeds, self.dt, np.array([hand.hand_distance(q) for q in samples]))
         motion, _ = self._go("the move to the path's start", line, MOVE_DECELERATION, MOVE_JERK, samples[0], points)
         self._target = there.copy()
         with brakes_on_exit(_Guard(self, motion)):
-            self._supervise(motion, None, None, 0.0)
+            self._supervise(motion, None, None, 0.0, hand, travel)
+        self._move_least = motion.least_separation if math.isfinite(motion.least_separation) else math.nan
         self._target = self._latest().positions.copy()
         why = motion.reason or motion.after_stop or self._failure(motion)
         if why:
@@ -205,6 +225,7 @@ class TrajectoryLink:
         points = goal_points(planned.positions, planned.velocities, run.dt, self.spec.speed_scale)
         rest = planned.positions[0]
         motion, start_lead = self._go("the approach", geometry, run.deceleration, STOP_JERK, rest, points)
+        motion.speed_scale = self.spec.speed_scale
         path = planned.path
         tracked = run.hand is not None and run.hand.tracked
         motion.monitor = SeparationMonitor(
@@ -248,6 +269,7 @@ class TrajectoryLink:
             hand_monitored="tracked" if tracked else "untracked",
             least_separation_predicted=motion.monitor.least_predicted,
             least_separation=motion.least_separation if math.isfinite(motion.least_separation) else math.nan,
+            move_least_separation=self._move_least,
         )
 
     def close(self) -> None:
@@ -318,10 +340,20 @@ class TrajectoryLink:
         return motion, lead
 
     def _supervise(
-        self, motion: Motion, run: TrialRun | None, take_press: TakePress | None, settle: float
+        self,
+        motion: Motion,
+        run: TrialRun | None,
+        take_press: TakePress | None,
+        settle: float,
+        hand: HandWatch | None = None,
+        travel: PlannedTravel | None = None,
     ) -> tuple[AppliedPress | None, float, float]:
         """Watch the motion until it rests `settle` s after its end, stopping it on a press (`take_press`) or on its
-        own. The press applied, its time (the link's clock; NaN: none), and the largest tracking error (rad)."""
+        own, against the approach's `run` or a move's `hand`. A move's `travel` is monitored for speed and separation
+        from the goal's start on: whether a tracker follows the hand is read then, once the trial's first poses have
+        come. The press applied, its time (the link's clock; NaN: none), and the largest tracking error (rad)."""
+        against: _Against | None = run if run is not None else hand
+        watched = run.hand if run is not None else hand
         applied: AppliedPress | None = None
         press_at = math.nan
         tracking = 0.0
@@ -338,7 +370,10 @@ class TrajectoryLink:
                         run.record_state((fed.stamp - motion.start) * self.spec.speed_scale, fed.positions)
                     unsure = motion.replaced and not self._taken(motion.handle)
                     tracking = max(tracking, motion.commanded.error(fed.stamp, fed.positions, unsure))
-            why = self._unsafe(now, tracking, run, motion)
+            if travel is not None and hand is not None and motion.monitor is None and now >= motion.start:
+                parameters = SeparationParameters(self.spec.floor, deceleration=MOVE_DECELERATION, jerk=MOVE_JERK)
+                motion.monitor = SeparationMonitor(parameters, hand.tracked, travel)
+            why = self._unsafe(now, tracking, motion, against, watched)
             if not motion.stopped:
                 press = take_press(now) if take_press is not None else None
                 if press is not None or why:
@@ -360,23 +395,27 @@ class TrajectoryLink:
             if watched_to_rest(now, motion, settle, self._done(motion.handle)):
                 return applied, press_at, tracking
 
-    def _unsafe(self, now: float, tracking: float, run: TrialRun | None, motion: Motion) -> str:
+    def _unsafe(
+        self, now: float, tracking: float, motion: Motion, against: _Against | None, hand: HandWatch | None
+    ) -> str:
         """Why the arm must be stopped now ("" when it need not): what the link sees, judged by the watchdogs."""
-        return self._watchdogs.reason(self._look(now, tracking, run, motion), motion)
+        return self._watchdogs.reason(self._look(now, tracking, motion, against, hand), motion)
 
-    def _look(self, now: float, tracking: float, run: TrialRun | None, motion: Motion) -> Look:
-        """What the link sees of `motion` at `now`, the largest tracking error so far `tracking` (rad)."""
+    def _look(
+        self, now: float, tracking: float, motion: Motion, against: _Against | None, hand: HandWatch | None
+    ) -> Look:
+        """What the link sees of `motion` at `now`, the largest tracking error so far `tracking` (rad), its distances
+        to the hand `against`'s (none: not judged), the tracked hand's places `hand`'s."""
         latest = self.feed.latest()
         surface_off = distance = math.nan
-        if run is not None and latest is not None:
+        if against is not None and latest is not None:
             if latest.stamp >= motion.start:
-                achieved = run.hand_distance(latest.positions)
+                achieved = against.hand_distance(latest.positions)
                 unsure = motion.replaced and not self._taken(motion.handle)
                 possible = motion.commanded.possible(latest.stamp, unsure)
-                surface_off = min(abs(achieved - run.hand_distance(q)) for q in possible)
+                surface_off = min(abs(achieved - against.hand_distance(q)) for q in possible)
             if now < motion.moves_until:  # a hand coming on to an arm at rest is the person's own move
-                distance = run.live_hand_distance(latest.positions)
-        hand = run.hand if run is not None else None
+                distance = against.live_hand_distance(latest.positions)
         with self._lead_lock:
             stop_lead = self.lead.choose().lead
         return Look(
