@@ -35,7 +35,7 @@ from __future__ import annotations
 
 import math
 import threading
-from typing import Any, Protocol
+from typing import Any
 
 import numpy as np
 
@@ -77,15 +77,6 @@ SUCCEEDED = 3
 REJECTED = 5
 STAMP_WINDOW = 5.0  # s: a press stamped further from the wall clock is on another clock (the stream's /clock)
 NO_QUERY = ("planning", "delivery")  # what a stop's preparation waits for when it brakes from the commanded path
-
-
-class _Against(Protocol):
-    """What a motion is supervised against: the robot's distance to the scene's hand and to the hand's live place (an
-    approach's TrialRun, a move's HandWatch)."""
-
-    def hand_distance(self, positions: np.ndarray) -> float: ...
-
-    def live_hand_distance(self, positions: np.ndarray) -> float: ...
 
 
 class _Guard:
@@ -352,8 +343,7 @@ class TrajectoryLink:
         own, against the approach's `run` or a move's `hand`. A move's `travel` is monitored for speed and separation
         from the goal's start on: whether a tracker follows the hand is read then, once the trial's first poses have
         come. The press applied, its time (the link's clock; NaN: none), and the largest tracking error (rad)."""
-        against: _Against | None = run if run is not None else hand
-        watched = run.hand if run is not None else hand
+        hand = run.hand if run is not None else hand
         applied: AppliedPress | None = None
         press_at = math.nan
         tracking = 0.0
@@ -373,7 +363,7 @@ class TrajectoryLink:
             if travel is not None and hand is not None and motion.monitor is None and now >= motion.start:
                 parameters = SeparationParameters(self.spec.floor, deceleration=MOVE_DECELERATION, jerk=MOVE_JERK)
                 motion.monitor = SeparationMonitor(parameters, hand.tracked, travel)
-            why = self._unsafe(now, tracking, motion, against, watched)
+            why = self._unsafe(now, tracking, motion, run, hand)
             if not motion.stopped:
                 press = take_press(now) if take_press is not None else None
                 if press is not None or why:
@@ -395,27 +385,26 @@ class TrajectoryLink:
             if watched_to_rest(now, motion, settle, self._done(motion.handle)):
                 return applied, press_at, tracking
 
-    def _unsafe(
-        self, now: float, tracking: float, motion: Motion, against: _Against | None, hand: HandWatch | None
-    ) -> str:
+    def _unsafe(self, now: float, tracking: float, motion: Motion, run: TrialRun | None, hand: HandWatch | None) -> str:
         """Why the arm must be stopped now ("" when it need not): what the link sees, judged by the watchdogs."""
-        return self._watchdogs.reason(self._look(now, tracking, motion, against, hand), motion)
+        return self._watchdogs.reason(self._look(now, tracking, motion, run, hand), motion)
 
-    def _look(
-        self, now: float, tracking: float, motion: Motion, against: _Against | None, hand: HandWatch | None
-    ) -> Look:
-        """What the link sees of `motion` at `now`, the largest tracking error so far `tracking` (rad), its distances
-        to the hand `against`'s (none: not judged), the tracked hand's places `hand`'s."""
+    def _look(self, now: float, tracking: float, motion: Motion, run: TrialRun | None, hand: HandWatch | None) -> Look:
+        """What the link sees of `motion` at `now`, the largest tracking error so far `tracking` (rad): against an
+        approach's `run`, the distance to the hand off the commanded path's, and for an approach or a move, the
+        distance to the `hand`'s live place (the run's hand) and its tracked places. A move's tracking error is
+        judged in joint space (the floor and the separation judge the achieved state's distance): the surface
+        tolerance is an approach's, sized for its end near the hand."""
         latest = self.feed.latest()
         surface_off = distance = math.nan
-        if against is not None and latest is not None:
-            if latest.stamp >= motion.start:
-                achieved = against.hand_distance(latest.positions)
-                unsure = motion.replaced and not self._taken(motion.handle)
-                possible = motion.commanded.possible(latest.stamp, unsure)
-                surface_off = min(abs(achieved - against.hand_distance(q)) for q in possible)
-            if now < motion.moves_until:  # a hand coming on to an arm at rest is the person's own move
-                distance = against.live_hand_distance(latest.positions)
+        if run is not None and latest is not None and latest.stamp >= motion.start:
+            achieved = run.hand_distance(latest.positions)
+            unsure = motion.replaced and not self._taken(motion.handle)
+            possible = motion.commanded.possible(latest.stamp, unsure)
+            surface_off = min(abs(achieved - run.hand_distance(q)) for q in possible)
+        live = run.live_hand_distance if run is not None else hand.live_hand_distance if hand is not None else None
+        if live is not None and latest is not None and now < motion.moves_until:
+            distance = live(latest.positions)  # a hand coming on to an arm at rest is the person's own move
         with self._lead_lock:
             stop_lead = self.lead.choose().lead
         return Look(
