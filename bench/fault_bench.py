@@ -571,9 +571,9 @@ def run(
         "/ braked from the commanded path"
     )
     for row in rows:
-        ran_on = [t.run_on for session in row.sessions for t in session.trials if t.run_on is not None]
-        if ran_on:
-            print(f"{row.what}: {distribution(ran_on)}")
+        stops = [t.run_on for session in row.sessions for t in session.trials if t.run_on is not None]
+        if stops:
+            print(f"{row.what}: {distribution(stops)}")
     ok, line = verdict(rows)
     print(line)
     return ok
