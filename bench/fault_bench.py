@@ -23,9 +23,12 @@ wrote one) against the floor, the largest executed acceleration and jerk as a sh
 approach acted on to the end (every goal and cancel heard beside the controller, replayed at 1 kHz through
 ros_control's semantics: sim.engine.executed; the whole sessions' below the table, the moves to the starts too), and
 the leads the stops were stamped with (how many were sent after their stamp, how many braked from the commanded
-path). The last line says whether every fault braked and no separation fell under the floor (and whether the
-executed motion stayed within the limits); run() returns False when a run did not brake, fell under the floor or
-gave no figures, and the bench then exits 1.
+path). Per trial with a stop sent, its run-on (the record's braking distance achieved − planned) against the bound
+bench.run_on derives from the trial's own figures (the speed at the press, the stop's latency and lead, the tracking
+error); per row, the run-ons' median, p95 and max. The last line says whether every fault braked, no separation fell
+under the floor and every run-on kept its bound (and whether the executed motion stayed within the limits); run()
+returns False when a run did not brake, fell under the floor, ran on past its bound or gave no figures, and the
+bench then exits 1.
 
 Every wait is bounded (PHASE_WAIT_S per phase, the sessions by a time budget); every process is killed by its PID.
 """
@@ -58,13 +61,14 @@ from bench.fault_relays import (
     Tracker,
     Watch,
 )
+from bench.run_on import RunOn, distribution, run_on_bound
 from sim.engine.executed import Executed, executed_extremes
 from sim.launchers import PhysicsNode, start
 from sim.processes import PYTHON, REPO, ManagedProcess, kill_process
 from sim.study.design.feasibility import Approaches
 from sim.study.design.paths import approach_path
 from sim.study.design.scene import load_scene, scene_robot
-from sim.study.safety.braking import arc_length
+from sim.study.safety.braking import STOP_DECELERATION, PathGeometry, arc_length
 from sim.study.safety.limits import PANDA_LIMITS
 
 PATH, STANDOFF, SPEED = "vertical", 0.06, 0.2  # the tests' approach: m, m/s
@@ -100,6 +104,7 @@ class Trial:
     short: float  # m: the rest short of the stand-off
     least: float  # m: the least separation heard while the motion ran
     recorded: float  # m: the runner's least_separation (NaN: no row, or none recorded)
+    run_on: RunOn | None = None  # the stop's run-on and its bound (bench.run_on); None: no stop sent, or no row
 
 
 @dataclass
@@ -138,6 +143,13 @@ class Bench:
         self.scene = load_scene()
         self.approaches = Approaches(scene_robot(self.scene), self.scene, 0.01)
         self.joint_names = scene_robot(self.scene).joint_names
+        planned = self.approaches.plan((PATH, STANDOFF, SPEED))  # the run-on's bound reads the plan's figures
+        self.path = planned.path
+        geometry = PathGeometry(planned.path, planned.positions)
+        along = np.linspace(0.0, float(arc_length(planned.path)[-1]), 2000)
+        self.joint_rate = float(np.linalg.norm(geometry.joints(along, 1), axis=1).min())  # rad/m
+        accelerations = np.abs(np.gradient(planned.path.speeds, planned.path.times))
+        self.acceleration = max(float(accelerations.max()), STOP_DECELERATION)  # m/s²: the plan's, or the braking's
         self.watch = Watch(rospy)
         self.arm: ManagedProcess | None = None
         self.arm_kind = ""
@@ -175,6 +187,22 @@ class Bench:
 
     def separation(self, positions: np.ndarray) -> float:
         return float(self.approaches.hand_distance(np.asarray(positions, dtype=float)))
+
+    def run_on(self, row: dict[str, str], arm: str) -> RunOn | None:
+        """A trial row's run-on and its bound (bench.run_on); None without a stop sent (no lead recorded)."""
+        names = ("press_time", "replacement_latency", "stop_lead", "tracking_error", "braking_distance")
+        figures = [float(row.get(name) or "nan") for name in (*names, "braking_distance_achieved")]
+        if not all(math.isfinite(value) for value in figures):
+            return None
+        press_time, latency, lead, tracking, planned, achieved = figures
+        options, _ = ARMS[arm]
+        interval = 1.0 / float(options[options.index("--joint-states-rate") + 1])
+        path, dof = self.path, len(self.joint_names)
+        bound = run_on_bound(
+            path.times, path.speeds, press_time, latency, lead, tracking, dof, self.joint_rate, self.acceleration,
+            interval,
+        )  # fmt: skip
+        return RunOn(achieved - planned, bound)
 
     # --- the faults ---------------------------------------------------------------------------------------------
     def injection(self, name: str) -> Injection:
@@ -343,6 +371,7 @@ class Bench:
                     at_rest - STANDOFF,
                     min([*separations, at_rest]),
                     float(recorded) if recorded else math.nan,
+                    self.run_on(rows.get(k, {}), arm),
                 )
             )
         events = heard.taken()
@@ -438,8 +467,9 @@ HEADER = (
 
 
 def verdict(rows: list[Row]) -> tuple[bool, str]:
-    """Whether every run braked with its separation above the floor, and one line saying so or what failed."""
-    unbraked, under, over, unmeasured = [], [], [], []
+    """Whether every run braked with its separation above the floor and every stop's run-on within its bound
+    (bench.run_on), and one line saying so or what failed."""
+    unbraked, under, over, unmeasured, ran_on = [], [], [], [], []
     for row in rows:
         trials = [trial for session in row.sessions for trial in session.trials]
         if not trials:
@@ -449,6 +479,10 @@ def verdict(rows: list[Row]) -> tuple[bool, str]:
         least = [t.least for t in trials] + [t.recorded for t in trials if math.isfinite(t.recorded)]
         if least and min(least) < FLOOR:
             under.append(f"{row.name} ({min(least) * 1e3:.1f} mm)")
+        beyond = [t.run_on for t in trials if t.run_on is not None and not t.run_on.within]
+        if beyond:
+            worst = max(beyond, key=lambda r: r.value - r.bound)
+            ran_on.append(f"{row.name} ({len(beyond)}; {worst.value * 1e3:.1f} mm of {worst.bound * 1e3:.1f})")
         for session in row.sessions:
             if session.whole is not None and max(session.whole.acceleration, session.whole.jerk) > 1.0:
                 over.append(f"{row.name} ({session.whole.describe()})")
@@ -456,6 +490,7 @@ def verdict(rows: list[Row]) -> tuple[bool, str]:
         *([f"not braked: {', '.join(unbraked)}"] if unbraked else []),
         *([f"separation under the {FLOOR * 1e3:g} mm floor: {', '.join(under)}"] if under else []),
         *([f"no figures: {', '.join(unmeasured)}"] if unmeasured else []),
+        *([f"run-on over its bound: {', '.join(ran_on)}"] if ran_on else []),
     ]
     limits = (
         "executed acceleration and jerk within the Panda's limits"
@@ -464,7 +499,8 @@ def verdict(rows: list[Row]) -> tuple[bool, str]:
     )
     if failed:
         return False, f"FAILED: {'; '.join(failed)}; {limits}"
-    return True, f"all faults braked; separation never under the floor; {limits}"
+    measured = sum(t.run_on is not None for row in rows for session in row.sessions for t in session.trials)
+    return True, f"all faults braked; separation never under the floor; {measured} run-ons within their bound; {limits}"
 
 
 def run(
@@ -496,9 +532,11 @@ def run(
             session = bench.session(Injection(press, trials=presses), times, "franka")
             rows.append(Row("presses", f"press (a sweep of {presses})", [session]))
             for pressed, trial in zip(times, session.trials):
+                ran_on = trial.run_on
+                said = f"{ran_on.value * 1e3:.1f} mm (bound {ran_on.bound * 1e3:.1f})" if ran_on else "not measured"
                 print(
                     f"  press at {pressed:.2f} s: at rest {trial.short * 1e3:.1f} mm short of the stand-off, least "
-                    f"separation {trial.least * 1e3:.1f} mm (the runner's {trial.recorded * 1e3:.1f} mm)"
+                    f"separation {trial.least * 1e3:.1f} mm (the runner's {trial.recorded * 1e3:.1f} mm), run-on {said}"
                 )
         if faults:
             peak = f"its peak speed {SPEED:g} m/s at {peak_time():.2f} s"
@@ -532,6 +570,10 @@ def run(
         "late/path: stops sent after their stamp "
         "/ braked from the commanded path"
     )
+    for row in rows:
+        stops = [t.run_on for session in row.sessions for t in session.trials if t.run_on is not None]
+        if stops:
+            print(f"{row.what}: {distribution(stops)}")
     ok, line = verdict(rows)
     print(line)
     return ok

@@ -9,6 +9,7 @@ cancel that takes 0.5 s to rest, joint states at 500 Hz as ur_robot_driver publi
 
 from __future__ import annotations
 
+import math
 import os
 import signal
 import threading
@@ -19,6 +20,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
 
 from bench.fault_relays import RELAYED_STATES, StateRelay
@@ -346,6 +348,75 @@ def test_a_tracking_gap_mid_approach_brakes_the_arm(roscore, ros_node, arm: Arm,
     assert ", unseen 0." in reason or reason.startswith("the hand untracked for "), ended.output
     assert ended.row is not None and ended.row["hand_monitored"] == "tracked"
     assert_braked(ended)
+
+
+def test_a_tracked_hand_rising_towards_the_arm_on_its_move_to_a_start_stops_the_move_before_the_floor(
+    roscore, ros_node, arm: Arm, tmp_path: Path
+) -> None:
+    # A tracker follows the participant's right hand at 60 Hz, at rest on the scene's hand, 0.41 m under the arm at
+    # home. As the arm sets off to the path's start, the hand rises towards it at 0.5 m/s by up to 0.38 m, which it
+    # reaches while the move would still run: the move is monitored like an approach, the hand's closing speed against
+    # the move's own braking, and stopped before the separation falls under the floor (0.05 m). The session ends
+    # there (a stopped move has no trial to record).
+    from geometry_msgs.msg import PoseStamped
+
+    from sim.study.design.world import SceneWorld
+    from sim.study.run.protocol import POSE_FRAME, POSE_TOPICS
+    from sim.wire.contract import positions_by_name
+
+    watch, floor, speed, rise = arm.watch, 0.05, 0.5, 0.38
+    rises_from = [math.inf]  # wall time
+    running = threading.Event()
+    running.set()
+    tracker = ros_node.Publisher(POSE_TOPICS["right_hand"], PoseStamped, queue_size=10)
+
+    def risen(at: float) -> float:
+        return min(max(at - rises_from[0], 0.0) * speed, rise)
+
+    def track() -> None:
+        while running.is_set():  # bounded: cleared in every case
+            now = time.time()
+            pose = PoseStamped()
+            pose.header.stamp = ros_node.Time.from_sec(now)
+            pose.header.frame_id = POSE_FRAME
+            x, y, z = SCENE.hand.top
+            pose.pose.position.x, pose.pose.position.y, pose.pose.position.z = x, y, z + risen(now)
+            pose.pose.orientation.w = 1.0
+            tracker.publish(pose)
+            time.sleep(1 / 60)
+
+    thread = threading.Thread(target=track, name="tracker", daemon=True)
+    thread.start()
+    executed = ExecutedWatch(ros_node, NS, arm.stop_trajectory_duration)
+    plan = write_plan(tmp_path / "plan.yaml", 33, "reality", [trial(1, "reality", 1, "vertical", STANDOFF, SPEED)])
+    home = watch.resting_positions()
+    runner = start_runner(roscore, plan, tmp_path / "out", ["--link", "reality=franka_ros", "--floor", str(floor)])
+    try:
+        watch.wait((1, "to_start"), runner)
+        rises_from[0] = time.time() + 0.3  # the move's goal starts START_FLOOR (0.25 s) or more after it is sent
+        output, _ = runner.communicate(timeout=60)
+        watch.resting_positions()
+        extremes = executed.extremes(home, time.time())
+    finally:
+        kill_process(runner)
+        executed.close()
+        running.clear()
+        thread.join(timeout=5)
+        tracker.unregister()
+    assert runner.returncode == 5, output
+    assert "the move to the path's start was stopped: separation " in output and "(S_p 0." in output, output
+    assert extremes.acceleration <= 1.0 and extremes.jerk <= 1.0, extremes.describe()
+    with watch.changed:
+        states = list(watch.states)
+    moving = [s for s in states if np.abs(s.velocity).max() > 1e-3 and s.header.stamp.to_sec() >= rises_from[0]]
+    assert moving, "the arm did not move once the hand rose"
+    with SceneWorld(ROBOT, SCENE) as world:  # the arm's distance to the hand where it had risen to
+        separations = [
+            world.hand_distance(positions_by_name(s.name, s.position, ROBOT.joint_names), np.array([0, 0, risen(t)]))
+            for s, t in ((s, s.header.stamp.to_sec()) for s in moving)
+        ]
+    assert min(separations) >= floor, (min(separations), output)  # while the arm moved; the hand rose on after it
+    assert risen(states[-1].header.stamp.to_sec()) == rise  # and it rose far enough to cross the floor had it not
 
 
 def test_a_robot_clock_off_the_runners_at_connect_refuses_the_session_in_one_line(

@@ -136,12 +136,12 @@ class TrackedBodies:
 
     def hand_watch(self, began: float) -> HandWatch:
         """The hand under the robot as its tracker (poses since the trial `began`) sees it, for the link's supervision
-        during the approach (sim.study.run.links.hand): the distance floor, and the speed and separation monitor."""
+        of a motion (sim.study.run.links.hand): the distance floor, and the speed and separation monitor."""
         return HandWatch(
             self.scene.hand.position,
             lambda: self.poses.tracks(began),
             self.approaches.world.hand_distance,
-            tracks_hands(self.poses.sending(began)),
+            lambda: tracks_hands(self.poses.sending(began)),
         )
 
     def motion(

@@ -3,8 +3,9 @@ column, so the analysis never works on a half-written or edited-by-hand file wit
 
 Distances are the end effector's (its FK from the achieved joint states) to the hand's surface, in metres. The
 press's latency columns, then the participant's motion (sim.study.motion), then the robot link's, then its goals'
-leads, then the separation monitoring, then the trial's pose source, then the clocks came last: a file written before
-any of them is still read, with them at their defaults (NaN, no tracked hand, the stream, no source named).
+leads, then the separation monitoring, then the trial's pose source, then the clocks, then the move's least separation
+came last: a file written before any of them is still read, with them at their defaults (NaN, no tracked hand, the
+stream, no source named).
 """
 
 from __future__ import annotations
@@ -83,13 +84,16 @@ class TrialRecord:
     robot_clock_drift: float = math.nan  # s
     page_clock_offset: float = math.nan  # s: ROS time minus the page's clock
     page_clock_uncertainty: float = math.nan  # s
+    # The least achieved separation to the hand's live place during the move to the path's start (m; NaN on the
+    # stream, and without a move): the move is monitored as the approach is
+    move_least_separation: float = math.nan
 
 
 _FIELDS = fields(TrialRecord)
 _NAMES = [field.name for field in _FIELDS]
 # The headers a file may have: the columns up to each group added later (the press's latency, the motion, the link,
-# its leads, the separation monitoring, the pose source, the clocks). A file written before a group is read with that
-# group's columns at their defaults.
+# its leads, the separation monitoring, the pose source, the clocks, the move's separation). A file written before a
+# group is read with that group's columns at their defaults.
 _LATER_GROUPS = (
     "press_input_delay",
     "tracked_hand",
@@ -98,6 +102,7 @@ _LATER_GROUPS = (
     "hand_monitored",
     "pose_source",
     "robot_clock_offset",
+    "move_least_separation",
 )
 _HEADERS = [_NAMES[: _NAMES.index(first)] for first in _LATER_GROUPS] + [_NAMES]
 

@@ -209,7 +209,7 @@ class StudyRunner:
         self.bodies.condition = trial.condition  # whose announced pose source's poses count from now on
         began = self.clock  # poses from here on are this trial's
         self.dialogue.publish_status(self.status(trial, "to_start"))
-        self.link.move_to(planned.positions[0])
+        self.link.move_to(planned.positions[0], self.bodies.hand_watch(began))
         self.dialogue.publish_status(self.status(trial, "ready"))
         if not self.options.auto_go and self.dialogue.wait_for_input("go") is None:
             log(f"trial {trial.index}: no go within {self.options.response_timeout:g} s; starting anyway")
@@ -287,6 +287,7 @@ class StudyRunner:
             outcome.robot_clock_offset,
             outcome.robot_clock_drift,
             *self.page_clocks.trial(PROTOCOL.stop_source(trial.condition)),
+            outcome.move_least_separation,
         )
         if outcome.safety_stop:
             self.safety_stops.append(f"trial {trial.index}: {outcome.safety_stop}")

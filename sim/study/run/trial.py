@@ -101,7 +101,7 @@ class TrialRun:
         """The robot's distance to the hand where it is now (a tracked hand's live place; the scene's without one), at
         joint positions `positions`: what the distance floor is checked against during the motion. The measures keep
         the scene's hand."""
-        return self._hand_distance(positions) if self.hand is None else self.hand.distance(positions)
+        return self._hand_distance(positions) if self.hand is None else self.hand.live_hand_distance(positions)
 
     def positions_at(self, time_s: float) -> np.ndarray:
         """The achieved joint positions at `time_s` (s from the motion's start), interpolated (`state_at`)."""

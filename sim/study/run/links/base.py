@@ -10,6 +10,7 @@ import numpy as np
 
 from sim.study.motion.measures import Window
 from sim.study.run.errors import RunError
+from sim.study.run.links.hand import HandWatch
 from sim.study.run.trial import TrialRun
 
 __all__ = ["Press", "AppliedPress", "ApproachOutcome", "RobotLink", "SafetyStopped", "TakePress"]
@@ -76,6 +77,8 @@ class ApproachOutcome:
     # that least offset moved during the approach. NaN on the stream, which has no clock of its own
     robot_clock_offset: float = math.nan
     robot_clock_drift: float = math.nan
+    # m, likewise during the move to the path's start before the approach; NaN: no move (the arm was there), the stream
+    move_least_separation: float = math.nan
 
     def window(self, end: float, press_time: float) -> Window:
         """The approach's motion window on the link's clock, placed on the arm's actual start: from it to `end`, the
@@ -119,8 +122,9 @@ class RobotLink(Protocol):
         """The link's time from any thread (a press's arrival)."""
         ...
 
-    def move_to(self, positions: np.ndarray) -> np.ndarray:
-        """Rest to rest to `positions`; where the arm ended."""
+    def move_to(self, positions: np.ndarray, hand: HandWatch | None = None) -> np.ndarray:
+        """Rest to rest to `positions`, supervised against the trial's `hand` (a real arm's link); where the arm
+        ended."""
         ...
 
     def idle(self, seconds: float = 0.0) -> None:

@@ -1,10 +1,10 @@
-"""The hand as the floor check sees it during an approach: the scene's hand moved by the tracked hand's displacement.
-Pure.
+"""The hand as the floor check sees it during a motion (the move to a path's start, the approach): the scene's hand
+moved by the tracked hand's displacement. Pure.
 
 The distance floor is checked on the achieved joint states against the hand. A participant's hand is not bolted
 to its rest: reaching out towards the robot brings it closer than any plan. Where a tracker follows the hands (the
 protocol's pose topics), the hand under the robot is taken as sim.study.motion does (of the two, the one nearest
-the scene's hand, within HAND_RADIUS, when it is first seen in the approach), and the scene's hand box is moved by
+the scene's hand, within HAND_RADIUS, when it is first seen in the motion), and the scene's hand box is moved by
 that hand's displacement since then: relative, so that a tracker worn a few centimetres off the hand's centre moves
 the box by what the hand moved, not by where the tracker sits. While it is not seen (a tracking gap), the box keeps
 its last place; without a tracker, it is the scene's. (The speed and separation monitor, sim.study.safety.separation,
@@ -46,23 +46,32 @@ class LiveHand:
 
 
 class HandWatch:
-    """The hand under the robot during one trial, for a link's supervision: the robot's distance to the hand's live
-    place, and the tracked places of the hand under the robot as they come. `tracks` gives each tracked body's poses
-    of the trial so far; `distance(positions, shift)` the scene world's distance to the hand moved by `shift`;
-    `tracked`: a tracker follows the hands in this trial (else the hand is the scene's, at rest, and unmonitored)."""
+    """The hand under the robot during one motion of a trial (the move to the path's start, or the approach), for a
+    link's supervision: the robot's distance to the hand's live place, and the tracked places of the hand under the
+    robot as they come. `tracks` gives each tracked body's poses of the trial so far; `distance(positions, shift)` the
+    scene world's distance to the hand moved by `shift`; `tracked()`: a tracker follows the hands in this trial (else
+    the hand is the scene's, at rest, and unmonitored), asked when `tracked` is read: a trial's first poses come after
+    it began, so a link reads it once its motion starts."""
 
     def __init__(
         self,
         hand_point: np.ndarray,
         tracks: Callable[[], Mapping[str, Track]],
         distance: Callable[[np.ndarray, np.ndarray], float],
-        tracked: bool,
+        tracked: Callable[[], bool],
     ) -> None:
         self.live = LiveHand(hand_point)
-        self.tracked = tracked
-        self._tracks, self._distance = tracks, distance
+        self._tracks, self._distance, self._tracked = tracks, distance, tracked
 
-    def distance(self, positions: np.ndarray) -> float:
+    @property
+    def tracked(self) -> bool:
+        return self._tracked()
+
+    def hand_distance(self, positions: np.ndarray) -> float:
+        """m: the robot at joint `positions` to the scene's hand, where the plans put it."""
+        return self._distance(positions, np.zeros(3))
+
+    def live_hand_distance(self, positions: np.ndarray) -> float:
         """m: the robot at joint `positions` to the hand where it is now (its last tracked place)."""
         places = {body: track.positions[-1] for body, track in self._tracks().items() if len(track.stamps)}
         return self._distance(positions, self.live.shift(places))

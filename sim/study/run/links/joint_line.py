@@ -5,6 +5,10 @@ It answers what sim.study.safety.braking's `brake` asks of a path (project, join
 stopped like an approach: along its own line, continuous in position, velocity and acceleration, at MOVE_DECELERATION
 and MOVE_JERK (along the line's parameter, the norm of the joints' motion: every joint decelerates at most that). A
 move has no Cartesian path of its own to plan on: its world positions are unknown (NaN).
+
+Its speed and separation monitoring (sim.study.safety.separation) takes the move's own samples as the plan: their
+planned distances to the hand over their travel along the line, which its braking's deceleration and jerk are along
+(`travel`).
 """
 
 from __future__ import annotations
@@ -13,6 +17,7 @@ import numpy as np
 
 from sim.study.run.errors import RunError
 from sim.study.safety.braking import PathState
+from sim.study.safety.separation import PlannedTravel
 
 __all__ = ["MOVE_DECELERATION", "MOVE_JERK", "JointLine"]
 
@@ -48,3 +53,11 @@ class JointLine:
         """The line's state that best explains a joint state (least squares along the line)."""
         s = float(np.clip((np.asarray(positions, dtype=float) - self.start) @ self.direction, 0.0, self.length))
         return PathState(s, float(velocities @ self.direction), float(accelerations @ self.direction))
+
+    def travel(self, positions: np.ndarray, velocities: np.ndarray, dt: float, distances: np.ndarray) -> PlannedTravel:
+        """The move's samples (every `dt` s from its start, at rest) as the separation monitor's plan: their planned
+        `distances` to the hand (m) over their travel along the line (rad) and its speed (rad/s), the units of the
+        move's braking (MOVE_DECELERATION, MOVE_JERK)."""
+        q, qd = np.asarray(positions, dtype=float), np.asarray(velocities, dtype=float)
+        along = np.maximum.accumulate(np.clip((q - self.start) @ self.direction, 0.0, self.length))  # rounding only
+        return PlannedTravel(np.arange(len(q)) * dt, np.asarray(distances, dtype=float), along, qd @ self.direction)

@@ -31,6 +31,7 @@ from sim.control.stepper import Pacing, Stepper
 from sim.robots import RobotSpec
 from sim.study.run.console import say
 from sim.study.run.links.base import AppliedPress, ApproachOutcome, TakePress
+from sim.study.run.links.hand import HandWatch
 from sim.study.run.links.supervision import LatestWatch, brakes_on_exit
 from sim.study.run.trial import TrialRun
 
@@ -134,7 +135,8 @@ class StreamLink(ControllerNode):
         self._watch_from_now()
         return _Streamed(self, what)
 
-    def move_to(self, positions: np.ndarray) -> np.ndarray:
+    def move_to(self, positions: np.ndarray, hand: HandWatch | None = None) -> np.ndarray:
+        """Rest to rest to `positions`; the hand is virtual (no arm near anyone), so `hand` is not watched."""
         to_start, speeds = approach(self.robot, self.positions, positions, self.pacing.dt)
         motion = self._begin("the move to the path's start")
         with brakes_on_exit(motion):

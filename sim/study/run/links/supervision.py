@@ -100,11 +100,12 @@ class Motion:
     stop_sent: float = math.nan  # the link's clock when the (last) replacement went
     reason: str = ""  # why the link stopped the arm on its own
     after_stop: str = ""  # a fault seen once the stop was in force: the session ends
-    monitor: SeparationMonitor | None = None  # an approach's speed and separation monitoring
+    monitor: SeparationMonitor | None = None  # the speed and separation monitoring (an approach's, a move's)
     hand_seen: float = -math.inf  # the stamp of the last tracked place of the hand given to the monitor
     least_separation: float = math.inf  # m: the least achieved separation to the hand's live place while moving
     checked: float = math.nan  # the link's clock at the monitor's last check
     robot_clock: RobotClockSpan | None = None  # an approach's robot clock: its offset applied, its range watched
+    speed_scale: float = 1.0  # the plan's seconds per second of the link's clock (an approach's in the rehearsal)
 
     @property
     def handle(self) -> Any:
@@ -177,12 +178,12 @@ class LatestWatch:
 
 
 class Watchdogs:
-    """The trajectory link's watchdogs for its motions: the tolerances, the joint states' offset at connect (`skew`,
-    s: sim.study.run.links.clock) and the plan's seconds per wall second (`speed_scale`, the rehearsal's slower
-    motion). `reason` keeps on the motion what the separation's monitoring needs from one look to the next."""
+    """The trajectory link's watchdogs for its motions: the tolerances and the joint states' offset at connect
+    (`skew`, s: sim.study.run.links.clock). `reason` keeps on the motion what the separation's monitoring needs from
+    one look to the next."""
 
-    def __init__(self, tolerances: Tolerances, skew: float, speed_scale: float) -> None:
-        self.tolerances, self.skew, self.speed_scale = tolerances, skew, speed_scale
+    def __init__(self, tolerances: Tolerances, skew: float) -> None:
+        self.tolerances, self.skew = tolerances, skew
 
     def reason(self, look: Look, motion: Motion) -> str:
         """Why the arm must be stopped now ("" when it need not): the first watchdog that fires."""
@@ -240,7 +241,7 @@ class Watchdogs:
         now = look.now
         interval = POLL if math.isnan(motion.checked) else max(POLL, now - motion.checked)
         motion.checked = now
-        scale = self.speed_scale
+        scale = motion.speed_scale
         verdict = monitor.check(
             now, look.distance, (look.stop_lead + interval) * scale, plan_time=(now - motion.start) * scale
         )

@@ -21,19 +21,19 @@ stand-in of it), on wall time. rospy and actionlib.
   clock stepped, the robot's clock off, the tracking error past the tolerance, the achieved distance to the hand off
   the commanded path's or under the floor, the speed and separation monitor, or the controller ending the goal
   otherwise than by success. Such a fault during braking, or a braking that does not succeed, ends the session.
-  These are the toolkit's checks, never instead of the robot's own stop.
+  The move to a path's start is watched against the trial's hand as the approach is: its live place, and the speed
+  and separation monitor with the move's own samples along its joint line as the plan. These are the toolkit's
+  checks, never instead of the robot's own stop.
 - If the runner's process dies (SIGKILL), nothing more is sent: the goal runs on to its end, at the stand-off at rest
   (ros_control's action server does not cancel a goal when its client goes away).
 
-Goals are followed through actionlib's ActionClient, each by its own handle (SimpleActionClient drops a result that
-comes before its send_goal has returned).
+The controller's action and query_state, and the measuring of their deliveries, are sim.study.run.links.controller's.
 """
 
 from __future__ import annotations
 
 import math
 import threading
-from typing import Any
 
 import numpy as np
 
@@ -43,10 +43,12 @@ from sim.robots import RobotSpec
 from sim.study.run.console import say
 from sim.study.run.links.base import AppliedPress, ApproachOutcome, Press, SafetyStopped, TakePress
 from sim.study.run.links.clock import SKEW_LIMIT, STEP_LIMIT, LinkClock, RobotClockSpan
+from sim.study.run.links.controller import REJECTED, SUCCEEDED, Controller
 from sim.study.run.links.feed import FedState, JointFeed
 from sim.study.run.links.goals import GOAL_STATUS, GoalPoints, goal_points, speed_fell
+from sim.study.run.links.hand import HandWatch
 from sim.study.run.links.joint_line import MOVE_DECELERATION, MOVE_JERK, JointLine
-from sim.study.run.links.lead import START, START_FLOOR, Leads, delivery_part
+from sim.study.run.links.lead import START, START_FLOOR, Leads
 from sim.study.run.links.specs import TrajectoryLinkSpec
 from sim.study.run.links.supervision import (
     POLL,
@@ -70,8 +72,6 @@ SKEW_STATES = 15  # joint states whose arrival against their stamps tells at con
 SKEW_WINDOW = 1.0  # s: the robot's clock is the least offset of the states that came in this long (feed.least_offset)
 QUERY_TIMEOUT = 0.1  # s: a query_state answer later than this is not waited for (the stop brakes from the path)
 PROBE_TIMEOUT = 2.0  # s: query_state's answer before a motion, which waits for it (no stop does)
-SUCCEEDED = 3
-REJECTED = 5
 STAMP_WINDOW = 5.0  # s: a press stamped further from the wall clock is on another clock (the stream's /clock)
 NO_QUERY = ("planning", "delivery")  # what a stop's preparation waits for when it brakes from the commanded path
 
@@ -84,7 +84,7 @@ class _Guard:
 
     def settled(self) -> bool:
         motion = self.motion
-        return motion.stopped or (self.link._done(motion.handle) and not self.link._failure(motion))
+        return motion.stopped or (self.link.controller.done(motion.handle) and not self.link._failure(motion))
 
     def fail_safe(self, why: str) -> None:
         self.link._fail_safe(self.motion, why)
@@ -96,30 +96,24 @@ class TrajectoryLink:
     realtime = True
 
     def __init__(self, robot: RobotSpec, spec: TrajectoryLinkSpec, dt: float, stop: threading.Event) -> None:
-        import actionlib
         import rospy
         from sensor_msgs.msg import JointState
 
-        from sim.wire.control_types import control_types, joint_trajectory
-
         self.rospy, self.robot, self.spec, self.dt, self.stop = rospy, robot, spec, dt, stop
         self.name = spec.label
-        self.types = control_types()
-        self._joint_trajectory = joint_trajectory
         self._clock = LinkClock()
-        ns = spec.namespace
-        self.client = actionlib.ActionClient(f"{ns}/follow_joint_trajectory", self.types.action)
-        self._proxy: Any = None  # query_state's persistent proxy, made anew after a failure (see _query)
+        self.lead = Leads()  # the delays measured on this connection, and the leads they give
+        self._lead_lock = threading.Lock()  # goals' deliveries are measured on actionlib's threads
+        self.controller = Controller(rospy, spec.namespace, robot.joint_names, self._clock, self.lead, self._lead_lock)
         self.feed = JointFeed(robot, self._clock)
         self.subscriber = rospy.Subscriber(
             spec.joint_states_topic, JointState, self.feed.callback, tcp_nodelay=True, queue_size=1000
         )
         self._target = robot.home.copy()
-        self.lead = Leads()  # the delays measured on this connection, and the leads they give
-        self._lead_lock = threading.Lock()  # goals' deliveries are measured on actionlib's threads
         self._connected = False
         tolerances = Tolerances(spec.stale_after, spec.tracking_tolerance, spec.surface_tolerance, spec.floor)
-        self._watchdogs = Watchdogs(tolerances, 0.0, spec.speed_scale)  # its skew is measured at connect
+        self._watchdogs = Watchdogs(tolerances, 0.0)  # its skew is measured at connect
+        self._move_least = math.nan  # m: the last move's least separation, for the next approach's outcome
 
     # --- RobotLink -------------------------------------------------------------------------------------------
     @property
@@ -146,18 +140,18 @@ class TrajectoryLink:
     def connect(self, timeout: float, recorder: str | None) -> str:
         """The controller's action server and query_state service, and a first joint state."""
         ns = self.spec.namespace
-        if not self.client.wait_for_server(self.rospy.Duration(timeout)):
+        if not self.controller.wait_for_server(timeout):
             raise ControllerError(f"no action server {ns}/follow_joint_trajectory within {timeout:g} s")
         try:
             self.rospy.wait_for_service(f"{ns}/query_state", timeout)
         except self.rospy.ROSException:
             raise ControllerError(f"no service {ns}/query_state within {timeout:g} s") from None
         for _ in range(QUERY_PROBES):
-            self._query(self._clock(), timeout)
+            self.controller.query(self._clock(), timeout)
         if self.feed.wait(-math.inf, timeout, self.stop) is None:
             raise ControllerError(f"no joint state on {self.spec.joint_states_topic} within {timeout:g} s")
         skew = self._clocks_agree(timeout)
-        self._watchdogs = Watchdogs(self._watchdogs.tolerances, skew, self.spec.speed_scale)
+        self._watchdogs = Watchdogs(self._watchdogs.tolerances, skew)
         self._connected = True
         topic, skew = self.spec.joint_states_topic, skew * 1e3
         return f"trajectory controller {ns} (the arm's joint states on {topic}, arriving {skew:+.1f} ms after stamping)"
@@ -173,9 +167,12 @@ class TrajectoryLink:
         """The controller holds the last point on its own: only wait."""
         self.stop.wait(max(seconds, POLL * 2))
 
-    def move_to(self, positions: np.ndarray) -> np.ndarray:
+    def move_to(self, positions: np.ndarray, hand: HandWatch | None = None) -> np.ndarray:
         """A quintic from where the arm is along the straight line in joint space, as one goal, supervised like an
-        approach to its end; SafetyStopped when the link stopped it on its own (the arm then rests on the line)."""
+        approach to its end, against the trial's `hand` when given (its live place for the floor, and speed and
+        separation monitoring with the move's own samples as the plan, from the goal's start); SafetyStopped when the
+        link stopped it on its own (the arm then rests on the line)."""
+        self._move_least = math.nan
         here = self._begin_motion().positions
         there = np.asarray(positions, dtype=float)
         if float(np.linalg.norm(there - here)) <= 1e-6:
@@ -185,10 +182,14 @@ class TrajectoryLink:
         line = JointLine(here, there)
         accelerations = np.gradient(speeds, self.dt, axis=0)
         self._time_planning(line, samples, speeds, accelerations, MOVE_DECELERATION, MOVE_JERK)
+        travel = None
+        if hand is not None:
+            travel = line.travel(samples, speeds, self.dt, np.array([hand.hand_distance(q) for q in samples]))
         motion, _ = self._go("the move to the path's start", line, MOVE_DECELERATION, MOVE_JERK, samples[0], points)
         self._target = there.copy()
         with brakes_on_exit(_Guard(self, motion)):
-            self._supervise(motion, None, None, 0.0)
+            self._supervise(motion, None, None, 0.0, hand, travel)
+        self._move_least = motion.least_separation if math.isfinite(motion.least_separation) else math.nan
         self._target = self._latest().positions.copy()
         why = motion.reason or motion.after_stop or self._failure(motion)
         if why:
@@ -206,6 +207,7 @@ class TrajectoryLink:
         points = goal_points(planned.positions, planned.velocities, run.dt, self.spec.speed_scale)
         rest = planned.positions[0]
         motion, start_lead = self._go("the approach", geometry, run.deceleration, STOP_JERK, rest, points)
+        motion.speed_scale = self.spec.speed_scale
         path = planned.path
         tracked = run.hand is not None and run.hand.tracked
         motion.monitor = SeparationMonitor(
@@ -219,7 +221,9 @@ class TrajectoryLink:
             applied, press_at, tracking = self._supervise(motion, run, take_press, settle)
         press_stamp = robot_clock.on_robot_clock(press_at)  # as the joint states are stamped (NaN stays NaN)
         handle = motion.handle
-        status, code, text = self._outcome(handle) if self._done(handle) else (-1, None, "no result")
+        status, code, text = (
+            self.controller.outcome(handle) if self.controller.done(handle) else (-1, None, "no result")
+        )
         seen = self.feed.since(motion.start)
         stamps = np.array([s.stamp for s in seen])
         speeds = np.array([float(np.linalg.norm(s.velocities)) for s in seen])
@@ -254,6 +258,7 @@ class TrajectoryLink:
             least_separation=motion.least_separation if math.isfinite(motion.least_separation) else math.nan,
             robot_clock_offset=robot_clock.offset,
             robot_clock_drift=robot_clock.drift,
+            move_least_separation=self._move_least,
         )
 
     @property
@@ -273,11 +278,7 @@ class TrajectoryLink:
             with self._lead_lock:
                 say(f"{self.name}: a stop would now be stamped {self.lead.choose().describe()}")
         self.subscriber.unregister()
-        if self._proxy is not None:
-            self._proxy.close()
-        client = self.client
-        for endpoint in (client.pub_goal, client.pub_cancel, client.status_sub, client.result_sub, client.feedback_sub):
-            endpoint.unregister()
+        self.controller.close()
 
     def _clocks_agree(self, timeout: float) -> float:
         """s: how far the joint states arrive after their stamps (the robot's clock behind this machine's, plus their
@@ -305,9 +306,9 @@ class TrajectoryLink:
             say(f"{self.name}: the wall clock stepped {step:+.3f} s since the last motion; anchored to it again")
         self._clock.anchor()
         try:
-            self._query(self._clock(), PROBE_TIMEOUT)
+            self.controller.query(self._clock(), PROBE_TIMEOUT)
         except ControllerError:  # a controller restarted since: its query_state is found anew
-            self._query(self._clock(), PROBE_TIMEOUT)
+            self.controller.query(self._clock(), PROBE_TIMEOUT)
         return self._latest()
 
     def _go(
@@ -331,15 +332,24 @@ class TrajectoryLink:
             np.vstack([np.zeros_like(rest), points.velocities]),
             np.vstack([np.zeros_like(rest), points.accelerations]),
         )
-        handle, _ = self._send(points, start)
+        handle, _ = self.controller.send(points, start)
         motion.handles.append(handle)
         return motion, lead
 
     def _supervise(
-        self, motion: Motion, run: TrialRun | None, take_press: TakePress | None, settle: float
+        self,
+        motion: Motion,
+        run: TrialRun | None,
+        take_press: TakePress | None,
+        settle: float,
+        hand: HandWatch | None = None,
+        travel: PlannedTravel | None = None,
     ) -> tuple[AppliedPress | None, float, float]:
         """Watch the motion until it rests `settle` s after its end, stopping it on a press (`take_press`) or on its
-        own. The press applied, its time (the link's clock; NaN: none), and the largest tracking error (rad)."""
+        own, against the approach's `run` or a move's `hand`. A move's `travel` is monitored for speed and separation
+        from the goal's start on: whether a tracker follows the hand is read then, once the trial's first poses have
+        come. The press applied, its time (the link's clock; NaN: none), and the largest tracking error (rad)."""
+        hand = run.hand if run is not None else hand
         applied: AppliedPress | None = None
         press_at = math.nan
         tracking = 0.0
@@ -354,9 +364,12 @@ class TrajectoryLink:
                 if fed.stamp >= motion.start:
                     if run is not None:  # on the plan's time, as the press is (slower in the rehearsal)
                         run.record_state((fed.stamp - motion.start) * self.spec.speed_scale, fed.positions)
-                    unsure = motion.replaced and not self._taken(motion.handle)
+                    unsure = motion.replaced and not self.controller.taken(motion.handle)
                     tracking = max(tracking, motion.commanded.error(fed.stamp, fed.positions, unsure))
-            why = self._unsafe(now, tracking, run, motion)
+            if travel is not None and hand is not None and motion.monitor is None and now >= motion.start:
+                parameters = SeparationParameters(self.spec.floor, deceleration=MOVE_DECELERATION, jerk=MOVE_JERK)
+                motion.monitor = SeparationMonitor(parameters, hand.tracked, travel)
+            why = self._unsafe(now, tracking, motion, run, hand)
             if not motion.stopped:
                 press = take_press(now) if take_press is not None else None
                 if press is not None or why:
@@ -376,26 +389,29 @@ class TrajectoryLink:
                     motion.after_stop = why
                     say(f"{self.name}: while {motion.what} was stopping: {why}")
                 self._stop_anew_if_refused(motion)
-            if watched_to_rest(now, motion, settle, self._done(motion.handle)):
+            if watched_to_rest(now, motion, settle, self.controller.done(motion.handle)):
                 return applied, press_at, tracking
 
-    def _unsafe(self, now: float, tracking: float, run: TrialRun | None, motion: Motion) -> str:
+    def _unsafe(self, now: float, tracking: float, motion: Motion, run: TrialRun | None, hand: HandWatch | None) -> str:
         """Why the arm must be stopped now ("" when it need not): what the link sees, judged by the watchdogs."""
-        return self._watchdogs.reason(self._look(now, tracking, run, motion), motion)
+        return self._watchdogs.reason(self._look(now, tracking, motion, run, hand), motion)
 
-    def _look(self, now: float, tracking: float, run: TrialRun | None, motion: Motion) -> Look:
-        """What the link sees of `motion` at `now`, the largest tracking error so far `tracking` (rad)."""
+    def _look(self, now: float, tracking: float, motion: Motion, run: TrialRun | None, hand: HandWatch | None) -> Look:
+        """What the link sees of `motion` at `now`, the largest tracking error so far `tracking` (rad): against an
+        approach's `run`, the distance to the hand off the commanded path's, and for an approach or a move, the
+        distance to the `hand`'s live place (the run's hand) and its tracked places. A move's tracking error is
+        judged in joint space (the floor and the separation judge the achieved state's distance): the surface
+        tolerance is an approach's, sized for its end near the hand."""
         latest = self.feed.latest()
         surface_off = distance = math.nan
-        if run is not None and latest is not None:
-            if latest.stamp >= motion.start:
-                achieved = run.hand_distance(latest.positions)
-                unsure = motion.replaced and not self._taken(motion.handle)
-                possible = motion.commanded.possible(latest.stamp, unsure)
-                surface_off = min(abs(achieved - run.hand_distance(q)) for q in possible)
-            if now < motion.moves_until:  # a hand coming on to an arm at rest is the person's own move
-                distance = run.live_hand_distance(latest.positions)
-        hand = run.hand if run is not None else None
+        if run is not None and latest is not None and latest.stamp >= motion.start:
+            achieved = run.hand_distance(latest.positions)
+            unsure = motion.replaced and not self.controller.taken(motion.handle)
+            possible = motion.commanded.possible(latest.stamp, unsure)
+            surface_off = min(abs(achieved - run.hand_distance(q)) for q in possible)
+        live = run.live_hand_distance if run is not None else hand.live_hand_distance if hand is not None else None
+        if live is not None and latest is not None and now < motion.moves_until:
+            distance = live(latest.positions)  # a hand coming on to an arm at rest is the person's own move
         with self._lead_lock:
             stop_lead = self.lead.choose().lead
         least_offset = self.feed.least_offset(SKEW_WINDOW)
@@ -417,9 +433,9 @@ class TrajectoryLink:
 
     def _failure(self, motion: Motion) -> str:
         """How the goal in force ended, if not by success ("" while it runs, and when it succeeded)."""
-        if not self._done(motion.handle):
+        if not self.controller.done(motion.handle):
             return ""
-        status, code, text = self._outcome(motion.handle)
+        status, code, text = self.controller.outcome(motion.handle)
         if status == SUCCEEDED or (status == REJECTED and motion.replaced):
             return ""  # a refused stop is sent anew
         goal = "the braking replacement" if motion.replaced else "the controller ended the goal"
@@ -440,7 +456,7 @@ class TrajectoryLink:
         after_query = sum(value for part, value in choice.parts.items() if part != "query" and math.isfinite(value))
         source = ""
         try:  # the query may take what the lead left it: then planning and delivery must still fit
-            desired = self._query(at, min(max(at - after_query - began, 0.0), QUERY_TIMEOUT))
+            desired = self.controller.query(at, min(max(at - after_query - began, 0.0), QUERY_TIMEOUT))
             q = positions_by_name(desired.name, desired.position, self.robot.joint_names)
             qd = positions_by_name(desired.name, desired.velocity, self.robot.joint_names)
             qdd = positions_by_name(desired.name, desired.acceleration, self.robot.joint_names)
@@ -476,7 +492,7 @@ class TrajectoryLink:
             return  # the plan rests sooner than braking would (or rests already): it is its own stop
         motion.moves_until = at + points.duration
         motion.ends = max(motion.ends, motion.moves_until)  # watched to the motion's planned end at least
-        handle, sent = self._send(points, at)
+        handle, sent = self.controller.send(points, at)
         motion.handles.append(handle)
         motion.stop_sent = sent
         with self._lead_lock:
@@ -490,7 +506,7 @@ class TrajectoryLink:
     def _stop_anew_if_refused(self, motion: Motion) -> None:
         """The controller refused the stop (it came after its last point was due, on a starved machine), so the
         motion goes on: forget it was commanded, and stop the motion anew from where it is now commanded to be."""
-        if motion.replaced and self._refused(motion.handle):
+        if motion.replaced and self.controller.refused(motion.handle):
             motion.commanded.discard_last()
             motion.handles.pop()
             self._stop(motion)
@@ -503,7 +519,7 @@ class TrajectoryLink:
                 say(f"{self.name}: {motion.what} left ({why}): braking")
                 motion.reason = motion.reason or f"the motion's code exited: {why}"
                 self._stop(motion)
-            while self._clock() < motion.ends + RESULT_GRACE and not self._done(motion.handle):
+            while self._clock() < motion.ends + RESULT_GRACE and not self.controller.done(motion.handle):
                 self.feed.wait(self._clock(), POLL)
                 self._stop_anew_if_refused(motion)
             failed = self._failure(motion)
@@ -519,35 +535,6 @@ class TrajectoryLink:
         if state is None or latest is None or self._clock() - latest.arrival > self.spec.stale_after:
             raise ControllerError(f"no joint state on {self.spec.joint_states_topic} for {self.spec.stale_after:g} s")
         return latest
-
-    def _query(self, at: float, timeout: float) -> Any:
-        """query_state's answer for link time `at`, its round trip measured for the stops' lead. ControllerError when
-        it fails or has not answered within `timeout` s. rospy's persistent proxy does not reconnect: after a
-        failure it is closed (which also ends a call stuck on its socket) and the next query makes a new one."""
-        if self._proxy is None:
-            self._proxy = self.rospy.ServiceProxy(
-                f"{self.spec.namespace}/query_state", self.types.query_state, persistent=True
-            )
-        proxy, answer = self._proxy, {}
-        asked = self._clock()
-
-        def ask() -> None:
-            try:
-                answer["desired"] = proxy(self.rospy.Time.from_sec(at))
-            except Exception as error:  # rospy's ServiceException, ROSException, a closed socket's OSError
-                answer["error"] = error
-
-        worker = threading.Thread(target=ask, name="query_state", daemon=True)
-        worker.start()
-        worker.join(timeout)
-        if "desired" in answer:
-            with self._lead_lock:
-                self.lead.add("query", self._clock() - asked)
-            return answer["desired"]
-        failure = answer.get("error") or f"no answer within {timeout * 1e3:.0f} ms"  # before closing fails the call
-        self._proxy = None
-        proxy.close()
-        raise ControllerError(f"{self.spec.namespace}/query_state failed: {failure}")
 
     def _time_planning(
         self,
@@ -565,56 +552,6 @@ class TrajectoryLink:
         brake(geometry, positions[k], velocities[k], accelerations[k], self.dt, deceleration, jerk)
         with self._lead_lock:
             self.lead.add("planning", self._clock() - began)
-
-    @staticmethod
-    def _taken(handle: Any) -> bool:
-        """The controller has said it took the goal (not yet heard of, or refused: not taken)."""
-        from actionlib import CommState
-
-        heard = handle.get_comm_state() != CommState.WAITING_FOR_GOAL_ACK
-        return bool(heard and not TrajectoryLink._refused(handle))
-
-    @staticmethod
-    def _refused(handle: Any) -> bool:
-        return TrajectoryLink._done(handle) and int(handle.get_goal_status()) == REJECTED
-
-    def _send(self, points: GoalPoints, stamp: float) -> tuple[Any, float]:
-        """A goal of `points` stamped `stamp` (the link's clock); its handle and when it was sent."""
-        goal = self.types.goal()
-        goal.trajectory = self._joint_trajectory(
-            self.robot.joint_names, points.times, points.positions, points.velocities, points.accelerations, stamp
-        )
-        sent = self._clock()
-        handle = self.client.send_goal(goal, transition_cb=self._delivered(sent, delivery_part(len(points.times))))
-        return handle, sent
-
-    def _delivered(self, sent: float, part: str) -> Any:
-        """actionlib's transition callback for a goal sent at `sent`: the first status of it from the controller
-        (accepted, or refused) ends its delivery, measured for the leads as `part`."""
-        from actionlib import CommState
-
-        heard = threading.Event()
-
-        def transition(handle: Any) -> None:
-            if handle.get_comm_state() != CommState.WAITING_FOR_GOAL_ACK and not heard.is_set():
-                heard.set()
-                with self._lead_lock:
-                    self.lead.add(part, self._clock() - sent)
-
-        return transition
-
-    @staticmethod
-    def _done(handle: Any) -> bool:
-        from actionlib import CommState
-
-        return bool(handle.get_comm_state() == CommState.DONE)
-
-    @staticmethod
-    def _outcome(handle: Any) -> tuple[int, int | None, str]:
-        result = handle.get_result()
-        if result is None:
-            return int(handle.get_goal_status()), None, handle.get_goal_status_text()
-        return int(handle.get_goal_status()), int(result.error_code), str(result.error_string)
 
 
 def _applied(press: Press, now: float) -> tuple[AppliedPress, float]:

@@ -75,13 +75,13 @@ FAULTS: list[tuple[str, dict[str, Any], str]] = [
 
 @pytest.mark.parametrize("name, fault, reason", FAULTS, ids=[name for name, _, _ in FAULTS])
 def test_each_watchdog_fires_on_its_fault_and_not_without_it(name: str, fault: dict[str, Any], reason: str) -> None:
-    watchdogs = Watchdogs(TOLERANCES, SKEW, 1.0)
+    watchdogs = Watchdogs(TOLERANCES, SKEW)
     assert watchdogs.reason(look(), motion()) == ""
     assert watchdogs.reason(look(**fault), motion()).startswith(reason)
 
 
 def test_the_first_watchdog_in_the_order_is_the_reason() -> None:
-    watchdogs = Watchdogs(TOLERANCES, SKEW, 1.0)
+    watchdogs = Watchdogs(TOLERANCES, SKEW)
     for k, (_, _, reason) in enumerate(FAULTS):
         faults: dict[str, Any] = {}
         for _, fault, _ in reversed(FAULTS[k:]):
@@ -92,7 +92,7 @@ def test_the_first_watchdog_in_the_order_is_the_reason() -> None:
 def test_no_state_at_all_is_a_stale_feed() -> None:
     assert stale(NOW, None, 0.1) == "joint states stale: none for inf s (limit 0.1 s)"
     assert stale(NOW, NOW - 0.099, 0.1) == "" and stale(NOW, NOW - 0.101, 0.1).startswith("joint states stale")
-    assert Watchdogs(TOLERANCES, SKEW, 1.0).reason(look(latest=None), motion()).startswith("joint states stale")
+    assert Watchdogs(TOLERANCES, SKEW).reason(look(latest=None), motion()).startswith("joint states stale")
 
 
 def test_a_feed_read_by_its_latest_state_is_stale_once_no_state_has_been_new_for_the_limit() -> None:
@@ -109,7 +109,7 @@ def test_a_feed_read_by_its_latest_state_is_stale_once_no_state_has_been_new_for
 
 
 def test_a_step_of_the_wall_clock_within_its_limit_and_a_late_delivery_do_not_fire() -> None:
-    watchdogs = Watchdogs(TOLERANCES, SKEW, 1.0)
+    watchdogs = Watchdogs(TOLERANCES, SKEW)
     assert watchdogs.reason(look(clock_step=STEP_LIMIT), motion()) == ""
     late = state(offset=SKEW + 0.1)  # delivered 100 ms late, while another of the last states came promptly
     assert watchdogs.reason(look(latest=late, least_offset=SKEW), motion()) == ""
@@ -118,7 +118,7 @@ def test_a_step_of_the_wall_clock_within_its_limit_and_a_late_delivery_do_not_fi
 
 
 def test_the_least_separation_is_kept_while_the_feed_is_fresh_whichever_watchdog_fires() -> None:
-    watchdogs = Watchdogs(TOLERANCES, SKEW, 1.0)
+    watchdogs = Watchdogs(TOLERANCES, SKEW)
     moving = motion()
     watchdogs.reason(look(distance=0.15, tracking=1.0), moving)
     assert moving.least_separation == 0.15
@@ -158,8 +158,9 @@ class Recorded(SeparationMonitor):
 
 
 def test_the_separation_monitor_sees_the_hand_and_brakes_with_a_reaction_of_the_stop_lead_and_the_next_check() -> None:
-    watchdogs = Watchdogs(TOLERANCES, SKEW, 0.5)  # the rehearsal's half speed: the plan's seconds per wall second
+    watchdogs = Watchdogs(TOLERANCES, SKEW)
     moving = motion()
+    moving.speed_scale = 0.5  # the rehearsal's half speed: the plan's seconds per wall second
     moving.monitor = monitor = Recorded(brake=False)
     places = [(NOW - 0.02, np.zeros(3)), (NOW - 0.01, np.zeros(3))]
     assert watchdogs.reason(look(hand_places=places), moving) == ""
@@ -172,7 +173,7 @@ def test_the_separation_monitor_sees_the_hand_and_brakes_with_a_reaction_of_the_
 
 
 def test_the_separation_monitor_is_not_asked_once_a_stop_is_in_force_or_an_earlier_watchdog_fired() -> None:
-    watchdogs = Watchdogs(TOLERANCES, SKEW, 1.0)
+    watchdogs = Watchdogs(TOLERANCES, SKEW)
     moving = motion()
     moving.monitor = monitor = Recorded(brake=True)
     assert watchdogs.reason(look(tracking=1.0), moving).startswith("tracking error")
