@@ -51,50 +51,61 @@ run() {  # run PYTHON ROLE LANE... -- PYTEST_ARGS...: the tests of those lanes t
   # --durations: each run ends with its slowest tests, where a lane's time goes (before any extra args: theirs win)
   "$python" -m pytest -q -p no:cacheprovider --durations=25 --on "$role" "${lanes[@]}" "$@" tests || status=$?
 }
-
 # Each test file names its lane and the Pythons that run it (pytestmark = pytest.mark.lane(...); unit tests by their
-# folder), and tests/unit/test_lanes.py holds that every file has one. Two phases. Phase 1: the endpoint's lane
-# (its integration tests, which mostly wait on sockets, timers and the master) runs beside what needs CPU but no
-# timing: the unit lane on every Python, and the beside lane (the study's and the processes' command lines, the
-# description node). Phase 2: the alone lane, the tests that run a robot through ROS, one run at a time with nothing
-# beside it. Tried beside another suite (even at nice 10), the campaigns' bags lost messages: they record ~1000
-# messages a second per topic through rosbag record, whose queue (100 per topic) overflows when the recorder is
-# starved of CPU; and a starved endpoint forwarded a lockstep step's /clock before its command (two topics, two
-# connections).
+# folder), and tests/unit/test_lanes.py holds that every file has one. The alone lane holds the tests that run a robot
+# through ROS on wall time or record bags: the campaigns record ~1000 messages a second per topic through rosbag
+# record, whose queue (100 per topic) overflows when the recorder is starved of CPU; a starved endpoint forwarded a
+# lockstep step's /clock before its command (two topics, two connections); a starved driver's joint states go stale
+# and the reality condition's runner rightly stops the arm. Beside another suite at the same priority (and even at
+# nice 10) they failed so. So the alone lanes run one after another at the normal priority, and every other lane runs
+# at the same time under SCHED_IDLE (chrt --idle): the kernel gives those only the CPU that the alone lanes leave
+# (they use about one core of two, waiting on the clock and on each other's messages), and takes it back at once when
+# an alone test's process wakes. The other lanes need CPU but no timing of their own against the alone lanes: the
+# unit lanes, the beside lanes (the study's and the processes' command lines, the benches' smoke tests, the arms'
+# simulated studies), and the endpoint's lane, whose tests mostly wait on sockets and timers and were made to pass
+# beside CPU burners (its call-burst tests start two of their own, under SCHED_IDLE with it).
 
-# The endpoint's lane (in the background, its output shown after the foreground's) on 3.8, with the unit lanes beside
-# it, one after the other: 3.10's, then 3.8's (the endpoint's tests use about half a core: ~105 CPU-s in their
-# ~215 s; 3.10's unit lane alone ended some 150 s before them, leaving that half core idle). Then the beside lane on
-# 3.8, which it has time for while the foreground runs the unit and beside lanes on the project's Python (the
-# benches' smoke tests, the study's command lines and its arms are there; the power tests' error rates, some 170
-# CPU-s, and the reality condition's refusals are on 3.8 so that the two end about together).
+# Under SCHED_IDLE, in the background, their output shown after the alone lanes': the endpoint's lane on 3.8, with the
+# unit lanes beside it, one after the other: 3.10's, then 3.8's (the endpoint's tests use about half a core). Then the
+# beside lane on 3.8, while the project's Python runs its unit and beside lanes (the benches' smoke tests, the study's
+# command lines and its arms are there; the power tests' error rates and the reality condition's refusals are on 3.8
+# so that the two end about together).
+idle_log="$(mktemp)"
 endpoint_log="$(mktemp)"
 units_log="$(mktemp)"
-trap 'rm -rf "$endpoint_log" "$units_log" "$VR_SIM_CACHE"' EXIT
+trap 'rm -rf "$idle_log" "$endpoint_log" "$units_log" "$VR_SIM_CACHE"' EXIT
 (
+  chrt --idle --pid 0 "$BASHPID"  # this subshell, and every process it starts, inherit the policy
   status=0
   (
-    if [ -n "$python310" ]; then run "$python310" jammy unit -- "$@"; fi
-    run .venv38/bin/python noetic unit -- "$@"
+    status=0
+    (
+      if [ -n "$python310" ]; then run "$python310" jammy unit -- "$@"; fi
+      run .venv38/bin/python noetic unit -- "$@"
+      exit "$status"
+    ) >"$units_log" 2>&1 &
+    units=$!
+    run .venv38/bin/python noetic endpoint -- "$@"
+    wait "$units" || status=$?
+    cat "$units_log"
+    run .venv38/bin/python noetic beside -- "$@"
     exit "$status"
-  ) >"$units_log" 2>&1 &
-  units=$!
-  run .venv38/bin/python noetic endpoint -- "$@"
-  wait "$units" || status=$?
-  cat "$units_log"
-  run .venv38/bin/python noetic beside -- "$@"
+  ) >"$endpoint_log" 2>&1 &
+  endpoint_lane=$!
+  run .venv/bin/python project unit beside -- "$@"
+  wait "$endpoint_lane" || status=$?
+  cat "$endpoint_log"
   exit "$status"
-) >"$endpoint_log" 2>&1 &
-endpoint_lane=$!
-run .venv/bin/python project unit beside -- "$@"
-endpoint_status=0
-wait "$endpoint_lane" || endpoint_status=$?
-cat "$endpoint_log"
-if [ "$endpoint_status" -ne 0 ]; then status=$endpoint_status; fi
+) >"$idle_log" 2>&1 &
+idle_lanes=$!
 
 run .venv/bin/python project alone -- "$@"
 run .venv38/bin/python noetic alone -- "$@"
 if [ -n "$python310" ]; then run "$python310" jammy alone -- "$@"; fi
+idle_status=0
+wait "$idle_lanes" || idle_status=$?
+cat "$idle_log"
+if [ "$idle_status" -ne 0 ]; then status=$idle_status; fi
 if [ "$status" -ne 0 ]; then
   echo "test.sh: FAILED (a run above exited with $status)" >&2
   exit "$status"

@@ -16,11 +16,13 @@ from dataclasses import dataclass
 
 __all__ = ["LANES", "PYTHONS", "Lane", "declared_lanes", "lane_from_marker", "unit_lane"]
 
-# The lanes, in the order test.sh runs them:
-#   endpoint  phase 1, in the background: the endpoint's integration tests, which mostly wait on sockets and timers
-#   unit      phase 1: unit tests, pure logic, CPU only
-#   beside    phase 1: command lines and nodes that need CPU but no timing
-#   alone     phase 2, one run at a time with nothing beside it: a robot through ROS, campaigns and studies with bags
+# The lanes (test.sh runs the alone lanes at the normal priority, and the others at the same time under SCHED_IDLE,
+# on the CPU the alone lanes leave):
+#   endpoint  the endpoint's integration tests, which mostly wait on sockets and timers
+#   unit      unit tests, pure logic, CPU only
+#   beside    command lines and nodes that need CPU but no timing
+#   alone     one run at a time, with nothing beside it at its priority: a robot through ROS, campaigns and studies
+#             with bags
 LANES = ("endpoint", "unit", "beside", "alone")
 # The suite's Pythons: the project's venv (Debian's), ROS Noetic's 3.8 with Debian's rospy, Ubuntu 22.04's 3.10.
 PYTHONS = ("project", "noetic", "jammy")
