@@ -116,6 +116,7 @@ class Session:
     leads: list[float] = field(default_factory=list)  # ms, each stop's
     after_stamp: int = 0
     from_path: int = 0
+    acted: int = 0  # the trials the session was to act on: fewer measured is a session that ended early
     said: str = ""  # why the session has no figures ("" when it has)
 
 
@@ -330,7 +331,9 @@ class Bench:
         finally:
             heard.close()
             injection.close()
-        return self._measured(runner.returncode, home, rest, until, windows, heard, folder, participant, arm)
+        measured = self._measured(runner.returncode, home, rest, until, windows, heard, folder, participant, arm)
+        measured.acted = len(acts)
+        return measured
 
     def _measured(
         self,
@@ -469,11 +472,15 @@ HEADER = (
 def verdict(rows: list[Row]) -> tuple[bool, str]:
     """Whether every run braked with its separation above the floor and every stop's run-on within its bound
     (bench.run_on), and one line saying so or what failed."""
-    unbraked, under, over, unmeasured, ran_on = [], [], [], [], []
+    unbraked, under, over, unmeasured, ran_on, early = [], [], [], [], [], []
     for row in rows:
         trials = [trial for session in row.sessions for trial in session.trials]
         if not trials:
             unmeasured.append(row.name)
+        acted = sum(session.acted for session in row.sessions)
+        if trials and len(trials) < acted:  # e.g. a sweep's session the runner ended on its own (exit 5)
+            codes = sorted({str(s.code) for s in row.sessions if len(s.trials) < s.acted})
+            early.append(f"{row.name} ({len(trials)} of {acted} trials; exit {', '.join(codes)})")
         if any(not trial.braked for trial in trials):
             unbraked.append(f"{row.name} ({sum(not t.braked for t in trials)} of {len(trials)})")
         least = [t.least for t in trials] + [t.recorded for t in trials if math.isfinite(t.recorded)]
@@ -490,6 +497,7 @@ def verdict(rows: list[Row]) -> tuple[bool, str]:
         *([f"not braked: {', '.join(unbraked)}"] if unbraked else []),
         *([f"separation under the {FLOOR * 1e3:g} mm floor: {', '.join(under)}"] if under else []),
         *([f"no figures: {', '.join(unmeasured)}"] if unmeasured else []),
+        *([f"ended early: {', '.join(early)}"] if early else []),
         *([f"run-on over its bound: {', '.join(ran_on)}"] if ran_on else []),
     ]
     limits = (
