@@ -23,7 +23,8 @@ export class RosConnection {
     this.pings = new Map(); // request_time -> when sent (ms, Date.now())
     this.pingCount = 0;
     this.clock = new ClockOffset();
-    this.errors = []; // the endpoint's __error texts, newest last
+    this.errors = []; // the endpoint's __error and __warn texts, newest last
+    this.opened = 0; // times the socket opened: more than once, it was lost and made again
     this.timers = [];
   }
 
@@ -80,6 +81,7 @@ export class RosConnection {
     this.socket = socket;
     socket.onopen = () => {
       this.connected = true;
+      this.opened += 1;
       this.onState('connected');
       this._send(KEEPALIVE);
       for (const [topic, [type, latch]] of this.publishers) {
