@@ -55,6 +55,16 @@ class Watch:
             rospy.Subscriber(joint_states, JointState, self._on_state),
         ]
 
+    def _on_result(self, message: Any) -> None:
+        from actionlib_msgs.msg import GoalStatus
+
+        if message.status.status == GoalStatus.REJECTED and self.refusal_result_delay > 0:
+            timer = threading.Timer(self.refusal_result_delay, self.incoming["result"].publish, (message,))
+            self.timers.append(timer)
+            timer.start()
+        else:
+            self.incoming["result"].publish(message)
+
     def _on_status(self, message: Any) -> None:
         status = status_from_json(message.data)
         with self.changed:
@@ -244,13 +254,16 @@ class ControllerRelay:
             rospy.Subscriber(f"{here}/cancel", GoalID, self.outgoing["cancel"].publish),
             rospy.Subscriber(f"{there}/status", GoalStatusArray, self._on_status),
             rospy.Subscriber(f"{there}/feedback", types.action_feedback, self.incoming["feedback"].publish),
-            rospy.Subscriber(f"{there}/result", types.action_result, self.incoming["result"].publish),
+            rospy.Subscriber(f"{there}/result", types.action_result, self._on_result),
             *self.outgoing.values(),
             *self.incoming.values(),
         ]
 
         self.rospy, self.types = rospy, types
         self.query_delay = 0.0  # s each query_state answer is held back
+        # s a refusal's result is held back behind its status, as a loaded machine may deliver them: actionlib's server
+        # sends them on topics of their own, and the client's goal is done only once the result has come
+        self.refusal_result_delay = 0.0
         self.query_service: Any = None
         if query:
             self.restart_query()
@@ -282,6 +295,16 @@ class ControllerRelay:
             timer.start()
         else:
             self.outgoing["goal"].publish(goal)
+
+    def _on_result(self, message: Any) -> None:
+        from actionlib_msgs.msg import GoalStatus
+
+        if message.status.status == GoalStatus.REJECTED and self.refusal_result_delay > 0:
+            timer = threading.Timer(self.refusal_result_delay, self.incoming["result"].publish, (message,))
+            self.timers.append(timer)
+            timer.start()
+        else:
+            self.incoming["result"].publish(message)
 
     def _on_status(self, message: Any) -> None:
         with self.lock:

@@ -385,13 +385,20 @@ def test_a_stale_joint_state_feed_stops_the_arm(roscore, ros_node, arm, tmp_path
         relayed.unregister()
 
 
-def test_a_stop_the_controller_refuses_is_planned_and_sent_anew(roscore, ros_node, arm, tmp_path: Path) -> None:
+@pytest.mark.parametrize("result_late", [0.0, 0.3], ids=["result_with_status", "result_late"])
+def test_a_stop_the_controller_refuses_is_planned_and_sent_anew(
+    roscore, ros_node, arm, tmp_path: Path, result_late: float
+) -> None:
     # The relay holds the first goal after the approach (the braking replacement) back for 0.5 s, longer than its
     # braking lasts: all its points are past when it arrives, and the stand-in refuses it while the approach goes on.
     # The runner plans the stop anew from where the arm is then commanded to be, and brakes it short of the stand-off.
+    # The refusal's result may come well after its status (their topics' deliveries on a loaded machine): the status
+    # alone says the stop was refused, and the arm going on with its approach meanwhile is no fault of its tracking
+    # (it once stopped the session for the arm 34.6 mm off the refused braking, beside two CPU burners).
     _, watch = arm
     watch.out = str(tmp_path / "out")
     relay = ControllerRelay(ros_node, lambda number, goal: 0.5 if number == 3 else 0.0)  # 1: to the start, 2: approach
+    relay.refusal_result_delay = result_late
     standoff = 0.1
     plan = write_plan(tmp_path / "plan.yaml", 8, "reality", [trial(1, "reality", 1, "vertical", standoff, 0.2)])
     runner = start_runner(roscore, plan, tmp_path / "out", ["--link", f"reality={RELAY},{JOINT_STATES}"])

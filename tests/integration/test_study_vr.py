@@ -451,7 +451,10 @@ def assert_the_bag_holds_the_tracked_body(
     sent = page["posesSent"]
     # every frame in the trials sent each body, and the bag holds them all
     assert page["poseFrames"] > 0 and sent == dict.fromkeys(BODIES, page["poseFrames"]), page
-    assert {body: len(poses[body]) for body in BODIES} == sent
+    # by their seqs (the page numbers each body's poses from 0): which are missing, if any, tells where they were
+    # lost (the first: a late link; the last: in flight at the end; between: dropped on the way)
+    missing = {body: sorted(set(range(sent[body])) - {m.header.seq for _, m in poses[body]}) for body in BODIES}
+    assert {body: len(poses[body]) for body in BODIES} == sent, (missing, page["endpointSaid"], page["opened"])
     # from the first trial's status to the questionnaire after the last trial, as they reached the page: the page's
     # frames begin after the status they act on has come (the emulated headset's frame time is its start), and the
     # last pose comes from a frame that began before the page had the first status after the trials (a

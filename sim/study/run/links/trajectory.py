@@ -519,9 +519,11 @@ class TrajectoryLink:
                 say(f"{self.name}: {motion.what} left ({why}): braking")
                 motion.reason = motion.reason or f"the motion's code exited: {why}"
                 self._stop(motion)
-            while self._clock() < motion.ends + RESULT_GRACE and not self.controller.done(motion.handle):
+            while self._clock() < motion.ends + RESULT_GRACE:
+                self._stop_anew_if_refused(motion)  # before the done check: a refusal ends the stop's goal too
+                if self.controller.done(motion.handle):
+                    break
                 self.feed.wait(self._clock(), POLL)
-                self._stop_anew_if_refused(motion)
             failed = self._failure(motion)
             say(f"{self.name}: {motion.what}: {failed or 'the arm braked to rest'}")
         except BaseException as error:  # noqa: BLE001 — the exit goes on; the observer must know

@@ -25,7 +25,8 @@ export class RosConnection {
     this.pingCount = 0;
     this.clock = new ClockOffset();
     this.clockAnnouncement = null; // [topic, source]: where the clock's estimate goes, and the page it names
-    this.errors = []; // the endpoint's __error texts, newest last
+    this.errors = []; // the endpoint's __error and __warn texts, newest last
+    this.opened = 0; // times the socket opened: more than once, it was lost and made again
     this.timers = [];
   }
 
@@ -89,6 +90,7 @@ export class RosConnection {
     this.socket = socket;
     socket.onopen = () => {
       this.connected = true;
+      this.opened += 1;
       this.onState('connected');
       this._send(KEEPALIVE);
       for (const [topic, [type, latch]] of this.publishers) {

@@ -31,6 +31,8 @@ window.vrPage = {
       triggerPresses: page.triggers, // each: when it was read and stamped (ms), its input delay (s)
       statuses: page.statuses, // each status as it arrived, with the page's ROS time then
       actions: page.topics.sent,
+      endpointSaid: [...page.topics.connection.errors], // its __error and __warn texts (dropped messages among them)
+      opened: page.topics.connection.opened, // the connection's opens: more than one, it was lost meanwhile
       index: status ? status.index : null,
       phase: status ? status.phase : null,
       item: status && status.item ? status.item : null, // a questionnaire's
