@@ -55,16 +55,6 @@ class Watch:
             rospy.Subscriber(joint_states, JointState, self._on_state),
         ]
 
-    def _on_result(self, message: Any) -> None:
-        from actionlib_msgs.msg import GoalStatus
-
-        if message.status.status == GoalStatus.REJECTED and self.refusal_result_delay > 0:
-            timer = threading.Timer(self.refusal_result_delay, self.incoming["result"].publish, (message,))
-            self.timers.append(timer)
-            timer.start()
-        else:
-            self.incoming["result"].publish(message)
-
     def _on_status(self, message: Any) -> None:
         status = status_from_json(message.data)
         with self.changed:
