@@ -27,6 +27,9 @@ contacts, stand-offs, the drives holding the arm; a candidate's planning stops a
 the first that passes is the proposal. An arm whose drives cannot hold it at home fits none: that is said first. An
 arm of fewer than six joints is offered the candidates where it keeps its tool pointing down first, then all of them
 again where it keeps the position alone.
+
+One concern, and a long one: fitting a scene to an arm, screened from cheap to dear, and keeping the proposal by the
+arm's content so that it is made once; a scene's YAML, read and written, is sim.study.design.scene's.
 """
 
 from __future__ import annotations
