@@ -20,6 +20,9 @@ this script measures; it judges nothing.
   services   seven cases of service calls, each call ended within --service-timeout + 2 s, threads back
              (capacity and services: bench/chaos_cases.py, best run beside CPU burners that oversubscribe the cores)
 Every loop is bounded in count and time; every process is stopped by PID.
+
+One concern, and a long one: each phase is a short script of its own abuse, read top to bottom where it is; they share
+only the set-up, the measuring and the rows (two more phases are bench/chaos_cases.py).
 """
 
 from __future__ import annotations

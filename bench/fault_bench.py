@@ -31,6 +31,10 @@ returns False when a run did not brake, fell under the floor, ran on past its bo
 bench then exits 1.
 
 Every wait is bounded (PHASE_WAIT_S per phase, the sessions by a time budget); every process is killed by its PID.
+
+Long because a fault run is one experiment: each injection is timed to the session it acts on, and its figures are read
+from what was heard beside that session and from its record. What stands alone already does: bench.fault_relays,
+bench/stepped_clock.py, bench.run_on.
 """
 
 from __future__ import annotations

@@ -8,6 +8,9 @@ queue when a direct send could not write everything, see SessionOutput.send) and
 calls and topic-list look-ups (so a slow service never stalls a reader, nor another client's calls); per published
 topic a pump thread (bridge.ros.publisher.RawPublisher); rospy's own threads deliver ROS messages, which are fanned
 out to the subscribed clients (bridge.topics.Topics.fan_out); one housekeeping thread.
+
+Long because the endpoint owns what its clients share: accepting, the sessions' registry, the dispatch and the
+housekeeping all read the one set of tables under their one lock (bridge.bridged).
 """
 
 from __future__ import annotations

@@ -39,6 +39,10 @@ from them. The goal pose is not published in this mode.
 
 Exit codes: 0 done, 2 bad input, 3 unreachable IK goal (the residual is printed), 4 ROS failure (no partner,
 a joint state that does not come), 130 interrupted.
+
+One concern, and a long one: the commander's command, its options (the thesis's switches) and its two ways of driving an
+arm (the /clock stream, a trajectory controller's goals); the stepping, the horizon and the metrics are modules of their
+own.
 """
 
 from __future__ import annotations

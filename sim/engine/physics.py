@@ -23,6 +23,10 @@ so its v⁺ would not be the one the implicit drive solved for, and a stiff driv
 Consequences: joint limits are NOT enforced (by design: the physics does not clamp), there are no contacts
 (the scene has nothing to touch), and joints outside `robot.joint_names` (the Panda's fingers) are locked rigidly at
 their start positions, which is exact: the reduced M and c over the controlled joints describe the locked system.
+
+One concern, and a long one: the three modes' drives stepped on one pybullet body, and what is read back from it (state,
+ee_pose, pictures); all of it shares the body, its client and its lazily set joint states, which a cut would pass across
+modules.
 """
 
 from __future__ import annotations

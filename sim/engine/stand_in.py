@@ -10,6 +10,9 @@ Offline (`--csv`): replays desired joint positions from a CSV without ROS or TCP
 
 CSV formats (both): a header row `time,<joint name>,...` then one row per sample, time in s, positions in rad/m.
 The input may name a subset of the joints (the others hold their start position); rows must be in time order.
+
+One concern: the stand-in program, online and offline, with its pictures (--render) and its command line; the thesis's
+use cases are switches of one program, not programs. The physics is sim.engine.physics'.
 """
 
 from __future__ import annotations

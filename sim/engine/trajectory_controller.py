@@ -24,6 +24,9 @@ the measured joint state; the controller answers with the desired state and with
   joint is within the goal tolerance and its velocity error within the stopped-velocity tolerance; it aborts when
   the goal time tolerance has passed first: with 0, at the first update after the last point. A goal's time
   tolerance of 0 takes the controller's default, a negative one means 0.
+
+One concern, and a long one: every rule above acts on the one trajectory and the one goal in force, so a cut would part
+a rule's halves (a replacement's bridge and the goal it ends, a hold and the cancel that asks it).
 """
 
 from __future__ import annotations

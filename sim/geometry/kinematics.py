@@ -23,6 +23,10 @@ Reported errors honour the weights: `position_error` is the norm of the selected
 `orientation_error` is the rotation angle of R_target·Rᵀ when all three angular axes are selected, otherwise
 the norm of the selected components of its rotation vector. For `planar_pose` targets and the igt
 (rotations about z only) that is exactly |wrapped yaw error|.
+
+One concern, and a long one: a chain's kinematics both ways. The IK solver iterates on the chain's own fast path
+(`_frames`, `_jacobian_from_frames`) and its error is the Jacobian's convention; set apart, that path would be made
+public for one caller.
 """
 
 from __future__ import annotations

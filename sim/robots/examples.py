@@ -8,6 +8,9 @@ tests and the benchmarks to run the study on and for anyone trying the toolkit o
   from Universal Robots' published DH parameters, a five-joint desktop arm and a SCARA.
 
 `write_example_arm` writes either kind by name.
+
+One concern, and a long one: arms written from parameters. The lab arms' Parts, one table an arm, are nearly half of it;
+both kinds share the mesh writers (STL, OBJ, COLLADA) and `write_example_arm`.
 """
 
 from __future__ import annotations

@@ -5,7 +5,10 @@ missing trials' scenarios (sim.study.analysis.missing), the paired comparisons, 
 (sim.study.analysis.motion), the stop presses' latency per path (sim.study.analysis.latency), the questionnaires' scores
 (sim.study.analysis.questionnaires), and the plots (Bland–Altman among them). A pilot (one participant) gets that
 participant's means per condition and a note in place of all that needs more participants (intervals, comparisons,
-models, verdicts), with the model it would fit."""
+models, verdicts), with the model it would fit.
+
+One concern, and a long one: the report is one document, its text and the plots it points to written from one summary;
+the statistics it reports are their own modules'."""
 
 from __future__ import annotations
 

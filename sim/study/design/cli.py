@@ -103,7 +103,8 @@ def checked_combinations(args: argparse.Namespace) -> tuple[RobotSpec, dict[Comb
 
 def scene_command(args: argparse.Namespace) -> int:
     """The first candidate scene that fits (sim.study.design.fit), each tried printed with why not."""
-    from sim.study.design.fit import design_combinations, fit_scene, keep, no_fit_message, scene_to_data
+    from sim.study.design.fit import design_combinations, fit_scene, keep, no_fit_message
+    from sim.study.design.scene import scene_to_data
 
     check_positive(args.dt, "--dt")
     template = load_scene(args.scene)

@@ -27,6 +27,9 @@ contacts, stand-offs, the drives holding the arm; a candidate's planning stops a
 the first that passes is the proposal. An arm whose drives cannot hold it at home fits none: that is said first. An
 arm of fewer than six joints is offered the candidates where it keeps its tool pointing down first, then all of them
 again where it keeps the position alone.
+
+One concern, and a long one: fitting a scene to an arm, screened from cheap to dear, and keeping the proposal by the
+arm's content so that it is made once; a scene's YAML, read and written, is sim.study.design.scene's.
 """
 
 from __future__ import annotations
@@ -52,7 +55,7 @@ from sim.study.design.feasibility import Approaches, Combination, check_holds_ho
 from sim.study.design.paths import SHAPES, approach_path, hand_frame
 from sim.study.design.plan import make_plan
 from sim.study.design.progress import Progress
-from sim.study.design.scene import DEFAULT_SCENE, Box, Scene, load_scene, parse_scene, scene_robot
+from sim.study.design.scene import DEFAULT_SCENE, Box, Scene, load_scene, parse_scene, scene_robot, scene_to_data
 from sim.study.design.spec import Design, load_design
 from sim.study.design.tool import approach_rotation, tool_axis
 from sim.study.design.world import SceneWorld
@@ -74,7 +77,6 @@ __all__ = [
     "proportions",
     "scene_for",
     "screen",
-    "scene_to_data",
     "tool_down_out_of_reach",
     "WRIST_SLACK",
 ]
@@ -374,39 +376,6 @@ def tool_down_out_of_reach(scene: Scene, found: Proportions, combinations: Seque
     except DesignError as error:  # a path that cannot be made on this candidate
         return str(error)
     return ""
-
-
-def scene_to_data(scene: Scene) -> dict:
-    """The scene as its YAML's data (parse_scene reads it back)."""
-
-    def box(value: Box) -> dict:
-        return {"size": _rounded(value.size), "xyz": _rounded(value.position), "yaw": round(float(value.yaw), 6)}
-
-    data = {
-        "robot": scene.robot,
-        "ee_link": scene.ee_link,
-        "base": {"xyz": _base_xyz(scene), "rpy": _rounded(scene.base_rpy)},
-        "pedestal": None
-        if scene.pedestal is None
-        else {"height": round(float(scene.pedestal.size[2]), 6), "size": _rounded(scene.pedestal.size[:2])},
-        "table": box(scene.table),
-        "hand": box(scene.hand),
-        "seat": {"xyz": _rounded(scene.seat)},
-        "distance": scene.distance,
-        "approach_scale": scene.approach_scale,
-    }
-    return {key: value for key, value in data.items() if value is not None}
-
-
-def _base_xyz(scene: Scene) -> list[float]:
-    """base.xyz as x, y where the robot stands on the table or its pedestal (lowering the table lowers it too)."""
-    stands_on = float(scene.table.top[2]) + (0.0 if scene.pedestal is None else float(scene.pedestal.size[2]))
-    on_top = abs(float(scene.base_position[2]) - stands_on) < 1e-6
-    return _rounded(scene.base_position[:2] if on_top else scene.base_position)
-
-
-def _rounded(values: np.ndarray) -> list[float]:
-    return [round(float(v), 6) for v in values]
 
 
 def _cache_path(robot: RobotSpec, template_text: str, combinations: Sequence[Combination], dt: float) -> Path:

@@ -1,5 +1,6 @@
 """The study's scene as data: where the robot, the table, the hand and the participant are (a small YAML, see
-scene.yaml beside this file). Pure logic, but for reading the YAML in `load_scene`."""
+scene.yaml beside this file), read (parse_scene) and written (scene_to_data) in this one place, so that the two
+agree. Pure logic, but for reading the YAML in `load_scene`."""
 
 from __future__ import annotations
 
@@ -19,7 +20,17 @@ from sim.study.design.yamlfile import read_yaml
 if TYPE_CHECKING:
     from sim.geometry.kinematics import KinematicChain
 
-__all__ = ["DEFAULT_SCENE", "DISTANCES", "Box", "Scene", "parse_scene", "scaling_note", "scene_robot", "load_scene"]
+__all__ = [
+    "DEFAULT_SCENE",
+    "DISTANCES",
+    "Box",
+    "Scene",
+    "parse_scene",
+    "scene_to_data",
+    "scaling_note",
+    "scene_robot",
+    "load_scene",
+]
 
 DEFAULT_SCENE = Path(__file__).resolve().parent / "scene.yaml"
 _KEYS = ("robot", "ee_link", "base", "pedestal", "table", "hand", "seat", "distance", "approach_scale")
@@ -219,6 +230,39 @@ def parse_scene(data: object, source: str = "scene") -> Scene:
             f"the table top at z = {table_top:.4f} m"
         )
     return scene
+
+
+def scene_to_data(scene: Scene) -> dict:
+    """The scene as its YAML's data (parse_scene reads it back)."""
+
+    def box(value: Box) -> dict:
+        return {"size": _rounded(value.size), "xyz": _rounded(value.position), "yaw": round(float(value.yaw), 6)}
+
+    data = {
+        "robot": scene.robot,
+        "ee_link": scene.ee_link,
+        "base": {"xyz": _base_xyz(scene), "rpy": _rounded(scene.base_rpy)},
+        "pedestal": None
+        if scene.pedestal is None
+        else {"height": round(float(scene.pedestal.size[2]), 6), "size": _rounded(scene.pedestal.size[:2])},
+        "table": box(scene.table),
+        "hand": box(scene.hand),
+        "seat": {"xyz": _rounded(scene.seat)},
+        "distance": scene.distance,
+        "approach_scale": scene.approach_scale,
+    }
+    return {key: value for key, value in data.items() if value is not None}
+
+
+def _base_xyz(scene: Scene) -> list[float]:
+    """base.xyz as x, y where the robot stands on the table or its pedestal (lowering the table lowers it too)."""
+    stands_on = float(scene.table.top[2]) + (0.0 if scene.pedestal is None else float(scene.pedestal.size[2]))
+    on_top = abs(float(scene.base_position[2]) - stands_on) < 1e-6
+    return _rounded(scene.base_position[:2] if on_top else scene.base_position)
+
+
+def _rounded(values: np.ndarray) -> list[float]:
+    return [round(float(v), 6) for v in values]
 
 
 def scene_robot(scene: Scene, robot: str | None = None, overrides: Mapping[str, Any] | None = None) -> RobotSpec:

@@ -24,13 +24,13 @@ timeout for an answer that never comes. (The endpoint client only logs an error 
 tests only (`participant --fault-trial N`), measures the robot's distance at trial N as inf, as a distance measure
 beyond its range once did, so that tests see such a failure end a session.
 
-Its tracked body (the protocol's pose topics, one geometry_msgs/PoseStamped per body in the world frame), as the
-model's body_poses has it: from a trial's `moving` status until a status of another trial, a questionnaire's or
-done, on each joint state stamped t it publishes every body's pose on the joint states' grid (dt) from after the last
-one it published up to t itself: a joint state it missed leaves no gap, and the runner, which waits at an approach's
-end for a pose of every tracked body stamped at its end, always has one. In test 2 the hand withdraws from the press
-by this trial's withdrawal (the model's trial_withdrawal and trial_withdrawal_timing, drawn on go: at once, or late
-and slow); in test 1 it stays.
+Its tracked body (the protocol's pose topics, one geometry_msgs/PoseStamped per body in the world frame), as
+sim.study.participants.body's body_poses has it: from a trial's `moving` status until a status of another trial, a
+questionnaire's or done, on each joint state stamped t it publishes every body's pose on the joint states' grid (dt)
+from after the last one it published up to t itself: a joint state it missed leaves no gap, and the runner, which waits
+at an approach's end for a pose of every tracked body stamped at its end, always has one. In test 2 the hand withdraws
+from the press by this trial's withdrawal (the model's trial_withdrawal and trial_withdrawal_timing, drawn on go: at
+once, or late and slow); in test 1 it stays.
 
 Why at once, and planned before go: a lockstep runs some 15 times faster than real time on a busy machine, so
 whatever the participant does after the approach starts races the robot. Pressing on the joint state one human
@@ -53,13 +53,12 @@ from sim.robots import RobotSpec
 from sim.study.design.feasibility import Approaches
 from sim.study.design.scene import Scene
 from sim.study.errors import StudyError
+from sim.study.participants.body import body_layout, body_poses
 from sim.study.participants.model import (
     WITHDRAWAL_DURATION,
     Traits,
     WithdrawalTiming,
     arrival_time,
-    body_layout,
-    body_poses,
     comfort_at_press,
     input_delay,
     perceived_distance,

@@ -26,10 +26,10 @@ from sim.study.analysis.report import load_study, write_report
 from sim.study.analysis.trackers import load_trackers, summarise_trackers
 from sim.study.checks import check_fault_trial
 from sim.study.design.feasibility import plan_combinations, remedies
-from sim.study.design.fit import scene_for, scene_to_data
+from sim.study.design.fit import scene_for
 from sim.study.design.plan import SessionPlan, make_plan, plan_to_data
 from sim.study.design.progress import progress_bar
-from sim.study.design.scene import scaling_note
+from sim.study.design.scene import scaling_note, scene_to_data
 from sim.study.design.spec import load_design
 from sim.study.errors import StudyError
 from sim.study.participants.model import KNOWN_TRUTHS, Population

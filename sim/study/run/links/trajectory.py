@@ -28,6 +28,10 @@ stand-in of it), on wall time. rospy and actionlib.
   (ros_control's action server does not cancel a goal when its client goes away).
 
 The controller's action and query_state, and the measuring of their deliveries, are sim.study.run.links.controller's.
+
+Long because a motion is one life: its going, its watching and its stop share the goal in force, the clocks and the path
+commanded. What stands alone already does: the watchdogs' rules (supervision), the controller's wire (controller), the
+leads (lead).
 """
 
 from __future__ import annotations

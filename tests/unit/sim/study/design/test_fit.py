@@ -20,10 +20,9 @@ from sim.study.design.fit import (
     candidate_scene,
     design_combinations,
     proportions,
-    scene_to_data,
     tool_down_out_of_reach,
 )
-from sim.study.design.scene import DEFAULT_SCENE, load_scene, parse_scene, scene_robot
+from sim.study.design.scene import DEFAULT_SCENE, load_scene, parse_scene, scene_robot, scene_to_data
 from sim.study.design.spec import load_design
 from sim.wire.contract import STEP_S
 

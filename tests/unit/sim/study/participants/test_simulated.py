@@ -13,8 +13,8 @@ import pytest
 
 from sim.study.design.paths import ON_TOP
 from sim.study.design.scene import load_scene, scene_robot
+from sim.study.participants.body import TRACKING_JITTER
 from sim.study.participants.model import (
-    TRACKING_JITTER,
     WITHDRAWAL_DURATION,
     Population,
     draw_traits,
