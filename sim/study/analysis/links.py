@@ -75,20 +75,25 @@ def _separation_lines(controlled: Sequence[TrialRecord]) -> list[str]:
     lines = [
         "Speed and separation monitoring (sim.study.safety.separation), per condition: the trials whose hand a tracker "
         "followed, and of the rest, whose hand was taken at the scene's place, at rest (not monitored); the least "
-        "separation to the hand a stop decided then would have kept, and the least achieved while the arm moved (mm, "
-        "the least of all trials / the median of the trials').",
+        "separation to the hand a stop decided then would have kept, and the least achieved while the arm moved, on "
+        "the approach and on the move to its start before it (mm, the least of all trials / the median of the "
+        "trials'; – where none was recorded).",
         "",
-        "| condition | hand tracked | not monitored | least predicted | least achieved |",
-        "|---|---|---|---|---|",
+        "| condition | hand tracked | not monitored | least predicted | least achieved | least on the move |",
+        "|---|---|---|---|---|---|",
     ]
     for condition in dict.fromkeys(r.condition for r in monitored):
         rows = [r for r in monitored if r.condition == condition]
         tracked = sum(1 for r in rows if r.hand_monitored == "tracked")
         cells = []
-        for values in ([r.least_separation_predicted for r in rows], [r.least_separation for r in rows]):
+        for values in (
+            [r.least_separation_predicted for r in rows],
+            [r.least_separation for r in rows],
+            [r.move_least_separation for r in rows],
+        ):
             finite = [v * 1000 for v in values if math.isfinite(v)]
             cells.append(f"{min(finite):.1f} / {float(np.median(finite)):.1f}" if finite else "–")
-        lines.append(f"| {condition} | {tracked} | {len(rows) - tracked} | {cells[0]} | {cells[1]} |")
+        lines.append(f"| {condition} | {tracked} | {len(rows) - tracked} | {' | '.join(cells)} |")
     unmonitored = [c for c in dict.fromkeys(r.condition for r in monitored if r.hand_monitored == "untracked")]
     if unmonitored:
         lines.append("")

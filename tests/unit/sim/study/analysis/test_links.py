@@ -44,13 +44,21 @@ def test_the_separation_monitoring_is_reported_per_condition_and_an_unmonitored_
         replace(
             PRESS, condition="reality", index=k, link=LINK, hand_monitored="tracked",
             least_separation_predicted=0.040 + 0.01 * k, least_separation=0.060 + 0.01 * k,
+            move_least_separation=0.300 - 0.01 * k,
         )
         for k in (1, 2, 3)
     ]  # fmt: skip
     untracked = replace(tracked[0], index=4, hand_monitored="untracked", least_separation=0.2)
     lines = link_lines([PRESS, *tracked, untracked])
     (row,) = [line for line in lines if line.startswith("| reality | 3 |")]
-    assert [cell.strip() for cell in row.strip("|").split("|")] == ["reality", "3", "1", "50.0 / 55.0", "70.0 / 85.0"]
+    assert [cell.strip() for cell in row.strip("|").split("|")] == [
+        "reality",
+        "3",
+        "1",
+        "50.0 / 55.0",
+        "70.0 / 85.0",
+        "270.0 / 285.0",
+    ]
     assert any(line.startswith("In reality, no tracker followed the hand in some trials") for line in lines)
     older = [replace(record, hand_monitored="") for record in tracked]  # written before the monitoring: nothing said
     assert not any("separation" in line for line in link_lines(older))
