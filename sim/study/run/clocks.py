@@ -10,8 +10,9 @@ runner's clock by at most half the round trip plus the applied offset's lag behi
 Two estimates further apart than their half round trips (and ROS time's own step) explain mean a clock stepped (the
 page's, or ROS time restarted): its stamps in between were off by the step.
 
-The runner judges everything heard before the session's first trial, and again before each next trial: a page whose
-uncertainty, or a step between its estimates, exceeds PAGE_CLOCK_LIMIT refuses the session (ClockError, one line).
+The runner judges the pages at go before each approach: a page whose clock as it stands (its latest announcement's
+uncertainty), or a step between two of its estimates since the last check, exceeds PAGE_CLOCK_LIMIT refuses the
+session (ClockError, one line).
 """
 
 from __future__ import annotations
@@ -117,27 +118,31 @@ class PageClocks:
             self._heard.setdefault(clock.source, []).append(clock)
 
     def check(self) -> str:
-        """Why the session cannot go on ("" when it can), judging what was heard since the last check: the first
-        page whose uncertainty, or a step between two of its estimates, exceeded the limit."""
+        """Why the session cannot go on ("" when it can), judging what was heard since the last check: a page whose
+        clock as it stands (its latest announcement) is off by more than the limit, or a step beyond it between two of
+        its estimates. A transient that has settled by the check (a slewing offset catching up, one slow round trip)
+        refuses nothing: each trial records its page's worst uncertainty during it (`trial`)."""
         with self._lock:
             for source, clocks in self._heard.items():
                 first = self._checked.get(source, 0)
                 self._checked[source] = len(clocks)
-                for k in range(first, len(clocks)):
-                    clock = clocks[k]
-                    if clock.uncertainty > self.limit:
-                        return (
-                            f"the {source} page's clock cannot be trusted: its stamps may be off by "
-                            f"{_ms(clock.uncertainty)} (half its best round trip {_ms(clock.round_trip / 2)}, its "
-                            f"applied offset {_ms(abs(clock.applied - clock.offset))} off its estimate; limit "
-                            f"{_ms(self.limit)}): bring the page nearer the runner (a quieter network)"
-                        )
-                    step = step_between(clocks[k - 1], clock, self.quantum) if k > 0 else 0.0
+                if first == len(clocks):
+                    continue  # nothing new: judged already
+                clock = clocks[-1]
+                if clock.uncertainty > self.limit:
+                    return (
+                        f"the {source} page's clock cannot be trusted: its stamps may be off by "
+                        f"{_ms(clock.uncertainty)} (half its best round trip {_ms(clock.round_trip / 2)}, its "
+                        f"applied offset {_ms(abs(clock.applied - clock.offset))} off its estimate; limit "
+                        f"{_ms(self.limit)}): bring the page nearer the runner (a quieter network)"
+                    )
+                for k in range(max(first, 1), len(clocks)):
+                    step = step_between(clocks[k - 1], clocks[k], self.quantum)
                     if step > self.limit:
                         return (
                             f"the {source} page's clock stepped {_ms(step)} beyond its round trips (its offset "
-                            f"{clocks[k - 1].offset:+.4f} s, then {clock.offset:+.4f} s; limit {_ms(self.limit)}): "
-                            "presses stamped in between were off by as much"
+                            f"{clocks[k - 1].offset:+.4f} s, then {clocks[k].offset:+.4f} s; limit "
+                            f"{_ms(self.limit)}): presses stamped in between were off by as much"
                         )
         return ""
 

@@ -67,6 +67,16 @@ def test_a_page_within_the_limit_goes_on_and_one_beyond_it_refuses_in_one_line_n
     assert clocks.check() == ""  # each announcement judged once: the runner refused already
 
 
+def test_a_transient_settled_by_the_check_goes_on_and_stays_in_the_trials_worst_uncertainty() -> None:
+    # a slow round trip and a slewing offset's lag (21 ms), then the page's clock as it stands: within
+    clocks = PageClocks()
+    clocks.heard(page(12.0, 0.004, 12.0 - 0.019))
+    clocks.heard(page(12.0, 0.004, 12.0 - 0.001))
+    assert clocks.check() == ""
+    _, worst = clocks.trial("vr_trigger")
+    assert worst == pytest.approx(0.021)
+
+
 def test_an_applied_offset_lagging_its_estimate_counts_to_the_skew() -> None:
     clocks = PageClocks()
     clocks.heard(page(12.0, 0.004, 12.0 - 0.019))  # 2 + 19 ms
