@@ -424,11 +424,15 @@ def test_the_sim_is_importable_from_devel_and_install_space_with_the_bundled_rob
 
 def test_roslaunch_vr_sim_demo_records_a_trial_with_the_system_python(workspace: Path, tmp_path: Path) -> None:
     """The base case from the user's workspace: roslaunch starts the master, the endpoint, the engine, the commander
-    and rosbag record, and ends when the sweep is done; the bag holds the whole trial, tracked within 0.05 %."""
+    and rosbag record, and ends when the sweep is done; the bag holds the whole trial, tracked within 0.05 %.
+    At the launch's own time_scale (4), as a user runs it: the run is paced by the wall clock, and its tracking error
+    grows with the time scale times the machine's scheduling delays (at 8, a CI host with the suite's other lanes
+    at idle priority beside it measured 0.057 %; here, beside two idle-priority burners, 0.023-0.042 % at 8 and
+    0.017-0.021 % at 4)."""
     env = ros_env(free_port(), tmp_path)  # no master runs there: roslaunch starts one
     bag = tmp_path / "demo.bag"
     launch = ManagedProcess(
-        sourced(workspace, "devel", f"roslaunch vr_sim demo.launch tcp_port:={free_port()} time_scale:=8 bag:={bag}"),
+        sourced(workspace, "devel", f"roslaunch vr_sim demo.launch tcp_port:={free_port()} bag:={bag}"),
         env,
         tmp_path,
         "roslaunch",
