@@ -17,9 +17,10 @@ const JUMP_S = 0.5; // beyond the round trips' own uncertainty
 // samples, and while the round trips are slow. A page that just connected had one sample at the runner's first go,
 // 2 s after its /clock started, and a page building its scene or drawing in software reads a ping's answer only once
 // its main thread is free: that one sample's round trip held a frame's work (47 and 60 ms, beside two CPU burners;
-// its pings' median 55 ms, against 15 ms timed in a worker of the page's own). Quick pings give it eight chances in
-// 2 s, and more while none is quick, to see an answer between two frames. A worker timing its pings off the main
-// thread would need a second WebSocket, a second client of the endpoint's, for every page; quick pings sufficed.
+// its pings' median 53-60 ms, against 11-18 ms timed in a worker of the page's own). Quick pings give it eight
+// chances in 2 s, and more while none is quick, to see an answer between two frames: the best at the first go was
+// then 1-20 ms. A worker timing its pings off the main thread would need a second WebSocket, a second client of the
+// endpoint's, for every page; quick pings sufficed.
 // A flood cannot come of it: one ping at a time (the next once it is answered, or given up on after
 // PING_GIVE_UP_MS), at most one each PING_QUICK_MS: 4 answers a second from the endpoint at most.
 export const PING_EVERY_MS = 2000; // settled: a /clock that starts after the page connected is seen within this
@@ -33,8 +34,8 @@ const SETTLED_ROUND_TRIP_MS = 20;
 // the one drawn 170 ms earlier (software rendering, round trips of hundreds of ms). Yet a page whose estimate improved
 // by 20 ms just before the runner's go (a better sample among its first) would stamp 20 ms off for 4 s, and be
 // refused: so while the applied offset is more than LAG_MOST_S off the estimate, it moves up to SLEW_MOST of the time
-// passed (ROS time as read runs at half speed at the least, never backwards), then at SLEW the rest. A jump (a
-// restarted clock) is taken at once.
+// passed (ROS time as read runs at half speed at the least, never backwards), then at SLEW the rest; the page
+// announces its clock again once within LAG_MOST_S (connection.js). A jump (a restarted clock) is taken at once.
 const SLEW = 0.05;
 const SLEW_MOST = 0.5;
 const LAG_MOST_S = 0.002;
@@ -96,6 +97,12 @@ export class ClockOffset {
     if (best === null) return null;
     const applied = this._slewed(nowMs)[1];
     return { offset: best[1], round_trip: best[0] / 1000, applied, samples: this.samples.length };
+  }
+
+  // Whether the offset a read at nowMs would give is more than LAG_MOST_S off the estimate (being taken up quickly;
+  // a microsecond for rounding: the quick catch-up stops at LAG_MOST_S).
+  lagging(nowMs) {
+    return this.offset !== null && Math.abs(this._slewed(nowMs)[1] - this.offset) > LAG_MOST_S + 1e-6;
   }
 
   // The offset to read ROS time by at nowMs (browser clock, ms; not before the last read): the estimate, reached

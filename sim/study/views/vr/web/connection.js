@@ -27,6 +27,7 @@ export class RosConnection {
     this.pingCount = 0;
     this.clock = new ClockOffset();
     this.clockAnnouncement = null; // [topic, source]: where the clock's estimate goes, and the page it names
+    this.lagAnnounced = false; // whether the last announcement's applied offset was being taken up (clock.js)
     this.errors = []; // the endpoint's __error and __warn texts, newest last
     this.opened = 0; // times the socket opened: more than once, it was lost and made again
     this.timers = [];
@@ -44,7 +45,8 @@ export class RosConnection {
   }
 
   // Announce the clock offset's estimate (clock.js's report, with `source`: the stop source the page's presses are
-  // named by) on `topic` (of `type`, a std_msgs/String: JSON), after each ping answer that gave a sample.
+  // named by) on `topic` (of `type`, a std_msgs/String: JSON), after each ping answer that gave a sample, and again
+  // once a lag it announced is taken up (clockOffset).
   announceClock(topic, type, source) {
     this.advertise(topic, type);
     this.clockAnnouncement = [topic, source];
@@ -75,8 +77,14 @@ export class RosConnection {
 
   // ROS time minus this browser's clock (s), from the quickest recent ping and slewed (clock.js); null before any
   // answer.
+  // A lag announced is announced again once taken up: the runner judges the page by its latest announcement, which
+  // would otherwise stand until the next answer (up to 2 s) for a lag gone within a few frames. A busy page reads an
+  // answer just after a frame, so one that moves the estimate is announced with all of its move as the lag.
   get clockOffset() {
-    return this.clock.offsetAt(Date.now());
+    const now = Date.now();
+    const offset = this.clock.offsetAt(now);
+    if (this.lagAnnounced && !this.clock.lagging(now)) this._announceClock();
+    return offset;
   }
 
   // Now in ROS time (s), or null without a clock offset.
@@ -137,6 +145,14 @@ export class RosConnection {
     if (pingDue(now, this.lastPingMs, unansweredSince, this.clock.settled)) this._ping();
   }
 
+  _announceClock() {
+    if (!this.clockAnnouncement) return;
+    const [topic, source] = this.clockAnnouncement;
+    const now = Date.now();
+    this.lagAnnounced = this.clock.lagging(now);
+    this.publish(topic, encodeString(JSON.stringify({ source, ...this.clock.report(now) })));
+  }
+
   _ping() {
     const sentAt = Date.now();
     this.lastPingMs = sentAt;
@@ -163,10 +179,7 @@ export class RosConnection {
       const sentAt = this.pings.get(fields.request_time);
       this.pings.delete(fields.request_time);
       if (sentAt === undefined || typeof fields.ros_time !== 'number') return;
-      if (this.clock.add(sentAt, Date.now(), fields.ros_time) && this.clockAnnouncement) {
-        const [topic, source] = this.clockAnnouncement;
-        this.publish(topic, encodeString(JSON.stringify({ source, ...this.clock.report(Date.now()) })));
-      }
+      if (this.clock.add(sentAt, Date.now(), fields.ros_time)) this._announceClock();
     } else if (name === '__error' || name === '__warn') {
       this.errors.push(`${name}: ${fields.text}`);
       console.warn(`endpoint ${name}: ${fields.text}`);
