@@ -2,14 +2,15 @@
 // Like Unity's connector it registers its topics after connecting, sends a keepalive after each quiet second, and
 // connects again (and registers again) when the connection drops. `__ping` measures how far ROS time is ahead of
 // this browser's clock (clock.js), for the stamps of the participant's presses; after each answer that gave a sample,
-// the estimate is announced to the runner (announceClock), which judges the page's stamps by it.
+// the estimate is announced to the runner (announceClock), which judges the page's stamps by it. When to ping is
+// clock.js's (pingDue): quickly until the estimate is settled, one ping in flight at a time.
 
-import { ClockOffset } from './clock.js';
+import { ClockOffset, PING_GIVE_UP_MS, PING_QUICK_MS, pingDue } from './clock.js';
 import { KEEPALIVE, command, commandFields, encodeString, frame, framesIn } from './rostcp.js';
 
 const RECONNECT_DELAY_MS = 1000;
 const KEEPALIVE_AFTER_MS = 1000;
-const PING_EVERY_MS = 2000; // a /clock that starts after the page connected is seen within this
+const PING_TICK_MS = PING_QUICK_MS / 5; // how often whether a ping is due is asked (clock.js's pingDue)
 
 export class RosConnection {
   // url: the WebSocket's URL; onState(text): what the connection is doing, for the page to show.
@@ -21,10 +22,12 @@ export class RosConnection {
     this.socket = null;
     this.connected = false;
     this.lastSent = 0;
-    this.pings = new Map(); // request_time -> when sent (ms, Date.now())
+    this.pings = new Map(); // request_time -> when sent (ms, Date.now()): unanswered, not given up on
+    this.lastPingMs = null; // when the last ping was sent (Date.now()); null: none on this connection
     this.pingCount = 0;
     this.clock = new ClockOffset();
     this.clockAnnouncement = null; // [topic, source]: where the clock's estimate goes, and the page it names
+    this.lagAnnounced = false; // whether the last announcement's applied offset was being taken up (clock.js)
     this.errors = []; // the endpoint's __error and __warn texts, newest last
     this.opened = 0; // times the socket opened: more than once, it was lost and made again
     this.timers = [];
@@ -42,7 +45,8 @@ export class RosConnection {
   }
 
   // Announce the clock offset's estimate (clock.js's report, with `source`: the stop source the page's presses are
-  // named by) on `topic` (of `type`, a std_msgs/String: JSON), after each ping answer that gave a sample.
+  // named by) on `topic` (of `type`, a std_msgs/String: JSON), after each ping answer that gave a sample, and again
+  // once a lag it announced is taken up (clockOffset).
   announceClock(topic, type, source) {
     this.advertise(topic, type);
     this.clockAnnouncement = [topic, source];
@@ -73,8 +77,14 @@ export class RosConnection {
 
   // ROS time minus this browser's clock (s), from the quickest recent ping and slewed (clock.js); null before any
   // answer.
+  // A lag announced is announced again once taken up: the runner judges the page by its latest announcement, which
+  // would otherwise stand until the next answer (up to 2 s) for a lag gone within a few frames. A busy page reads an
+  // answer just after a frame, so one that moves the estimate is announced with all of its move as the lag.
   get clockOffset() {
-    return this.clock.offsetAt(Date.now());
+    const now = Date.now();
+    const offset = this.clock.offsetAt(now);
+    if (this.lagAnnounced && !this.clock.lagging(now)) this._announceClock();
+    return offset;
   }
 
   // Now in ROS time (s), or null without a clock offset.
@@ -101,7 +111,7 @@ export class RosConnection {
       }
       this._ping();
       this.timers = [
-        setInterval(() => this._ping(), PING_EVERY_MS),
+        setInterval(() => this._pingIfDue(), PING_TICK_MS),
         setInterval(() => {
           if (Date.now() - this.lastSent >= KEEPALIVE_AFTER_MS) this._send(KEEPALIVE);
         }, KEEPALIVE_AFTER_MS / 2),
@@ -110,6 +120,8 @@ export class RosConnection {
     socket.onmessage = (event) => this._receive(event.data);
     socket.onclose = (event) => {
       this.connected = false;
+      this.pings.clear(); // their answers, if any, were lost with the socket
+      this.lastPingMs = null;
       this.timers.forEach(clearInterval);
       this.timers = [];
       this.onState(`disconnected (${event.code}${event.reason ? ': ' + event.reason : ''}); connecting again`);
@@ -124,8 +136,26 @@ export class RosConnection {
     }
   }
 
+  _pingIfDue() {
+    const now = Date.now();
+    for (const [requestTime, sentAt] of this.pings) {
+      if (now - sentAt >= PING_GIVE_UP_MS) this.pings.delete(requestTime); // lost: its answer is not waited for
+    }
+    const unansweredSince = this.pings.size ? Math.min(...this.pings.values()) : null;
+    if (pingDue(now, this.lastPingMs, unansweredSince, this.clock.settled)) this._ping();
+  }
+
+  _announceClock() {
+    if (!this.clockAnnouncement) return;
+    const [topic, source] = this.clockAnnouncement;
+    const now = Date.now();
+    this.lagAnnounced = this.clock.lagging(now);
+    this.publish(topic, encodeString(JSON.stringify({ source, ...this.clock.report(now) })));
+  }
+
   _ping() {
     const sentAt = Date.now();
+    this.lastPingMs = sentAt;
     this.pingCount += 1;
     const requestTime = `${new Date(sentAt).toISOString()}#${this.pingCount}`;
     this.pings.set(requestTime, sentAt);
@@ -149,10 +179,7 @@ export class RosConnection {
       const sentAt = this.pings.get(fields.request_time);
       this.pings.delete(fields.request_time);
       if (sentAt === undefined || typeof fields.ros_time !== 'number') return;
-      if (this.clock.add(sentAt, Date.now(), fields.ros_time) && this.clockAnnouncement) {
-        const [topic, source] = this.clockAnnouncement;
-        this.publish(topic, encodeString(JSON.stringify({ source, ...this.clock.report(Date.now()) })));
-      }
+      if (this.clock.add(sentAt, Date.now(), fields.ros_time)) this._announceClock();
     } else if (name === '__error' || name === '__warn') {
       this.errors.push(`${name}: ${fields.text}`);
       console.warn(`endpoint ${name}: ${fields.text}`);
