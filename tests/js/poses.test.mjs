@@ -192,12 +192,12 @@ test("frames' poses go out together, from a task after the frames, each on its b
   };
   const settings = { topics, protocol: PROTOCOL, pose_source: announcement };
   const study = new StudyTopics(settings, 'ws://nowhere/ros', {});
-  // the announcement's topic is advertised latched, the others not
-  assert.deepEqual(study.connection.publishers.get('/study/tracking'), ['std_msgs/String', true]);
-  assert.deepEqual(study.connection.publishers.get(PROTOCOL.poses.bodies.head.topic), [
-    PROTOCOL.poses.bodies.head.type,
-    false,
-  ]);
+  // the announcement's topic is advertised latched, the others not; the endpoint holds a second of each body's poses
+  // for ROS subscribers that fall behind, and rospy's usual 10 of the others
+  assert.deepEqual(study.connection.publishers.get('/study/tracking'), ['std_msgs/String', true, 10]);
+  for (const pose of Object.values(PROTOCOL.poses.bodies)) {
+    assert.deepEqual(study.connection.publishers.get(pose.topic), [pose.type, false, 120]);
+  }
   const messages = [];
   study.connection._send = (bytes) => messages.push(bytes); // no socket: what would be sent
   const scheduled = [];
@@ -304,7 +304,7 @@ test("the page announces its clock's estimate after each ping answer that gave a
     {},
   );
   const connection = study.connection;
-  assert.deepEqual(connection.publishers.get('/study/page_clock'), ['std_msgs/String', false]);
+  assert.deepEqual(connection.publishers.get('/study/page_clock'), ['std_msgs/String', false, 10]);
   const messages = [];
   connection._send = (bytes) => messages.push(bytes);
   connection.connected = true;

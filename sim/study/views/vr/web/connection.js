@@ -39,9 +39,15 @@ export class RosConnection {
   }
 
   // latch: the endpoint's publisher keeps the last message for subscribers that come later (an announcement).
-  advertise(topic, type, latch = false) {
-    this.publishers.set(topic, [type, latch]);
-    if (this.connected) this._send(command('__publish', { topic, message_name: type, queue_size: 10, latch }));
+  // queueSize: how many of the topic's messages the endpoint holds for ROS subscribers that fall behind (it drops
+  // the oldest beyond them, and says so).
+  advertise(topic, type, latch = false, queueSize = 10) {
+    this.publishers.set(topic, [type, latch, queueSize]);
+    if (this.connected) this._advertise(topic, type, latch, queueSize);
+  }
+
+  _advertise(topic, type, latch, queueSize) {
+    this._send(command('__publish', { topic, message_name: type, queue_size: queueSize, latch }));
   }
 
   // Announce the clock offset's estimate (clock.js's report, with `source`: the stop source the page's presses are
@@ -103,9 +109,7 @@ export class RosConnection {
       this.opened += 1;
       this.onState('connected');
       this._send(KEEPALIVE);
-      for (const [topic, [type, latch]] of this.publishers) {
-        this._send(command('__publish', { topic, message_name: type, queue_size: 10, latch }));
-      }
+      for (const [topic, [type, latch, queueSize]] of this.publishers) this._advertise(topic, type, latch, queueSize);
       for (const [topic, [type]] of this.subscriptions) {
         this._send(command('__subscribe', { topic, message_name: type }));
       }

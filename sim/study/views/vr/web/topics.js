@@ -21,6 +21,10 @@ import {
 // waits for; sent in batches from their own task, they leave the frame. The runner waits for an approach's last poses
 // far longer than this (RunnerOptions.pose_grace).
 const POSE_BATCH_MS = 50;
+// The poses the endpoint holds per body for ROS subscribers that fall behind (the runner, the session's bag): a second
+// at a Quest's highest refresh rate. With rospy's usual 10, a recorder starved of CPU for a few of the batches above
+// lost a head pose the bag must hold (a busy machine, the emulated Quest's test).
+const POSE_QUEUE_SIZE = 120;
 
 export class StudyTopics {
   // url: the endpoint's WebSocket (through this page's server); onJoints(jointState), onStatus(trial status object).
@@ -50,7 +54,7 @@ export class StudyTopics {
     this.flushScheduled = false;
     this.schedule = (send, ms) => setTimeout(send, ms); // the node tests run it themselves
     for (const body of Object.keys(settings.protocol.poses.bodies)) {
-      this.connection.advertise(...topics[body]);
+      this.connection.advertise(...topics[body], false, POSE_QUEUE_SIZE);
       this.posesSent[body] = 0;
     }
     this.connection.advertise(...topics.tracking, true);
