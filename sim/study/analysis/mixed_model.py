@@ -5,7 +5,8 @@ A trial's measure is explained by:
                   stand-off and path), with every interaction; the period (the participant's first block of trials
                   or second) and the sequence (VR first or reality first);
   random effects  an intercept and a condition slope per participant, by the first of lbfgs, bfgs and powell to
-                  converge; a slope variance on its boundary (near 0) is kept and said. Only when no optimiser
+                  converge, started at the REML estimate in closed form in a balanced study (balanced.py); a
+                  slope variance on its boundary (near 0) is kept and said. Only when no optimiser
                   converges is the slope left out, and the fit says why: without it, the contrast would be judged
                   against the trials' noise rather than the participants' own differences.
 
@@ -39,6 +40,7 @@ from typing import Any
 import numpy as np
 from scipy import stats
 
+from sim.study.analysis.balanced import Balance, balance, reml_start
 from sim.study.analysis.errors import AnalysisError
 
 __all__ = [
@@ -101,6 +103,7 @@ class ModelDesign:
     participants: int
     sequences: int  # with participants in them: 1 or 2
     left_out: tuple[str, ...]  # terms the data cannot estimate (an empty cell), left out of exog
+    balance: Balance | None = field(default=None, compare=False, repr=False)  # where the fit starts (balanced.py)
 
     @property
     def df(self) -> int:
@@ -212,6 +215,9 @@ def model_design(trials: Trials, factor_name: str) -> ModelDesign:
         participants=participants,
         sequences=sequences,
         left_out=tuple(left_out),
+        balance=balance(
+            trials.participant, trials.vr, trials.vr_first, [f"{f}|{p}" for f, p in zip(trials.factor, trials.path)]
+        ),
     )
 
 
@@ -220,15 +226,18 @@ def _mixedlm(design: ModelDesign, values: np.ndarray, slope: bool) -> tuple[Any,
     else the last attempt (None if every one raised) and why none converged. lbfgs is fastest and fails on a few
     percent of small studies, where bfgs or powell converge: dropping the slope there instead makes the contrast's
     interval too narrow (42 % of such studies came out "different" with no difference put in)."""
-    from statsmodels.regression.mixed_linear_model import MixedLM
+    from statsmodels.regression.mixed_linear_model import MixedLM, MixedLMParams
 
     exog_re = design.exog_re if slope else design.exog_re[:, :1]
+    at = reml_start(design.balance, values) if slope and design.balance is not None else None
+    start = None if at is None else MixedLMParams.from_components(np.zeros(design.exog.shape[1]), cov_re=at)
     result, failures = None, []
     for method in _OPTIMISERS:
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             try:
-                attempt = MixedLM(values, design.exog, design.groups, exog_re=exog_re).fit(reml=True, method=[method])
+                model = MixedLM(values, design.exog, design.groups, exog_re=exog_re)
+                attempt = model.fit(start_params=start, reml=True, method=[method])
             except (np.linalg.LinAlgError, ValueError) as error:  # a random effect with no variance at all
                 failures.append(f"{method}: {type(error).__name__}: {error}")
                 continue

@@ -179,6 +179,38 @@ def _single_threaded_pool(workers: int) -> Iterator[ProcessPoolExecutor]:
                 os.environ[name] = value
 
 
+@contextmanager
+def _studies_run(workers: int) -> Iterator[ProcessPoolExecutor | None]:
+    """Where the chunks run: here (None) with 1 worker, else on a pool of `workers` (0: one per core, at most 2),
+    started once for every question asked while it is open."""
+    workers = workers or min(2, os.cpu_count() or 1)
+    if workers == 1:
+        yield None
+    else:
+        with _single_threaded_pool(workers) as pool:
+            yield pool
+
+
+def _rows(
+    question: PowerQuestion,
+    design: Design,
+    base: Population | None,
+    pool: ProcessPoolExecutor | None,
+    progress: Callable[[int], None] | None,
+) -> list[PowerRow]:
+    chunks = _chunks(question, design, question.population(base or Population()))
+    counts = {n: [0, 0, 0] for n in question.participants}
+    results = map(_run_chunk, chunks) if pool is None else pool.map(_run_chunk, chunks)
+    for chunk, (n, different, equivalent, dropped) in zip(chunks, results):
+        counts[n][0] += different
+        counts[n][1] += equivalent
+        counts[n][2] += dropped
+        if progress is not None:
+            progress(chunk.studies)
+    k = question.simulations
+    return [PowerRow(n, k, counts[n][0] / k, counts[n][1] / k, counts[n][2] / k) for n in question.participants]
+
+
 def power_rows(
     question: PowerQuestion,
     design: Design,
@@ -189,27 +221,8 @@ def power_rows(
     """One row per N of the question, in its order. `workers`: processes (0: one per core, at most 2; 1: here,
     without a pool); `progress` is called with the studies each finished chunk held. `base`: the population whose
     other spreads are used (default: Population())."""
-    chunks = _chunks(question, design, question.population(base or Population()))
-    workers = workers or min(2, os.cpu_count() or 1)
-    counts = {n: [0, 0, 0] for n in question.participants}
-
-    def tally(result: tuple[int, int, int, int], studies: int) -> None:
-        n, different, equivalent, dropped = result
-        counts[n][0] += different
-        counts[n][1] += equivalent
-        counts[n][2] += dropped
-        if progress is not None:
-            progress(studies)
-
-    if workers == 1:
-        for chunk in chunks:
-            tally(_run_chunk(chunk), chunk.studies)
-    else:
-        with _single_threaded_pool(workers) as pool:
-            for chunk, result in zip(chunks, pool.map(_run_chunk, chunks)):
-                tally(result, chunk.studies)
-    k = question.simulations
-    return [PowerRow(n, k, counts[n][0] / k, counts[n][1] / k, counts[n][2] / k) for n in question.participants]
+    with _studies_run(workers) as pool:
+        return _rows(question, design, base, pool, progress)
 
 
 def needed(rows: Sequence[PowerRow], power: float, verdict: str) -> int | None:
@@ -275,9 +288,10 @@ def plan_sample(
     planning = planning_of(design)
     first = questions[0][TESTS[0]]
     rows: dict[int, list[PowerRow]] = {test: [] for test in TESTS}
-    for at_size in questions:
-        for test in TESTS:
-            rows[test] += power_rows(at_size[test], design, workers=workers, progress=progress)
-        if all(rows[test][-1].p_equivalent >= planning.power for test in TESTS):
-            return PlannedSample(rows[TESTS[0]][-1].participants, rows, first.simulations, first.seed)
+    with _studies_run(workers) as pool:  # one pool for every size and test: its workers start once
+        for at_size in questions:
+            for test in TESTS:
+                rows[test] += _rows(at_size[test], design, None, pool, progress)
+            if all(rows[test][-1].p_equivalent >= planning.power for test in TESTS):
+                return PlannedSample(rows[TESTS[0]][-1].participants, rows, first.simulations, first.seed)
     return PlannedSample(None, rows, first.simulations, first.seed)
