@@ -114,4 +114,8 @@ def test_over_a_slow_link_control_messages_overtake_images_and_the_newest_image_
         endpoint.stop()
 
 
-pytestmark = [pytest.mark.lane("endpoint", on=("noetic",)), pytest.mark.timeout(120)]
+# Alone: the order it checks is made at a scale of 0.2-0.7 s by this process (its publishers, the link's relay
+# threads, the snapshot before the control message) and the endpoint; at idle priority beside the alone lanes, a
+# stall between that snapshot and the control message reaching the endpoint counted an image that had arrived
+# meanwhile as overtaking it (2 > 1, once in a fresh clone's run)
+pytestmark = [pytest.mark.lane("alone", on=("noetic",)), pytest.mark.timeout(120)]
