@@ -23,7 +23,9 @@ __all__ = ["LANES", "PYTHONS", "Lane", "declared_lanes", "lane_from_marker", "un
 #   beside    command lines and nodes that need CPU but no timing
 #   alone     one run at a time, with nothing beside it at its priority: a robot through ROS, campaigns and studies
 #             with bags
-LANES = ("endpoint", "unit", "beside", "alone")
+#   realtime  a real arm's stand-in driven on wall time (the reality condition, its faults, the trajectory
+#             controller): light on CPU but needing it when it wakes; under SCHED_RR, beside the alone lanes
+LANES = ("endpoint", "unit", "beside", "alone", "realtime")
 # The suite's Pythons: the project's venv (Debian's), ROS Noetic's 3.8 with Debian's rospy, Ubuntu 22.04's 3.10.
 PYTHONS = ("project", "noetic", "jammy")
 

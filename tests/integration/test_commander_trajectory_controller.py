@@ -19,7 +19,7 @@ from sim.robots import load_robot
 from tests.integration.sim_helpers import start_physics_node
 from tests.rosenv import PYTHON, REPO, wait_for
 
-pytestmark = pytest.mark.lane("alone", on=("project",))
+pytestmark = pytest.mark.lane("realtime", on=("project",))
 
 NS = "/panda/position_joint_trajectory_controller"
 JOINT_STATES = "/franka_state_controller/joint_states"

@@ -45,7 +45,7 @@ from tests.integration.reality_helpers import (
 from tests.integration.study_helpers import trial, write_plan
 from tests.rosenv import kill_process
 
-pytestmark = pytest.mark.lane("alone", on=("project",))
+pytestmark = pytest.mark.lane("realtime", on=("project",))
 
 STANDOFF = 0.06  # m: the approach's end, which an arm not braked would reach
 SPEED = 0.2  # m/s

@@ -50,7 +50,7 @@ from tests.integration.sim_helpers import start_engine
 from tests.integration.study_helpers import trial, write_plan
 from tests.rosenv import PYTHON, REPO, kill_process
 
-pytestmark = pytest.mark.lane("alone", on=("project",))
+pytestmark = pytest.mark.lane("realtime", on=("project",))
 
 
 def test_a_session_runs_vr_on_the_stream_and_reality_on_the_trajectory_controller(

@@ -22,7 +22,7 @@ from sim.robots import load_robot
 from tests.integration.sim_helpers import start_physics_node
 from tests.rosenv import PYTHON, REPO, ManagedProcess, wait_for
 
-pytestmark = pytest.mark.lane("alone", on=("project",))
+pytestmark = pytest.mark.lane("realtime", on=("project",))
 
 PANDA = load_robot("panda")
 NS = "/panda/position_joint_trajectory_controller"
