@@ -35,7 +35,9 @@ fi
 stamp=.venv/.setup_stamp
 if [ ! -f "$stamp" ] || [ setup.py -nt "$stamp" ]; then
   echo "setup: pip install -e .[dev]"
-  .venv/bin/python -m pip install -q --disable-pip-version-check -e ".[dev]"
+  # --no-compile: pip would byte-compile every module it installs (scipy's, statsmodels' and pandas' own tests
+  # among them), about half its CPU; Python compiles the modules a run imports, once, when it first imports them
+  .venv/bin/python -m pip install -q --disable-pip-version-check --no-compile -e ".[dev]"
   touch "$stamp"
 fi
 
@@ -47,7 +49,7 @@ user_base="$repo/.user_python"
 if ! PYTHONUSERBASE="$user_base" /usr/bin/python3 -c "import numpy, scipy, matplotlib, pybullet, rosbags" 2>/dev/null; then
   echo "setup: pip install --user numpy scipy matplotlib pybullet rosbags for /usr/bin/python3 (in $user_base)"
   PYTHONUSERBASE="$user_base" PIP_ROOT_USER_ACTION=ignore /usr/bin/python3 -m pip install -q \
-    --disable-pip-version-check --no-warn-script-location --user --break-system-packages \
+    --disable-pip-version-check --no-compile --no-warn-script-location --user --break-system-packages \
     numpy scipy matplotlib pybullet rosbags
 fi
 

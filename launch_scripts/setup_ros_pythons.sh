@@ -36,7 +36,8 @@ make_venv() {  # make_venv VERSION DIR INTERPRETER
     echo "setup_ros_pythons: pip install of setup.py's requirements, pytest, hypothesis, pytest-timeout (Python $version)"
     # setup.py's install_requires, and the working tree on the path by a .pth file: what `pip install -e .` gives
     # but for the egg-info it writes into the tree, which venvs made at the same time would both write.
-    "$dir/bin/python" -m pip install -q --disable-pip-version-check $(requirements "$dir/bin/python") \
+    # --no-compile: as setup.sh's
+    "$dir/bin/python" -m pip install -q --disable-pip-version-check --no-compile $(requirements "$dir/bin/python") \
       pytest hypothesis pytest-timeout
     echo "$repo" > "$site/vr_ros_toolkit.pth"
     touch "$dir/.setup_stamp"

@@ -65,11 +65,11 @@ run() {  # run PYTHON ROLE LANE... -- PYTEST_ARGS...: the tests of those lanes t
 # simulated studies), and the endpoint's lane, whose tests mostly wait on sockets and timers and were made to pass
 # beside CPU burners (its call-burst tests start two of their own, under SCHED_IDLE with it).
 
-# Under SCHED_IDLE, in the background, their output shown after the alone lanes': the endpoint's lane on 3.8, with the
-# unit lanes beside it, one after the other: 3.10's, then 3.8's (the endpoint's tests use about half a core). Then the
-# beside lane on 3.8, while the project's Python runs its unit and beside lanes (the benches' smoke tests, the study's
-# command lines and its arms are there; the power tests' error rates and the reality condition's refusals are on 3.8
-# so that the two end about together).
+# Under SCHED_IDLE, in the background, their output shown after the alone lanes': the endpoint's lane on 3.8, then
+# the project's unit lane, with the other unit lanes beside them, one after the other: 3.10's, then 3.8's (the
+# endpoint's tests use about half a core). Then the beside lane on 3.8, while the project's Python runs its beside
+# lane all along (the benches' smoke tests, the study's command lines and its arms are there; the power tests' error
+# rates and the reality condition's refusals are on 3.8 so that the two end about together).
 idle_log="$(mktemp)"
 endpoint_log="$(mktemp)"
 units_log="$(mktemp)"
@@ -86,13 +86,14 @@ trap 'rm -rf "$idle_log" "$endpoint_log" "$units_log" "$VR_SIM_CACHE"' EXIT
     ) >"$units_log" 2>&1 &
     units=$!
     run .venv38/bin/python noetic endpoint -- "$@"
+    run .venv/bin/python project unit -- "$@"
     wait "$units" || status=$?
     cat "$units_log"
     run .venv38/bin/python noetic beside -- "$@"
     exit "$status"
   ) >"$endpoint_log" 2>&1 &
   endpoint_lane=$!
-  run .venv/bin/python project unit beside -- "$@"
+  run .venv/bin/python project beside -- "$@"
   wait "$endpoint_lane" || status=$?
   cat "$endpoint_log"
   exit "$status"
@@ -118,15 +119,19 @@ if chrt --rr 1 true 2>/dev/null; then
 fi
 
 run .venv/bin/python project alone -- "$@"
-run .venv38/bin/python noetic alone -- "$@"
-if [ -n "$python310" ]; then run "$python310" jammy alone -- "$@"; fi
 if [ -n "$realtime_lane" ]; then
   wait "$realtime_lane" || status=$?
   cat "$realtime_log"
 else
-  echo "test.sh: chrt --rr is not allowed here: the realtime lane runs after the alone lanes"
+  echo "test.sh: chrt --rr is not allowed here: the realtime lane runs after 3.11's alone lane"
   run .venv/bin/python project realtime -- "$@"
 fi
+# Once the realtime lane has ended: the quiet lane (the catkin workspaces, whose demo's tracking, paced by the wall
+# clock, went past its bound with the realtime lane beside it), and the other Pythons' alone lanes (the engine and the
+# commander on wall time, the campaigns' bags).
+run .venv/bin/python project quiet -- "$@"
+run .venv38/bin/python noetic alone -- "$@"
+if [ -n "$python310" ]; then run "$python310" jammy alone -- "$@"; fi
 idle_status=0
 wait "$idle_lanes" || idle_status=$?
 cat "$idle_log"

@@ -22,10 +22,12 @@ __all__ = ["LANES", "PYTHONS", "Lane", "declared_lanes", "lane_from_marker", "un
 #   unit      unit tests, pure logic, CPU only
 #   beside    command lines and nodes that need CPU but no timing
 #   alone     one run at a time, with nothing beside it at its priority: a robot through ROS, campaigns and studies
-#             with bags
+#             with bags; 3.11's with the realtime lane beside it
 #   realtime  a real arm's stand-in driven on wall time (the reality condition, its faults, the trajectory
-#             controller): light on CPU but needing it when it wakes; under SCHED_RR, beside the alone lanes
-LANES = ("endpoint", "unit", "beside", "alone", "realtime")
+#             controller): light on CPU but needing it when it wakes; under SCHED_RR, beside 3.11's alone lane
+#   quiet     with nothing beside it at its priority or above: what the wall clock paces and measures to a fine
+#             bound (the catkin demo's tracking), after the realtime lane
+LANES = ("endpoint", "unit", "beside", "alone", "realtime", "quiet")
 # The suite's Pythons: the project's venv (Debian's), ROS Noetic's 3.8 with Debian's rospy, Ubuntu 22.04's 3.10.
 PYTHONS = ("project", "noetic", "jammy")
 
