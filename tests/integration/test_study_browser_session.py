@@ -439,4 +439,5 @@ def assert_the_pilot_is_analysed(out: Path) -> None:
     assert "Period (first block − second) is condition × sequence" in report
 
 
-pytestmark = [pytest.mark.lane("alone", on=("project",)), pytest.mark.timeout(300)]
+# The quiet lane: its Chromium renders in software, about a core (tests/lanes.py)
+pytestmark = [pytest.mark.lane("quiet", on=("project",)), pytest.mark.timeout(300)]

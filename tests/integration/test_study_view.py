@@ -117,4 +117,5 @@ def test_the_live_view_shows_the_scene_the_plan_the_trail_and_the_stop(
         engine.stop()
 
 
-pytestmark = [pytest.mark.lane("alone", on=("project",)), pytest.mark.timeout(300)]
+# The quiet lane: its Chromium renders in software, about a core (tests/lanes.py)
+pytestmark = [pytest.mark.lane("quiet", on=("project",)), pytest.mark.timeout(300)]

@@ -497,7 +497,10 @@ def assert_the_bag_holds_the_tracked_body(
     assert np.linalg.norm(moved) > 0.05
 
 
-pytestmark = [pytest.mark.lane("alone", on=("project",)), pytest.mark.timeout(400)]
+# The quiet lane: the runner judges the page's clock by its best round trip (20 ms at most, half of it); with the
+# realtime lane's SCHED_RR tests beside the page's software-rendered frames, its best was 69 ms and the session was
+# rightly refused
+pytestmark = [pytest.mark.lane("quiet", on=("project",)), pytest.mark.timeout(400)]
 
 
 # A questionnaire item's status as the runner says it (sim.study.run's status), of COMFORT's 1..5 scale: given to the
