@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable
-from dataclasses import dataclass, field
 from typing import Tuple
 
 import numpy as np
@@ -28,7 +27,9 @@ from sim.robots import RobotSpec
 from sim.robots.identity import robot_identity
 from sim.study.design.errors import DesignError
 from sim.study.design.holding import holding_line, shortfalls
+from sim.study.design.kept_plans import keep_plan, read_plan
 from sim.study.design.paths import ApproachPath, approach_path
+from sim.study.design.planned import PlannedApproach
 from sim.study.design.scene import Scene
 from sim.study.design.tool import approach_rotation
 from sim.study.design.verdicts import Kept, verdict_key
@@ -71,24 +72,6 @@ BRANCH_JUMP = 0.5
 
 # path name, stand-off (m), peak speed (m/s); typing.Tuple, as an alias is evaluated at run time (3.8 has no tuple[])
 Combination = Tuple[str, float, float]
-
-
-@dataclass
-class PlannedApproach:
-    path: ApproachPath
-    positions: np.ndarray  # (N, dof) joint positions, rad or m
-    velocities: np.ndarray  # (N, dof)
-    reached_standoff: float  # m: the robot's distance to the hand at the last sample (the scene's definition)
-    min_clearance: dict[str, float]  # smallest distance over the path: "table", "hand", "self"
-    distances: np.ndarray  # (N,) m: the robot's distance to the hand at every sample (the scene's definition)
-    problems: list[str] = field(default_factory=list)
-    unreachable: int = 0  # samples IK could not reach
-    remedies: list[str] = field(default_factory=list)  # what to change, one per kind of problem (REMEDIES)
-    constraints: str = "pose"  # what IK kept along the path: a key of CONSTRAINTS
-
-    @property
-    def feasible(self) -> bool:
-        return not self.problems
 
 
 # What to change, by the kind of problem: said with the combinations that are not feasible
@@ -338,12 +321,15 @@ FITTED: Kept[PlannedApproach] = Kept()
 class Approaches:
     """The combinations of one robot in one scene, each planned when first asked for and kept, and the robot's
     distance to the hand by the scene's definition: what the runner, the simulated participant and the live view
-    share. A combination the last fit planned for exactly this robot, scene and step is taken from it (FITTED), not
-    planned again; the drives holding the arm at home are checked here all the same. It holds a SceneWorld (a
+    share. A combination planned before for exactly this robot, scene and step is not planned again: it is taken
+    from the last fit in this process (FITTED), else read from the cache where a process of the same code kept it
+    (kept_plans); what was not read from there is kept there, for the next process. The drives holding the arm at
+    home are checked here all the same. It holds a SceneWorld (a
     pybullet client): close it."""
 
-    def __init__(self, robot: RobotSpec, scene: Scene, dt: float) -> None:
+    def __init__(self, robot: RobotSpec, scene: Scene, dt: float, keep: bool = True) -> None:
         self.robot, self.scene, self.dt = robot, scene, dt
+        self.keep = keep  # False: nothing written to the cache (a fit's candidate scenes, most of them never used)
         self.world = SceneWorld(robot, scene)
         try:
             check_holds_home(robot, self.world)
@@ -355,10 +341,17 @@ class Approaches:
 
     def plan(self, combination: Combination) -> PlannedApproach:
         if combination not in self._planned:
-            fitted = FITTED.take(self.key(combination)) if FITTED else None
-            if fitted is None:
-                fitted = plan_combination(self.robot, self.scene, combination, self.dt, self.world)
-            self._planned[combination] = fitted
+            key = self.key(combination)
+            planned = FITTED.take(key) if FITTED else None
+            read = False
+            if planned is None:
+                planned = read_plan(key)
+                read = planned is not None
+            if planned is None:
+                planned = plan_combination(self.robot, self.scene, combination, self.dt, self.world)
+            if self.keep and not read:
+                keep_plan(key, planned)
+            self._planned[combination] = planned
         return self._planned[combination]
 
     def key(self, combination: Combination) -> str:

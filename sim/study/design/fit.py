@@ -308,7 +308,7 @@ def _first_failure(robot: RobotSpec, scene: Scene, combinations: Sequence[Combin
     rest are not planned: one is enough to rule the candidate out, and planning is most of a proposal's time. Where
     all are, their plans are handed on (Approaches.hand_on): the command that asked for the scene plans the same
     combinations in it next."""
-    with Approaches(robot, scene, dt) as approaches:
+    with Approaches(robot, scene, dt, keep=False) as approaches:  # kept by the planner that takes them (FITTED)
         for name, standoff, speed in dict.fromkeys(combinations):
             approach = approaches.plan((name, standoff, speed))
             if not approach.feasible:
