@@ -128,8 +128,9 @@ else
 fi
 # Once the realtime lane has ended: the quiet lane, whose bounds the realtime lane beside it broke (the catkin demo's
 # tracking, paced by the wall clock, 0.062 % against 0.05; the emulated Quest's page clock, its best round trip 69 ms
-# against 40), with the browsers' tests, whose software rendering takes about a core: beside the realtime lane they
-# left the idle lanes nothing for seconds (an endpoint's test waited over 10 s for its own endpoint to log a ping);
+# against 40; the campaigns' bags, 52 messages lost), with the browsers' tests, whose software rendering takes about
+# a core: beside the realtime lane they left the idle lanes nothing for seconds (an endpoint's test waited over 10 s
+# for its own endpoint to log a ping);
 # then the other Pythons' alone lanes (the engine and the commander on wall time, the campaigns' bags).
 run .venv/bin/python project quiet -- "$@"
 run .venv38/bin/python noetic alone -- "$@"

@@ -26,8 +26,9 @@ __all__ = ["LANES", "PYTHONS", "Lane", "declared_lanes", "lane_from_marker", "un
 #   realtime  a real arm's stand-in driven on wall time (the reality condition, its faults, the trajectory
 #             controller): light on CPU but needing it when it wakes; under SCHED_RR, beside 3.11's alone lane
 #   quiet     with nothing beside it at its priority or above, after the realtime lane: what the wall clock paces
-#             and measures to a fine bound (the catkin demo's tracking, the VR page's clock), and the browsers'
-#             software rendering (about a core each, which beside the realtime lane would leave the idle lanes none)
+#             and measures to a fine bound (the catkin demo's tracking, the VR page's clock), the campaigns (their
+#             bags lost messages beside the realtime lane) and the browsers' software rendering (about a core each,
+#             which beside the realtime lane would leave the idle lanes none)
 LANES = ("endpoint", "unit", "beside", "alone", "realtime", "quiet")
 # The suite's Pythons: the project's venv (Debian's), ROS Noetic's 3.8 with Debian's rospy, Ubuntu 22.04's 3.10.
 PYTHONS = ("project", "noetic", "jammy")

@@ -19,7 +19,9 @@ from sim.robots import load_robot
 from tests.doc_figures import figures_of, markdown_tables, shape_mismatch
 from tests.integration.sim_helpers import mean_of, report_rows, run_campaign
 
-pytestmark = pytest.mark.lane("alone", on=("project",))
+# The quiet lane: a campaign records ~1000 messages a second per topic through rosbag record, whose queue of 100
+# overflowed with the realtime lane beside it (52 messages lost, once in two fresh clones)
+pytestmark = pytest.mark.lane("quiet", on=("project",))
 
 ROBOTS = ("panda", "igt")
 USE_CASES = ("auto_simulate_off", "no_ros")
