@@ -73,7 +73,8 @@ run() {  # run PYTHON ROLE LANE... -- PYTEST_ARGS...: the tests of those lanes t
 idle_log="$(mktemp)"
 endpoint_log="$(mktemp)"
 units_log="$(mktemp)"
-trap 'rm -rf "$idle_log" "$endpoint_log" "$units_log" "$VR_SIM_CACHE"' EXIT
+realtime_log="$(mktemp)"
+trap 'rm -rf "$idle_log" "$endpoint_log" "$units_log" "$realtime_log" "$VR_SIM_CACHE"' EXIT
 (
   chrt --idle --pid 0 "$BASHPID"  # this subshell, and every process it starts, inherit the policy
   status=0
@@ -104,10 +105,8 @@ idle_lanes=$!
 # controller): about half a core, mostly asleep, but a process that wakes must run within milliseconds, or its joint
 # states go stale and the runner rightly brakes the arm. At the normal priority beside other work (even at nice -5)
 # it failed so. Under SCHED_RR (chrt --rr), as a robot's control software runs, the kernel runs it before any
-# normal or idle process whenever it wakes, so it runs beside the alone lanes instead of after them. chrt --rr needs
-# root (or CAP_SYS_NICE); without it, the lane runs after the alone lanes.
-realtime_log="$(mktemp)"
-trap 'rm -rf "$idle_log" "$endpoint_log" "$units_log" "$realtime_log" "$VR_SIM_CACHE"' EXIT
+# normal or idle process whenever it wakes, so it runs beside 3.11's alone lane instead of after it. chrt --rr needs
+# root (or CAP_SYS_NICE); without it, the lane runs after that lane.
 realtime_lane=""
 if chrt --rr 1 true 2>/dev/null; then
   (
@@ -130,8 +129,8 @@ fi
 # tracking, paced by the wall clock, 0.062 % against 0.05; the emulated Quest's page clock, its best round trip 69 ms
 # against 40; the campaigns' bags, 52 messages lost), with the browsers' tests, whose software rendering takes about
 # a core: beside the realtime lane they left the idle lanes nothing for seconds (an endpoint's test waited over 10 s
-# for its own endpoint to log a ping);
-# then the other Pythons' alone lanes (the engine and the commander on wall time, the campaigns' bags).
+# for its own endpoint to log a ping); then the other Pythons' alone lanes (the engine and the commander on wall
+# time, the campaigns' bags).
 run .venv/bin/python project quiet -- "$@"
 run .venv38/bin/python noetic alone -- "$@"
 if [ -n "$python310" ]; then run "$python310" jammy alone -- "$@"; fi
