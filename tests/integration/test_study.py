@@ -24,6 +24,7 @@ from sim.study.design.paths import ON_TOP
 from sim.study.design.scene import load_scene, scene_robot
 from sim.study.design.world import SceneWorld
 from sim.study.participants.model import INPUT_DELAY_MAX_S
+from sim.study.participants.simulated import POSE_QUEUE
 from sim.study.run.protocol import (
     BODIES,
     DISTANCE_TOPIC,
@@ -108,8 +109,13 @@ class ScriptedVrScene:
         self.trial = 0
         self.posing = False  # trial 2, from its approach on
         self.press_stamp = math.nan  # of the joint state on which trial 2's press went
-        for topic in (GO_TOPIC, STOP_TOPIC, DISTANCE_TOPIC, PREFERENCE_TOPIC, *POSE_TOPICS.values()):
+        for topic in (GO_TOPIC, STOP_TOPIC, DISTANCE_TOPIC, PREFERENCE_TOPIC):
             self.client.register_publisher(topic, TOPIC_TYPES[topic])
+        # the simulated participant's queue for its poses: joint states that come in a burst (the lockstep starved
+        # of CPU a moment) bring poses in a burst; with the default 10 the endpoint dropped 6 of a burst's oldest
+        # while rosbag record, starved too, read them no quicker than PUBLISH_WAIT_S
+        for topic in POSE_TOPICS.values():
+            self.client.register_publisher(topic, TOPIC_TYPES[topic], queue_size=POSE_QUEUE)
         self.client.subscribe(STATUS_TOPIC, TOPIC_TYPES[STATUS_TOPIC], self.on_status)
         self.client.subscribe(ROBOT.joint_states_topic, JOINT_STATE, self.on_joint_state)
 

@@ -97,7 +97,7 @@ from sim.wire.rosmsgs import (
     time_msg,
 )
 
-__all__ = ["SimulatedParticipant"]
+__all__ = ["POSE_QUEUE", "SimulatedParticipant"]
 
 # The endpoint's queue for each pose topic: a joint state missed is made up for by a burst of poses at once
 POSE_QUEUE = 100
