@@ -105,8 +105,8 @@ idle_lanes=$!
 # controller): about half a core, mostly asleep, but a process that wakes must run within milliseconds, or its joint
 # states go stale and the runner rightly brakes the arm. At the normal priority beside other work (even at nice -5)
 # it failed so. Under SCHED_RR (chrt --rr), as a robot's control software runs, the kernel runs it before any
-# normal or idle process whenever it wakes, so it runs beside 3.11's alone lane instead of after it. chrt --rr needs
-# root (or CAP_SYS_NICE); without it, the lane runs after that lane.
+# normal or idle process whenever it wakes, so it runs beside the alone lanes (3.11's, then 3.8's and 3.10's)
+# instead of after them. chrt --rr needs root (or CAP_SYS_NICE); without it, the lane runs after them.
 realtime_lane=""
 if chrt --rr 1 true 2>/dev/null; then
   (
@@ -117,23 +117,25 @@ if chrt --rr 1 true 2>/dev/null; then
   realtime_lane=$!
 fi
 
+# The alone lanes one after another: 3.11's (the study's lockstep sessions), then 3.8's and 3.10's (the engine, the
+# physics node and the commander on wall time, the slow link).
 run .venv/bin/python project alone -- "$@"
+run .venv38/bin/python noetic alone -- "$@"
+if [ -n "$python310" ]; then run "$python310" jammy alone -- "$@"; fi
 if [ -n "$realtime_lane" ]; then
   wait "$realtime_lane" || status=$?
   cat "$realtime_log"
 else
-  echo "test.sh: chrt --rr is not allowed here: the realtime lane runs after 3.11's alone lane"
+  echo "test.sh: chrt --rr is not allowed here: the realtime lane runs after the alone lanes"
   run .venv/bin/python project realtime -- "$@"
 fi
-# Once the realtime lane has ended: the quiet lane, whose bounds the realtime lane beside it broke (the catkin demo's
-# tracking, paced by the wall clock, 0.062 % against 0.05; the emulated Quest's page clock, its best round trip 69 ms
-# against 40; the campaigns' bags, 52 messages lost), with the browsers' tests, whose software rendering takes about
-# a core: beside the realtime lane they left the idle lanes nothing for seconds (an endpoint's test waited over 10 s
-# for its own endpoint to log a ping); then the other Pythons' alone lanes (the engine and the commander on wall
-# time, the campaigns' bags).
+# Once the realtime lane has ended: the quiet lanes, whose bounds the realtime lane beside them broke (the catkin
+# demo's tracking, paced by the wall clock, 0.062 % against 0.05; the emulated Quest's page clock, its best round
+# trip 69 ms against 40; the campaigns' bags, 52 messages lost), with the browsers' tests, whose software rendering
+# takes about a core: beside the realtime lane they left the idle lanes nothing for seconds (an endpoint's test
+# waited over 10 s for its own endpoint to log a ping). 3.8's holds one campaign.
 run .venv/bin/python project quiet -- "$@"
-run .venv38/bin/python noetic alone -- "$@"
-if [ -n "$python310" ]; then run "$python310" jammy alone -- "$@"; fi
+run .venv38/bin/python noetic quiet -- "$@"
 idle_status=0
 wait "$idle_lanes" || idle_status=$?
 cat "$idle_log"

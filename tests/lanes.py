@@ -21,10 +21,10 @@ __all__ = ["LANES", "PYTHONS", "Lane", "declared_lanes", "lane_from_marker", "un
 #   endpoint  the endpoint's integration tests, which mostly wait on sockets and timers
 #   unit      unit tests, pure logic, CPU only
 #   beside    command lines and nodes that need CPU but no timing
-#   alone     one run at a time, with nothing beside it at its priority: a robot through ROS, campaigns and studies
-#             with bags; 3.11's with the realtime lane beside it
+#   alone     one run at a time, with nothing beside it at its priority: a robot through ROS (the study's lockstep
+#             sessions, the engine, the physics node, the commander); the realtime lane beside them
 #   realtime  a real arm's stand-in driven on wall time (the reality condition, its faults, the trajectory
-#             controller): light on CPU but needing it when it wakes; under SCHED_RR, beside 3.11's alone lane
+#             controller): light on CPU but needing it when it wakes; under SCHED_RR, beside the alone lanes
 #   quiet     with nothing beside it at its priority or above, after the realtime lane: what the wall clock paces
 #             and measures to a fine bound (the catkin demo's tracking, the VR page's clock), the campaigns (their
 #             bags lost messages beside the realtime lane) and the browsers' software rendering (about a core each,

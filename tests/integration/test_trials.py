@@ -119,7 +119,7 @@ def test_no_ros_use_case_compares_the_engines_csv_log_with_its_input(campaign) -
 
 
 # On Noetic's Python: the campaign's nodes as a ROS Noetic user runs them (the other campaigns run on the project's)
-@pytest.mark.lane("alone", on=("noetic",))
+@pytest.mark.lane("quiet", on=("noetic",))
 def test_the_base_case_tracks_the_sweep_and_loses_nothing(tmp_path: Path, roscore) -> None:
     """The thesis's base case (endpoint + TCP engine, physics, auto-simulate at the default time scale), one trial
     of the Panda: every moving joint within the issue's 0.05 % MAPE, no message lost. launch_scripts/test.sh also runs
