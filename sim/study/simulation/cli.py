@@ -21,6 +21,9 @@ def register(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> N
     simulate.add_argument("--participants", type=int, default=12)
     simulate.add_argument("--out", type=Path, required=True, help="plans, CSVs, bags, logs, report.md and plots")
     simulate.add_argument("--seed", type=int, default=1)
+    simulate.add_argument(
+        "--no-record", action="store_true", help="no rosbag record: the sessions' CSVs and the report only"
+    )
     add_design_option(simulate)
     add_scene_options(simulate)
     add_population_options(simulate)
@@ -47,6 +50,7 @@ def simulate_command(args: argparse.Namespace) -> int:
         robot=args.robot,
         robot_overrides=overrides_from_args(args),
         fault_trial=args.fault_trial,
+        record=not args.no_record,
     )
     try:
         report = simulate(settings, lambda line: print(f"simulate: {line}", flush=True))

@@ -1,6 +1,7 @@
 """The whole study with simulated participants, end to end (`python -m sim.study simulate --participants 12 --out
 DIR`): its own roscore and endpoint; per participant a session plan, the engine stand-in (physics, lockstep), a
-simulated participant (TCP client of the endpoint) and the runner (rospy node, rosbag record); then the report.
+simulated participant (TCP client of the endpoint) and the runner (rospy node, rosbag record unless --no-record);
+then the report, from the sessions' CSVs.
 Every process it starts is stopped by PID, whatever happens.
 
 While a session runs, every part of it is watched, not the runner alone: a part that fails (the participant, the
@@ -56,6 +57,7 @@ class Simulation:
     robot: str | None = None  # --robot: in the scene's place
     robot_overrides: Mapping[str, Any] = field(default_factory=dict)  # load_robot's keywords from the command line
     fault_trial: int | None = None  # tests only: every participant's fault (participant --fault-trial)
+    record: bool = True  # each session's rosbag record (the runner's); the report reads the CSVs alone
 
 
 _POLL = 0.05  # s between looks at a session's parts
@@ -171,7 +173,9 @@ def _run_sessions(
                 session.callback(answering.stop)
                 wait_ready(engine_process, engine)
                 wait_ready(answering, participant)
-                runner = Runner(plan_path, out, scene_and_robot, settings.dt, extra=SIMULATED_POSE_SOURCES)
+                runner = Runner(
+                    plan_path, out, scene_and_robot, settings.dt, record=settings.record, extra=SIMULATED_POSE_SOURCES
+                )
                 running_session = start(runner, core.env, logs, f"runner_{number:02d}")
                 session.callback(running_session.stop)
                 parts = [(core, False), (endpoint, False), (engine_process, False), (answering, True)]
