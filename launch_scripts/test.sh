@@ -38,6 +38,7 @@ lint_status=0
 lint || lint_status=$?
 wait "$ros_pythons"
 if [ "$lint_status" -ne 0 ]; then exit "$lint_status"; fi
+echo "test.sh: set-up and the lint took ${SECONDS} s"
 
 python310=""
 [ -x .venv310/bin/python ] && python310=.venv310/bin/python
@@ -47,7 +48,8 @@ run() {  # run PYTHON ROLE LANE... -- PYTEST_ARGS...: the tests of those lanes t
   shift 2                                # that fails like any other code.
   while [ "$1" != "--" ]; do lanes+=(--lane "$1"); shift; done
   shift
-  echo "test.sh: on $("$python" --version) ($python): ${lanes[*]} $*" | cut -c1-200
+  # (at $SECONDS since test.sh started: each lane's start, for the phases' times in README)
+  echo "test.sh: at ${SECONDS} s, on $("$python" --version) ($python): ${lanes[*]} $*" | cut -c1-200
   # --durations: each run ends with its slowest tests, where a lane's time goes (before any extra args: theirs win)
   "$python" -m pytest -q -p no:cacheprovider --durations=25 --on "$role" "${lanes[@]}" "$@" tests || status=$?
 }
@@ -141,7 +143,7 @@ wait "$idle_lanes" || idle_status=$?
 cat "$idle_log"
 if [ "$idle_status" -ne 0 ]; then status=$idle_status; fi
 if [ "$status" -ne 0 ]; then
-  echo "test.sh: FAILED (a run above exited with $status)" >&2
+  echo "test.sh: FAILED (a run above exited with $status), in ${SECONDS} s" >&2
   exit "$status"
 fi
-echo "test.sh: every run passed"
+echo "test.sh: every run passed, in ${SECONDS} s"
