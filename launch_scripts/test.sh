@@ -68,10 +68,11 @@ run() {  # run PYTHON ROLE LANE... -- PYTEST_ARGS...: the tests of those lanes t
 # beside CPU burners (its call-burst tests start two of their own, under SCHED_IDLE with it).
 
 # Under SCHED_IDLE, in the background, their output shown after the alone lanes': the endpoint's lane on 3.8, then
-# the project's unit lane, with the other unit lanes beside them, one after the other: 3.10's, then 3.8's (the
-# endpoint's tests use about half a core). Then the beside lane on 3.8, while the project's Python runs its beside
-# lane all along (the benches' smoke tests, the study's command lines and its arms are there; the power tests' error
-# rates and the reality condition's refusals are on 3.8 so that the two end about together).
+# the beside lane on 3.8, with the unit lanes beside them, one after the other: 3.10's, 3.8's, then the project's
+# (the endpoint's tests use about half a core). The project's Python runs its beside lane all along (the benches'
+# smoke tests, the study's command lines and its arms are there; the power tests' error rates and the reality
+# condition's refusals are on 3.8 so that the two end about together). 3.8's beside lane went after the project's
+# unit lane once, and was the last lane to end, half a minute after the others.
 idle_log="$(mktemp)"
 endpoint_log="$(mktemp)"
 units_log="$(mktemp)"
@@ -85,14 +86,14 @@ trap 'rm -rf "$idle_log" "$endpoint_log" "$units_log" "$realtime_log" "$VR_SIM_C
     (
       if [ -n "$python310" ]; then run "$python310" jammy unit -- "$@"; fi
       run .venv38/bin/python noetic unit -- "$@"
+      run .venv/bin/python project unit -- "$@"
       exit "$status"
     ) >"$units_log" 2>&1 &
     units=$!
     run .venv38/bin/python noetic endpoint -- "$@"
-    run .venv/bin/python project unit -- "$@"
+    run .venv38/bin/python noetic beside -- "$@"
     wait "$units" || status=$?
     cat "$units_log"
-    run .venv38/bin/python noetic beside -- "$@"
     exit "$status"
   ) >"$endpoint_log" 2>&1 &
   endpoint_lane=$!
