@@ -71,8 +71,8 @@ run() {  # run PYTHON ROLE LANE... -- PYTEST_ARGS...: the tests of those lanes t
 # the beside lane on 3.8, with the unit lanes beside them, one after the other: 3.10's, 3.8's, then the project's
 # (the endpoint's tests use about half a core). The project's Python runs its beside lane all along (the benches'
 # smoke tests, the study's command lines and its arms are there; the power tests' error rates and the reality
-# condition's refusals are on 3.8 so that the two end about together). 3.8's beside lane went after the project's
-# unit lane once, and was the last lane to end, half a minute after the others.
+# condition's refusals are on 3.8 so that the two end about together). When 3.8's beside lane went after the
+# project's unit lane, it was the last lane to end, half a minute after the others.
 idle_log="$(mktemp)"
 endpoint_log="$(mktemp)"
 units_log="$(mktemp)"
