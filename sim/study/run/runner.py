@@ -2,11 +2,12 @@
 (sim.study.run.node: `python -m sim.study run --plan PLAN --out DIR`).
 
 Per trial: move to the path's start (a quintic in joint space), wait for go (`/study/go`, the observer's keyboard,
-or at once with --auto-go), run the approach sample by sample (sim.study.run.trial), stopping along the path when a
-press comes (`/study/stop`), rest, then ask for test 1's perceived distance, and after each group of test 2 for the
-preference. The trial's phase goes out on `/study/trial` and the inputs come back (sim.study.run.dialogue;
-sim.study.run.protocol has the whole interface). Every row is written to the participant's CSV as soon as its trial
-ends; the session's bag (sim.study.run.bag) records the robot's topics, /clock and every /study topic.
+or at once with --auto-go), judge the pages' clocks (sim.study.run.clocks; trust_page_clocks), run the approach
+sample by sample (sim.study.run.trial), stopping along the path when a press comes (`/study/stop`), rest, then ask
+for test 1's perceived distance, and after each group of test 2 for the preference. The trial's phase goes out on
+`/study/trial` and the inputs come back (sim.study.run.dialogue; sim.study.run.protocol has the whole interface).
+Every row is written to the participant's CSV as soon as its trial ends; the session's bag (sim.study.run.bag)
+records the robot's topics, /clock and every /study topic.
 
 The plan's questionnaires are asked at their places, before the first trial or after the trial they follow; the
 questions go out and the answers come in through sim.study.run.asking.
@@ -51,7 +52,7 @@ from sim.study.design.scene import Scene
 from sim.study.run.asking import Asking
 from sim.study.run.bodies import TrackedBodies
 from sim.study.run.clocks import FOLDER as CLOCKS
-from sim.study.run.clocks import PageClocks, write_session_clocks
+from sim.study.run.clocks import PAGE_CLOCK_SETTLE_S, PageClocks, write_session_clocks
 from sim.study.run.console import say
 from sim.study.run.dialogue import Dialogue
 from sim.study.run.inputs import Inputs
@@ -63,6 +64,8 @@ from sim.study.run.records import TrialRecord, write_records
 from sim.study.run.trial import TrialRun
 
 __all__ = ["RunnerOptions", "StudyRunner"]
+
+PAGE_CLOCK_POLL_S = 0.1  # s: how often a page's unsettled clock is looked at again, the arm held meanwhile
 
 
 @dataclass(frozen=True)
@@ -213,7 +216,7 @@ class StudyRunner:
         self.dialogue.publish_status(self.status(trial, "ready"))
         if not self.options.auto_go and self.dialogue.wait_for_input("go") is None:
             log(f"trial {trial.index}: no go within {self.options.response_timeout:g} s; starting anyway")
-        self.page_clocks.refuse()  # a page's clock that cannot be trusted ends the session before the approach
+        self.trust_page_clocks(trial, log)
         hand = self.bodies.hand_watch(began)
         if self.link.name != STREAM and not hand.tracked and trial.condition not in self.unmonitored:
             self.unmonitored.add(trial.condition)
@@ -292,6 +295,18 @@ class StudyRunner:
         if outcome.safety_stop:
             self.safety_stops.append(f"trial {trial.index}: {outcome.safety_stop}")
         return record
+
+    def trust_page_clocks(self, trial: PlannedTrial, log: Callable[[str], None]) -> None:
+        """At go: ClockError (the session ends before the approach) when a page's clock cannot be trusted. In real time
+        a clock beyond the limit as it stands is first given PAGE_CLOCK_SETTLE_S to come within it, the arm held at the
+        start; in lockstep ROS time runs only as the runner steps it, and a page's estimate of it would not settle."""
+        unsettled = self.page_clocks.unsettled() if self.link.realtime else ""
+        if unsettled:
+            log(f"trial {trial.index}: {unsettled}: the arm holds at the start up to {PAGE_CLOCK_SETTLE_S:g} s")
+            deadline = time.monotonic() + PAGE_CLOCK_SETTLE_S
+            while self.page_clocks.unsettled() and time.monotonic() < deadline and not self.stop.is_set():
+                self.link.idle(PAGE_CLOCK_POLL_S)
+        self.page_clocks.refuse()
 
     def connect(self, timeout: float, recorder: str | None) -> str:
         """Wait until every link's arm is there and linked (and the status reaches the engine); their names."""

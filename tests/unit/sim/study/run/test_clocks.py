@@ -67,6 +67,25 @@ def test_a_page_within_the_limit_goes_on_and_one_beyond_it_refuses_in_one_line_n
     assert clocks.check() == ""  # each announcement judged once: the runner refused already
 
 
+def test_a_clock_unsettled_as_it_stands_is_named_without_being_judged_until_it_settles() -> None:
+    # what the runner waits on at go (in real time): each page whose latest announcement is beyond the limit
+    clocks = PageClocks()
+    assert clocks.unsettled() == ""  # no page: nothing to wait for
+    clocks.heard(page(round_trip=0.060))
+    clocks.heard(page(round_trip=0.004, source="button"))
+    assert clocks.unsettled() == (
+        "the vr_trigger page's stamps may be off by 30.0 ms (half its best round trip 30.0 ms, its applied offset "
+        "0.0 ms off its estimate; limit 20.0 ms)"
+    )
+    assert clocks.unsettled() == clocks.unsettled()  # judges nothing: the check still refuses it
+    assert clocks.check().startswith("the vr_trigger page's clock cannot be trusted: its stamps may be off by 30.0 ms")
+    clocks.heard(page(round_trip=0.060))
+    clocks.heard(page(round_trip=0.010))  # a quicker answer: settled
+    assert clocks.unsettled() == "" and clocks.check() == ""
+    clocks.heard(page(12.0, 0.004, 12.0 - 0.030, source="button"))  # a lagging applied offset counts too
+    assert clocks.unsettled().startswith("the button page's stamps may be off by 32.0 ms")
+
+
 def test_a_transient_settled_by_the_check_goes_on_and_stays_in_the_trials_worst_uncertainty() -> None:
     # a slow round trip and a slewing offset's lag (21 ms), then the page's clock as it stands: within
     clocks = PageClocks()
