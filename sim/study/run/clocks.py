@@ -121,7 +121,7 @@ class PageClocks:
         self._lock = threading.Lock()
         self._heard: dict[str, list[PageClock]] = {}  # by source, in order
         self._checked: dict[str, int] = {}  # by source: announcements judged by check()
-        self._marked: dict[str, int] = {}  # by source: announcements before the current trial's (trial())
+        self._marked: dict[str, int] = {}  # by source: announcements before the current approach's (trial())
 
     def heard(self, clock: PageClock) -> None:
         with self._lock:
@@ -184,17 +184,25 @@ class PageClocks:
         if reason:
             raise ClockError(reason)
 
+    def approach_begins(self) -> None:
+        """The runner trusted the pages' clocks at go: the trial's record (trial()) counts from each page's estimate in
+        force now. A press counts only from the approach on, so a clock that settled while the arm held at the start
+        was off for no press of the trial."""
+        with self._lock:
+            self._marked = {source: len(clocks) for source, clocks in self._heard.items()}
+
     def trial(self, source: str) -> tuple[float, float]:
         """The `source` page's clock over the trial that ends now, and the next one begins: (its offset as it ended,
-        s; the most its stamps were off during it, s: the uncertainty of the estimate in force as it began and of
-        those heard during it). NaN, NaN when that page never announced its clock."""
+        s; the most its stamps were off during it, s: the uncertainty of the estimate in force as its approach began
+        (approach_begins; without it, as the trial began) and of those heard since). NaN, NaN when that page never
+        announced its clock."""
         with self._lock:
             clocks = self._heard.get(source, [])
             began = self._marked.get(source, 0)
             self._marked[source] = len(clocks)
         if not clocks:
             return math.nan, math.nan
-        during = clocks[max(began - 1, 0) :]  # the one in force as the trial began, and each since
+        during = clocks[max(began - 1, 0) :]  # the one in force as the approach (or the trial) began, and each since
         return clocks[-1].offset, max(clock.uncertainty for clock in during)
 
     def summary(self) -> dict[str, dict[str, Any]]:

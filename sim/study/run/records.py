@@ -78,8 +78,8 @@ class TrialRecord:
     # The clocks (sim.study.run.links.clock, sim.study.run.clocks; NaN where there is none): the robot's clock behind
     # the runner's as the approach began (applied to its start and press) and how far that moved during it, on a
     # trajectory controller; the clock of the page whose presses stop this condition: its offset to ROS time (its
-    # estimate as the trial ended) and the most its stamps could be off during the trial (half its best round trip
-    # plus its lag)
+    # estimate as the trial ended) and the most its stamps could be off from go to the trial's end (half its best
+    # round trip plus its lag)
     robot_clock_offset: float = math.nan  # s
     robot_clock_drift: float = math.nan  # s
     page_clock_offset: float = math.nan  # s: ROS time minus the page's clock

@@ -307,6 +307,7 @@ class StudyRunner:
             while self.page_clocks.unsettled() and time.monotonic() < deadline and not self.stop.is_set():
                 self.link.idle(PAGE_CLOCK_POLL_S)
         self.page_clocks.refuse()
+        self.page_clocks.approach_begins()
 
     def connect(self, timeout: float, recorder: str | None) -> str:
         """Wait until every link's arm is there and linked (and the status reaches the engine); their names."""

@@ -132,6 +132,12 @@ def test_each_trial_records_the_conditions_page_its_offset_as_it_ended_and_its_w
     assert clocks.trial("vr_trigger") == (12.002, pytest.approx(0.006))  # the one in force at its start was worse
     assert clocks.trial("vr_trigger") == (12.002, pytest.approx(0.001))
     assert clocks.trial("button") == (12.001, pytest.approx(0.002))
+    # a clock that settled at go (the arm held at the start meanwhile): the trial counts from the one in force at go
+    clocks.heard(page(12.002, 0.060))
+    clocks.heard(page(12.002, 0.002))
+    clocks.approach_begins()
+    clocks.heard(page(12.003, 0.004))
+    assert clocks.trial("vr_trigger") == (12.003, pytest.approx(0.002))
 
 
 def test_the_session_record_has_the_robots_offset_at_connect_and_each_pages_summary(tmp_path: Path) -> None:
