@@ -140,6 +140,22 @@ def test_each_trial_records_the_conditions_page_its_offset_as_it_ended_and_its_w
     assert clocks.trial("vr_trigger") == (12.003, pytest.approx(0.002))
 
 
+def test_a_page_whose_condition_comes_later_counts_from_its_own_trials_go_not_the_sessions_start() -> None:
+    # The button page was slow as the session began (a 197 ms round trip), then settled; the VR trials came first.
+    # The reality trial's record is of its approach: its page's estimate at its go and since (before, it counted from
+    # the session's start: 98.5 ms, beside two CPU burners, for a trial whose page was off by 0.5 ms throughout).
+    clocks = PageClocks()
+    clocks.heard(page(12.0, 0.197, source="button"))
+    clocks.heard(page(12.1, 0.001, source="button"))
+    for _ in range(2):  # two VR trials
+        clocks.approach_begins()
+        clocks.heard(page(12.1, 0.002))
+        clocks.trial("vr_trigger")
+    clocks.approach_begins()
+    clocks.heard(page(12.1, 0.001, source="button"))
+    assert clocks.trial("button") == (12.1, pytest.approx(0.0005))
+
+
 def test_the_session_record_has_the_robots_offset_at_connect_and_each_pages_summary(tmp_path: Path) -> None:
     clocks = PageClocks()
     clocks.heard(page(12.0, 0.010))
