@@ -20,7 +20,9 @@ const JUMP_S = 0.5; // beyond the round trips' own uncertainty
 // its pings' median 53-60 ms, against 11-18 ms timed in a worker of the page's own). Quick pings give it eight
 // chances in 2 s, and more while none is quick, to see an answer between two frames: the best at the first go was
 // then 1-38 ms, median 12 ms (27 runs). A worker timing its pings off the main thread would need a second
-// WebSocket, a second client of the endpoint's, for every page; quick pings sufficed.
+// WebSocket, a second client of the endpoint's, for every page. Quick pings were not always enough (once, beside
+// other work, none quicker than 60 ms by the first go), so the runner holds the arm at the start up to 5 s more
+// for a clock still beyond its limit (sim/study/run/clocks.py): 20 more quick pings.
 // A flood cannot come of it: one ping at a time (the next once it is answered, or given up on after
 // PING_GIVE_UP_MS), at most one each PING_QUICK_MS: 4 answers a second from the endpoint at most.
 export const PING_EVERY_MS = 2000; // settled: a /clock that starts after the page connected is seen within this
