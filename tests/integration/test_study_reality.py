@@ -15,8 +15,9 @@ import signal
 import subprocess
 import threading
 import time
+from contextlib import contextmanager
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable, Iterator
 
 import numpy as np
 import pytest
@@ -256,32 +257,45 @@ SLOW_PAGE = (
 )
 
 
-def test_a_page_whose_clock_cannot_be_trusted_refuses_the_session_before_its_first_trial(
-    roscore, ros_node, arm, tmp_path: Path
-) -> None:
-    # The stop button's page announces its clock from a slow network (best round trip 60 ms: its stamps up to 30 ms
-    # off): at go, the arm holds at the start for the page's clock to settle, and when it has not within the grace
-    # (PAGE_CLOCK_SETTLE_S), the session is refused in one line naming it, before the approach
+@contextmanager
+def a_slow_page_at_go(
+    roscore, ros_node, watch: Watch, tmp_path: Path, participant: int
+) -> Iterator[tuple[subprocess.Popen, Callable[[float, float, int], None]]]:
+    """A one-trial reality session whose stop button's page announces its clock from a slow network (best round trip
+    60 ms: its stamps up to 30 ms off) at ready, as a page does after each ping, and then the observer's go: the
+    runner, and the page's announcement (offset, round trip, samples) to make again."""
     from std_msgs.msg import String
 
     from sim.study.run.clocks import PageClock, page_clock_to_json
     from sim.study.run.protocol import PAGE_CLOCK_TOPIC
 
-    _, watch = arm
     page = ros_node.Publisher(PAGE_CLOCK_TOPIC, String, queue_size=10)
-    plan = write_plan(tmp_path / "plan.yaml", 17, "reality", [trial(1, "reality", 1, "vertical", 0.1, 0.3)])
+
+    def announce(offset: float, round_trip: float, samples: int) -> None:
+        page.publish(String(data=page_clock_to_json(PageClock("button", offset, round_trip, offset, samples))))
+
+    plan = write_plan(tmp_path / "plan.yaml", participant, "reality", [trial(1, "reality", 1, "vertical", 0.1, 0.3)])
     runner = start_runner(roscore, plan, tmp_path / "out", ["--link", "reality=franka_ros"], auto_go=False)
-    announced = page_clock_to_json(PageClock("button", 0.0021, 0.060, 0.0021, 8))
     try:
         watch.wait((1, "ready"), runner)
-        for _ in range(5):  # as a page does, after each ping
-            page.publish(String(data=announced))
+        for _ in range(5):
+            announce(0.0021, 0.060, 8)
             time.sleep(0.2)
         type_line(runner, "\n")  # go
-        output, _ = runner.communicate(timeout=60)
+        yield runner, announce
     finally:
         kill_process(runner)
         page.unregister()
+
+
+def test_a_page_whose_clock_cannot_be_trusted_refuses_the_session_before_its_first_trial(
+    roscore, ros_node, arm, tmp_path: Path
+) -> None:
+    # The page stays slow: at go, the arm holds at the start for the page's clock to settle, and when it has not
+    # within the grace (PAGE_CLOCK_SETTLE_S), the session is refused in one line naming it, before the approach
+    _, watch = arm
+    with a_slow_page_at_go(roscore, ros_node, watch, tmp_path, 17) as (runner, _):
+        output, _ = runner.communicate(timeout=60)
     assert runner.returncode == 4, output
     said = [line for line in output.splitlines() if "page's" in line]
     assert said == [
@@ -296,38 +310,22 @@ def test_a_page_whose_clock_cannot_be_trusted_refuses_the_session_before_its_fir
 def test_a_page_whose_clock_settles_while_the_arm_holds_at_go_lets_the_approach_go_on(
     roscore, ros_node, arm, tmp_path: Path
 ) -> None:
-    # The stop button's page is slow at go (best round trip 60 ms), as a page whose clock started with the session's
-    # was once, short of CPU: the arm holds at the start; the page's next announcement, a quick round trip, is within
-    # the limit, and the approach goes on. The trial records its page's worst uncertainty from the one in force at go:
-    # a press counts only from the approach on.
-    from std_msgs.msg import String
-
-    from sim.study.run.clocks import PageClock, page_clock_to_json
-    from sim.study.run.protocol import PAGE_CLOCK_TOPIC
-
+    # The page is slow at go, as a page whose clock started with the session's was once, short of CPU: the arm holds
+    # at the start; the page's next announcement, a quick round trip, is within the limit, and the approach goes on.
+    # The trial records its page's worst uncertainty from the one in force at go: a press counts only from the
+    # approach on.
     _, watch = arm
-    page = ros_node.Publisher(PAGE_CLOCK_TOPIC, String, queue_size=10)
-    plan = write_plan(tmp_path / "plan.yaml", 18, "reality", [trial(1, "reality", 1, "vertical", 0.1, 0.3)])
-    runner = start_runner(roscore, plan, tmp_path / "out", ["--link", "reality=franka_ros"], auto_go=False)
     said: list[str] = []
-    try:
-        watch.wait((1, "ready"), runner)
-        for _ in range(5):
-            page.publish(String(data=page_clock_to_json(PageClock("button", 0.0021, 0.060, 0.0021, 8))))
-            time.sleep(0.2)
-        type_line(runner, "\n")  # go
+    with a_slow_page_at_go(roscore, ros_node, watch, tmp_path, 18) as (runner, announce):
         assert runner.stdout is not None
         while not said or "the arm holds" not in said[-1]:  # the runner's lines until it holds (or it ends)
             said.append(runner.stdout.readline())
             assert said[-1], said
         assert (1, "moving") not in watch.phases
-        page.publish(String(data=page_clock_to_json(PageClock("button", 0.0022, 0.006, 0.0022, 9))))
+        announce(0.0022, 0.006, 9)
         watch.wait((1, "distance"), runner)
         type_line(runner, "10 cm\n")
         output, _ = runner.communicate(timeout=60)
-    finally:
-        kill_process(runner)
-        page.unregister()
     assert runner.returncode == 0, "".join(said) + output
     assert said[-1] == f"sim.study run: trial 1: {SLOW_PAGE}: the arm holds at the start up to 5 s\n"
     assert "page's clock cannot be trusted" not in output
