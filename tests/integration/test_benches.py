@@ -119,7 +119,9 @@ def test_check_bench(tmp_path: Path) -> None:
 
 @pytest.mark.timeout(TIMEOUT_S + 30)
 def test_vr_frame_bench(tmp_path: Path) -> None:
-    output = run_bench(tmp_path, "vr_frame_bench", "--seconds", "1", "--only", "submitted", "--presses", "2")
+    output = run_bench(
+        tmp_path, "vr_frame_bench", "--seconds", "1", "--only", "submitted", "--presses", "2", "--size", "400,300"
+    )
     assert "VR page frame time: the Panda with its meshes" in output
     # frames without the tracked body's poses and with them, each row its figures: with them, three poses a frame
     rows = {line.split("|")[2].strip(): line for line in output.splitlines() if line.startswith("| submitted |")}

@@ -203,7 +203,7 @@ def test_an_emulated_quest_enters_the_session_and_answers_the_runner(tmp_path: P
         processes.append(vr)
         assert url.startswith("https://localhost:") and "/?key=" in url
         assert (tmp_path / "certificate" / "certificate.pem").is_file()
-        with chromium(tmp_path / "chromium", accept_insecure_certs=True, size="800,600") as browser:
+        with chromium(tmp_path / "chromium", accept_insecure_certs=True, size="400,300") as browser:
             browser.get(url)
             wait_for(
                 lambda: (s := page_state(browser)) and s["meshes"] and s["connected"] and s["enterable"],
@@ -247,7 +247,10 @@ def test_an_emulated_quest_enters_the_session_and_answers_the_runner(tmp_path: P
                 "table": pixels_like(picture, COLOURS["table"]),
                 "robot": int(((picture.max(axis=2) - picture.min(axis=2)) <= 6).sum()),  # its white and grey links
             }
-            assert counts["hand"] > 400 and counts["table"] > 30_000 and counts["robot"] > 6_000, counts
+            # each seen in the 400 x 300 window (72, 7,299 and 1,949 pixels, hand, table and robot, in one run): a
+            # window of a quarter the pixels of 800 x 600 halved the GPU process's software rendering (34.5 -> 17.5
+            # CPU-s over the test), and the picture asks only that each is drawn
+            assert counts["hand"] > 40 and counts["table"] > 5_000 and counts["robot"] > 1_000, counts
             draw_robot(browser, False)
 
             out = tmp_path / "out"
@@ -523,7 +526,7 @@ def test_the_first_push_enters_an_unanswered_scale_at_the_end_it_comes_from_and_
     try:
         vr, url = start_vr_page(endpoint.websocket_port, tmp_path, env=secrets)
         try:
-            with chromium(tmp_path / "chromium", accept_insecure_certs=True, size="800,600") as browser:
+            with chromium(tmp_path / "chromium", accept_insecure_certs=True, size="400,300") as browser:
                 browser.get(url)
                 wait_for(
                     lambda: (s := page_state(browser)) and s["meshes"] and s["connected"] and s["enterable"],
@@ -567,7 +570,7 @@ return counted;"""
 def arm_browser(tmp_path_factory: pytest.TempPathFactory) -> Any:
     """One headless Chromium for every arm's page (each arm's page is a page of its own, from a server of its own):
     a browser's start is some seconds of the machine's two cores."""
-    with chromium(tmp_path_factory.mktemp("chromium"), accept_insecure_certs=True, size="800,600") as browser:
+    with chromium(tmp_path_factory.mktemp("chromium"), accept_insecure_certs=True, size="400,300") as browser:
         yield browser
 
 
