@@ -20,11 +20,13 @@ from __future__ import annotations
 
 import argparse
 import logging
+import os
+import re
 import shutil
 import subprocess
 import sys
 import time
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import ExitStack, contextmanager
 from dataclasses import dataclass
 from pathlib import Path
@@ -52,6 +54,7 @@ __all__ = [
     "NETNS_HOSTS",
     "Namespaces",
     "network_hosts",
+    "stale_namespaces",
     "Placement",
     "TrialPaths",
     "Campaign",
@@ -123,12 +126,42 @@ def _ip(*args: str) -> None:
         raise TrialSkipped(f"'ip {' '.join(args)}' failed: {result.stderr.strip()}")
 
 
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # another user's
+        return True
+    return True
+
+
+def stale_namespaces(tag: str, listed: str, alive: Callable[[int], bool] = _alive) -> list[str]:
+    """Of `ip netns list`'s output, the namespaces network_hosts(tag) made in a process that is gone: killed before
+    its clean-up ran, they stay until deleted."""
+    pattern = re.compile(rf"vrt_{re.escape(tag)}_(\d+)_(?:ros|bridge|engine)")
+    stale = []
+    for line in listed.splitlines():
+        name = line.split(" ", 1)[0]
+        match = pattern.fullmatch(name)
+        if match and not alive(int(match.group(1))):
+            stale.append(name)
+    return stale
+
+
 @contextmanager
 def network_hosts(tag: str) -> Iterator[Namespaces]:
-    """Three namespaces (ros — bridge — engine) linked by two veth pairs; removed on exit, whatever happens."""
+    """Three namespaces (ros — bridge — engine) linked by two veth pairs; removed on exit, whatever happens. Named by
+    this process, so that another run's never stand in the way (two at once, or one killed before its clean-up: its
+    namespaces, and their /etc/netns folders, are removed here)."""
     if shutil.which("ip") is None:
         raise TrialSkipped("the 'ip' command (iproute2) is not installed")
-    spaces = Namespaces(f"vrt_{tag}_ros", f"vrt_{tag}_bridge", f"vrt_{tag}_engine")
+    listed = subprocess.run(["ip", "netns", "list"], capture_output=True, text=True).stdout
+    for namespace in stale_namespaces(tag, listed):
+        subprocess.run(["ip", "netns", "delete", namespace], capture_output=True)
+        shutil.rmtree(Path("/etc/netns") / namespace, ignore_errors=True)
+    owner = os.getpid()
+    spaces = Namespaces(f"vrt_{tag}_{owner}_ros", f"vrt_{tag}_{owner}_bridge", f"vrt_{tag}_{owner}_engine")
     made: list[str] = []
     try:
         for namespace in (spaces.ros, spaces.bridge, spaces.engine):
