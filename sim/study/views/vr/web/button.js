@@ -33,8 +33,9 @@ class ButtonPage {
     this.connection.advertise(...settings.topics.stop);
     this.connection.announceClock(...settings.topics.page_clock, settings.stop_source); // for the runner to judge
     this.gamepads = new GamepadPresses();
-    // every press, oldest first: {gamepad, control, inputDelay, readingGap, stamp, phase, index, sent}; readingGap
-    // (s) since the reading before the one that saw it: the input changed within it, so it bounds the input delay
+    // every press, oldest first: {gamepad, control, inputDelay, readingGap, stamp, clockOffset, phase, index, sent};
+    // readingGap (s) since the reading before the one that saw it: the input changed within it, so it bounds the input
+    // delay; clockOffset (s) the one the stamp was read with (null without ROS time)
     this.presses = [];
     this.readings = 0; // of the gamepads, one an animation frame
     this.longestGapMs = 0; // between two readings: the most a press can wait to be seen
@@ -52,7 +53,8 @@ class ButtonPage {
 
   // A press: sent when the phase accepts a stop (stamped now on ROS time, or 0 without it), else only shown.
   press({ gamepad, control, inputDelay }, readingGap) {
-    const action = this.participant.onTrigger(this.connection.rosNow());
+    const reading = this.connection.rosReading();
+    const action = this.participant.onTrigger(reading === null ? null : reading.ros);
     const status = this.participant.status;
     const press = {
       gamepad,
@@ -60,6 +62,7 @@ class ButtonPage {
       inputDelay,
       readingGap,
       stamp: action ? action[1] : null,
+      clockOffset: reading === null ? null : reading.offset,
       phase: this.participant.phase,
       index: status ? status.index : null,
       sent: false,

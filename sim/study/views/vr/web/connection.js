@@ -93,10 +93,17 @@ export class RosConnection {
     return offset;
   }
 
+  // Now in ROS time (s) and the clock offset it was read with (s), or null without a clock offset: a press keeps both,
+  // so that its stamp can be placed on this browser's clock (the offset slews between two readings).
+  rosReading() {
+    const offset = this.clockOffset;
+    return offset === null ? null : { ros: Date.now() / 1000 + offset, offset };
+  }
+
   // Now in ROS time (s), or null without a clock offset.
   rosNow() {
-    const offset = this.clockOffset;
-    return offset === null ? null : Date.now() / 1000 + offset;
+    const reading = this.rosReading();
+    return reading === null ? null : reading.ros;
   }
 
   open() {
