@@ -27,6 +27,7 @@ __all__ = [
     "REPO",
     "PYTHON",
     "ProcessError",
+    "pid_alive",
     "subscribers_written",
     "writes_to",
     "free_port",
@@ -193,6 +194,17 @@ def writes_to(node_uri: str, topic: str, caller_id: str) -> bool:
     return caller_id in subscribers_written(node_uri, topic, caller_id)
 
 
+def pid_alive(pid: int) -> bool:
+    """Whether a process `pid` exists (another user's counts)."""
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
 def _stop_pid(pid: int, timeout: float) -> None:
     """SIGTERM to a process that is not our child, then SIGKILL if it is still there after `timeout`."""
     deadline = time.monotonic() + timeout
@@ -202,9 +214,7 @@ def _stop_pid(pid: int, timeout: float) -> None:
         except (ProcessLookupError, PermissionError):
             return
         while time.monotonic() < deadline:
-            try:
-                os.kill(pid, 0)
-            except ProcessLookupError:
+            if not pid_alive(pid):
                 return
             time.sleep(0.05)
         deadline = time.monotonic() + 1.0

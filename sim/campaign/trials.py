@@ -38,7 +38,7 @@ from sim.engine.physics import Mode
 from sim.entry import EXIT_BAD_INPUT, EXIT_FAILED, EXIT_OK, fail, log_to_stderr
 from sim.errors import SimError
 from sim.launchers import Commander, Engine, finish, start
-from sim.processes import EndpointProcess, RosCore, plain_env, start_recorder, stop_recorder
+from sim.processes import EndpointProcess, RosCore, pid_alive, plain_env, start_recorder, stop_recorder
 from sim.robots import ROBOT_NAMES, RobotError, RobotSpec, add_robot_overrides, load_robot, overrides_from_args
 from sim.wire.contract import STEP_S
 
@@ -126,17 +126,7 @@ def _ip(*args: str) -> None:
         raise TrialSkipped(f"'ip {' '.join(args)}' failed: {result.stderr.strip()}")
 
 
-def _alive(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:  # another user's
-        return True
-    return True
-
-
-def stale_namespaces(tag: str, listed: str, alive: Callable[[int], bool] = _alive) -> list[str]:
+def stale_namespaces(tag: str, listed: str, alive: Callable[[int], bool] = pid_alive) -> list[str]:
     """Of `ip netns list`'s output, the namespaces network_hosts(tag) made in a process that is gone: killed before
     its clean-up ran, they stay until deleted."""
     pattern = re.compile(rf"vrt_{re.escape(tag)}_(\d+)_(?:ros|bridge|engine)")
