@@ -83,8 +83,8 @@ def pedal_while_moving(browser: Any, index: int, control: int) -> None:
     """Press button `control` PRESS_AFTER_MS after the button page first shows trial `index` moving, then release
     it: timed by the page's own timers, off the animation frames that read the gamepad (a real pedal changes between
     frames), since a round trip through the browser's driver may take longer than the approach. Keeps when it was
-    pressed (window.pressedAt[index]: performance.now(), ROS time by the page's clock and the offset it was read
-    with, whether a press then would count)."""
+    pressed (window.pressedAt[index]: performance.now(), ROS time then by the page's clock and the offset it was
+    read with, whether a press then would count)."""
     browser.execute_script(
         HOLD_PRESSED + "const page = window.buttonPage.page; window.pressedAt = window.pressedAt || {};"
         "const watch = setInterval(() => { const status = page.participant.status;"
@@ -92,7 +92,7 @@ def pedal_while_moving(browser: Any, index: int, control: int) -> None:
         " clearInterval(watch);"
         " setTimeout(() => {"
         f"  const at = window.holdPressed({control});"
-        "  const reading = page.connection.rosReading();"
+        "  const reading = page.connection.rosReading(performance.timeOrigin + at);"
         f"  window.pressedAt[{index}] = {{at, ros: reading.ros, offset: reading.offset, counts: page.counts}};"
         f" }}, {PRESS_AFTER_MS}); }}, 3);"
     )
@@ -393,12 +393,12 @@ def assert_the_pedal_stopped_the_reality_approach(
     assert when["counts"]  # the page said a press would count
     assert row["condition"] == "reality" and row["pressed"] == "true" and row["press_source"] == "button", row
     motion_start, stamp = float(row["motion_start"]), during["stamp"]
-    # Both on the page's own clock (ROS time less the offset each was read with; Date.now()'s 1 ms steps): stamped when
-    # the page read the pedal, its change plus its input delay. Between the two readings the offset may have slewed
-    # towards a new estimate, by at most half the time passed (clock.js's SLEW_MOST): taken as one, the two readings
-    # were 2.9 ms further apart than the input delay once
+    # Both on the page's own clock (ROS time less the offset each was read with): stamped at the instant the page read
+    # the pedal, its change plus its input delay (performance.now()'s clock both). Between the two readings the offset
+    # may have slewed towards a new estimate, by at most half the time passed (clock.js's SLEW_MOST). Stamped at a
+    # later Date.now(), the stamp was once 2.2 ms later than the input delay's end, the page's thread held between
     read_at, changed_at = stamp - during["clockOffset"], when["ros"] - when["offset"]
-    assert read_at - changed_at == pytest.approx(during["inputDelay"], abs=0.002), (stamp, when, during)
+    assert read_at - changed_at == pytest.approx(during["inputDelay"], abs=1e-5), (stamp, when, during)
     assert abs(during["clockOffset"] - when["offset"]) <= 0.5 * during["inputDelay"] + 1e-6, (when, during)
     assert motion_start < stamp < motion_start + approach_duration("vertical"), (stamp, motion_start)
     round_trip_s = page["clockRoundTripMs"] / 1000

@@ -3,7 +3,7 @@ import assert from 'node:assert/strict';
 import { test } from 'node:test';
 
 import { ClockOffset, pingDue } from '../../sim/study/views/vr/web/clock.js';
-import { RosConnection } from '../../sim/study/views/vr/web/connection.js';
+import { RosConnection, browserClockMs } from '../../sim/study/views/vr/web/connection.js';
 import { commandFields, decodeString, framesIn } from '../../sim/study/views/vr/web/rostcp.js';
 
 test("the offset is the quickest round trip's, taken at its middle", () => {
@@ -136,35 +136,30 @@ test('the connection sends no flood of pings: one at a time, one each 250 ms at 
   const connection = new RosConnection('ws://x');
   const sent = [];
   connection._send = (bytes) => sent.push(commandFields(framesIn(bytes)[0][1]).request_time);
-  const realNow = Date.now;
   let now = 1_000_000;
-  Date.now = () => now;
-  try {
-    connection._ping(); // as the socket opens
-    for (let tick = 0; tick < 200; tick += 1) {
-      now += 10; // 2 s of ticks far quicker than the page's, no answer: the one ping stays alone
-      connection._pingIfDue();
-    }
-    assert.equal(sent.length, 1);
-    const answer = (requestTime, rosTime) => {
-      connection._system('__ping_response', { request_time: requestTime, ros_time: rosTime });
-    };
-    answer(sent[0], 0); // ROS time not started: no sample, quick pings on
-    for (let tick = 0; tick < 200; tick += 1) {
-      now += 10;
-      connection._pingIfDue();
-      if (connection.pings.size) answer(sent.at(-1), 0); // answered at once: 250 ms apart still
-    }
-    assert.equal(sent.length, 1 + 8); // 2 s at 250 ms
+  connection.clockMs = () => now;
+  connection._ping(); // as the socket opens
+  for (let tick = 0; tick < 200; tick += 1) {
+    now += 10; // 2 s of ticks far quicker than the page's, no answer: the one ping stays alone
+    connection._pingIfDue();
+  }
+  assert.equal(sent.length, 1);
+  const answer = (requestTime, rosTime) => {
+    connection._system('__ping_response', { request_time: requestTime, ros_time: rosTime });
+  };
+  answer(sent[0], 0); // ROS time not started: no sample, quick pings on
+  for (let tick = 0; tick < 200; tick += 1) {
     now += 10;
     connection._pingIfDue();
-    now += 6_000; // unanswered for 5 s and more: given up, the next sent
-    connection._pingIfDue();
-    assert.equal(sent.length, 1 + 8 + 2);
-    assert.equal(connection.pings.size, 1);
-  } finally {
-    Date.now = realNow;
+    if (connection.pings.size) answer(sent.at(-1), 0); // answered at once: 250 ms apart still
   }
+  assert.equal(sent.length, 1 + 8); // 2 s at 250 ms
+  now += 10;
+  connection._pingIfDue();
+  now += 6_000; // unanswered for 5 s and more: given up, the next sent
+  connection._pingIfDue();
+  assert.equal(sent.length, 1 + 8 + 2);
+  assert.equal(connection.pings.size, 1);
 });
 
 test('a lag announced is announced again once a read has taken it up', () => {
@@ -173,29 +168,41 @@ test('a lag announced is announced again once a read has taken it up', () => {
   const said = [];
   connection._send = (bytes) => said.push(JSON.parse(decodeString(framesIn(bytes)[0][1])));
   connection.connected = true;
-  const realNow = Date.now;
   let now = 1_000_000;
-  Date.now = () => now;
-  try {
-    const answer = (roundTripMs, rosTime) => {
-      connection.pings.set(`#${now}`, now - roundTripMs);
-      connection._system('__ping_response', { request_time: `#${now}`, ros_time: rosTime });
-    };
-    answer(30, 2_000.0); // 30 ms: ROS time 1000.015 s ahead
-    connection.clockOffset; // a frame's read: the page stamps with it
-    now += 1;
-    answer(4, 2_000.002); // 4 ms: 1000.003 s ahead, 12 ms lower, read 1 ms after a frame: nearly all of it a lag
-    assert.equal(said.length, 2);
-    assert.ok(Math.abs(said[1].applied - said[1].offset - 0.0115) < 1e-9, said[1]);
-    now += 10;
-    connection.clockOffset; // 5.5 ms taken up: still lagging, nothing said
-    assert.equal(said.length, 2);
-    now += 40;
-    connection.clockOffset; // within 2 ms: said again
-    connection.clockOffset;
-    assert.equal(said.length, 3);
-    assert.ok(Math.abs(said[2].applied - said[2].offset) <= 0.002 + 1e-9, said[2]);
-  } finally {
-    Date.now = realNow;
-  }
+  connection.clockMs = () => now;
+  const answer = (roundTripMs, rosTime) => {
+    connection.pings.set(`#${now}`, now - roundTripMs);
+    connection._system('__ping_response', { request_time: `#${now}`, ros_time: rosTime });
+  };
+  answer(30, 2_000.0); // 30 ms: ROS time 1000.015 s ahead
+  connection.clockOffset; // a frame's read: the page stamps with it
+  now += 1;
+  answer(4, 2_000.002); // 4 ms: 1000.003 s ahead, 12 ms lower, read 1 ms after a frame: nearly all of it a lag
+  assert.equal(said.length, 2);
+  assert.ok(Math.abs(said[1].applied - said[1].offset - 0.0115) < 1e-9, said[1]);
+  now += 10;
+  connection.clockOffset; // 5.5 ms taken up: still lagging, nothing said
+  assert.equal(said.length, 2);
+  now += 40;
+  connection.clockOffset; // within 2 ms: said again
+  connection.clockOffset;
+  assert.equal(said.length, 3);
+  assert.ok(Math.abs(said[2].applied - said[2].offset) <= 0.002 + 1e-9, said[2]);
+});
+
+test("a reading at an instant of the browser's clock is the ROS time then, with the offset it was read by", () => {
+  const connection = new RosConnection('ws://x');
+  let now = 1_000_000;
+  connection.clockMs = () => now;
+  assert.equal(connection.rosReading(), null); // no estimate yet
+  connection.pings.set('#1', now - 4);
+  connection._system('__ping_response', { request_time: '#1', ros_time: 2_000.0 }); // 4 ms: 1000.002 s ahead
+  now += 7; // the page's work between a gamepad's reading (its input delay's end) and its stamp
+  const atReading = connection.rosReading(now - 7);
+  const later = connection.rosReading();
+  assert.ok(Math.abs(atReading.offset - (2_000.0 - 999.998)) < 1e-9, atReading);
+  assert.ok(Math.abs(later.ros - atReading.ros - 0.007) < 1e-9, [atReading, later]);
+  assert.ok(Math.abs(connection.rosNow(now - 7) - atReading.ros) < 1e-9);
+  // performance.now()'s instants on that clock: the Gamepad API's and the trigger events' times are on it
+  assert.equal(browserClockMs(12.5), performance.timeOrigin + 12.5);
 });

@@ -308,35 +308,30 @@ test("the page announces its clock's estimate after each ping answer that gave a
   const messages = [];
   connection._send = (bytes) => messages.push(bytes);
   connection.connected = true;
-  const realNow = Date.now;
   let now = 1_000_000;
-  Date.now = () => now;
-  try {
-    const answer = (requestTime, sentAt, rosTime) => {
-      connection.pings.set(requestTime, sentAt);
-      connection._system('__ping_response', { request_time: requestTime, ros_time: rosTime });
-    };
-    answer('a', now - 0.01, 0); // ROS time not started: no sample, nothing announced
-    assert.equal(messages.length, 0);
-    now += 1000;
-    answer('b', now - 8, 500.0); // 8 ms round trip: ROS time 500 s at its middle, browser 1000.996 s
-    now += 2000;
-    answer('c', now - 30, 502.0); // slower, and within both round trips: the estimate keeps the quickest
-    const said = messages.map((bytes) => {
-      const [[topic, payload]] = framesIn(bytes);
-      return [topic, JSON.parse(decodeString(payload))];
-    });
-    assert.deepEqual(
-      said.map(([topic, clock]) => [topic, clock.source, clock.round_trip, clock.samples]),
-      [
-        ['/study/page_clock', 'vr_trigger', 0.008, 1],
-        ['/study/page_clock', 'vr_trigger', 0.008, 2],
-      ],
-    );
-    const last = said[1][1];
-    assert.ok(Math.abs(last.offset - (500.0 - 1000.996)) < 1e-9, last.offset);
-    assert.equal(last.applied, last.offset); // nothing to slew: stamps on the estimate
-  } finally {
-    Date.now = realNow;
-  }
+  connection.clockMs = () => now;
+  const answer = (requestTime, sentAt, rosTime) => {
+    connection.pings.set(requestTime, sentAt);
+    connection._system('__ping_response', { request_time: requestTime, ros_time: rosTime });
+  };
+  answer('a', now - 0.01, 0); // ROS time not started: no sample, nothing announced
+  assert.equal(messages.length, 0);
+  now += 1000;
+  answer('b', now - 8, 500.0); // 8 ms round trip: ROS time 500 s at its middle, browser 1000.996 s
+  now += 2000;
+  answer('c', now - 30, 502.0); // slower, and within both round trips: the estimate keeps the quickest
+  const said = messages.map((bytes) => {
+    const [[topic, payload]] = framesIn(bytes);
+    return [topic, JSON.parse(decodeString(payload))];
+  });
+  assert.deepEqual(
+    said.map(([topic, clock]) => [topic, clock.source, clock.round_trip, clock.samples]),
+    [
+      ['/study/page_clock', 'vr_trigger', 0.008, 1],
+      ['/study/page_clock', 'vr_trigger', 0.008, 2],
+    ],
+  );
+  const last = said[1][1];
+  assert.ok(Math.abs(last.offset - (500.0 - 1000.996)) < 1e-9, last.offset);
+  assert.equal(last.applied, last.offset); // nothing to slew: stamps on the estimate
 });

@@ -10,7 +10,7 @@
 //
 // `page` holds its whole state; the tests' probe imports it, served only when the server is started for it.
 import { forgetKey } from './address.js';
-import { RosConnection } from './connection.js';
+import { RosConnection, browserClockMs } from './connection.js';
 import { GamepadPresses } from './gamepad.js';
 import { stopPayload } from './presses.js';
 import { decodeString } from './rostcp.js';
@@ -48,12 +48,13 @@ class ButtonPage {
     const gap = this.lastReadingMs === null ? null : (nowMs - this.lastReadingMs) / 1000;
     if (gap !== null) this.longestGapMs = Math.max(this.longestGapMs, gap * 1000);
     this.lastReadingMs = nowMs;
-    for (const press of this.gamepads.update(gamepads, nowMs)) this.press(press, gap);
+    for (const press of this.gamepads.update(gamepads, nowMs)) this.press(press, gap, nowMs);
   }
 
-  // A press: sent when the phase accepts a stop (stamped now on ROS time, or 0 without it), else only shown.
-  press({ gamepad, control, inputDelay }, readingGap) {
-    const reading = this.connection.rosReading();
+  // A press read at readMs (performance.now()): sent when the phase accepts a stop (stamped on ROS time at readMs,
+  // where its input delay ends, or 0 without a clock offset), else only shown.
+  press({ gamepad, control, inputDelay }, readingGap, readMs) {
+    const reading = this.connection.rosReading(browserClockMs(readMs));
     const action = this.participant.onTrigger(reading === null ? null : reading.ros);
     const status = this.participant.status;
     const press = {

@@ -12,6 +12,14 @@ const RECONNECT_DELAY_MS = 1000;
 const KEEPALIVE_AFTER_MS = 1000;
 const PING_TICK_MS = PING_QUICK_MS / 5; // how often whether a ping is due is asked (clock.js's pingDue)
 
+// This browser's clock (ms since the epoch), read at performance.now()'s instant `performanceMs` (now by default):
+// the clock of the Gamepad API's timestamps, the trigger events' and the animation frames' times, in fractions of a
+// ms (Date.now()'s are whole ms) and never stepped while the page is open. A press's stamp is read at the instant
+// its input delay ends, not at a later Date.now() with the page's work between the two.
+export function browserClockMs(performanceMs = performance.now()) {
+  return performance.timeOrigin + performanceMs;
+}
+
 export class RosConnection {
   // url: the WebSocket's URL; onState(text): what the connection is doing, for the page to show.
   constructor(url, onState = () => {}) {
@@ -22,8 +30,9 @@ export class RosConnection {
     this.socket = null;
     this.connected = false;
     this.lastSent = 0;
-    this.pings = new Map(); // request_time -> when sent (ms, Date.now()): unanswered, not given up on
-    this.lastPingMs = null; // when the last ping was sent (Date.now()); null: none on this connection
+    this.clockMs = browserClockMs; // the browser's clock the ROS clock is measured against (the tests' own in node)
+    this.pings = new Map(); // request_time -> when sent (ms, clockMs()): unanswered, not given up on
+    this.lastPingMs = null; // when the last ping was sent (clockMs()); null: none on this connection
     this.pingCount = 0;
     this.clock = new ClockOffset();
     this.clockAnnouncement = null; // [topic, source]: where the clock's estimate goes, and the page it names
@@ -87,22 +96,26 @@ export class RosConnection {
   // would otherwise stand until the next answer (up to 2 s) for a lag gone within a few frames. A busy page reads an
   // answer just after a frame, so one that moves the estimate is announced with all of its move as the lag.
   get clockOffset() {
-    const now = Date.now();
-    const offset = this.clock.offsetAt(now);
-    if (this.lagAnnounced && !this.clock.lagging(now)) this._announceClock();
+    return this._offsetAt(this.clockMs());
+  }
+
+  _offsetAt(atMs) {
+    const offset = this.clock.offsetAt(atMs);
+    if (this.lagAnnounced && !this.clock.lagging(atMs)) this._announceClock();
     return offset;
   }
 
-  // Now in ROS time (s) and the clock offset it was read with (s), or null without a clock offset: a press keeps both,
-  // so that its stamp can be placed on this browser's clock (the offset slews between two readings).
-  rosReading() {
-    const offset = this.clockOffset;
-    return offset === null ? null : { ros: Date.now() / 1000 + offset, offset };
+  // ROS time (s) at atMs on this browser's clock (clockMs(); now by default), and the clock offset it was read with
+  // (s), or null without a clock offset: a press keeps both, so that its stamp can be placed on this browser's clock
+  // (the offset slews between two readings).
+  rosReading(atMs = this.clockMs()) {
+    const offset = this._offsetAt(atMs);
+    return offset === null ? null : { ros: atMs / 1000 + offset, offset };
   }
 
-  // Now in ROS time (s), or null without a clock offset.
-  rosNow() {
-    const reading = this.rosReading();
+  // ROS time (s) at atMs (now by default), or null without a clock offset.
+  rosNow(atMs = this.clockMs()) {
+    const reading = this.rosReading(atMs);
     return reading === null ? null : reading.ros;
   }
 
@@ -148,7 +161,7 @@ export class RosConnection {
   }
 
   _pingIfDue() {
-    const now = Date.now();
+    const now = this.clockMs();
     for (const [requestTime, sentAt] of this.pings) {
       if (now - sentAt >= PING_GIVE_UP_MS) this.pings.delete(requestTime); // lost: its answer is not waited for
     }
@@ -159,13 +172,13 @@ export class RosConnection {
   _announceClock() {
     if (!this.clockAnnouncement) return;
     const [topic, source] = this.clockAnnouncement;
-    const now = Date.now();
+    const now = this.clockMs();
     this.lagAnnounced = this.clock.lagging(now);
     this.publish(topic, encodeString(JSON.stringify({ source, ...this.clock.report(now) })));
   }
 
   _ping() {
-    const sentAt = Date.now();
+    const sentAt = this.clockMs();
     this.lastPingMs = sentAt;
     this.pingCount += 1;
     const requestTime = `${new Date(sentAt).toISOString()}#${this.pingCount}`;
@@ -190,7 +203,7 @@ export class RosConnection {
       const sentAt = this.pings.get(fields.request_time);
       this.pings.delete(fields.request_time);
       if (sentAt === undefined || typeof fields.ros_time !== 'number') return;
-      if (this.clock.add(sentAt, Date.now(), fields.ros_time)) this._announceClock();
+      if (this.clock.add(sentAt, this.clockMs(), fields.ros_time)) this._announceClock();
     } else if (name === '__error' || name === '__warn') {
       this.errors.push(`${name}: ${fields.text}`);
       console.warn(`endpoint ${name}: ${fields.text}`);

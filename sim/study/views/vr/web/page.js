@@ -11,6 +11,7 @@
 // This module puts the parts together; `page` holds them all, the page's whole state. The tests' probe and the
 // frame-time instrument import it, and are served only when the page's server is started for them.
 import { forgetKey } from './address.js';
+import { browserClockMs } from './connection.js';
 import { Controllers } from './controllers.js';
 import { FrameLoop } from './frameloop.js';
 import { Headset } from './headset.js';
@@ -57,7 +58,7 @@ async function startPage() {
     const now = performance.now(); // first: the press's input delay ends at its stamp
     const delay = inputDelay(now, readAt);
     triggers.push({ readAt, stampedAt: now, inputDelay: delay });
-    topics.send(participant.onTrigger(topics.rosNow()), delay);
+    topics.send(participant.onTrigger(topics.rosNow(browserClockMs(now))), delay);
   });
   await headset.offer();
   return {

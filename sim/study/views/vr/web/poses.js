@@ -25,8 +25,8 @@ export function trackedBodies(viewerPose, grips) {
 }
 
 // A frame's time on the runner's clock (s): frameMs is the animation loop's time (ms on performance.now()'s clock,
-// which starts at timeOriginMs on the browser's clock, Date.now()'s); clockOffset is ROS time minus the browser's
-// clock (s, connection.js), null before the endpoint has answered a ping: then the frame has no stamp, and null.
+// which starts at timeOriginMs on the browser's clock, connection.js's browserClockMs); clockOffset is ROS time minus
+// the browser's clock (s, connection.js), null before the endpoint has answered a ping: then the frame has no stamp, and null.
 export function frameStamp(frameMs, timeOriginMs, clockOffset) {
   if (clockOffset === null) return null;
   return (timeOriginMs + frameMs) / 1000 + clockOffset;

@@ -69,9 +69,10 @@ export class StudyTopics {
     return this.connection.connected;
   }
 
-  // Now in ROS time (s), or null before the endpoint has answered a ping.
-  rosNow() {
-    return this.connection.rosNow();
+  // ROS time (s) at atMs on this browser's clock (connection.js's browserClockMs; now by default), or null before
+  // the endpoint has answered a ping.
+  rosNow(atMs = undefined) {
+    return this.connection.rosNow(atMs);
   }
 
   // ROS time minus this browser's clock (s), or null before the endpoint has answered a ping.
