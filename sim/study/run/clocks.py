@@ -11,9 +11,10 @@ Two estimates further apart than their half round trips (and ROS time's own step
 page's, or ROS time restarted): its stamps in between were off by the step.
 
 The runner judges the pages at go before each approach: a page whose clock as it stands (its latest announcement's
-uncertainty), or a step between two of its estimates since the last check, exceeds PAGE_CLOCK_LIMIT refuses the
-session (ClockError, one line). In real time, a clock beyond the limit as it stands is first given PAGE_CLOCK_SETTLE_S
-to come within it, the arm held at the approach's start (sim.study.run.runner).
+uncertainty), or a step between two of its estimates since the last check (from the session's first approach on),
+exceeds PAGE_CLOCK_LIMIT refuses the session (ClockError, one line). In real time, a clock beyond the limit as it
+stands is first given PAGE_CLOCK_SETTLE_S to come within it, the arm held at the approach's start
+(sim.study.run.runner).
 """
 
 from __future__ import annotations
@@ -122,6 +123,9 @@ class PageClocks:
         self._heard: dict[str, list[PageClock]] = {}  # by source, in order
         self._checked: dict[str, int] = {}  # by source: announcements judged by check()
         self._marked: dict[str, int] = {}  # by source: announcements before the current approach's (trial())
+        # by source: announcements before the session's first approach began (None until it has): a step before it
+        # was off for no press, and the pages' first estimates ride on the runner's /clock as it starts
+        self._first_go: dict[str, int] | None = None
 
     def heard(self, clock: PageClock) -> None:
         with self._lock:
@@ -130,8 +134,10 @@ class PageClocks:
     def check(self) -> str:
         """Why the session cannot go on ("" when it can), judging what was heard since the last check: a page whose
         clock as it stands (its latest announcement) is off by more than the limit, or a step beyond it between two of
-        its estimates. A transient that has settled by the check (a slewing offset catching up, one slow round trip)
-        refuses nothing: each trial records its page's worst uncertainty during it (`trial`)."""
+        its estimates from the one in force as the session's first approach began (before it, no press counted: a
+        page's first estimate once carried the runner's /clock as it started, 80 ms stale). A transient that has
+        settled by the check (a slewing offset catching up, one slow round trip) refuses nothing: each trial records
+        its page's worst uncertainty during it (`trial`)."""
         with self._lock:
             for source, clocks in self._heard.items():
                 first = self._checked.get(source, 0)
@@ -144,7 +150,10 @@ class PageClocks:
                         f"the {source} page's clock cannot be trusted: its stamps {self._skew(clock)}: bring the page "
                         "nearer the runner (a quieter network)"
                     )
-                for k in range(max(first, 1), len(clocks)):
+                if self._first_go is None:
+                    continue  # no approach yet: no press was stamped, whatever a step did to the stamps
+                # each pair not judged yet, from the estimate in force as the first approach began
+                for k in range(max(first, self._first_go.get(source, 0), 1), len(clocks)):
                     step = step_between(clocks[k - 1], clocks[k], self.quantum)
                     if step > self.limit:
                         return (
@@ -190,6 +199,8 @@ class PageClocks:
         was off for no press of the trial."""
         with self._lock:
             self._marked = {source: len(clocks) for source, clocks in self._heard.items()}
+            if self._first_go is None:
+                self._first_go = dict(self._marked)
 
     def trial(self, source: str) -> tuple[float, float]:
         """The `source` page's clock over the trial that ends now, and the next one begins: (its offset as it ended,

@@ -104,6 +104,7 @@ def test_an_applied_offset_lagging_its_estimate_counts_to_the_skew() -> None:
 
 def test_a_step_between_estimates_beyond_their_round_trips_refuses_and_a_drift_within_them_does_not() -> None:
     clocks = PageClocks()
+    clocks.approach_begins()  # steps count from the session's first approach on (the test below)
     clocks.heard(page(12.0, 0.010))
     clocks.heard(page(12.008, 0.010))  # 8 ms apart, within their half round trips (10 ms)
     assert clocks.check() == ""
@@ -112,12 +113,28 @@ def test_a_step_between_estimates_beyond_their_round_trips_refuses_and_a_drift_w
     assert reason.startswith("the vr_trigger page's clock stepped 22.0 ms beyond its round trips"), reason
     # ROS time that steps every 20 ms (the runner's /clock in real time): an estimate may move by a step more
     stepping = PageClocks(quantum=0.02)
+    stepping.approach_begins()
     stepping.heard(page(12.0, 0.001))
     stepping.heard(page(12.0205, 0.001))  # 20.5 ms apart: the pings caught /clock early in a step, then late
     stepping.heard(page(12.0, 0.001))
     assert stepping.check() == ""
     stepping.heard(page(12.045, 0.001))  # 45 ms: 24 ms beyond a step and the round trips
     assert "stepped 24.0 ms" in stepping.check()
+
+
+def test_a_step_before_the_first_approach_refuses_nothing_and_one_from_its_estimate_on_does() -> None:
+    # The button page's first estimate rode on the runner's /clock as it started, 80 ms stale (a two-page session on a
+    # slow machine): its next estimate was 85 ms higher, and the session was refused at its first go, before any press
+    # could count. A step from the estimate in force at the first go on still refuses.
+    clocks = PageClocks()
+    clocks.heard(page(12.0, 0.0094, source="button"))
+    clocks.heard(page(12.085, 0.0039, source="button"))
+    assert clocks.check() == ""
+    clocks.heard(page(12.085, 0.0035, source="button"))  # heard between the check and the approach: in force at go
+    clocks.approach_begins()
+    assert clocks.check() == ""
+    clocks.heard(page(12.135, 0.0035, source="button"))  # 50 ms from the one in force at go
+    assert clocks.check().startswith("the button page's clock stepped 46.5 ms beyond its round trips")
 
 
 def test_each_trial_records_the_conditions_page_its_offset_as_it_ended_and_its_worst_uncertainty() -> None:
