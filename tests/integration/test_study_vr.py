@@ -357,7 +357,7 @@ def test_an_emulated_quest_enters_the_session_and_answers_the_runner(tmp_path: P
         approach = approaches.plan(("straight", ON_TOP, 0.1)).path.duration
     assert float(second["distance_at_rest"]) > 0.02  # stopped before reaching the hand
     # The press is stamped on the runner's clock (from the page's pings) and applied at its stamp, or just after. It
-    # came in the first frame that showed the approach: the stamp is after its start, give or take what the page's
+    # came in the first frame that showed the approach: the stamp is after its start, less what the page's
     # stamps may be off by in the trial (the row's page_clock_uncertainty: half the ping's round trip and the stamping
     # offset's lag) and two steps (motion_start is the end of the step the runner has commanded, a step ahead of its
     # clock at most; the page's clock is the endpoint's latest /clock, a step behind at most). Beside two CPU burners
@@ -365,7 +365,7 @@ def test_an_emulated_quest_enters_the_session_and_answers_the_runner(tmp_path: P
     stamp = next(value for what, value in actions if what == "stop")
     motion_start = float(second["motion_start"])
     off_by = float(second["page_clock_uncertainty"]) + 2 * STEP_S
-    assert motion_start - off_by < stamp < motion_start + approach + off_by, (stamp, motion_start, off_by)
+    assert motion_start - off_by < stamp < motion_start + approach, (stamp, motion_start, off_by)
     # applied at its arrival, which is at or after its stamp (how late it comes, page to runner, is a figure of
     # bench/vr_frame_bench.py's presses, not a bound here: it is the machine's speed)
     late = float(second["press_late"])
