@@ -22,7 +22,8 @@ __all__ = ["LANES", "PYTHONS", "Lane", "declared_lanes", "lane_from_marker", "un
 #   unit      unit tests, pure logic, CPU only
 #   beside    command lines and nodes that need CPU but no timing
 #   alone     one run at a time, with nothing beside it at its priority: a robot through ROS (the study's lockstep
-#             sessions, the engine, the physics node, the commander); the realtime lane beside them
+#             sessions, the engine, the physics node, the commander), the endpoint timed on a slow link or beside
+#             CPU burners of its own; the realtime lane beside them
 #   realtime  a real arm's stand-in driven on wall time (the reality condition, its faults, the trajectory
 #             controller): light on CPU but needing it when it wakes; under SCHED_RR, beside the alone lanes
 #   quiet     with nothing beside it at its priority or above, after the realtime lane: what the wall clock paces

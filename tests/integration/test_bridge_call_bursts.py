@@ -6,6 +6,7 @@ client's own share."""
 
 from __future__ import annotations
 
+import contextlib
 import json
 import subprocess
 import threading
@@ -30,9 +31,11 @@ DELIVERY_S = 1.0
 MASTER_CONNECTIONS = 3
 
 
-@pytest.fixture
+@contextlib.contextmanager
 def cpu_burners() -> Iterator[None]:
-    """Two processes that keep the machine's two cores busy for the test, killed by their PIDs at its end."""
+    """Two processes that keep the machine's two cores busy while the burst runs, killed by their PIDs after it. At
+    the normal priority (the alone lane's) they take every core from the lanes under SCHED_IDLE: only the burst has
+    them, not the endpoint's start."""
     burners = [subprocess.Popen(["yes"], stdout=subprocess.DEVNULL) for _ in range(2)]
     try:
         yield
@@ -90,9 +93,11 @@ def burst(client: RawConnection, service: str, count: int, within_s: float) -> d
     return ended
 
 
-def test_a_burst_to_a_service_that_answers_in_time_is_answered_in_full(
-    roscore, ros_node, tmp_path: Path, cpu_burners
-) -> None:
+# The bursts beside burners run in 3.8's alone lane, at the normal priority with their burners: in the endpoint's
+# lane, under SCHED_IDLE, they had only what the normal-priority lanes left, shared with the burners and the other
+# idle lanes, and calls opened 1 s late missed their 2 s (CI: 4 of 64 in a run of 1014 s; a clean clone: 30).
+@pytest.mark.lane("alone", on=("noetic",))
+def test_a_burst_to_a_service_that_answers_in_time_is_answered_in_full(roscore, ros_node, tmp_path: Path) -> None:
     # 64 calls to a service that answers in 1 s, with 2 s each. Four at a time (the client's workers, as it was)
     # ended with 4 answers, the next four started with 1 s left and failed, the rest were not made at all. All at
     # once overflowed the rospy service's backlog, and calls whose SYNs were dropped came 1 s late and failed.
@@ -102,7 +107,8 @@ def test_a_burst_to_a_service_that_answers_in_time_is_answered_in_full(
     try:
         settled(roscore, "/answered_burst_endpoint")
         with RawConnection(endpoint.port) as client:
-            ended = burst(client, name, BURST, within_s=30)
+            with cpu_burners():
+                ended = burst(client, name, BURST, within_s=30)
             print("answers after", sorted(round(seconds, 2) for _, seconds in ended.values()))
             assert sorted(ended) == list(range(BURST))
             assert {srv_id: what for srv_id, (what, _) in ended.items() if what != "__response"} == {}
@@ -112,8 +118,9 @@ def test_a_burst_to_a_service_that_answers_in_time_is_answered_in_full(
         endpoint.stop()
 
 
+@pytest.mark.lane("alone", on=("noetic",))
 def test_every_call_of_a_burst_to_a_service_that_never_answers_ends_by_its_deadline(
-    roscore, ros_node, tmp_path: Path, cpu_burners
+    roscore, ros_node, tmp_path: Path
 ) -> None:
     endpoint = start_endpoint(roscore, tmp_path, "--service-timeout", "2", name="hung_burst_endpoint")
     name = unique("never_answers")
@@ -122,7 +129,8 @@ def test_every_call_of_a_burst_to_a_service_that_never_answers_ends_by_its_deadl
         settled(roscore, "/hung_burst_endpoint")
         baseline = figures(endpoint.pid).threads
         with RawConnection(endpoint.port) as client:
-            ended = burst(client, name, BURST, within_s=30)
+            with cpu_burners():
+                ended = burst(client, name, BURST, within_s=30)
             latest = max(seconds for _, seconds in ended.values())
             print(f"errors after {min(s for _, s in ended.values()):.2f} to {latest:.2f} s")
             assert sorted(ended) == list(range(BURST))
