@@ -109,6 +109,7 @@ class Commander:
     timeout: float | None = None
     realtime: bool = False
     time_scale: float | None = None
+    lockstep_rate: float | None = None
     export_csv: Path | None = None
     export_only: bool = False
     extra: Sequence[str] = ()
@@ -123,6 +124,7 @@ class Commander:
             *_option("--timeout", self.timeout),
             *_flag("--realtime", self.realtime),
             *_option("--time-scale", self.time_scale),
+            *_option("--lockstep-rate", self.lockstep_rate),
             *_option("--export-csv", self.export_csv),
             *_flag("--export-only", self.export_only),
             *self.extra,

@@ -13,7 +13,8 @@ Use cases (names as in the thesis):
   no_ros_no_physics             engine CSV mode, no_physics
   auto_simulate_off             endpoint + TCP engine stepping only as /clock advances (lockstep), physics
   auto_simulate_off_no_physics  as auto_simulate_off, no_physics
-Wall-clock use cases run at `--time-scale` (default 5: the 40 s path in 8 s), commander and engine alike.
+Wall-clock use cases run at `--time-scale` (default 5: the 40 s path in 8 s), commander and engine alike; lockstep
+ones no faster (the commander's --lockstep-rate), so that `rosbag record` may fall as far behind in either.
 """
 
 from __future__ import annotations
@@ -287,6 +288,11 @@ class Campaign:
         logs = paths.process_logs
         topics = [robot.command_topic, robot.joint_states_topic, "/clock", robot.pose_topic]
         wall_clock = self.time_scale if case.auto_simulate else None
+        # rosbag record keeps 100 messages per topic and drops the oldest past them. Lockstep unpaced (some 1000
+        # steps a second) lost 19 commands and clocks to one stall of the recorder's callbacks, 0.12 s long, on a
+        # loaded machine. At the wall-clock use cases' rate (time_scale / dt: 250 a second by default) the
+        # recorder may fall 0.4 s behind without losing one.
+        lockstep_rate = None if case.auto_simulate else self.time_scale / STEP_S
         with ExitStack() as running:
             endpoint = EndpointProcess(where.bridge_env, logs, host=where.endpoint_host, prefix=where.bridge_prefix)
             running.callback(endpoint.stop)
@@ -312,6 +318,7 @@ class Campaign:
                 timeout=30,
                 realtime=case.auto_simulate,
                 time_scale=wall_clock,
+                lockstep_rate=lockstep_rate,
             )
             process = start(commander, where.ros_env, logs, "commander", where.ros_prefix)
             running.callback(process.stop)

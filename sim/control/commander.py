@@ -10,8 +10,8 @@ quaternion's x, y, z fields and w = 0) and logs desired vs achieved (`<prefix>/j
 
 Timing (the contract with the engine, sim.control.stepper): fixed steps of dt; the target of step k (t_k -> t_k+1)
 is for its END. Lockstep (default): the engine steps once per /clock value and answers each with its joint state, so
-a 40 s motion takes seconds. --realtime: /clock and the commands are paced by the wall clock (x --time-scale) and
-nothing is waited for.
+a 40 s motion takes seconds (--lockstep-rate caps the steps per wall second). --realtime: /clock and the commands are
+paced by the wall clock (x --time-scale) and nothing is waited for.
 Start-up: wait (at most --connect-timeout s) until a partner node (one that publishes joint_states and
 subscribes the command topic) is connected to our command, /clock and pose publishers and our joint_states
 subscriber, and so is every node named with --wait-for (e.g. a rosbag recorder); publish /clock = 0. In lockstep,
@@ -173,6 +173,12 @@ def _parser() -> argparse.ArgumentParser:
     )
     run.add_argument(
         "--timeout", type=float, default=5.0, help="lockstep: max wait for each joint state in s (default 5)"
+    )
+    run.add_argument(
+        "--lockstep-rate",
+        type=float,
+        help="lockstep: at most this many steps per wall second (default: each as soon as the engine answers); "
+        "a rosbag recorder keeps 100 messages per topic, so at N steps a second it may fall 100 / N s behind",
     )
     run.add_argument(
         "--connect-timeout", type=float, default=30.0, help="max wait for the engine at start in s (default 30)"
@@ -339,11 +345,15 @@ def options_from_args(args: argparse.Namespace) -> CommanderOptions:
         value = getattr(args, option)
         if not (math.isfinite(value) and value > 0):
             raise ScenarioError(f"--{option.replace('_', '-')} must be > 0, got {value}")
+    if args.lockstep_rate is not None and not (math.isfinite(args.lockstep_rate) and args.lockstep_rate > 0):
+        raise ScenarioError(f"--lockstep-rate must be > 0 steps a second, got {args.lockstep_rate}")
+    if args.lockstep_rate is not None and args.realtime:
+        raise ScenarioError("--lockstep-rate paces lockstep: with --realtime the wall clock paces the steps")
     if not (math.isfinite(args.approach) and args.approach >= 0):
         raise ScenarioError(f"--approach must be >= 0 s, got {args.approach}")
     return CommanderOptions(
         controller=_controller_link(args),
-        pacing=Pacing(args.dt, args.realtime, args.time_scale, args.timeout),
+        pacing=Pacing(args.dt, args.realtime, args.time_scale, args.timeout, args.lockstep_rate),
         connect_timeout=args.connect_timeout,
         approach=args.approach,
         pose_convention=PoseConvention(args.pose_convention),

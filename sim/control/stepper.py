@@ -3,6 +3,8 @@
 The commander and the study runner both step the robot through this.
   lockstep: a step publishes the command stamped t+dt, then /clock = t+dt, and waits for the engine's joint state
       stamped >= t+dt. The engine steps once per /clock value, so the run goes as fast as the engine does.
+      With a lockstep_rate, a step goes out no sooner than 1 / rate s after the one before: bystanders that cannot
+      hold up the run (a rosbag recorder, whose queue per topic is fixed) get that much time per step.
   realtime: the step that starts at controller time t is due at wall time t / time_scale from the start. It
       publishes /clock = t and the command stamped t+dt (the engine extrapolates along the velocity) and takes the
       latest joint state, with no waiting.
@@ -30,6 +32,7 @@ class Pacing:
     realtime: bool = False
     time_scale: float = 1.0  # realtime: controller seconds per wall second (the engine needs the same)
     step_timeout: float = 5.0  # lockstep: the longest wait for the engine's answer to a step, in s
+    lockstep_rate: float | None = None  # lockstep: at most this many steps per wall second (None: unpaced)
 
 
 class Stepper:
@@ -40,6 +43,7 @@ class Stepper:
         self.pacing = pacing
         self.clock = 0.0
         self._wall_start = 0.0
+        self._last_step = 0.0  # monotonic: when the last lockstep step went out (lockstep_rate)
         self._started = False
 
     def start(self, timeout: float, need_state: bool = True) -> ReceivedJointState | None:
@@ -52,7 +56,7 @@ class Stepper:
         on /clock answers this /clock 0.
         """
         self.clock = 0.0
-        self._wall_start = time.monotonic()
+        self._wall_start = self._last_step = time.monotonic()
         self._started = True
         self.node.publish_clock(0.0)
         if not self.pacing.realtime:
@@ -64,6 +68,7 @@ class Stepper:
         if self.pacing.realtime:
             raise ControllerError("a step without a command is a lockstep step")
         end = self._next_end()
+        self._keep_lockstep_rate()
         self.node.publish_clock(end)
         state = self.node.state_or_fail(end, self.pacing.step_timeout, self.pacing.dt)
         self.clock = end
@@ -77,6 +82,7 @@ class Stepper:
         """
         end = self._next_end()
         if not self.pacing.realtime:
+            self._keep_lockstep_rate()
             self.node.publish_command(end, positions, velocities)
             self.node.publish_clock(end)
             state = self.node.state_or_fail(end, self.pacing.step_timeout, self.pacing.dt)
@@ -108,7 +114,18 @@ class Stepper:
     def _next_end(self) -> float:
         return round(self.clock + self.pacing.dt, 9)
 
+    def _keep_lockstep_rate(self) -> None:
+        """Lockstep: wait until 1 / lockstep_rate s after the step before went out. From that step, not from the
+        start: steps held up by a slow answer are not made up for in a burst faster than the rate."""
+        if self.pacing.lockstep_rate is not None:
+            self._wait_for(self._last_step + 1.0 / self.pacing.lockstep_rate)
+            self._last_step = time.monotonic()
+
     def _wait_until(self, controller_time: float) -> None:
-        delay = self._wall_start + controller_time / self.pacing.time_scale - time.monotonic()
+        self._wait_for(self._wall_start + controller_time / self.pacing.time_scale)
+
+    def _wait_for(self, wall_time: float) -> None:
+        """Until monotonic `wall_time`; ControllerError when stopped."""
+        delay = wall_time - time.monotonic()
         if (delay > 0 and self.node.stop.wait(delay)) or self.node.stop.is_set():
             raise ControllerError("interrupted")

@@ -58,6 +58,9 @@ def test_the_commander_with_its_recorder_and_wall_clock() -> None:
     exporting = Commander(ROBOT, ("sweep",), export_csv=Path("d.csv"), export_only=True)
     args = commander_parser().parse_args(program_args(exporting.argv(), "sim.commander"))
     assert args.export_only and args.export_csv == Path("d.csv") and not args.realtime
+    paced = Commander(ROBOT, ("sweep",), lockstep_rate=250.0)
+    args = commander_parser().parse_args(program_args(paced.argv(), "sim.commander"))
+    assert args.lockstep_rate == 250.0 and not args.realtime
 
 
 @pytest.mark.parametrize(

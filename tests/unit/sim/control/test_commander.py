@@ -23,6 +23,7 @@ def test_the_command_line_becomes_one_options_value() -> None:
         pacing=Pacing(dt=0.01, realtime=True, time_scale=2.0, step_timeout=3.0),
         pose_convention=PoseConvention.EULER,
     )
+    assert options_from_args(_args("--lockstep-rate", "250")).pacing == Pacing(lockstep_rate=250.0)
 
 
 @pytest.mark.parametrize(
@@ -32,6 +33,9 @@ def test_the_command_line_becomes_one_options_value() -> None:
         (("--connect-timeout", "nan"), "--connect-timeout must be > 0"),
         (("--time-scale", "-1"), "--time-scale must be > 0"),
         (("--approach", "-0.5"), "--approach must be >= 0 s"),
+        (("--lockstep-rate", "0"), "--lockstep-rate must be > 0 steps a second"),
+        (("--lockstep-rate", "inf"), "--lockstep-rate must be > 0 steps a second"),
+        (("--lockstep-rate", "100", "--realtime"), "--lockstep-rate paces lockstep: with --realtime"),
     ],
 )
 def test_a_bad_run_option_is_one_line_and_exit_2(flags, message, capsys) -> None:

@@ -61,6 +61,39 @@ def test_lockstep_step_ends_stay_on_the_grid_over_a_long_run() -> None:
     assert stepper.clock == 200.0  # exactly: each end is rounded to the nanosecond
 
 
+def test_a_lockstep_rate_spaces_the_steps_and_a_late_answer_is_not_made_up_in_a_burst() -> None:
+    node = RecordingNode()
+    answer = node.state_or_fail
+    late = {0.06}  # the answer to the step that ends at 0.06 s comes 0.2 s late
+
+    def slow_answer(stamp: float, timeout: float, dt: float) -> ReceivedJointState:
+        if round(stamp, 9) in late:
+            time.sleep(0.2)
+        return answer(stamp, timeout, dt)
+
+    node.state_or_fail = slow_answer  # type: ignore[method-assign]
+    stepper = Stepper(node, Pacing(dt=0.02, lockstep_rate=20.0))  # type: ignore[arg-type]
+    stepper.start(timeout=1.0)
+    stepper.hold()
+    for _ in range(4):
+        stepper.step(np.zeros(2), np.zeros(2))
+    # each step's first message: no sooner than 1/20 s after the step before's, also after the late answer
+    firsts = [at for what, value, at in node.sent if what == "command" or (what == "clock" and value == 0.02)]
+    gaps = np.diff(firsts)
+    assert len(firsts) == 5 and np.all(gaps >= 0.05 - 1e-4), gaps
+    assert gaps[2] >= 0.2  # the step after the late answer waited for it, and the next kept its spacing
+    assert _sent(node)[-2:] == [("command", 0.1), ("clock", 0.1)]
+
+
+def test_lockstep_without_a_rate_sends_each_step_as_soon_as_it_is_answered() -> None:
+    node = RecordingNode()
+    stepper = Stepper(node, Pacing(dt=0.02))  # type: ignore[arg-type]
+    stepper.start(timeout=1.0)
+    for _ in range(50):
+        stepper.step(np.zeros(2), np.zeros(2))
+    assert node.sent[-1][2] - node.sent[0][2] < 0.5  # 50 steps at 20 a second would take 2.5 s
+
+
 def test_realtime_sends_the_clock_of_the_step_start_and_the_command_for_its_end_paced_by_the_wall() -> None:
     node = RecordingNode()
     stepper = Stepper(node, Pacing(dt=0.02, realtime=True, time_scale=2.0))  # type: ignore[arg-type]
