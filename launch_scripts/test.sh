@@ -55,18 +55,18 @@ run() {  # run PYTHON ROLE LANE... -- PYTEST_ARGS...: the tests of those lanes t
 }
 # Each test file names its lane and the Pythons that run it (pytestmark = pytest.mark.lane(...); unit tests by their
 # folder), and tests/unit/test_lanes.py holds that every file has one. The alone lane holds the tests that run a robot
-# through ROS on wall time or record bags: the campaigns record ~1000 messages a second per topic through rosbag
-# record, whose queue (100 per topic) overflows when the recorder is starved of CPU; a starved endpoint forwarded a
-# lockstep step's /clock before its command (two topics, two connections); a starved driver's joint states go stale
-# and the reality condition's runner rightly stops the arm. Beside another suite at the same priority (and even at
-# nice 10) they failed so. So the alone lanes run one after another at the normal priority, and every other lane runs
-# at the same time under SCHED_IDLE (chrt --idle): the kernel gives those only the CPU that the alone lanes leave
-# (they use about one core of two, waiting on the clock and on each other's messages), and takes it back at once when
-# an alone test's process wakes. The other lanes need CPU but no timing of their own against the alone lanes: the
-# unit lanes, the beside lanes (the study's and the processes' command lines, the benches' smoke tests, the arms'
-# simulated studies), and the endpoint's lane, whose tests mostly wait on sockets and timers. The endpoint's tests
-# that time it beside CPU burners of their own (the call bursts, each call's answer within 1 s of its deadline) are
-# in 3.8's alone lane: under SCHED_IDLE they shared the little the alone lanes left with their burners, and failed.
+# through ROS on wall time or record bags: the campaigns' lockstep records 250 messages a second per topic through
+# rosbag record, whose queue (100 per topic) overflows when the recorder is starved of CPU; a starved endpoint forwarded
+# a lockstep step's /clock before its command (two topics, two connections); a starved driver's joint states go stale
+# and the reality condition's runner rightly stops the arm. Beside another suite at the same priority (and even at nice
+# 10) they failed so. So the alone lanes run one after another at the normal priority, and every other lane runs at the
+# same time under SCHED_IDLE (chrt --idle): the kernel gives those only the CPU that the alone lanes leave (they use
+# about one core of two, waiting on the clock and on each other's messages), and takes it back at once when an alone
+# test's process wakes. The other lanes need CPU but no timing of their own against the alone lanes: the unit lanes, the
+# beside lanes (the study's and the processes' command lines, the benches' smoke tests, the arms' simulated studies),
+# and the endpoint's lane, whose tests mostly wait on sockets and timers. The endpoint's tests that time it beside CPU
+# burners of their own (the call bursts, each call's answer within 1 s of its deadline) are in 3.8's alone lane: under
+# SCHED_IDLE they shared the little the alone lanes left with their burners, and failed.
 
 # Under SCHED_IDLE, in the background, their output shown after the alone lanes': the endpoint's lane on 3.8, then
 # the beside lane on 3.8, with the unit lanes beside them, one after the other: 3.10's, 3.8's, then the project's
@@ -135,9 +135,9 @@ else
 fi
 # Once the realtime lane has ended: the quiet lanes, whose bounds the realtime lane beside them broke (the catkin
 # demo's tracking, paced by the wall clock, 0.062 % against 0.05; the emulated Quest's page clock, its best round
-# trip 69 ms against 40; the campaigns' bags, 52 messages lost), with the browsers' tests, whose software rendering
-# takes about a core: beside the realtime lane they left the idle lanes nothing for seconds (an endpoint's test
-# waited over 10 s for its own endpoint to log a ping). 3.8's holds one campaign.
+# trip 69 ms against 40; the base case's campaign, paced by the wall clock), with the browsers' tests, whose
+# software rendering takes about a core: beside the realtime lane they left the idle lanes nothing for seconds (an
+# endpoint's test waited over 10 s for its own endpoint to log a ping). 3.8's holds the base case's campaign.
 run .venv/bin/python project quiet -- "$@"
 run .venv38/bin/python noetic quiet -- "$@"
 idle_status=0

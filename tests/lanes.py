@@ -22,14 +22,15 @@ __all__ = ["LANES", "PYTHONS", "Lane", "declared_lanes", "lane_from_marker", "un
 #   unit      unit tests, pure logic, CPU only
 #   beside    command lines and nodes that need CPU but no timing
 #   alone     one run at a time, with nothing beside it at its priority: a robot through ROS (the study's lockstep
-#             sessions, the engine, the physics node, the commander), the endpoint timed on a slow link or beside
+#             sessions, the lockstep campaigns and their bags, the engine, the physics node, the commander), the
+#             endpoint timed on a slow link or beside
 #             CPU burners of its own; the realtime lane beside them
 #   realtime  a real arm's stand-in driven on wall time (the reality condition, its faults, the trajectory
 #             controller): light on CPU but needing it when it wakes; under SCHED_RR, beside the alone lanes
 #   quiet     with nothing beside it at its priority or above, after the realtime lane: what the wall clock paces
-#             and measures to a fine bound (the catkin demo's tracking, the VR page's clock), the campaigns (their
-#             bags lost messages beside the realtime lane) and the browsers' software rendering (about a core each,
-#             which beside the realtime lane would leave the idle lanes none)
+#             and measures to a fine bound (the catkin demo's tracking, the VR page's clock, the base case's
+#             campaign) and the browsers' software rendering (about a core each, which beside the realtime lane
+#             would leave the idle lanes none)
 LANES = ("endpoint", "unit", "beside", "alone", "realtime", "quiet")
 # The suite's Pythons: the project's venv (Debian's), ROS Noetic's 3.8 with Debian's rospy, Ubuntu 22.04's 3.10.
 PYTHONS = ("project", "noetic", "jammy")
