@@ -15,6 +15,8 @@ __all__ = [
     "MiB",
     "ProcessFigures",
     "RssSampler",
+    "bytes_read",
+    "command_lines",
     "cpu_seconds",
     "figures",
     "listening_addresses",
@@ -45,6 +47,27 @@ def rss_bytes(pid: int) -> int:
         if line.startswith("VmRSS:"):
             return int(line.split()[1]) * 1024
     raise MeasuringError(f"process {pid} has no VmRSS (a zombie or a kernel thread)")
+
+
+def bytes_read(pid: int) -> int:
+    """What the process has read so far, its sockets and pipes included (rchar of /proc/PID/io)."""
+    for line in _read(f"/proc/{pid}/io").splitlines():
+        if line.startswith("rchar:"):
+            return int(line.split()[1])
+    raise MeasuringError(f"process {pid} has no rchar in its io")
+
+
+def command_lines() -> dict[int, list[bytes]]:
+    """Every process's argument vector, by PID (a process gone while they are read is left out)."""
+    found = {}
+    for entry in Path("/proc").iterdir():
+        if not entry.name.isdigit():
+            continue
+        try:
+            found[int(entry.name)] = (entry / "cmdline").read_bytes().split(b"\0")[:-1]
+        except OSError:
+            continue
+    return found
 
 
 @dataclass(frozen=True)

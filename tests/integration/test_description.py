@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from measuring.procfs import command_lines
 from sim.geometry.frames import quat_to_matrix
 from sim.geometry.kinematics import chain_for, pose_matrix
 from sim.robots import RobotSpec, load_robot
@@ -62,13 +63,8 @@ class TfListener:
 
 def interpreters_of(script: str) -> set[str]:
     """The programs running `script` (a path's end), from /proc: an interpreter's path, or the script's own."""
-    programs = set()
-    for entry in Path("/proc").iterdir():
-        with contextlib.suppress(OSError):
-            argv = (entry / "cmdline").read_bytes().decode().split("\0")
-            if any(arg.endswith(script) for arg in argv):
-                programs.add(argv[0])
-    return programs
+    ending = os.fsencode(script)
+    return {os.fsdecode(argv[0]) for argv in command_lines().values() if any(arg.endswith(ending) for arg in argv)}
 
 
 def node_pids(ros_node, names: list[str]) -> list[int]:

@@ -13,13 +13,15 @@ import signal
 import threading
 import time
 from collections.abc import Iterator
-from contextlib import contextmanager
+from contextlib import contextmanager, suppress
 from pathlib import Path
 
 import numpy as np
 import pytest
 import rosbag
 
+from measuring.errors import MeasuringError
+from measuring.procfs import bytes_read, command_lines
 from sim.campaign.analysis import scenario_start
 from sim.robots import load_robot
 from tests.doc_figures import figures_of, markdown_tables, shape_mismatch
@@ -62,19 +64,20 @@ def recorder_stalled_once(out: Path, after_bytes: int, stall_s: float) -> Iterat
         baseline: int | None = None
         while not over.wait(0.01):
             pids = recorder_pids(out)
-            recorder = next((pid for pid, program in pids if program.endswith(b"/record")), None)
+            recorder = next((pid for pid, argv in pids.items() if argv[0].endswith(b"/record")), None)
             if recorder is None:
                 continue
-            read = bytes_read(recorder)
+            try:
+                read = bytes_read(recorder)
+            except MeasuringError:  # it has just ended
+                continue
             if baseline is None and any((out / "bags").glob("*.bag.active")):  # it has started: counted from here
                 baseline = read
-            if read is not None and baseline is not None and read - baseline >= after_bytes:
-                held.extend(pid for pid, _ in pids)
-                for pid in held:
-                    os.kill(pid, signal.SIGSTOP)
+            if baseline is not None and read - baseline >= after_bytes:
+                held.extend(pids)
+                signal_each(held, signal.SIGSTOP)
                 time.sleep(stall_s)
-                for pid in held:
-                    os.kill(pid, signal.SIGCONT)
+                signal_each(held, signal.SIGCONT)
                 return
 
     staller = threading.Thread(target=stall, daemon=True)
@@ -86,27 +89,20 @@ def recorder_stalled_once(out: Path, after_bytes: int, stall_s: float) -> Iterat
         staller.join(10)
 
 
-def recorder_pids(out: Path) -> list[tuple[int, bytes]]:
-    """(PID, program) of the processes of a `rosbag record` into `out`: rosbag's script and the recorder it runs."""
-    found = []
-    for entry in Path("/proc").iterdir():
-        try:
-            command = (entry / "cmdline").read_bytes().split(b"\0")
-        except OSError:
-            continue
-        recording = b"record" in command or command[0].endswith(b"/record")
-        if entry.name.isdigit() and recording and any(bytes(out) in arg for arg in command):
-            found.append((int(entry.name), command[0]))
-    return found
+def recorder_pids(out: Path) -> dict[int, list[bytes]]:
+    """The processes of a `rosbag record` into `out` (rosbag's script and the recorder it runs), their argv by PID."""
+    return {
+        pid: argv
+        for pid, argv in command_lines().items()
+        if argv and (b"record" in argv or argv[0].endswith(b"/record")) and any(bytes(out) in arg for arg in argv)
+    }
 
 
-def bytes_read(pid: int) -> int | None:
-    """What the process has read so far (its sockets included), from /proc; None once it has gone."""
-    try:
-        fields = dict(line.split(": ") for line in (Path("/proc") / str(pid) / "io").read_text().splitlines())
-    except OSError:
-        return None
-    return int(fields["rchar"])
+def signal_each(pids: list[int], signum: signal.Signals) -> None:
+    """`signum` to each of `pids`, those that have gone left out (SIGCONT must reach every one that was stopped)."""
+    for pid in pids:
+        with suppress(ProcessLookupError):
+            os.kill(pid, signum)
 
 
 def bag_series(path: Path, robot_name: str) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, list[int]]:

@@ -13,7 +13,16 @@ import time
 import pytest
 
 from measuring.errors import MeasuringError
-from measuring.procfs import MiB, RssSampler, cpu_seconds, figures, listening_addresses, rss_bytes
+from measuring.procfs import (
+    MiB,
+    RssSampler,
+    bytes_read,
+    command_lines,
+    cpu_seconds,
+    figures,
+    listening_addresses,
+    rss_bytes,
+)
 
 
 def test_cpu_seconds_count_the_work_of_every_thread() -> None:
@@ -56,10 +65,33 @@ def test_figures_count_threads_and_descriptors() -> None:
     assert "threads" in str(here) and "MiB RSS" in str(here)
 
 
+def test_bytes_read_count_what_the_process_read(tmp_path) -> None:
+    data = tmp_path / "data"
+    data.write_bytes(b"x" * 100_000)
+    before = bytes_read(os.getpid())
+    assert len(data.read_bytes()) == 100_000
+    assert bytes_read(os.getpid()) - before >= 100_000
+
+
+def test_command_lines_hold_every_process_by_pid_as_it_was_started() -> None:
+    with subprocess.Popen([sys.executable, "-c", "import time; time.sleep(30)", "an argument"]) as child:
+        try:
+            lines = command_lines()
+            assert lines[child.pid] == [
+                os.fsencode(sys.executable),
+                b"-c",
+                b"import time; time.sleep(30)",
+                b"an argument",
+            ]
+            assert os.getpid() in lines
+        finally:
+            child.kill()
+
+
 def test_a_process_that_has_gone_is_a_measuring_error() -> None:
     gone = subprocess.Popen([sys.executable, "-c", "pass"])
     gone.wait(30)  # reaped: its pid names no process now
-    for read in (cpu_seconds, rss_bytes, figures):
+    for read in (cpu_seconds, rss_bytes, figures, bytes_read):
         with pytest.raises(MeasuringError, match=str(gone.pid)):
             read(gone.pid)
 
