@@ -98,8 +98,14 @@ def test_a_process_that_has_gone_is_a_measuring_error() -> None:
 
 def test_the_sampler_keeps_samples_in_time_order_and_stops() -> None:
     sampler = RssSampler(os.getpid(), 0.01).start()
-    time.sleep(0.1)
+    # until it has three samples (a fixed 0.1 s got one under SCHED_IDLE beside the suite's other lanes), bounded
+    deadline = time.monotonic() + 30
+    while len(sampler.samples) < 3 and time.monotonic() < deadline:
+        time.sleep(0.01)
     sampler.stop()
+    stopped = len(sampler.samples)
+    time.sleep(0.05)
+    assert len(sampler.samples) == stopped  # stopped: no sample after stop()
     times = [at for at, _ in sampler.samples]
     assert len(times) >= 3 and times == sorted(times)
     assert sampler.between(times[1], times[-1]) == [rss for _, rss in sampler.samples[1:]]
