@@ -235,8 +235,15 @@ class Campaign:
 
     def roscore(self) -> RosCore:
         if self._roscore is None:
-            self._roscore = RosCore()
+            self._roscore = RosCore(tmp=self._ros_logs("ros"))
         return self._roscore
+
+    def _ros_logs(self, name: str) -> Path:
+        """A roscore's own dir (its ROS_HOME and ROS_LOG_DIR: the master's and every node's log, rospy's at debug
+        level), kept with the campaign's process logs: a trial that fails can be read afterwards."""
+        path = self.out_dir / "logs" / name
+        path.mkdir(parents=True, exist_ok=True)
+        return path
 
     def run_trial(
         self, robot: RobotSpec, case: UseCase, trial: int, scenario: Sequence[str] = ("sweep",)
@@ -251,7 +258,11 @@ class Campaign:
             series = self._scenario_part(paths, robot)
         else:
             with network_hosts(f"{trial}{robot.name[0]}") as spaces, ExitStack() as stack:
-                core = RosCore(host=NETNS_HOSTS["ros"], prefix=spaces.prefix(spaces.ros))
+                core = RosCore(
+                    host=NETNS_HOSTS["ros"],
+                    prefix=spaces.prefix(spaces.ros),
+                    tmp=self._ros_logs(f"ros_{paths.bag.stem}"),
+                )
                 stack.callback(core.stop)
                 placement = Placement(
                     ros_env=core.env,
