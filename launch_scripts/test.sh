@@ -19,8 +19,8 @@ cd "$repo"
 # tests/unit/sim/study/power/test_sample_size.py (mixed models fitted in the test process) took over 150 s with OpenBLAS's default
 # threads, 3 of its tests passing pytest's 300 s timeout in a full run, and 22 s with one thread.
 export OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 MKL_NUM_THREADS=1
-# Bytecode, compiled once: set-up installs without byte-compiling, and with PYTHONDONTWRITEBYTECODE set (as on our
-# CI machines) every process the suite starts (some thousand: endpoints, engines, runners, pytest itself) compiled
+# Bytecode, compiled once: set-up installs without byte-compiling, and with PYTHONDONTWRITEBYTECODE set (as our
+# development machines set it) every process the suite starts (endpoints, engines, runners, pytest itself) compiled
 # each module it imports afresh, NumPy's and SciPy's among them, and on 3.8 and 3.10 Debian's rospy too. Here each
 # is compiled on its first import and kept in one folder of this checkout (git ignores it), not beside the sources
 # in the venvs or Debian's dist-packages. A UR5-like arm's simulated study: 31.6 -> 26.7 CPU-s.

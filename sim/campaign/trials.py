@@ -239,8 +239,8 @@ class Campaign:
         return self._roscore
 
     def _ros_logs(self, name: str) -> Path:
-        """A roscore's own dir (its ROS_HOME and ROS_LOG_DIR: the master's and every node's log, rospy's at debug
-        level), kept with the campaign's process logs: a trial that fails can be read afterwards."""
+        """A roscore's own dir (its ROS_HOME and ROS_LOG_DIR: the master's log of every registration, and every
+        node's log), kept with the campaign's process logs: a trial that fails can be read afterwards."""
         path = self.out_dir / "logs" / name
         path.mkdir(parents=True, exist_ok=True)
         return path
